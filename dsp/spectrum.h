@@ -1,0 +1,38 @@
+#pragma once
+// Spectra by Welch's method (FFT from Eigen's FFT module, kissfft backend).
+
+#include <Eigen/Core>
+
+namespace panelbass::dsp {
+
+/// Segment window.
+enum class Window { hann, rectangular };
+
+/// How a Welch estimate is made.
+struct WelchSpec {
+  std::size_t segment = 1024;   ///< samples per segment (the FFT length)
+  double overlap = 0.5;         ///< fraction of a segment shared with the next, in [0, 1)
+  Window window = Window::hann;
+};
+
+/// A one-sided power spectral density.
+struct PowerSpectrum {
+  Eigen::VectorXd frequency;  ///< Hz, bins 0..segment/2
+  Eigen::VectorXd psd;        ///< units²/Hz; integrates (sum * df) to the signal's mean square
+};
+
+/// Welch PSD of `x` at sample rate `fs`. Throws std::invalid_argument if x is shorter than a segment.
+PowerSpectrum welch_psd(const Eigen::VectorXd& x, double fs, const WelchSpec& spec = {});
+
+/// A frequency response estimate with its coherence.
+struct FrequencyResponse {
+  Eigen::VectorXd frequency;   ///< Hz, bins 0..segment/2
+  Eigen::VectorXcd h;          ///< H1 = S_uy / S_uu
+  Eigen::VectorXd coherence;   ///< |S_uy|² / (S_uu S_yy), in [0, 1]
+};
+
+/// H1 frequency response from input `u` to output `y` (equal lengths) by Welch averaging.
+FrequencyResponse h1_frf(const Eigen::VectorXd& u, const Eigen::VectorXd& y, double fs,
+                         const WelchSpec& spec = {});
+
+}  // namespace panelbass::dsp

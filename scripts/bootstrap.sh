@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Sets panelbass up on a Debian 12 machine (as root), builds it in Release, then runs
+#   run   the main job on the embedded virtual transducer, or
+#   test  the whole test suite (ctest, in parallel).
+# Idempotent: packages already installed are not touched, and the build is incremental.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+usage() { echo "usage: bash scripts/bootstrap.sh run|test" >&2; exit 2; }
+[ $# -eq 1 ] || usage
+case "$1" in run|test) ;; *) usage ;; esac
+
+packages=(
+  build-essential cmake pkg-config
+  libeigen3-dev nlohmann-json3-dev libcli11-dev libsndfile1-dev
+  libgtest-dev libasound2-dev libcpp-httplib-dev libsamplerate0-dev
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'ok installed' || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "bootstrap: installing ${missing[*]}" >&2
+  apt_get=(apt-get); [ "$(id -u)" -eq 0 ] || apt_get=(sudo apt-get)
+  "${apt_get[@]}" update -q
+  DEBIAN_FRONTEND=noninteractive "${apt_get[@]}" install -y -q --no-install-recommends "${missing[@]}"
+fi
+
+jobs=$(nproc)
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build build -j"$jobs"
+
+case "$1" in
+  run)
+    mkdir -p build/demo
+    build/bin/panelbass plant survey panel-exciter --seed 1
+    ;;
+  test)
+    ctest --test-dir build --output-on-failure -j"$jobs"
+    ;;
+esac
