@@ -1,0 +1,15 @@
+#pragma once
+// The verbs of the `panelbass` command. Each registers a CLI11 subcommand whose callback prints one
+// JSON object (the result) on stdout; progress goes to stderr; errors propagate as exceptions.
+
+#include <CLI/CLI.hpp>
+
+namespace panelbass::cli {
+
+/// `panelbass simulate`: drive the virtual transducer with an excitation and write the record.
+void register_simulate(CLI::App& app);
+
+/// `panelbass plant show|survey`: print a plant's configuration, or measure its properties.
+void register_plant(CLI::App& app);
+
+}  // namespace panelbass::cli

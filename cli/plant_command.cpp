@@ -1,0 +1,44 @@
+#include <memory>
+#include <string>
+
+#include "cli/commands.h"
+#include "cli/json_output.h"
+#include "models/plant_presets.h"
+#include "models/plant_survey.h"
+
+namespace panelbass::cli {
+
+void register_plant(CLI::App& app) {
+  CLI::App* plant = app.add_subcommand("plant", "Show or survey a virtual transducer");
+  plant->require_subcommand(1);
+  plant->footer("Examples:\n  panelbass plant show panel-exciter > my-plant.json\n  panelbass plant survey my-plant.json");
+
+  auto name = std::make_shared<std::string>();
+  CLI::App* show = plant->add_subcommand("show", "Print a plant's full configuration as JSON");
+  show->add_option("plant", *name, "Preset (panel-exciter, linear) or plant JSON file")->required();
+  show->footer("Example:\n  panelbass plant show panel-exciter");
+  show->callback([name] { print_result(models::plant_to_json(models::plant_from_name_or_file(*name))); });
+
+  auto survey_name = std::make_shared<std::string>();
+  auto spec = std::make_shared<models::PlantSurveySpec>();
+  CLI::App* survey = plant->add_subcommand(
+      "survey", "Measure a plant from simulated data: delay, impulse length, resonances, notch, J, distortion");
+  survey->add_option("plant", *survey_name, "Preset (panel-exciter, linear) or plant JSON file")->required();
+  survey->add_option("--seed", spec->seed, "Seed of the excitations and the noise")->capture_default_str();
+  survey->add_option("--samples", spec->estimation_samples, "Estimation samples of uniform noise")
+      ->check(CLI::Range(1000, 10000000))
+      ->capture_default_str();
+  survey->add_option("--amplitude", spec->amplitude, "Peak drive of the noise")
+      ->check(CLI::Range(1e-6, 1.0))
+      ->capture_default_str();
+  survey->footer("Example:\n  panelbass plant survey panel-exciter --seed 1");
+  survey->callback([survey_name, spec] {
+    const models::PlantConfig plant = models::plant_from_name_or_file(*survey_name);
+    nlohmann::json result = models::survey_to_json(models::survey_plant(plant, *spec));
+    result["plant"] = plant.name;
+    result["seed"] = spec->seed;
+    print_result(result);
+  });
+}
+
+}  // namespace panelbass::cli

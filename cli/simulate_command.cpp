@@ -1,0 +1,118 @@
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "cli/commands.h"
+#include "cli/json_output.h"
+#include "cli/progress_bar.h"
+#include "dsp/data_file.h"
+#include "dsp/excitation.h"
+#include "models/plant_presets.h"
+#include "models/virtual_transducer.h"
+
+namespace panelbass::cli {
+namespace {
+
+struct SimulateOptions {
+  std::string plant = "panel-exciter";
+  std::string signal = "noise";
+  double amplitude = 1.0;
+  std::size_t samples = 0;
+  std::uint64_t seed = 1;
+  std::uint64_t noise_seed = 0;
+  bool noise_seed_given = false;
+  double freq = 0.0;
+  double f_min = 10.0;
+  double f_max = 1200.0;
+  std::string lines = "all";
+  std::size_t period = 0;
+  std::string out;
+};
+
+Eigen::VectorXd make_excitation(const SimulateOptions& o, double fs) {
+  if (o.signal == "noise") return dsp::uniform_noise(o.samples, o.amplitude, o.seed);
+  if (o.signal == "gauss") return dsp::gaussian_noise(o.samples, o.amplitude, o.seed);
+  if (o.signal == "sweep") return dsp::log_sweep(o.samples, fs, o.f_min, o.f_max, o.amplitude);
+  if (o.signal == "sine") {
+    if (!(o.freq > 0.0)) throw std::invalid_argument("--signal sine needs --freq HZ");
+    return dsp::sine(o.samples, fs, o.freq, o.amplitude);
+  }
+  // multisine: periods of `period` samples (default: one period over the whole record)
+  const std::size_t period = o.period == 0 ? o.samples : o.period;
+  if (o.samples % period != 0) {
+    throw std::invalid_argument("--samples " + std::to_string(o.samples) + " is not a whole number of --period " +
+                                std::to_string(period));
+  }
+  dsp::MultisineSpec spec;
+  spec.period = period;
+  spec.periods = o.samples / period;
+  spec.fs = fs;
+  spec.f_min = o.f_min;
+  spec.f_max = o.f_max;
+  spec.lines = o.lines == "odd" ? dsp::MultisineLines::odd
+               : o.lines == "random-odd" ? dsp::MultisineLines::random_odd
+                                          : dsp::MultisineLines::all;
+  spec.amplitude = o.amplitude;
+  spec.seed = o.seed;
+  return dsp::multisine(spec).signal;
+}
+
+double rms(const Eigen::VectorXd& x) { return std::sqrt(x.squaredNorm() / static_cast<double>(x.size())); }
+
+void run_simulate(const SimulateOptions& o) {
+  const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
+  const Eigen::VectorXd u = make_excitation(o, plant.fs);
+  ProgressBar bar("simulate");
+  const std::uint64_t noise_seed = o.noise_seed_given ? o.noise_seed : o.seed + 1;
+  const models::PlantRecord r = models::simulate(plant, u, noise_seed, [&bar](double f) { bar.update(f); });
+
+  dsp::Record record;
+  record.fs = plant.fs;
+  record.add("u", u);
+  record.add("y", r.y);
+  record.add("i", r.i);
+  record.add("x", r.x);
+  dsp::write_data_file(o.out, record);
+
+  print_result({{"samples", o.samples},
+                {"fs", plant.fs},
+                {"plant", plant.name},
+                {"signal", o.signal},
+                {"seed", o.seed},
+                {"noise_seed", noise_seed},
+                {"out", o.out},
+                {"rms", {{"u", rms(u)}, {"y", rms(r.y)}, {"i", rms(r.i)}, {"x", rms(r.x)}}}});
+}
+
+}  // namespace
+
+void register_simulate(CLI::App& app) {
+  auto o = std::make_shared<SimulateOptions>();
+  CLI::App* cmd = app.add_subcommand("simulate", "Drive the virtual transducer with an excitation and record it");
+  cmd->add_option("--plant", o->plant, "Preset (panel-exciter, linear) or plant JSON file")->capture_default_str();
+  cmd->add_option("--signal", o->signal, "Excitation")
+      ->check(CLI::IsMember({"noise", "gauss", "multisine", "sweep", "sine"}))
+      ->capture_default_str();
+  cmd->add_option("--amplitude", o->amplitude, "Peak drive, within (0, 1]")
+      ->check(CLI::Range(1e-12, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--samples", o->samples, "Number of samples")->required()->check(CLI::Range(1, 100000000));
+  cmd->add_option("--seed", o->seed, "Seed of the excitation")->capture_default_str();
+  cmd->add_option("--noise-seed", o->noise_seed, "Seed of the sensor noise (default: seed + 1)")
+      ->each([o](const std::string&) { o->noise_seed_given = true; });
+  cmd->add_option("--freq", o->freq, "Frequency of --signal sine, Hz")->check(CLI::PositiveNumber);
+  cmd->add_option("--f-min", o->f_min, "Lowest frequency of a sweep or multisine, Hz")->capture_default_str();
+  cmd->add_option("--f-max", o->f_max, "Highest frequency of a sweep or multisine, Hz")->capture_default_str();
+  cmd->add_option("--lines", o->lines, "Multisine lines")
+      ->check(CLI::IsMember({"all", "odd", "random-odd"}))
+      ->capture_default_str();
+  cmd->add_option("--period", o->period, "Multisine period in samples (default: the whole record)");
+  cmd->add_option("--out", o->out, "Output file, .csv or .wav (columns u,y,i,x)")->required();
+  cmd->footer(
+      "Example:\n  panelbass simulate --plant panel-exciter --signal noise --amplitude 1 --samples 12000 "
+      "--seed 1 --out run.csv");
+  cmd->callback([o] { run_simulate(*o); });
+}
+
+}  // namespace panelbass::cli

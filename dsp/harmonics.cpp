@@ -1,0 +1,41 @@
+#include "dsp/harmonics.h"
+
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+
+namespace panelbass::dsp {
+
+double HarmonicLevels::thd_percent() const {
+  if (amplitude.empty() || !(amplitude[0] > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  double sum = 0.0;
+  for (std::size_t h = 1; h < amplitude.size(); ++h) sum += amplitude[h] * amplitude[h];
+  return 100.0 * std::sqrt(sum) / amplitude[0];
+}
+
+double HarmonicLevels::relative_db(std::size_t h) const {
+  if (h < 1 || h > amplitude.size()) throw std::out_of_range("harmonic " + std::to_string(h) + " not measured");
+  return 20.0 * std::log10(amplitude[h - 1] / amplitude[0]);
+}
+
+HarmonicLevels harmonic_levels(const Eigen::VectorXd& x, double fs, double frequency, int max_order) {
+  if (x.size() < 2) throw std::invalid_argument("harmonic levels: need at least 2 samples");
+  if (!(frequency > 0.0 && frequency < fs / 2.0)) {
+    throw std::invalid_argument("harmonic levels: frequency must be within (0, fs/2)");
+  }
+  HarmonicLevels out;
+  out.frequency = frequency;
+  const double n = static_cast<double>(x.size());
+  for (int h = 1; h <= max_order && h * frequency < fs / 2.0; ++h) {
+    // Single-bin DFT: a_h = (2/N)·|Σ x(k)·e^{−j2π·h·f·k/fs}|
+    std::complex<double> sum = 0.0;
+    const double w = 2.0 * std::numbers::pi * h * frequency / fs;
+    for (Eigen::Index k = 0; k < x.size(); ++k) sum += x[k] * std::polar(1.0, -w * static_cast<double>(k));
+    out.amplitude.push_back(2.0 * std::abs(sum) / n);
+  }
+  return out;
+}
+
+}  // namespace panelbass::dsp

@@ -1,0 +1,23 @@
+#pragma once
+// Harmonic levels of a steady-state sine response.
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace panelbass::dsp {
+
+/// Amplitudes of a fundamental and its harmonics.
+struct HarmonicLevels {
+  double frequency = 0.0;              ///< fundamental, Hz
+  std::vector<double> amplitude;       ///< amplitude[h-1] of harmonic h (h = 1 is the fundamental)
+  /// Total harmonic distortion in percent: sqrt(Σ_{h≥2} a_h²) / a_1.
+  double thd_percent() const;
+  /// Level of harmonic h relative to the fundamental, dB (−inf for a zero harmonic).
+  double relative_db(std::size_t h) const;
+};
+
+/// Amplitudes of harmonics 1..max_order (those below fs/2) of `x` at `frequency`, by the DFT at each
+/// harmonic's frequency. For exact results x holds a whole number of periods (stepped_sine ensures it).
+HarmonicLevels harmonic_levels(const Eigen::VectorXd& x, double fs, double frequency, int max_order = 5);
+
+}  // namespace panelbass::dsp

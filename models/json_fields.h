@@ -1,0 +1,50 @@
+#pragma once
+// Validated reading of one JSON object: typed fields, defaults, key paths in every error, and no
+// unknown keys let through.
+
+#include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+
+namespace panelbass::models {
+
+/// Reads the fields of one JSON object at `path` ("plant.mechanical"). Every accessor names the full
+/// key path in its ConfigError; finish() rejects any key that no accessor asked for.
+class JsonFields {
+ public:
+  /// Wraps `value`, which must be an object (else ConfigError naming `path`).
+  JsonFields(const nlohmann::json& value, std::string path);
+
+  /// A finite number; `fallback` when the key is absent.
+  double number(const std::string& key, double fallback);
+  /// A finite number that must be present.
+  double number(const std::string& key);
+  /// An integer in [lo, hi]; `fallback` when absent.
+  long integer(const std::string& key, long fallback, long lo, long hi);
+  /// A boolean; `fallback` when absent.
+  bool boolean(const std::string& key, bool fallback);
+  /// A string; `fallback` when absent.
+  std::string string(const std::string& key, const std::string& fallback);
+  /// The raw member, or nullptr when absent (marks the key as known).
+  const nlohmann::json* member(const std::string& key);
+
+  /// Full path of `key` inside this object, for messages.
+  std::string path_of(const std::string& key) const;
+
+  /// Throws ConfigError naming the first key that was never asked for.
+  void finish() const;
+
+ private:
+  const nlohmann::json& value_;
+  std::string path_;
+  std::set<std::string> known_;
+};
+
+/// Throws ConfigError "`path`: must be > 0, got v" unless v > 0.
+void require_positive(double v, const std::string& path);
+/// Throws ConfigError "`path`: must be >= 0, got v" unless v >= 0.
+void require_non_negative(double v, const std::string& path);
+/// Throws ConfigError "`path`: must be within [lo, hi], got v" unless lo <= v <= hi.
+void require_within(double v, double lo, double hi, const std::string& path);
+
+}  // namespace panelbass::models

@@ -1,0 +1,130 @@
+#pragma once
+// Configuration of the virtual transducer: a moving-magnet exciter on a panel, with switchable
+// nonlinear terms, panel modes, converters and a sensor (see ../shared/PHYSICS.md).
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace panelbass::models {
+
+/// Common switch of a nonlinear term: `scale` multiplies its deviation from the linear plant
+/// (0 = linear, 1 = nominal, 2 = twice as strong).
+struct NonlinearSwitch {
+  bool enabled = false;
+  double scale = 1.0;
+  /// The factor applied to the term's deviation: scale when enabled, else 0.
+  double gain() const { return enabled ? scale : 0.0; }
+};
+
+/// K(x) = K0·(1 + s·(k1·x + k2·x²)), x in mm: k2 > 0 hardens, k1 makes it asymmetric.
+struct StiffnessTerm : NonlinearSwitch {
+  double k1_per_mm = 0.0;
+  double k2_per_mm2 = 0.0;
+};
+
+/// Bl(x) = Bl0·(1 + s·(b1·x + b2·x²)), x in mm: b2 < 0 as the coil leaves the gap.
+struct ForceFactorTerm : NonlinearSwitch {
+  double b1_per_mm = 0.0;
+  double b2_per_mm2 = 0.0;
+};
+
+/// Le(x, i) = Le0·(1 + s·(l1·x + l2·x² + li2·i²)), x in mm, i in A.
+struct InductanceTerm : NonlinearSwitch {
+  double l1_per_mm = 0.0;
+  double l2_per_mm2 = 0.0;
+  double li2_per_A2 = 0.0;
+};
+
+/// Friction force s·Fc·tanh(v / v0): depends on the direction of motion (hysteresis in x).
+struct FrictionTerm : NonlinearSwitch {
+  double coulomb_N = 0.0;
+  double velocity_scale_m_per_s = 1e-3;
+};
+
+/// The amplifier clips its input above `level` (drive units) with a soft knee of width `knee`.
+struct ClippingTerm : NonlinearSwitch {
+  double level = 1.0;
+  double knee = 0.05;
+};
+
+/// Re(T) = Re0·(1 + s·α·T), T' = (Re·i²·Rth − T)/τ: thermal compression.
+struct ThermalTerm : NonlinearSwitch {
+  double alpha_per_K = 0.00393;
+  double resistance_K_per_W = 10.0;
+  double time_constant_s = 2.0;
+};
+
+/// All nonlinear terms of the plant.
+struct NonlinearTerms {
+  StiffnessTerm stiffness;
+  ForceFactorTerm force_factor;
+  InductanceTerm inductance;
+  FrictionTerm friction;
+  ClippingTerm clipping;
+  ThermalTerm thermal;
+};
+
+/// A structural panel mode driven by the coil force: q̈ + 2ζω q̇ + ω² q = g·F/m; it adds q̈ to the
+/// measured acceleration.
+struct PanelMode {
+  double frequency_hz = 1000.0;
+  double damping_ratio = 0.02;
+  double gain = 0.2;
+};
+
+/// An analog Butterworth low-pass (order 0 = none).
+struct AnalogFilter {
+  int order = 4;
+  double cutoff_hz = 1200.0;
+};
+
+/// DA reconstruction and AD anti-alias filters, and the converters' latency.
+struct Converters {
+  AnalogFilter da_filter;
+  AnalogFilter ad_filter;
+  int delay_samples = 1;   ///< whole samples of latency between the drive and the DA output
+};
+
+/// The acceleration sensor and its AD converter.
+struct Sensor {
+  double sensitivity_V_per_mps2 = 0.01;
+  double offset_V = 0.0;
+  double noise_rms_V = 0.0;   ///< white Gaussian noise added to each sample
+};
+
+/// Everything that defines a virtual transducer.
+struct PlantConfig {
+  std::string name = "custom";
+  double fs = 3000.0;          ///< sample rate of drive and measurements, Hz
+  int oversample = 16;         ///< integrator steps per sample (RK4)
+  double amplifier_gain_V = 10.0;   ///< volts at the coil per unit of drive
+  double amplifier_offset_V = 0.0;  ///< DC offset of the amplifier output
+  double Re_ohm = 4.0;         ///< coil resistance
+  double Le_H = 3e-4;          ///< coil inductance
+  double mass_kg = 0.05;       ///< moving mass
+  double stiffness_N_per_m = 4.4e4;  ///< suspension stiffness K0
+  double damping_Ns_per_m = 8.0;     ///< mechanical resistance Rm
+  double Bl_Tm = 3.0;          ///< force factor Bl0
+  NonlinearTerms nonlinear;
+  std::vector<PanelMode> panel_modes;
+  Converters converters;
+  Sensor sensor;
+};
+
+/// Parses and validates a plant JSON object ("format": "panelbass.plant/1"). Unknown keys, wrong
+/// types and non-physical values are ConfigErrors naming the key path; so is an integrator step too
+/// coarse for the fastest dynamics (it says which oversample would do).
+PlantConfig plant_from_json(const nlohmann::json& json);
+
+/// The JSON form of `config`, every field written out.
+nlohmann::json plant_to_json(const PlantConfig& config);
+
+/// Reads a plant JSON file; ConfigError messages start with the file name.
+PlantConfig load_plant_file(const std::filesystem::path& path);
+
+/// The same plant with every nonlinear term switched off.
+PlantConfig linearized(PlantConfig config);
+
+}  // namespace panelbass::models
