@@ -40,7 +40,7 @@ struct InductanceTerm : NonlinearSwitch {
 /// Friction force s·Fc·tanh(v / v0): depends on the direction of motion (hysteresis in x).
 struct FrictionTerm : NonlinearSwitch {
   double coulomb_N = 0.0;
-  double velocity_scale_m_per_s = 1e-3;
+  double velocity_scale_m_per_s = 0.05;
 };
 
 /// The amplifier clips its input above `level` (drive units) with a soft knee of width `knee`.

@@ -22,7 +22,7 @@ constexpr const char* kPanelExciter = R"json({
     "stiffness":    {"enabled": true, "scale": 1.0, "k1_per_mm": 0.03, "k2_per_mm2": 0.06},
     "force_factor": {"enabled": true, "scale": 1.0, "b1_per_mm": 0.0, "b2_per_mm2": -0.45},
     "inductance":   {"enabled": true, "scale": 1.0, "l1_per_mm": -0.1, "l2_per_mm2": 0.0, "li2_per_A2": -0.02},
-    "friction":     {"enabled": true, "scale": 1.0, "coulomb_N": 0.05, "velocity_scale_m_per_s": 0.001},
+    "friction":     {"enabled": true, "scale": 1.0, "coulomb_N": 0.05, "velocity_scale_m_per_s": 0.05},
     "clipping":     {"enabled": true, "scale": 1.0, "level": 0.7, "knee": 0.1},
     "thermal":      {"enabled": false, "scale": 1.0, "alpha_per_K": 0.00393, "resistance_K_per_W": 10.0,
                      "time_constant_s": 2.0}
