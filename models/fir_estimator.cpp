@@ -31,7 +31,10 @@ Eigen::VectorXd estimate_fir(const Eigen::VectorXd& u, const Eigen::VectorXd& y,
   R.triangularView<Eigen::StrictlyLower>() = R.transpose();
   if (!(R(0, 0) > 0.0)) throw std::invalid_argument("FIR: the input has no energy");
   Eigen::LDLT<Eigen::MatrixXd> ldlt(R);
-  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) {
+  // LDLT reports exactly zero pivots as "positive"; a pivot this small relative to the largest means
+  // the input's autocorrelation matrix is singular (e.g. a constant input for more than one tap).
+  const Eigen::VectorXd pivots = ldlt.vectorD();
+  if (ldlt.info() != Eigen::Success || !(pivots.minCoeff() > 1e-12 * pivots.maxCoeff())) {
     throw std::invalid_argument("FIR: the input does not excite " + std::to_string(n) + " taps (singular)");
   }
   Eigen::VectorXd b = ldlt.solve(r);

@@ -17,6 +17,9 @@ ImpulseEstimate estimate_impulse(const Eigen::VectorXd& u, const Eigen::VectorXd
   // r̂_uu out exactly, leaving only what the output's noise and distortion put in.
   const Eigen::VectorXd uc = u.array() - u.mean();
   const Eigen::VectorXd yc = y.array() - y.mean();
+  if (!(uc.squaredNorm() > 0.0) || !(yc.squaredNorm() > 1e-24 * y.squaredNorm()) || !(yc.squaredNorm() > 0.0)) {
+    throw std::invalid_argument("impulse estimate: the input or the output is constant");
+  }
   const double std_ratio = std::sqrt(uc.squaredNorm() / yc.squaredNorm());
   e.response = estimate_fir(uc, yc, max_lag + 1) * std_ratio;
   const Eigen::VectorXd& r = e.response;

@@ -1,0 +1,113 @@
+// harmonic_levels on synthetic sums of sines with known amplitudes over whole periods (where the
+// single-bin DFT has no leakage, so the amplitudes come back to rounding), THD and relative levels
+// against their closed forms, the Nyquist cut-off, and the argument checks.
+#include "dsp/harmonics.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <vector>
+
+namespace panelbass::dsp {
+namespace {
+
+/// Σ_h a_h·sin(2π·h·f·k/fs + φ_h) + dc for k = 0..samples−1.
+Eigen::VectorXd sum_of_sines(Eigen::Index samples, double fs, double f, const std::vector<double>& a,
+                             const std::vector<double>& phase, double dc = 0.0) {
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(samples, dc);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const double w = 2.0 * std::numbers::pi * static_cast<double>(i + 1) * f / fs;
+    for (Eigen::Index k = 0; k < samples; ++k) x[k] += a[i] * std::sin(w * static_cast<double>(k) + phase[i]);
+  }
+  return x;
+}
+
+TEST(HarmonicLevelsTest, RecoversKnownAmplitudesOverWholePeriods) {
+  const double fs = 48000.0, f = 1000.0;  // 48 samples a period; 4800 samples = 100 periods
+  const std::vector<double> a = {0.8, 0.1, 0.05, 0.0, 0.01};
+  const std::vector<double> phase = {0.3, -1.1, 2.0, 0.7, -0.4};
+  const Eigen::VectorXd x = sum_of_sines(4800, fs, f, a, phase, 0.25);  // a DC offset must not leak
+  const HarmonicLevels lv = harmonic_levels(x, fs, f, 5);
+  EXPECT_EQ(lv.frequency, f);
+  ASSERT_EQ(lv.amplitude.size(), 5u);
+  for (std::size_t h = 0; h < a.size(); ++h) EXPECT_NEAR(lv.amplitude[h], a[h], 1e-10) << "harmonic " << h + 1;
+}
+
+TEST(HarmonicLevelsTest, NonIntegerFrequencyRatioOverWholePeriods) {
+  // f = 440 Hz at fs = 44100: a period is 2205/22 samples, so 2205 samples hold exactly 22 periods.
+  const double fs = 44100.0, f = 440.0;
+  const std::vector<double> a = {0.5, 0.02, 0.03};
+  const std::vector<double> phase = {0.0, 1.0, -2.5};
+  const HarmonicLevels lv = harmonic_levels(sum_of_sines(2205, fs, f, a, phase), fs, f, 3);
+  ASSERT_EQ(lv.amplitude.size(), 3u);
+  for (std::size_t h = 0; h < a.size(); ++h) EXPECT_NEAR(lv.amplitude[h], a[h], 1e-10) << "harmonic " << h + 1;
+}
+
+TEST(HarmonicLevelsTest, ThdIsRootSumOfHarmonicPowersOverFundamental) {
+  const double fs = 48000.0, f = 1000.0;
+  const std::vector<double> a = {0.8, 0.1, 0.05, 0.0, 0.01};
+  const std::vector<double> phase = {0.3, -1.1, 2.0, 0.7, -0.4};
+  const HarmonicLevels lv = harmonic_levels(sum_of_sines(4800, fs, f, a, phase), fs, f, 5);
+  const double expected = std::sqrt(0.1 * 0.1 + 0.05 * 0.05 + 0.0 + 0.01 * 0.01) / 0.8 * 100.0;
+  EXPECT_NEAR(lv.thd_percent(), expected, 1e-8);
+}
+
+TEST(HarmonicLevelsTest, ThdOfHandBuiltLevels) {
+  HarmonicLevels lv;
+  lv.amplitude = {2.0, 0.3, 0.4};  // sqrt(0.09 + 0.16) = 0.5 → 25 %
+  EXPECT_NEAR(lv.thd_percent(), 25.0, 1e-12);
+  lv.amplitude = {2.0};  // a fundamental alone has no distortion
+  EXPECT_EQ(lv.thd_percent(), 0.0);
+  lv.amplitude = {0.0, 0.1};  // no fundamental: undefined
+  EXPECT_TRUE(std::isnan(lv.thd_percent()));
+  lv.amplitude.clear();
+  EXPECT_TRUE(std::isnan(lv.thd_percent()));
+}
+
+TEST(HarmonicLevelsTest, RelativeDbIs20Log10OfAmplitudeRatio) {
+  const double fs = 48000.0, f = 1000.0;
+  const std::vector<double> a = {0.8, 0.1, 0.05};
+  const std::vector<double> phase = {0.0, 0.0, 0.0};
+  const HarmonicLevels lv = harmonic_levels(sum_of_sines(4800, fs, f, a, phase), fs, f, 3);
+  EXPECT_NEAR(lv.relative_db(1), 0.0, 1e-12);
+  EXPECT_NEAR(lv.relative_db(2), 20.0 * std::log10(0.1 / 0.8), 1e-8);  // ≈ −18.06 dB
+  EXPECT_NEAR(lv.relative_db(3), 20.0 * std::log10(0.05 / 0.8), 1e-8);  // ≈ −24.08 dB
+
+  HarmonicLevels hand;
+  hand.amplitude = {1.0, 0.01, 0.0};
+  EXPECT_NEAR(hand.relative_db(2), -40.0, 1e-12);
+  EXPECT_EQ(hand.relative_db(3), -std::numeric_limits<double>::infinity());
+  EXPECT_THROW(hand.relative_db(0), std::out_of_range);
+  EXPECT_THROW(hand.relative_db(4), std::out_of_range);
+}
+
+TEST(HarmonicLevelsTest, HarmonicsAtOrAboveNyquistAreNotReported) {
+  const double fs = 48000.0;
+  const Eigen::VectorXd x = sum_of_sines(4800, fs, 1000.0, {1.0}, {0.0});
+  // f = 10 kHz: 2f = 20 kHz < 24 kHz reported, 3f = 30 kHz not.
+  EXPECT_EQ(harmonic_levels(x, fs, 10000.0, 5).amplitude.size(), 2u);
+  // f = 8 kHz: 3f = 24 kHz is exactly Nyquist, not reported.
+  EXPECT_EQ(harmonic_levels(x, fs, 8000.0, 5).amplitude.size(), 2u);
+  // f = 12 kHz: 2f is Nyquist; only the fundamental.
+  EXPECT_EQ(harmonic_levels(x, fs, 12000.0, 5).amplitude.size(), 1u);
+  // Below Nyquist, max_order bounds the count.
+  EXPECT_EQ(harmonic_levels(x, fs, 1000.0, 5).amplitude.size(), 5u);
+  EXPECT_EQ(harmonic_levels(x, fs, 1000.0, 2).amplitude.size(), 2u);
+}
+
+TEST(HarmonicLevelsTest, InvalidFrequencyThrows) {
+  const double fs = 48000.0;
+  const Eigen::VectorXd x = sum_of_sines(480, fs, 1000.0, {1.0}, {0.0});
+  EXPECT_THROW(harmonic_levels(x, fs, 0.0), std::invalid_argument);
+  EXPECT_THROW(harmonic_levels(x, fs, -1000.0), std::invalid_argument);
+  EXPECT_THROW(harmonic_levels(x, fs, fs / 2.0), std::invalid_argument);
+  EXPECT_THROW(harmonic_levels(x, fs, 30000.0), std::invalid_argument);
+  EXPECT_THROW(harmonic_levels(x, fs, std::numeric_limits<double>::quiet_NaN()), std::invalid_argument);
+  EXPECT_THROW(harmonic_levels(Eigen::VectorXd::Zero(1), fs, 1000.0), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace panelbass::dsp
