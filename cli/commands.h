@@ -9,6 +9,12 @@ namespace panelbass::cli {
 /// `panelbass simulate`: drive the virtual transducer with an excitation and write the record.
 void register_simulate(CLI::App& app);
 
+/// `panelbass identify linear`: identify a model from measured data.
+void register_identify(CLI::App& app);
+
+/// `panelbass validate`: judge a model on data by simulation and prediction.
+void register_validate(CLI::App& app);
+
 /// `panelbass plant show|survey`: print a plant's configuration, or measure its properties.
 void register_plant(CLI::App& app);
 

@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   app.footer("Run `panelbass <verb> --help` for a verb's options and an example.");
   panelbass::cli::register_simulate(app);
   panelbass::cli::register_plant(app);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -62,6 +62,7 @@ double rms(const Eigen::VectorXd& x) { return std::sqrt(x.squaredNorm() / static
 
 void run_simulate(const SimulateOptions& o) {
   const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
+  dsp::check_writable_data_file(o.out);
   const Eigen::VectorXd u = make_excitation(o, plant.fs);
   ProgressBar bar("simulate");
   const std::uint64_t noise_seed = o.noise_seed_given ? o.noise_seed : o.seed + 1;

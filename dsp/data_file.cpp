@@ -3,6 +3,9 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <system_error>
+
+#include <unistd.h>
 
 #include "dsp/csv_table.h"
 #include "dsp/data_error.h"
@@ -47,6 +50,16 @@ Record read_data_file(const std::filesystem::path& path, const std::vector<std::
                     number_text(fs) + " Hz was given");
   }
   return record;
+}
+
+void check_writable_data_file(const std::filesystem::path& path) {
+  type_of(path);
+  std::filesystem::path dir = path.parent_path();
+  if (dir.empty()) dir = ".";
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) throw DataError(path.string() + ": cannot write: no directory " + dir.string());
+  if (std::filesystem::is_directory(path, ec)) throw DataError(path.string() + ": cannot write: is a directory");
+  if (::access(dir.c_str(), W_OK) != 0) throw DataError(path.string() + ": cannot write: directory not writable");
 }
 
 void write_data_file(const std::filesystem::path& path, const Record& record) {

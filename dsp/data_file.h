@@ -16,6 +16,10 @@ namespace panelbass::dsp {
 Record read_data_file(const std::filesystem::path& path, const std::vector<std::string>& columns,
                       double fs = 0.0, std::size_t min_samples = 1);
 
+/// Throws DataError unless `path` has a known extension and its directory exists and is writable: a
+/// check to make before long work whose result goes there.
+void check_writable_data_file(const std::filesystem::path& path);
+
 /// Writes `record` as CSV or as float WAV by the extension of `path`; throws DataError otherwise.
 void write_data_file(const std::filesystem::path& path, const Record& record);
 

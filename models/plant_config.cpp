@@ -2,12 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <numbers>
-#include <sstream>
 
 #include "models/config_error.h"
 #include "models/json_fields.h"
+#include "models/json_file.h"
 
 namespace panelbass::models {
 namespace {
@@ -235,14 +234,7 @@ nlohmann::json plant_to_json(const PlantConfig& c) {
 }
 
 PlantConfig load_plant_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path.string() + ": cannot open");
-  nlohmann::json json;
-  try {
-    json = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw ConfigError(path.string() + ": not valid JSON: " + e.what());
-  }
+  const nlohmann::json json = read_json_file(path);
   try {
     return plant_from_json(json);
   } catch (const ConfigError& e) {

@@ -75,7 +75,8 @@ PlantSurvey survey_plant(const PlantConfig& plant, const PlantSurveySpec& spec) 
   out.j_noise_pct = j_percent(clean.y, noisy.y);
 
   const auto n_est = static_cast<Eigen::Index>(spec.estimation_samples);
-  const ImpulseEstimate impulse = estimate_impulse(u.head(n_est), noisy.y.head(n_est), spec.max_lag);
+  const ImpulseEstimate impulse =
+      estimate_impulse(u.head(n_est), noisy.y.head(n_est), std::min(spec.max_lag, n_est / 2 - 1));
   out.delay_samples = impulse.delay;
   out.impulse_length_samples = impulse.length;
 

@@ -1,0 +1,25 @@
+#pragma once
+// Options every verb that reads a record shares: the file, its sample rate, and the columns.
+
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "dsp/record.h"
+
+namespace panelbass::cli {
+
+/// Where a verb's data comes from.
+struct DataOptions {
+  double fs = 0.0;                  ///< --fs; required for CSV, checked against a WAV's own rate
+  std::string input_col = "u";
+  std::string output_col = "y";
+
+  /// Adds --fs, --input-col and --output-col to `cmd`.
+  void add_to(CLI::App* cmd);
+
+  /// Reads the input and output columns of `path`; throws DataError (naming the file) if the sample rate
+  /// is unknown or the file is bad; `min_samples` rows are required.
+  dsp::Record read(const std::string& path, std::size_t min_samples = 10) const;
+};
+
+}  // namespace panelbass::cli
