@@ -1,0 +1,83 @@
+#pragma once
+// Training the NARX model (thesis ch. 5–6): PEM, OEM with the static gradient, OEM with dynamic
+// backpropagation ([5L]/[5O]), OEM with a numerical gradient; steepest descent, a line search, or
+// Levenberg–Marquardt; early stopping on validation data (fig. 6.4).
+
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "models/narx_model.h"
+
+namespace panelbass::models {
+
+/// The thesis's four ways to compute the output and its gradient ([5N]/[5O]).
+enum class TrainingMode {
+  pem,    ///< series-parallel: measured past outputs; dŷ/dθ = ∂F/∂θ ([5K])
+  oem_s,  ///< parallel, static gradient: ∂F/∂θ only (the approximation that fails, table 5.1)
+  oem_d,  ///< parallel, dynamic backpropagation: ∂F/∂θ + Σ ∂F/∂ŷ(k−t)·dŷ(k−t)/dθ ([5L])
+  oem_n,  ///< parallel, central finite differences of the simulation
+};
+
+/// How parameters are updated.
+enum class Optimizer {
+  sd,          ///< steepest descent θ ← θ − α·dV/dθ, updated every `batch` samples ([5C])
+  linesearch,  ///< steepest descent with a backtracking/golden line search along −dV/dθ
+  lm,          ///< Levenberg–Marquardt on the (exact, for oem_d) Jacobian of the simulation
+};
+
+/// "pem" → pem, "oem-s" → oem_s, "oem-d" → oem_d, "oem-n" → oem_n; throws std::invalid_argument.
+TrainingMode parse_training_mode(const std::string& name);
+/// "pem", "oem-s", "oem-d", "oem-n".
+std::string to_string(TrainingMode mode);
+/// "sd", "linesearch", "lm"; throws std::invalid_argument.
+Optimizer parse_optimizer(const std::string& name);
+/// "sd", "linesearch", "lm".
+std::string to_string(Optimizer optimizer);
+
+/// One iteration's figures.
+struct TrainingRecord {
+  int iteration = 0;
+  TrainingMode mode = TrainingMode::pem;
+  double j_est_pct = 0.0;   ///< simulation J on the estimation data
+  double j_val_pct = 0.0;   ///< simulation J on the validation data (NaN without)
+};
+
+/// How training runs.
+struct TrainingOptions {
+  std::vector<TrainingMode> modes{TrainingMode::pem, TrainingMode::oem_d};  ///< run one after the other
+  Optimizer optimizer = Optimizer::lm;
+  int max_iterations = 100;          ///< per mode
+  double step = 0.1;                 ///< α for sd
+  Eigen::Index batch = 0;            ///< L for sd: samples per update (0 = all, L = N)
+  Eigen::Index transient_skip = -1;  ///< [5M] samples left out of the OEM loss; −1 = 2·(na + nb)
+  bool early_stopping = true;        ///< keep the parameters with the best validation J (fig. 6.4)
+  int patience = 20;                 ///< iterations without validation improvement before stopping
+  std::function<void(const TrainingRecord&)> progress;
+};
+
+/// What training produced.
+struct TrainingResult {
+  NarxModel model;                       ///< the kept parameters
+  std::vector<TrainingRecord> history;   ///< record 0 = the start
+  int iterations = 0;
+  double seconds = 0.0;
+};
+
+/// Trains `initial` (scaled data: u, y already through model.scaling) with each mode in turn. Cost per
+/// iteration is linear in N; LM accumulates JᵀJ (P×P) sample by sample, never storing N×P×P.
+/// Throws std::invalid_argument for bad data (lengths, non-finite, too short for the structure).
+TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est,
+                          const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const TrainingOptions& options);
+
+/// dV/dθ of V = 1/(2(N−skip))·Σ_{k≥skip} e(k)² for `mode` (scaled data). For oem_n: central differences
+/// with step h.
+Eigen::VectorXd loss_gradient(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                              TrainingMode mode, Eigen::Index skip, double h = 1e-6);
+
+/// The loss V for `mode` (pem: prediction error; oem_*: simulation error).
+double training_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                     TrainingMode mode, Eigen::Index skip);
+
+}  // namespace panelbass::models
