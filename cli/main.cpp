@@ -14,6 +14,8 @@ int main(int argc, char** argv) {
   app.footer("Run `panelbass <verb> --help` for a verb's options and an example.");
   panelbass::cli::register_simulate(app);
   panelbass::cli::register_plant(app);
+  panelbass::cli::register_identify(app);
+  panelbass::cli::register_validate(app);
 
   try {
     app.parse(argc, argv);

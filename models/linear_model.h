@@ -26,11 +26,14 @@ struct LinearModel {
                            Eigen::Index init_samples = 0) const;
 
   /// One-step-ahead (series-parallel) prediction from measured past outputs, raw units: the thesis's
-  /// "prediction" validation, ŷ(k) = −Σ a_i·y(k−i) + B(q)·u(k).
+  /// "prediction" validation, ŷ(k) = −Σ a_i·y(k−i) + B(q)·u(k). The first max(na, nk + nb − 1)
+  /// samples, whose regressors would reach before the record, are returned as measured (zero
+  /// prediction error), exactly the samples an ARX fit leaves out.
   Eigen::VectorXd predict(const Eigen::VectorXd& u, const Eigen::VectorXd& y) const;
 };
 
-/// The model file: {"format":"panelbass.model/1","kind":"linear","fs","scaling","params":{"a","b","nk"},"meta"}.
+/// The model file: {"format":"panelbass.model/1","kind":"linear","fs","method","scaling",
+/// "params":{"a","b","nk"},"meta"}; "method" is top level (optional on reading, "" when absent).
 nlohmann::json linear_model_to_json(const LinearModel& m);
 
 /// Reads a model file object and validates it: format and kind, shapes, finite coefficients, fs > 0,

@@ -37,7 +37,15 @@ struct OeResult {
 OeResult estimate_oe(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const TransferFunction& initial,
                      const OeOptions& options = {});
 
+/// The exact sensitivities of the simulated output ŷ = B(q)/A(q)·u (model at rest before sample 0) to
+/// θ = [a_1 … a_na, b_0 … b_{nb−1}] at `tf`: an N×P matrix whose column i−1 is ∂ŷ/∂a_i = −q^(−i)/A(q)·ŷ
+/// and column na+j is ∂ŷ/∂b_j = q^(−nk−j)/A(q)·u. The gradient of V is −(2/N)·Jᵀ(y − ŷ).
+Eigen::MatrixXd oe_jacobian(const Eigen::VectorXd& u, const TransferFunction& tf);
+
 /// `tf` with every pole outside radius 1 − margin reflected to 1/conj(p) (shrunk inside the margin).
+/// B is kept as it is, so the response keeps its shape where only reflection was needed but its
+/// magnitude is multiplied by Π|p| over the reflected poles (|e^{jω} − p| = |p|·|e^{jω} − 1/p̄|);
+/// a stable `tf` is returned unchanged.
 TransferFunction stabilized(const TransferFunction& tf, double margin = 1e-6);
 
 }  // namespace panelbass::models

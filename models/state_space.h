@@ -19,9 +19,11 @@ struct StateSpace {
   int order() const { return static_cast<int>(A.rows()); }
 };
 
-/// A minimal realisation of `tf` (the input delay nk becomes nk extra delay states), balanced when the
-/// model is stable (controllability and observability Gramians equal and diagonal), which keeps high
-/// orders well conditioned. Throws std::invalid_argument for non-finite coefficients.
+/// A minimal realisation of `tf` (max(na, nk + nb − 1) states: the input delay needs states only beyond
+/// the na the poles already bring), balanced when the model is stable (controllability and
+/// observability Gramians equal and diagonal), which keeps high orders well conditioned. A polynomial
+/// too ill conditioned to balance faithfully (response off by more than 1e-8 of its peak) keeps the
+/// observable canonical form. Throws std::invalid_argument for non-finite coefficients.
 StateSpace realize(const TransferFunction& tf);
 
 /// The balanced realisation of a stable `ss` and its Hankel singular values (descending).

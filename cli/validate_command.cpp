@@ -1,0 +1,60 @@
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include "cli/commands.h"
+#include "cli/data_options.h"
+#include "cli/json_output.h"
+#include "models/linear_model.h"
+#include "models/performance.h"
+
+namespace panelbass::cli {
+namespace {
+
+struct ValidateOptions {
+  std::string model, data;
+  DataOptions columns;
+  long init = 0;
+};
+
+void run_validate(const ValidateOptions& o) {
+  const models::LinearModel model = models::load_linear_model(o.model);
+  DataOptions columns = o.columns;
+  if (!(columns.fs > 0.0)) columns.fs = model.fs;  // a CSV recorded at the model's rate needs no --fs
+  const dsp::Record data = columns.read(o.data);
+  if (std::abs(data.fs - model.fs) > 1e-9 * model.fs) {
+    throw std::invalid_argument(o.data + ": sample rate " + std::to_string(data.fs) + " Hz differs from the model's " +
+                                std::to_string(model.fs) + " Hz");
+  }
+  const Eigen::VectorXd& u = data.columns[0];
+  const Eigen::VectorXd& y = data.columns[1];
+  if (o.init >= u.size()) throw std::invalid_argument("--init " + std::to_string(o.init) + " is not shorter than the data");
+  const Eigen::VectorXd y_sim = model.simulate(u, y, o.init);
+  const Eigen::VectorXd y_pred = model.predict(u, y);
+  const Eigen::Index n = u.size() - o.init;
+  const double rmse = std::sqrt((y_sim - y).tail(n).squaredNorm() / static_cast<double>(n));
+  print_result({{"J_sim_pct", models::j_percent(y_sim, y, o.init)},
+                {"J_pred_pct", models::j_percent(y_pred, y, o.init)},
+                {"rmse", rmse},
+                {"samples", n},
+                {"init", o.init},
+                {"model", o.model},
+                {"data", o.data}});
+}
+
+}  // namespace
+
+void register_validate(CLI::App& app) {
+  auto o = std::make_shared<ValidateOptions>();
+  CLI::App* cmd = app.add_subcommand("validate", "Judge a model on data by free-run simulation (J, [2A]) and prediction");
+  cmd->add_option("--model", o->model, "Model file (JSON)")->required();
+  cmd->add_option("--data", o->data, "Data, .csv or .wav")->required();
+  o->columns.add_to(cmd);
+  cmd->add_option("--init", o->init, "Measured outputs given to the model to set its state, then free run")
+      ->check(CLI::Range(0L, 100000000L))
+      ->capture_default_str();
+  cmd->footer("Example:\n  panelbass validate --model lin.json --data test.csv --fs 610.3515625 --init 50");
+  cmd->callback([o] { run_validate(*o); });
+}
+
+}  // namespace panelbass::cli
