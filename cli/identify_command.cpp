@@ -1,4 +1,6 @@
 #include <cmath>
+#include <limits>
+#include <vector>
 #include <memory>
 #include <string>
 
@@ -7,6 +9,9 @@
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
 #include "models/linear_identification.h"
+#include "models/model_file.h"
+#include "models/narx_training.h"
+#include "models/performance.h"
 
 namespace panelbass::cli {
 namespace {
@@ -87,6 +92,111 @@ void run_identify_linear(const IdentifyLinearOptions& o) {
   print_result(result);
 }
 
+struct IdentifyNarxOptions {
+  std::string data, val, out;
+  DataOptions columns;
+  int na = 8, nb = 8, nk = 0;
+  std::vector<int> hidden{17};
+  std::string train = "pem,oem-d";
+  std::string optimizer = "lm";
+  int max_iterations = 100;
+  std::uint64_t seed = 1;
+  double step = 0.1;
+  long batch = 0;
+  long skip = -1;
+  int patience = 20;
+  bool gradient_check = false;
+  long parameter = 0;
+  long init = 50;
+};
+
+std::vector<models::TrainingMode> parse_modes(const std::string& list) {
+  std::vector<models::TrainingMode> modes;
+  std::size_t start = 0;
+  while (start <= list.size()) {
+    const std::size_t comma = list.find(',', start);
+    modes.push_back(models::parse_training_mode(list.substr(start, comma - start)));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return modes;
+}
+
+void run_identify_narx(const IdentifyNarxOptions& o) {
+  const dsp::Record est = o.columns.read(o.data);
+  Eigen::VectorXd u_val, y_val;
+  if (!o.val.empty()) {
+    const dsp::Record val = o.columns.read(o.val);
+    if (val.fs != est.fs) throw std::invalid_argument(o.val + ": sample rate differs from the estimation data");
+    u_val = val.columns[0];
+    y_val = val.columns[1];
+  }
+  const models::Scaling scaling = models::scaling_from_data(est.columns[0], est.columns[1]);
+  models::NarxStructure structure{o.na, o.nb, o.nk, o.hidden};
+  models::NarxModel model = models::NarxModel::with_structure(structure, scaling, est.fs);
+  model.net.initialize(1.0, o.seed);
+  const Eigen::VectorXd us = scaling.scale_u(est.columns[0]), ys = scaling.scale_y(est.columns[1]);
+  const Eigen::VectorXd uv = u_val.size() ? scaling.scale_u(u_val) : Eigen::VectorXd(),
+                        yv = y_val.size() ? scaling.scale_y(y_val) : Eigen::VectorXd();
+  models::TrainingOptions options;
+  options.modes = parse_modes(o.train);
+  options.optimizer = models::parse_optimizer(o.optimizer);
+  options.max_iterations = o.max_iterations;
+  options.step = o.step;
+  options.batch = o.batch;
+  options.transient_skip = o.skip;
+  options.patience = o.patience;
+  if (o.gradient_check) {
+    const Eigen::Index skip = o.skip >= 0 ? o.skip : 2 * (o.na + o.nb);
+    if (o.parameter < 0 || o.parameter >= model.net.parameter_count()) {
+      throw std::invalid_argument("--parameter must be within [0, " + std::to_string(model.net.parameter_count()) + ")");
+    }
+    // Start from a PEM fit so the comparison is made where training would be (thesis fig. 5.16).
+    models::TrainingOptions pem = options;
+    pem.modes = {models::TrainingMode::pem};
+    pem.max_iterations = std::min(o.max_iterations, 20);
+    model = models::train_narx(model, us, ys, uv, yv, pem).model;
+    const auto p = o.parameter;
+    print_result({{"parameter", p},
+                  {"static", models::loss_gradient(model, us, ys, models::TrainingMode::oem_s, skip)[p]},
+                  {"dynamic", models::loss_gradient(model, us, ys, models::TrainingMode::oem_d, skip)[p]},
+                  {"finite_difference", models::loss_gradient(model, us, ys, models::TrainingMode::oem_n, skip)[p]}});
+    return;
+  }
+  ProgressBar bar("identify narx");
+  const int total = o.max_iterations * static_cast<int>(options.modes.size());
+  int done = 0;
+  options.progress = [&](const models::TrainingRecord& r) {
+    if (r.iteration > 0) ++done;
+    bar.update(static_cast<double>(done) / total);
+    (void)r;
+  };
+  models::TrainingResult result = models::train_narx(model, us, ys, uv, yv, options);
+  bar.update(1.0);
+  nlohmann::json history = nlohmann::json::array();
+  for (const auto& r : result.history) {
+    history.push_back({{"iter", r.iteration}, {"mode", models::to_string(r.mode)}, {"J_est_pct", number_or_null(r.j_est_pct)},
+                       {"J_val_pct", number_or_null(r.j_val_pct)}});
+  }
+  // The same protocol as the linear models: the first measured outputs set the state, then free run.
+  const auto judged = [&](const Eigen::VectorXd& u, const Eigen::VectorXd& y) {
+    const Eigen::Index init = std::min<Eigen::Index>(o.init, u.size() / 10);
+    return models::j_percent(result.model.simulate(u, y, init), y, init);
+  };
+  const double j_est = judged(est.columns[0], est.columns[1]);
+  const double j_val = u_val.size() ? judged(u_val, y_val) : std::numeric_limits<double>::quiet_NaN();
+  result.model.meta = {{"data", o.data}, {"val", o.val}, {"train", o.train}, {"optimizer", o.optimizer},
+                       {"J_est_pct", j_est}, {"J_val_pct", number_or_null(j_val)}, {"seed", o.seed}};
+  models::save_narx_model(o.out, result.model);
+  print_result({{"J_est_pct", j_est},
+                {"J_val_pct", number_or_null(j_val)},
+                {"iterations", result.iterations},
+                {"seconds", result.seconds},
+                {"params", result.model.net.parameter_count()},
+                {"history", history},
+                {"out", o.out}});
+}
+
 }  // namespace
 
 void register_identify(CLI::App& app) {
@@ -117,6 +227,42 @@ void register_identify(CLI::App& app) {
       "Example:\n  panelbass simulate --samples 12000 --out run.csv\n"
       "  panelbass identify linear --data run.csv --fs 3000 --method zhu --scan 1:12 --val run.csv --out lin.json");
   linear->callback([o] { run_identify_linear(*o); });
+
+  auto n = std::make_shared<IdentifyNarxOptions>();
+  CLI::App* narx = identify->add_subcommand("narx", "Neural NARX model trained on its simulation error (thesis ch. 5-6)");
+  narx->add_option("--data", n->data, "Estimation data, .csv or .wav")->required();
+  narx->add_option("--val", n->val, "Validation data (early stopping and J_val)");
+  n->columns.add_to(narx);
+  narx->add_option("--na", n->na, "Past outputs y(k-1)..y(k-na)")->check(CLI::Range(0, 500))->capture_default_str();
+  narx->add_option("--nb", n->nb, "Past inputs u(k-nk)..u(k-nk-nb)")->check(CLI::Range(0, 500))->capture_default_str();
+  narx->add_option("--nk", n->nk, "Input delay")->check(CLI::Range(0, 100000))->capture_default_str();
+  narx->add_option("--hidden", n->hidden, "Hidden layer widths, e.g. 17 or 17,8")->delimiter(',')->check(CLI::Range(1, 10000));
+  narx->add_option("--train", n->train, "Modes in order: pem, oem-s, oem-d, oem-n (comma-separated)")->capture_default_str();
+  narx->add_option("--optimizer", n->optimizer, "lm, sd or linesearch")
+      ->check(CLI::IsMember({"lm", "sd", "linesearch"}))
+      ->capture_default_str();
+  narx->add_option("--max-iter", n->max_iterations, "Iterations per mode")->check(CLI::Range(0, 1000000))->capture_default_str();
+  narx->add_option("--seed", n->seed, "Seed of the initial weights ([5F])")->capture_default_str();
+  narx->add_option("--step", n->step, "Steepest-descent step alpha")->check(CLI::PositiveNumber)->capture_default_str();
+  narx->add_option("--batch", n->batch, "Steepest-descent batch L (0 = all samples)")->check(CLI::Range(0L, 100000000L));
+  narx->add_option("--skip", n->skip, "Transient skip [5M] (default 2(na+nb))")->check(CLI::Range(0L, 100000000L));
+  narx->add_option("--patience", n->patience, "Iterations without validation improvement before stopping")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
+  narx->add_option("--init", n->init, "Measured outputs that set the state before J is computed")
+      ->check(CLI::Range(0L, 1000000L))
+      ->capture_default_str();
+  narx->add_flag("--gradient-check", n->gradient_check,
+                 "Print the static, dynamic and finite-difference gradients of one parameter (fig. 5.16)");
+  narx->add_option("--parameter", n->parameter, "Parameter index for --gradient-check")->capture_default_str();
+  narx->add_option("--out", n->out, "Model file to write (JSON)");
+  narx->footer(
+      "Example:\n  panelbass identify narx --data est.csv --val val.csv --fs 3000 --na 8 --nb 8 --hidden 17 "
+      "--train pem,oem-d --optimizer lm --max-iter 50 --seed 1 --out nn.json");
+  narx->callback([n] {
+    if (!n->gradient_check && n->out.empty()) throw CLI::RequiredError("--out");
+    run_identify_narx(*n);
+  });
 }
 
 }  // namespace panelbass::cli

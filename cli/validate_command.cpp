@@ -5,7 +5,7 @@
 #include "cli/commands.h"
 #include "cli/data_options.h"
 #include "cli/json_output.h"
-#include "models/linear_model.h"
+#include "models/model_file.h"
 #include "models/performance.h"
 
 namespace panelbass::cli {
@@ -18,13 +18,13 @@ struct ValidateOptions {
 };
 
 void run_validate(const ValidateOptions& o) {
-  const models::LinearModel model = models::load_linear_model(o.model);
+  const models::AnyModel model = models::load_model(o.model);
   DataOptions columns = o.columns;
-  if (!(columns.fs > 0.0)) columns.fs = model.fs;  // a CSV recorded at the model's rate needs no --fs
+  if (!(columns.fs > 0.0)) columns.fs = model.fs();  // a CSV recorded at the model's rate needs no --fs
   const dsp::Record data = columns.read(o.data);
-  if (std::abs(data.fs - model.fs) > 1e-9 * model.fs) {
+  if (std::abs(data.fs - model.fs()) > 1e-9 * model.fs()) {
     throw std::invalid_argument(o.data + ": sample rate " + std::to_string(data.fs) + " Hz differs from the model's " +
-                                std::to_string(model.fs) + " Hz");
+                                std::to_string(model.fs()) + " Hz");
   }
   const Eigen::VectorXd& u = data.columns[0];
   const Eigen::VectorXd& y = data.columns[1];
@@ -37,6 +37,7 @@ void run_validate(const ValidateOptions& o) {
                 {"J_pred_pct", models::j_percent(y_pred, y, o.init)},
                 {"rmse", rmse},
                 {"samples", n},
+                {"kind", model.kind()},
                 {"init", o.init},
                 {"model", o.model},
                 {"data", o.data}});

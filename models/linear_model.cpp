@@ -1,5 +1,7 @@
 #include "models/linear_model.h"
 
+#include "models/json_file.h"
+
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -172,22 +174,11 @@ LinearModel linear_model_from_json(const nlohmann::json& j) {
 }
 
 void save_linear_model(const std::filesystem::path& path, const LinearModel& m) {
-  std::ofstream out(path);
-  if (!out) throw ConfigError(path.string() + ": cannot open for writing");
-  out << linear_model_to_json(m).dump(2) << '\n';
-  out.close();
-  if (!out) throw ConfigError(path.string() + ": write failed");
+  write_json_file(path, linear_model_to_json(m));
 }
 
 LinearModel load_linear_model(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path.string() + ": cannot open");
-  nlohmann::json json;
-  try {
-    json = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw ConfigError(path.string() + ": not valid JSON: " + e.what());
-  }
+  const nlohmann::json json = read_json_file(path);
   try {
     return linear_model_from_json(json);
   } catch (const ConfigError& e) {
