@@ -6,36 +6,14 @@
 #include <string>
 
 #include "models/estimation_error.h"
+#include "models/estimator_checks.h"
 
 namespace panelbass::models {
-namespace {
-
-std::string arx_name(const ModelOrders& o) {
-  return "ARX(na=" + std::to_string(o.na) + ", nb=" + std::to_string(o.nb) + ", nk=" + std::to_string(o.nk) + ")";
-}
-
-void require_finite(const Eigen::VectorXd& x, const char* what, const std::string& name) {
-  for (Eigen::Index k = 0; k < x.size(); ++k) {
-    if (!std::isfinite(x[k])) {
-      throw EstimationError(name + ": the " + what + " has a non-finite value at sample " + std::to_string(k));
-    }
-  }
-}
-
-}  // namespace
-
 TransferFunction estimate_arx(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const ModelOrders& orders) {
-  const std::string name = arx_name(orders);
-  if (orders.na < 0 || orders.nb < 0 || orders.nk < 0) throw EstimationError(name + ": orders must not be negative");
-  if (orders.nb < 1) throw EstimationError(name + ": nb must be at least 1 (the model needs an input)");
-  if (u.size() != y.size()) {
-    throw EstimationError(name + ": the input has " + std::to_string(u.size()) + " samples but the output has " +
-                          std::to_string(y.size()));
-  }
-  require_finite(u, "input", name);
-  require_finite(y, "output", name);
+  const std::string name = orders_name("ARX", orders);
+  require_valid_orders(orders, name);
+  require_usable_record(u, y, name);
   const Eigen::Index N = u.size();
-  if (N == 0 || u.maxCoeff() == u.minCoeff()) throw EstimationError(name + ": the input is constant");
 
   const Eigen::Index na = orders.na, nb = orders.nb, nk = orders.nk, P = na + nb;
   const Eigen::Index first = std::max<Eigen::Index>(na, nk + nb - 1);

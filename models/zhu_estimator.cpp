@@ -5,21 +5,10 @@
 #include <string>
 
 #include "models/estimation_error.h"
+#include "models/estimator_checks.h"
 
 namespace panelbass::models {
 namespace {
-
-std::string zhu_name(const ModelOrders& o) {
-  return "Zhu(na=" + std::to_string(o.na) + ", nb=" + std::to_string(o.nb) + ", nk=" + std::to_string(o.nk) + ")";
-}
-
-void require_finite(const Eigen::VectorXd& x, const char* what, const std::string& name) {
-  for (Eigen::Index k = 0; k < x.size(); ++k) {
-    if (!std::isfinite(x[k])) {
-      throw EstimationError(name + ": the " + what + " has a non-finite value at sample " + std::to_string(k));
-    }
-  }
-}
 
 /// x_f(k) = Σ_{m=0}^{n} c_m·x(k−m−delay), from rest: an FIR filter, so nothing can go unstable.
 Eigen::VectorXd fir_filter(const Eigen::VectorXd& c, Eigen::Index delay, const Eigen::VectorXd& x) {
@@ -37,18 +26,11 @@ Eigen::VectorXd fir_filter(const Eigen::VectorXd& c, Eigen::Index delay, const E
 
 ZhuResult estimate_zhu(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const ModelOrders& orders,
                        const ZhuOptions& options) {
-  const std::string name = zhu_name(orders);
-  if (orders.na < 0 || orders.nb < 0 || orders.nk < 0) throw EstimationError(name + ": orders must not be negative");
-  if (orders.nb < 1) throw EstimationError(name + ": nb must be at least 1 (the model needs an input)");
+  const std::string name = orders_name("Zhu", orders);
+  require_valid_orders(orders, name);
   if (options.high_order < 0) throw EstimationError(name + ": the high order must not be negative");
-  if (u.size() != y.size()) {
-    throw EstimationError(name + ": the input has " + std::to_string(u.size()) + " samples but the output has " +
-                          std::to_string(y.size()));
-  }
-  require_finite(u, "input", name);
-  require_finite(y, "output", name);
+  require_usable_record(u, y, name);
   const Eigen::Index N = u.size();
-  if (N == 0 || u.maxCoeff() == u.minCoeff()) throw EstimationError(name + ": the input is constant");
 
   // H = max(20, 3·na), capped so that the ARX(H, H) has at most N/10 parameters (2H ≤ N/10).
   const int low = std::max(orders.na, orders.nb);

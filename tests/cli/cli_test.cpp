@@ -3,17 +3,13 @@
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
-#include <unistd.h>
 
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <nlohmann/json.hpp>
 #include <numbers>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -22,6 +18,7 @@
 #include "dsp/wav_file.h"
 #include "models/plant_config.h"
 #include "models/plant_presets.h"
+#include "tests/support/scratch_directory.h"
 
 namespace panelbass {
 namespace {
@@ -36,11 +33,6 @@ struct RunResult {
   std::string err;  ///< standard error
 };
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 /// `text` as one word for /bin/sh.
 std::string quoted(const std::string& text) {
   std::string out = "'";
@@ -54,19 +46,8 @@ double rms(const Eigen::VectorXd& x) { return std::sqrt(x.squaredNorm() / static
 
 /// A fresh directory per test (removed afterwards) and a way to run the binary with its output
 /// captured in files there.
-class CliTest : public ::testing::Test {
+class CliTest : public testing_support::ScratchDirectoryTest {
  protected:
-  CliTest() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() / ("panelbass-" + std::string(info->test_suite_name()) + "-" + info->name() +
-                                        "-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}()));
-    fs::create_directories(dir_);
-  }
-  ~CliTest() override {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
-  }
-
   /// Runs `panelbass <args>` (args already quoted for the shell) with stdin from /dev/null.
   RunResult run(const std::string& args) {
     const std::string n = std::to_string(++runs_);
@@ -77,18 +58,11 @@ class CliTest : public ::testing::Test {
     const int raw = std::system(command.c_str());
     RunResult r;
     r.status = (raw != -1 && WIFEXITED(raw)) ? WEXITSTATUS(raw) : -1;
-    r.out = read_text(out);
-    r.err = read_text(err);
+    r.out = text_of(out);
+    r.err = text_of(err);
     return r;
   }
 
-  fs::path file(const std::string& name, const std::string& content) const {
-    const fs::path path = dir_ / name;
-    std::ofstream(path, std::ios::binary) << content;
-    return path;
-  }
-
-  fs::path dir_;
   int runs_ = 0;
 };
 
@@ -204,7 +178,7 @@ TEST_F(CliSimulate, NoiseWritesTheRecordAndReportsItsRms) {
   EXPECT_EQ(result.value("noise_seed", -1), 8);  // documented default: seed + 1
   EXPECT_EQ(result.value("out", ""), csv.string());
 
-  const std::string text = read_text(csv);
+  const std::string text = text_of(csv);
   EXPECT_EQ(text.substr(0, text.find('\n')), "u,y,i,x");
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), kSamples + 1);  // header + one row per sample
 
@@ -226,9 +200,9 @@ TEST_F(CliSimulate, SameSeedSameFileOtherSeedOtherDrive) {
   expect_result(run("simulate --samples 2000 --seed 3 --out " + quoted(a)));
   expect_result(run("simulate --samples 2000 --seed 3 --out " + quoted(b)));
   expect_result(run("simulate --samples 2000 --seed 4 --out " + quoted(c)));
-  const std::string text_a = read_text(a);
+  const std::string text_a = text_of(a);
   EXPECT_FALSE(text_a.empty());
-  EXPECT_TRUE(text_a == read_text(b)) << "the same seed gave different files";
+  EXPECT_TRUE(text_a == text_of(b)) << "the same seed gave different files";
   const Eigen::VectorXd u_a = read_uyix_csv(a).column("u");
   const Eigen::VectorXd u_c = read_uyix_csv(c).column("u");
   ASSERT_EQ(u_a.size(), u_c.size());
@@ -298,7 +272,7 @@ TEST_F(CliSimulate, PlantFileFromShowSimulatesLikeThePreset) {
   expect_result(run("simulate --samples 1500 --out " + quoted(a)));
   const json result = expect_result(run("simulate --plant " + quoted(plant) + " --samples 1500 --out " + quoted(b)));
   EXPECT_EQ(result.value("plant", ""), "panel-exciter");
-  EXPECT_TRUE(read_text(a) == read_text(b)) << "the shown plant simulates differently from the preset";
+  EXPECT_TRUE(text_of(a) == text_of(b)) << "the shown plant simulates differently from the preset";
 }
 
 TEST_F(CliSimulate, SineWithoutFreqFails) {

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "dsp/biquad.h"
+#include "tests/support/expect_error.h"
 
 namespace panelbass::dsp {
 namespace {
@@ -42,15 +43,7 @@ std::complex<double> analog_response(const std::vector<AnalogSection>& sections,
   return h;
 }
 
-template <typename F>
-void expect_invalid(F&& f, const std::string& parameter) {
-  try {
-    f();
-    ADD_FAILURE() << "no exception; expected one naming " << parameter;
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find(parameter), std::string::npos) << e.what();
-  }
-}
+using testing_support::expect_invalid;
 
 TEST(ButterworthTest, LowpassMinusThreeDecibelsAtCutoff) {
   const double fs = 3000.0;

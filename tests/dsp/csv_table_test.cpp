@@ -3,21 +3,20 @@
 #include "dsp/csv_table.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <bit>
 #include <cmath>
 #include <cfloat>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <numbers>
 #include <random>
 #include <string>
 
 #include "dsp/data_error.h"
+#include "tests/support/expect_error.h"
+#include "tests/support/scratch_directory.h"
 
 namespace panelbass::dsp {
 namespace {
@@ -25,46 +24,12 @@ namespace {
 namespace fs = std::filesystem;
 
 /// A fresh directory for one test, removed afterwards.
-class CsvTableTest : public ::testing::Test {
- protected:
-  CsvTableTest() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() / ("panelbass-" + std::string(info->test_suite_name()) + "-" + info->name() +
-                                        "-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}()));
-    fs::create_directories(dir_);
-  }
-  ~CsvTableTest() override {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
-  }
-
-  /// Writes `content` byte for byte to a file in the test directory and returns its path.
-  fs::path file(const std::string& name, const std::string& content) const {
-    const fs::path path = dir_ / name;
-    std::ofstream(path, std::ios::binary) << content;
-    return path;
-  }
-
-  std::string text_of(const fs::path& path) const {
-    std::ifstream in(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-  }
-
-  fs::path dir_;
-};
+class CsvTableTest : public testing_support::ScratchDirectoryTest {};
 
 /// The message of the DataError that `action` throws (a failure if it throws none); it must be one line.
 template <class Action>
 std::string data_error(Action action) {
-  try {
-    action();
-  } catch (const DataError& error) {
-    const std::string message = error.what();
-    EXPECT_EQ(message.find('\n'), std::string::npos) << "message is not one line: " << message;
-    return message;
-  }
-  ADD_FAILURE() << "no DataError was thrown";
-  return {};
+  return testing_support::one_line_error<DataError>(action);
 }
 
 std::uint64_t bits(double value) { return std::bit_cast<std::uint64_t>(value); }

@@ -4,19 +4,17 @@
 
 #include <gtest/gtest.h>
 #include <sndfile.h>
-#include <unistd.h>
 
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <limits>
-#include <random>
 #include <stdexcept>
 #include <string>
 
 #include "dsp/data_error.h"
 #include "dsp/record.h"
 #include "dsp/wav_file.h"
+#include "tests/support/expect_error.h"
+#include "tests/support/scratch_directory.h"
 
 namespace panelbass::dsp {
 namespace {
@@ -24,39 +22,12 @@ namespace {
 namespace fs = std::filesystem;
 
 /// A fresh directory for one test, removed afterwards.
-class DataFileTest : public ::testing::Test {
- protected:
-  DataFileTest() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() / ("panelbass-" + std::string(info->test_suite_name()) + "-" + info->name() +
-                                        "-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}()));
-    fs::create_directories(dir_);
-  }
-  ~DataFileTest() override {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
-  }
+class DataFileTest : public testing_support::ScratchDirectoryTest {};
 
-  fs::path file(const std::string& name, const std::string& content) const {
-    const fs::path path = dir_ / name;
-    std::ofstream(path, std::ios::binary) << content;
-    return path;
-  }
-
-  fs::path dir_;
-};
-
+/// The message of the DataError that `action` throws (a failure if it throws none); it must be one line.
 template <class Action>
 std::string data_error(Action action) {
-  try {
-    action();
-  } catch (const DataError& error) {
-    const std::string message = error.what();
-    EXPECT_EQ(message.find('\n'), std::string::npos) << "message is not one line: " << message;
-    return message;
-  }
-  ADD_FAILURE() << "no DataError was thrown";
-  return {};
+  return testing_support::one_line_error<DataError>(action);
 }
 
 Record sample_record(double fs) {
@@ -136,9 +107,7 @@ TEST_F(DataFileTest, WritesCsvThatReadsBackExactly) {
   const fs::path path = dir_ / "out.csv";
   const Record record = sample_record(8000);
   write_data_file(path, record);
-  std::ifstream in(path, std::ios::binary);
-  const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-  EXPECT_EQ(text, "u,y\n0.5,0\n-0.25,0.3333333333333333\n0.1,-1\n");
+  EXPECT_EQ(text_of(path), "u,y\n0.5,0\n-0.25,0.3333333333333333\n0.1,-1\n");
   const Record back = read_data_file(path, {"u", "y"}, 8000);
   EXPECT_EQ(back.columns[0], record.columns[0]);
   EXPECT_EQ(back.columns[1], record.columns[1]);

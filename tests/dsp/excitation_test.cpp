@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "dsp/random.h"
+#include "tests/support/expect_error.h"
 
 namespace panelbass::dsp {
 namespace {
@@ -34,15 +35,7 @@ bool bit_identical(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
   return a.size() == b.size() && std::equal(a.data(), a.data() + a.size(), b.data());
 }
 
-template <typename F>
-void expect_invalid(F&& f, const std::string& parameter) {
-  try {
-    f();
-    ADD_FAILURE() << "no exception; expected one naming " << parameter;
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find(parameter), std::string::npos) << e.what();
-  }
-}
+using testing_support::expect_invalid;
 
 // ---- noise ----------------------------------------------------------------------------------
 

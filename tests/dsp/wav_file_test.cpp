@@ -5,7 +5,6 @@
 
 #include <gtest/gtest.h>
 #include <sndfile.h>
-#include <unistd.h>
 
 #include <cfloat>
 #include <cmath>
@@ -19,6 +18,8 @@
 #include <type_traits>
 
 #include "dsp/data_error.h"
+#include "tests/support/expect_error.h"
+#include "tests/support/scratch_directory.h"
 
 namespace panelbass::dsp {
 namespace {
@@ -29,19 +30,8 @@ constexpr std::uint16_t kWavePcm = 1;
 constexpr std::uint16_t kWaveFloat = 3;
 
 /// A fresh directory for one test, removed afterwards.
-class WavFileTest : public ::testing::Test {
+class WavFileTest : public testing_support::ScratchDirectoryTest {
  protected:
-  WavFileTest() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() / ("panelbass-" + std::string(info->test_suite_name()) + "-" + info->name() +
-                                        "-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}()));
-    fs::create_directories(dir_);
-  }
-  ~WavFileTest() override {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
-  }
-
   /// A canonical 44-byte-header WAV file built byte by byte, independent of libsndfile.
   /// `data` holds the interleaved little-endian samples.
   fs::path raw_wav(const std::string& name, std::uint16_t format_tag, int channels, int rate, int bits,
@@ -64,9 +54,7 @@ class WavFileTest : public ::testing::Test {
     out += "data";
     le(static_cast<std::uint32_t>(data.size()), 4);
     out += data;
-    const fs::path path = dir_ / name;
-    std::ofstream(path, std::ios::binary) << out;
-    return path;
+    return file(name, out);
   }
 
   /// Two's-complement integer codes as little-endian `bits`-wide PCM samples.
@@ -118,22 +106,12 @@ class WavFileTest : public ::testing::Test {
     sf_close(file);
     return info.format;
   }
-
-  fs::path dir_;
 };
 
 /// The message of the DataError that `action` throws (a failure if it throws none); it must be one line.
 template <class Action>
 std::string data_error(Action action) {
-  try {
-    action();
-  } catch (const DataError& error) {
-    const std::string message = error.what();
-    EXPECT_EQ(message.find('\n'), std::string::npos) << "message is not one line: " << message;
-    return message;
-  }
-  ADD_FAILURE() << "no DataError was thrown";
-  return {};
+  return testing_support::one_line_error<DataError>(action);
 }
 
 Record two_columns(const Eigen::VectorXd& u, const Eigen::VectorXd& y, double fs) {

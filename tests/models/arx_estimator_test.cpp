@@ -13,32 +13,14 @@
 #include "dsp/excitation.h"
 #include "dsp/random.h"
 #include "models/estimation_error.h"
+#include "tests/support/expect_error.h"
+#include "tests/support/linear_systems.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd gaussian(Eigen::Index n, double sigma, std::uint64_t seed) {
-  dsp::Rng rng(seed);
-  Eigen::VectorXd x(n);
-  for (Eigen::Index i = 0; i < n; ++i) x[i] = sigma * rng.gaussian();
-  return x;
-}
-
-/// The textbook difference equation A(q)y = B(q)u + e from rest, written as plain loops.
-Eigen::VectorXd arx_output(const TransferFunction& tf, const Eigen::VectorXd& u, const Eigen::VectorXd& e) {
-  Eigen::VectorXd y(u.size());
-  for (Eigen::Index k = 0; k < u.size(); ++k) {
-    double s = e.size() ? e[k] : 0.0;
-    for (Eigen::Index j = 0; j < tf.b.size(); ++j) {
-      if (k - tf.nk - j >= 0) s += tf.b[j] * u[k - tf.nk - j];
-    }
-    for (Eigen::Index i = 1; i <= tf.a.size(); ++i) {
-      if (k - i >= 0) s -= tf.a[i - 1] * y[k - i];
-    }
-    y[k] = s;
-  }
-  return y;
-}
+using testing_support::arx_output;
+using testing_support::gaussian;
 
 /// θ from the normal equations (ΦᵀΦ)θ = Φᵀy, Φ filled element by element from the definition
 /// φ(k) = [−y(k−1)…−y(k−na), u(k−nk)…u(k−nk−nb+1)], k = max(na, nk+nb−1) … N−1.
@@ -58,12 +40,7 @@ Eigen::VectorXd normal_equation_solution(const Eigen::VectorXd& u, const Eigen::
 }
 
 std::string error_of(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const ModelOrders& o) {
-  try {
-    estimate_arx(u, y, o);
-  } catch (const EstimationError& e) {
-    return e.what();
-  }
-  return "(no error)";
+  return testing_support::message_of<EstimationError>([&] { estimate_arx(u, y, o); }, "(no error)");
 }
 
 TEST(ArxEstimatorTest, RecoversExactArxSystemFromNoiseFreeData) {

@@ -19,6 +19,7 @@
 #include "dsp/random.h"
 #include "models/estimation_error.h"
 #include "models/performance.h"
+#include "tests/support/linear_systems.h"
 
 namespace panelbass::models {
 namespace {
@@ -26,26 +27,14 @@ namespace {
 using Complex = std::complex<double>;
 constexpr double kPi = std::numbers::pi;
 
-/// y(k) = −Σ a_i y(k−i) + Σ b_j u(k−nk−j): the difference equation, written out.
-Eigen::VectorXd filter_tf(const TransferFunction& tf, const Eigen::VectorXd& u) {
-  Eigen::VectorXd y = Eigen::VectorXd::Zero(u.size());
-  for (Eigen::Index k = 0; k < u.size(); ++k) {
-    double s = 0.0;
-    for (Eigen::Index j = 0; j < tf.b.size(); ++j) {
-      if (k - tf.nk - j >= 0) s += tf.b[j] * u[k - tf.nk - j];
-    }
-    for (Eigen::Index i = 1; i <= tf.a.size(); ++i) {
-      if (k - i >= 0) s -= tf.a[i - 1] * y[k - i];
-    }
-    y[k] = s;
-  }
-  return y;
-}
+// simulate: y(k) = −Σ a_i y(k−i) + Σ b_j u(k−nk−j), the difference equation written out.
+using testing_support::gaussian;
+using testing_support::simulate;
 
 Eigen::VectorXd impulse_of(const TransferFunction& tf, Eigen::Index n) {
   Eigen::VectorXd d = Eigen::VectorXd::Zero(n);
   d[0] = 1.0;
-  return filter_tf(tf, d);
+  return simulate(tf, d);
 }
 
 /// Real polynomial coefficients [1, c_1, …, c_n] of Π (1 − r_i x) for roots in conjugate pairs.
@@ -336,17 +325,10 @@ double worst_db(const TransferFunction& est, const TransferFunction& truth, doub
   return worst;
 }
 
-Eigen::VectorXd white(Eigen::Index n, double sigma, std::uint64_t seed) {
-  dsp::Rng rng(seed);
-  Eigen::VectorXd e(n);
-  for (Eigen::Index i = 0; i < n; ++i) e[i] = sigma * rng.gaussian();
-  return e;
-}
-
 TEST(BackxEstimatorTest, RecoversANoiseFreeSystem) {
   const TransferFunction truth = plant_3000();
   const Eigen::VectorXd u = dsp::uniform_noise(12000, 1.0, 31);
-  const Eigen::VectorXd y = filter_tf(truth, u);
+  const Eigen::VectorXd y = simulate(truth, u);
   const BackxResult r = estimate_backx(u, y, {4, 4, 0}, 3000.0);
   EXPECT_EQ(r.tf.na(), 4);
   EXPECT_EQ(r.tf.nb(), 4);
@@ -363,18 +345,18 @@ TEST(BackxEstimatorTest, RecoversANoiseFreeSystem) {
 TEST(BackxEstimatorTest, NoisyOutputAtTheTrueOrder) {
   const TransferFunction truth = plant_3000();
   const Eigen::VectorXd u = dsp::uniform_noise(12000, 1.0, 41);
-  const Eigen::VectorXd y0 = filter_tf(truth, u);
+  const Eigen::VectorXd y0 = simulate(truth, u);
   const double sigma = 0.1 * std::sqrt(y0.squaredNorm() / static_cast<double>(y0.size()));  // 20 dB SNR
-  const Eigen::VectorXd y = y0 + white(y0.size(), sigma, 42);
+  const Eigen::VectorXd y = y0 + gaussian(y0.size(), sigma, 42);
   const BackxResult r = estimate_backx(u, y, {4, 4, 0}, 3000.0);
   EXPECT_LT(worst_db(r.tf, truth, 3000.0, 1498.0), 1.0);  // white input: the whole band is excited
 
   // Validation on fresh data: the model's J is the noise's share of the output and little more.
   const Eigen::VectorXd uv = dsp::uniform_noise(6000, 1.0, 43);
-  const Eigen::VectorXd yv0 = filter_tf(truth, uv);
-  const Eigen::VectorXd yv = yv0 + white(yv0.size(), sigma, 44);
+  const Eigen::VectorXd yv0 = simulate(truth, uv);
+  const Eigen::VectorXd yv = yv0 + gaussian(yv0.size(), sigma, 44);
   const double floor = j_percent(yv0, yv);
-  const double j = j_percent(filter_tf(r.tf, uv), yv);
+  const double j = j_percent(simulate(r.tf, uv), yv);
   EXPECT_LT(j, 1.2 * floor) << "J " << j << " %, noise floor " << floor << " %";
 }
 
@@ -392,9 +374,9 @@ TEST(BackxEstimatorTest, DecimatedByThreeOnALowPassSystem) {
   b << 0.0, 0.02, 0.015;
   const TransferFunction truth = tf_from({p1, std::conj(p1), p2, std::conj(p2), p3}, b);
   const Eigen::VectorXd u = dsp::uniform_noise(15000, 1.0, 51);
-  const Eigen::VectorXd y0 = filter_tf(truth, u);
+  const Eigen::VectorXd y0 = simulate(truth, u);
   const double sigma = 0.03 * std::sqrt(y0.squaredNorm() / static_cast<double>(y0.size()));
-  const Eigen::VectorXd y = y0 + white(y0.size(), sigma, 52);
+  const Eigen::VectorXd y = y0 + gaussian(y0.size(), sigma, 52);
   BackxOptions options;
   options.decimation = 3;
   const BackxResult r = estimate_backx(u, y, {5, 3, 0}, fs, options);
@@ -411,7 +393,7 @@ TEST(BackxEstimatorTest, DecimatedByThreeOnALowPassSystem) {
 
 TEST(BackxEstimatorTest, RejectsBadArguments) {
   const Eigen::VectorXd u = dsp::uniform_noise(2000, 1.0, 61);
-  const Eigen::VectorXd y = filter_tf(plant_3000(), u);
+  const Eigen::VectorXd y = simulate(plant_3000(), u);
   EXPECT_THROW(estimate_backx(u, y.head(1999), {4, 4, 0}, 3000.0), EstimationError);
   EXPECT_THROW(estimate_backx(u, y, {0, 4, 0}, 3000.0), EstimationError);
   EXPECT_THROW(estimate_backx(u, y, {4, 4, 0}, 0.0), EstimationError);

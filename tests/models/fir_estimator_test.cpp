@@ -12,16 +12,12 @@
 
 #include "dsp/excitation.h"
 #include "dsp/random.h"
+#include "tests/support/linear_systems.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd gaussian(Eigen::Index n, double sigma, std::uint64_t seed) {
-  dsp::Rng rng(seed);
-  Eigen::VectorXd x(n);
-  for (Eigen::Index i = 0; i < n; ++i) x[i] = sigma * rng.gaussian();
-  return x;
-}
+using testing_support::gaussian;
 
 /// y(k) = Σ_{j=0}^{min(n−1,k)} b_j·u(k−j), written as the textbook double loop.
 Eigen::VectorXd convolve(const Eigen::VectorXd& b, const Eigen::VectorXd& u) {

@@ -14,6 +14,7 @@
 #include "models/performance.h"
 #include "models/plant_presets.h"
 #include "models/virtual_transducer.h"
+#include "tests/support/expect_error.h"
 
 namespace panelbass::models {
 namespace {
@@ -120,12 +121,7 @@ TEST(LinearIdentification, PanelExciterZhuAndBackxSideBySideAndArxMisleads) {
 
 template <typename Error>
 std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
+  return testing_support::message_of<Error>(f, "(no error)");
 }
 
 TEST(LinearIdentification, BadInputGivesClearErrors) {

@@ -17,26 +17,15 @@
 
 #include "dsp/excitation.h"
 #include "models/config_error.h"
+#include "tests/support/expect_error.h"
+#include "tests/support/vectors.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd vec(std::initializer_list<double> v) {
-  Eigen::VectorXd x(static_cast<Eigen::Index>(v.size()));
-  Eigen::Index i = 0;
-  for (double d : v) x[i++] = d;
-  return x;
-}
+using testing_support::vec;
 
-template <typename Exception, typename F>
-std::string message_of(F f) {
-  try {
-    f();
-  } catch (const Exception& e) {
-    return e.what();
-  }
-  return "";
-}
+using testing_support::message_of;
 
 // A 4th-order model with delay and a non-trivial scaling, as an identification would store it.
 LinearModel example_model() {

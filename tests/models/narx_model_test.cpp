@@ -13,16 +13,12 @@
 #include <vector>
 
 #include "models/config_error.h"
+#include "tests/support/vectors.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd vec(std::initializer_list<double> v) {
-  Eigen::VectorXd x(static_cast<Eigen::Index>(v.size()));
-  Eigen::Index i = 0;
-  for (double d : v) x[i++] = d;
-  return x;
-}
+using testing_support::vec;
 
 // A deterministic, non-periodic test signal in [−amplitude, amplitude].
 Eigen::VectorXd signal(Eigen::Index n, double amplitude, double phase) {

@@ -18,32 +18,14 @@
 #include "dsp/random.h"
 #include "models/arx_estimator.h"
 #include "models/estimation_error.h"
+#include "tests/support/expect_error.h"
+#include "tests/support/linear_systems.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd gaussian(Eigen::Index n, double sigma, std::uint64_t seed) {
-  dsp::Rng rng(seed);
-  Eigen::VectorXd x(n);
-  for (Eigen::Index i = 0; i < n; ++i) x[i] = sigma * rng.gaussian();
-  return x;
-}
-
-/// ŷ = B/A·u from rest, as the textbook difference equation.
-Eigen::VectorXd simulate(const TransferFunction& tf, const Eigen::VectorXd& u) {
-  Eigen::VectorXd y(u.size());
-  for (Eigen::Index k = 0; k < u.size(); ++k) {
-    double s = 0.0;
-    for (Eigen::Index j = 0; j < tf.b.size(); ++j) {
-      if (k - tf.nk - j >= 0) s += tf.b[j] * u[k - tf.nk - j];
-    }
-    for (Eigen::Index i = 1; i <= tf.a.size(); ++i) {
-      if (k - i >= 0) s -= tf.a[i - 1] * y[k - i];
-    }
-    y[k] = s;
-  }
-  return y;
-}
+using testing_support::gaussian;
+using testing_support::simulate;
 
 Eigen::VectorXd theta_of(const TransferFunction& tf) {
   Eigen::VectorXd t(tf.na() + tf.nb());
@@ -77,12 +59,7 @@ double loss(const TransferFunction& tf, const Eigen::VectorXd& u, const Eigen::V
 
 std::string error_of(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const TransferFunction& init,
                      const OeOptions& o = {}) {
-  try {
-    estimate_oe(u, y, init, o);
-  } catch (const EstimationError& e) {
-    return e.what();
-  }
-  return "(no error)";
+  return testing_support::message_of<EstimationError>([&] { estimate_oe(u, y, init, o); }, "(no error)");
 }
 
 TEST(OeEstimatorTest, JacobianMatchesCentralFiniteDifferencesOfTheSimulation) {

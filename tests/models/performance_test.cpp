@@ -9,16 +9,12 @@
 #include <stdexcept>
 
 #include "dsp/excitation.h"
+#include "tests/support/vectors.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd vec(std::initializer_list<double> v) {
-  Eigen::VectorXd x(static_cast<Eigen::Index>(v.size()));
-  Eigen::Index i = 0;
-  for (double d : v) x[i++] = d;
-  return x;
-}
+using testing_support::vec;
 
 TEST(PerformanceTest, MatchesHandComputation) {
   // errors 0.5, 0, −1, 2 → Σe² = 0.25 + 0 + 1 + 4 = 5.25; Σy² = 1 + 4 + 9 + 16 = 30.

@@ -6,18 +6,17 @@
 #include "models/plant_config.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
-#include <random>
 #include <regex>
 #include <string>
 
 #include "models/config_error.h"
 #include "models/plant_presets.h"
+#include "tests/support/expect_error.h"
+#include "tests/support/scratch_directory.h"
 
 namespace panelbass::models {
 namespace {
@@ -186,15 +185,7 @@ PlantConfig unusual_plant() {
 /// The ConfigError message of `action`; fails the test if none is thrown or it is not one line.
 template <class Action>
 std::string config_error(Action action) {
-  try {
-    action();
-  } catch (const ConfigError& error) {
-    const std::string message = error.what();
-    EXPECT_EQ(message.find('\n'), std::string::npos) << "message is not one line: " << message;
-    return message;
-  }
-  ADD_FAILURE() << "no ConfigError was thrown";
-  return {};
+  return testing_support::one_line_error<ConfigError>(action);
 }
 
 std::string parse_error(const json& j) {
@@ -644,27 +635,7 @@ TEST(PlantConfigOversample, PresetOversampleHasMargin) {
 // Files
 
 /// A fresh directory for one test, removed afterwards.
-class PlantConfigFile : public ::testing::Test {
- protected:
-  PlantConfigFile() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() / ("panelbass-" + std::string(info->test_suite_name()) + "-" + info->name() +
-                                        "-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}()));
-    fs::create_directories(dir_);
-  }
-  ~PlantConfigFile() override {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
-  }
-
-  fs::path file(const std::string& name, const std::string& content) const {
-    const fs::path path = dir_ / name;
-    std::ofstream(path, std::ios::binary) << content;
-    return path;
-  }
-
-  fs::path dir_;
-};
+class PlantConfigFile : public testing_support::ScratchDirectoryTest {};
 
 TEST_F(PlantConfigFile, MissingFileNamesThePath) {
   const fs::path path = dir_ / "absent.json";

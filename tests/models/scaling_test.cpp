@@ -11,27 +11,16 @@
 
 #include "dsp/excitation.h"
 #include "models/config_error.h"
+#include "tests/support/expect_error.h"
+#include "tests/support/vectors.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd vec(std::initializer_list<double> v) {
-  Eigen::VectorXd x(static_cast<Eigen::Index>(v.size()));
-  Eigen::Index i = 0;
-  for (double d : v) x[i++] = d;
-  return x;
-}
+using testing_support::vec;
 
-// The message of the exception `f` throws (std::invalid_argument or ConfigError), "" if none.
-template <typename Exception, typename F>
-std::string message_of(F f) {
-  try {
-    f();
-  } catch (const Exception& e) {
-    return e.what();
-  }
-  return "";
-}
+// message_of<E>(f): the message of the exception `f` throws (std::invalid_argument or ConfigError), "" if none.
+using testing_support::message_of;
 
 TEST(ScalingTest, OffsetIsMeanAndScaleIsLargestDeviation) {
   // u: mean (1 + 2 + 3 + 6)/4 = 3, deviations −2, −1, 0, 3 → scale 3.

@@ -17,16 +17,12 @@
 #include <vector>
 
 #include "dsp/excitation.h"
+#include "tests/support/vectors.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd vec(std::initializer_list<double> v) {
-  Eigen::VectorXd x(static_cast<Eigen::Index>(v.size()));
-  Eigen::Index i = 0;
-  for (double d : v) x[i++] = d;
-  return x;
-}
+using testing_support::vec;
 
 // `count` roots in conjugate pairs, radius uniform in [r_min, r_max], angle uniform in (θ0, θ1)·π.
 Eigen::VectorXcd conjugate_pairs(int count, double r_min, double r_max, double th0, double th1, std::uint64_t seed) {

@@ -16,32 +16,14 @@
 #include "dsp/random.h"
 #include "models/estimation_error.h"
 #include "models/performance.h"
+#include "tests/support/expect_error.h"
+#include "tests/support/linear_systems.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd gaussian(Eigen::Index n, double sigma, std::uint64_t seed) {
-  dsp::Rng rng(seed);
-  Eigen::VectorXd x(n);
-  for (Eigen::Index i = 0; i < n; ++i) x[i] = sigma * rng.gaussian();
-  return x;
-}
-
-/// ŷ = B/A·u from rest, as the textbook difference equation.
-Eigen::VectorXd simulate(const TransferFunction& tf, const Eigen::VectorXd& u) {
-  Eigen::VectorXd y(u.size());
-  for (Eigen::Index k = 0; k < u.size(); ++k) {
-    double s = 0.0;
-    for (Eigen::Index j = 0; j < tf.b.size(); ++j) {
-      if (k - tf.nk - j >= 0) s += tf.b[j] * u[k - tf.nk - j];
-    }
-    for (Eigen::Index i = 1; i <= tf.a.size(); ++i) {
-      if (k - i >= 0) s -= tf.a[i - 1] * y[k - i];
-    }
-    y[k] = s;
-  }
-  return y;
-}
+using testing_support::gaussian;
+using testing_support::simulate;
 
 /// Poles 0.97·e^{±j0.3} and 0.9·e^{±j1.2}, B = q⁻¹(0.05 + 0.03q⁻¹ − 0.02q⁻² + 0.01q⁻³).
 TransferFunction fourth_order_truth() {
@@ -80,12 +62,7 @@ double db_error(const TransferFunction& model, const TransferFunction& truth, do
 }
 
 std::string error_of(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const ModelOrders& o, ZhuOptions opt = {}) {
-  try {
-    estimate_zhu(u, y, o, opt);
-  } catch (const EstimationError& e) {
-    return e.what();
-  }
-  return "(no error)";
+  return testing_support::message_of<EstimationError>([&] { estimate_zhu(u, y, o, opt); }, "(no error)");
 }
 
 TEST(ZhuEstimatorTest, RecoversLightlyDampedSystemUnderColouredNoiseWhereArxFails) {
