@@ -18,7 +18,7 @@
 #include "dsp/wav_file.h"
 #include "models/plant_config.h"
 #include "models/plant_presets.h"
-#include "tests/support/scratch_directory.h"
+#include "tests/support/cli_runner.h"
 
 namespace panelbass {
 namespace {
@@ -26,82 +26,15 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-/// What one run of the command left behind.
-struct RunResult {
-  int status = -1;  ///< exit status, or -1 if it did not exit normally
-  std::string out;  ///< standard output
-  std::string err;  ///< standard error
-};
-
-/// `text` as one word for /bin/sh.
-std::string quoted(const std::string& text) {
-  std::string out = "'";
-  for (char c : text) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-std::string quoted(const fs::path& path) { return quoted(path.string()); }
-
 double rms(const Eigen::VectorXd& x) { return std::sqrt(x.squaredNorm() / static_cast<double>(x.size())); }
 
-/// A fresh directory per test (removed afterwards) and a way to run the binary with its output
-/// captured in files there.
-class CliTest : public testing_support::ScratchDirectoryTest {
- protected:
-  /// Runs `panelbass <args>` (args already quoted for the shell) with stdin from /dev/null.
-  RunResult run(const std::string& args) {
-    const std::string n = std::to_string(++runs_);
-    const fs::path out = dir_ / ("stdout-" + n + ".txt");
-    const fs::path err = dir_ / ("stderr-" + n + ".txt");
-    const std::string command =
-        quoted(std::string(PANELBASS_BIN)) + " " + args + " </dev/null >" + quoted(out) + " 2>" + quoted(err);
-    const int raw = std::system(command.c_str());
-    RunResult r;
-    r.status = (raw != -1 && WIFEXITED(raw)) ? WEXITSTATUS(raw) : -1;
-    r.out = text_of(out);
-    r.err = text_of(err);
-    return r;
-  }
-
-  int runs_ = 0;
-};
+using namespace testing_support;
 
 using CliHelp = CliTest;
 using CliUsage = CliTest;
 using CliSimulate = CliTest;
 using CliPlant = CliTest;
 
-/// The run succeeded and printed exactly one JSON object on stdout; returns it.
-json expect_result(const RunResult& r) {
-  EXPECT_EQ(r.status, 0) << "stderr: " << r.err;
-  json result;
-  try {
-    result = json::parse(r.out);
-  } catch (const json::exception& e) {
-    ADD_FAILURE() << "stdout is not one JSON value (" << e.what() << "): " << r.out;
-    return json::object();
-  }
-  EXPECT_TRUE(result.is_object()) << r.out;
-  return result;
-}
-
-/// The run failed (exit 1), printed nothing on stdout, and exactly one line on stderr: the error.
-void expect_failure(const RunResult& r) {
-  EXPECT_EQ(r.status, 1) << "stdout: " << r.out << "\nstderr: " << r.err;
-  EXPECT_EQ(r.out, "") << "a failed command printed a result";
-  EXPECT_EQ(r.err.rfind("panelbass: error: ", 0), 0u) << "stderr: " << r.err;
-  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "stderr is not one line: " << r.err;
-  EXPECT_TRUE(!r.err.empty() && r.err.back() == '\n') << "stderr: " << r.err;
-}
-
-/// The run was refused as bad usage (exit 2) before doing anything.
-void expect_usage_error(const RunResult& r) {
-  EXPECT_EQ(r.status, 2) << "stdout: " << r.out << "\nstderr: " << r.err;
-  EXPECT_EQ(r.out, "") << "bad usage printed a result";
-  EXPECT_FALSE(r.err.empty()) << "bad usage said nothing";
-}
-
-bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 dsp::Record read_uyix_csv(const fs::path& path) { return dsp::read_csv(path, {"u", "y", "i", "x"}); }
 

@@ -1,0 +1,113 @@
+// `panelbass identify linear|narx` and `panelbass validate` run as a user runs them.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "dsp/csv_table.h"
+#include "tests/support/cli_runner.h"
+
+namespace panelbass {
+namespace {
+
+using namespace testing_support;
+using CliIdentify = CliTest;
+
+class CliIdentifyData : public CliTest {
+ protected:
+  /// 6000 samples of the panel exciter: rows 0..4000 to estimate, the rest to validate.
+  void SetUp() override {
+    expect_result(run("simulate --samples 6000 --seed 5 --out " + quoted(dir_ / "all.csv")));
+    const std::string text = text_of(dir_ / "all.csv");
+    std::size_t pos = text.find('\n') + 1;
+    const std::string header = text.substr(0, pos);
+    for (int row = 0; row < 4000; ++row) pos = text.find('\n', pos) + 1;
+    file("est.csv", text.substr(0, pos));
+    file("val.csv", header + text.substr(pos));
+  }
+  std::string est() const { return quoted(dir_ / "est.csv"); }
+  std::string val() const { return quoted(dir_ / "val.csv"); }
+};
+
+TEST_F(CliIdentifyData, LinearPrintsTheContractAndValidateAgrees) {
+  const fs::path model = dir_ / "lin.json";
+  const json r = expect_result(run("identify linear --data " + est() + " --val " + val() +
+                                   " --fs 3000 --method oe --order 8 --out " + quoted(model)));
+  for (const char* key : {"method", "order", "J_est_pct", "J_val_pct", "delay", "poles"}) EXPECT_TRUE(r.contains(key)) << key;
+  EXPECT_EQ(r["method"], "oe");
+  EXPECT_EQ(r["order"], 8);
+  EXPECT_EQ(r["delay"], 2);
+  EXPECT_EQ(r["poles"].size(), 8u);
+  for (const auto& p : r["poles"]) EXPECT_LT(std::hypot(p[0].get<double>(), p[1].get<double>()), 1.0);
+  // validate with the same protocol (50 outputs set the state) reproduces J_val.
+  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
+  EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
+  EXPECT_EQ(v["kind"], "linear");
+  // An OE model's A(q) is no predictor: its series-parallel J need not beat its simulation J; it is
+  // reported, finite and positive.
+  EXPECT_GT(v["J_pred_pct"].get<double>(), 0.0);
+}
+
+TEST_F(CliIdentifyData, LinearScanReportsEveryOrderAndTheRule) {
+  const json r = expect_result(run("identify linear --data " + est() + " --val " + val() +
+                                   " --fs 3000 --method zhu --scan 1:6 --out " + quoted(dir_ / "m.json")));
+  ASSERT_EQ(r["scan"].size(), 6u);
+  EXPECT_TRUE(r["order_rule"].get<std::string>().find("within 5 %") != std::string::npos);
+  double best = 1e9;
+  for (const auto& e : r["scan"]) best = std::min(best, e["J_val_pct"].get<double>());
+  EXPECT_LE(r["J_val_pct"].get<double>(), 1.05 * best + 1e-9);
+}
+
+TEST_F(CliIdentifyData, NarxTrainsAndValidateReadsItsModel) {
+  const fs::path model = dir_ / "nn.json";
+  const json r = expect_result(run("identify narx --data " + est() + " --val " + val() +
+                                   " --fs 3000 --na 4 --nb 4 --hidden 5 --train pem,oem-d --max-iter 3 --seed 2 --out " +
+                                   quoted(model)));
+  for (const char* key : {"J_est_pct", "J_val_pct", "iterations", "seconds", "params", "history"}) {
+    EXPECT_TRUE(r.contains(key)) << key;
+  }
+  EXPECT_EQ(r["params"], 9 * 5 + 5 + 5 + 1);
+  EXPECT_GE(r["history"].size(), 2u);
+  EXPECT_EQ(r["history"][0]["iter"], 0);
+  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
+  EXPECT_EQ(v["kind"], "narx");
+  EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
+}
+
+TEST_F(CliIdentifyData, GradientCheckShowsDynamicMatchesFiniteDifference) {
+  const json r = expect_result(run("identify narx --data " + est() + " --fs 3000 --na 2 --nb 2 --hidden 3 "
+                                   "--max-iter 5 --gradient-check --parameter 1"));
+  const double dynamic = r["dynamic"], numeric = r["finite_difference"];
+  EXPECT_NEAR(dynamic, numeric, 1e-4 * std::abs(numeric) + 1e-12);
+  EXPECT_TRUE(r.contains("static"));
+}
+
+TEST_F(CliIdentify, BadInputFailsNamingTheProblem) {
+  const fs::path csv = file("tiny.csv", "u,y\n0.1,0.2\n0.3,0.1\n");
+  RunResult r = run("identify linear --data " + quoted(csv) + " --fs 3000 --out " + quoted(dir_ / "m.json"));
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "tiny.csv")) << r.err;
+  const fs::path data = file("d.csv", "u,y\n1,2\n");
+  r = run("identify linear --data " + quoted(data) + " --out " + quoted(dir_ / "m.json") + " --method nope");
+  expect_usage_error(r);
+  const fs::path broken = file("broken.json", "{\"format\": \"panelbass.model/1\", \"kind\": \"linear\"}");
+  r = run("validate --model " + quoted(broken) + " --data " + quoted(data) + " --fs 3000");
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "broken.json")) << r.err;
+  const fs::path unknown = file("unknown.json", "{\"format\": \"panelbass.model/1\", \"kind\": \"wavelet\"}");
+  r = run("validate --model " + quoted(unknown) + " --data " + quoted(data) + " --fs 3000");
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "wavelet")) << r.err;
+}
+
+TEST_F(CliIdentify, CsvWithoutSampleRateAsksForFs) {
+  std::string text = "u,y\n";
+  for (int k = 0; k < 200; ++k) text += std::to_string(std::sin(k * 0.7)) + "," + std::to_string(std::cos(k * 0.3)) + "\n";
+  const fs::path csv = file("d.csv", text);
+  const RunResult r = run("identify linear --data " + quoted(csv) + " --out " + quoted(dir_ / "m.json"));
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "--fs")) << r.err;
+}
+
+}  // namespace
+}  // namespace panelbass
