@@ -28,11 +28,10 @@ struct IdentifyLinearOptions {
   int max_iterations = 100;
 };
 
-nlohmann::json poles_json(const models::TransferFunction& tf) {
-  nlohmann::json poles = nlohmann::json::array();
-  const Eigen::VectorXcd p = tf.poles();
-  for (Eigen::Index k = 0; k < p.size(); ++k) poles.push_back({p[k].real(), p[k].imag()});
-  return poles;
+nlohmann::json roots_json(const Eigen::VectorXcd& roots) {
+  nlohmann::json out = nlohmann::json::array();
+  for (Eigen::Index k = 0; k < roots.size(); ++k) out.push_back({roots[k].real(), roots[k].imag()});
+  return out;
 }
 
 nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
@@ -82,7 +81,8 @@ void run_identify_linear(const IdentifyLinearOptions& o) {
                            {"J_val_pct", number_or_null(id.j_val_pct)},
                            {"J_pred_est_pct", id.j_pred_est_pct},
                            {"delay", id.model.tf.nk},
-                           {"poles", poles_json(id.model.tf)},
+                           {"poles", roots_json(id.model.tf.poles())},
+                           {"zeros", roots_json(id.model.tf.zeros())},
                            {"survey", models::data_survey_to_json(id.survey)},
                            {"out", o.out}};
   if (!id.scan.empty()) {
