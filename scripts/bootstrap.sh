@@ -14,6 +14,7 @@ packages=(
   build-essential cmake pkg-config
   libeigen3-dev nlohmann-json3-dev libcli11-dev libsndfile1-dev
   libgtest-dev libasound2-dev libcpp-httplib-dev libsamplerate0-dev
+  gnuplot-nox
 )
 missing=()
 for p in "${packages[@]}"; do
