@@ -10,6 +10,7 @@
 #include "cli/progress_bar.h"
 #include "models/linear_identification.h"
 #include "models/model_file.h"
+#include "models/narx_structure.h"
 #include "models/narx_training.h"
 #include "models/performance.h"
 
@@ -108,6 +109,8 @@ struct IdentifyNarxOptions {
   bool gradient_check = false;
   long parameter = 0;
   long init = 50;
+  int grow = 0;
+  bool prune = false;
 };
 
 std::vector<models::TrainingMode> parse_modes(const std::string& list) {
@@ -171,7 +174,36 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
     bar.update(static_cast<double>(done) / total);
     (void)r;
   };
-  models::TrainingResult result = models::train_narx(model, us, ys, uv, yv, options);
+  nlohmann::json structure_report = nlohmann::json::object();
+  models::TrainingResult result;
+  if (o.grow > 0) {
+    // The thesis's dX/N rule (ch. 6): one hidden node, then one more while it pays.
+    const models::GrowthResult grown =
+        models::grow_hidden_nodes(structure, scaling, est.fs, us, ys, uv, yv, options, o.grow, o.seed);
+    result.model = grown.model;
+    nlohmann::json steps = nlohmann::json::array();
+    for (const auto& g : grown.steps) {
+      steps.push_back({{"hidden", g.hidden}, {"params", g.params}, {"J_est_pct", g.j_est_pct},
+                       {"J_val_pct", number_or_null(g.j_val_pct)}, {"improvement", g.improvement}, {"threshold", g.threshold}});
+    }
+    structure_report["growth"] = {{"chosen_hidden", grown.chosen_hidden}, {"rule", grown.rule}, {"steps", steps}};
+  } else {
+    result = models::train_narx(model, us, ys, uv, yv, options);
+  }
+  if (o.prune) {
+    if (uv.size() == 0) throw std::invalid_argument("--prune needs validation data (--val)");
+    // Optimal Brain Surgeon with retraining, while validation J stays within 5 % (thesis: remove the
+    // redundant parameters).
+    const models::PruningResult pruned = models::prune_obs(result.model, us, ys, uv, yv, models::PruningOptions{});
+    result.model = pruned.model;
+    structure_report["pruning"] = {{"removed", pruned.removed},
+                                   {"params_before", pruned.mask.size()},
+                                   {"J_val_before_pct", pruned.j_val_before_pct},
+                                   {"J_val_after_pct", pruned.j_val_after_pct},
+                                   {"J_est_before_pct", pruned.j_est_before_pct},
+                                   {"J_est_after_pct", pruned.j_est_after_pct},
+                                   {"stop_reason", pruned.stop_reason}};
+  }
   bar.update(1.0);
   nlohmann::json history = nlohmann::json::array();
   for (const auto& r : result.history) {
@@ -193,6 +225,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
                 {"iterations", result.iterations},
                 {"seconds", result.seconds},
                 {"params", result.model.net.parameter_count()},
+                {"structure", structure_report},
                 {"history", history},
                 {"out", o.out}});
 }
@@ -252,6 +285,9 @@ void register_identify(CLI::App& app) {
   narx->add_option("--init", n->init, "Measured outputs that set the state before J is computed")
       ->check(CLI::Range(0L, 1000000L))
       ->capture_default_str();
+  narx->add_option("--grow", n->grow, "Grow the hidden layer from 1 node up to N by the thesis's dX/N rule")
+      ->check(CLI::Range(1, 1000));
+  narx->add_flag("--prune", n->prune, "Prune redundant weights by Optimal Brain Surgeon with retraining (needs --val)");
   narx->add_flag("--gradient-check", n->gradient_check,
                  "Print the static, dynamic and finite-difference gradients of one parameter (fig. 5.16)");
   narx->add_option("--parameter", n->parameter, "Parameter index for --gradient-check")->capture_default_str();

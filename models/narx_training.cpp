@@ -7,6 +7,10 @@
 //   simulations each); lm forms the numerical Jacobian column by column (2P simulations, stored
 //   (N−skip)×P), which suits small nets only.
 // - With early stopping and validation data, each mode after the first starts from the kept parameters.
+// - A mask (options.mask) holds pruned parameters at 0: they are zeroed at the start, and every step is
+//   multiplied by the mask after its gradient and (LM) Gauss–Newton matrix have their pruned entries,
+//   rows and columns zeroed, which makes the LM system block-diagonal: the reduced system for the free
+//   parameters, and δ = 0 exactly for the pruned ones.
 #include "models/narx_training.h"
 
 #include <Eigen/Cholesky>
@@ -240,6 +244,16 @@ double mode_gradient(const NarxModel& model, const Eigen::VectorXd& u, const Eig
 /// Step for the numerical gradient and Jacobian in training (central differences).
 constexpr double kFiniteDifferenceStep = 1e-6;
 
+/// Zeroes the pruned (mask 0) entries of g and, if given, rows and columns of H; no-op for an empty mask.
+void apply_mask(const Eigen::VectorXd& mask, Eigen::VectorXd& g, Eigen::MatrixXd* H) {
+  if (mask.size() == 0) return;
+  g.array() *= mask.array();
+  if (H != nullptr) {
+    H->array().colwise() *= mask.array();
+    H->array().rowwise() *= mask.transpose().array();
+  }
+}
+
 /// The data and the scratch space of one train_narx call.
 struct Trainer {
   const Eigen::VectorXd& u_est;
@@ -302,6 +316,7 @@ struct Trainer {
       V = gradient_sweep(m, u_est, y_est, mode, skip, est, g, &H);
     }
     if (!std::isfinite(V) || !g.allFinite() || !H.allFinite()) return false;
+    apply_mask(options.mask, g, &H);  // the reduced system over the free parameters
     const Eigen::VectorXd& theta = m.net.parameters();
     const double floor = 1e-9 * std::max(H.diagonal().mean(), 1e-300);
     constexpr int kRetries = 12;
@@ -310,6 +325,7 @@ struct Trainer {
       A.diagonal().array() += lambda * (H.diagonal().array() + floor) + 1e-12 * (1.0 + H.diagonal().maxCoeff());
       ldlt.compute(A);
       delta = ldlt.solve(g);
+      if (options.mask.size() != 0) delta.array() *= options.mask.array();  // exactly 0 where pruned
       trial.net.parameters() = theta - delta;
       const double V_new = delta.allFinite() ? loss(trial, mode) : std::numeric_limits<double>::infinity();
       if (std::isfinite(V_new) && V_new < V) {
@@ -325,6 +341,7 @@ struct Trainer {
   /// Steepest descent along −dV/dθ with backtracking until Armijo's condition V(θ − t·g) ≤ V − c·t·‖g‖² holds.
   bool linesearch_step(NarxModel& m, TrainingMode mode, double& t) {
     const double V = mode_gradient(m, u_est, y_est, mode, skip, kFiniteDifferenceStep, est, g);
+    apply_mask(options.mask, g, nullptr);
     const double slope = g.squaredNorm();
     if (!std::isfinite(V) || !std::isfinite(slope) || slope == 0.0) return false;
     constexpr double kArmijo = 1e-4;
@@ -349,6 +366,7 @@ struct Trainer {
     const double alpha = options.step;
     if (mode == TrainingMode::oem_n) {
       numerical_gradient(m, u_est, y_est, skip, kFiniteDifferenceStep, est, g);
+      apply_mask(options.mask, g, nullptr);
       theta.noalias() -= alpha * g;
       return theta.allFinite();
     }
@@ -371,11 +389,13 @@ struct Trainer {
       // [5M] dV/dθ = Σ_{batch} e(k)·dŷ(k)/dθ, averaged over the batch
       b.grad.noalias() += (yk - y_est[k]) * psi;
       if (++in_batch == L) {
+        apply_mask(options.mask, b.grad, nullptr);
         theta.noalias() -= (alpha / static_cast<double>(in_batch)) * b.grad;  // [5C]
         b.grad.setZero();
         in_batch = 0;
       }
     }
+    apply_mask(options.mask, b.grad, nullptr);
     if (in_batch > 0) theta.noalias() -= (alpha / static_cast<double>(in_batch)) * b.grad;
     return theta.allFinite();
   }
@@ -457,6 +477,22 @@ Eigen::VectorXd loss_gradient(const NarxModel& model, const Eigen::VectorXd& u, 
   return g;
 }
 
+Eigen::MatrixXd gauss_newton_hessian(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                                     TrainingMode mode, Eigen::Index skip) {
+  require_model(model);
+  require_data(u, y, skip, "estimation");
+  Buffers b(model, u.size());
+  const Eigen::Index P = model.net.parameter_count();
+  Eigen::VectorXd g(P);
+  Eigen::MatrixXd H(P, P);
+  if (mode == TrainingMode::oem_n) {
+    numerical_normal_equations(model, u, y, skip, kFiniteDifferenceStep, b, g, H);
+  } else {
+    gradient_sweep(model, u, y, mode, skip, b, g, &H);
+  }
+  return H;
+}
+
 TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est,
                           const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const TrainingOptions& options) {
   const auto started = std::chrono::steady_clock::now();
@@ -483,8 +519,22 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
     }
   }
 
+  if (options.mask.size() != 0) {
+    if (options.mask.size() != P) {
+      throw std::invalid_argument("NARX training: mask has " + std::to_string(options.mask.size()) +
+                                  " entries, the network " + std::to_string(P) + " parameters");
+    }
+    for (Eigen::Index p = 0; p < P; ++p) {
+      if (options.mask[p] != 0.0 && options.mask[p] != 1.0) {
+        throw std::invalid_argument("NARX training: mask entry " + std::to_string(p) + " is " +
+                                    std::to_string(options.mask[p]) + " (expected 0 = pruned or 1 = free)");
+      }
+    }
+  }
+
   Trainer trainer(initial, u_est, y_est, u_val, y_val, skip, options);
   NarxModel current = initial;
+  if (options.mask.size() != 0) current.net.parameters().array() *= options.mask.array();  // pruned: exactly 0
   TrainingResult result{initial, {}, 0, 0.0};
   const bool keep_best = options.early_stopping && has_validation;
 

@@ -54,6 +54,11 @@ struct TrainingOptions {
   Eigen::Index transient_skip = -1;  ///< [5M] samples left out of the OEM loss; −1 = 2·(na + nb)
   bool early_stopping = true;        ///< keep the parameters with the best validation J (fig. 6.4)
   int patience = 20;                 ///< iterations without validation improvement before stopping
+  /// Which parameters train (size P; 1 = free, 0 = pruned); empty = all free. Pruned parameters are set to
+  /// exactly 0 at the start and stay there: LM solves the reduced system over the free parameters (the
+  /// pruned rows and columns of H and entries of g are zeroed), sd and the line search step along the
+  /// masked gradient. Entries other than 0 and 1 throw std::invalid_argument.
+  Eigen::VectorXd mask;
   std::function<void(const TrainingRecord&)> progress;
 };
 
@@ -75,6 +80,11 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
 /// with step h.
 Eigen::VectorXd loss_gradient(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
                               TrainingMode mode, Eigen::Index skip, double h = 1e-6);
+
+/// The Gauss–Newton matrix H = 1/(N−skip)·Σ_{k≥skip} ψ(k)·ψ(k)ᵀ, ψ = dŷ/dθ for `mode` (the matrix LM uses;
+/// for oem_d the exact [5L] sensitivities of the simulation, for oem_n central differences). Scaled data.
+Eigen::MatrixXd gauss_newton_hessian(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                                     TrainingMode mode, Eigen::Index skip);
 
 /// The loss V for `mode` (pem: prediction error; oem_*: simulation error).
 double training_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
