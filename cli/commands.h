@@ -18,4 +18,7 @@ void register_validate(CLI::App& app);
 /// `panelbass plant show|survey`: print a plant's configuration, or measure its properties.
 void register_plant(CLI::App& app);
 
+/// `panelbass analyze`: the Analysis report of a model on data (JSON, figures, HTML).
+void register_analyze(CLI::App& app);
+
 }  // namespace panelbass::cli

@@ -1,0 +1,217 @@
+// `panelbass analyze`: the Analysis report of one model on one record (numbers from
+// models::analyze_model; figures by gnuplot; an optional self-contained HTML page).
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <random>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "cli/commands.h"
+#include "cli/data_options.h"
+#include "cli/gnuplot.h"
+#include "cli/html_report.h"
+#include "cli/json_output.h"
+#include "cli/progress_bar.h"
+#include "cli/report_plots.h"
+#include "models/json_file.h"
+#include "models/model_analysis.h"
+#include "models/model_file.h"
+#include "models/plant_presets.h"
+
+namespace panelbass::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct AnalyzeOptions {
+  std::string model, data, plant, out, html, plots, history, gain_range;
+  DataOptions columns;
+  long init = 50;
+  int lags = 20;
+  std::size_t segment = 0;
+  long window = 600;
+  int refine_iterations = 20;
+  std::vector<double> frequencies{40.0, 80.0, 160.0, 320.0, 640.0};
+  std::vector<double> amplitudes{0.8};
+  std::size_t measure = 3000;
+  std::string plot_format = "png";
+};
+
+// A directory for the figures of an HTML-only report, removed when the command ends.
+class TemporaryDirectory {
+ public:
+  TemporaryDirectory() {
+    path_ = fs::temp_directory_path() /
+            ("panelbass-analyze-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}()));
+    fs::create_directories(path_);
+  }
+  ~TemporaryDirectory() {
+    std::error_code ignored;
+    fs::remove_all(path_, ignored);
+  }
+  TemporaryDirectory(const TemporaryDirectory&) = delete;
+  TemporaryDirectory& operator=(const TemporaryDirectory&) = delete;
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+// Throws unless the file `path` could be created: its directory exists.
+void check_output_file(const std::string& option, const std::string& path) {
+  const fs::path parent = fs::absolute(path).parent_path();
+  if (!fs::is_directory(parent)) {
+    throw std::invalid_argument(option + " " + path + ": directory " + parent.string() + " does not exist");
+  }
+  if (fs::is_directory(path)) throw std::invalid_argument(option + " " + path + ": is a directory");
+}
+
+// KMIN:KMAX → the two gains.
+std::pair<double, double> parse_gain_range(const std::string& text) {
+  const auto colon = text.find(':');
+  try {
+    if (colon == std::string::npos) throw std::invalid_argument("no colon");
+    std::size_t used_lo = 0, used_hi = 0;
+    const double lo = std::stod(text.substr(0, colon), &used_lo);
+    const double hi = std::stod(text.substr(colon + 1), &used_hi);
+    if (used_lo != colon || used_hi != text.size() - colon - 1 || !(hi > lo) || !std::isfinite(lo) || !std::isfinite(hi)) {
+      throw std::invalid_argument("bad numbers");
+    }
+    return {lo, hi};
+  } catch (const std::exception&) {
+    throw std::invalid_argument("--gain-range expects KMIN:KMAX with KMIN < KMAX, got \"" + text + "\"");
+  }
+}
+
+const nlohmann::json& meta_of(const models::AnyModel& model) {
+  return std::visit([](const auto& m) -> const nlohmann::json& { return m.meta; }, model.model);
+}
+
+void run_analyze(const AnalyzeOptions& o) {
+  const models::AnyModel model = models::load_model(o.model);
+  DataOptions columns = o.columns;
+  if (!(columns.fs > 0.0)) columns.fs = model.fs();  // a CSV recorded at the model's rate needs no --fs
+  const dsp::Record data = columns.read(o.data);
+  if (std::abs(data.fs - model.fs()) > 1e-9 * model.fs()) {
+    throw std::invalid_argument(o.data + ": sample rate " + std::to_string(data.fs) + " Hz differs from the model's " +
+                                std::to_string(model.fs()) + " Hz");
+  }
+  if (o.init >= static_cast<long>(data.samples())) {
+    throw std::invalid_argument("--init " + std::to_string(o.init) + " is not shorter than the data");
+  }
+
+  models::AnalysisSpec spec;
+  spec.init = o.init;
+  spec.max_lag = o.lags;
+  spec.segment = o.segment;
+  spec.refine_iterations = o.refine_iterations;
+  if (!o.gain_range.empty()) std::tie(spec.gain_min, spec.gain_max) = parse_gain_range(o.gain_range);
+  if (!o.plant.empty()) {
+    spec.plant = models::plant_from_name_or_file(o.plant);
+    spec.distortion.frequencies = o.frequencies;
+    spec.distortion.amplitudes = o.amplitudes;
+    spec.distortion.measure = o.measure;
+  }
+  std::optional<models::TrainingHistory> history;
+  if (!o.history.empty()) {
+    history = models::training_history_from_json(models::read_json_file(o.history), o.history);
+    if (!history) throw std::invalid_argument(o.history + ": no training history (\"history\" or \"meta.history\")");
+  } else {
+    history = models::training_history_from_json(nlohmann::json{{"meta", meta_of(model)}}, o.model);
+  }
+
+  // Everything that can be refused is refused before the work starts.
+  check_output_file("--out", o.out);
+  if (!o.html.empty()) check_output_file("--html", o.html);
+  const PlotFormat format = parse_plot_format(o.plot_format);
+  const bool plotting = !o.html.empty() || !o.plots.empty();
+  if (plotting) find_gnuplot();
+  if (!o.plots.empty()) fs::create_directories(o.plots);
+
+  ProgressBar bar("analyze");
+  spec.progress = [&bar](const std::string&, double f) { bar.update(0.8 * f); };
+  const models::ModelAnalysis analysis =
+      models::analyze_model(model, data.columns[0], data.columns[1], spec, std::move(history));
+
+  nlohmann::json result = models::analysis_to_json(analysis);
+  result["model"] = o.model;
+  result["data"] = o.data;
+  result["plant"] = o.plant.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.plant);
+  result["out"] = o.out;
+  result["html"] = o.html.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.html);
+  result["plots"] = nullptr;
+
+  if (plotting) {
+    std::unique_ptr<TemporaryDirectory> scratch;
+    if (o.plots.empty()) scratch = std::make_unique<TemporaryDirectory>();
+    const fs::path dir = o.plots.empty() ? scratch->path() : fs::path(o.plots);
+    ReportPlotOptions plot_options;
+    plot_options.format = format;
+    plot_options.window = o.window;
+    const std::vector<ReportFigure> figures = plot_analysis(analysis, dir, plot_options);
+    bar.update(0.95);
+    if (!o.plots.empty()) {
+      nlohmann::json plots = nlohmann::json::object();
+      for (const ReportFigure& f : figures) plots[f.name] = (fs::path(o.plots) / f.path.filename()).string();
+      result["plots"] = plots;
+    }
+    if (!o.html.empty()) write_html_report(o.html, result, figures, format);
+  }
+  models::write_json_file(o.out, result);
+  bar.update(1.0);
+  print_result(result);
+}
+
+}  // namespace
+
+void register_analyze(CLI::App& app) {
+  auto o = std::make_shared<AnalyzeOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "analyze", "Analysis report of a model on data: J, residual tests, spectra, FRF, poles/zeros, root locus, distortion");
+  cmd->add_option("--model", o->model, "Model file (JSON, linear or narx)")->required();
+  cmd->add_option("--data", o->data, "Data, .csv or .wav")->required();
+  o->columns.add_to(cmd);
+  cmd->add_option("--init", o->init, "Measured outputs given to the model to set its state, then free run")
+      ->check(CLI::Range(0L, 100000000L))
+      ->capture_default_str();
+  cmd->add_option("--plant", o->plant, "Plant preset or plant JSON file: harmonic distortion plant vs model, sensor noise floor");
+  cmd->add_option("--out", o->out, "Report as JSON (the object printed on stdout)")->required();
+  cmd->add_option("--html", o->html, "Self-contained HTML report (figures embedded)");
+  cmd->add_option("--plots", o->plots, "Directory for the figures, their gnuplot scripts and data (created)");
+  cmd->add_option("--plot-format", o->plot_format, "png or svg")->check(CLI::IsMember({"png", "svg"}))->capture_default_str();
+  cmd->add_option("--lags", o->lags, "Lags of the residual correlation tests")->check(CLI::Range(1, 10000))->capture_default_str();
+  cmd->add_option("--segment", o->segment, "Welch segment length (default: a power of 2 up to 1024, N/8)")
+      ->check(CLI::Range(std::size_t{16}, std::size_t{1} << 24));
+  cmd->add_option("--window", o->window, "Samples shown in the time plot")->check(CLI::Range(2L, 100000000L))->capture_default_str();
+  cmd->add_option("--refine-iter", o->refine_iterations,
+                  "Linear model without --history: OE iterations from the model on the data for the J figure (0 = none)")
+      ->check(CLI::Range(0, 10000))
+      ->capture_default_str();
+  cmd->add_option("--history", o->history, "Training history: JSON with \"history\" (identify narx output) or a model file with meta.history");
+  cmd->add_option("--gain-range", o->gain_range, "Root-locus gains KMIN:KMAX in raw units (default: the stable interval around 0 and a little beyond)");
+  cmd->add_option("--freqs", o->frequencies, "With --plant: stepped-sine frequencies, Hz")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--amplitudes", o->amplitudes, "With --plant: drive amplitudes")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--measure", o->measure, "With --plant: samples measured per frequency")
+      ->check(CLI::Range(std::size_t{100}, std::size_t{10000000}))
+      ->capture_default_str();
+  cmd->footer(
+      "Example:\n"
+      "  panelbass simulate --samples 6000 --seed 1 --out run.csv\n"
+      "  panelbass identify linear --data run.csv --fs 3000 --method oe --order 8 --out lin.json\n"
+      "  panelbass analyze --model lin.json --data run.csv --init 50 --plant panel-exciter \\\n"
+      "      --out report.json --html report.html --plots plots/");
+  cmd->callback([o] { run_analyze(*o); });
+}
+
+}  // namespace panelbass::cli

@@ -1,0 +1,226 @@
+#include "cli/html_report.h"
+
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+namespace panelbass::cli {
+namespace {
+
+using nlohmann::json;
+
+// A number for a table: 4 significant digits, "–" for null.
+std::string cell(const json& v, int digits = 4) {
+  if (v.is_null()) return "–";
+  if (v.is_boolean()) return v.get<bool>() ? "yes" : "no";
+  if (v.is_number_integer() || v.is_number_unsigned()) return v.dump();
+  if (v.is_number()) {
+    char text[64];
+    std::snprintf(text, sizeof text, "%.*g", digits, v.get<double>());
+    return text;
+  }
+  if (v.is_string()) return html_escaped(v.get<std::string>());
+  return html_escaped(v.dump());
+}
+
+const json& at(const json& j, const char* key) {
+  static const json null_value;
+  return j.is_object() && j.contains(key) ? j.at(key) : null_value;
+}
+
+// <tr><th>name</th><td>value</td></tr> rows of a two-column table.
+void row(std::ostream& out, const std::string& name, const std::string& value) {
+  out << "<tr><th>" << html_escaped(name) << "</th><td>" << value << "</td></tr>\n";
+}
+
+std::string verdict(bool passes) {
+  return passes ? "<span class=\"pass\">pass</span>" : "<span class=\"fail\">fail</span>";
+}
+
+void roots_table(std::ostream& out, const char* title, const json& roots, double fs) {
+  out << "<h3>" << title << "</h3>\n<table><tr><th>Re z</th><th>Im z</th><th>|z|</th><th>frequency (Hz)</th></tr>\n";
+  for (const json& r : roots) {
+    const std::complex<double> z(r.at(0).get<double>(), r.at(1).get<double>());
+    out << "<tr><td>" << cell(z.real()) << "</td><td>" << cell(z.imag()) << "</td><td>" << cell(std::abs(z))
+        << "</td><td>" << cell(std::abs(std::arg(z)) * fs / (2.0 * std::numbers::pi)) << "</td></tr>\n";
+  }
+  out << "</table>\n";
+}
+
+std::string read_bytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path.string() + ": cannot read the image");
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+const char* const kStyle = R"(
+body { font-family: "DejaVu Sans", Helvetica, Arial, sans-serif; max-width: 1100px; margin: 2em auto; color: #202020; }
+h1 { font-size: 1.5em; } h2 { font-size: 1.2em; border-bottom: 1px solid #ccc; margin-top: 2em; } h3 { font-size: 1em; }
+table { border-collapse: collapse; margin: 0.5em 0 1em; }
+th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; font-variant-numeric: tabular-nums; }
+th { background: #f3f3f3; text-align: left; }
+.pass { color: #1a7f37; font-weight: bold; } .fail { color: #c62828; font-weight: bold; }
+figure { margin: 1.5em 0; } figure img { max-width: 100%; border: 1px solid #ddd; }
+figcaption { font-size: 0.9em; color: #555; }
+code { background: #f3f3f3; padding: 0 0.2em; }
+)";
+
+}  // namespace
+
+// Twenty lines of RFC 4648 rather than a dependency: Debian's base64 libraries (OpenSSL's EVP_EncodeBlock,
+// GLib's g_base64_encode) are not linked into panelbass, and this is all the report needs.
+std::string base64_encode(std::string_view bytes) {
+  static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  std::size_t i = 0;
+  for (; i + 3 <= bytes.size(); i += 3) {
+    const unsigned v = static_cast<unsigned char>(bytes[i]) << 16 | static_cast<unsigned char>(bytes[i + 1]) << 8 |
+                       static_cast<unsigned char>(bytes[i + 2]);
+    for (const int shift : {18, 12, 6, 0}) out += kAlphabet[(v >> shift) & 63];
+  }
+  const std::size_t rest = bytes.size() - i;
+  if (rest > 0) {
+    unsigned v = static_cast<unsigned char>(bytes[i]) << 16;
+    if (rest == 2) v |= static_cast<unsigned char>(bytes[i + 1]) << 8;
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += rest == 2 ? kAlphabet[(v >> 6) & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+std::string html_escaped(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&#39;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+void write_html_report(const std::filesystem::path& path, const json& result, const std::vector<ReportFigure>& figures,
+                       PlotFormat format) {
+  std::ostringstream out;
+  const std::string model = at(result, "model").is_string() ? at(result, "model").get<std::string>() : "model";
+  const double fs = at(result, "fs").is_number() ? at(result, "fs").get<double>() : 0.0;
+  out << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>panelbass analysis: "
+      << html_escaped(model) << "</title>\n<style>" << kStyle << "</style>\n</head>\n<body>\n";
+  out << "<h1>panelbass analysis of <code>" << html_escaped(model) << "</code></h1>\n";
+
+  out << "<h2>Performance</h2>\n<table>\n";
+  row(out, "model file", cell(at(result, "model")));
+  row(out, "data file", cell(at(result, "data")));
+  row(out, "kind", cell(at(result, "kind")));
+  row(out, "sample rate (Hz)", cell(at(result, "fs"), 8));
+  row(out, "samples judged (after init)", cell(at(result, "samples")));
+  row(out, "measured outputs that set the state (init)", cell(at(result, "init")));
+  row(out, "J, free-run simulation (%)", cell(at(result, "J_sim_pct")));
+  row(out, "J, one-step prediction (%)", cell(at(result, "J_pred_pct")));
+  row(out, "rms simulation error (raw units)", cell(at(result, "rmse")));
+  row(out, "J of the output not coherent with the input: a linear model's floor, upper estimate (%)", cell(at(result, "J_noncoherent_pct")));
+  row(out, "J of the plant's sensor noise (%)", cell(at(result, "J_noise_pct")));
+  const json& spectrum = at(result, "residual_spectrum");
+  row(out, "residual power over the non-coherent floor (dB)", cell(at(spectrum, "residual_over_noncoherent_db"), 3));
+  const json& frf = at(result, "frf");
+  row(out, "mean coherence", cell(at(frf, "mean_coherence"), 3));
+  row(out, "rms model error where γ² ≥ 0.9 (dB)", cell(at(frf, "rms_error_db_where_coherent"), 3));
+  out << "</table>\n";
+
+  const json& tests = at(result, "residual_tests");
+  out << "<h2>Residual correlation tests (Billings–Voon)</h2>\n<p>Overall: "
+      << verdict(at(tests, "passes").is_boolean() && at(tests, "passes").get<bool>()) << ". "
+      << cell(at(tests, "explanation")) << "</p>\n"
+      << "<table><tr><th>test</th><th>verdict</th><th>lags outside the 95 % band</th><th>allowed</th>"
+         "<th>peak |φ|</th><th>peak band</th><th>95 % band</th></tr>\n";
+  if (at(tests, "tests").is_array()) {
+    for (const json& t : at(tests, "tests")) {
+      out << "<tr><th>" << cell(at(t, "name")) << "</th><td>" << verdict(at(t, "passes").get<bool>()) << "</td><td>"
+          << cell(at(t, "outside")) << " of " << cell(at(t, "lags")) << "</td><td>" << cell(at(t, "allowed_outside"))
+          << "</td><td>" << cell(at(t, "peak"), 3) << "</td><td>" << cell(at(t, "peak_band"), 3) << "</td><td>"
+          << cell(at(t, "band"), 3) << "</td></tr>\n";
+    }
+  }
+  out << "</table>\n";
+
+  const json& locus = at(result, "root_locus");
+  if (!locus.is_null()) {
+    const json& best = at(locus, "best");
+    const json& open = at(locus, "open_loop");
+    out << "<h2>Poles, zeros and root locus</h2>\n<table>\n";
+    row(out, "feedback", cell(at(locus, "feedback")));
+    row(out, "gain range searched (raw units)", cell(at(locus, "gain_min")) + " … " + cell(at(locus, "gain_max")));
+    row(out, "open loop: slowest pole |z|", cell(at(open, "max_radius"), 6));
+    row(out, "open loop: impulse length to 1 % (samples)", cell(at(open, "impulse_length")));
+    row(out, "gain with the shortest impulse response (raw units)", cell(at(best, "gain"), 6));
+    row(out, "same gain in the model's scaled units", cell(at(best, "gain_scaled"), 6));
+    row(out, "closed loop: slowest pole |z|", cell(at(best, "max_radius"), 6));
+    row(out, "closed loop: impulse length to 1 % (samples)", cell(at(best, "impulse_length")));
+    row(out, "closed loop stable", cell(at(best, "stable")));
+    out << "</table>\n";
+    roots_table(out, "Poles", at(result, "poles"), fs);
+    roots_table(out, "Zeros", at(result, "zeros"), fs);
+  }
+
+  const json& history = at(result, "training_history");
+  if (!history.is_null() && at(history, "points").is_array() && !at(history, "points").empty()) {
+    const json& points = at(history, "points");
+    out << "<h2>Training</h2>\n<table>\n";
+    row(out, "source", cell(at(history, "source")));
+    row(out, "iterations recorded", std::to_string(points.size()));
+    row(out, "J at the start (%)", cell(at(points.front(), "J_est_pct")));
+    row(out, "J at the end (%)", cell(at(points.back(), "J_est_pct")));
+    row(out, "validation J at the end (%)", cell(at(points.back(), "J_val_pct")));
+    out << "</table>\n";
+  }
+
+  const json& distortion = at(result, "distortion");
+  if (!distortion.is_null()) {
+    out << "<h2>Harmonic distortion, plant and model</h2>\n"
+           "<table><tr><th>drive</th><th>frequency (Hz)</th><th>THD plant (%)</th><th>THD model (%)</th>"
+           "<th>H2 plant (dB)</th><th>H2 model (dB)</th><th>H3 plant (dB)</th><th>H3 model (dB)</th></tr>\n";
+    const json& plant = at(distortion, "plant");
+    const json& modelled = at(distortion, "model");
+    for (std::size_t i = 0; i < plant.size() && i < modelled.size(); ++i) {
+      const json& p = plant[i];
+      const json& m = modelled[i];
+      const auto harmonic = [](const json& r, std::size_t h) {
+        const json& list = at(r, "harmonic_db");
+        return h < list.size() ? cell(list[h], 3) : std::string("–");
+      };
+      out << "<tr><td>" << cell(at(p, "amplitude")) << "</td><td>" << cell(at(p, "frequency_hz")) << "</td><td>"
+          << cell(at(p, "thd_pct"), 3) << "</td><td>" << cell(at(m, "thd_pct"), 3) << "</td><td>" << harmonic(p, 0)
+          << "</td><td>" << harmonic(m, 0) << "</td><td>" << harmonic(p, 1) << "</td><td>" << harmonic(m, 1)
+          << "</td></tr>\n";
+    }
+    out << "</table>\n";
+  }
+
+  out << "<h2>Figures</h2>\n";
+  for (const ReportFigure& f : figures) {
+    out << "<figure id=\"" << html_escaped(f.name) << "\"><img src=\"data:" << mime_type_of(format) << ";base64,"
+        << base64_encode(read_bytes(f.path)) << "\" alt=\"" << html_escaped(f.name) << "\">\n<figcaption>"
+        << html_escaped(f.caption) << "</figcaption></figure>\n";
+  }
+  out << "<p><small>Written by <code>panelbass analyze</code>. J is [2A] Σ(ŷ−y)²/Σy² in percent.</small></p>\n"
+      << "</body>\n</html>\n";
+
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  file << out.str();
+  if (!file.flush()) throw std::runtime_error(path.string() + ": cannot write the HTML report");
+}
+
+}  // namespace panelbass::cli
