@@ -15,6 +15,9 @@ void register_identify(CLI::App& app);
 /// `panelbass validate`: judge a model on data by simulation and prediction.
 void register_validate(CLI::App& app);
 
+/// `panelbass harmonics`: stepped-sine harmonic distortion of a plant, and of a model beside it.
+void register_harmonics(CLI::App& app);
+
 /// `panelbass plant show|survey`: print a plant's configuration, or measure its properties.
 void register_plant(CLI::App& app);
 

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   panelbass::cli::register_plant(app);
   panelbass::cli::register_identify(app);
   panelbass::cli::register_validate(app);
+  panelbass::cli::register_harmonics(app);
   panelbass::cli::register_analyze(app);
 
   try {

@@ -1,0 +1,76 @@
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+#include "cli/json_output.h"
+#include "models/distortion_comparison.h"
+#include "models/model_file.h"
+#include "models/plant_presets.h"
+
+namespace panelbass::cli {
+namespace {
+
+struct HarmonicsOptions {
+  std::string plant = "panel-exciter";
+  std::string model;
+  std::vector<double> frequencies{40, 60, 80, 100, 150, 200, 300, 400, 600};
+  std::vector<double> amplitudes{0.8};
+  bool noise = false;
+};
+
+nlohmann::json rows_json(const std::vector<models::DistortionRow>& rows) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& r : rows) {
+    nlohmann::json levels = nlohmann::json::object();
+    for (std::size_t h = 0; h < r.harmonic_db.size(); ++h) {
+      const double db = r.harmonic_db[h];
+      levels["H" + std::to_string(h + 2) + "_db"] = std::isfinite(db) ? nlohmann::json(db) : nlohmann::json(nullptr);
+    }
+    out.push_back({{"frequency_hz", r.frequency},
+                   {"amplitude", r.amplitude},
+                   {"fundamental", r.fundamental},
+                   {"harmonics", levels},
+                   {"thd_pct", std::isfinite(r.thd_percent) ? nlohmann::json(r.thd_percent) : nlohmann::json(nullptr)}});
+  }
+  return out;
+}
+
+void run_harmonics(const HarmonicsOptions& o) {
+  const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
+  models::DistortionSpec spec;
+  spec.frequencies = o.frequencies;
+  spec.amplitudes = o.amplitudes;
+  spec.sensor_noise = o.noise ? models::SensorNoise::keep : models::SensorNoise::off;
+  nlohmann::json result = {{"plant", plant.name}, {"fs", plant.fs}};
+  if (o.model.empty()) {
+    result["plant_rows"] = rows_json(models::plant_distortion(plant, spec));
+  } else {
+    // The thesis's fig. 6.7: the harmonics the process makes against those its model makes.
+    const models::AnyModel model = models::load_model(o.model);
+    const models::DistortionComparison c = models::compare_distortion(plant, model, spec);
+    result["model"] = o.model;
+    result["kind"] = model.kind();
+    result["plant_rows"] = rows_json(c.plant);
+    result["model_rows"] = rows_json(c.model);
+  }
+  print_result(result);
+}
+
+}  // namespace
+
+void register_harmonics(CLI::App& app) {
+  auto o = std::make_shared<HarmonicsOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "harmonics", "Harmonic distortion by stepped sine: a plant, and a model of it side by side (thesis fig. 6.7)");
+  cmd->add_option("--plant", o->plant, "Preset (panel-exciter, linear) or plant JSON file")->capture_default_str();
+  cmd->add_option("--model", o->model, "Model file to compare with the plant");
+  cmd->add_option("--freqs", o->frequencies, "Fundamentals, Hz")->delimiter(',')->check(CLI::PositiveNumber);
+  cmd->add_option("--amplitudes", o->amplitudes, "Drive amplitudes within (0, 1]")->delimiter(',')->check(CLI::Range(1e-6, 1.0));
+  cmd->add_flag("--noise", o->noise, "Keep the plant's sensor noise (default: the physics alone)");
+  cmd->footer("Example:\n  panelbass harmonics --plant panel-exciter --model nn.json --freqs 40,80,160,320 --amplitudes 0.5,0.8");
+  cmd->callback([o] { run_harmonics(*o); });
+}
+
+}  // namespace panelbass::cli
