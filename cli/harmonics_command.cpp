@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "cli/commands.h"
+#include "cli/data_options.h"
 #include "cli/json_output.h"
 #include "models/distortion_comparison.h"
 #include "models/model_file.h"
@@ -18,6 +19,10 @@ struct HarmonicsOptions {
   std::vector<double> frequencies{40, 60, 80, 100, 150, 200, 300, 400, 600};
   std::vector<double> amplitudes{0.8};
   bool noise = false;
+  std::string data;
+  DataOptions columns;
+  std::size_t settle = 600;
+  std::size_t measure = 3000;
 };
 
 nlohmann::json rows_json(const std::vector<models::DistortionRow>& rows) {
@@ -37,12 +42,44 @@ nlohmann::json rows_json(const std::vector<models::DistortionRow>& rows) {
   return out;
 }
 
+// A recording made with the stepped sine of `spec` (`panelbass simulate --signal stepped`, or played
+// through real hardware): its input column must be that signal; its output column is what is analysed.
+std::vector<models::DistortionRow> recording_distortion(const HarmonicsOptions& o, const models::DistortionSpec& spec) {
+  if (spec.amplitudes.size() != 1) throw std::invalid_argument("--data takes exactly one --amplitudes value");
+  const dsp::Record rec = o.columns.read(o.data);
+  const Eigen::VectorXd& u = rec.columns[0];
+  const Eigen::VectorXd& y = rec.columns[1];
+  const auto system = [&](const Eigen::VectorXd& drive) -> Eigen::VectorXd {
+    if (drive.size() != u.size()) {
+      throw std::invalid_argument(o.data + ": " + std::to_string(u.size()) + " samples, but the stepped sine for these "
+                                  "--freqs/--settle/--measure has " + std::to_string(drive.size()));
+    }
+    Eigen::Index worst = 0;
+    const double mismatch = (drive - u).cwiseAbs().maxCoeff(&worst);
+    if (mismatch > 1e-3 * spec.amplitudes[0]) {
+      throw std::invalid_argument(o.data + ": column \"" + o.columns.input_col + "\" is not the stepped sine for these "
+                                  "--freqs/--amplitudes/--settle/--measure (sample " + std::to_string(worst) +
+                                  " differs by " + std::to_string(mismatch) + ")");
+    }
+    return y;
+  };
+  return models::measure_distortion(system, rec.fs, spec);
+}
+
 void run_harmonics(const HarmonicsOptions& o) {
-  const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
   models::DistortionSpec spec;
   spec.frequencies = o.frequencies;
   spec.amplitudes = o.amplitudes;
+  spec.settle = o.settle;
+  spec.measure = o.measure;
   spec.sensor_noise = o.noise ? models::SensorNoise::keep : models::SensorNoise::off;
+  if (!o.data.empty()) {
+    nlohmann::json result = {{"data", o.data}, {"recording_rows", rows_json(recording_distortion(o, spec))}};
+    if (!o.model.empty()) result["model_rows"] = rows_json(models::model_distortion(models::load_model(o.model), spec));
+    print_result(result);
+    return;
+  }
+  const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
   nlohmann::json result = {{"plant", plant.name}, {"fs", plant.fs}};
   if (o.model.empty()) {
     result["plant_rows"] = rows_json(models::plant_distortion(plant, spec));
@@ -69,7 +106,14 @@ void register_harmonics(CLI::App& app) {
   cmd->add_option("--freqs", o->frequencies, "Fundamentals, Hz")->delimiter(',')->check(CLI::PositiveNumber);
   cmd->add_option("--amplitudes", o->amplitudes, "Drive amplitudes within (0, 1]")->delimiter(',')->check(CLI::Range(1e-6, 1.0));
   cmd->add_flag("--noise", o->noise, "Keep the plant's sensor noise (default: the physics alone)");
-  cmd->footer("Example:\n  panelbass harmonics --plant panel-exciter --model nn.json --freqs 40,80,160,320 --amplitudes 0.5,0.8");
+  cmd->add_option("--data", o->data, "A recording made with the stepped sine (instead of --plant)");
+  o->columns.add_to(cmd);
+  cmd->add_option("--settle", o->settle, "Samples before each measured part")->capture_default_str();
+  cmd->add_option("--measure", o->measure, "Measured samples per frequency")->capture_default_str();
+  cmd->footer(
+      "Examples:\n  panelbass harmonics --plant panel-exciter --model nn.json --freqs 40,80,160,320 --amplitudes 0.5,0.8\n"
+      "  panelbass simulate --signal stepped --freqs 40,80,160 --amplitude 0.8 --out rec.csv\n"
+      "  panelbass harmonics --data rec.csv --fs 3000 --freqs 40,80,160 --amplitudes 0.8 --model nn.json");
   cmd->callback([o] { run_harmonics(*o); });
 }
 

@@ -27,10 +27,25 @@ struct SimulateOptions {
   double f_max = 1200.0;
   std::string lines = "all";
   std::size_t period = 0;
+  std::vector<double> freqs;
+  std::size_t settle = 600;
+  std::size_t measure = 3000;
   std::string out;
 };
 
 Eigen::VectorXd make_excitation(const SimulateOptions& o, double fs) {
+  if (o.signal == "stepped") {
+    // The same layout `panelbass harmonics --data` expects: settle, then measure, per frequency.
+    if (o.freqs.empty()) throw std::invalid_argument("--signal stepped needs --freqs F1,F2,…");
+    dsp::SteppedSineSpec spec;
+    spec.frequencies = o.freqs;
+    spec.fs = fs;
+    spec.amplitude = o.amplitude;
+    spec.settle = o.settle;
+    spec.measure = o.measure;
+    return dsp::stepped_sine(spec).signal;
+  }
+  if (o.samples == 0) throw std::invalid_argument("--samples is required for --signal " + o.signal);
   if (o.signal == "noise") return dsp::uniform_noise(o.samples, o.amplitude, o.seed);
   if (o.signal == "gauss") return dsp::gaussian_noise(o.samples, o.amplitude, o.seed);
   if (o.signal == "sweep") return dsp::log_sweep(o.samples, fs, o.f_min, o.f_max, o.amplitude);
@@ -64,6 +79,7 @@ void run_simulate(const SimulateOptions& o) {
   const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
   dsp::check_writable_data_file(o.out);
   const Eigen::VectorXd u = make_excitation(o, plant.fs);
+  const auto samples = static_cast<std::size_t>(u.size());
   ProgressBar bar("simulate");
   const std::uint64_t noise_seed = o.noise_seed_given ? o.noise_seed : o.seed + 1;
   const models::PlantRecord r = models::simulate(plant, u, noise_seed, [&bar](double f) { bar.update(f); });
@@ -76,7 +92,7 @@ void run_simulate(const SimulateOptions& o) {
   record.add("x", r.x);
   dsp::write_data_file(o.out, record);
 
-  print_result({{"samples", o.samples},
+  print_result({{"samples", samples},
                 {"fs", plant.fs},
                 {"plant", plant.name},
                 {"signal", o.signal},
@@ -93,12 +109,13 @@ void register_simulate(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("simulate", "Drive the virtual transducer with an excitation and record it");
   cmd->add_option("--plant", o->plant, "Preset (panel-exciter, linear) or plant JSON file")->capture_default_str();
   cmd->add_option("--signal", o->signal, "Excitation")
-      ->check(CLI::IsMember({"noise", "gauss", "multisine", "sweep", "sine"}))
+      ->check(CLI::IsMember({"noise", "gauss", "multisine", "sweep", "sine", "stepped"}))
       ->capture_default_str();
   cmd->add_option("--amplitude", o->amplitude, "Peak drive, within (0, 1]")
       ->check(CLI::Range(1e-12, 1.0))
       ->capture_default_str();
-  cmd->add_option("--samples", o->samples, "Number of samples")->required()->check(CLI::Range(1, 100000000));
+  cmd->add_option("--samples", o->samples, "Number of samples (required but for --signal stepped)")
+      ->check(CLI::Range(1, 100000000));
   cmd->add_option("--seed", o->seed, "Seed of the excitation")->capture_default_str();
   cmd->add_option("--noise-seed", o->noise_seed, "Seed of the sensor noise (default: seed + 1)")
       ->each([o](const std::string&) { o->noise_seed_given = true; });
@@ -109,6 +126,9 @@ void register_simulate(CLI::App& app) {
       ->check(CLI::IsMember({"all", "odd", "random-odd"}))
       ->capture_default_str();
   cmd->add_option("--period", o->period, "Multisine period in samples (default: the whole record)");
+  cmd->add_option("--freqs", o->freqs, "Fundamentals of --signal stepped, Hz")->delimiter(',')->check(CLI::PositiveNumber);
+  cmd->add_option("--settle", o->settle, "Stepped sine: samples before each measured part")->capture_default_str();
+  cmd->add_option("--measure", o->measure, "Stepped sine: measured samples per frequency")->capture_default_str();
   cmd->add_option("--out", o->out, "Output file, .csv or .wav (columns u,y,i,x)")->required();
   cmd->footer(
       "Example:\n  panelbass simulate --plant panel-exciter --signal noise --amplitude 1 --samples 12000 "

@@ -38,6 +38,23 @@ TEST_F(CliHarmonics, ModelRowsBesideThePlantRows) {
   }
 }
 
+TEST_F(CliHarmonics, RecordingMadeWithTheSteppedSineGivesThePlantsHarmonics) {
+  const fs::path rec = dir_ / "rec.csv";
+  expect_result(run("simulate --plant panel-exciter --signal stepped --freqs 60,200 --amplitude 0.7 --out " + quoted(rec)));
+  const json from_file = expect_result(run("harmonics --data " + quoted(rec) + " --fs 3000 --freqs 60,200 --amplitudes 0.7"));
+  const json from_plant = expect_result(run("harmonics --plant panel-exciter --noise --freqs 60,200 --amplitudes 0.7"));
+  ASSERT_EQ(from_file["recording_rows"].size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    // The same plant, the same signal, the same noise seed: the same numbers.
+    EXPECT_NEAR(from_file["recording_rows"][k]["thd_pct"].get<double>(), from_plant["plant_rows"][k]["thd_pct"].get<double>(),
+                0.05 * from_plant["plant_rows"][k]["thd_pct"].get<double>());
+  }
+  // A recording of another signal is refused, naming the file.
+  const RunResult wrong = run("harmonics --data " + quoted(rec) + " --fs 3000 --freqs 60,300 --amplitudes 0.7");
+  expect_failure(wrong);
+  EXPECT_TRUE(contains(wrong.err, "rec.csv")) << wrong.err;
+}
+
 TEST_F(CliHarmonics, BadModelFails) {
   const RunResult r = run("harmonics --model " + quoted(dir_ / "absent.json"));
   expect_failure(r);
