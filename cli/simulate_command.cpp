@@ -45,7 +45,6 @@ Eigen::VectorXd make_excitation(const SimulateOptions& o, double fs) {
     spec.measure = o.measure;
     return dsp::stepped_sine(spec).signal;
   }
-  if (o.samples == 0) throw std::invalid_argument("--samples is required for --signal " + o.signal);
   if (o.signal == "noise") return dsp::uniform_noise(o.samples, o.amplitude, o.seed);
   if (o.signal == "gauss") return dsp::gaussian_noise(o.samples, o.amplitude, o.seed);
   if (o.signal == "sweep") return dsp::log_sweep(o.samples, fs, o.f_min, o.f_max, o.amplitude);
@@ -76,6 +75,7 @@ Eigen::VectorXd make_excitation(const SimulateOptions& o, double fs) {
 double rms(const Eigen::VectorXd& x) { return std::sqrt(x.squaredNorm() / static_cast<double>(x.size())); }
 
 void run_simulate(const SimulateOptions& o) {
+  if (o.samples == 0 && o.signal != "stepped") throw CLI::RequiredError("--samples");
   const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
   dsp::check_writable_data_file(o.out);
   const Eigen::VectorXd u = make_excitation(o, plant.fs);
