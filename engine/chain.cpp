@@ -1,0 +1,85 @@
+#include "engine/chain.h"
+
+#include <stdexcept>
+#include <string>
+
+namespace panelbass::engine {
+
+Chain::Chain(const ChainOptions& options) : options_(options), limiter_(options.limiter) {
+  if (!(options.spec.fs > 0.0) || options.spec.max_block < 1) {
+    throw std::invalid_argument("chain: fs must be > 0 and max_block >= 1, got fs = " +
+                                std::to_string(options.spec.fs) + ", max_block = " +
+                                std::to_string(options.spec.max_block));
+  }
+  metrics_.set_rate(options.spec.fs);
+  for (std::size_t i = 0; i < kSlotCount; ++i) {
+    slots_[i] = std::make_unique<ModelSlot>(options.spec, options.slots, metrics_, i);
+  }
+  band_pass().set_initial(std::make_unique<BandPassStage>(options.band_pass));
+}
+
+std::size_t Chain::collect_retired() {
+  std::size_t freed = 0;
+  for (auto& s : slots_) freed += s->collect_retired();
+  return freed;
+}
+
+void Chain::begin_block() noexcept {
+  if (clear_request_.exchange(false, std::memory_order_acq_rel) && safe_bypass_) {
+    feedforward().reset();
+    feedback().reset();
+    limiter_.reset();
+    safe_bypass_ = false;
+    metrics_.set_in_fault(false);
+  }
+  band_pass().begin_block();
+  // In the safe bypass the model slots are not run; a pending install waits until the fault is cleared.
+  if (!safe_bypass_) {
+    feedforward().begin_block();
+    feedback().begin_block();
+  }
+}
+
+double Chain::process_sample(double x) noexcept {
+  if (!std::isfinite(x)) {
+    enter_safe_bypass(Fault::non_finite_input);
+    x = 0.0;
+  }
+  const double band = band_pass().process(x);
+  const double v = safe_bypass_ ? band : feedback().process(feedforward().process(band));
+  const double drive = limiter_.process(v);
+  switch (limiter_.take_trip()) {
+    case Fault::none:
+      break;
+    case Fault::non_finite_output:
+      // A band-pass driven into overflow by a huge input is restarted; the model slots are left alone.
+      if (!std::isfinite(band)) band_pass().reset();
+      enter_safe_bypass(Fault::non_finite_output);
+      break;
+    case Fault::pinned:
+      // Only a controller can pin the drive; band-pass alone at full scale is the program's business.
+      enter_safe_bypass(Fault::pinned);
+      break;
+    case Fault::non_finite_input:
+      break;
+  }
+  return drive;
+}
+
+void Chain::observe(double measured) noexcept {
+  band_pass().observe(measured);
+  if (!safe_bypass_) {
+    feedforward().observe(measured);
+    feedback().observe(measured);
+  }
+}
+
+void Chain::enter_safe_bypass(Fault fault) noexcept {
+  if (safe_bypass_) return;
+  safe_bypass_ = true;
+  limiter_.reset();
+  metrics_.set_in_fault(true);
+  metrics_.record_fault(fault);
+}
+
+}  // namespace panelbass::engine

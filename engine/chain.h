@@ -1,0 +1,99 @@
+#pragma once
+// The processing chain, run per block on the audio thread:
+//   program input → band-pass → feedforward slot → feedback slot → safety limiter → drive.
+// The feedback stage sees the measured plant output through observe() (sensor mode) or its own
+// predictions (model mode). A non-finite value or a drive pinned at the rails drops the chain to
+// band-pass only (the safe bypass) and raises a fault in the metrics until clear_fault().
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+
+#include "engine/metrics.h"
+#include "engine/model_slot.h"
+#include "engine/safety_limiter.h"
+#include "engine/stage.h"
+
+namespace panelbass::engine {
+
+/// Everything that shapes a chain.
+struct ChainOptions {
+  ProcessSpec spec{};            ///< rate (and longest block) the chain runs at
+  BandPassDesign band_pass{};    ///< the band-pass stage the chain starts with
+  SlotOptions slots{};           ///< crossfade and warm-up history of every slot
+  LimiterOptions limiter{};      ///< the safety limiter
+};
+
+/// The chain's slots, in signal order.
+enum class Position : std::size_t { band_pass = 0, feedforward = 1, feedback = 2 };
+
+/// The per-block processing chain. Construct, set initial stages and install from the control thread;
+/// process_block() from the audio thread.
+class Chain {
+ public:
+  /// A chain with its band-pass stage prepared and active and empty (pass-through) model slots;
+  /// throws std::invalid_argument for bad options.
+  explicit Chain(const ChainOptions& options);
+  Chain(const Chain&) = delete;
+  Chain& operator=(const Chain&) = delete;
+
+  /// The slot at `position`.
+  ModelSlot& slot(Position position) { return *slots_[static_cast<std::size_t>(position)]; }
+  /// The band-pass slot.
+  ModelSlot& band_pass() { return slot(Position::band_pass); }
+  /// The feedforward (linear controller) slot.
+  ModelSlot& feedforward() { return slot(Position::feedforward); }
+  /// The feedback (neural controller) slot.
+  ModelSlot& feedback() { return slot(Position::feedback); }
+
+  /// Control thread: asks the audio thread to leave the safe bypass at its next block (stages reset).
+  void clear_fault() { clear_request_.store(true, std::memory_order_release); }
+  /// True while the chain is in its safe bypass.
+  bool in_fault() const { return metrics_.in_fault(); }
+  /// Control thread: frees the stages every slot has retired; returns how many.
+  std::size_t collect_retired();
+  /// The metrics (readable from any thread).
+  const Metrics& metrics() const { return metrics_; }
+  /// The metrics, for a backend to record xruns.
+  Metrics& metrics() { return metrics_; }
+  /// The options the chain was built with.
+  const ChainOptions& options() const { return options_; }
+
+  /// Audio thread: one block of program input into drive (same length); the plant is not observed.
+  void process_block(std::span<const double> program, std::span<double> drive) noexcept {
+    process_block(program, drive, [](double) noexcept { return 0.0; });
+  }
+
+  /// Audio thread: one block, sample by sample in a loop with the plant: `sensor(drive)` returns the
+  /// measured output for that drive sample, which the stages observe before the next sample.
+  template <class Sensor>
+  void process_block(std::span<const double> program, std::span<double> drive, Sensor&& sensor) noexcept {
+    const auto started = std::chrono::steady_clock::now();
+    begin_block();
+    for (std::size_t k = 0; k < program.size(); ++k) {
+      drive[k] = process_sample(program[k]);
+      observe(sensor(drive[k]));
+    }
+    const auto elapsed = std::chrono::steady_clock::now() - started;
+    metrics_.record_block(static_cast<std::uint64_t>(std::chrono::nanoseconds(elapsed).count()), program.size());
+  }
+
+ private:
+  void begin_block() noexcept;
+  double process_sample(double x) noexcept;
+  void observe(double measured) noexcept;
+  void enter_safe_bypass(Fault fault) noexcept;
+
+  ChainOptions options_;
+  Metrics metrics_;
+  std::unique_ptr<ModelSlot> slots_[kSlotCount];
+  SafetyLimiter limiter_;
+  std::atomic<bool> clear_request_{false};
+  bool safe_bypass_ = false;  // audio thread only
+};
+
+}  // namespace panelbass::engine

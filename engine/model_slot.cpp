@@ -1,0 +1,156 @@
+#include "engine/model_slot.h"
+
+#include <algorithm>
+#include <cmath>
+#include <span>
+#include <stdexcept>
+#include <utility>
+
+namespace panelbass::engine {
+
+ModelSlot::ModelSlot(const ProcessSpec& spec, const SlotOptions& options, Metrics& metrics, std::size_t index)
+    : spec_(spec), options_(options), metrics_(metrics), index_(index) {
+  if (options.crossfade.value < 0 || options.history.value < 0) {
+    throw std::invalid_argument("model slot: crossfade and history must be >= 0 samples");
+  }
+  const auto h = static_cast<std::size_t>(options.history.value);
+  input_history_.assign(2 * h, 0.0);
+  measured_history_.assign(2 * h, 0.0);
+  peak_decay_ = h > 0 ? std::exp(-1.0 / static_cast<double>(h)) : 0.0;
+}
+
+ModelSlot::~ModelSlot() {
+  collect_retired();
+  delete pending_.exchange(nullptr);
+  delete incoming_;
+  delete active_;
+}
+
+void ModelSlot::install(std::unique_ptr<Stage> stage) {
+  if (!stage) throw std::invalid_argument("model slot: cannot install a null stage");
+  stage->prepare(spec_);
+  // Whatever was pending is ours again: the audio thread takes a stage only by exchanging it out.
+  std::unique_ptr<Stage> never_taken(pending_.exchange(stage.release(), std::memory_order_acq_rel));
+  collect_retired();
+}
+
+void ModelSlot::set_initial(std::unique_ptr<Stage> stage) {
+  if (!stage) throw std::invalid_argument("model slot: cannot set a null stage");
+  stage->prepare(spec_);
+  delete active_;
+  active_ = stage.release();
+  metrics_.set_active_id(index_, active_->id());
+}
+
+std::size_t ModelSlot::collect_retired() {
+  std::size_t freed = 0;
+  Stage* stage = nullptr;
+  while (retired_.pop(stage)) {
+    delete stage;
+    ++freed;
+  }
+  return freed;
+}
+
+bool ModelSlot::idle() const {
+  return pending_.load(std::memory_order_acquire) == nullptr && !fading_.load(std::memory_order_acquire);
+}
+
+void ModelSlot::begin_block() noexcept {
+  wet_target_ = bypass_request_.load(std::memory_order_relaxed) ? 0.0 : 1.0;
+  // One hand-over at a time, and only with room to retire the stage it replaces.
+  if (incoming_ != nullptr || !retired_.has_room()) return;
+  Stage* next = pending_.exchange(nullptr, std::memory_order_acq_rel);
+  if (next == nullptr) return;
+  const std::size_t h = input_history_.size() / 2;
+  const std::size_t n = std::min(history_filled_, h);
+  const std::size_t start = history_pos_ + h - n;
+  last_new_ = next->warm_up(std::span<const double>(input_history_.data() + start, n),
+                            std::span<const double>(measured_history_.data() + start, n));
+  incoming_ = next;
+  fade_gain_ = 0.0;
+  fading_.store(true, std::memory_order_release);
+  metrics_.record_swap();
+  if (options_.crossfade.value == 0) {
+    finish_swap();
+    last_old_ = last_new_;
+  }
+}
+
+double ModelSlot::process(double x) noexcept {
+  const std::size_t h = input_history_.size() / 2;
+  if (h > 0) {
+    input_history_[history_pos_] = input_history_[history_pos_ + h] = x;
+    measured_history_[history_pos_] = measured_history_[history_pos_ + h] = 0.0;
+    history_pos_ = (history_pos_ + 1) % h;
+    history_filled_ = std::min(history_filled_ + 1, h);
+  }
+  const double old_out = active_ != nullptr ? active_->process(x) : x;
+  double y = old_out;
+  double active_out = old_out;
+  if (incoming_ != nullptr) {
+    const double new_out = incoming_->process(x);
+    const double g = next_fade_gain(old_out, new_out);
+    last_new_ = new_out;
+    if (g >= 1.0) {
+      y = active_out = new_out;
+      finish_swap();
+    } else {
+      // y = (1 − g)·old + g·new
+      fade_gain_ = g;
+      y = old_out + g * (new_out - old_out);
+    }
+  }
+  last_old_ = active_out;
+  const double step = std::abs(y - last_mix_);
+  step_peak_ = std::isfinite(step) ? std::max(step, step_peak_ * peak_decay_) : 0.0;
+  last_mix_ = y;
+  if (wet_ != wet_target_) {
+    const double ramp = options_.crossfade.value > 0 ? 1.0 / options_.crossfade.value : 1.0;
+    wet_ = wet_target_ > wet_ ? std::min(1.0, wet_ + ramp) : std::max(0.0, wet_ - ramp);
+  }
+  if (wet_ == 1.0) return y;
+  if (wet_ == 0.0) return x;
+  return x + wet_ * (y - x);
+}
+
+void ModelSlot::observe(double measured) noexcept {
+  const std::size_t h = input_history_.size() / 2;
+  if (h > 0) {
+    const std::size_t last = (history_pos_ + h - 1) % h;
+    measured_history_[last] = measured_history_[last + h] = measured;
+  }
+  if (active_ != nullptr) active_->observe(measured);
+  if (incoming_ != nullptr) incoming_->observe(measured);
+}
+
+void ModelSlot::reset() noexcept {
+  if (active_ != nullptr) active_->reset();
+  if (incoming_ != nullptr) incoming_->reset();
+}
+
+double ModelSlot::next_fade_gain(double old_out, double new_out) const noexcept {
+  const double n = options_.crossfade.value;
+  const double target = std::min(1.0, fade_gain_ + 1.0 / n);
+  const double e = new_out - old_out;
+  const double step_at_target = old_out + target * e - last_mix_;
+  const double allowed =
+      std::max({std::abs(old_out - last_old_), std::abs(new_out - last_new_), step_peak_});
+  // (A non-finite value is the limiter's business: the fade just goes on.)
+  if (std::abs(step_at_target) <= allowed || e == 0.0 || !std::isfinite(step_at_target + allowed)) return target;
+  // The step old + g·e − last_mix is linear in g and within `allowed` at the held gain (a convex
+  // combination of the two stages' steps): go as far as the bound on the side the target overshoots.
+  const double held = old_out + fade_gain_ * e - last_mix_;
+  const double g = fade_gain_ + (std::copysign(allowed, step_at_target) - held) / e;
+  return std::clamp(g, std::min(1.0, fade_gain_ + 0.25 / n), target);
+}
+
+void ModelSlot::finish_swap() noexcept {
+  // begin_block() made sure the queue has room, so the push cannot fail.
+  if (active_ != nullptr) retired_.push(active_);
+  active_ = std::exchange(incoming_, nullptr);
+  metrics_.set_active_id(index_, active_->id());
+  fading_.store(false, std::memory_order_release);
+}
+
+}  // namespace panelbass::engine

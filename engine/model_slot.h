@@ -1,0 +1,106 @@
+#pragma once
+// A model slot: the stage active at one position of the chain, replaced while audio runs without a
+// click and without the audio thread ever locking, allocating or freeing (JUCE's Convolution hand-over:
+// the new engine is built off the audio thread, taken over at a block boundary, crossfaded, and the old
+// one is deleted off the audio thread).
+//
+// Threads: one control thread calls install(), collect_retired() and set_bypassed(); the audio thread
+// calls begin_block(), process(), observe() and reset(). Hand-over: the control thread publishes a
+// prepared stage with an atomic exchange; the audio thread takes it with another at a block boundary,
+// warms it from the slot's recent history, crossfades to it, and pushes the retired stage onto a
+// lock-free single-producer single-consumer queue that the control thread drains and frees.
+//
+// The crossfade is step-bounded: its gain rises by 1/crossfade per sample unless that would make the
+// output step further than the larger of the two stages' own steps at that sample and the output's
+// recent peak step; then it rises only as far as that bound allows (but at least 1/(4·crossfade) per
+// sample, so a fade always ends). A swap thus adds no step larger than the signals already have.
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "engine/metrics.h"
+#include "engine/spsc_queue.h"
+#include "engine/stage.h"
+
+namespace panelbass::engine {
+
+/// How a slot hands stages over.
+struct SlotOptions {
+  Samples crossfade{64};  ///< length of the crossfade to a new stage, and of a bypass ramp (0 = switch)
+  Samples history{512};   ///< recent samples a new stage is warmed from
+};
+
+/// The stage at one chain position; an empty slot passes its input through.
+class ModelSlot {
+ public:
+  /// An empty slot whose stages are prepared for `spec`; reports swaps to `metrics` as slot `index`.
+  ModelSlot(const ProcessSpec& spec, const SlotOptions& options, Metrics& metrics, std::size_t index);
+  /// Frees every stage it holds; the audio thread must no longer use the slot.
+  ~ModelSlot();
+  ModelSlot(const ModelSlot&) = delete;
+  ModelSlot& operator=(const ModelSlot&) = delete;
+
+  // ---- control thread ----
+
+  /// Prepares `stage` and publishes it; the audio thread takes it over at its next block boundary.
+  /// A stage published earlier and not yet taken is freed here. Throws (nothing published) if
+  /// prepare() throws or `stage` is null.
+  void install(std::unique_ptr<Stage> stage);
+  /// Prepares `stage` and makes it active at once, freeing the one before; only while no audio runs.
+  void set_initial(std::unique_ptr<Stage> stage);
+  /// Frees the stages the audio thread has retired; returns how many.
+  std::size_t collect_retired();
+  /// Bypass on (output = input) or off; the audio thread ramps over the crossfade length.
+  void set_bypassed(bool bypassed) { bypass_request_.store(bypassed, std::memory_order_relaxed); }
+  /// True when bypass was requested.
+  bool bypassed() const { return bypass_request_.load(std::memory_order_relaxed); }
+  /// True when no stage waits to be taken over and no crossfade runs.
+  bool idle() const;
+
+  // ---- audio thread ----
+
+  /// At a block boundary: takes over a pending stage (warmed from history) and reads the bypass request.
+  void begin_block() noexcept;
+  /// One sample through the slot (crossfading while a new stage takes over).
+  double process(double x) noexcept;
+  /// The measured plant output for the sample just processed: kept in the history, passed to the stages.
+  void observe(double measured) noexcept;
+  /// The stages back to rest (after a fault).
+  void reset() noexcept;
+
+ private:
+  double next_fade_gain(double old_out, double new_out) const noexcept;
+  void finish_swap() noexcept;
+
+  ProcessSpec spec_;
+  SlotOptions options_;
+  Metrics& metrics_;
+  std::size_t index_;
+
+  std::atomic<Stage*> pending_{nullptr};
+  std::atomic<bool> bypass_request_{false};
+  std::atomic<bool> fading_{false};
+  SpscQueue<Stage*, 16> retired_;
+
+  // Owned by the audio thread while it runs.
+  Stage* active_ = nullptr;
+  Stage* incoming_ = nullptr;
+  double fade_gain_ = 0.0;   // 0 = old stage, 1 = new stage
+  double last_old_ = 0.0;    // previous output of the active stage
+  double last_new_ = 0.0;    // previous output of the incoming stage
+  double last_mix_ = 0.0;    // previous output of the crossfade (before the bypass mix)
+  double step_peak_ = 0.0;   // recent peak of |output step|, decaying over the history length
+  double peak_decay_ = 0.0;
+  double wet_ = 1.0;         // 1 = stage output, 0 = bypassed
+  double wet_target_ = 1.0;
+  // Recent inputs and measured outputs, each written twice (at i and i + H) so the last H samples are
+  // always one contiguous span.
+  std::vector<double> input_history_, measured_history_;
+  std::size_t history_pos_ = 0;
+  std::size_t history_filled_ = 0;
+};
+
+}  // namespace panelbass::engine

@@ -1,0 +1,57 @@
+#include "engine/safety_limiter.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace panelbass::engine {
+
+double soft_limit(double v, double knee) noexcept {
+  if (!std::isfinite(v)) return 0.0;
+  const double magnitude = std::abs(v);
+  if (magnitude <= knee) return v;
+  const double room = 1.0 - knee;
+  // tanh reaches exactly 1.0 in double precision for large arguments: the result stays within [−1, 1]
+  return std::copysign(knee + room * std::tanh((magnitude - knee) / room), v);
+}
+
+SafetyLimiter::SafetyLimiter(const LimiterOptions& options) : options_(options) {
+  if (!(options.knee >= 0.0 && options.knee < 1.0)) {
+    throw std::invalid_argument("safety limiter: knee must be within [0, 1), got " + std::to_string(options.knee));
+  }
+  if (!(options.pinned_level > 0.0)) {
+    throw std::invalid_argument("safety limiter: pinned_level must be > 0, got " +
+                                std::to_string(options.pinned_level));
+  }
+  if (options.max_pinned.value < 0) {
+    throw std::invalid_argument("safety limiter: max_pinned must be >= 0 samples, got " +
+                                std::to_string(options.max_pinned.value));
+  }
+}
+
+double SafetyLimiter::process(double v) noexcept {
+  if (!std::isfinite(v)) {
+    trip_ = Fault::non_finite_output;
+    pinned_run_ = 0;
+    return 0.0;
+  }
+  if (std::abs(v) >= options_.pinned_level) {
+    if (++pinned_run_ > options_.max_pinned.value) trip_ = Fault::pinned;
+  } else {
+    pinned_run_ = 0;
+  }
+  return soft_limit(v, options_.knee);
+}
+
+Fault SafetyLimiter::take_trip() noexcept {
+  const Fault f = trip_;
+  trip_ = Fault::none;
+  return f;
+}
+
+void SafetyLimiter::reset() noexcept {
+  pinned_run_ = 0;
+  trip_ = Fault::none;
+}
+
+}  // namespace panelbass::engine

@@ -1,0 +1,43 @@
+#pragma once
+// The safety limiter at the end of the chain: the drive never leaves [−1, 1] (the model's valid range),
+// and a non-finite or runaway controller output is reported so the chain can drop to its safe bypass.
+
+#include "engine/metrics.h"
+#include "engine/stage.h"
+
+namespace panelbass::engine {
+
+/// Settings of the safety limiter.
+struct LimiterOptions {
+  double knee = 0.8;        ///< below this |drive| passes unchanged; above it is compressed towards 1
+  double pinned_level = 1.0;  ///< an unlimited |drive| at or above this counts as pinned at the rails
+  Samples max_pinned{300};  ///< consecutive pinned samples tolerated (0.1 s at 3000 Hz)
+};
+
+/// The soft limiter: v for |v| ≤ knee, else sign(v)·(knee + (1 − knee)·tanh((|v| − knee)/(1 − knee))),
+/// continuous with slope ≤ 1 and within [−1, 1] for every finite v; 0 for a non-finite v.
+double soft_limit(double v, double knee) noexcept;
+
+/// soft_limit() plus the watch for non-finite values and a drive pinned at the rails.
+class SafetyLimiter {
+ public:
+  /// A limiter with `options`; throws std::invalid_argument unless 0 ≤ knee < 1, pinned_level > 0
+  /// and max_pinned ≥ 0.
+  explicit SafetyLimiter(const LimiterOptions& options = {});
+
+  /// The limited drive of `v`; sets tripped() when v is not finite or has been pinned too long.
+  double process(double v) noexcept;
+  /// What tripped the limiter since the last take_trip() (Fault::none if nothing), and clears it.
+  Fault take_trip() noexcept;
+  /// Forgets the pinned run (after a fault or when leaving the safe bypass).
+  void reset() noexcept;
+  /// The settings.
+  const LimiterOptions& options() const { return options_; }
+
+ private:
+  LimiterOptions options_;
+  int pinned_run_ = 0;
+  Fault trip_ = Fault::none;
+};
+
+}  // namespace panelbass::engine

@@ -1,0 +1,160 @@
+#pragma once
+// Processing stages of the engine's chain, in JUCE's shape: prepare() sizes and allocates (and may
+// throw), process() is noexcept and touches only what prepare() made, reset() clears the state.
+// A stage's parameters (the model) and its state are separate, so a new stage can be warmed from the
+// recent history before it takes over.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "dsp/biquad.h"
+#include "models/linear_model.h"
+#include "models/mlp.h"
+#include "models/narx_model.h"
+#include "models/state_space.h"
+
+namespace panelbass::engine {
+
+/// A frequency in Hz.
+struct Hertz {
+  double value = 0.0;
+};
+
+/// A duration or a length in samples.
+struct Samples {
+  int value = 0;
+};
+
+/// What a stage is prepared for.
+struct ProcessSpec {
+  double fs = 3000.0;   ///< sample rate the chain runs at, Hz
+  int max_block = 1024; ///< longest block process_block() will be given
+};
+
+/// One stage of the chain. Every method but prepare() and the constructor is for the audio thread.
+class Stage {
+ public:
+  virtual ~Stage() = default;
+
+  /// Sizes and allocates everything process() touches; throws std::invalid_argument naming the problem.
+  virtual void prepare(const ProcessSpec& spec) = 0;
+
+  /// One sample in, one sample out; allocation-free.
+  virtual double process(double x) noexcept = 0;
+
+  /// The plant's measured output for the sample just processed (sensor mode); ignored by default.
+  virtual void observe(double measured) noexcept { (void)measured; }
+
+  /// Back to rest.
+  virtual void reset() noexcept = 0;
+
+  /// A block: out[k] = process(in[k]); `out` as long as `in`.
+  void process_block(std::span<const double> in, std::span<double> out) noexcept;
+
+  /// From rest, runs the stage over recent history (inputs and measured outputs, oldest first) so its
+  /// state is what it would be had it been running all along; returns its output for the last sample
+  /// of the history (0 for none).
+  double warm_up(std::span<const double> input, std::span<const double> measured) noexcept;
+
+  /// An identifier shown in the metrics (0 = none), e.g. the model store's id.
+  std::uint64_t id() const { return id_; }
+  /// Sets the identifier; before the stage is installed.
+  void set_id(std::uint64_t id) { id_ = id; }
+
+ private:
+  std::uint64_t id_ = 0;
+};
+
+/// Output = input.
+class PassThroughStage final : public Stage {
+ public:
+  /// Nothing to size.
+  void prepare(const ProcessSpec&) override {}
+  /// Returns x.
+  double process(double x) noexcept override { return x; }
+  /// No state.
+  void reset() noexcept override {}
+};
+
+/// Corners and order of the band-pass.
+struct BandPassDesign {
+  Hertz low{20.0};     ///< high-pass corner (-3 dB)
+  Hertz high{1200.0};  ///< low-pass corner (-3 dB)
+  int order = 2;       ///< order of each of the high-pass and the low-pass
+};
+
+/// The chain's band-pass: a Butterworth high-pass and low-pass in second-order sections.
+class BandPassStage final : public Stage {
+ public:
+  /// A band-pass of `design`, designed at the rate prepare() is given.
+  explicit BandPassStage(BandPassDesign design = {});
+  /// Designs the sections at spec.fs; throws for corners outside (0, fs/2) or low ≥ high.
+  void prepare(const ProcessSpec& spec) override;
+  /// Filters one sample.
+  double process(double x) noexcept override { return filter_.process(x); }
+  /// Clears the filter state.
+  void reset() noexcept override { filter_.reset(); }
+  /// The design.
+  const BandPassDesign& design() const { return design_; }
+
+ private:
+  BandPassDesign design_;
+  dsp::SosFilter filter_;
+};
+
+/// A linear model as a stage: its state-space realisation run on raw input, giving raw output.
+class LinearStage : public Stage {
+ public:
+  /// The stage of `model` (realised in prepare()).
+  explicit LinearStage(models::LinearModel model);
+  /// Realises the model; throws if its fs differs from spec.fs (resampling is not the stage's job).
+  void prepare(const ProcessSpec& spec) override;
+  /// y(k) = C·x(k) + D·u(k), x(k+1) = A·x(k) + B·u(k), in scaled units.
+  double process(double x) noexcept override;
+  /// State to zero.
+  void reset() noexcept override;
+  /// The model.
+  const models::LinearModel& model() const { return model_; }
+
+ private:
+  models::LinearModel model_;
+  models::StateSpace ss_;
+  Eigen::VectorXd c_, state_, next_;
+};
+
+/// Where a NARX stage takes its past outputs y(k−1..k−na) from.
+enum class FeedbackSource {
+  model,   ///< its own predictions (free run: no sensor wired)
+  sensor,  ///< the measured outputs passed to observe()
+};
+
+/// A NARX model as a stage: raw input in, the model's raw output out.
+class NarxStage : public Stage {
+ public:
+  /// The stage of `model`, its past outputs taken from `source`.
+  explicit NarxStage(models::NarxModel model, FeedbackSource source = FeedbackSource::model);
+  /// Sizes the regressor and the network's workspace; throws if the fs or the network shape is wrong.
+  void prepare(const ProcessSpec& spec) override;
+  /// [5G] y(k) = F(y(k−1..k−na), u(k−nk..k−nk−nb)) in scaled units.
+  double process(double x) noexcept override;
+  /// In sensor mode, the measured output becomes the newest past output.
+  void observe(double measured) noexcept override;
+  /// Past inputs and outputs to zero.
+  void reset() noexcept override;
+  /// The model.
+  const models::NarxModel& model() const { return model_; }
+
+ private:
+  void push_output(double y_scaled) noexcept;
+
+  models::NarxModel model_;
+  FeedbackSource source_;
+  models::Mlp::Workspace workspace_;
+  Eigen::VectorXd regressor_;
+  std::vector<double> past_u_;  // past_u_[j] = u(k − j), scaled, j = 0..nk+nb
+  std::vector<double> past_y_;  // past_y_[i] = y(k − 1 − i), scaled, i = 0..na−1
+};
+
+}  // namespace panelbass::engine

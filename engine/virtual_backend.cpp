@@ -1,0 +1,98 @@
+#include "engine/virtual_backend.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "engine/closed_loop.h"
+
+namespace panelbass::engine {
+namespace {
+
+const VirtualBackendOptions& checked(const Chain& chain, const VirtualBackendOptions& options) {
+  const ProcessSpec& spec = chain.options().spec;
+  if (options.block.value < 1 || options.block.value > spec.max_block) {
+    throw std::invalid_argument("virtual backend: block must be within [1, " + std::to_string(spec.max_block) +
+                                "], got " + std::to_string(options.block.value));
+  }
+  if (!(std::abs(options.plant.fs - spec.fs) <= 1e-9 * spec.fs)) {
+    throw std::invalid_argument("virtual backend: the plant runs at " + std::to_string(options.plant.fs) +
+                                " Hz, the chain at " + std::to_string(spec.fs) + " Hz");
+  }
+  return options;
+}
+
+}  // namespace
+
+VirtualBackend::VirtualBackend(Chain& chain, VirtualBackendOptions options)
+    : chain_(chain),
+      options_(std::move(options)),
+      plant_(checked(chain, options_).plant, options_.noise_seed),
+      program_block_(static_cast<std::size_t>(options_.block.value), 0.0),
+      drive_(program_block_.size(), 0.0),
+      measured_(program_block_.size(), 0.0) {}
+
+VirtualBackend::~VirtualBackend() { stop(); }
+
+void VirtualBackend::start() {
+  if (thread_.joinable()) throw std::logic_error("virtual backend: already running");
+  stop_.store(false, std::memory_order_relaxed);
+  thread_ = std::thread([this] { run(); });
+}
+
+void VirtualBackend::stop() {
+  stop_.store(true, std::memory_order_relaxed);
+  if (thread_.joinable()) thread_.join();
+}
+
+void VirtualBackend::wait() {
+  if (thread_.joinable()) thread_.join();
+}
+
+void VirtualBackend::run() noexcept {
+  using clock = std::chrono::steady_clock;
+  const auto period = std::chrono::duration_cast<clock::duration>(
+      std::chrono::duration<double>(options_.block.value / chain_.options().spec.fs));
+  const std::vector<double>& program = options_.program;
+  auto deadline = clock::now();
+  while (!stop_.load(std::memory_order_relaxed)) {
+    // Next block of program input: looped, or up to the end of the program.
+    std::size_t n = program_block_.size();
+    if (program.empty()) {
+      std::fill(program_block_.begin(), program_block_.end(), 0.0);
+    } else if (options_.loop) {
+      for (double& x : program_block_) {
+        x = program[program_pos_];
+        program_pos_ = (program_pos_ + 1) % program.size();
+      }
+    } else {
+      n = std::min(n, program.size() - program_pos_);
+      if (n == 0) {
+        finished_.store(true, std::memory_order_release);
+        return;
+      }
+      std::copy_n(program.begin() + static_cast<std::ptrdiff_t>(program_pos_), n, program_block_.begin());
+      program_pos_ += n;
+    }
+    const std::span<const double> in(program_block_.data(), n);
+    const std::span<double> drive(drive_.data(), n), measured(measured_.data(), n);
+    process_closed_loop(chain_, plant_, in, drive, measured);
+    const std::uint64_t index = blocks_.fetch_add(1, std::memory_order_relaxed);
+    if (options_.on_block) options_.on_block(BlockView{index, in, drive, measured});
+    if (options_.pacing == Pacing::real_time) {
+      deadline += period;
+      const auto now = clock::now();
+      if (now > deadline) {
+        chain_.metrics().record_xrun();
+        deadline = now;  // start afresh rather than rushing to catch up
+      } else {
+        std::this_thread::sleep_until(deadline);
+      }
+    }
+  }
+}
+
+}  // namespace panelbass::engine

@@ -1,0 +1,80 @@
+#pragma once
+// The embedded default backend: an audio thread runs the chain block by block into the virtual
+// transducer in-process (sensor mode: the plant's measured output reaches the feedback stage sample by
+// sample), paced like a sound card or as fast as the CPU allows.
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <thread>
+#include <vector>
+
+#include "engine/chain.h"
+#include "models/plant_config.h"
+#include "models/virtual_transducer.h"
+
+namespace panelbass::engine {
+
+/// How the audio thread is paced.
+enum class Pacing {
+  real_time,            ///< one block per block period; a late block counts as an xrun
+  as_fast_as_possible,  ///< no waiting (tests, benchmarks)
+};
+
+/// One processed block, as the audio thread sees it.
+struct BlockView {
+  std::uint64_t index = 0;             ///< blocks before this one
+  std::span<const double> program;     ///< the program input
+  std::span<const double> drive;       ///< the chain's output
+  std::span<const double> measured;    ///< the plant's measured output
+};
+
+/// What the virtual backend plays and simulates.
+struct VirtualBackendOptions {
+  Samples block{64};                   ///< block length (≤ the chain's max_block)
+  Pacing pacing = Pacing::real_time;   ///< how the audio thread is paced
+  std::vector<double> program;         ///< program input from its start (empty: silence)
+  bool loop = true;                    ///< repeat the program; else the run ends when it has been played
+  models::PlantConfig plant;           ///< the simulated transducer (its fs must be the chain's)
+  std::uint64_t noise_seed = 1;        ///< the plant's sensor noise seed
+  /// Called on the audio thread after each block; must not allocate, lock or wait.
+  std::function<void(const BlockView&)> on_block;
+};
+
+/// The virtual-transducer backend; start() and stop() from a control thread.
+class VirtualBackend {
+ public:
+  /// Validates `options` and sizes the buffers; throws std::invalid_argument naming the problem.
+  VirtualBackend(Chain& chain, VirtualBackendOptions options);
+  /// Stops the audio thread.
+  ~VirtualBackend();
+  VirtualBackend(const VirtualBackend&) = delete;
+  VirtualBackend& operator=(const VirtualBackend&) = delete;
+
+  /// Starts the audio thread (continuing where a previous run stopped); throws if it runs already.
+  void start();
+  /// Asks the audio thread to stop after its current block and joins it.
+  void stop();
+  /// Waits until a non-looping program has been played (returns at once if nothing runs).
+  void wait();
+  /// True once a non-looping program has been played to its end.
+  bool finished() const { return finished_.load(std::memory_order_acquire); }
+  /// Blocks processed so far.
+  std::uint64_t blocks() const { return blocks_.load(std::memory_order_relaxed); }
+
+ private:
+  void run() noexcept;
+
+  Chain& chain_;
+  VirtualBackendOptions options_;
+  models::VirtualTransducer plant_;
+  std::vector<double> program_block_, drive_, measured_;
+  std::size_t program_pos_ = 0;
+  std::thread thread_;
+  std::atomic<bool> stop_{false};
+  std::atomic<bool> finished_{false};
+  std::atomic<std::uint64_t> blocks_{0};
+};
+
+}  // namespace panelbass::engine

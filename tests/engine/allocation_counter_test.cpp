@@ -1,0 +1,251 @@
+// The real-time rule, proven mechanically (NeuralAmpModelerCore's way): global operator new/delete and
+// the malloc family are replaced for the whole engine_tests executable and count while this thread has
+// set `counting`. The chain — band-pass, linear feedforward, NARX feedback in sensor mode, limiter, the
+// virtual plant in the loop — then processes blocks, takes over two new stages (warm-up, crossfade,
+// retirement), falls into and out of its safe bypass, and must neither allocate nor free.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <limits>
+#include <memory>
+#include <new>
+#include <vector>
+
+#include "engine/chain.h"
+#include "engine/closed_loop.h"
+#include "models/plant_presets.h"
+#include "models/virtual_transducer.h"
+#include "tests/engine/engine_test_models.h"
+
+namespace {
+
+thread_local bool counting = false;
+std::atomic<long> allocations{0};
+std::atomic<long> frees{0};
+
+void count_allocation() {
+  if (counting) allocations.fetch_add(1, std::memory_order_relaxed);
+}
+void count_free(void* p) {
+  if (counting && p != nullptr) frees.fetch_add(1, std::memory_order_relaxed);
+}
+
+}  // namespace
+
+#if defined(__SANITIZE_ADDRESS__)
+// AddressSanitizer owns malloc: count operator new/delete only, on top of its allocator.
+namespace {
+void* raw_malloc(std::size_t n) { return std::malloc(n); }
+void* raw_aligned(std::size_t align, std::size_t n) { return std::aligned_alloc(align, (n + align - 1) / align * align); }
+void raw_free(void* p) { std::free(p); }
+}  // namespace
+#else
+extern "C" {
+void* __libc_malloc(std::size_t);
+void* __libc_calloc(std::size_t, std::size_t);
+void* __libc_realloc(void*, std::size_t);
+void* __libc_memalign(std::size_t, std::size_t);
+void __libc_free(void*);
+}
+namespace {
+void* raw_malloc(std::size_t n) { return __libc_malloc(n); }
+void* raw_aligned(std::size_t align, std::size_t n) { return __libc_memalign(align, n); }
+void raw_free(void* p) { __libc_free(p); }
+}  // namespace
+
+// The malloc family, forwarded to glibc's implementation.
+extern "C" void* malloc(std::size_t n) noexcept {
+  count_allocation();
+  return __libc_malloc(n);
+}
+extern "C" void* calloc(std::size_t count, std::size_t n) noexcept {
+  count_allocation();
+  return __libc_calloc(count, n);
+}
+extern "C" void* realloc(void* p, std::size_t n) noexcept {
+  count_allocation();
+  return __libc_realloc(p, n);
+}
+extern "C" void* aligned_alloc(std::size_t align, std::size_t n) noexcept {
+  count_allocation();
+  return __libc_memalign(align, n);
+}
+extern "C" void* memalign(std::size_t align, std::size_t n) noexcept {
+  count_allocation();
+  return __libc_memalign(align, n);
+}
+extern "C" int posix_memalign(void** out, std::size_t align, std::size_t n) noexcept {
+  count_allocation();
+  *out = __libc_memalign(align, n);
+  return *out != nullptr ? 0 : 12;  // ENOMEM
+}
+extern "C" void free(void* p) noexcept {
+  count_free(p);
+  __libc_free(p);
+}
+#endif
+
+// operator new/delete in every form, counted; the raw allocation below is not counted again.
+namespace {
+void* counted_new(std::size_t n) {
+  count_allocation();
+  if (void* p = raw_malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void* counted_new(std::size_t n, std::align_val_t align) {
+  count_allocation();
+  if (void* p = raw_aligned(static_cast<std::size_t>(align), n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void counted_delete(void* p) noexcept {
+  count_free(p);
+  raw_free(p);
+}
+// A raw allocation inside counted_new must not count twice: the counting malloc above sees it too.
+struct Suspend {
+  bool was = counting;
+  Suspend() { counting = false; }
+  ~Suspend() { counting = was; }
+};
+}  // namespace
+
+void* operator new(std::size_t n) {
+  count_allocation();
+  Suspend s;
+  return counted_new(n);
+}
+void* operator new[](std::size_t n) {
+  count_allocation();
+  Suspend s;
+  return counted_new(n);
+}
+void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
+  count_allocation();
+  Suspend s;
+  return raw_malloc(n == 0 ? 1 : n);
+}
+void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
+  count_allocation();
+  Suspend s;
+  return raw_malloc(n == 0 ? 1 : n);
+}
+void* operator new(std::size_t n, std::align_val_t a) {
+  count_allocation();
+  Suspend s;
+  return counted_new(n, a);
+}
+void* operator new[](std::size_t n, std::align_val_t a) {
+  count_allocation();
+  Suspend s;
+  return counted_new(n, a);
+}
+void operator delete(void* p) noexcept { counted_delete(p); }
+void operator delete[](void* p) noexcept { counted_delete(p); }
+void operator delete(void* p, std::size_t) noexcept { counted_delete(p); }
+void operator delete[](void* p, std::size_t) noexcept { counted_delete(p); }
+void operator delete(void* p, std::align_val_t) noexcept { counted_delete(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { counted_delete(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { counted_delete(p); }
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { counted_delete(p); }
+void operator delete(void* p, const std::nothrow_t&) noexcept { counted_delete(p); }
+void operator delete[](void* p, const std::nothrow_t&) noexcept { counted_delete(p); }
+
+namespace panelbass::engine {
+namespace {
+
+/// Counts allocations and frees on this thread while it lives.
+struct Counting {
+  Counting() {
+    allocations = 0;
+    frees = 0;
+    counting = true;
+  }
+  ~Counting() { counting = false; }
+};
+
+// Keeps the compiler from proving a pointer unused.
+void* volatile sink = nullptr;
+
+TEST(AllocationCounter, SeesAllocationsAndFrees) {
+  long seen_allocations = 0, seen_frees = 0;
+  {
+    Counting c;
+    auto* v = new std::vector<double>(100);
+    sink = v;
+    delete v;
+    seen_allocations = allocations;
+    seen_frees = frees;
+  }
+  EXPECT_GE(seen_allocations, 2);
+  EXPECT_GE(seen_frees, 2);
+#if !defined(__SANITIZE_ADDRESS__)
+  void* (*volatile allocate)(std::size_t) = std::malloc;
+  {
+    Counting c;
+    sink = allocate(64);
+    seen_allocations = allocations;
+  }
+  std::free(sink);
+  EXPECT_EQ(seen_allocations, 1);
+#endif
+}
+
+TEST(AllocationCounter, TheChainProcessesSwapsAndFaultsWithoutAllocatingOrFreeing) {
+  ChainOptions options;
+  options.spec.max_block = 64;
+  options.slots = {Samples{48}, Samples{256}};
+  Chain chain(options);
+  chain.feedforward().set_initial(std::make_unique<LinearStage>(testing::example_linear()));
+  chain.feedback().set_initial(std::make_unique<NarxStage>(testing::example_narx(61), FeedbackSource::sensor));
+  models::VirtualTransducer plant(models::plant_preset("panel-exciter"), 3);
+  const Eigen::VectorXd program = testing::uniform(64 * 40, 0.5, 62);
+  std::vector<double> drive(64), measured(64);
+  int block = 0;
+  auto process = [&](int blocks) {
+    for (int b = 0; b < blocks; ++b, ++block) {
+      process_closed_loop(chain, plant, {program.data() + 64 * block, 64}, drive, measured);
+    }
+  };
+  process(8);  // warm: history filled, every lazily sized buffer sized
+
+  // Control side (may allocate): two new stages and a bypass.
+  chain.feedforward().install(std::make_unique<LinearStage>(testing::resonant_linear(0.9, 0.3, Eigen::Vector2d(1, 0.5), 1)));
+  chain.feedback().install(std::make_unique<NarxStage>(testing::example_narx(63), FeedbackSource::sensor));
+  long after_swaps = 0, frees_after_swaps = 0;
+  {
+    Counting c;
+    process(4);  // take-over, warm-up from history, crossfade, retirement
+    chain.band_pass().set_bypassed(true);
+    process(2);
+    chain.band_pass().set_bypassed(false);
+    process(2);
+    after_swaps = allocations;
+    frees_after_swaps = frees;
+  }
+  EXPECT_EQ(after_swaps, 0);
+  EXPECT_EQ(frees_after_swaps, 0);
+  EXPECT_EQ(chain.metrics().snapshot().swaps, 2u);
+  EXPECT_EQ(chain.collect_retired(), 2u);
+
+  // A fault and its clearing.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> bad(64, nan);
+  long during_fault = 0, frees_during_fault = 0;
+  {
+    Counting c;
+    process_closed_loop(chain, plant, bad, drive, measured);
+    process(2);
+    chain.clear_fault();
+    process(2);
+    during_fault = allocations;
+    frees_during_fault = frees;
+  }
+  EXPECT_EQ(during_fault, 0);
+  EXPECT_EQ(frees_during_fault, 0);
+  EXPECT_EQ(chain.metrics().snapshot().faults, 1u);
+  EXPECT_FALSE(chain.in_fault());
+}
+
+}  // namespace
+}  // namespace panelbass::engine

@@ -1,0 +1,113 @@
+// Stages against independent evaluations: the band-pass against a directly designed SosFilter, the
+// linear stage against LinearModel::simulate, the NARX stage against NarxModel::simulate (model mode)
+// and NarxModel::predict (sensor mode), and warm-up against an uninterrupted run.
+#include "engine/stage.h"
+
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+
+#include "dsp/butterworth.h"
+#include "tests/engine/engine_test_models.h"
+
+namespace panelbass::engine {
+namespace {
+
+using testing::kFs;
+
+// out[k] = stage.process(u[k]), observing measured[k] after each sample when given.
+Eigen::VectorXd run(Stage& stage, const Eigen::VectorXd& u, const Eigen::VectorXd& measured = {}) {
+  Eigen::VectorXd y(u.size());
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    y[k] = stage.process(u[k]);
+    if (measured.size() > 0) stage.observe(measured[k]);
+  }
+  return y;
+}
+
+TEST(BandPassStage, EqualsTheButterworthSosFilterDesignedDirectly) {
+  const Eigen::VectorXd u = testing::uniform(2000, 1.0, 1);
+  BandPassStage stage;
+  stage.prepare({kFs, 64});
+  // The default corners: 20–1200 Hz, second order each side, at the model rate.
+  dsp::SosFilter reference(dsp::butterworth_bandpass(2, 20.0, 1200.0, kFs));
+  EXPECT_EQ((run(stage, u) - reference.process(u)).cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(BandPassStage, TakesItsCornersAndOrderFromTheDesign) {
+  const Eigen::VectorXd u = testing::uniform(1000, 1.0, 2);
+  BandPassStage stage({Hertz{50.0}, Hertz{400.0}, 3});
+  stage.prepare({kFs, 64});
+  dsp::SosFilter reference(dsp::butterworth_bandpass(3, 50.0, 400.0, kFs));
+  EXPECT_EQ((run(stage, u) - reference.process(u)).cwiseAbs().maxCoeff(), 0.0);
+  stage.reset();
+  reference.reset();
+  EXPECT_EQ(stage.process(1.0), reference.process(1.0));
+}
+
+TEST(BandPassStage, RejectsACornerAboveNyquist) {
+  BandPassStage stage({Hertz{20.0}, Hertz{1600.0}, 2});
+  EXPECT_THROW(stage.prepare({kFs, 64}), std::invalid_argument);
+}
+
+TEST(LinearStage, EqualsLinearModelSimulateInRawUnits) {
+  const models::LinearModel m = testing::example_linear();
+  const Eigen::VectorXd u = testing::uniform(3000, 0.5, 3);
+  LinearStage stage(m);
+  stage.prepare({kFs, 64});
+  const Eigen::VectorXd expected = m.simulate(u);
+  EXPECT_LE((run(stage, u) - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
+}
+
+TEST(LinearStage, RefusesAChainAtAnotherRate) {
+  LinearStage stage(testing::example_linear());
+  try {
+    stage.prepare({48000.0, 64});
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("3000"), std::string::npos) << e.what();
+  }
+}
+
+TEST(NarxStage, ModelModeEqualsNarxModelSimulate) {
+  const models::NarxModel m = testing::example_narx(3);
+  const Eigen::VectorXd u = testing::uniform(2000, 1.0, 4);
+  NarxStage stage(m, FeedbackSource::model);
+  stage.prepare({kFs, 64});
+  const Eigen::VectorXd expected = m.simulate(u);
+  EXPECT_LE((run(stage, u) - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
+}
+
+TEST(NarxStage, SensorModeEqualsNarxModelPredictFromTheMeasuredOutputs) {
+  const models::NarxModel m = testing::example_narx(5);
+  const Eigen::VectorXd u = testing::uniform(2000, 1.0, 6);
+  const Eigen::VectorXd measured = testing::uniform(2000, 0.5, 7);
+  NarxStage stage(m, FeedbackSource::sensor);
+  stage.prepare({kFs, 64});
+  const Eigen::VectorXd expected = m.predict(u, measured);
+  EXPECT_LE((run(stage, u, measured) - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
+}
+
+TEST(Stage, WarmUpFromRecentHistoryContinuesAnUninterruptedRun) {
+  const models::LinearModel m = testing::example_linear();
+  const Eigen::VectorXd u = testing::uniform(1200, 0.5, 8);
+  const Eigen::VectorXd zeros = Eigen::VectorXd::Zero(u.size());
+  LinearStage all_along(m), warmed(m);
+  all_along.prepare({kFs, 64});
+  warmed.prepare({kFs, 64});
+  const Eigen::VectorXd expected = run(all_along, u);
+  // 700 samples of history: the slowest pole (0.95) has forgotten the start by 0.95^700 ≈ 3e-16.
+  const double last = warmed.warm_up({u.data() + 300, 700}, {zeros.data() + 300, 700});
+  EXPECT_NEAR(last, expected[999], 1e-12);
+  const Eigen::VectorXd rest = run(warmed, u.tail(200));
+  EXPECT_LE((rest - expected.tail(200)).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(PassThroughStage, ReturnsItsInput) {
+  PassThroughStage stage;
+  stage.prepare({kFs, 64});
+  EXPECT_EQ(stage.process(0.25), 0.25);
+}
+
+}  // namespace
+}  // namespace panelbass::engine
