@@ -37,7 +37,9 @@ void count_free(void* p) {
 // AddressSanitizer owns malloc: count operator new/delete only, on top of its allocator.
 namespace {
 void* raw_malloc(std::size_t n) { return std::malloc(n); }
-void* raw_aligned(std::size_t align, std::size_t n) { return std::aligned_alloc(align, (n + align - 1) / align * align); }
+void* raw_aligned(std::size_t align, std::size_t n) {
+  return std::aligned_alloc(align, (n + align - 1) / align * align);
+}
 void raw_free(void* p) { std::free(p); }
 }  // namespace
 #else
@@ -86,7 +88,7 @@ extern "C" void free(void* p) noexcept {
 }
 #endif
 
-// operator new/delete in every form, counted; the raw allocation below is not counted again.
+// operator new/delete in every form, counted once each (the raw allocators below do not count).
 namespace {
 void* counted_new(std::size_t n) {
   count_allocation();
@@ -98,48 +100,22 @@ void* counted_new(std::size_t n, std::align_val_t align) {
   if (void* p = raw_aligned(static_cast<std::size_t>(align), n == 0 ? 1 : n)) return p;
   throw std::bad_alloc();
 }
+void* counted_new_nothrow(std::size_t n) noexcept {
+  count_allocation();
+  return raw_malloc(n == 0 ? 1 : n);
+}
 void counted_delete(void* p) noexcept {
   count_free(p);
   raw_free(p);
 }
-// A raw allocation inside counted_new must not count twice: the counting malloc above sees it too.
-struct Suspend {
-  bool was = counting;
-  Suspend() { counting = false; }
-  ~Suspend() { counting = was; }
-};
 }  // namespace
 
-void* operator new(std::size_t n) {
-  count_allocation();
-  Suspend s;
-  return counted_new(n);
-}
-void* operator new[](std::size_t n) {
-  count_allocation();
-  Suspend s;
-  return counted_new(n);
-}
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  count_allocation();
-  Suspend s;
-  return raw_malloc(n == 0 ? 1 : n);
-}
-void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
-  count_allocation();
-  Suspend s;
-  return raw_malloc(n == 0 ? 1 : n);
-}
-void* operator new(std::size_t n, std::align_val_t a) {
-  count_allocation();
-  Suspend s;
-  return counted_new(n, a);
-}
-void* operator new[](std::size_t n, std::align_val_t a) {
-  count_allocation();
-  Suspend s;
-  return counted_new(n, a);
-}
+void* operator new(std::size_t n) { return counted_new(n); }
+void* operator new[](std::size_t n) { return counted_new(n); }
+void* operator new(std::size_t n, const std::nothrow_t&) noexcept { return counted_new_nothrow(n); }
+void* operator new[](std::size_t n, const std::nothrow_t&) noexcept { return counted_new_nothrow(n); }
+void* operator new(std::size_t n, std::align_val_t a) { return counted_new(n, a); }
+void* operator new[](std::size_t n, std::align_val_t a) { return counted_new(n, a); }
 void operator delete(void* p) noexcept { counted_delete(p); }
 void operator delete[](void* p) noexcept { counted_delete(p); }
 void operator delete(void* p, std::size_t) noexcept { counted_delete(p); }
@@ -210,7 +186,8 @@ TEST(AllocationCounter, TheChainProcessesSwapsAndFaultsWithoutAllocatingOrFreein
   process(8);  // warm: history filled, every lazily sized buffer sized
 
   // Control side (may allocate): two new stages and a bypass.
-  chain.feedforward().install(std::make_unique<LinearStage>(testing::resonant_linear(0.9, 0.3, Eigen::Vector2d(1, 0.5), 1)));
+  const models::LinearModel next_ff = testing::resonant_linear(0.9, 0.3, Eigen::Vector2d(1, 0.5), 1);
+  chain.feedforward().install(std::make_unique<LinearStage>(next_ff));
   chain.feedback().install(std::make_unique<NarxStage>(testing::example_narx(63), FeedbackSource::sensor));
   long after_swaps = 0, frees_after_swaps = 0;
   {

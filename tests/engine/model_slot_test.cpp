@@ -50,7 +50,9 @@ TEST(ModelSlot, TakesOverOnlyAtABlockBoundaryThenCrossfadesLinearly) {
   int k = 0;
   slot.begin_block();
   for (; k < 10; ++k) EXPECT_EQ(slot.process(x(k)), x(k));
-  slot.install(std::make_unique<GainStage>(2.0));
+  auto doubling = std::make_unique<GainStage>(2.0);
+  doubling->set_id(7);
+  slot.install(std::move(doubling));
   for (; k < 13; ++k) EXPECT_EQ(slot.process(x(k)), x(k)) << "taken over before the block boundary";
   EXPECT_FALSE(slot.idle());
   slot.begin_block();
@@ -59,6 +61,7 @@ TEST(ModelSlot, TakesOverOnlyAtABlockBoundaryThenCrossfadesLinearly) {
   EXPECT_TRUE(slot.idle());
   EXPECT_EQ(slot.process(x(k)), 2.0 * x(k));
   EXPECT_EQ(metrics.snapshot().swaps, 1u);
+  EXPECT_EQ(metrics.snapshot().active_ids[1], 7u);
 }
 
 TEST(ModelSlot, AFadeWithNoStepToHideBehindRunsAtAQuarterOfItsSpeed) {
