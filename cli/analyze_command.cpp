@@ -94,13 +94,7 @@ const nlohmann::json& meta_of(const models::AnyModel& model) {
 
 void run_analyze(const AnalyzeOptions& o) {
   const models::AnyModel model = models::load_model(o.model);
-  DataOptions columns = o.columns;
-  if (!(columns.fs > 0.0)) columns.fs = model.fs();  // a CSV recorded at the model's rate needs no --fs
-  const dsp::Record data = columns.read(o.data);
-  if (std::abs(data.fs - model.fs()) > 1e-9 * model.fs()) {
-    throw std::invalid_argument(o.data + ": sample rate " + std::to_string(data.fs) + " Hz differs from the model's " +
-                                std::to_string(model.fs()) + " Hz");
-  }
+  const dsp::Record data = o.columns.read_at_model_rate(o.data, model.fs());
   if (o.init >= static_cast<long>(data.samples())) {
     throw std::invalid_argument("--init " + std::to_string(o.init) + " is not shorter than the data");
   }

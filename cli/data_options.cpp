@@ -1,5 +1,8 @@
 #include "cli/data_options.h"
 
+#include <cmath>
+#include <string>
+
 #include "dsp/data_error.h"
 #include "dsp/data_file.h"
 
@@ -15,6 +18,17 @@ dsp::Record DataOptions::read(const std::string& path, std::size_t min_samples) 
   dsp::Record r = dsp::read_data_file(path, {input_col, output_col}, fs, min_samples);
   if (!(r.fs > 0.0)) throw dsp::DataError(path + ": sample rate unknown; give --fs HZ");
   return r;
+}
+
+dsp::Record DataOptions::read_at_model_rate(const std::string& path, double model_fs) const {
+  DataOptions at_rate = *this;
+  if (!(at_rate.fs > 0.0)) at_rate.fs = model_fs;  // a CSV recorded at the model's rate needs no --fs
+  dsp::Record data = at_rate.read(path);
+  if (std::abs(data.fs - model_fs) > 1e-9 * model_fs) {
+    throw dsp::DataError(path + ": sample rate " + std::to_string(data.fs) + " Hz differs from the model's " +
+                         std::to_string(model_fs) + " Hz");
+  }
+  return data;
 }
 
 }  // namespace panelbass::cli

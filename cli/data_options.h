@@ -20,6 +20,10 @@ struct DataOptions {
   /// Reads the input and output columns of `path`; throws DataError (naming the file) if the sample rate
   /// is unknown or the file is bad; `min_samples` rows are required.
   dsp::Record read(const std::string& path, std::size_t min_samples = 10) const;
+
+  /// Reads `path` for a model identified at `model_fs`: a CSV without --fs is taken at that rate, and
+  /// any other rate is an error naming both.
+  dsp::Record read_at_model_rate(const std::string& path, double model_fs) const;
 };
 
 }  // namespace panelbass::cli

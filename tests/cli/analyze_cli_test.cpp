@@ -22,12 +22,7 @@ class CliAnalyze : public CliTest {
  protected:
   void SetUp() override {
     expect_result(run("simulate --samples 6000 --seed 5 --out " + quoted(dir_ / "all.csv")));
-    const std::string text = text_of(dir_ / "all.csv");
-    std::size_t pos = text.find('\n') + 1;
-    const std::string header = text.substr(0, pos);
-    for (int row = 0; row < 4000; ++row) pos = text.find('\n', pos) + 1;
-    file("est.csv", text.substr(0, pos));
-    file("val.csv", header + text.substr(pos));
+    split_csv(dir_ / "all.csv", 4000);
     expect_result(run("identify linear --data " + quoted(dir_ / "est.csv") +
                       " --fs 3000 --method oe --order 8 --out " + quoted(dir_ / "lin.json")));
   }

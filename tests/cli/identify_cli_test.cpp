@@ -18,12 +18,7 @@ class CliIdentifyData : public CliTest {
   /// 6000 samples of the panel exciter: rows 0..4000 to estimate, the rest to validate.
   void SetUp() override {
     expect_result(run("simulate --samples 6000 --seed 5 --out " + quoted(dir_ / "all.csv")));
-    const std::string text = text_of(dir_ / "all.csv");
-    std::size_t pos = text.find('\n') + 1;
-    const std::string header = text.substr(0, pos);
-    for (int row = 0; row < 4000; ++row) pos = text.find('\n', pos) + 1;
-    file("est.csv", text.substr(0, pos));
-    file("val.csv", header + text.substr(pos));
+    split_csv(dir_ / "all.csv", 4000);
   }
   std::string est() const { return quoted(dir_ / "est.csv"); }
   std::string val() const { return quoted(dir_ / "val.csv"); }

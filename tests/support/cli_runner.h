@@ -54,6 +54,17 @@ class CliTest : public ScratchDirectoryTest {
     return r;
   }
 
+  /// Splits the CSV `all` (header + rows) into `est.csv` (its first `rows` rows) and `val.csv` (the
+  /// rest, with the header) in the test directory.
+  void split_csv(const fs::path& all, int rows) const {
+    const std::string text = text_of(all);
+    std::size_t pos = text.find('\n') + 1;
+    const std::string header = text.substr(0, pos);
+    for (int row = 0; row < rows; ++row) pos = text.find('\n', pos) + 1;
+    file("est.csv", text.substr(0, pos));
+    file("val.csv", header + text.substr(pos));
+  }
+
   int runs_ = 0;
 };
 
