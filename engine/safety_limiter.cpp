@@ -6,15 +6,6 @@
 
 namespace panelbass::engine {
 
-double soft_limit(double v, double knee) noexcept {
-  if (!std::isfinite(v)) return 0.0;
-  const double magnitude = std::abs(v);
-  if (magnitude <= knee) return v;
-  const double room = 1.0 - knee;
-  // tanh reaches exactly 1.0 in double precision for large arguments: the result stays within [−1, 1]
-  return std::copysign(knee + room * std::tanh((magnitude - knee) / room), v);
-}
-
 SafetyLimiter::SafetyLimiter(const LimiterOptions& options) : options_(options) {
   if (!(options.knee >= 0.0 && options.knee < 1.0)) {
     throw std::invalid_argument("safety limiter: knee must be within [0, 1), got " + std::to_string(options.knee));

@@ -2,6 +2,7 @@
 // The safety limiter at the end of the chain: the drive never leaves [−1, 1] (the model's valid range),
 // and a non-finite or runaway controller output is reported so the chain can drop to its safe bypass.
 
+#include "dsp/soft_limit.h"
 #include "engine/metrics.h"
 #include "engine/stage.h"
 
@@ -14,9 +15,8 @@ struct LimiterOptions {
   Samples max_pinned{300};  ///< consecutive pinned samples tolerated (0.1 s at 3000 Hz)
 };
 
-/// The soft limiter: v for |v| ≤ knee, else sign(v)·(knee + (1 − knee)·tanh((|v| − knee)/(1 − knee))),
-/// continuous with slope ≤ 1 and within [−1, 1] for every finite v; 0 for a non-finite v.
-double soft_limit(double v, double knee) noexcept;
+/// The soft limiter of dsp/soft_limit.h, in the engine's namespace.
+using dsp::soft_limit;
 
 /// soft_limit() plus the watch for non-finite values and a drive pinned at the rails.
 class SafetyLimiter {

@@ -9,6 +9,7 @@
 #include "dsp/random.h"
 #include "models/config_error.h"
 #include "models/json_fields.h"
+#include "models/network_fields.h"
 
 namespace panelbass::models {
 namespace {
@@ -19,9 +20,6 @@ constexpr const char* kKind = "narx";
 constexpr long kMaxInputs = 1000;
 // An input delay beyond a minute at 384 kHz is a corrupt file, not a model.
 constexpr long kMaxDelay = 384000L * 60L;
-// Widths and depths beyond these are a corrupt file; they also keep P from overflowing.
-constexpr long kMaxWidth = 100000;
-constexpr std::size_t kMaxLayers = 100;
 // The bounded free run of the loader: samples, seed and bound (scaled units).
 constexpr Eigen::Index kFreeRunSamples = 2000;
 constexpr std::uint64_t kFreeRunSeed = 20240501;
@@ -63,70 +61,10 @@ void check_network(const NarxModel& m, const std::string& where) {
   }
 }
 
-nlohmann::json to_array(const Eigen::VectorXd& x) {
-  nlohmann::json a = nlohmann::json::array();
-  for (Eigen::Index i = 0; i < x.size(); ++i) a.push_back(x[i]);
-  return a;
-}
-
 // A required non-negative integer of `params`.
 int read_order(JsonFields& params, const char* key, long hi) {
   if (params.member(key) == nullptr) throw ConfigError(params.path_of(key) + ": missing");
   return static_cast<int>(params.integer(key, 0, 0, hi));
-}
-
-// "hidden": a non-empty array of positive integers.
-std::vector<int> read_hidden(const nlohmann::json* v, const std::string& path) {
-  if (v == nullptr) throw ConfigError(path + ": missing");
-  if (!v->is_array()) throw ConfigError(path + ": expected an array of layer widths, got " + std::string(v->type_name()));
-  if (v->empty()) throw ConfigError(path + ": must name at least one hidden layer");
-  if (v->size() > kMaxLayers) {
-    throw ConfigError(path + ": at most " + std::to_string(kMaxLayers) + " hidden layers, got " +
-                      std::to_string(v->size()));
-  }
-  std::vector<int> hidden;
-  for (std::size_t i = 0; i < v->size(); ++i) {
-    const nlohmann::json& e = (*v)[i];
-    const std::string where = path + "[" + std::to_string(i) + "]";
-    if (!e.is_number_integer()) throw ConfigError(where + ": expected a positive integer, got " + std::string(e.type_name()));
-    const long width = e.get<long>();
-    if (width < 1 || width > kMaxWidth) {
-      throw ConfigError(where + ": must be within [1, " + std::to_string(kMaxWidth) + "], got " + std::to_string(width));
-    }
-    hidden.push_back(static_cast<int>(width));
-  }
-  return hidden;
-}
-
-// P for an MLP of `inputs` inputs and `hidden` widths, computed before any allocation.
-std::int64_t parameter_count(int inputs, const std::vector<int>& hidden) {
-  std::int64_t count = 0;
-  std::int64_t previous = inputs;
-  for (int width : hidden) {
-    count += (previous + 1) * width;
-    previous = width;
-  }
-  return count + previous + 1;
-}
-
-// "theta": exactly P finite numbers.
-Eigen::VectorXd read_theta(const nlohmann::json* v, const std::string& path, std::int64_t expected) {
-  if (v == nullptr) throw ConfigError(path + ": missing");
-  if (!v->is_array()) throw ConfigError(path + ": expected an array of numbers, got " + std::string(v->type_name()));
-  if (static_cast<std::int64_t>(v->size()) != expected) {
-    throw ConfigError(path + ": expected " + std::to_string(expected) + " weights for this structure, got " +
-                      std::to_string(v->size()));
-  }
-  Eigen::VectorXd theta(static_cast<Eigen::Index>(expected));
-  for (std::size_t i = 0; i < v->size(); ++i) {
-    const nlohmann::json& e = (*v)[i];
-    const std::string where = path + "[" + std::to_string(i) + "]";
-    if (!e.is_number()) throw ConfigError(where + ": expected a number, got " + std::string(e.type_name()));
-    const double d = e.get<double>();
-    if (!std::isfinite(d)) throw ConfigError(where + ": not finite");
-    theta[static_cast<Eigen::Index>(i)] = d;
-  }
-  return theta;
 }
 
 // The loader's stability test: a free run on full-scale uniform noise (scaled units) must stay bounded.

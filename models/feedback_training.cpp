@@ -1,0 +1,243 @@
+#include "models/feedback_training.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "dsp/soft_limit.h"
+
+namespace panelbass::models {
+namespace {
+
+void require_data(const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired, Eigen::Index skip, const char* which) {
+  const std::string where = std::string("train_feedback: ") + which;
+  if (u.size() != y_desired.size()) {
+    throw std::invalid_argument(where + " u has " + std::to_string(u.size()) + " samples, y_desired " +
+                                std::to_string(y_desired.size()));
+  }
+  if (u.size() <= skip) {
+    throw std::invalid_argument(where + " data has " + std::to_string(u.size()) +
+                                " samples, not more than the transient skip " + std::to_string(skip));
+  }
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    if (!std::isfinite(u[k]) || !std::isfinite(y_desired[k])) {
+      throw std::invalid_argument(where + " data is not finite at sample " + std::to_string(k));
+    }
+  }
+}
+
+/// One pass of the loop over a record: the outputs, the loss, and (when asked) the Gauss–Newton normal
+/// equations g = Σ r·∂r/∂θ, H = Σ ∂r/∂θ·∂r/∂θᵀ over the residuals r = e and √λ·p.
+struct LoopSweep {
+  const NeuralFeedback& c;
+  Eigen::VectorXd v, v_scaled, y_scaled;
+  Eigen::MatrixXd Dv, Dy;  // P×N: dv(k)/dθ and dŷ_s(k)/dθ
+  Mlp::Workspace ws, plant_ws;
+  Eigen::VectorXd r, dr, dtheta, x, dx, plant_dtheta, ds;
+
+  LoopSweep(const NeuralFeedback& controller, Eigen::Index n)
+      : c(controller), v(n), v_scaled(n), y_scaled(n), ws(controller.net.workspace()),
+        plant_ws(controller.plant.net.workspace()), r(controller.structure.inputs()),
+        dr(controller.structure.inputs()), dtheta(controller.net.parameter_count()),
+        x(controller.plant.structure.inputs()), dx(controller.plant.structure.inputs()),
+        plant_dtheta(controller.plant.net.parameter_count()), ds(controller.net.parameter_count()) {}
+
+  /// Runs the loop on `u`; returns V. With `g`/`H`, also the normal equations (normalised like V).
+  double run(const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired, double lambda, Eigen::Index skip,
+             Eigen::VectorXd* g, Eigen::MatrixXd* H) {
+    const Eigen::Index n = u.size();
+    const Eigen::Index P = c.net.parameter_count();
+    const FeedbackStructure& s = c.structure;
+    const NarxStructure& ps = c.plant.structure;
+    const Scaling& sc = c.plant.scaling;
+    const bool jacobian = g != nullptr;
+    if (jacobian) {
+      Dv.setZero(P, n);
+      Dy.setZero(P, n);
+      g->setZero(P);
+      H->setZero(P, P);
+    }
+    const double sqrt_lambda = std::sqrt(lambda);
+    double sum = 0.0;
+    for (Eigen::Index k = 0; k < n; ++k) {
+      // the controller: s(k) = u(k) + N1(r(k)), v(k) = soft_limit(s(k))
+      c.regressor(u, v, y_scaled, k, r);
+      const double s_k = u[k] + c.net.forward(r, ws);
+      v[k] = dsp::soft_limit(s_k, c.knee);
+      v_scaled[k] = (v[k] - sc.u_offset) / sc.u_scale;
+      if (jacobian) {
+        c.net.backward(ws, dtheta, dr);
+        // Appendix 3 [2]: dv/dθ1 = ∂N1/∂θ1 + ∂N1/∂v·W1(z⁻¹)·dv/dθ1 + ∂N1/∂y·W3(z⁻¹)·dy/dθ1 (times the limit's slope)
+        ds = dtheta;
+        for (Eigen::Index i = 1; i <= s.nv && k - i >= 0; ++i) ds.noalias() += dr[s.nu + i] * Dv.col(k - i);
+        for (Eigen::Index i = 1; i <= s.ny && k - i >= 0; ++i) ds.noalias() += dr[s.nu + s.nv + i] * Dy.col(k - i);
+        Dv.col(k) = dsp::soft_limit_slope(s_k, c.knee) * ds;
+      }
+      // the plant model: ŷ(k) = N2(ŷ(k−1..k−na), v(k−nk..k−nk−nb))
+      c.plant.regressor(v_scaled, y_scaled, k, x);
+      y_scaled[k] = c.plant.net.forward(x, plant_ws);
+      if (jacobian) {
+        c.plant.net.backward(plant_ws, plant_dtheta, dx);
+        // Appendix 3 [1]: dy/dθ1 = ∂N2/∂y·W(z⁻¹)·dy/dθ1 + ∂N2/∂v·dv/dθ1 (the closed-loop form of [5L])
+        auto dy = Dy.col(k);
+        for (Eigen::Index i = 1; i <= ps.na && k - i >= 0; ++i) dy.noalias() += dx[i - 1] * Dy.col(k - i);
+        for (Eigen::Index j = 0; j <= ps.nb && k - ps.nk - j >= 0; ++j) {
+          dy.noalias() += (dx[ps.na + j] / sc.u_scale) * Dv.col(k - ps.nk - j);
+        }
+      }
+      if (k < skip) continue;
+      const double e = y_scaled[k] - y_desired[k] / sc.y_scale;
+      const double over = std::abs(s_k) - c.knee;
+      const double p = over > 0.0 ? sqrt_lambda * over : 0.0;
+      sum += e * e + p * p;
+      if (jacobian) {
+        g->noalias() += e * Dy.col(k);
+        if (p > 0.0) {
+          const double sign = s_k > 0.0 ? sqrt_lambda : -sqrt_lambda;
+          g->noalias() += (p * sign) * ds;
+          H->selfadjointView<Eigen::Lower>().rankUpdate(ds, sign * sign);
+        }
+      }
+    }
+    const double count = static_cast<double>(n - skip);
+    if (jacobian) {
+      // H += Σ ψψᵀ over the tracking residuals, as one product of the stored sensitivities
+      const auto psi = Dy.rightCols(n - skip);
+      H->selfadjointView<Eigen::Lower>().rankUpdate(psi);
+      *H = H->selfadjointView<Eigen::Lower>();
+      *g /= count;
+      *H /= count;
+    }
+    return sum / (2.0 * count);
+  }
+
+  /// [2C] J_c of the last run, percent.
+  double jc(const Eigen::VectorXd& y_desired, Eigen::Index skip) const {
+    return jc_percent(y_scaled, y_desired / c.plant.scaling.y_scale, skip);
+  }
+
+  /// Share of samples k ≥ skip whose unlimited output was above the knee in the last run.
+  double rail_fraction(Eigen::Index skip) const {
+    Eigen::Index count = 0;
+    for (Eigen::Index k = skip; k < v.size(); ++k) count += std::abs(v[k]) > c.knee ? 1 : 0;
+    return static_cast<double>(count) / static_cast<double>(v.size() - skip);
+  }
+};
+
+}  // namespace
+
+double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Eigen::Index skip) {
+  if (y.size() != y_desired.size()) {
+    throw std::invalid_argument("jc_percent: y has " + std::to_string(y.size()) + " samples, y_desired " +
+                                std::to_string(y_desired.size()));
+  }
+  const Eigen::Index n = y.size() - skip;
+  if (n <= 0) throw std::invalid_argument("jc_percent: nothing left after the skip of " + std::to_string(skip));
+  const double energy = y_desired.tail(n).squaredNorm();
+  if (!(energy > 0.0)) throw std::invalid_argument("jc_percent: the desired output is zero");
+  // [2C] J_c = Σ (y_desired − y_system)² / Σ y_desired²
+  return 100.0 * (y_desired.tail(n) - y.tail(n)).squaredNorm() / energy;
+}
+
+void initialize_feedback(NeuralFeedback& controller, std::uint64_t seed, double output_scale) {
+  controller.net.initialize(1.0, seed);
+  const int last = controller.structure.hidden.back();
+  controller.net.parameters().tail(last + 1) *= output_scale;
+}
+
+double feedback_loss(const NeuralFeedback& controller, const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired,
+                     double rail_penalty, Eigen::Index skip) {
+  require_data(u, y_desired, skip, "");
+  LoopSweep sweep(controller, u.size());
+  return sweep.run(u, y_desired, rail_penalty, skip, nullptr, nullptr);
+}
+
+Eigen::VectorXd feedback_gradient(const NeuralFeedback& controller, const Eigen::VectorXd& u,
+                                  const Eigen::VectorXd& y_desired, double rail_penalty, Eigen::Index skip) {
+  require_data(u, y_desired, skip, "");
+  LoopSweep sweep(controller, u.size());
+  Eigen::VectorXd g;
+  Eigen::MatrixXd H;
+  sweep.run(u, y_desired, rail_penalty, skip, &g, &H);
+  return g;
+}
+
+FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen::VectorXd& u_est,
+                                      const Eigen::VectorXd& y_desired_est, const Eigen::VectorXd& u_val,
+                                      const Eigen::VectorXd& y_desired_val, const FeedbackTrainingOptions& o) {
+  const Eigen::Index skip = o.transient_skip;
+  if (skip < 0) throw std::invalid_argument("train_feedback: transient_skip must be >= 0");
+  if (!(o.rail_penalty >= 0.0) || !std::isfinite(o.rail_penalty)) {
+    throw std::invalid_argument("train_feedback: rail_penalty must be finite and >= 0");
+  }
+  require_data(u_est, y_desired_est, skip, "estimation");
+  const bool has_validation = u_val.size() > 0;
+  if (has_validation) require_data(u_val, y_desired_val, skip, "validation");
+
+  FeedbackTrainingResult result{initial, {}, 0};
+  NeuralFeedback current = initial;
+  NeuralFeedback trial = initial;
+  LoopSweep est(current, u_est.size()), trial_sweep(trial, u_est.size());
+  LoopSweep val(current, has_validation ? u_val.size() : 0);
+  const auto record = [&](int iteration) {
+    FeedbackTrainingRecord r;
+    r.iteration = iteration;
+    est.run(u_est, y_desired_est, o.rail_penalty, skip, nullptr, nullptr);
+    r.jc_est_pct = est.jc(y_desired_est, skip);
+    r.rail_fraction = est.rail_fraction(skip);
+    r.jc_val_pct = std::numeric_limits<double>::quiet_NaN();
+    if (has_validation) {
+      val.run(u_val, y_desired_val, o.rail_penalty, skip, nullptr, nullptr);
+      r.jc_val_pct = val.jc(y_desired_val, skip);
+    }
+    result.history.push_back(r);
+    if (o.progress) o.progress(r);
+    return r;
+  };
+  const auto score = [&](const FeedbackTrainingRecord& r) { return has_validation ? r.jc_val_pct : r.jc_est_pct; };
+  double best = score(record(0));
+  int since_best = 0;
+  double mu = 1e-2;
+  Eigen::VectorXd g, delta;
+  Eigen::MatrixXd H, A;
+  for (int it = 1; it <= o.max_iterations; ++it) {
+    const double V = est.run(u_est, y_desired_est, o.rail_penalty, skip, &g, &H);
+    if (!std::isfinite(V) || !g.allFinite() || !H.allFinite()) break;
+    // Levenberg–Marquardt: (H + μ·diag(H)) δ = g, θ ← θ − δ if V decreases; μ ÷10 on success, ×10 on failure
+    const double floor = 1e-9 * std::max(H.diagonal().mean(), 1e-300);
+    bool improved = false;
+    for (int attempt = 0; attempt < 12 && !improved; ++attempt) {
+      A = H;
+      A.diagonal().array() += mu * (H.diagonal().array() + floor);
+      delta = A.ldlt().solve(g);
+      trial.net.parameters() = current.net.parameters() - delta;
+      const double V_new = delta.allFinite()
+                               ? trial_sweep.run(u_est, y_desired_est, o.rail_penalty, skip, nullptr, nullptr)
+                               : std::numeric_limits<double>::infinity();
+      if (std::isfinite(V_new) && V_new < V) {
+        current.net.parameters() = trial.net.parameters();
+        mu = std::max(mu / 10.0, 1e-10);
+        improved = true;
+      } else {
+        mu = std::min(mu * 10.0, 1e10);
+      }
+    }
+    if (!improved) break;
+    result.iterations = it;
+    const double s = score(record(it));
+    if (s < best || !o.early_stopping) {
+      best = std::min(best, s);
+      since_best = 0;
+      result.controller.net.parameters() = current.net.parameters();
+    } else if (++since_best >= o.patience) {
+      break;
+    }
+  }
+  if (!o.early_stopping) result.controller.net.parameters() = current.net.parameters();
+  return result;
+}
+
+}  // namespace panelbass::models

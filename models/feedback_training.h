@@ -1,0 +1,69 @@
+#pragma once
+// Training the neural feedback controller through the loop (fig. 7.10, Appendix 3): the controller N1
+// drives the NARX plant model N2, and θ1 is tuned so that the loop output tracks the desired output
+// (the linear model behind the LQ feedforward controller). Gradients by dynamic backpropagation through
+// both networks (exact, the closed-loop form of [5L]), Levenberg–Marquardt steps, early stopping on
+// validation data.
+//
+// The loss: V = 1/(2(N − skip))·Σ_{k≥skip} [e(k)² + λ·p(k)²], with the tracking error
+// e(k) = ŷ_s(k) − y_des(k)/y_scale (the plant model's scaled units) and the rail penalty
+// p(k) = max(0, |s(k)| − knee) on the unlimited controller output s (time spent in the soft limit,
+// i.e. near the rails).
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "models/neural_feedback.h"
+
+namespace panelbass::models {
+
+/// One iteration's figures.
+struct FeedbackTrainingRecord {
+  int iteration = 0;
+  double jc_est_pct = 0.0;     ///< [2C] J_c on the estimation data (plant model in the loop)
+  double jc_val_pct = 0.0;     ///< [2C] J_c on the validation data (NaN without)
+  double rail_fraction = 0.0;  ///< share of estimation samples with |s| above the knee
+};
+
+/// How training runs.
+struct FeedbackTrainingOptions {
+  int max_iterations = 40;         ///< LM iterations
+  double rail_penalty = 10.0;      ///< λ of the rail penalty
+  Eigen::Index transient_skip = 50;  ///< samples left out of the loss at the start
+  bool early_stopping = true;      ///< keep the parameters with the best validation J_c
+  int patience = 10;               ///< iterations without validation improvement before stopping
+  std::function<void(const FeedbackTrainingRecord&)> progress;  ///< called after every iteration
+};
+
+/// What training produced.
+struct FeedbackTrainingResult {
+  NeuralFeedback controller;                    ///< the kept parameters
+  std::vector<FeedbackTrainingRecord> history;  ///< record 0 = the start
+  int iterations = 0;
+};
+
+/// [2C] J_c = Σ (y_des − y)² / Σ y_des² in percent, over k ≥ skip.
+double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Eigen::Index skip = 0);
+
+/// Small random weights for N1 (Mlp::initialize with `seed`) with the output layer scaled down by
+/// `output_scale`, so the controller starts close to the identity but not at a symmetric saddle.
+void initialize_feedback(NeuralFeedback& controller, std::uint64_t seed, double output_scale = 0.01);
+
+/// The loss V above for feedforward output `u` (raw drive units) and desired output `y_desired` (raw).
+double feedback_loss(const NeuralFeedback& controller, const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired,
+                     double rail_penalty, Eigen::Index skip);
+
+/// dV/dθ1 by dynamic backpropagation through the loop (Appendix 3 [1]/[2]): forward sensitivities of v
+/// and ŷ, each the sum of the direct term and the terms through every fed-back past value.
+Eigen::VectorXd feedback_gradient(const NeuralFeedback& controller, const Eigen::VectorXd& u,
+                                  const Eigen::VectorXd& y_desired, double rail_penalty, Eigen::Index skip);
+
+/// Trains `initial` by Levenberg–Marquardt on the exact closed-loop Jacobian. Throws std::invalid_argument
+/// for mismatched lengths, non-finite data or records not longer than the skip.
+FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen::VectorXd& u_est,
+                                      const Eigen::VectorXd& y_desired_est, const Eigen::VectorXd& u_val,
+                                      const Eigen::VectorXd& y_desired_val, const FeedbackTrainingOptions& options);
+
+}  // namespace panelbass::models

@@ -1,0 +1,77 @@
+#pragma once
+// The thesis's linear controller (ch. 7): LQ state feedback on the linear model ([7A]) used as a
+// feedforward controller ([7B], fig. 7.2), with the largest program amplitude that keeps its output
+// within the model's valid range [−1, 1] behind a band-pass (fig. 7.8 and its table).
+//
+// Units: the design is done on the linear model's realisation in its scaled units (the thesis's units,
+// ch. 3); the controller's input u and output u* are in raw drive units (the model's input scale is
+// folded into B and L; offsets are left out, the controller acts on a zero-mean program).
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "dsp/biquad.h"
+#include "models/linear_model.h"
+#include "models/state_space.h"
+
+namespace panelbass::models {
+
+/// The weights of [7A]: V_c = Σ y(k)·R0·y(k) + u(k)·R·u(k), i.e. Q = Cᵀ·R0·C.
+struct LqWeights {
+  double R = 3.0;    ///< weight on the controller output u* (R > 0)
+  double R0 = 20.0;  ///< weight on the model output y (R0 ≥ 0)
+};
+
+/// The stabilising solution P of the discrete algebraic Riccati equation
+///   P = AᵀPA − AᵀPB·(R + BᵀPB)⁻¹·BᵀPA + Q
+/// (Q symmetric ≥ 0, R > 0). Throws std::invalid_argument for mismatched sizes, non-finite entries or a
+/// pair (A, B) that has no stabilising solution (naming which).
+Eigen::MatrixXd solve_dare(const Eigen::MatrixXd& A, const Eigen::VectorXd& B, const Eigen::MatrixXd& Q, double R);
+
+/// The optimal state feedback of [7A]: L = (R + BᵀPB)⁻¹·BᵀPA for the P of solve_dare().
+Eigen::RowVectorXd lq_gain(const Eigen::MatrixXd& A, const Eigen::VectorXd& B, const Eigen::MatrixXd& P, double R);
+
+/// An LQ feedforward controller designed on a linear model.
+struct LqFeedforward {
+  StateSpace plant;        ///< the linear model realised in raw units: u (drive) → y (raw output)
+  Eigen::RowVectorXd L;    ///< state feedback, raw drive units per state
+  LqWeights weights;       ///< the weights it was designed with
+  double fs = 0.0;         ///< sample rate, Hz
+  nlohmann::json meta = nlohmann::json::object();  ///< provenance (model file, band-pass, …)
+
+  /// [7B] u → u*:  x(k+1) = (A − BL)·x(k) + B·u(k),  u*(k) = −L·x(k) + u(k).
+  StateSpace controller() const;
+  /// [7B] u → y_lin: x(k+1) = (A − BL)·x(k) + B·u(k),  y_lin(k) = C·x(k) + D·u(k): the desired response.
+  StateSpace desired() const;
+  /// Poles of the controlled system: eigenvalues of A − BL.
+  Eigen::VectorXcd poles() const;
+  /// Finite zeros of the controller u*/u (the poles of the plant model, which it cancels).
+  Eigen::VectorXcd zeros() const;
+};
+
+/// Designs the controller of [7A]/[7B] on `model` (balanced realisation in scaled units, Q = Cᵀ·R0·C);
+/// throws std::invalid_argument for R ≤ 0, R0 < 0, non-finite weights or an unstable model.
+LqFeedforward design_lq(const LinearModel& model, const LqWeights& weights);
+
+/// The largest program amplitudes that keep u* within [−1, 1] behind `band_pass` (empty: none).
+struct InputLimits {
+  double worst = 0.0;  ///< for any input: 1 / ‖h‖₁, h the impulse response program → u*
+  double noise = 0.0;  ///< for uniform white noise: 1 / max|u*| over the record of unit-amplitude noise
+};
+
+/// The table after fig. 7.8: the worst case from the impulse response of band-pass · controller (summed
+/// until its tail is below 1e-12 of the sum, at most 10⁶ samples), and the band-limited white-noise case
+/// from `samples` samples of uniform noise in [−1, 1] drawn with `seed`.
+InputLimits max_input(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
+                      Eigen::Index samples = 100000, std::uint64_t seed = 1);
+
+/// {"format":"panelbass.model/1","kind":"lq_feedforward","fs",
+///  "params":{"A":[[…]],"B":[…],"C":[…],"D","L":[…],"R","R0"},"meta"}.
+nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff);
+/// Reads and validates an LQ feedforward object: shapes, finite entries, fs > 0 and a stable A − BL;
+/// ConfigError names the key ("model.params.L: 7 entries, A has 8 states").
+LqFeedforward lq_feedforward_from_json(const nlohmann::json& j);
+
+}  // namespace panelbass::models

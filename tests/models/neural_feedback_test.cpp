@@ -1,0 +1,169 @@
+// The neural feedback controller (fig. 7.10, Appendix 3): the closed loop, the per-sample runner, the
+// exact closed-loop gradient against finite differences, training against a plant whose exact inverse is
+// known, and the model file.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "dsp/random.h"
+#include "dsp/soft_limit.h"
+#include "models/config_error.h"
+#include "models/feedback_training.h"
+#include "models/neural_feedback.h"
+#include "tests/support/expect_error.h"
+
+namespace panelbass::models {
+namespace {
+
+constexpr double kEpsilon = 0.01;  // the "linear" node's input gain
+constexpr double kGain = 1.5;      // the saturating node's input gain
+
+// y(k) = (0.5/ε)·tanh(ε·y(k−1)) + tanh(1.5·v(k−1))/1.5 ≈ 0.5·y(k−1) + tanh(1.5·v(k−1))/1.5:
+// a first-order lag behind a saturation whose exact inverse is v = atanh(1.5·u)/1.5.
+NarxModel saturating_plant() {
+  NarxStructure s;
+  s.na = 1;
+  s.nb = 0;
+  s.nk = 1;
+  s.hidden = {2};
+  NarxModel m = NarxModel::with_structure(s, Scaling{}, 3000.0);
+  // layer 1: rows [ε, 0] and [0, 1.5], biases 0; output: [0.5/ε, 1/1.5], bias 0
+  Eigen::VectorXd theta(9);
+  theta << kEpsilon, 0.0, 0.0, kGain, 0.0, 0.0, 0.5 / kEpsilon, 1.0 / kGain, 0.0;
+  m.net.parameters() = theta;
+  return m;
+}
+
+// The desired response: the plant without its saturation, y(k) = 0.5·y(k−1) + u(k−1), as plain loops.
+Eigen::VectorXd desired_response(const Eigen::VectorXd& u) {
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(u.size());
+  for (Eigen::Index k = 1; k < u.size(); ++k) y[k] = 0.5 * y[k - 1] + u[k - 1];
+  return y;
+}
+
+Eigen::VectorXd uniform(Eigen::Index n, double amplitude, std::uint64_t seed) {
+  dsp::Rng rng(seed);
+  Eigen::VectorXd u(n);
+  for (Eigen::Index k = 0; k < n; ++k) u[k] = rng.uniform(-amplitude, amplitude);
+  return u;
+}
+
+FeedbackStructure small_structure() {
+  FeedbackStructure s;
+  s.nu = 2;
+  s.nv = 2;
+  s.ny = 2;
+  s.hidden = {6};
+  return s;
+}
+
+TEST(NeuralFeedbackTest, ZeroWeightsPassTheProgramThroughTheSoftLimit) {
+  const NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
+  const Eigen::VectorXd u = uniform(400, 1.2, 3);
+  const ClosedLoopRun run = simulate_closed_loop(c, u);
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    ASSERT_DOUBLE_EQ(run.v[k], dsp::soft_limit(u[k], c.knee)) << k;
+    ASSERT_LE(std::abs(run.v[k]), 1.0);
+  }
+  const Eigen::VectorXd y_open = c.plant.simulate(run.v);
+  EXPECT_LT((run.y - y_open).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(NeuralFeedbackTest, RunnerMatchesTheClosedLoopSimulation) {
+  NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
+  initialize_feedback(c, 7, 1.0);
+  const Eigen::VectorXd u = uniform(500, 0.6, 4);
+  const ClosedLoopRun run = simulate_closed_loop(c, u);
+  FeedbackRunner runner(c);
+  for (int pass = 0; pass < 2; ++pass) {  // the second pass checks reset()
+    for (Eigen::Index k = 0; k < u.size(); ++k) {
+      const double v = runner.control(u[k]);
+      const double y = runner.plant_model_output();
+      runner.push_output(y);
+      ASSERT_NEAR(v, run.v[k], 1e-12) << k;
+      ASSERT_NEAR(y, run.y[k], 1e-12) << k;
+    }
+    runner.reset();
+  }
+}
+
+TEST(NeuralFeedbackTest, ClosedLoopGradientMatchesFiniteDifferences) {
+  NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
+  initialize_feedback(c, 11, 1.0);
+  const Eigen::VectorXd u = uniform(600, 0.9, 5);  // loud enough that the rail penalty is active
+  const Eigen::VectorXd y_des = desired_response(u);
+  constexpr double kLambda = 10.0;
+  constexpr Eigen::Index kSkip = 20;
+  const ClosedLoopRun run = simulate_closed_loop(c, u);
+  ASSERT_GT((run.s.array().abs() > c.knee).count(), 10) << "the penalty must be exercised";
+  const Eigen::VectorXd g = feedback_gradient(c, u, y_des, kLambda, kSkip);
+  Eigen::VectorXd fd(g.size());
+  constexpr double h = 1e-6;
+  for (Eigen::Index i = 0; i < g.size(); ++i) {
+    NeuralFeedback plus = c, minus = c;
+    plus.net.parameters()[i] += h;
+    minus.net.parameters()[i] -= h;
+    fd[i] = (feedback_loss(plus, u, y_des, kLambda, kSkip) - feedback_loss(minus, u, y_des, kLambda, kSkip)) / (2 * h);
+  }
+  EXPECT_LT((g - fd).norm(), 1e-5 * fd.norm()) << "exact " << g.head(5).transpose() << "\nfd    " << fd.head(5).transpose();
+}
+
+TEST(NeuralFeedbackTest, TrainingLearnsTheInverseOfTheSaturation) {
+  NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
+  initialize_feedback(c, 1);
+  const Eigen::VectorXd u_est = uniform(3000, 0.4, 21), u_val = uniform(2000, 0.4, 22);
+  FeedbackTrainingOptions o;
+  o.max_iterations = 30;
+  const FeedbackTrainingResult r = train_feedback(c, u_est, desired_response(u_est), u_val, desired_response(u_val), o);
+  const double before = r.history.front().jc_val_pct;
+  const double after = jc_percent(simulate_closed_loop(r.controller, u_val).y, desired_response(u_val), o.transient_skip);
+  EXPECT_GT(before, 0.5) << "the saturation must matter at this level";
+  EXPECT_LT(after, before / 20.0) << "before " << before << " %, after " << after << " %";
+  // the learnt map is the plant's inverse: v ≈ atanh(1.5·u)/1.5 on the validation record
+  const ClosedLoopRun run = simulate_closed_loop(r.controller, u_val);
+  double worst = 0.0;
+  for (Eigen::Index k = 50; k < u_val.size(); ++k) {
+    worst = std::max(worst, std::abs(run.v[k] - std::atanh(kGain * u_val[k]) / kGain));
+  }
+  EXPECT_LT(worst, 0.02);
+}
+
+TEST(NeuralFeedbackTest, JcIsTheThesisRatio) {
+  Eigen::VectorXd d(4), y(4);
+  d << 1, -2, 2, 0;
+  y << 1, -1, 2, 1;
+  EXPECT_DOUBLE_EQ(jc_percent(y, d), 100.0 * 2.0 / 9.0);
+  EXPECT_DOUBLE_EQ(jc_percent(y, d, 2), 100.0 * 1.0 / 4.0);
+  testing_support::expect_invalid([&] { jc_percent(y, Eigen::VectorXd::Zero(4)); }, "zero");
+}
+
+TEST(NeuralFeedbackTest, ModelFileRoundTripsAndNamesWhatIsWrong) {
+  NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
+  initialize_feedback(c, 3, 1.0);
+  c.knee = 0.7;
+  const nlohmann::json j = neural_feedback_to_json(c);
+  const NeuralFeedback back = neural_feedback_from_json(j);
+  EXPECT_EQ(back.net.parameters(), c.net.parameters());
+  EXPECT_EQ(back.knee, 0.7);
+  EXPECT_EQ(back.structure.ny, 2);
+  EXPECT_EQ(back.plant.net.parameters(), c.plant.net.parameters());
+
+  const auto broken = [&](auto edit, const std::string& message) {
+    nlohmann::json b = j;
+    edit(b);
+    const std::string what = testing_support::one_line_error<ConfigError>([&] { neural_feedback_from_json(b); });
+    EXPECT_NE(what.find(message), std::string::npos) << what;
+  };
+  broken([](nlohmann::json& b) { b["kind"] = "narx"; }, "model.kind");
+  broken([](nlohmann::json& b) { b["params"]["theta"].erase(0); }, "model.params.theta");
+  broken([](nlohmann::json& b) { b["params"]["theta"][3] = "x"; }, "model.params.theta[3]");
+  broken([](nlohmann::json& b) { b["params"]["knee"] = 1.0; }, "model.params.knee");
+  broken([](nlohmann::json& b) { b["params"].erase("nv"); }, "model.params.nv");
+  broken([](nlohmann::json& b) { b["params"]["extra"] = 1; }, "extra");
+  broken([](nlohmann::json& b) { b.erase("plant"); }, "model.plant");
+  broken([](nlohmann::json& b) { b["plant"]["params"]["theta"][0] = nullptr; }, "model.plant.params.theta[0]");
+  broken([](nlohmann::json& b) { b["plant"]["fs"] = 48000.0; }, "model.plant.fs");
+}
+
+}  // namespace
+}  // namespace panelbass::models
