@@ -24,4 +24,22 @@ void register_plant(CLI::App& app);
 /// `panelbass analyze`: the Analysis report of a model on data (JSON, figures, HTML).
 void register_analyze(CLI::App& app);
 
+/// `panelbass render`: a WAV file through a chain file offline; with a plant, the transducer's output too.
+void register_render(CLI::App& app);
+
+/// `panelbass run`: a chain file on a live backend (virtual or ALSA) until interrupted; prints the metrics.
+void register_run(CLI::App& app);
+
+/// `panelbass design lq`: design a controller on an identified model (LQ feedforward, thesis ch. 7).
+void register_design(CLI::App& app);
+
+/// Adds `design nn` (the neural feedback controller) to the `design` verb `design`.
+void add_design_nn(CLI::App& design);
+
+/// `panelbass chain`: write the chain file the engine runs (band-pass, feedforward, feedback).
+void register_chain(CLI::App& app);
+
+/// `panelbass evaluate`: a chain on a simulated transducer — response ripple, THD and J_c per configuration.
+void register_evaluate(CLI::App& app);
+
 }  // namespace panelbass::cli

@@ -111,7 +111,7 @@ fs::path GnuplotFigure::render(const fs::path& dir, PlotFormat format) const {
   const fs::path script = dir / (name_ + ".gp");
   const fs::path log = dir / (name_ + ".log");
   std::ostringstream gp;
-  gp << "# " << name_ << ": written by panelbass analyze; run `gnuplot " << name_ << ".gp` in this folder to redraw.\n";
+  gp << "# " << name_ << ": written by panelbass; run `gnuplot " << name_ << ".gp` in this folder to redraw.\n";
   const std::string size = std::to_string(width_) + "," + std::to_string(height_);
   if (format == PlotFormat::png) {
     // pngcairo draws antialiased lines and UTF-8 text; the libgd png terminal is the fallback.

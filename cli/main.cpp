@@ -18,6 +18,11 @@ int main(int argc, char** argv) {
   panelbass::cli::register_validate(app);
   panelbass::cli::register_harmonics(app);
   panelbass::cli::register_analyze(app);
+  panelbass::cli::register_render(app);
+  panelbass::cli::register_run(app);
+  panelbass::cli::register_design(app);
+  panelbass::cli::register_chain(app);
+  panelbass::cli::register_evaluate(app);
 
   try {
     app.parse(argc, argv);

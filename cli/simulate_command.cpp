@@ -7,7 +7,10 @@
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
 #include "dsp/data_file.h"
+#include "cli/band_pass_option.h"
 #include "dsp/excitation.h"
+#include "models/feedback_design.h"
+#include "models/json_file.h"
 #include "models/plant_presets.h"
 #include "models/virtual_transducer.h"
 
@@ -30,6 +33,9 @@ struct SimulateOptions {
   std::vector<double> freqs;
   std::size_t settle = 600;
   std::size_t measure = 3000;
+  std::string ff;
+  std::string bandpass = "20,1200";
+  double sine_peak = 1.0;
   std::string out;
 };
 
@@ -44,6 +50,16 @@ Eigen::VectorXd make_excitation(const SimulateOptions& o, double fs) {
     spec.settle = o.settle;
     spec.measure = o.measure;
     return dsp::stepped_sine(spec).signal;
+  }
+  if (o.signal == "control") {
+    // The drive the feedforward chain produces for the controller design's program (noise + stepped sines)
+    if (o.ff.empty()) throw std::invalid_argument("--signal control needs --ff FF.json");
+    const models::LqFeedforward ff = models::lq_feedforward_from_json(models::read_json_file(o.ff));
+    if (std::abs(ff.fs - fs) > 1e-9 * fs) throw std::invalid_argument("--ff " + o.ff + ": designed at another rate than the plant's");
+    models::FeedbackDesignOptions design;
+    design.samples = static_cast<Eigen::Index>(o.samples);
+    design.sine_peak = o.sine_peak;
+    return models::control_record(ff, band_pass_sections(o.bandpass, 2, fs), design, o.seed).u;
   }
   if (o.signal == "noise") return dsp::uniform_noise(o.samples, o.amplitude, o.seed);
   if (o.signal == "gauss") return dsp::gaussian_noise(o.samples, o.amplitude, o.seed);
@@ -109,7 +125,7 @@ void register_simulate(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("simulate", "Drive the virtual transducer with an excitation and record it");
   cmd->add_option("--plant", o->plant, "Preset (panel-exciter, linear) or plant JSON file")->capture_default_str();
   cmd->add_option("--signal", o->signal, "Excitation")
-      ->check(CLI::IsMember({"noise", "gauss", "multisine", "sweep", "sine", "stepped"}))
+      ->check(CLI::IsMember({"noise", "gauss", "multisine", "sweep", "sine", "stepped", "control"}))
       ->capture_default_str();
   cmd->add_option("--amplitude", o->amplitude, "Peak drive, within (0, 1]")
       ->check(CLI::Range(1e-12, 1.0))
@@ -117,6 +133,11 @@ void register_simulate(CLI::App& app) {
   cmd->add_option("--samples", o->samples, "Number of samples (required but for --signal stepped)")
       ->check(CLI::Range(1, 100000000));
   cmd->add_option("--seed", o->seed, "Seed of the excitation")->capture_default_str();
+  cmd->add_option("--ff", o->ff, "--signal control: the LQ feedforward controller whose output drives the plant");
+  add_bandpass_option(cmd, o->bandpass, "--signal control: band-pass corners LO,HI in front of it, Hz");
+  cmd->add_option("--sine-peak", o->sine_peak, "--signal control: steady feedforward peak of the stepped sines")
+      ->check(CLI::Range(1e-6, 1.0))
+      ->capture_default_str();
   cmd->add_option("--noise-seed", o->noise_seed, "Seed of the sensor noise (default: seed + 1)")
       ->each([o](const std::string&) { o->noise_seed_given = true; });
   cmd->add_option("--freq", o->freq, "Frequency of --signal sine, Hz")->check(CLI::PositiveNumber);

@@ -37,7 +37,16 @@ double Stage::warm_up(std::span<const double> input, std::span<const double> mea
 BandPassStage::BandPassStage(BandPassDesign design) : design_(design) {}
 
 void BandPassStage::prepare(const ProcessSpec& spec) {
-  filter_ = dsp::SosFilter(dsp::butterworth_bandpass(design_.order, design_.low.value, design_.high.value, spec.fs));
+  const double low = design_.low.value;
+  const double high = design_.high.value;
+  if (!(low >= 0.0 && low < high && high < spec.fs / 2.0)) {
+    throw std::invalid_argument("band-pass: corners must satisfy 0 <= low < high < fs/2 = " +
+                                std::to_string(spec.fs / 2.0) + " Hz, got low = " + std::to_string(low) +
+                                " Hz, high = " + std::to_string(high) + " Hz");
+  }
+  // A low corner of 0 is the thesis's "0–1200 Hz" band-pass: the low-pass alone.
+  filter_ = dsp::SosFilter(low == 0.0 ? dsp::butterworth_lowpass(design_.order, high, spec.fs)
+                                      : dsp::butterworth_bandpass(design_.order, low, high, spec.fs));
 }
 
 LinearStage::LinearStage(models::LinearModel model) : model_(std::move(model)) {}

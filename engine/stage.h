@@ -80,7 +80,7 @@ class PassThroughStage final : public Stage {
 
 /// Corners and order of the band-pass.
 struct BandPassDesign {
-  Hertz low{20.0};     ///< high-pass corner (-3 dB)
+  Hertz low{20.0};     ///< high-pass corner (-3 dB); 0 = no high-pass (low-pass only, the thesis's "0–1200 Hz")
   Hertz high{1200.0};  ///< low-pass corner (-3 dB)
   int order = 2;       ///< order of each of the high-pass and the low-pass
 };
@@ -90,7 +90,7 @@ class BandPassStage final : public Stage {
  public:
   /// A band-pass of `design`, designed at the rate prepare() is given.
   explicit BandPassStage(BandPassDesign design = {});
-  /// Designs the sections at spec.fs; throws for corners outside (0, fs/2) or low ≥ high.
+  /// Designs the sections at spec.fs; throws unless 0 ≤ low < high < fs/2 (low = 0: low-pass only).
   void prepare(const ProcessSpec& spec) override;
   /// Filters one sample.
   double process(double x) noexcept override { return filter_.process(x); }

@@ -26,8 +26,11 @@ struct LqWeights {
 
 /// The stabilising solution P of the discrete algebraic Riccati equation
 ///   P = AᵀPA − AᵀPB·(R + BᵀPB)⁻¹·BᵀPA + Q
-/// (Q symmetric ≥ 0, R > 0). Throws std::invalid_argument for mismatched sizes, non-finite entries or a
-/// pair (A, B) that has no stabilising solution (naming which).
+/// (Q symmetric ≥ 0, R > 0), by structured doubling refined by Newton's method (started from L = 0 when
+/// doubling fails on a stiff problem and A is stable), computed in long double; the relative residual is
+/// checked. Throws std::invalid_argument for mismatched sizes, non-finite entries or a pair (A, B) that
+/// has no stabilising solution (naming which: an unreachable mode outside the unit circle, or a mode on
+/// it that Q does not see).
 Eigen::MatrixXd solve_dare(const Eigen::MatrixXd& A, const Eigen::VectorXd& B, const Eigen::MatrixXd& Q, double R);
 
 /// The optimal state feedback of [7A]: L = (R + BᵀPB)⁻¹·BᵀPA for the P of solve_dare().
@@ -43,7 +46,8 @@ struct LqFeedforward {
 
   /// [7B] u → u*:  x(k+1) = (A − BL)·x(k) + B·u(k),  u*(k) = −L·x(k) + u(k).
   StateSpace controller() const;
-  /// [7B] u → y_lin: x(k+1) = (A − BL)·x(k) + B·u(k),  y_lin(k) = C·x(k) + D·u(k): the desired response.
+  /// [7B] u → y_lin: x(k+1) = (A − BL)·x(k) + B·u(k),  y_lin(k) = (C − D·L)·x(k) + D·u(k): the desired
+  /// response (the model driven by u*; the thesis's D = 0 makes it C·x(k)).
   StateSpace desired() const;
   /// Poles of the controlled system: eigenvalues of A − BL.
   Eigen::VectorXcd poles() const;
@@ -63,7 +67,8 @@ struct InputLimits {
 
 /// The table after fig. 7.8: the worst case from the impulse response of band-pass · controller (summed
 /// until its tail is below 1e-12 of the sum, at most 10⁶ samples), and the band-limited white-noise case
-/// from `samples` samples of uniform noise in [−1, 1] drawn with `seed`.
+/// from `samples` samples of uniform noise in [−1, 1] drawn with `seed` (dsp::Rng), both chains from
+/// rest. Throws std::invalid_argument for samples < 1, an unstable controller or band-pass section.
 InputLimits max_input(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
                       Eigen::Index samples = 100000, std::uint64_t seed = 1);
 

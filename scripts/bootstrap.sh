@@ -15,6 +15,7 @@ packages=(
   libeigen3-dev nlohmann-json3-dev libcli11-dev libsndfile1-dev
   libgtest-dev libasound2-dev libcpp-httplib-dev libsamplerate0-dev
   gnuplot-nox
+  jackd2 libasound2-plugins
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -1,0 +1,267 @@
+// `panelbass design …`: controllers designed on identified models (thesis ch. 7). One helper per
+// subcommand; `design lq` is the LQ feedforward controller of [7A]/[7B] behind a Butterworth band-pass.
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <numbers>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cli/band_pass_option.h"
+#include "cli/commands.h"
+#include "cli/gnuplot.h"
+#include "cli/json_output.h"
+#include "dsp/butterworth.h"
+#include "models/json_file.h"
+#include "models/linear_model.h"
+#include "models/lq_feedforward.h"
+
+namespace panelbass::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// The ripple of a response is judged from this frequency up when the band-pass has no low corner: a
+// transducer's acceleration response falls to zero at DC, and 20 Hz is the lowest audible frequency.
+constexpr double kLowestAudibleHz = 20.0;
+
+struct DesignLqOptions {
+  std::string model, out, plots;
+  double R = 3.0;
+  double R0 = 20.0;
+  std::string bandpass = "20,1200";
+  int order = 2;
+  long samples = 100000;
+  std::uint64_t seed = 1;
+  std::string plot_format = "png";
+};
+
+std::string number(double v, int digits = 3) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%.*g", digits, v);
+  return text;
+}
+
+nlohmann::json roots_json(const Eigen::VectorXcd& roots) {
+  nlohmann::json out = nlohmann::json::array();
+  for (Eigen::Index k = 0; k < roots.size(); ++k) out.push_back({roots[k].real(), roots[k].imag()});
+  return out;
+}
+
+nlohmann::json vector_json(const Eigen::RowVectorXd& v) {
+  nlohmann::json out = nlohmann::json::array();
+  for (Eigen::Index k = 0; k < v.size(); ++k) out.push_back(v[k]);
+  return out;
+}
+
+// A number option's check: the value must exceed `bound` (or equal it, when `inclusive`); CLI11 puts the
+// option's name in front of the message.
+CLI::Validator at_least(double bound, bool inclusive) {
+  const std::string relation = inclusive ? ">=" : ">";
+  return CLI::Validator(
+      [bound, inclusive, relation](std::string& text) {
+        double v = 0.0;
+        if (!CLI::detail::lexical_cast(text, v) || !std::isfinite(v)) return "must be a number, got \"" + text + "\"";
+        if (inclusive ? v >= bound : v > bound) return std::string();
+        return "must be " + relation + " " + number(bound) + ", got " + text;
+      },
+      "NUMBER " + relation + " " + number(bound), "at_least");
+}
+
+// Throws unless the file `path` could be created: its directory exists and it is not a directory.
+void check_output_file(const std::string& option, const std::string& path) {
+  const fs::path parent = fs::absolute(path).parent_path();
+  if (!fs::is_directory(parent)) {
+    throw std::invalid_argument(option + " " + path + ": directory " + parent.string() + " does not exist");
+  }
+  if (fs::is_directory(path)) throw std::invalid_argument(option + " " + path + ": is a directory");
+}
+
+// `count` frequencies spaced logarithmically from `lo` to `hi` Hz.
+Eigen::VectorXd log_grid(double lo, double hi, Eigen::Index count) {
+  Eigen::VectorXd f(count);
+  for (Eigen::Index k = 0; k < count; ++k) f[k] = lo * std::pow(hi / lo, static_cast<double>(k) / (count - 1));
+  return f;
+}
+
+Eigen::VectorXd magnitude_db(const models::StateSpace& ss, const Eigen::VectorXd& f, double fs) {
+  Eigen::VectorXd db(f.size());
+  for (Eigen::Index k = 0; k < f.size(); ++k) {
+    const double m = std::abs(models::response(ss, f[k], fs));
+    db[k] = m > 0.0 ? 20.0 * std::log10(m) : kNaN;
+  }
+  return db;
+}
+
+// Largest minus smallest magnitude (dB) of `ss` over [lo, hi] Hz.
+double ripple_db(const models::StateSpace& ss, double lo, double hi, double fs) {
+  const Eigen::VectorXd db = magnitude_db(ss, log_grid(lo, hi, 400), fs);
+  return db.maxCoeff() - db.minCoeff();
+}
+
+// Figs. 7.3/7.4/7.6: poles and zeros of the linear model beside those of the controlled model.
+fs::path plot_lq_pole_zero(const models::LqFeedforward& ff, const fs::path& dir, PlotFormat format) {
+  GnuplotFigure f("poles_zeros", 1300, 660);
+  Eigen::VectorXd cx(361), cy(361);
+  for (int k = 0; k <= 360; ++k) {
+    cx[k] = std::cos(k * std::numbers::pi / 180.0);
+    cy[k] = std::sin(k * std::numbers::pi / 180.0);
+  }
+  f.add_block({cx, cy});
+  const auto block_of = [&f](const Eigen::VectorXcd& roots) {
+    if (roots.size() == 0) return f.add_block({Eigen::VectorXd::Constant(1, kNaN), Eigen::VectorXd::Constant(1, kNaN)});
+    return f.add_block({roots.real(), roots.imag()});
+  };
+  const Eigen::VectorXcd model_poles =
+      ff.plant.order() > 0 ? Eigen::EigenSolver<Eigen::MatrixXd>(ff.plant.A, false).eigenvalues() : Eigen::VectorXcd(0);
+  // State feedback leaves the zeros of y/u where they are: those of the model.
+  const Eigen::VectorXcd zeros = models::to_transfer_function(ff.plant).zeros();
+  block_of(model_poles);  // index 1
+  block_of(zeros);        // index 2
+  block_of(ff.poles());   // index 3
+  const std::string weights = "R = " + number(ff.weights.R, 4) + ", R_0 = " + number(ff.weights.R0, 4);
+  f << "set multiplot layout 1,2 title " + gnuplot_quoted("Poles (×) and zeros (o): linear model and model with state feedback (" +
+                                                           weights + ")")
+    << "set size ratio -1"
+    << "set xrange [-1.6:1.6]"
+    << "set yrange [-1.6:1.6]"
+    << "set xlabel 'Re z'"
+    << "set ylabel 'Im z'"
+    << "set key bottom left box opaque font ',9'"
+    << "set title 'linear model y/u*'"
+    << "plot " + f.data() + " index 0 using 1:2 with lines lw 1 lc rgb '#555555' title 'unit circle', \\\n"
+       "     '' index 1 using 1:2 with points pt 2 ps 2 lw 2 lc rgb '#202020' title 'poles', \\\n"
+       "     '' index 2 using 1:2 with points pt 6 ps 2 lw 2 lc rgb '#1f77b4' title 'zeros'"
+    << "set title " + gnuplot_quoted("controlled model y_{lin}/u (" + weights + ")")
+    << "plot " + f.data() + " index 0 using 1:2 with lines lw 1 lc rgb '#555555' title 'unit circle', \\\n"
+       "     '' index 3 using 1:2 with points pt 2 ps 2 lw 2 lc rgb '#d62728' title 'poles of A − BL', \\\n"
+       "     '' index 2 using 1:2 with points pt 6 ps 2 lw 2 lc rgb '#1f77b4' title 'zeros'"
+    << "unset multiplot";
+  return f.render(dir, format);
+}
+
+// Figs. 7.5/7.7: magnitude of the linear model and of the controlled system y_lin/u, with the
+// controller u*/u and the band-pass corners.
+fs::path plot_lq_magnitude(const models::LqFeedforward& ff, double lo, double hi, const fs::path& dir,
+                           PlotFormat format) {
+  const Eigen::VectorXd f = log_grid(1.0, 0.999 * ff.fs / 2.0, 800);
+  GnuplotFigure fig("magnitude");
+  fig.add_block({f, magnitude_db(ff.plant, f, ff.fs), magnitude_db(ff.desired(), f, ff.fs),
+                 magnitude_db(ff.controller(), f, ff.fs)});
+  fig << "set title " + gnuplot_quoted("Magnitude responses (raw units): linear model and with state feedback, R = " +
+                                       number(ff.weights.R, 4) + ", R_0 = " + number(ff.weights.R0, 4))
+      << "set xlabel 'frequency (Hz)'"
+      << "set ylabel 'magnitude (dB)'"
+      << "set logscale x"
+      << "set xrange [1:" + number(ff.fs / 2.0, 8) + "]"
+      << "set key top left box opaque";
+  if (lo > 0.0) fig << "set arrow from " + number(lo, 8) + ", graph 0 to " + number(lo, 8) + ", graph 1 nohead dt 3 lc rgb '#888888'";
+  fig << "set arrow from " + number(hi, 8) + ", graph 0 to " + number(hi, 8) + ", graph 1 nohead dt 3 lc rgb '#888888'"
+      << "plot " + fig.data() + " index 0 using 1:2 with lines lw 1.8 lc rgb '#202020' title 'linear model y/u*', \\\n"
+         "     '' index 0 using 1:3 with lines lw 1.8 dt 2 lc rgb '#d62728' title 'controlled y_{lin}/u', \\\n"
+         "     '' index 0 using 1:4 with lines lw 1.2 dt 3 lc rgb '#1f77b4' title 'controller u*/u'";
+  return fig.render(dir, format);
+}
+
+void run_design_lq(const DesignLqOptions& o) {
+  const auto [lo, hi] = parse_bandpass(o.bandpass);
+  const models::LinearModel model = models::load_linear_model(o.model);
+  const std::vector<dsp::Biquad> band = band_pass_sections(lo, hi, o.order, model.fs);
+  check_output_file("--out", o.out);
+  const PlotFormat format = parse_plot_format(o.plot_format);
+  if (!o.plots.empty()) {
+    find_gnuplot();
+    fs::create_directories(o.plots);
+  }
+
+  models::LqFeedforward ff = models::design_lq(model, {o.R, o.R0});
+  const models::InputLimits limits = models::max_input(ff, band, o.samples, o.seed);
+  const double ripple_lo = std::max(lo, kLowestAudibleHz);
+  const double ripple_model = ripple_db(ff.plant, ripple_lo, hi, ff.fs);
+  const double ripple_controlled = ripple_db(ff.desired(), ripple_lo, hi, ff.fs);
+  ff.meta = {{"model", o.model},
+             {"model_method", model.method},
+             {"order", ff.plant.order()},
+             {"weights", {{"R", o.R}, {"R0", o.R0}}},
+             {"bandpass", {lo, hi}},
+             {"bandpass_order", o.order},
+             {"max_input", {{"worst", limits.worst}, {"noise", limits.noise}, {"samples", o.samples}, {"seed", o.seed}}}};
+  models::write_json_file(o.out, models::lq_feedforward_to_json(ff));
+
+  const Eigen::VectorXcd poles = ff.poles();
+  nlohmann::json result = {{"model", o.model},
+                           {"out", o.out},
+                           {"fs", ff.fs},
+                           {"order", ff.plant.order()},
+                           {"R", o.R},
+                           {"R0", o.R0},
+                           {"L", vector_json(ff.L)},
+                           {"poles", roots_json(poles)},
+                           {"zeros", roots_json(ff.zeros())},
+                           {"pole_radius", poles.size() ? poles.cwiseAbs().maxCoeff() : 0.0},
+                           {"bandpass", {lo, hi}},
+                           {"bandpass_order", o.order},
+                           {"max_input_worst", limits.worst},
+                           {"max_input_noise", limits.noise},
+                           {"noise_samples", o.samples},
+                           {"seed", o.seed},
+                           {"ripple_db", {{"band", {ripple_lo, hi}}, {"model", ripple_model}, {"controlled", ripple_controlled}}},
+                           {"plots", nullptr}};
+  if (!o.plots.empty()) {
+    const fs::path dir(o.plots);
+    result["plots"] = {{"poles_zeros", (dir / plot_lq_pole_zero(ff, dir, format).filename()).string()},
+                       {"magnitude", (dir / plot_lq_magnitude(ff, lo, hi, dir, format).filename()).string()}};
+  }
+  print_result(result);
+}
+
+// `design lq`: adds the subcommand and its options to `design`.
+void add_design_lq(CLI::App* design) {
+  auto o = std::make_shared<DesignLqOptions>();
+  CLI::App* lq = design->add_subcommand(
+      "lq", "LQ feedforward controller [7A]/[7B] on a linear model, and the largest safe program amplitude");
+  lq->add_option("--model", o->model, "Linear model file (JSON, from identify linear)")->required();
+  lq->add_option("--R", o->R, "Weight on the controller output u* (> 0); small R: flatter response, larger u*")
+      ->check(at_least(0.0, false))
+      ->capture_default_str();
+  lq->add_option("--R0", o->R0, "Weight on the model output y (>= 0)")->check(at_least(0.0, true))->capture_default_str();
+  add_bandpass_option(lq, o->bandpass, "Band-pass corners LO,HI in Hz before the controller (LO = 0: low-pass only)");
+  lq->add_option("--order", o->order, "Butterworth order of the high-pass and of the low-pass")
+      ->check(CLI::Range(1, 16))
+      ->capture_default_str();
+  lq->add_option("--samples", o->samples, "Samples of uniform noise for max_input_noise")
+      ->check(CLI::Range(1L, 100000000L))
+      ->capture_default_str();
+  lq->add_option("--seed", o->seed, "Seed of that noise")->capture_default_str();
+  lq->add_option("--out", o->out, "Controller file to write (JSON, kind lq_feedforward)")->required();
+  lq->add_option("--plot", o->plots, "Directory for the pole-zero and magnitude figures (created)");
+  lq->add_option("--plot-format", o->plot_format, "png or svg")->check(CLI::IsMember({"png", "svg"}))->capture_default_str();
+  lq->footer(
+      "Example (the thesis's weights, figs 7.3-7.5, and its cheap-control design, figs 7.6-7.7):\n"
+      "  panelbass simulate --plant panel-exciter --signal noise --samples 12000 --seed 1 --out run.csv\n"
+      "  panelbass identify linear --data run.csv --fs 3000 --method oe --scan 1:12 --val run.csv --out lin.json\n"
+      "  panelbass design lq --model lin.json --R 3 --R0 20 --bandpass 20,1200 --out ff.json --plot plots/\n"
+      "  panelbass design lq --model lin.json --R 1e-5 --R0 20 --bandpass 0,1200 --out ff-cheap.json");
+  lq->callback([o] { run_design_lq(*o); });
+}
+
+}  // namespace
+
+void register_design(CLI::App& app) {
+  CLI::App* design = app.add_subcommand("design", "Design a controller on an identified model (thesis ch. 7)");
+  design->require_subcommand(1);
+  design->footer("Example:\n  panelbass design lq --model lin.json --R 3 --R0 20 --bandpass 20,1200 --out ff.json");
+  add_design_lq(design);
+  add_design_nn(*design);
+}
+
+}  // namespace panelbass::cli

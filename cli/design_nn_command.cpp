@@ -1,0 +1,104 @@
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cli/band_pass_option.h"
+#include "cli/commands.h"
+#include "cli/json_output.h"
+#include "cli/progress_bar.h"
+#include "models/feedback_design.h"
+#include "models/json_file.h"
+#include "models/model_file.h"
+
+namespace panelbass::cli {
+namespace {
+
+struct DesignNnOptions {
+  std::string plant, ff, out;
+  std::string bandpass = "20,1200";
+  int order = 2;
+  models::FeedbackDesignOptions design;
+};
+
+nlohmann::json history_json(const std::vector<models::FeedbackTrainingRecord>& history) {
+  nlohmann::json h = nlohmann::json::array();
+  for (const auto& r : history) {
+    h.push_back({{"iteration", r.iteration},
+                 {"jc_est_pct", r.jc_est_pct},
+                 {"jc_val_pct", std::isfinite(r.jc_val_pct) ? nlohmann::json(r.jc_val_pct) : nlohmann::json()},
+                 {"rail_fraction", r.rail_fraction}});
+  }
+  return h;
+}
+
+void run_design_nn(DesignNnOptions o) {
+  const models::AnyModel any = models::load_model(o.plant);
+  const auto* plant = std::get_if<models::NarxModel>(&any.model);
+  if (plant == nullptr) throw std::invalid_argument("--plant " + o.plant + ": expected a NARX model, got " + any.kind());
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(models::read_json_file(o.ff));
+  const std::vector<dsp::Biquad> band_pass = band_pass_sections(o.bandpass, o.order, ff.fs);
+  ProgressBar bar("design nn");
+  o.design.training.progress = [&](const models::FeedbackTrainingRecord& r) {
+    bar.update(static_cast<double>(r.iteration) / o.design.training.max_iterations);
+  };
+  models::FeedbackDesign d = models::design_feedback(*plant, ff, band_pass, o.design);
+  d.controller.meta = {{"plant", o.plant}, {"feedforward", o.ff}, {"bandpass", o.bandpass}, {"order", o.order},
+                       {"seed", o.design.seed}, {"training", history_json(d.training.history)}};
+  models::write_json_file(o.out, models::neural_feedback_to_json(d.controller));
+  const models::FeedbackTrainingRecord& first = d.training.history.front();
+  double best = first.jc_val_pct;
+  for (const auto& r : d.training.history) best = std::min(best, r.jc_val_pct);
+  print_result({{"out", o.out},
+                {"parameters", d.controller.net.parameter_count()},
+                {"iterations", d.training.iterations},
+                {"jc_val_before_pct", first.jc_val_pct},
+                {"jc_val_after_pct", best},
+                {"history", history_json(d.training.history)}});
+}
+
+}  // namespace
+
+void add_design_nn(CLI::App& design) {
+  auto o = std::make_shared<DesignNnOptions>();
+  CLI::App* cmd = design.add_subcommand(
+      "nn", "Neural feedback controller trained through the loop with the NARX plant model (fig. 7.10, App. 3)");
+  cmd->add_option("--plant", o->plant, "NARX model of the plant (identify narx)")->required();
+  cmd->add_option("--ff", o->ff, "LQ feedforward controller (design lq)")->required();
+  add_bandpass_option(cmd, o->bandpass, "Band-pass corners LO,HI in Hz in front of the controllers (LO = 0: low-pass only)");
+  cmd->add_option("--order", o->order, "Band-pass order")->check(CLI::Range(1, 8))->capture_default_str();
+  cmd->add_option("--hidden", o->design.structure.hidden, "Hidden layer widths of N1")
+      ->delimiter(',')
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  cmd->add_option("--nu", o->design.structure.nu, "Feedforward outputs u(k..k-nu) into N1")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
+  cmd->add_option("--nv", o->design.structure.nv, "Past drives v(k-1..k-nv) into N1")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
+  cmd->add_option("--ny", o->design.structure.ny, "Past plant outputs y(k-1..k-ny) into N1")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
+  cmd->add_option("--samples", o->design.samples, "Samples of each training record (estimation, validation)")
+      ->check(CLI::Range(1000L, 10000000L))
+      ->capture_default_str();
+  cmd->add_option("--sine-share", o->design.sine_share, "Share of each record made of stepped sines")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--sine-peak", o->design.sine_peak, "Steady peak of the feedforward output in the stepped sines")
+      ->check(CLI::Range(1e-6, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--iterations", o->design.training.max_iterations, "Levenberg-Marquardt iterations")
+      ->check(CLI::Range(0, 100000))
+      ->capture_default_str();
+  cmd->add_option("--rail-penalty", o->design.training.rail_penalty, "Weight of the time-at-the-rails penalty")
+      ->check(CLI::Range(0.0, 1e12))
+      ->capture_default_str();
+  cmd->add_option("--seed", o->design.seed, "Seed of the training records and initial weights")->capture_default_str();
+  cmd->add_option("--out", o->out, "Controller file to write (JSON)")->required();
+  cmd->footer("Example:\n  panelbass design nn --plant nn.json --ff ff.json --bandpass 20,1200 --hidden 8 --out fb.json");
+  cmd->callback([o] { run_design_nn(*o); });
+}
+
+}  // namespace panelbass::cli

@@ -1,0 +1,91 @@
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+#include "cli/json_output.h"
+#include "engine/chain_evaluation.h"
+#include "engine/chain_file.h"
+#include "models/json_file.h"
+#include "models/plant_presets.h"
+
+namespace panelbass::cli {
+namespace {
+
+struct EvaluateOptions {
+  std::string plant = "panel-exciter", chain, out;
+  engine::EvaluationOptions evaluation;
+};
+
+nlohmann::json row_json(const engine::EvaluationRow& row) {
+  nlohmann::json probes = nlohmann::json::array();
+  for (const engine::ProbeResult& p : row.probes) {
+    probes.push_back({{"frequency_hz", p.frequency_hz},
+                      {"amplitude", p.amplitude},
+                      {"h2_db", p.h2_db},
+                      {"h3_db", p.h3_db},
+                      {"thd_pct", p.thd_pct}});
+  }
+  return {{"name", row.name},         {"ripple_db", row.ripple_db},       {"jc_pct", row.jc_pct},
+          {"max_drive", row.max_drive}, {"rail_fraction", row.rail_fraction}, {"faults", row.faults},
+          {"probes", probes}};
+}
+
+// The table a person reads, on stderr.
+void print_table(const engine::ChainEvaluation& e) {
+  std::fprintf(stderr, "%-36s %9s %8s", "configuration", "ripple dB", "J_c %");
+  for (const engine::ProbeResult& p : e.rows.front().probes) std::fprintf(stderr, "  THD@%-4.0f%%", p.frequency_hz);
+  std::fprintf(stderr, "  max|drive|\n");
+  for (const engine::EvaluationRow& row : e.rows) {
+    std::fprintf(stderr, "%-36s %9.2f %8.2f", row.name.c_str(), row.ripple_db, row.jc_pct);
+    for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.2f", p.thd_pct);
+    std::fprintf(stderr, "  %10.3f\n", row.max_drive);
+  }
+}
+
+void run_evaluate(const EvaluateOptions& o) {
+  const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
+  const engine::ChainConfig config = engine::load_chain_file(o.chain);
+  const engine::ChainEvaluation e = engine::evaluate_chain(config, plant, o.evaluation);
+  print_table(e);
+  std::fprintf(stderr, "(J_c noise floor of the sensor: %.2f %%)\n", e.jc_noise_floor_pct);
+  nlohmann::json rows = nlohmann::json::array();
+  for (const engine::EvaluationRow& row : e.rows) rows.push_back(row_json(row));
+  const nlohmann::json result = {{"plant", plant.name},
+                                 {"chain", o.chain},
+                                 {"noise_amplitude", e.noise_amplitude},
+                                 {"jc_noise_floor_pct", e.jc_noise_floor_pct},
+                                 {"probe_peak", o.evaluation.probe_peak},
+                                 {"ripple_band_hz", {o.evaluation.ripple_low_hz, o.evaluation.ripple_high_hz}},
+                                 {"rows", rows}};
+  if (!o.out.empty()) models::write_json_file(o.out, result);
+  print_result(result);
+}
+
+}  // namespace
+
+void register_evaluate(CLI::App& app) {
+  auto o = std::make_shared<EvaluateOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "evaluate", "Evaluate a controller chain on a simulated transducer: response ripple, THD and J_c ([2C])");
+  cmd->add_option("--plant", o->plant, "Preset (panel-exciter, linear) or plant JSON file")->capture_default_str();
+  cmd->add_option("--chain", o->chain, "Chain file (panelbass chain)")->required();
+  cmd->add_option("--probes", o->evaluation.probe_hz, "Probe sine frequencies, Hz")
+      ->delimiter(',')
+      ->capture_default_str();
+  cmd->add_option("--probe-peak", o->evaluation.probe_peak,
+                 "Steady peak of the band-pass + feedforward output at each probe sine (0: the limiter's knee)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--seed", o->evaluation.seed, "Seed of the noise program and the sensor noise")->capture_default_str();
+  cmd->add_option("--noise-samples", o->evaluation.noise_samples, "Length of the white-noise record")
+      ->check(CLI::Range(4096L, 100000000L))
+      ->capture_default_str();
+  cmd->add_option("--out", o->out, "Also write the result here (JSON)");
+  cmd->footer("Example:\n  panelbass evaluate --plant panel-exciter --chain chain.json --out eval.json");
+  cmd->callback([o] { run_evaluate(*o); });
+}
+
+}  // namespace panelbass::cli

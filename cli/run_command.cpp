@@ -1,0 +1,344 @@
+// `panelbass run`: a chain file on a live backend until interrupted (SIGINT/SIGTERM) or for a set time,
+// then the engine's metrics as one JSON object.
+#include <signal.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <iostream>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cli/commands.h"
+#include "cli/json_output.h"
+#include "dsp/excitation.h"
+#include "dsp/resample.h"
+#include "dsp/wav_file.h"
+#include "engine/alsa_backend.h"
+#include "engine/chain_file.h"
+#include "engine/virtual_backend.h"
+#include "models/plant_presets.h"
+
+namespace panelbass::cli {
+namespace {
+
+struct RunOptions {
+  std::string chain;
+  std::string backend = "virtual";
+  std::string plant = "panel-exciter";
+  std::string program;
+  std::string channel = "0";
+  std::string signal = "noise";
+  double amplitude = 0.3;
+  double seconds = 0.0;
+  std::uint64_t seed = 1;
+  std::string playback = "default";
+  std::string capture;
+  double rate = 48000.0;
+  int period = 64;
+  int periods = 4;
+  int playback_channels = 2;
+  int drive_channel = 0;
+  int capture_channels = 2;
+  int program_channel = engine::kNoChannel;
+  int sensor_channel = engine::kNoChannel;
+  std::string quality = "fastest";
+  int realtime_priority = 0;
+};
+
+// Set by SIGINT/SIGTERM; read by the control loop. A lock-free atomic is safe to store from a handler.
+std::atomic<bool> interrupted{false};
+static_assert(std::atomic<bool>::is_always_lock_free);
+
+extern "C" void on_stop_signal(int) { interrupted.store(true, std::memory_order_relaxed); }
+
+// SIGINT and SIGTERM set `interrupted` while this lives; the previous handlers come back afterwards.
+class StopSignals {
+ public:
+  StopSignals() {
+    interrupted.store(false, std::memory_order_relaxed);
+    struct sigaction action {};
+    action.sa_handler = on_stop_signal;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, &old_int_);
+    sigaction(SIGTERM, &action, &old_term_);
+  }
+  ~StopSignals() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+
+ private:
+  struct sigaction old_int_ {};
+  struct sigaction old_term_ {};
+};
+
+/// A program the backend loops, and how it was made.
+struct LoopedProgram {
+  std::vector<double> samples;  ///< at the chain's rate
+  nlohmann::json description;   ///< for the result
+};
+
+// A sine that loops without a click: the whole number of periods (in about one second) whose length is
+// closest to a whole number of samples, at the frequency that makes it exact.
+LoopedProgram looped_sine(double frequency, double amplitude, double fs) {
+  const double period = fs / frequency;
+  const long most = std::max(1L, static_cast<long>(std::floor(fs / period)));
+  long periods = most;
+  double best_miss = 1.0;
+  for (long m = most; m >= std::max(1L, most / 2); --m) {
+    const double miss = std::abs(static_cast<double>(m) * period - std::round(static_cast<double>(m) * period));
+    if (miss < best_miss - 1e-12) {
+      best_miss = miss;
+      periods = m;
+    }
+  }
+  const auto length = static_cast<std::size_t>(std::max(1.0, std::round(static_cast<double>(periods) * period)));
+  const double exact = static_cast<double>(periods) * fs / static_cast<double>(length);
+  const Eigen::VectorXd x = dsp::sine(length, fs, exact, amplitude);
+  return {{x.data(), x.data() + x.size()},
+          {{"signal", "sine"}, {"frequency_hz", exact}, {"amplitude", amplitude}, {"loop_samples", length}}};
+}
+
+LoopedProgram make_program(const RunOptions& o, double fs) {
+  if (!o.program.empty()) {
+    const dsp::Record r = dsp::read_wav(o.program, {o.channel});
+    Eigen::VectorXd x = r.columns.front();
+    if (!(std::abs(r.fs - fs) <= 1e-9 * fs)) x = dsp::resample(x, r.fs, fs);
+    return {{x.data(), x.data() + x.size()},
+            {{"file", o.program}, {"channel", o.channel}, {"fs_file", r.fs}, {"loop_samples", x.size()}}};
+  }
+  if (o.signal == "silence") return {{}, {{"signal", "silence"}}};
+  if (o.signal == "noise") {
+    // Ten seconds of uniform white noise, looped.
+    const auto n = static_cast<std::size_t>(std::lround(10.0 * fs));
+    const Eigen::VectorXd x = dsp::uniform_noise(n, o.amplitude, o.seed);
+    return {{x.data(), x.data() + x.size()},
+            {{"signal", "noise"}, {"amplitude", o.amplitude}, {"seed", o.seed}, {"loop_samples", n}}};
+  }
+  if (o.signal.rfind("sine:", 0) == 0) {
+    const std::string text = o.signal.substr(5);
+    std::size_t used = 0;
+    double f = 0.0;
+    try {
+      f = std::stod(text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != text.size()) {
+      throw std::invalid_argument("--signal " + o.signal + ": expected sine:HZ, e.g. sine:80");
+    }
+    if (!(f > 0.0 && f < fs / 2.0)) {
+      throw std::invalid_argument("--signal " + o.signal + ": the frequency must be within (0, " +
+                                  std::to_string(fs / 2.0) + ") Hz, half the chain's rate");
+    }
+    return looped_sine(f, o.amplitude, fs);
+  }
+  throw std::invalid_argument("--signal " + o.signal + ": expected noise, silence or sine:HZ");
+}
+
+nlohmann::json metrics_json(const engine::MetricsSnapshot& m) {
+  return {{"blocks", m.blocks},
+          {"samples", m.samples},
+          {"xruns", m.xruns},
+          {"faults", m.faults},
+          {"in_fault", m.in_fault},
+          {"last_fault", engine::fault_name(m.last_fault)},
+          {"swaps", m.swaps},
+          {"mean_block_ns", m.mean_block_ns},
+          {"p99_block_ns", m.p99_block_ns},
+          {"max_block_ns", m.max_block_ns},
+          {"ns_per_sample", m.ns_per_sample},
+          {"load", m.load},
+          {"active_ids",
+           {{"band_pass", m.active_ids[0]}, {"feedforward", m.active_ids[1]}, {"feedback", m.active_ids[2]}}}};
+}
+
+// Runs until a stop signal or `seconds` (0: no limit), freeing retired stages now and then.
+double wait_for_stop(double seconds, engine::Chain& chain) {
+  using clock = std::chrono::steady_clock;
+  const auto started = clock::now();
+  for (;;) {
+    const double elapsed = std::chrono::duration<double>(clock::now() - started).count();
+    if (interrupted.load(std::memory_order_relaxed) || (seconds > 0.0 && elapsed >= seconds)) return elapsed;
+    const double left = seconds > 0.0 ? seconds - elapsed : 0.05;
+    std::this_thread::sleep_for(std::chrono::duration<double>(std::min(0.05, left)));
+    chain.collect_retired();
+  }
+}
+
+void run_virtual(const RunOptions& o, const engine::ChainConfig& config, nlohmann::json& result) {
+  const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
+  if (!(std::abs(plant.fs - config.fs) <= 1e-9 * config.fs)) {
+    throw std::invalid_argument("--plant " + o.plant + ": the plant runs at " + std::to_string(plant.fs) +
+                                " Hz, the chain (" + o.chain + ") at " + std::to_string(config.fs) + " Hz");
+  }
+  LoopedProgram program = make_program(o, config.fs);
+  std::unique_ptr<engine::Chain> chain = engine::make_chain(config);
+  engine::VirtualBackendOptions options;
+  options.block = engine::Samples{config.block};
+  options.pacing = engine::Pacing::real_time;
+  options.program = std::move(program.samples);
+  options.loop = true;
+  options.plant = plant;
+  options.noise_seed = o.seed + 1;
+  engine::VirtualBackend backend(*chain, std::move(options));
+
+  const StopSignals signals;
+  std::cerr << "run: " << o.chain << " on the virtual transducer " << plant.name << " at " << config.fs
+            << " Hz, block " << config.block << (o.seconds > 0.0 ? "" : "; Ctrl-C to stop") << "\n";
+  backend.start();
+  const double elapsed = wait_for_stop(o.seconds, *chain);
+  backend.stop();
+  chain->collect_retired();
+  std::cerr << "run: stopped after " << elapsed << " s\n";
+
+  result["plant"] = plant.name;
+  result["program"] = program.description;
+  result["seconds"] = elapsed;
+  result["interrupted"] = interrupted.load(std::memory_order_relaxed);
+  result["metrics"] = metrics_json(chain->metrics().snapshot());
+}
+
+engine::ResampleQuality quality_of(const std::string& name) {
+  if (name == "best") return engine::ResampleQuality::best;
+  if (name == "medium") return engine::ResampleQuality::medium;
+  return engine::ResampleQuality::fastest;
+}
+
+nlohmann::json alsa_status_json(const engine::AlsaStatus& s, const engine::RateBridgeLatency& latency) {
+  return {{"state", engine::alsa_state_name(s.state)},
+          {"opens", s.opens},
+          {"failed_opens", s.failed_opens},
+          {"losses", s.losses},
+          {"reopens", s.reopens()},
+          {"xruns", s.xruns},
+          {"periods", s.periods},
+          {"realtime", s.realtime},
+          {"last_error", std::string(s.last_error.data())},
+          {"resampling_latency_samples", latency.total_samples},
+          {"resampling_latency_ms", latency.total_ms}};
+}
+
+void run_alsa(const RunOptions& o, const engine::ChainConfig& config, nlohmann::json& result) {
+  if (config.feedback && config.feedback->source == engine::FeedbackSource::sensor &&
+      o.sensor_channel == engine::kNoChannel) {
+    throw std::invalid_argument(o.chain + ": feedback.source is \"sensor\" but no --sensor-channel is given");
+  }
+  engine::AlsaOptions options;
+  options.playback_device = o.playback;
+  options.capture_device = o.capture;
+  options.rate = engine::Hertz{o.rate};
+  options.period = engine::Samples{o.period};
+  options.periods = o.periods;
+  options.playback_channels = o.playback_channels;
+  options.drive_channel = o.drive_channel;
+  options.capture_channels = o.capture_channels;
+  options.program_channel = o.program_channel;
+  options.sensor_channel = o.sensor_channel;
+  options.quality = quality_of(o.quality);
+  options.realtime_priority = o.realtime_priority;
+  nlohmann::json program_description = {{"capture_channel", o.program_channel}};
+  if (o.program_channel == engine::kNoChannel) {
+    // The program is played from memory at the device's rate.
+    LoopedProgram program = make_program(o, o.rate);
+    options.program = std::move(program.samples);
+    program_description = program.description;
+  }
+  options.loop_program = true;
+  std::unique_ptr<engine::Chain> chain = engine::make_chain(config);
+  engine::AlsaBackend backend(*chain, std::move(options));
+
+  const StopSignals signals;
+  std::cerr << "run: " << o.chain << " on ALSA (playback \"" << o.playback << "\", capture \"" << o.capture << "\") at "
+            << o.rate << " Hz, period " << o.period << ", chain at " << config.fs << " Hz"
+            << (o.seconds > 0.0 ? "" : "; Ctrl-C to stop") << "\n";
+  backend.start();
+  const double elapsed = wait_for_stop(o.seconds, *chain);
+  const engine::AlsaStatus status = backend.status();
+  backend.stop();
+  chain->collect_retired();
+  std::cerr << "run: stopped after " << elapsed << " s\n";
+  if (status.opens == 0) {
+    throw std::runtime_error("--backend alsa: the devices never opened (playback \"" + o.playback + "\", capture \"" +
+                             o.capture + "\"): " + std::string(status.last_error.data()));
+  }
+  result["program"] = program_description;
+  result["seconds"] = elapsed;
+  result["interrupted"] = interrupted.load(std::memory_order_relaxed);
+  result["alsa"] = alsa_status_json(status, backend.resampling_latency());
+  result["metrics"] = metrics_json(chain->metrics().snapshot());
+}
+
+void run_run(const RunOptions& o) {
+  const engine::ChainConfig config = engine::load_chain_file(o.chain);
+  nlohmann::json result = {{"chain", o.chain}, {"backend", o.backend}, {"fs", config.fs}, {"block", config.block}};
+  if (o.backend == "alsa") {
+    run_alsa(o, config, result);
+  } else {
+    run_virtual(o, config, result);
+  }
+  print_result(result);
+}
+
+}  // namespace
+
+void register_run(CLI::App& app) {
+  auto o = std::make_shared<RunOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "run", "Run a chain file on a live backend until interrupted (or --seconds), then print the metrics");
+  cmd->add_option("--chain", o->chain, "Chain file (panelbass.chain/1)")->required();
+  cmd->add_option("--backend", o->backend, "virtual: the simulated transducer in-process; alsa: a sound card")
+      ->check(CLI::IsMember({"virtual", "alsa"}))
+      ->capture_default_str();
+  cmd->add_option("--plant", o->plant, "Virtual backend: preset (panel-exciter, linear) or plant JSON file")
+      ->capture_default_str();
+  CLI::Option* program = cmd->add_option("--program", o->program, "Program input: a WAV file, looped (any rate)");
+  cmd->add_option("--channel", o->channel, "Channel of --program: zero-based index or name")->capture_default_str();
+  cmd->add_option("--signal", o->signal, "Program input when no --program: noise, silence or sine:HZ")
+      ->capture_default_str()
+      ->excludes(program);
+  cmd->add_option("--amplitude", o->amplitude, "Peak of --signal, within (0, 1]")
+      ->check(CLI::Range(1e-12, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--seconds", o->seconds, "Stop after this long (default: run until SIGINT/SIGTERM)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--seed", o->seed, "Seed of the noise signal (the plant's sensor noise uses seed + 1)")
+      ->capture_default_str();
+  cmd->add_option("--playback", o->playback, "ALSA: playback PCM, feeding the amplifier (\"\" = none)")
+      ->capture_default_str();
+  cmd->add_option("--capture", o->capture, "ALSA: capture PCM with program input and/or sensor (default: none)");
+  cmd->add_option("--rate", o->rate, "ALSA: device rate, Hz (another than the chain's puts a resampler between)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--period", o->period, "ALSA: period size, frames")->check(CLI::PositiveNumber)->capture_default_str();
+  cmd->add_option("--periods", o->periods, "ALSA: periods in the device buffer")->capture_default_str();
+  cmd->add_option("--playback-channels", o->playback_channels, "ALSA: channels of the playback PCM")
+      ->capture_default_str();
+  cmd->add_option("--drive-channel", o->drive_channel, "ALSA: playback channel carrying the drive (others silent)")
+      ->capture_default_str();
+  cmd->add_option("--capture-channels", o->capture_channels, "ALSA: channels of the capture PCM")->capture_default_str();
+  cmd->add_option("--program-channel", o->program_channel,
+                  "ALSA: capture channel with the program input (default: --program/--signal played from memory)");
+  cmd->add_option("--sensor-channel", o->sensor_channel,
+                  "ALSA: capture channel with the sensor (needed for a feedback stage in sensor mode)");
+  cmd->add_option("--quality", o->quality, "ALSA: resampler quality when the device runs at another rate")
+      ->check(CLI::IsMember({"fastest", "medium", "best"}))
+      ->capture_default_str();
+  cmd->add_option("--realtime-priority", o->realtime_priority, "ALSA: SCHED_FIFO priority of the device thread (0: none)")
+      ->capture_default_str();
+  cmd->footer(
+      "Examples:\n  panelbass run --chain chain.json --backend virtual --signal sine:80 --amplitude 0.5 --seconds 10\n"
+      "  panelbass run --chain chain.json --backend virtual --program music.wav     (Ctrl-C to stop)\n"
+      "  panelbass run --chain chain.json --backend alsa --playback hw:1 --capture hw:1 --rate 48000 --period 64 \\\n"
+      "      --sensor-channel 1 --program music.wav");
+  cmd->callback([o] { run_run(*o); });
+}
+
+}  // namespace panelbass::cli

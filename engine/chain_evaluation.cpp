@@ -1,0 +1,169 @@
+#include "engine/chain_evaluation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include "dsp/biquad.h"
+#include "dsp/butterworth.h"
+#include "dsp/random.h"
+#include "dsp/spectrum.h"
+#include "engine/offline_renderer.h"
+#include "models/feedback_training.h"
+#include "models/lq_feedforward.h"
+#include "models/state_space.h"
+
+namespace panelbass::engine {
+namespace {
+
+// Samples at the start of a noise run left out of J_c (the chain and the plant start at rest).
+constexpr Eigen::Index kNoiseSkip = 1000;
+// A probe sine fades in over this long, settles, and is analysed over a whole second (whole periods for
+// integer-Hz probes).
+constexpr double kFadeSeconds = 0.2;
+constexpr double kSettleSeconds = 1.0;
+constexpr double kAnalysisSeconds = 1.0;
+
+std::vector<dsp::Biquad> band_pass_sections(const BandPassConfig& bp, double fs) {
+  if (bp.bypass) return {};
+  const BandPassDesign& d = bp.design;
+  return d.low.value == 0.0 ? dsp::butterworth_lowpass(d.order, d.high.value, fs)
+                            : dsp::butterworth_bandpass(d.order, d.low.value, d.high.value, fs);
+}
+
+/// Which stages a row runs.
+struct Variant {
+  const char* name;
+  bool band_pass, feedforward, feedback;
+};
+
+/// Renders `program` through `config` (with `variant`'s stages) into the plant.
+struct Run {
+  Rendering rendering;
+  std::uint64_t faults = 0;
+};
+
+Run run_variant(const ChainConfig& config, const Variant& variant, const models::PlantConfig& plant,
+                const Eigen::VectorXd& program, std::uint64_t seed) {
+  ChainConfig c = config;
+  c.band_pass.bypass = config.band_pass.bypass || !variant.band_pass;
+  if (c.feedforward) c.feedforward->bypass = config.feedforward->bypass || !variant.feedforward;
+  if (c.feedback) c.feedback->bypass = config.feedback->bypass || !variant.feedback;
+  std::unique_ptr<Chain> chain = make_chain(c);
+  RenderOptions ro;
+  ro.block = Samples{c.block};
+  ro.plant = plant;
+  ro.noise_seed = seed;
+  Run run{render(*chain, program, ro), 0};
+  run.faults = chain->metrics().snapshot().faults;
+  return run;
+}
+
+double ripple_db(const Eigen::VectorXd& program, const Eigen::VectorXd& y, double fs, const EvaluationOptions& o) {
+  const dsp::FrequencyResponse frf = dsp::h1_frf(program, y, fs, dsp::WelchSpec{1024, 0.5});
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (Eigen::Index i = 0; i < frf.frequency.size(); ++i) {
+    const double f = frf.frequency[i];
+    if (f < o.ripple_low_hz || f > o.ripple_high_hz) continue;
+    const double db = 20.0 * std::log10(std::abs(frf.h[i]));
+    lo = std::min(lo, db);
+    hi = std::max(hi, db);
+  }
+  return hi - lo;
+}
+
+void require_options(const EvaluationOptions& o, double fs) {
+  if (!(o.ripple_low_hz >= 0.0 && o.ripple_low_hz < o.ripple_high_hz && o.ripple_high_hz <= fs / 2.0)) {
+    throw std::invalid_argument("evaluate: the ripple band must satisfy 0 <= low < high <= fs/2");
+  }
+  if (o.noise_samples < 4096) throw std::invalid_argument("evaluate: noise_samples must be >= 4096");
+  if (!(o.probe_peak >= 0.0 && o.probe_peak <= 1.0)) throw std::invalid_argument("evaluate: probe_peak must be within [0, 1]");
+  if (o.harmonics < 3) throw std::invalid_argument("evaluate: at least 3 harmonics are needed for H2 and H3");
+  for (double f : o.probe_hz) {
+    if (!(f > 0.0 && 2.0 * f < fs / 2.0)) {
+      throw std::invalid_argument("evaluate: probe " + std::to_string(f) + " Hz must be within (0, fs/4)");
+    }
+  }
+}
+
+}  // namespace
+
+ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantConfig& plant,
+                               const EvaluationOptions& o) {
+  const double fs = config.fs;
+  require_options(o, fs);
+  if (!config.feedforward || config.feedforward->model.value("kind", "") != "lq_feedforward") {
+    throw std::invalid_argument(
+        "evaluate: the chain needs a feedforward stage of kind lq_feedforward (its desired response is the J_c "
+        "reference)");
+  }
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(config.feedforward->model);
+  const std::vector<dsp::Biquad> sections = band_pass_sections(config.band_pass, fs);
+  const models::StateSpace controller = ff.controller();
+
+  ChainEvaluation result;
+  result.noise_amplitude = models::max_input(ff, sections, o.noise_samples, o.seed).noise;
+  dsp::Rng rng(o.seed);
+  Eigen::VectorXd noise(o.noise_samples);
+  for (Eigen::Index k = 0; k < noise.size(); ++k) noise[k] = rng.uniform(-result.noise_amplitude, result.noise_amplitude);
+  dsp::SosFilter band_pass(sections);
+  const Eigen::VectorXd y_desired = models::simulate(ff.desired(), band_pass.process(noise));
+  const double desired_power = y_desired.tail(y_desired.size() - kNoiseSkip).squaredNorm() /
+                               static_cast<double>(y_desired.size() - kNoiseSkip);
+  result.jc_noise_floor_pct = 100.0 * plant.sensor.noise_rms_V * plant.sensor.noise_rms_V / desired_power;
+  models::PlantConfig quiet_plant = plant;
+  quiet_plant.sensor.noise_rms_V = 0.0;
+
+  std::vector<Variant> variants{{"plant", false, false, false}, {"band-pass + feedforward", true, true, false}};
+  if (config.feedback) variants.push_back({"band-pass + feedforward + feedback", true, true, true});
+
+  const auto n_fade = static_cast<Eigen::Index>(kFadeSeconds * fs);
+  const auto n_settle = static_cast<Eigen::Index>(kSettleSeconds * fs);
+  const auto n_analysis = static_cast<Eigen::Index>(kAnalysisSeconds * fs);
+  for (const Variant& variant : variants) {
+    EvaluationRow row;
+    row.name = variant.name;
+    Eigen::Index railed = 0, drive_samples = 0;
+    const auto account = [&](const Run& run) {
+      const Eigen::VectorXd& d = run.rendering.drive;
+      row.max_drive = std::max(row.max_drive, d.cwiseAbs().maxCoeff());
+      railed += (d.array().abs() > config.limiter.knee).count();
+      drive_samples += d.size();
+      row.faults += run.faults;
+    };
+    const Run noise_run = run_variant(config, variant, plant, noise, o.seed);
+    account(noise_run);
+    const Eigen::VectorXd y = noise_run.rendering.measured.array() - noise_run.rendering.measured.mean();
+    row.jc_pct = models::jc_percent(y, y_desired, kNoiseSkip);
+    row.ripple_db = ripple_db(noise, y, fs, o);
+
+    for (double f : o.probe_hz) {
+      ProbeResult probe;
+      probe.frequency_hz = f;
+      // the largest amplitude at which band-pass + feedforward reach a steady peak of 1
+      const std::complex<double> gain = dsp::SosFilter(sections).response(f, fs) * models::response(controller, f, fs);
+      const double peak = o.probe_peak > 0.0 ? o.probe_peak : config.limiter.knee;
+      probe.amplitude = peak / std::max(1.0, std::abs(gain));  // the bare plant row sees no more than the peak either
+      Eigen::VectorXd sine(n_settle + n_analysis);
+      for (Eigen::Index k = 0; k < sine.size(); ++k) {
+        const double fade = k < n_fade ? 0.5 - 0.5 * std::cos(std::numbers::pi * static_cast<double>(k) / n_fade) : 1.0;
+        sine[k] = fade * probe.amplitude * std::sin(2.0 * std::numbers::pi * f * static_cast<double>(k) / fs);
+      }
+      const Run sine_run = run_variant(config, variant, quiet_plant, sine, o.seed);
+      account(sine_run);
+      const dsp::HarmonicLevels levels =
+          dsp::harmonic_levels(sine_run.rendering.measured.tail(n_analysis), fs, f, o.harmonics);
+      probe.h2_db = levels.relative_db(2);
+      probe.h3_db = levels.relative_db(3);
+      probe.thd_pct = levels.thd_percent();
+      row.probes.push_back(probe);
+    }
+    row.rail_fraction = static_cast<double>(railed) / static_cast<double>(drive_samples);
+    result.rows.push_back(std::move(row));
+  }
+  return result;
+}
+
+}  // namespace panelbass::engine

@@ -1,0 +1,67 @@
+#include "engine/controller_stages.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace panelbass::engine {
+namespace {
+
+void require_rate(double model_fs, double fs, const char* stage) {
+  if (!(std::abs(model_fs - fs) <= 1e-9 * fs)) {
+    throw std::invalid_argument(std::string(stage) + ": designed for " + std::to_string(model_fs) +
+                                " Hz, the chain runs at " + std::to_string(fs) + " Hz");
+  }
+}
+
+}  // namespace
+
+StateSpaceStage::StateSpaceStage(models::StateSpace system, double fs) : ss_(std::move(system)), fs_(fs) {}
+
+void StateSpaceStage::prepare(const ProcessSpec& spec) {
+  require_rate(fs_, spec.fs, "state-space stage");
+  const Eigen::Index n = ss_.A.rows();
+  if (ss_.A.cols() != n || ss_.B.size() != n || ss_.C.size() != n) {
+    throw std::invalid_argument("state-space stage: A is " + std::to_string(n) + "×" + std::to_string(ss_.A.cols()) +
+                                ", B has " + std::to_string(ss_.B.size()) + " rows, C " + std::to_string(ss_.C.size()) +
+                                " columns");
+  }
+  c_ = ss_.C.transpose();
+  state_ = Eigen::VectorXd::Zero(n);
+  next_ = Eigen::VectorXd::Zero(n);
+}
+
+double StateSpaceStage::process(double x) noexcept {
+  // [7B] u*(k) = −L·x(k) + u(k), x(k+1) = (A − BL)·x(k) + B·u(k), as y = C·x + D·u, x ← A·x + B·u
+  const double y = c_.dot(state_) + ss_.D * x;
+  next_.noalias() = ss_.A * state_;
+  next_ += ss_.B * x;
+  state_.swap(next_);
+  return y;
+}
+
+void StateSpaceStage::reset() noexcept { state_.setZero(); }
+
+NeuralFeedbackStage::NeuralFeedbackStage(models::NeuralFeedback controller, FeedbackSource source)
+    : controller_(std::move(controller)), source_(source) {}
+
+void NeuralFeedbackStage::prepare(const ProcessSpec& spec) {
+  require_rate(controller_.fs, spec.fs, "neural feedback stage");
+  runner_ = std::make_unique<models::FeedbackRunner>(controller_);
+}
+
+double NeuralFeedbackStage::process(double x) noexcept {
+  const double v = runner_->control(x);
+  if (source_ == FeedbackSource::model) runner_->push_output(runner_->plant_model_output());
+  return v;
+}
+
+void NeuralFeedbackStage::observe(double measured) noexcept {
+  if (source_ == FeedbackSource::sensor) runner_->push_output(measured);
+}
+
+void NeuralFeedbackStage::reset() noexcept {
+  if (runner_) runner_->reset();
+}
+
+}  // namespace panelbass::engine

@@ -1,0 +1,54 @@
+#pragma once
+// The controllers of the Control issue as engine stages: the LQ feedforward controller ([7B], a
+// state-space system u → u*) and the neural feedback controller (fig. 7.10), which reads the plant's
+// output either from the sensor (observe()) or from its own NARX plant model.
+
+#include <Eigen/Core>
+#include <memory>
+
+#include "engine/stage.h"
+#include "models/neural_feedback.h"
+#include "models/state_space.h"
+
+namespace panelbass::engine {
+
+/// A SISO state-space system in raw units as a stage (the LQ feedforward controller's u → u*).
+class StateSpaceStage final : public Stage {
+ public:
+  /// The stage of `system`, valid at sample rate `fs`.
+  StateSpaceStage(models::StateSpace system, double fs);
+  /// Sizes the state; throws if spec.fs differs from the system's rate or the matrices disagree in size.
+  void prepare(const ProcessSpec& spec) override;
+  /// y(k) = C·x(k) + D·u(k), x(k+1) = A·x(k) + B·u(k).
+  double process(double x) noexcept override;
+  /// State to zero.
+  void reset() noexcept override;
+
+ private:
+  models::StateSpace ss_;
+  double fs_;
+  Eigen::VectorXd c_, state_, next_;
+};
+
+/// The neural feedback controller as a stage: program (feedforward output) in, drive out.
+class NeuralFeedbackStage final : public Stage {
+ public:
+  /// The stage of `controller`, its plant output taken from `source` (sensor: observe(); model: its
+  /// NARX plant model run on the drives it produces).
+  NeuralFeedbackStage(models::NeuralFeedback controller, FeedbackSource source);
+  /// Sizes the runner; throws if spec.fs differs from the controller's rate.
+  void prepare(const ProcessSpec& spec) override;
+  /// v(k) = soft_limit(u(k) + N1(…)); in model mode, also steps the plant model.
+  double process(double x) noexcept override;
+  /// In sensor mode, the measured plant output becomes the newest past output.
+  void observe(double measured) noexcept override;
+  /// Every history to zero.
+  void reset() noexcept override;
+
+ private:
+  models::NeuralFeedback controller_;
+  FeedbackSource source_;
+  std::unique_ptr<models::FeedbackRunner> runner_;
+};
+
+}  // namespace panelbass::engine

@@ -1,0 +1,75 @@
+#include "models/feedback_design.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include "dsp/random.h"
+#include "models/state_space.h"
+
+namespace panelbass::models {
+namespace {
+
+void require_options(const FeedbackDesignOptions& o, double fs) {
+  if (o.samples < 1000) throw std::invalid_argument("design nn: samples must be >= 1000, got " + std::to_string(o.samples));
+  if (!(o.sine_share >= 0.0 && o.sine_share <= 1.0)) throw std::invalid_argument("design nn: sine_share must be within [0, 1]");
+  if (!(o.sine_low_hz > 0.0 && o.sine_low_hz < o.sine_high_hz && o.sine_high_hz < fs / 2.0)) {
+    throw std::invalid_argument("design nn: stepped sines need 0 < low < high < fs/2");
+  }
+  if (!(o.sine_peak > 0.0 && o.sine_peak <= 1.0)) throw std::invalid_argument("design nn: sine_peak must be within (0, 1]");
+  if (!(o.sine_step_seconds * fs >= 20.0)) throw std::invalid_argument("design nn: sine steps must last >= 20 samples");
+}
+
+}  // namespace
+
+ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
+                             const FeedbackDesignOptions& o, std::uint64_t seed) {
+  require_options(o, ff.fs);
+  const double fs = ff.fs;
+  const StateSpace controller = ff.controller();
+  const dsp::SosFilter shape(band_pass);
+  dsp::Rng rng(seed);
+  ControlRecord r;
+  r.program = Eigen::VectorXd::Zero(o.samples);
+  const auto n_sines = static_cast<Eigen::Index>(std::round(o.sine_share * static_cast<double>(o.samples)));
+  const Eigen::Index n_noise = o.samples - n_sines;
+  const double noise_amplitude = max_input(ff, band_pass, 100000, seed).noise;
+  for (Eigen::Index k = 0; k < n_noise; ++k) r.program[k] = rng.uniform(-noise_amplitude, noise_amplitude);
+  const auto step = static_cast<Eigen::Index>(o.sine_step_seconds * fs);
+  const auto fade = std::min<Eigen::Index>(static_cast<Eigen::Index>(0.01 * fs), step / 4);
+  for (Eigen::Index start = n_noise; start < o.samples; start += step) {
+    const double f = o.sine_low_hz * std::pow(o.sine_high_hz / o.sine_low_hz, rng.uniform(0.0, 1.0));
+    const double gain = std::abs(shape.response(f, fs) * response(controller, f, fs));
+    const double amplitude = std::min(1.0, o.sine_peak / gain);
+    const Eigen::Index length = std::min(step, o.samples - start);
+    for (Eigen::Index k = 0; k < length; ++k) {
+      const double edge = static_cast<double>(std::min(k, length - 1 - k));
+      const double window = edge < fade ? 0.5 - 0.5 * std::cos(std::numbers::pi * edge / fade) : 1.0;
+      r.program[start + k] = window * amplitude * std::sin(2.0 * std::numbers::pi * f * k / fs);
+    }
+  }
+  dsp::SosFilter filter(band_pass);
+  const Eigen::VectorXd shaped = filter.process(r.program);
+  r.u = simulate(controller, shaped);
+  r.y_desired = simulate(ff.desired(), shaped);
+  return r;
+}
+
+FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
+                               const std::vector<dsp::Biquad>& band_pass, const FeedbackDesignOptions& o) {
+  if (std::abs(plant.fs - ff.fs) > 1e-9 * ff.fs) {
+    throw std::invalid_argument("design nn: the plant model runs at " + std::to_string(plant.fs) +
+                                " Hz, the feedforward controller at " + std::to_string(ff.fs) + " Hz");
+  }
+  const ControlRecord est = control_record(ff, band_pass, o, o.seed);
+  const ControlRecord val = control_record(ff, band_pass, o, o.seed + 1);
+  NeuralFeedback initial = NeuralFeedback::with_structure(o.structure, plant);
+  initialize_feedback(initial, o.seed);
+  FeedbackDesign d{initial, train_feedback(initial, est.u, est.y_desired, val.u, val.y_desired, o.training)};
+  d.controller = d.training.controller;
+  return d;
+}
+
+}  // namespace panelbass::models

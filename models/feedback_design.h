@@ -1,0 +1,54 @@
+#pragma once
+// Designing the neural feedback controller on the models (fig. 7.10): the training records (the program
+// through band-pass and LQ feedforward, and the desired response [7B] y_lin), then training through the
+// loop with the NARX plant model (feedback_training.h).
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "dsp/biquad.h"
+#include "models/feedback_training.h"
+#include "models/lq_feedforward.h"
+#include "models/neural_feedback.h"
+
+namespace panelbass::models {
+
+/// How the controller is designed.
+struct FeedbackDesignOptions {
+  FeedbackStructure structure{};     ///< N1's inputs and hidden layers
+  Eigen::Index samples = 6000;       ///< samples of each record (estimation, validation)
+  double sine_share = 0.5;           ///< share of a record made of stepped sines (the rest: white noise)
+  double sine_low_hz = 30.0;         ///< stepped sines: lowest frequency, Hz (log-uniform draw)
+  double sine_high_hz = 400.0;       ///< stepped sines: highest frequency, Hz
+  double sine_step_seconds = 0.25;   ///< stepped sines: duration of each
+  double sine_peak = 1.0;            ///< stepped sines: steady peak of the feedforward output, in (0, 1]
+  std::uint64_t seed = 1;            ///< records (estimation: seed, validation: seed + 1) and initial weights
+  FeedbackTrainingOptions training{};  ///< the training itself
+};
+
+/// One training record.
+struct ControlRecord {
+  Eigen::VectorXd program;    ///< the program input
+  Eigen::VectorXd u;          ///< the feedforward output u* (band-pass, then [7B]), raw drive units
+  Eigen::VectorXd y_desired;  ///< the desired output [7B] y_lin of the band-passed program, raw units
+};
+
+/// A record of `o.samples`: uniform white noise at the largest safe amplitude (models::max_input's noise
+/// case), then stepped sines at log-uniform random frequencies, each at the amplitude where band-pass +
+/// feedforward reach a steady peak of o.sine_peak, faded in and out over 10 ms. Deterministic in `seed`.
+ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
+                             const FeedbackDesignOptions& o, std::uint64_t seed);
+
+/// What the design produced.
+struct FeedbackDesign {
+  NeuralFeedback controller;              ///< the trained controller
+  FeedbackTrainingResult training;        ///< its training history
+};
+
+/// Designs the controller on `plant` (a NARX model at ff's rate) behind `ff` and `band_pass`. Throws
+/// std::invalid_argument for a rate mismatch or bad options.
+FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
+                               const std::vector<dsp::Biquad>& band_pass, const FeedbackDesignOptions& o);
+
+}  // namespace panelbass::models

@@ -1,0 +1,90 @@
+// The control pipeline run as a user runs it, on small records: the plant driven in its operating regime
+// (`simulate --signal control`), `design nn`, `chain` and `evaluate`, and what each says about bad input.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "engine/chain_file.h"
+#include "models/neural_feedback.h"
+#include "tests/support/cli_runner.h"
+
+namespace panelbass {
+namespace {
+
+using namespace testing_support;
+
+// A failure by the CLI contract whose one-line message names `what`.
+void expect_failure(const RunResult& r, const std::string& what) {
+  testing_support::expect_failure(r);
+  EXPECT_NE(r.err.find(what), std::string::npos) << r.err;
+}
+
+class CliControl : public CliTest {
+ protected:
+  /// A linear model of the `linear` preset and the LQ feedforward controller on it.
+  void SetUp() override {
+    expect_result(run("simulate --plant linear --signal noise --samples 4000 --seed 3 --out " + quoted(dir_ / "run.csv")));
+    expect_result(run("identify linear --data " + quoted(dir_ / "run.csv") +
+                      " --fs 3000 --method oe --order 6 --out " + quoted(dir_ / "lin.json")));
+    expect_result(run("design lq --model " + quoted(dir_ / "lin.json") + " --R 1e-3 --R0 20 --out " + quoted(path("ff.json"))));
+  }
+  fs::path path(const char* name) const { return dir_ / name; }
+};
+
+TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates) {
+  const json sim = expect_result(run("simulate --plant linear --signal control --ff " + quoted(path("ff.json")) +
+                                     " --samples 3000 --seed 5 --sine-peak 0.6 --out " + quoted(path("reg.csv"))));
+  EXPECT_EQ(sim["signal"], "control");
+  split_csv(path("reg.csv"), 2000);
+  expect_result(run("identify narx --data " + quoted(path("est.csv")) + " --val " + quoted(path("val.csv")) +
+                    " --fs 3000 --na 3 --nb 3 --hidden 4 --max-iter 5 --seed 1 --out " + quoted(path("narx.json"))));
+  const json nn = expect_result(run("design nn --plant " + quoted(path("narx.json")) + " --ff " + quoted(path("ff.json")) +
+                                    " --hidden 4 --iterations 3 --samples 2000 --out " + quoted(path("fb.json"))));
+  EXPECT_LE(nn["jc_val_after_pct"].get<double>(), nn["jc_val_before_pct"].get<double>());
+  const models::NeuralFeedback fb = models::neural_feedback_from_json(json::parse(text_of(path("fb.json"))));
+  EXPECT_EQ(fb.structure.hidden, std::vector<int>{4});
+
+  const json chain = expect_result(run("chain --bandpass 20,1200 --ff " + quoted(path("ff.json")) + " --fb " +
+                                       quoted(path("fb.json")) + " --source sensor --out " + quoted(path("chain.json"))));
+  const engine::ChainConfig config = engine::load_chain_file(path("chain.json"));
+  ASSERT_TRUE(config.feedback.has_value());
+  EXPECT_EQ(config.feedback->source, engine::FeedbackSource::sensor);
+  EXPECT_EQ(config.feedforward->path, "ff.json") << "model paths relative to the chain file";
+
+  const json e = expect_result(run("evaluate --plant linear --chain " + quoted(path("chain.json")) +
+                                   " --noise-samples 8000 --probes 80,160 --out " + quoted(path("eval.json"))));
+  ASSERT_EQ(e["rows"].size(), 3u);
+  EXPECT_EQ(json::parse(text_of(path("eval.json"))), e);
+  const json& bare = e["rows"][0];
+  const json& ff = e["rows"][1];
+  EXPECT_LT(ff["ripple_db"].get<double>(), bare["ripple_db"].get<double>());
+  for (const json& row : e["rows"]) {
+    EXPECT_LE(row["max_drive"].get<double>(), 1.0);
+    EXPECT_EQ(row["faults"], 0);
+    ASSERT_EQ(row["probes"].size(), 2u);
+    EXPECT_TRUE(std::isfinite(row["probes"][1]["thd_pct"].get<double>()));
+  }
+}
+
+TEST_F(CliControl, BadInputIsNamed) {
+  // a chain without an LQ feedforward cannot be evaluated: J_c has no reference
+  expect_result(run("chain --bandpass 20,1200 --out " + quoted(path("bp.json"))));
+  RunResult r = run("evaluate --plant linear --chain " + quoted(path("bp.json")));
+  expect_failure(r, "lq_feedforward");
+  // a controller file that is not there, named with its path
+  r = run("chain --ff " + quoted(path("missing.json")) + " --out " + quoted(path("c.json")));
+  expect_failure(r, "missing.json");
+  // design nn wants a NARX plant model, not a linear one
+  r = run("design nn --plant " + quoted(dir_ / "lin.json") + " --ff " + quoted(path("ff.json")) + " --out " +
+          quoted(path("fb.json")));
+  expect_failure(r, "NARX");
+  // --signal control without the controller is refused
+  r = run("simulate --plant linear --signal control --samples 100 --out " + quoted(path("x.csv")));
+  expect_failure(r, "--ff");
+  // a bad band-pass is a usage error
+  EXPECT_EQ(run("chain --bandpass 1200,20 --out " + quoted(path("c.json"))).status, 2);
+}
+
+}  // namespace
+}  // namespace panelbass

@@ -1,0 +1,145 @@
+// `panelbass design lq` run as a user runs it: simulate, identify a linear model, design the LQ
+// feedforward controller, and read the controller file back.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+
+#include "dsp/butterworth.h"
+#include "models/lq_feedforward.h"
+#include "tests/support/cli_runner.h"
+
+namespace panelbass {
+namespace {
+
+using namespace testing_support;
+using CliDesign = CliTest;
+
+class CliDesignModel : public CliTest {
+ protected:
+  /// A 6th-order OE model of the panel exciter from 4000 samples of noise.
+  void SetUp() override {
+    expect_result(run("simulate --plant panel-exciter --signal noise --samples 4000 --seed 3 --out " +
+                      quoted(dir_ / "run.csv")));
+    expect_result(run("identify linear --data " + quoted(dir_ / "run.csv") + " --fs 3000 --method oe --order 6 --out " +
+                      quoted(model())));
+  }
+  fs::path model() const { return dir_ / "lin.json"; }
+};
+
+TEST_F(CliDesignModel, LqPrintsTheContractAndWritesAControllerThatLoadsBack) {
+  const fs::path out = dir_ / "ff.json";
+  const json r = expect_result(run("design lq --model " + quoted(model()) + " --R 3 --R0 20 --bandpass 20,1200 --samples 20000 --out " +
+                                   quoted(out)));
+  for (const char* key : {"L", "poles", "zeros", "max_input_worst", "max_input_noise", "bandpass", "order", "ripple_db"}) {
+    EXPECT_TRUE(r.contains(key)) << key;
+  }
+  // The model's order: max(na, nk + nb − 1) states of its realisation.
+  const json lin = json::parse(text_of(model()));
+  const int na = static_cast<int>(lin["params"]["a"].size()), nb = static_cast<int>(lin["params"]["b"].size());
+  const int order = std::max(na, lin["params"]["nk"].get<int>() + nb - 1);
+  EXPECT_EQ(r["order"], order);
+  ASSERT_EQ(r["L"].size(), static_cast<std::size_t>(order));
+  for (const auto& l : r["L"]) EXPECT_TRUE(std::isfinite(l.get<double>()));
+  ASSERT_EQ(r["poles"].size(), static_cast<std::size_t>(order));
+  for (const auto& p : r["poles"]) EXPECT_LT(std::hypot(p[0].get<double>(), p[1].get<double>()), 1.0);
+  const double worst = r["max_input_worst"], noise = r["max_input_noise"];
+  EXPECT_GT(worst, 0.0);
+  EXPECT_GE(noise, worst);
+  EXPECT_EQ(r["bandpass"], json::array({20.0, 1200.0}));
+
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(json::parse(text_of(out)));
+  EXPECT_EQ(ff.L.size(), order);
+  EXPECT_EQ(ff.weights.R, 3.0);
+  EXPECT_EQ(ff.weights.R0, 20.0);
+  EXPECT_EQ(ff.fs, 3000.0);
+  for (Eigen::Index i = 0; i < ff.L.size(); ++i) EXPECT_EQ(ff.L[i], r["L"][static_cast<std::size_t>(i)].get<double>());
+  EXPECT_EQ(ff.meta["model"], model().string());
+  EXPECT_EQ(ff.meta["bandpass"], json::array({20.0, 1200.0}));
+  EXPECT_EQ(ff.meta["weights"]["R"], 3.0);
+  // The controller file gives back the printed limits.
+  const models::InputLimits limits =
+      models::max_input(ff, dsp::butterworth_bandpass(2, 20.0, 1200.0, 3000.0), 20000, 1);
+  EXPECT_NEAR(limits.worst, worst, 1e-12 * worst);
+  EXPECT_NEAR(limits.noise, noise, 1e-12 * noise);
+}
+
+TEST_F(CliDesignModel, CheapControlFlattensTheResponseAndNeedsASmallerInput) {
+  const json expensive = expect_result(run("design lq --model " + quoted(model()) +
+                                           " --R 3 --R0 20 --bandpass 0,1200 --samples 20000 --out " + quoted(dir_ / "a.json")));
+  const json cheap = expect_result(run("design lq --model " + quoted(model()) +
+                                       " --R 1e-5 --R0 20 --bandpass 0,1200 --samples 20000 --out " + quoted(dir_ / "b.json")));
+  EXPECT_EQ(cheap["bandpass"], json::array({0.0, 1200.0}));
+  EXPECT_LT(cheap["ripple_db"]["controlled"].get<double>(), expensive["ripple_db"]["controlled"].get<double>());
+  EXPECT_LT(cheap["ripple_db"]["controlled"].get<double>(), cheap["ripple_db"]["model"].get<double>());
+  EXPECT_LT(cheap["max_input_noise"].get<double>(), expensive["max_input_noise"].get<double>());
+  // Filtering the lowest frequencies lets a larger program through (the thesis's table).
+  const json band = expect_result(run("design lq --model " + quoted(model()) +
+                                      " --R 1e-5 --R0 20 --bandpass 50,1200 --samples 20000 --out " + quoted(dir_ / "c.json")));
+  EXPECT_GT(band["max_input_worst"].get<double>(), cheap["max_input_worst"].get<double>());
+}
+
+TEST_F(CliDesignModel, PlotsWritesThePoleZeroAndMagnitudeFigures) {
+  const fs::path plots = dir_ / "plots";
+  const json r = expect_result(run("design lq --model " + quoted(model()) + " --R 3 --R0 20 --samples 1000 --out " +
+                                   quoted(dir_ / "ff.json") + " --plot " + quoted(plots)));
+  for (const char* name : {"poles_zeros", "magnitude"}) {
+    ASSERT_TRUE(r["plots"].contains(name)) << name;
+    const fs::path image = r["plots"][name].get<std::string>();
+    EXPECT_TRUE(fs::exists(image)) << image;
+    EXPECT_GT(fs::file_size(image), 1000u) << image;
+    EXPECT_TRUE(fs::exists(plots / (std::string(name) + ".gp"))) << name;
+  }
+}
+
+TEST_F(CliDesignModel, BadWeightsAndBandPassAreRefusedNamingThem) {
+  const std::string base = "design lq --model " + quoted(model()) + " --out " + quoted(dir_ / "ff.json");
+  RunResult r = run(base + " --R 0");
+  expect_usage_error(r);
+  EXPECT_TRUE(contains(r.err, "--R")) << r.err;
+  r = run(base + " --R -3");
+  expect_usage_error(r);
+  EXPECT_TRUE(contains(r.err, "--R")) << r.err;
+  r = run(base + " --R0 -1");
+  expect_usage_error(r);
+  EXPECT_TRUE(contains(r.err, "--R0")) << r.err;
+  for (const char* bad : {"1200", "1200,20", "a,b", "-5,100", "20,1200,3"}) {
+    r = run(base + " --bandpass " + quoted(std::string(bad)));
+    expect_usage_error(r);
+    EXPECT_TRUE(contains(r.err, "--bandpass")) << bad << ": " << r.err;
+  }
+  // Above the model's Nyquist frequency (1500 Hz): known only once the model is read.
+  r = run(base + " --bandpass 20,1600");
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "--bandpass")) << r.err;
+  EXPECT_TRUE(contains(r.err, "Nyquist")) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "ff.json"));
+}
+
+TEST_F(CliDesign, MissingOrWrongModelIsRefusedNamingIt) {
+  RunResult r = run("design lq --model " + quoted(dir_ / "nope.json") + " --out " + quoted(dir_ / "ff.json"));
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "nope.json")) << r.err;
+  const fs::path narx = file("nn.json", "{\"format\": \"panelbass.model/1\", \"kind\": \"narx\"}");
+  r = run("design lq --model " + quoted(narx) + " --out " + quoted(dir_ / "ff.json"));
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "nn.json")) << r.err;
+  EXPECT_TRUE(contains(r.err, "kind")) << r.err;
+  r = run("design lq --out " + quoted(dir_ / "ff.json"));
+  expect_usage_error(r);
+  EXPECT_TRUE(contains(r.err, "--model")) << r.err;
+  r = run("design");
+  expect_usage_error(r);
+}
+
+TEST_F(CliDesign, HelpShowsAnExample) {
+  const RunResult r = run("design lq --help");
+  EXPECT_EQ(r.status, 0);
+  EXPECT_TRUE(contains(r.out, "Example")) << r.out;
+  EXPECT_TRUE(contains(r.out, "--bandpass")) << r.out;
+}
+
+}  // namespace
+}  // namespace panelbass

@@ -1,0 +1,453 @@
+// The ALSA backend through real libasound calls with real-time pacing: the test starts a JACK server
+// with the dummy driver (Debian jackd2) and opens two ALSA PCMs of type "jack" (Debian
+// libasound2-plugins) from an in-memory configuration, wired as a loopback: the capture PCM's sensor
+// channel is connected to the playback PCM's drive port, so what the backend plays really comes back on
+// its capture. The chain runs at 3000 Hz between the rate bridge's decimator and interpolator, the
+// device at 48 kHz with 64-frame periods.
+//
+// Independent expectations: a digital loop returns every drive sample exactly (as the float it was
+// written as) some whole number of frames later, so once the delay is found by cross-correlation the
+// captured sensor must equal the delayed drive sample for sample; zero xruns while the server runs; the
+// drive within [−1, 1] throughout; and when the server is killed and started again, the backend
+// reports the loss and comes back by itself, with the loop working again.
+//
+// A machine without jackd FAILS this test with a message saying what to install; only
+// PANELBASS_SKIP_JACK=1 skips it.
+#include "engine/alsa_backend.h"
+
+#include <gtest/gtest.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "dsp/random.h"
+
+extern char** environ;
+
+namespace panelbass::engine {
+namespace {
+
+using namespace std::chrono_literals;
+
+constexpr double kDeviceRate = 48000.0;
+constexpr int kPeriod = 64;
+// Eight periods (10.7 ms) of slack: jackd without real-time scheduling on a machine busy compiling is
+// sometimes descheduled for several milliseconds and then catches up with a burst of cycles.
+constexpr int kPeriods = 8;
+
+bool skip_jack() {
+  const char* v = std::getenv("PANELBASS_SKIP_JACK");
+  return v != nullptr && std::string(v) == "1";
+}
+
+/// The first executable `name` on PATH ("" if none).
+std::string find_on_path(const std::string& name) {
+  const char* path = std::getenv("PATH");
+  std::stringstream dirs(path != nullptr ? path : "/usr/bin:/bin");
+  for (std::string dir; std::getline(dirs, dir, ':');) {
+    const std::string candidate = dir + "/" + name;
+    if (::access(candidate.c_str(), X_OK) == 0) return candidate;
+  }
+  return "";
+}
+
+/// A JACK server with the dummy driver, started and stopped by the test.
+class JackServer {
+ public:
+  /// A server named `name` (not started).
+  explicit JackServer(std::string name)
+      : name_(std::move(name)),
+        log_(std::filesystem::temp_directory_path() / ("panelbass-" + name_ + ".log")),
+        socket_(std::string("/dev/shm/jack_") + name_ + "_" + std::to_string(::getuid()) + "_0") {}
+  ~JackServer() {
+    stop();
+    std::error_code ignored;
+    std::filesystem::remove(log_, ignored);
+  }
+
+  /// Starts jackd and waits until its socket is there; "" on success, else what went wrong.
+  std::string start() {
+    const std::string jackd = find_on_path("jackd");
+    if (jackd.empty()) {
+      return "jackd is not on PATH: install the Debian packages jackd2 and libasound2-plugins "
+             "(scripts/bootstrap.sh installs them), or set PANELBASS_SKIP_JACK=1 to skip this test";
+    }
+    // No D-Bus device reservation in a container; the server must not look for one.
+    ::setenv("JACK_NO_AUDIO_RESERVATION", "1", 1);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, log_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    posix_spawn_file_actions_adddup2(&actions, 1, 2);
+    posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
+    const std::string rate = std::to_string(static_cast<int>(kDeviceRate)), period = std::to_string(kPeriod);
+    // --no-realtime: no real-time scheduling needed (nor asked for) in a container. -S (synchronous
+    // mode): the server waits for every client each cycle, so on a loaded machine a late client delays
+    // the cycle instead of being skipped for it, which would slip the capture against the playback.
+    std::vector<std::string> args = {jackd, "--no-realtime", "-S", "-n", name_, "-d", "dummy", "-r", rate, "-p", period};
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    const int err = posix_spawn(&pid_, jackd.c_str(), &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    if (err != 0) {
+      pid_ = -1;
+      return "cannot spawn " + jackd + ": " + std::strerror(err);
+    }
+    for (auto until = std::chrono::steady_clock::now() + 5s; std::chrono::steady_clock::now() < until;) {
+      int status = 0;
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        return "jackd exited at start-up (status " + std::to_string(status) + "); its output:\n" + log();
+      }
+      if (std::filesystem::exists(socket_)) return "";
+      std::this_thread::sleep_for(20ms);
+    }
+    stop();
+    return "jackd did not open its socket " + socket_ + " within 5 s; its output:\n" + log();
+  }
+
+  /// Stops the server (SIGTERM, then SIGKILL after 3 s) and waits for it.
+  void stop() {
+    if (pid_ <= 0) return;
+    ::kill(pid_, SIGTERM);
+    int status = 0;
+    for (auto until = std::chrono::steady_clock::now() + 3s; std::chrono::steady_clock::now() < until;) {
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        return;
+      }
+      std::this_thread::sleep_for(10ms);
+    }
+    ::kill(pid_, SIGKILL);
+    ::waitpid(pid_, &status, 0);
+    pid_ = -1;
+  }
+
+  /// What the server printed so far (its last 2000 characters).
+  std::string log() const {
+    std::ifstream in(log_);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    return text.size() > 2000 ? text.substr(text.size() - 2000) : text;
+  }
+  /// The server's name.
+  const std::string& name() const { return name_; }
+
+ private:
+  std::string name_;
+  std::filesystem::path log_;
+  std::string socket_;
+  pid_t pid_ = -1;
+};
+
+/// The in-memory ALSA configuration: a playback PCM whose two ports go to the dummy card, and a capture
+/// PCM whose channel 0 listens to the dummy card (silence) and channel 1 to the playback's drive port.
+/// The capture connects when it starts, after the playback (the backend starts them in that order).
+std::string loopback_config(const std::string& tag) {
+  return "pcm.pb_play {\n"
+         "  type jack\n"
+         "  name \"" + tag + "p\"\n"
+         "  playback_ports { 0 \"system:playback_1\" 1 \"system:playback_2\" }\n"
+         "}\n"
+         "pcm.pb_capture {\n"
+         "  type jack\n"
+         "  name \"" + tag + "c\"\n"
+         "  capture_ports { 0 \"system:capture_1\" 1 \"" + tag + "p:out_000\" }\n"
+         "}\n";
+}
+
+/// What the device thread saw, period by period, in buffers sized before the run (no allocation there).
+struct Recording {
+  explicit Recording(std::size_t periods)
+      : drive(periods * kPeriod), sensor(periods * kPeriod), epoch(periods, -1) {}
+  std::vector<double> drive, sensor;
+  std::vector<int> epoch;  // the test's phase when the period was processed
+  std::atomic<std::size_t> periods{0};
+  std::atomic<int> current_epoch{0};
+  std::atomic<double> max_abs_drive{0.0};
+
+  void record(const AlsaBlockView& v) noexcept {
+    const std::size_t i = periods.load(std::memory_order_relaxed);
+    if (i >= epoch.size()) return;
+    std::copy(v.drive.begin(), v.drive.end(), drive.begin() + static_cast<std::ptrdiff_t>(i * kPeriod));
+    std::copy(v.sensor.begin(), v.sensor.end(), sensor.begin() + static_cast<std::ptrdiff_t>(i * kPeriod));
+    double m = max_abs_drive.load(std::memory_order_relaxed);
+    for (const double x : v.drive) m = std::max(m, std::abs(x));
+    max_abs_drive.store(m, std::memory_order_relaxed);
+    epoch[i] = current_epoch.load(std::memory_order_relaxed);
+    periods.store(i + 1, std::memory_order_release);
+  }
+};
+
+/// The loop's delay in one epoch's contiguous run of periods: the lag (0..max_lag frames) with the
+/// largest cross-correlation of sensor against drive; -1 if the epoch has too little signal.
+struct Delay {
+  int frames = -1;
+  double peak_correlation = 0.0;  ///< normalised, 1 = identical
+  double max_mismatch = 1.0;      ///< max |sensor[n] − float(drive[n − frames])| over the checked span
+  std::size_t checked = 0;        ///< samples compared
+};
+
+Delay measure_delay(const Recording& r, int epoch, int max_lag) {
+  const std::size_t periods = r.periods.load(std::memory_order_acquire);
+  std::size_t first = periods, last = 0;
+  for (std::size_t i = 0; i < periods; ++i) {
+    if (r.epoch[i] != epoch) continue;
+    first = std::min(first, i);
+    last = i + 1;
+  }
+  Delay d;
+  if (first >= last) return d;
+  // Skip the first 0.25 s of the epoch (the loop filling) and compare at most 1 s.
+  const std::size_t begin = first * kPeriod + static_cast<std::size_t>(kDeviceRate / 4);
+  const std::size_t end = std::min(last * kPeriod, begin + static_cast<std::size_t>(kDeviceRate));
+  if (end <= begin + static_cast<std::size_t>(max_lag) * 2) return d;
+  double best = -1.0;
+  for (int lag = 0; lag <= max_lag; ++lag) {
+    double xy = 0.0, xx = 0.0, yy = 0.0;
+    for (std::size_t n = begin; n < end; ++n) {
+      const double x = r.drive[n - static_cast<std::size_t>(lag)], y = r.sensor[n];
+      xy += x * y;
+      xx += x * x;
+      yy += y * y;
+    }
+    const double c = xx > 0.0 && yy > 0.0 ? xy / std::sqrt(xx * yy) : 0.0;
+    if (c > best) {
+      best = c;
+      d.frames = lag;
+    }
+  }
+  d.peak_correlation = best;
+  d.max_mismatch = 0.0;
+  for (std::size_t n = begin; n < end; ++n) {
+    const double expected = static_cast<float>(r.drive[n - static_cast<std::size_t>(d.frames)]);
+    d.max_mismatch = std::max(d.max_mismatch, std::abs(r.sensor[n] - expected));
+  }
+  d.checked = end - begin;
+  return d;
+}
+
+/// Waits until `done()` or `timeout`; true if done.
+template <class Done>
+bool wait_for(Done&& done, std::chrono::milliseconds timeout) {
+  for (auto until = std::chrono::steady_clock::now() + timeout; std::chrono::steady_clock::now() < until;) {
+    if (done()) return true;
+    std::this_thread::sleep_for(5ms);
+  }
+  return done();
+}
+
+std::string describe(const AlsaStatus& s) {
+  return std::string("state ") + alsa_state_name(s.state) + ", opens " + std::to_string(s.opens) + ", failed opens " +
+         std::to_string(s.failed_opens) + ", losses " + std::to_string(s.losses) + ", xruns " +
+         std::to_string(s.xruns) + ", periods " + std::to_string(s.periods) + ", last error \"" +
+         s.last_error.data() + "\"";
+}
+
+/// A band-pass-only chain at `fs` (the feedback slot passes the sensor's observations by).
+ChainOptions chain_options(double fs, int max_block) {
+  ChainOptions o;
+  o.spec = {fs, max_block};
+  return o;
+}
+
+TEST(AlsaBackend, JackLoopbackRunsWithoutXrunsAndSurvivesAServerRestart) {
+  if (skip_jack()) GTEST_SKIP() << "PANELBASS_SKIP_JACK=1";
+  const std::string tag = "pb" + std::to_string(::getpid());
+  JackServer server("panelbass-" + std::to_string(::getpid()));
+  ::setenv("JACK_DEFAULT_SERVER", server.name().c_str(), 1);
+  const std::string started = server.start();
+  ASSERT_EQ(started, "") << "the JACK dummy server could not be started: " << started;
+
+  Chain chain(chain_options(3000.0, 64));
+  Recording rec(static_cast<std::size_t>(12 * kDeviceRate / kPeriod));
+  AlsaOptions o;
+  o.playback_device = "pb_play";
+  o.capture_device = "pb_capture";
+  o.config_text = loopback_config(tag);
+  o.rate = Hertz{kDeviceRate};
+  o.period = Samples{kPeriod};
+  o.periods = kPeriods;
+  o.playback_channels = 2;
+  o.drive_channel = 0;
+  o.capture_channels = 2;
+  o.program_channel = kNoChannel;  // program from the vector below
+  o.sensor_channel = 1;            // the loop's return
+  o.reopen_min = 20ms;
+  o.reopen_max = 200ms;
+  o.device_timeout = 300ms;
+  // A modest SCHED_FIFO priority where the machine grants it (root or CAP_SYS_NICE); without it the
+  // device thread runs at normal priority and the buffer's slack has to do.
+  o.realtime_priority = 20;
+  dsp::Rng rng(7);
+  o.program.resize(static_cast<std::size_t>(kDeviceRate));  // 1 s of noise, looped
+  for (double& x : o.program) x = rng.uniform(-0.9, 0.9);
+  o.on_block = [&rec](const AlsaBlockView& v) { rec.record(v); };
+  {
+    // A rate the server does not run at is refused, and the status says what the device offers.
+    AlsaOptions wrong = o;
+    wrong.rate = Hertz{44100.0};
+    wrong.on_block = nullptr;
+    AlsaBackend refused(chain, wrong);
+    refused.start();
+    EXPECT_TRUE(wait_for([&] { return refused.status().failed_opens >= 1; }, 3s)) << describe(refused.status());
+    refused.stop();
+    EXPECT_NE(std::string(refused.status().last_error.data()).find("rate 44100 Hz refused (the device offers 48000..48000 Hz)"),
+              std::string::npos)
+        << describe(refused.status());
+    EXPECT_EQ(refused.status().opens, 0u);
+  }
+  AlsaBackend backend(chain, o);
+  const RateBridgeLatency resampling = backend.resampling_latency();
+
+  // Phase 0: three seconds of streaming at the server's pace.
+  backend.start();
+  ASSERT_TRUE(wait_for([&] { return backend.status().periods > 50; }, 5s))
+      << "the backend never streamed: " << describe(backend.status()) << "\njackd:\n" << server.log();
+  std::this_thread::sleep_for(3s);
+  const AlsaStatus before = backend.status();
+  const std::uint64_t xruns_before = chain.metrics().snapshot().xruns;
+  EXPECT_EQ(before.state, AlsaState::running) << describe(before);
+  EXPECT_EQ(before.xruns, 0u) << describe(before);
+  EXPECT_EQ(xruns_before, 0u);
+  EXPECT_EQ(before.opens, 1u) << describe(before);
+  // Real-time pacing: three seconds are about 2250 periods of 64 frames at 48 kHz.
+  EXPECT_GT(before.periods, 2000u) << describe(before);
+
+  // Phase 1: the server goes away; the backend reports the loss and keeps trying.
+  rec.current_epoch.store(1);
+  server.stop();
+  EXPECT_TRUE(wait_for([&] { return backend.status().losses >= 1; }, 3s)) << describe(backend.status());
+  const AlsaStatus lost = backend.status();
+  EXPECT_NE(lost.state, AlsaState::running) << describe(lost);
+  EXPECT_STRNE(lost.last_error.data(), "") << describe(lost);
+  std::this_thread::sleep_for(300ms);  // a few failed reopen attempts while the server is down
+  EXPECT_GE(backend.status().failed_opens, 1u) << describe(backend.status());
+
+  // Phase 2: the server is back; so is the backend, with the loop working again.
+  const std::string restarted = server.start();
+  ASSERT_EQ(restarted, "") << "the JACK dummy server could not be restarted: " << restarted;
+  const std::uint64_t periods_at_restart = backend.status().periods;
+  EXPECT_TRUE(wait_for([&] {
+    const AlsaStatus s = backend.status();
+    return s.opens >= 2 && s.state == AlsaState::running && s.periods > periods_at_restart + 50;
+  }, 5s)) << describe(backend.status()) << "\njackd:\n" << server.log();
+  std::this_thread::sleep_for(1500ms);
+  const AlsaStatus after = backend.status();
+  backend.stop();
+  server.stop();
+  EXPECT_EQ(backend.status().state, AlsaState::stopped);
+
+  const Delay first = measure_delay(rec, 0, 2048), second = measure_delay(rec, 1, 2048);
+  std::printf("[ loopback ] JACK dummy 48 kHz/64, ALSA period %d x %d, chain at 3000 Hz: loop delay %d frames "
+              "(%.3f ms) before the restart, %d frames after; resampling latency %d frames (%.3f ms); "
+              "device thread real-time: %s; %s\n",
+              kPeriod, kPeriods, first.frames, 1e3 * first.frames / kDeviceRate, second.frames, resampling.total_samples,
+              resampling.total_ms, after.realtime ? "yes" : "no", describe(after).c_str());
+  // The delay is found, and the loop returns every drive sample exactly.
+  ASSERT_GE(first.frames, 0) << "no signal in the first run";
+  EXPECT_GT(first.peak_correlation, 0.999);
+  EXPECT_LT(first.max_mismatch, 1e-7) << "over " << first.checked << " samples";
+  // The backend keeps the playback buffer full ahead of the capture: the loop's delay is one buffer
+  // plus whatever the capture had queued when the first period was read (none unless that read was late).
+  constexpr int kBuffer = kPeriods * kPeriod;
+  EXPECT_GE(first.frames, kBuffer);
+  EXPECT_LE(first.frames, 2 * kBuffer);
+  ASSERT_GE(second.frames, 0) << "no signal after the restart";
+  EXPECT_GT(second.peak_correlation, 0.999);
+  EXPECT_LT(second.max_mismatch, 1e-7) << "over " << second.checked << " samples";
+  EXPECT_GE(second.frames, kBuffer);
+  EXPECT_LE(second.frames, 2 * kBuffer);
+  // The drive stayed in [−1, 1] all along; the restart came back at least once.
+  EXPECT_LE(rec.max_abs_drive.load(), 1.0);
+  EXPECT_GT(rec.max_abs_drive.load(), 0.05);  // and the program really drove it
+  EXPECT_GE(after.reopens(), 1u) << describe(after);
+  EXPECT_GE(after.losses, 1u) << describe(after);
+}
+
+TEST(AlsaBackend, AMissingDeviceIsRetriedWithBackOffAndStopsPromptly) {
+  // No JACK needed: a PCM type that does not exist fails to open, again and again.
+  Chain chain(chain_options(3000.0, 64));
+  AlsaOptions o;
+  o.playback_device = "nowhere";
+  o.capture_device = "";
+  o.config_text = "pcm.nowhere { type panelbass_no_such_plugin }\n";
+  o.reopen_min = 10ms;
+  o.reopen_max = 40ms;
+  AlsaBackend backend(chain, o);
+  backend.start();
+  EXPECT_TRUE(wait_for([&] { return backend.status().failed_opens >= 3; }, 3s)) << describe(backend.status());
+  const AlsaStatus s = backend.status();
+  EXPECT_EQ(s.opens, 0u);
+  EXPECT_NE(std::string(s.last_error.data()).find("playback nowhere: cannot open"), std::string::npos) << describe(s);
+  backend.stop();  // a stop that hung would hang the test, which ctest reports
+  EXPECT_EQ(backend.status().state, AlsaState::stopped);
+}
+
+TEST(AlsaBackend, BadOptionsAreNamed) {
+  Chain chain(chain_options(3000.0, 64)), small_chain(chain_options(3000.0, 4));
+  const auto message = [&chain](const AlsaOptions& o) {
+    try {
+      AlsaBackend backend(chain, o);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no exception");
+  };
+  AlsaOptions o;
+  o.playback_device = "";
+  o.capture_device = "";
+  EXPECT_NE(message(o).find("neither a playback nor a capture device"), std::string::npos) << message(o);
+  o = {};
+  o.drive_channel = 2;
+  EXPECT_NE(message(o).find("drive_channel must be within [0, 1]"), std::string::npos) << message(o);
+  o = {};
+  o.sensor_channel = 0;
+  EXPECT_NE(message(o).find("sensor_channel is set but no capture device"), std::string::npos) << message(o);
+  o = {};
+  o.capture_device = "x";
+  o.program_channel = 5;
+  EXPECT_NE(message(o).find("program_channel must be within [0, 1] or none"), std::string::npos) << message(o);
+  o = {};
+  o.periods = 1;
+  EXPECT_NE(message(o).find("periods must be within [2, 64]"), std::string::npos) << message(o);
+  o = {};
+  o.config_text = "pcm.broken { type ";
+  EXPECT_NE(message(o).find("config_text does not parse"), std::string::npos) << message(o);
+  const auto small_message = [&small_chain](const AlsaOptions& o) {
+    try {
+      AlsaBackend backend(small_chain, o);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no exception");
+  };
+  o = {};  // 64 frames at 48 kHz are 4 samples at 3000 Hz, up to 12 in one period; the chain takes 4
+  EXPECT_NE(small_message(o).find("more than the chain's max_block 4"), std::string::npos) << small_message(o);
+  o = {};
+  o.rate = Hertz{3000.0};
+  o.period = Samples{8};
+  EXPECT_NE(small_message(o).find("period 8 exceeds the chain's max_block 4"), std::string::npos) << small_message(o);
+  o = {};
+  o.reopen_max = std::chrono::milliseconds{1};
+  EXPECT_NE(message(o).find("reopen_min <= reopen_max"), std::string::npos) << message(o);
+}
+
+}  // namespace
+}  // namespace panelbass::engine

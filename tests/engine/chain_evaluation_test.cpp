@@ -1,0 +1,70 @@
+// The Control issue's evaluation table, on the `linear` preset where the answers are known: a linear
+// plant has no harmonics, an LQ feedforward designed on a model of it flattens its response, and the
+// loop output then tracks the desired response to within the sensor noise.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "dsp/random.h"
+#include "engine/chain_evaluation.h"
+#include "models/linear_identification.h"
+#include "models/lq_feedforward.h"
+#include "models/plant_presets.h"
+#include "models/virtual_transducer.h"
+
+namespace panelbass::engine {
+namespace {
+
+// An OE model of the linear preset from 8000 samples of full-drive noise, and the LQ controller on it.
+nlohmann::json lq_on_linear_plant(const models::PlantConfig& plant) {
+  dsp::Rng rng(5);
+  Eigen::VectorXd u(8000);
+  for (Eigen::Index k = 0; k < u.size(); ++k) u[k] = rng.uniform(-1.0, 1.0);
+  const Eigen::VectorXd y = models::simulate(plant, u, 6).y;
+  models::LinearIdentificationSpec spec;
+  spec.method = models::LinearMethod::oe;
+  spec.order = 8;
+  spec.fs = plant.fs;
+  const models::LinearModel model = models::identify_linear(u, y, {}, {}, spec).model;
+  return models::lq_feedforward_to_json(models::design_lq(model, {1e-5, 20.0}));
+}
+
+TEST(ChainEvaluationTest, OnALinearPlantTheFeedforwardFlattensAndNothingDistorts) {
+  const models::PlantConfig plant = models::plant_preset("linear");
+  ChainConfig config;
+  config.fs = plant.fs;
+  config.feedforward = SlotConfig{};
+  config.feedforward->model = lq_on_linear_plant(plant);
+  EvaluationOptions o;
+  o.noise_samples = 30000;
+  const ChainEvaluation e = evaluate_chain(config, plant, o);
+  ASSERT_EQ(e.rows.size(), 2u);
+  const EvaluationRow& bare = e.rows[0];
+  const EvaluationRow& ff = e.rows[1];
+  EXPECT_EQ(bare.name, "plant");
+  EXPECT_GT(bare.ripple_db, 20.0) << "the panel's resonance and roll-off";
+  EXPECT_LT(ff.ripple_db, bare.ripple_db / 2.0);
+  // the tracking error is the sensor noise, and little else
+  EXPECT_LT(ff.jc_pct, e.jc_noise_floor_pct * 1.2 + 1.0);
+  EXPECT_GT(ff.jc_pct, e.jc_noise_floor_pct * 0.8);
+  EXPECT_GT(bare.jc_pct, 2.0 * ff.jc_pct);
+  EXPECT_GT(e.noise_amplitude, 0.0);
+  EXPECT_LE(ff.max_drive, 1.0);
+  EXPECT_EQ(ff.faults, 0u);
+  for (const EvaluationRow& row : e.rows) {
+    ASSERT_EQ(row.probes.size(), o.probe_hz.size());
+    for (const ProbeResult& p : row.probes) {
+      EXPECT_LT(p.thd_pct, 1.0) << row.name << " at " << p.frequency_hz << " Hz: a linear plant has no harmonics";
+      EXPECT_GT(p.amplitude, 0.0);
+      EXPECT_LE(p.amplitude, 1.0);
+    }
+  }
+}
+
+TEST(ChainEvaluationTest, RefusesAChainWithoutAnLqFeedforward) {
+  ChainConfig config;
+  EXPECT_THROW(evaluate_chain(config, models::plant_preset("linear")), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace panelbass::engine

@@ -1,0 +1,103 @@
+// The controllers as engine stages: the LQ feedforward controller's state space run per sample, the
+// neural feedback controller in model and sensor mode, and the stage factory's dispatch on the kind.
+#include <gtest/gtest.h>
+
+#include "engine/controller_stages.h"
+#include "engine/stage_factory.h"
+#include "models/config_error.h"
+#include "models/feedback_training.h"
+#include "models/lq_feedforward.h"
+#include "models/neural_feedback.h"
+#include "tests/engine/engine_test_models.h"
+
+namespace panelbass::engine {
+namespace {
+
+using testing::kFs;
+
+Eigen::VectorXd noise(Eigen::Index n, double amplitude, std::uint64_t seed) {
+  dsp::Rng rng(seed);
+  Eigen::VectorXd u(n);
+  for (Eigen::Index k = 0; k < n; ++k) u[k] = rng.uniform(-amplitude, amplitude);
+  return u;
+}
+
+Eigen::VectorXd run(Stage& stage, const Eigen::VectorXd& u) {
+  stage.prepare(ProcessSpec{kFs, 64});
+  Eigen::VectorXd y(u.size());
+  for (Eigen::Index k = 0; k < u.size(); ++k) y[k] = stage.process(u[k]);
+  return y;
+}
+
+models::NeuralFeedback example_feedback() {
+  models::FeedbackStructure s;
+  s.nu = 2;
+  s.nv = 2;
+  s.ny = 3;
+  s.hidden = {5};
+  models::NeuralFeedback c = models::NeuralFeedback::with_structure(s, testing::example_narx(4));
+  models::initialize_feedback(c, 9, 1.0);
+  return c;
+}
+
+TEST(ControllerStagesTest, LqFeedforwardStageIsTheStateSpaceOf7B) {
+  const models::LqFeedforward ff = models::design_lq(testing::example_linear(), {1e-3, 20.0});
+  const std::unique_ptr<Stage> stage = make_stage(models::lq_feedforward_to_json(ff));
+  const Eigen::VectorXd u = noise(500, 0.5, 1);
+  const Eigen::VectorXd out = run(*stage, u);
+  // [7B] written out: x(k+1) = (A − BL)x(k) + Bu(k), u*(k) = −Lx(k) + u(k), with the plant's A, B and L
+  const models::StateSpace& p = ff.plant;
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(p.order());
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    const double expected = -ff.L.dot(x) + u[k];
+    ASSERT_NEAR(out[k], expected, 1e-12 * (1.0 + std::abs(expected))) << k;
+    x = (p.A - p.B * ff.L) * x + p.B * u[k];
+  }
+}
+
+TEST(ControllerStagesTest, NeuralFeedbackStageInModelModeIsTheClosedLoopOfItsPlantModel) {
+  const models::NeuralFeedback c = example_feedback();
+  NeuralFeedbackStage stage(c, FeedbackSource::model);
+  const Eigen::VectorXd u = noise(800, 0.9, 2);
+  const Eigen::VectorXd v = run(stage, u);
+  const models::ClosedLoopRun expected = models::simulate_closed_loop(c, u);
+  EXPECT_LT((v - expected.v).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LE(v.cwiseAbs().maxCoeff(), 1.0);
+}
+
+TEST(ControllerStagesTest, SensorModeFedThePlantModelsOutputMatchesModelMode) {
+  const models::NeuralFeedback c = example_feedback();
+  const Eigen::VectorXd u = noise(600, 0.7, 3);
+  const models::ClosedLoopRun loop = models::simulate_closed_loop(c, u);
+  NeuralFeedbackStage stage(c, FeedbackSource::sensor);
+  stage.prepare(ProcessSpec{kFs, 64});
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    ASSERT_NEAR(stage.process(u[k]), loop.v[k], 1e-12) << k;
+    stage.observe(loop.y[k]);  // the "sensor" reads what the plant model produced
+  }
+  // a different sensor signal changes the drive: the stage really reads it
+  stage.reset();
+  double difference = 0.0;
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    difference = std::max(difference, std::abs(stage.process(u[k]) - loop.v[k]));
+    stage.observe(0.0);
+  }
+  EXPECT_GT(difference, 1e-6);
+}
+
+TEST(ControllerStagesTest, FactoryBuildsEveryKindAndRefusesOthers) {
+  const models::NeuralFeedback c = example_feedback();
+  const std::unique_ptr<Stage> fb = make_stage(models::neural_feedback_to_json(c), FeedbackSource::model);
+  const Eigen::VectorXd u = noise(200, 0.5, 4);
+  EXPECT_LT((run(*fb, u) - models::simulate_closed_loop(c, u).v).cwiseAbs().maxCoeff(), 1e-12);
+  const std::unique_ptr<Stage> linear = make_stage(models::linear_model_to_json(testing::example_linear()));
+  EXPECT_LT((run(*linear, u) - testing::example_linear().simulate(u)).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_THROW(make_stage(nlohmann::json{{"kind", "pid"}}), std::invalid_argument);
+  EXPECT_THROW(make_stage(nlohmann::json{{"fs", 3000}}), models::ConfigError);
+  nlohmann::json wrong_rate = models::neural_feedback_to_json(c);
+  const std::unique_ptr<Stage> at_3k = make_stage(wrong_rate);
+  EXPECT_THROW(at_3k->prepare(ProcessSpec{48000.0, 64}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace panelbass::engine
