@@ -12,11 +12,11 @@
 
 #include "models/config_error.h"
 #include "models/json_fields.h"
+#include "models/model_header.h"
 
 namespace panelbass::models {
 namespace {
 
-constexpr const char* kFormat = "panelbass.model/1";
 constexpr const char* kKind = "linear";
 // An input delay beyond a minute at 384 kHz is a corrupt file, not a model.
 constexpr long kMaxDelay = 384000L * 60L;
@@ -122,7 +122,7 @@ Eigen::VectorXd LinearModel::predict(const Eigen::VectorXd& u, const Eigen::Vect
 
 nlohmann::json linear_model_to_json(const LinearModel& m) {
   return {
-      {"format", kFormat},
+      {"format", kModelFormat},
       {"kind", kKind},
       {"fs", m.fs},
       {"method", m.method},
@@ -135,16 +135,7 @@ nlohmann::json linear_model_to_json(const LinearModel& m) {
 LinearModel linear_model_from_json(const nlohmann::json& j) {
   LinearModel m;
   JsonFields top(j, "model");
-  if (top.member("format") == nullptr) throw ConfigError("model.format: missing");
-  const std::string format = top.string("format", "");
-  if (format != kFormat) {
-    throw ConfigError("model.format: expected \"" + std::string(kFormat) + "\", got \"" + format + "\"");
-  }
-  if (top.member("kind") == nullptr) throw ConfigError("model.kind: missing");
-  const std::string kind = top.string("kind", "");
-  if (kind != kKind) throw ConfigError("model.kind: expected \"" + std::string(kKind) + "\", got \"" + kind + "\"");
-  m.fs = top.number("fs");
-  require_positive(m.fs, "model.fs");
+  m.fs = read_model_header(top, kKind);
   m.method = top.string("method", "");
 
   const nlohmann::json* scaling = top.member("scaling");
@@ -164,10 +155,7 @@ LinearModel linear_model_from_json(const nlohmann::json& j) {
   m.tf.nk = static_cast<int>(p.integer("nk", 0, 0, kMaxDelay));
   p.finish();
 
-  if (const nlohmann::json* meta = top.member("meta")) {
-    if (!meta->is_object()) throw ConfigError("model.meta: expected an object, got " + std::string(meta->type_name()));
-    m.meta = *meta;
-  }
+  m.meta = read_model_meta(top);
   top.finish();
   require_stable(m.tf, m.fs);
   return m;

@@ -1,5 +1,7 @@
 #include "models/lq_feedforward.h"
 
+#include "models/extended_precision.h"
+
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -14,6 +16,7 @@
 #include "dsp/random.h"
 #include "models/config_error.h"
 #include "models/json_fields.h"
+#include "models/model_header.h"
 
 namespace panelbass::models {
 namespace {
@@ -21,15 +24,8 @@ namespace {
 // The Riccati arithmetic runs in long double, as the realisation does (state_space.cpp): badly damped
 // poles near the unit circle make the doubling iteration and the Stein equations ill conditioned, and
 // the 11 extra mantissa bits leave the double-precision result accurate to its last digits.
-using Real = long double;
-using ComplexL = std::complex<Real>;
-using MatrixL = Eigen::Matrix<Real, Eigen::Dynamic, Eigen::Dynamic>;
-using VectorL = Eigen::Matrix<Real, Eigen::Dynamic, 1>;
-using RowVectorL = Eigen::Matrix<Real, 1, Eigen::Dynamic>;
-using MatrixCL = Eigen::Matrix<ComplexL, Eigen::Dynamic, Eigen::Dynamic>;
-using VectorCL = Eigen::Matrix<ComplexL, Eigen::Dynamic, 1>;
+using namespace extended;
 
-constexpr const char* kFormat = "panelbass.model/1";
 constexpr const char* kKind = "lq_feedforward";
 
 // The doubling iteration stops when H changes by less than this fraction of itself (a few long-double
@@ -80,29 +76,9 @@ double spectral_radius(const Eigen::MatrixXd& A) {
   return Eigen::EigenSolver<Eigen::MatrixXd>(A, false).eigenvalues().cwiseAbs().maxCoeff();
 }
 
-// The solution X of the Stein equation X = Fᵀ·X·F + W for a stable F, by Bartels–Stewart on the
-// complex Schur form Fᵀ = U·T·Uᴴ (backward stable where doubling loses accuracy on non-normal F).
-MatrixL solve_stein(const MatrixL& F, const MatrixL& W) {
-  const Eigen::Index n = F.rows();
-  const Eigen::ComplexSchur<MatrixL> schur(F.transpose());
-  const MatrixCL& T = schur.matrixT();
-  const MatrixCL& U = schur.matrixU();
-  const MatrixCL Wt = U.adjoint() * W.cast<ComplexL>() * U;
-  MatrixCL X = MatrixCL::Zero(n, n);
-  VectorCL known(n);
-  MatrixCL M(n, n);
-  // X̃ = T·X̃·Tᴴ + W̃ column by column from the last: (I − conj(T_jj)·T)·X̃(:,j) = W̃(:,j) + T·Σ_{l>j} conj(T_jl)·X̃(:,l)
-  for (Eigen::Index j = n - 1; j >= 0; --j) {
-    known.setZero();
-    for (Eigen::Index l = j + 1; l < n; ++l) known += std::conj(T(j, l)) * X.col(l);
-    const VectorCL rhs = Wt.col(j) + T.triangularView<Eigen::Upper>() * known;
-    M = -std::conj(T(j, j)) * T;
-    M.diagonal().array() += ComplexL(1.0L);
-    X.col(j) = M.triangularView<Eigen::Upper>().solve(rhs);
-  }
-  const MatrixL P = (U * X * U.adjoint()).real();
-  return (P + P.transpose()) / 2.0L;
-}
+// The solution X of the Stein equation X = Fᵀ·X·F + W for a stable F: the discrete Lyapunov
+// equation of Fᵀ.
+MatrixL solve_stein(const MatrixL& F, const MatrixL& W) { return solve_discrete_lyapunov(F.transpose(), W); }
 
 // [7A] L = (R + BᵀPB)⁻¹·BᵀPA
 template <class Matrix, class Vector, class Scalar>
@@ -476,7 +452,7 @@ InputLimits max_input(const LqFeedforward& ff, const std::vector<dsp::Biquad>& b
 
 nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff) {
   return {
-      {"format", kFormat},
+      {"format", kModelFormat},
       {"kind", kKind},
       {"fs", ff.fs},
       {"params",
@@ -494,16 +470,7 @@ nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff) {
 LqFeedforward lq_feedforward_from_json(const nlohmann::json& j) {
   LqFeedforward ff;
   JsonFields top(j, "model");
-  if (top.member("format") == nullptr) throw ConfigError("model.format: missing");
-  const std::string format = top.string("format", "");
-  if (format != kFormat) {
-    throw ConfigError("model.format: expected \"" + std::string(kFormat) + "\", got \"" + format + "\"");
-  }
-  if (top.member("kind") == nullptr) throw ConfigError("model.kind: missing");
-  const std::string kind = top.string("kind", "");
-  if (kind != kKind) throw ConfigError("model.kind: expected \"" + std::string(kKind) + "\", got \"" + kind + "\"");
-  ff.fs = top.number("fs");
-  require_positive(ff.fs, "model.fs");
+  ff.fs = read_model_header(top, kKind);
 
   const nlohmann::json* params = top.member("params");
   if (params == nullptr) throw ConfigError("model.params: missing");
@@ -534,10 +501,7 @@ LqFeedforward lq_feedforward_from_json(const nlohmann::json& j) {
   require_non_negative(ff.weights.R0, "model.params.R0");
   p.finish();
 
-  if (const nlohmann::json* meta = top.member("meta")) {
-    if (!meta->is_object()) throw ConfigError("model.meta: expected an object, got " + std::string(meta->type_name()));
-    ff.meta = *meta;
-  }
+  ff.meta = read_model_meta(top);
   top.finish();
 
   if (n > 0) {

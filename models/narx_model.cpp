@@ -9,12 +9,12 @@
 #include "dsp/random.h"
 #include "models/config_error.h"
 #include "models/json_fields.h"
+#include "models/model_header.h"
 #include "models/network_fields.h"
 
 namespace panelbass::models {
 namespace {
 
-constexpr const char* kFormat = "panelbass.model/1";
 constexpr const char* kKind = "narx";
 // Network inputs na + nb + 1 beyond this are a corrupt file, not a model.
 constexpr long kMaxInputs = 1000;
@@ -161,7 +161,7 @@ Eigen::VectorXd NarxModel::predict(const Eigen::VectorXd& u, const Eigen::Vector
 
 nlohmann::json narx_model_to_json(const NarxModel& m) {
   return {
-      {"format", kFormat},
+      {"format", kModelFormat},
       {"kind", kKind},
       {"fs", m.fs},
       {"scaling", scaling_to_json(m.scaling)},
@@ -177,16 +177,7 @@ nlohmann::json narx_model_to_json(const NarxModel& m) {
 
 NarxModel narx_model_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
-  if (top.member("format") == nullptr) throw ConfigError("model.format: missing");
-  const std::string format = top.string("format", "");
-  if (format != kFormat) {
-    throw ConfigError("model.format: expected \"" + std::string(kFormat) + "\", got \"" + format + "\"");
-  }
-  if (top.member("kind") == nullptr) throw ConfigError("model.kind: missing");
-  const std::string kind = top.string("kind", "");
-  if (kind != kKind) throw ConfigError("model.kind: expected \"" + std::string(kKind) + "\", got \"" + kind + "\"");
-  const double fs = top.number("fs");
-  require_positive(fs, "model.fs");
+  const double fs = read_model_header(top, kKind);
 
   const nlohmann::json* scaling_json = top.member("scaling");
   if (scaling_json == nullptr) throw ConfigError("model.scaling: missing");
@@ -208,11 +199,7 @@ NarxModel narx_model_from_json(const nlohmann::json& j) {
   const Eigen::VectorXd theta = read_theta(p.member("theta"), p.path_of("theta"), count);
   p.finish();
 
-  nlohmann::json meta = nlohmann::json::object();
-  if (const nlohmann::json* m = top.member("meta")) {
-    if (!m->is_object()) throw ConfigError("model.meta: expected an object, got " + std::string(m->type_name()));
-    meta = *m;
-  }
+  nlohmann::json meta = read_model_meta(top);
   top.finish();
 
   NarxModel model = NarxModel::with_structure(structure, scaling, fs);

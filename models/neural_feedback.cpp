@@ -8,12 +8,12 @@
 #include "dsp/soft_limit.h"
 #include "models/config_error.h"
 #include "models/json_fields.h"
+#include "models/model_header.h"
 #include "models/network_fields.h"
 
 namespace panelbass::models {
 namespace {
 
-constexpr const char* kFormat = "panelbass.model/1";
 constexpr const char* kKind = "neural_feedback";
 // Orders beyond this are a corrupt file, not a controller.
 constexpr long kMaxOrder = 1000;
@@ -136,7 +136,7 @@ void FeedbackRunner::reset() noexcept {
 
 nlohmann::json neural_feedback_to_json(const NeuralFeedback& c) {
   return {
-      {"format", kFormat},
+      {"format", kModelFormat},
       {"kind", kKind},
       {"fs", c.fs},
       {"params",
@@ -153,14 +153,7 @@ nlohmann::json neural_feedback_to_json(const NeuralFeedback& c) {
 
 NeuralFeedback neural_feedback_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
-  if (top.member("format") == nullptr) throw ConfigError("model.format: missing");
-  const std::string format = top.string("format", "");
-  if (format != kFormat) throw ConfigError("model.format: expected \"" + std::string(kFormat) + "\", got \"" + format + "\"");
-  if (top.member("kind") == nullptr) throw ConfigError("model.kind: missing");
-  const std::string kind = top.string("kind", "");
-  if (kind != kKind) throw ConfigError("model.kind: expected \"" + std::string(kKind) + "\", got \"" + kind + "\"");
-  const double fs = top.number("fs");
-  require_positive(fs, "model.fs");
+  const double fs = read_model_header(top, kKind);
 
   const nlohmann::json* params = top.member("params");
   if (params == nullptr) throw ConfigError("model.params: missing");
@@ -192,11 +185,7 @@ NeuralFeedback neural_feedback_from_json(const nlohmann::json& j) {
     throw ConfigError("model.plant.fs: " + std::to_string(plant.fs) + " Hz, the controller runs at " +
                       std::to_string(fs) + " Hz");
   }
-  nlohmann::json meta = nlohmann::json::object();
-  if (const nlohmann::json* m = top.member("meta")) {
-    if (!m->is_object()) throw ConfigError("model.meta: expected an object, got " + std::string(m->type_name()));
-    meta = *m;
-  }
+  nlohmann::json meta = read_model_meta(top);
   top.finish();
 
   NeuralFeedback c = NeuralFeedback::with_structure(s, plant);

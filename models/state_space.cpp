@@ -1,5 +1,7 @@
 #include "models/state_space.h"
 
+#include "models/extended_precision.h"
+
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -14,16 +16,9 @@
 namespace panelbass::models {
 namespace {
 
-// The realisation and balancing arithmetic runs in long double: a high-order polynomial model's
-// companion form is badly conditioned, and the 11 extra mantissa bits (x86 extended precision) keep
-// the balanced double-precision result close to the system the coefficients define.
-using Real = long double;
-using ComplexL = std::complex<Real>;
-using MatrixL = Eigen::Matrix<Real, Eigen::Dynamic, Eigen::Dynamic>;
-using VectorL = Eigen::Matrix<Real, Eigen::Dynamic, 1>;
-using RowVectorL = Eigen::Matrix<Real, 1, Eigen::Dynamic>;
-using MatrixCL = Eigen::Matrix<ComplexL, Eigen::Dynamic, Eigen::Dynamic>;
-using VectorCL = Eigen::Matrix<ComplexL, Eigen::Dynamic, 1>;
+// The realisation and balancing arithmetic runs in long double (extended_precision.h): a high-order
+// polynomial model's companion form is badly conditioned.
+using namespace extended;
 
 // realize() drops balanced states whose Hankel singular value is below this fraction of the largest:
 // they change the response by at most 2·Σσ_dropped (the balanced-truncation bound), far below double
@@ -59,32 +54,6 @@ Real spectral_radius(const MatrixL& A) {
   Real r = 0.0L;
   for (Eigen::Index i = 0; i < A.rows(); ++i) r = std::max(r, std::abs(schur.matrixT()(i, i)));
   return r;
-}
-
-// The solution X of the discrete Lyapunov equation X = A·X·Aᵀ + Q for a stable A, by Bartels–Stewart
-// on the complex Schur form A = U·T·Uᴴ (backward stable even for the very non-normal companion
-// matrices that doubling iterations lose accuracy on).
-MatrixL solve_discrete_lyapunov(const MatrixL& A, const MatrixL& Q) {
-  const Eigen::Index n = A.rows();
-  const Eigen::ComplexSchur<MatrixL> schur(A);
-  const MatrixCL& T = schur.matrixT();
-  const MatrixCL& U = schur.matrixU();
-  const MatrixCL Qt = U.adjoint() * Q.cast<ComplexL>() * U;
-  MatrixCL X = MatrixCL::Zero(n, n);
-  VectorCL known(n);
-  MatrixCL M(n, n);
-  // Column j of X = T·X·Tᴴ + Q̃, with T upper triangular, from the last column back:
-  //   (I − conj(T_jj)·T)·X(:,j) = Q̃(:,j) + T·Σ_{l>j} conj(T_jl)·X(:,l)
-  for (Eigen::Index j = n - 1; j >= 0; --j) {
-    known.setZero();
-    for (Eigen::Index l = j + 1; l < n; ++l) known += std::conj(T(j, l)) * X.col(l);
-    const VectorCL rhs = Qt.col(j) + T.triangularView<Eigen::Upper>() * known;
-    M = -std::conj(T(j, j)) * T;
-    M.diagonal().array() += ComplexL(1.0L);
-    X.col(j) = M.triangularView<Eigen::Upper>().solve(rhs);
-  }
-  const MatrixL W = (U * X * U.adjoint()).real();
-  return (W + W.transpose()) / 2.0L;  // symmetric by construction; remove rounding asymmetry
 }
 
 // A square root L (L·Lᵀ = W) of a positive semidefinite W; eigenvalues that rounding made negative are
