@@ -1,6 +1,8 @@
 #include "models/extended_precision.h"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
 
 namespace panelbass::models::extended {
 MatrixL solve_discrete_lyapunov(const MatrixL& A, const MatrixL& Q) {
@@ -24,6 +26,15 @@ MatrixL solve_discrete_lyapunov(const MatrixL& A, const MatrixL& Q) {
   }
   const MatrixL W = (U * X * U.adjoint()).real();
   return (W + W.transpose()) / 2.0L;  // symmetric by construction; remove rounding asymmetry
+}
+
+
+Real spectral_radius(const MatrixL& A) {
+  if (A.rows() == 0) return 0.0L;
+  const Eigen::ComplexSchur<MatrixL> schur(A, false);
+  Real r = 0.0L;
+  for (Eigen::Index i = 0; i < A.rows(); ++i) r = std::max(r, std::abs(schur.matrixT()(i, i)));
+  return r;
 }
 
 }  // namespace panelbass::models::extended

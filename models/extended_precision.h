@@ -21,4 +21,7 @@ using VectorCL = Eigen::Matrix<ComplexL, Eigen::Dynamic, 1>;                    
 /// matrices that doubling iterations lose accuracy on); symmetrised.
 MatrixL solve_discrete_lyapunov(const MatrixL& A, const MatrixL& Q);
 
+/// Largest eigenvalue modulus of A (the spectral radius), from the complex Schur form; 0 for an empty A.
+Real spectral_radius(const MatrixL& A);
+
 }  // namespace panelbass::models::extended

@@ -63,14 +63,9 @@ std::string show(std::complex<double> z) {
   return out.str();
 }
 
-Real spectral_radius(const MatrixL& A) {
-  if (A.rows() == 0) return 0.0L;
-  const Eigen::ComplexSchur<MatrixL> schur(A, false);
-  Real r = 0.0L;
-  for (Eigen::Index i = 0; i < A.rows(); ++i) r = std::max(r, std::abs(schur.matrixT()(i, i)));
-  return r;
-}
+using extended::spectral_radius;
 
+// The spectral radius of a double-precision matrix.
 double spectral_radius(const Eigen::MatrixXd& A) {
   if (A.rows() == 0) return 0.0;
   return Eigen::EigenSolver<Eigen::MatrixXd>(A, false).eigenvalues().cwiseAbs().maxCoeff();

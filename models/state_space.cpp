@@ -47,14 +47,6 @@ void check_shape(const StateSpace& ss, const char* where) {
   }
 }
 
-// Largest eigenvalue modulus of A (the spectral radius), from the complex Schur form.
-Real spectral_radius(const MatrixL& A) {
-  if (A.rows() == 0) return 0.0L;
-  const Eigen::ComplexSchur<MatrixL> schur(A, false);
-  Real r = 0.0L;
-  for (Eigen::Index i = 0; i < A.rows(); ++i) r = std::max(r, std::abs(schur.matrixT()(i, i)));
-  return r;
-}
 
 // A square root L (L·Lᵀ = W) of a positive semidefinite W; eigenvalues that rounding made negative are
 // taken as zero, so a singular Gramian gives a rank-deficient factor rather than a failure.
