@@ -24,7 +24,25 @@ std::size_t Chain::collect_retired() {
   return freed;
 }
 
+bool Chain::set_limiter(const LimiterOptions& options) {
+  SafetyLimiter::validate(options);
+  if (limiter_request_.load(std::memory_order_acquire)) return false;  // the previous one is not taken yet
+  pending_limiter_ = options;
+  limiter_request_.store(true, std::memory_order_release);
+  options_.limiter = options;
+  return true;
+}
+
+void Chain::set_crossfade(Samples crossfade) {
+  for (auto& s : slots_) s->set_crossfade(crossfade);
+  options_.slots.crossfade = crossfade;
+}
+
 void Chain::begin_block() noexcept {
+  if (limiter_request_.load(std::memory_order_acquire)) {
+    limiter_.set_options(pending_limiter_);
+    limiter_request_.store(false, std::memory_order_release);
+  }
   if (clear_request_.exchange(false, std::memory_order_acq_rel) && safe_bypass_) {
     feedforward().reset();
     feedback().reset();

@@ -50,6 +50,13 @@ class Chain {
   /// The feedback (neural controller) slot.
   ModelSlot& feedback() { return slot(Position::feedback); }
 
+  /// Control thread: new limiter settings, validated here (std::invalid_argument), taken by the audio
+  /// thread at its next block boundary. Wait-free: a single pending copy behind an atomic flag; a second
+  /// call before the audio thread took the first replaces it only once that one is taken (returns false
+  /// then, nothing changed).
+  bool set_limiter(const LimiterOptions& options);
+  /// Control thread: a new crossfade length for every slot (from each slot's next block without a fade).
+  void set_crossfade(Samples crossfade);
   /// Control thread: asks the audio thread to leave the safe bypass at its next block (stages reset).
   void clear_fault() { clear_request_.store(true, std::memory_order_release); }
   /// True while the chain is in its safe bypass.
@@ -93,6 +100,8 @@ class Chain {
   std::unique_ptr<ModelSlot> slots_[kSlotCount];
   SafetyLimiter limiter_;
   std::atomic<bool> clear_request_{false};
+  LimiterOptions pending_limiter_{};           // written by the control thread while the flag is false
+  std::atomic<bool> limiter_request_{false};  // true: pending_limiter_ waits for the audio thread
   bool safe_bypass_ = false;  // audio thread only
 };
 

@@ -267,7 +267,7 @@ std::uint64_t model_id(const nlohmann::json& model) {
 std::unique_ptr<Chain> make_chain(const ChainConfig& config) {
   auto chain = std::make_unique<Chain>(chain_options(config));
   chain->band_pass().set_initial(band_pass_stage(config.band_pass.design));
-  chain->band_pass().set_bypassed(config.band_pass.bypass);
+  chain->band_pass().set_initial_bypass(config.band_pass.bypass);
   const auto fill = [](ModelSlot& slot, const std::optional<SlotConfig>& c, const char* name) {
     if (!c) return;
     try {
@@ -275,7 +275,7 @@ std::unique_ptr<Chain> make_chain(const ChainConfig& config) {
     } catch (const std::exception& e) {
       throw std::invalid_argument(std::string(name) + ": " + e.what());
     }
-    slot.set_bypassed(c->bypass);
+    slot.set_initial_bypass(c->bypass);
   };
   fill(chain->feedforward(), config.feedforward, "feedforward");
   fill(chain->feedback(), config.feedback, "feedback");
@@ -331,17 +331,8 @@ ConfigChange apply_change(Chain& chain, const ChainConfig& before, const ChainCo
     throw std::invalid_argument("apply change: " + keys_of(change, ChangeClass::restart) +
                                 " changed: the chain must be restarted (rebuilt with make_chain)");
   }
-  // Validate before set: these are in-place changes in kind, but the slots fix their crossfade length and
-  // the chain its limiter when they are built, so a running chain cannot take them yet.
-  std::string unsupported;
-  for (const ConfigDifference& x : change.differences) {
-    if (x.key == "crossfade_ms" || x.key.rfind("limiter.", 0) == 0) unsupported += (unsupported.empty() ? "" : ", ") + x.key;
-  }
-  if (!unsupported.empty()) {
-    throw std::invalid_argument("apply change: " + unsupported +
-                                " changed: a running chain cannot change its crossfade length or limiter yet; "
-                                "restart it with make_chain");
-  }
+  const ChainOptions next = chain_options(after);
+  if (!(before.limiter == after.limiter)) SafetyLimiter::validate(next.limiter);  // before anything changes
 
   // Build and prepare every new stage first, so that a failure changes nothing.
   std::unique_ptr<Stage> band_pass, feedforward, feedback;
@@ -371,6 +362,10 @@ ConfigChange apply_change(Chain& chain, const ChainConfig& before, const ChainCo
   chain.band_pass().set_bypassed(after.band_pass.bypass);
   chain.feedforward().set_bypassed(after.feedforward && after.feedforward->bypass);
   chain.feedback().set_bypassed(after.feedback && after.feedback->bypass);
+  if (before.crossfade_ms != after.crossfade_ms) chain.set_crossfade(next.slots.crossfade);
+  if (!(before.limiter == after.limiter) && !chain.set_limiter(next.limiter)) {
+    throw std::invalid_argument("apply change: limiter: the previous limiter change has not been taken yet; try again");
+  }
   return change;
 }
 

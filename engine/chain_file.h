@@ -43,6 +43,8 @@ struct LimiterConfig {
   double knee = 0.8;            ///< see LimiterOptions::knee
   double pinned_level = 1.0;    ///< see LimiterOptions::pinned_level
   double max_pinned_ms = 100.0; ///< longest time the drive may stay pinned at the rails
+  /// Field by field.
+  bool operator==(const LimiterConfig&) const = default;
 };
 
 /// A validated chain file.
@@ -114,8 +116,8 @@ ConfigChange classify_change(const ChainConfig& before, const ChainConfig& after
 /// bypass flags through the slots, band-pass and model changes as new stages installed (warmed and
 /// crossfaded by the slots). Every new stage is built and prepared before anything is touched, so a
 /// change that fails leaves the chain as it was. Throws std::invalid_argument for a restart-class change
-/// (naming the keys), for a chain that does not run at `before`'s fs and block length, and for crossfade
-/// or limiter changes (the running chain cannot retime its slots or limiter yet); returns the change applied.
+/// (naming the keys), for a chain that does not run at `before`'s fs and block length, and for invalid limiter settings;
+/// returns the change applied. Crossfade and limiter changes take effect at the next block boundary.
 ConfigChange apply_change(Chain& chain, const ChainConfig& before, const ChainConfig& after);
 
 }  // namespace panelbass::engine

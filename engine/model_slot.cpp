@@ -17,6 +17,8 @@ ModelSlot::ModelSlot(const ProcessSpec& spec, const SlotOptions& options, Metric
   input_history_.assign(2 * h, 0.0);
   measured_history_.assign(2 * h, 0.0);
   peak_decay_ = h > 0 ? std::exp(-1.0 / static_cast<double>(h)) : 0.0;
+  crossfade_ = options.crossfade.value;
+  crossfade_request_.store(crossfade_, std::memory_order_relaxed);
 }
 
 ModelSlot::~ModelSlot() {
@@ -56,8 +58,20 @@ bool ModelSlot::idle() const {
   return pending_.load(std::memory_order_acquire) == nullptr && !fading_.load(std::memory_order_acquire);
 }
 
+void ModelSlot::set_crossfade(Samples crossfade) {
+  if (crossfade.value < 0) throw std::invalid_argument("model slot: crossfade must be >= 0 samples");
+  crossfade_request_.store(crossfade.value, std::memory_order_relaxed);
+}
+
+void ModelSlot::set_initial_bypass(bool bypassed) {
+  bypass_request_.store(bypassed, std::memory_order_relaxed);
+  wet_ = wet_target_ = bypassed ? 0.0 : 1.0;
+}
+
 void ModelSlot::begin_block() noexcept {
   wet_target_ = bypass_request_.load(std::memory_order_relaxed) ? 0.0 : 1.0;
+  // A new crossfade length applies from a block boundary on, never in the middle of a fade.
+  if (incoming_ == nullptr) crossfade_ = crossfade_request_.load(std::memory_order_relaxed);
   // One hand-over at a time, and only with room to retire the stage it replaces.
   if (incoming_ != nullptr || !retired_.has_room()) return;
   Stage* next = pending_.exchange(nullptr, std::memory_order_acq_rel);
@@ -71,7 +85,7 @@ void ModelSlot::begin_block() noexcept {
   fade_gain_ = 0.0;
   fading_.store(true, std::memory_order_release);
   metrics_.record_swap();
-  if (options_.crossfade.value == 0) {
+  if (crossfade_ == 0) {
     finish_swap();
     last_old_ = last_new_;
   }
@@ -106,7 +120,7 @@ double ModelSlot::process(double x) noexcept {
   step_peak_ = std::isfinite(step) ? std::max(step, step_peak_ * peak_decay_) : 0.0;
   last_mix_ = y;
   if (wet_ != wet_target_) {
-    const double ramp = options_.crossfade.value > 0 ? 1.0 / options_.crossfade.value : 1.0;
+    const double ramp = crossfade_ > 0 ? 1.0 / crossfade_ : 1.0;
     wet_ = wet_target_ > wet_ ? std::min(1.0, wet_ + ramp) : std::max(0.0, wet_ - ramp);
   }
   if (wet_ == 1.0) return y;
@@ -130,7 +144,7 @@ void ModelSlot::reset() noexcept {
 }
 
 double ModelSlot::next_fade_gain(double old_out, double new_out) const noexcept {
-  const double n = options_.crossfade.value;
+  const double n = crossfade_;
   const double target = std::min(1.0, fade_gain_ + 1.0 / n);
   const double e = new_out - old_out;
   const double step_at_target = old_out + target * e - last_mix_;

@@ -55,6 +55,10 @@ class ModelSlot {
   std::size_t collect_retired();
   /// Bypass on (output = input) or off; the audio thread ramps over the crossfade length.
   void set_bypassed(bool bypassed) { bypass_request_.store(bypassed, std::memory_order_relaxed); }
+  /// Control thread: a new crossfade length (≥ 0), taken by the audio thread at its next block.
+  void set_crossfade(Samples crossfade);
+  /// Bypass on or off at once, without a ramp; only while no audio runs (a chain starting bypassed).
+  void set_initial_bypass(bool bypassed);
   /// True when bypass was requested.
   bool bypassed() const { return bypass_request_.load(std::memory_order_relaxed); }
   /// True when no stage waits to be taken over and no crossfade runs.
@@ -82,6 +86,7 @@ class ModelSlot {
 
   std::atomic<Stage*> pending_{nullptr};
   std::atomic<bool> bypass_request_{false};
+  std::atomic<int> crossfade_request_{0};
   std::atomic<bool> fading_{false};
   SpscQueue<Stage*, 16> retired_;
 
@@ -94,6 +99,7 @@ class ModelSlot {
   double last_mix_ = 0.0;    // previous output of the crossfade (before the bypass mix)
   double step_peak_ = 0.0;   // recent peak of |output step|, decaying over the history length
   double peak_decay_ = 0.0;
+  int crossfade_ = 0;        // the crossfade length in use (audio thread's copy of crossfade_request_)
   double wet_ = 1.0;         // 1 = stage output, 0 = bypassed
   double wet_target_ = 1.0;
   // Recent inputs and measured outputs, each written twice (at i and i + H) so the last H samples are

@@ -6,7 +6,9 @@
 
 namespace panelbass::engine {
 
-SafetyLimiter::SafetyLimiter(const LimiterOptions& options) : options_(options) {
+SafetyLimiter::SafetyLimiter(const LimiterOptions& options) : options_(options) { validate(options); }
+
+void SafetyLimiter::validate(const LimiterOptions& options) {
   if (!(options.knee >= 0.0 && options.knee < 1.0)) {
     throw std::invalid_argument("safety limiter: knee must be within [0, 1), got " + std::to_string(options.knee));
   }

@@ -29,6 +29,13 @@ class SafetyLimiter {
   double process(double v) noexcept;
   /// What tripped the limiter since the last take_trip() (Fault::none if nothing), and clears it.
   Fault take_trip() noexcept;
+  /// Audio thread: replaces the settings (validated by the control thread) and forgets the pinned run.
+  void set_options(const LimiterOptions& options) noexcept {
+    options_ = options;
+    pinned_run_ = 0;
+  }
+  /// Throws std::invalid_argument unless `options` are valid (see the constructor).
+  static void validate(const LimiterOptions& options);
   /// Forgets the pinned run (after a fault or when leaving the safe bypass).
   void reset() noexcept;
   /// The settings.

@@ -381,6 +381,56 @@ TEST(AlsaBackend, JackLoopbackRunsWithoutXrunsAndSurvivesAServerRestart) {
   EXPECT_GE(after.losses, 1u) << describe(after);
 }
 
+TEST(AlsaBackend, PlaybackOnlyAtTheChainsOwnRateIsPacedByTheDevice) {
+  // No capture, no rate bridge: the chain runs at 48 kHz, paced by room in the playback buffer, with
+  // S16/S32/float conversion as the device asks (float for JACK) and the drive on channel 1 of 2.
+  if (skip_jack()) GTEST_SKIP() << "PANELBASS_SKIP_JACK=1";
+  JackServer server("panelbass-" + std::to_string(::getpid()) + "-p");
+  ::setenv("JACK_DEFAULT_SERVER", server.name().c_str(), 1);
+  const std::string started = server.start();
+  ASSERT_EQ(started, "") << "the JACK dummy server could not be started: " << started;
+  Chain chain(chain_options(kDeviceRate, kPeriod));
+  const std::string tag = "pq" + std::to_string(::getpid());
+  AlsaOptions o;
+  o.playback_device = "pb_play";
+  o.capture_device = "";
+  o.config_text = loopback_config(tag);
+  o.period = Samples{kPeriod};
+  o.periods = kPeriods;
+  o.drive_channel = 1;
+  o.realtime_priority = 20;
+  o.program.assign(4800, 0.0);
+  for (std::size_t k = 0; k < o.program.size(); ++k) o.program[k] = 0.5 * std::sin(2.0 * 3.141592653589793 * 100.0 * k / kDeviceRate);
+  std::atomic<double> max_abs{0.0};
+  std::atomic<std::size_t> model_samples{0};
+  o.on_block = [&](const AlsaBlockView& v) {
+    double m = max_abs.load(std::memory_order_relaxed);
+    for (const double x : v.drive) m = std::max(m, std::abs(x));
+    max_abs.store(m, std::memory_order_relaxed);
+    model_samples.fetch_add(v.model_drive.size(), std::memory_order_relaxed);
+  };
+  AlsaBackend backend(chain, o);
+  EXPECT_EQ(backend.resampling_latency().total_samples, 0);
+  const auto t0 = std::chrono::steady_clock::now();
+  backend.start();
+  ASSERT_TRUE(wait_for([&] { return backend.status().periods > 50; }, 5s))
+      << "the backend never streamed: " << describe(backend.status()) << "\njackd:\n" << server.log();
+  std::this_thread::sleep_for(1s);
+  const AlsaStatus s = backend.status();
+  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  backend.stop();
+  server.stop();
+  EXPECT_EQ(s.xruns, 0u) << describe(s);
+  EXPECT_EQ(s.opens, 1u) << describe(s);
+  // Without a bridge the chain sees exactly the device's frames, one period per block.
+  EXPECT_EQ(model_samples.load(), static_cast<std::size_t>(backend.status().periods) * kPeriod);
+  // Paced by the device, not free-running (which would be hundreds of times faster): no more periods
+  // than the elapsed audio time holds, with a factor 2 for a server catching up after a stall.
+  EXPECT_LE(static_cast<double>(s.periods), 2.0 * elapsed * kDeviceRate / kPeriod) << describe(s);
+  EXPECT_LE(max_abs.load(), 1.0);
+  EXPECT_GT(max_abs.load(), 0.1);
+}
+
 TEST(AlsaBackend, AMissingDeviceIsRetriedWithBackOffAndStopsPromptly) {
   // No JACK needed: a PCM type that does not exist fails to open, again and again.
   Chain chain(chain_options(3000.0, 64));

@@ -388,9 +388,13 @@ TEST_F(ChainFile, ApplyChangeSwapsModelsAndFlagsAndRefusesWhatNeedsARestart) {
   ChainConfig retimed = removed;
   retimed.crossfade_ms = 5;
   retimed.limiter.knee = 0.5;
-  const std::string unsupported =
-      one_line_error<std::invalid_argument>([&] { apply_change(*chain, removed, retimed); });
-  EXPECT_NE(unsupported.find("crossfade_ms, limiter.knee changed"), std::string::npos) << unsupported;
+  EXPECT_EQ(apply_change(*chain, removed, retimed).kind, ChangeClass::in_place);
+  EXPECT_EQ(chain->options().slots.crossfade.value, 15);
+  EXPECT_EQ(chain->options().limiter.knee, 0.5);
+  ChainConfig broken = retimed;
+  broken.limiter.knee = 1.5;
+  EXPECT_THROW(apply_change(*chain, retimed, broken), std::invalid_argument);
+  EXPECT_EQ(chain->options().limiter.knee, 0.5) << "a refused change changes nothing";
 
   ChainConfig other_rate = before;
   other_rate.fs = 6000;
@@ -398,6 +402,22 @@ TEST_F(ChainFile, ApplyChangeSwapsModelsAndFlagsAndRefusesWhatNeedsARestart) {
       one_line_error<std::invalid_argument>([&] { apply_change(*chain, other_rate, other_rate); });
   EXPECT_NE(mismatch.find("the chain runs at fs = 3000 Hz"), std::string::npos) << mismatch;
   EXPECT_EQ(chain->metrics().snapshot().faults, 0u);
+}
+
+TEST_F(ChainFile, ABypassedStartAndALimiterChangeActFromTheirFirstSample) {
+  // Band-pass bypassed from the start, no controllers: drive = soft_limit(program) from sample 0.
+  ChainConfig before = load({{"format", "panelbass.chain/1"}, {"fs", 3000}, {"block", 64}});
+  before.band_pass.bypass = true;
+  auto chain = make_chain(before);
+  const Eigen::VectorXd program = testing::uniform(64, 1.5, 12);
+  std::vector<double> drive(64);
+  chain->process_block(std::span<const double>(program.data(), 64), drive);
+  for (int k = 0; k < 64; ++k) ASSERT_DOUBLE_EQ(drive[k], testing::reference_soft_limit(program[k], 0.8)) << k;
+  ChainConfig softer = before;
+  softer.limiter.knee = 0.5;
+  apply_change(*chain, before, softer);
+  chain->process_block(std::span<const double>(program.data(), 64), drive);
+  for (int k = 0; k < 64; ++k) ASSERT_DOUBLE_EQ(drive[k], testing::reference_soft_limit(program[k], 0.5)) << k;
 }
 
 TEST_F(ChainFile, ANewBandPassAppliedWhileTheVirtualBackendPlaysTakesOverWithoutAFault) {
