@@ -14,6 +14,9 @@
 
 #include "engine/chain.h"
 #include "engine/closed_loop.h"
+#include "engine/controller_stages.h"
+#include "models/feedback_training.h"
+#include "models/lq_feedforward.h"
 #include "models/plant_presets.h"
 #include "models/virtual_transducer.h"
 #include "tests/engine/engine_test_models.h"
@@ -222,6 +225,44 @@ TEST(AllocationCounter, TheChainProcessesSwapsAndFaultsWithoutAllocatingOrFreein
   EXPECT_EQ(frees_during_fault, 0);
   EXPECT_EQ(chain.metrics().snapshot().faults, 1u);
   EXPECT_FALSE(chain.in_fault());
+}
+
+TEST(AllocationCounter, TheControllerStagesSwapAndRunWithoutAllocatingOrFreeing) {
+  ChainOptions options;
+  options.spec.max_block = 64;
+  options.slots = {Samples{48}, Samples{256}};
+  Chain chain(options);
+  const models::LqFeedforward ff = models::design_lq(testing::example_linear(), {1e-3, 20.0});
+  models::FeedbackStructure structure;
+  structure.hidden = {6};
+  models::NeuralFeedback fb = models::NeuralFeedback::with_structure(structure, testing::example_narx(71));
+  models::initialize_feedback(fb, 72, 1.0);
+  chain.feedforward().set_initial(std::make_unique<StateSpaceStage>(ff.controller(), ff.fs));
+  chain.feedback().set_initial(std::make_unique<NeuralFeedbackStage>(fb, FeedbackSource::sensor));
+  models::VirtualTransducer plant(models::plant_preset("panel-exciter"), 3);
+  const Eigen::VectorXd program = testing::uniform(64 * 30, 0.3, 73);
+  std::vector<double> drive(64), measured(64);
+  int block = 0;
+  auto process = [&](int blocks) {
+    for (int b = 0; b < blocks; ++b, ++block) {
+      process_closed_loop(chain, plant, {program.data() + 64 * block, 64}, drive, measured);
+    }
+  };
+  process(8);
+  // new controllers of both kinds (the feedback one now in model mode: its own plant model runs)
+  chain.feedforward().install(std::make_unique<StateSpaceStage>(ff.controller(), ff.fs));
+  chain.feedback().install(std::make_unique<NeuralFeedbackStage>(fb, FeedbackSource::model));
+  long allocated = 0, freed = 0;
+  {
+    Counting c;
+    process(6);
+    allocated = allocations;
+    freed = frees;
+  }
+  EXPECT_EQ(allocated, 0);
+  EXPECT_EQ(freed, 0);
+  EXPECT_EQ(chain.metrics().snapshot().swaps, 2u);
+  EXPECT_EQ(chain.collect_retired(), 2u);
 }
 
 }  // namespace
