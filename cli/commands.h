@@ -42,4 +42,7 @@ void register_chain(CLI::App& app);
 /// `panelbass evaluate`: a chain on a simulated transducer — response ripple, THD and J_c per configuration.
 void register_evaluate(CLI::App& app);
 
+/// `panelbass diagnose`: locate where a simulation and a recording disagree, name the physics left out, model it.
+void register_diagnose(CLI::App& app);
+
 }  // namespace panelbass::cli

@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   panelbass::cli::register_design(app);
   panelbass::cli::register_chain(app);
   panelbass::cli::register_evaluate(app);
+  panelbass::cli::register_diagnose(app);
 
   try {
     app.parse(argc, argv);

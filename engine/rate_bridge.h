@@ -11,8 +11,7 @@
 // latency: an impulse in comes out exactly latency().total_samples device samples later.
 //
 // src_process() does not allocate: libsamplerate sizes its state (the sinc filter's buffer) in
-// src_new(); the conversion loop only copies into it (src/src_sinc.c). The tests count allocations to
-// make sure.
+// src_new(); the conversion loop only copies into it (src/src_sinc.c).
 
 #include <cstddef>
 #include <cstdint>

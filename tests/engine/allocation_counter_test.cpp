@@ -10,11 +10,13 @@
 #include <limits>
 #include <memory>
 #include <new>
+#include <span>
 #include <vector>
 
 #include "engine/chain.h"
 #include "engine/closed_loop.h"
 #include "engine/controller_stages.h"
+#include "engine/rate_bridge.h"
 #include "models/feedback_training.h"
 #include "models/lq_feedforward.h"
 #include "models/plant_presets.h"
@@ -263,6 +265,42 @@ TEST(AllocationCounter, TheControllerStagesSwapAndRunWithoutAllocatingOrFreeing)
   EXPECT_EQ(freed, 0);
   EXPECT_EQ(chain.metrics().snapshot().swaps, 2u);
   EXPECT_EQ(chain.collect_retired(), 2u);
+}
+
+TEST(AllocationCounter, TheRateBridgeAndTheChainRunOddPeriodsWithoutAllocating) {
+  for (double fs : {44100.0, 48000.0}) {
+    RateBridgeOptions bo;
+    bo.device_rate = Hertz{fs};
+    bo.max_period = Samples{256};
+    bo.input_channels = 2;
+    RateBridge bridge(bo);
+    ChainOptions co;
+    co.spec = {3000.0, 64};
+    Chain chain(co);
+    std::vector<double> a(256, 0.1), b(256, 0.2), out(256);
+    const std::size_t sizes[] = {1, 13, 64, 127, 250, 7, 64, 199, 33, 256};
+    auto run = [&](int periods) {
+      for (int i = 0; i < periods; ++i) {
+        const std::size_t n = sizes[i % 10];
+        const std::span<const double> in[2] = {{a.data(), n}, {b.data(), n}};
+        bridge.process(std::span<const std::span<const double>>(in, 2), std::span<double>(out.data(), n),
+                       [&](std::span<const std::span<const double>> m, std::span<double> y) {
+                         std::size_t k = 0;
+                         chain.process_block(m[0], y, [&](double) noexcept { return m[1][k++]; });
+                       });
+      }
+    };
+    run(50);
+    long seen = 0, freed = 0;
+    {
+      Counting c;
+      run(2000);
+      seen = allocations;
+      freed = frees;
+    }
+    EXPECT_EQ(seen, 0) << fs;
+    EXPECT_EQ(freed, 0) << fs;
+  }
 }
 
 }  // namespace

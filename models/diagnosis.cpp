@@ -1,0 +1,467 @@
+#include "models/diagnosis.h"
+
+#include <Eigen/QR>
+#include <cmath>
+#include <complex>
+#include <iomanip>
+#include <limits>
+#include <numbers>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "models/linear_identification.h"
+#include "models/oe_estimator.h"
+#include "models/performance.h"
+
+namespace panelbass::models {
+namespace {
+
+// Passes in which the terms' states are re-estimated from the augmented output.
+constexpr int kRefinements = 2;
+
+// The smallest relative improvement of validation J an augmentation must bring.
+constexpr double kMinimumGain = 0.01;
+
+struct Records {
+  const Eigen::VectorXd& u_est;
+  const Eigen::VectorXd& y_est;
+  const Eigen::VectorXd& u_val;
+  const Eigen::VectorXd& y_val;
+  double fs;
+  Eigen::Index init;
+  int lags;
+};
+
+// An augmented model with its coefficients fitted, and its simulation J on both records.
+struct Fit {
+  AugmentedModel model;
+  double j_est = 0.0;
+  double j_val = 0.0;
+};
+
+// One candidate augmentation, fitted.
+struct Candidate {
+  Effect effect = Effect::dc_offset;
+  std::string variant;
+  int parameters = 0;
+  Fit fit;
+  nlohmann::json parameters_json = nlohmann::json::object();
+};
+
+std::string fixed(double x, int digits) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << x;
+  return s.str();
+}
+
+int columns_of(const DiagnosisTerm& t, int lags) { return t.effect == Effect::dc_offset ? 1 : lags + kTermLead; }
+
+StateSignals reference_of(const AugmentedModel& m) {
+  StateSignals s;
+  s.mean = m.state_mean;
+  s.rms = m.state_rms;
+  return s;
+}
+
+Eigen::MatrixXd stacked_regressors(const std::vector<DiagnosisTerm>& terms, const StateSignals& states,
+                                   const TransferFunction& tf, int lags, Eigen::Index rows) {
+  int cols = 0;
+  for (const auto& t : terms) cols += columns_of(t, lags);
+  Eigen::MatrixXd phi(rows, cols);
+  int at = 0;
+  for (const auto& t : terms) {
+    const int c = columns_of(t, lags);
+    phi.middleCols(at, c) = term_regressors(t, states, tf, lags);
+    at += c;
+  }
+  return phi;
+}
+
+// Fits the coefficients of `terms` by least squares on the estimation residual of `linear`'s simulation
+// and simulates the result on both records.
+Fit fit_terms(const Records& r, const LinearModel& linear, std::vector<DiagnosisTerm> terms) {
+  Fit f;
+  f.model.linear = linear;
+  f.model.lags = r.lags;
+  const Eigen::VectorXd y_lin = linear.scaling.scale_y(linear.simulate(r.u_est, r.y_est, r.init));
+  const StateSignals states = state_signals(linear.scaling.scale_u(r.u_est), y_lin, r.fs);
+  f.model.state_mean = states.mean;
+  f.model.state_rms = states.rms;
+  if (!terms.empty()) {
+    // Least squares on the regressors of the linear simulation, then refined: the states are re-estimated
+    // from the augmented output and the coefficients refitted (kRefinements times; the model's own map).
+    const Eigen::VectorXd e = linear.scaling.scale_y(r.y_est) - y_lin;
+    Eigen::MatrixXd phi = stacked_regressors(terms, states, linear.tf, r.lags, y_lin.size());
+    const Eigen::Index n = phi.rows() - r.init;
+    for (int pass = 0; pass <= kRefinements; ++pass) {
+      const Eigen::VectorXd c = phi.bottomRows(n).colPivHouseholderQr().solve(e.tail(n));
+      int at = 0;
+      for (auto& t : terms) {
+        const int k = columns_of(t, r.lags);
+        t.coefficients = c.segment(at, k);
+        at += k;
+      }
+      if (pass == kRefinements) break;
+      const Eigen::VectorXd y_aug = y_lin + phi * c;
+      phi = stacked_regressors(terms, state_signals(linear.scaling.scale_u(r.u_est), y_aug, r.fs, &states), linear.tf,
+                               r.lags, y_lin.size());
+    }
+  }
+  f.model.terms = std::move(terms);
+  f.j_est = j_percent(simulate_augmented(f.model, r.u_est, r.y_est, r.init), r.y_est, r.init);
+  f.j_val = j_percent(simulate_augmented(f.model, r.u_val, r.y_val, r.init), r.y_val, r.init);
+  return f;
+}
+
+// `base` refitted by OE from `initial` on the estimation record (nothing if the fit fails).
+std::optional<LinearModel> refit_linear(const Records& r, const LinearModel& base, const TransferFunction& initial,
+                                        int iterations) {
+  OeOptions o;
+  o.max_iterations = iterations;
+  o.transient_skip = r.init;
+  try {
+    const OeResult fit = estimate_oe(base.scaling.scale_u(r.u_est), base.scaling.scale_y(r.y_est), initial, o);
+    if (!fit.tf.all_finite() || !fit.tf.is_stable()) return std::nullopt;
+    LinearModel m = base;
+    m.tf = fit.tf;
+    return m;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+Eigen::VectorXd convolve(const Eigen::VectorXd& p, const Eigen::VectorXd& q) {
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(p.size() + q.size() - 1);
+  for (Eigen::Index i = 0; i < p.size(); ++i)
+    for (Eigen::Index j = 0; j < q.size(); ++j) out[i + j] += p[i] * q[j];
+  return out;
+}
+
+// The baseline's pole pair nearest `frequency`: its frequency and damping ratio.
+std::pair<double, double> pole_pair_near(const TransferFunction& tf, double frequency, double fs) {
+  const std::complex<double> target = std::polar(1.0, 2.0 * std::numbers::pi * frequency / fs);
+  const Eigen::VectorXcd poles = tf.poles();
+  std::complex<double> best = 0.0;
+  double distance = std::numeric_limits<double>::infinity();
+  for (Eigen::Index k = 0; k < poles.size(); ++k)
+    if (poles[k].imag() > 0.0 && std::abs(poles[k] - target) < distance) distance = std::abs(poles[k] - target), best = poles[k];
+  if (best == 0.0) return {0.0, 1.0};
+  const std::complex<double> s = std::log(best);
+  return {std::abs(s.imag()) * fs / (2.0 * std::numbers::pi), -s.real() / std::abs(s)};
+}
+
+bool has_effect(const std::vector<DiagnosisTerm>& terms, Effect e) {
+  for (const auto& t : terms)
+    if (t.effect == e) return true;
+  return false;
+}
+
+// Every candidate augmentation of `current`, fitted; the best variant of each effect is kept.
+std::vector<Candidate> candidates(const Records& r, const Fit& current, const ResidualLocation& where,
+                                  int oe_iterations) {
+  std::vector<Candidate> best;
+  auto offer = [&best](Candidate c) {
+    for (auto& b : best)
+      if (b.effect == c.effect) {
+        if (c.fit.j_val < b.fit.j_val) b = std::move(c);
+        return;
+      }
+    best.push_back(std::move(c));
+  };
+  const LinearModel& linear = current.model.linear;
+  const std::vector<DiagnosisTerm>& terms = current.model.terms;
+
+  auto add_term = [&](DiagnosisTerm t, const std::string& variant, int parameters, nlohmann::json params) {
+    if (has_effect(terms, t.effect)) return;
+    std::vector<DiagnosisTerm> with = terms;
+    with.push_back(t);
+    Candidate c{t.effect, variant, parameters, fit_terms(r, linear, with), std::move(params)};
+    offer(std::move(c));
+  };
+  add_term({Effect::dc_offset, StateProxy::output, 0.0, {}}, "constant", 1, nlohmann::json::object());
+  // A state proxy is one more choice made from the data: one parameter.
+  for (StateProxy p : {StateProxy::output, StateProxy::integral, StateProxy::double_integral}) {
+    add_term({Effect::cubic_stiffness, p, 0.0, {}}, to_string(p), r.lags + kTermLead + 1, {{"state", to_string(p)}});
+    add_term({Effect::asymmetric_stiffness, p, 0.0, {}}, to_string(p), r.lags + kTermLead + 1, {{"state", to_string(p)}});
+    add_term({Effect::hysteresis, p, 0.0, {}}, to_string(p), r.lags + kTermLead + 1, {{"state", to_string(p)}});
+  }
+  {
+    // Knees at fractions of the normalised input's peak (estimation record).
+    const Eigen::VectorXd z = state_signals(linear.scaling.scale_u(r.u_est), linear.scaling.scale_u(r.u_est), r.fs).input;
+    const double peak = z.cwiseAbs().maxCoeff();
+    for (double fraction : {0.5, 0.6, 0.7, 0.8, 0.9})
+      add_term({Effect::saturation, StateProxy::input, fraction * peak, {}}, "knee " + fixed(fraction, 1), r.lags + kTermLead + 1,
+               {{"knee_fraction_of_peak", fraction}});
+  }
+  // Delay: one sample more or less of dead time, the response otherwise kept, then OE.
+  const TransferFunction& tf = linear.tf;
+  for (int step : {+1, -1}) {
+    if (tf.nk + step < 0 || tf.nb() < 2) continue;
+    TransferFunction init = tf;
+    init.nk = tf.nk + step;
+    init.b = Eigen::VectorXd::Zero(tf.nb());
+    if (step > 0) init.b.head(tf.nb() - 1) = tf.b.tail(tf.nb() - 1);
+    else init.b.tail(tf.nb() - 1) = tf.b.head(tf.nb() - 1);
+    if (auto m = refit_linear(r, linear, init, oe_iterations))
+      offer({Effect::delay, "nk " + std::to_string(init.nk), 1, fit_terms(r, *m, terms),
+             {{"nk_before", tf.nk}, {"nk_after", init.nk}}});
+  }
+  // Resonance: a pole pair (with a cancelling zero pair, so the start is the baseline's response) at the
+  // residual's spectral peak, then OE moves both.
+  if (where.peak_frequency_hz > 0.0) {
+    const double theta = 2.0 * std::numbers::pi * where.peak_frequency_hz / r.fs, radius = 0.98;
+    Eigen::VectorXd pair(3);
+    pair << 1.0, -2.0 * radius * std::cos(theta), radius * radius;
+    Eigen::VectorXd a_full(tf.na() + 1);
+    a_full << 1.0, tf.a;
+    TransferFunction init = tf;
+    init.a = convolve(a_full, pair).tail(tf.na() + 2);
+    init.b = convolve(tf.b, pair);
+    if (auto m = refit_linear(r, linear, init, oe_iterations)) {
+      const auto [f, zeta] = pole_pair_near(m->tf, where.peak_frequency_hz, r.fs);
+      offer({Effect::resonance, "pole pair", 4, fit_terms(r, *m, terms),
+             {{"frequency_hz", f}, {"damping_ratio", zeta}, {"order_before", tf.na()}, {"order_after", tf.na() + 2}}});
+    }
+  }
+  return best;
+}
+
+// Correlation of the estimation residual of `before` with what `after` adds to it.
+double added_correlation(const Records& r, const Fit& before, const Fit& after) {
+  const Eigen::VectorXd y0 = simulate_augmented(before.model, r.u_est, r.y_est, r.init);
+  const Eigen::VectorXd y1 = simulate_augmented(after.model, r.u_est, r.y_est, r.init);
+  const Eigen::Index n = y0.size() - r.init;
+  const Eigen::VectorXd e = (r.y_est - y0).tail(n), d = (y1 - y0).tail(n);
+  const double norm = e.norm() * d.norm();
+  return norm > 0.0 ? e.dot(d) / norm : 0.0;
+}
+
+std::string explain(const Candidate& c, const ResidualLocation& where, double correlation) {
+  std::string state = c.parameters_json.contains("state") ? c.parameters_json["state"].get<std::string>() : "";
+  if (state == "integral") state = "integral of the output (a velocity, for an accelerometer)";
+  if (state == "double_integral") state = "double integral of the output (a displacement, for an accelerometer)";
+  const std::string r = fixed(correlation, 2);
+  switch (c.effect) {
+    case Effect::dc_offset:
+      return "The model leaves out a DC offset in the drive or the sensor: the residual mean is " + fixed(where.mean, 4) +
+             ", " + fixed(std::abs(where.mean_t), 1) + " standard errors from zero.";
+    case Effect::delay:
+      return "The model leaves out " + std::string(c.parameters_json["nk_after"].get<int>() > c.parameters_json["nk_before"].get<int>() ? "a sample more" : "a sample less") +
+             " of dead time: the input–residual cross-correlation peaks at lag " + std::to_string(where.xcorr_lag) +
+             " and refitting with nk = " + std::to_string(c.parameters_json["nk_after"].get<int>()) + " removes it.";
+    case Effect::resonance:
+      return "The model leaves out a lightly damped mode near " + fixed(c.parameters_json["frequency_hz"].get<double>(), 0) +
+             " Hz: the residual spectrum peaks at " + fixed(where.peak_frequency_hz, 0) + " Hz, " +
+             fixed(where.peak_over_noise, 1) + " times the noise floor, and an extra pole pair there explains it.";
+    case Effect::cubic_stiffness:
+      return "The model leaves out a cubic stiffness (a spring that hardens or softens with excursion): the residual "
+             "follows the cube of the estimated " + state + " (odd and level-dependent; correlation " + r + ").";
+    case Effect::asymmetric_stiffness:
+      return "The model leaves out an asymmetric stiffness: the residual follows the square of the estimated " + state +
+             " (even-order; correlation " + r + ").";
+    case Effect::hysteresis:
+      return "The model leaves out friction or hysteresis: the residual follows the direction of motion of the estimated " +
+             state + " rather than its position (correlation " + r + ").";
+    case Effect::saturation:
+      return "The model leaves out clipping of the drive: the residual follows the input beyond " +
+             fixed(c.parameters_json["knee_fraction_of_peak"].get<double>() * 100.0, 0) +
+             " % of its peak and is " + fixed(where.level_ratio, 1) + " times larger at high input level than at low.";
+    default: return "The model leaves out " + to_string(c.effect) + ".";
+  }
+}
+
+nlohmann::json terms_json(const AugmentedModel& m) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& t : m.terms)
+    out.push_back({{"effect", to_string(t.effect)},
+                   {"state", to_string(t.proxy)},
+                   {"threshold", t.threshold},
+                   {"coefficients", std::vector<double>(t.coefficients.data(), t.coefficients.data() + t.coefficients.size())}});
+  return out;
+}
+
+void check_record(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const std::string& name, Eigen::Index init) {
+  if (u.size() != y.size())
+    throw std::invalid_argument("diagnose: " + name + " record: input has " + std::to_string(u.size()) +
+                                " samples, output " + std::to_string(y.size()));
+  if (u.size() < init + 512)
+    throw std::invalid_argument("diagnose: " + name + " record: " + std::to_string(u.size()) +
+                                " samples; at least " + std::to_string(init + 512) + " needed");
+  if (!u.allFinite() || !y.allFinite()) throw std::invalid_argument("diagnose: " + name + " record: a sample is not finite");
+}
+
+}  // namespace
+
+Eigen::VectorXd simulate_augmented(const AugmentedModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                                   Eigen::Index init) {
+  const Eigen::VectorXd y_lin = m.linear.simulate(u, y, init);
+  if (m.terms.empty()) return y_lin;
+  const Eigen::VectorXd ys = m.linear.scaling.scale_y(y_lin);
+  const StateSignals reference = reference_of(m);
+  const StateSignals states = state_signals(m.linear.scaling.scale_u(u), ys, m.linear.fs, &reference);
+  Eigen::MatrixXd phi = stacked_regressors(m.terms, states, m.linear.tf, m.lags, ys.size());
+  Eigen::VectorXd c(phi.cols());
+  int at = 0;
+  for (const auto& t : m.terms) {
+    c.segment(at, t.coefficients.size()) = t.coefficients;
+    at += static_cast<int>(t.coefficients.size());
+  }
+  // y⁽⁰⁾ = ŷ_lin, y⁽ᵏ⁺¹⁾ = ŷ_lin + Φ(y⁽ᵏ⁾)·c: the terms act on the states of the augmented output.
+  Eigen::VectorXd y_aug = ys + phi * c;
+  for (int pass = 0; pass < kRefinements; ++pass) {
+    phi = stacked_regressors(m.terms, state_signals(m.linear.scaling.scale_u(u), y_aug, m.linear.fs, &reference),
+                             m.linear.tf, m.lags, ys.size());
+    y_aug = ys + phi * c;
+  }
+  return m.linear.scaling.unscale_y(y_aug);
+}
+
+Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, const Eigen::VectorXd& u_val,
+                   const Eigen::VectorXd& y_val, double fs, const std::optional<LinearModel>& baseline,
+                   const DiagnosisOptions& options) {
+  if (!(fs > 0.0) || !std::isfinite(fs)) throw std::invalid_argument("diagnose: sample rate " + std::to_string(fs) + " Hz is not positive");
+  if (options.init < 0) throw std::invalid_argument("diagnose: init must not be negative");
+  if (options.lags < 1) throw std::invalid_argument("diagnose: lags must be at least 1");
+  check_record(u_est, y_est, "estimation", options.init);
+  check_record(u_val, y_val, "validation", options.init);
+  const auto progress = [&](const std::string& stage) {
+    if (options.progress) options.progress(stage);
+  };
+  const Records r{u_est, y_est, u_val, y_val, fs, options.init, options.lags};
+
+  Diagnosis d;
+  LinearModel linear;
+  if (baseline) {
+    linear = *baseline;
+    if (std::abs(linear.fs - fs) > 1e-6 * fs)
+      throw std::invalid_argument("diagnose: the model was identified at " + std::to_string(linear.fs) +
+                                  " Hz but the data is at " + std::to_string(fs) + " Hz");
+    d.baseline_info = {{"source", "given"}, {"method", linear.method}, {"na", linear.tf.na()}, {"nb", linear.tf.nb()}, {"nk", linear.tf.nk}};
+  } else {
+    progress("identifying the best linear model (OE, orders " + std::to_string(options.scan_from) + ".." +
+             std::to_string(options.scan_to) + ")");
+    LinearIdentificationSpec spec;
+    spec.method = LinearMethod::oe;
+    spec.fs = fs;
+    spec.init = options.init;
+    spec.order = options.scan_to;
+    spec.scan_from = options.scan_from;
+    spec.scan_to = options.scan_to;
+    LinearIdentification id = identify_linear(u_est, y_est, u_val, y_val, spec);
+    // The order with the lowest validation J (the scan's own rule allows 5 % more, which would leave
+    // a dynamic mismatch for the diagnosis to find).
+    int best_order = id.model.tf.na();
+    double best_j = std::numeric_limits<double>::infinity();
+    for (const auto& e : id.scan)
+      if (e.j_val_pct < best_j) best_j = e.j_val_pct, best_order = e.order;
+    nlohmann::json scan = nlohmann::json::array();
+    for (const auto& e : id.scan) scan.push_back({{"order", e.order}, {"J_val_pct", e.j_val_pct}});
+    if (best_order != id.model.tf.na()) {
+      spec.scan_from = spec.scan_to = 0;
+      spec.order = best_order;
+      id = identify_linear(u_est, y_est, u_val, y_val, spec);
+    }
+    linear = id.model;
+    // The delay estimated from the data is the first *visible* one; a converter's latency often leaves
+    // a small first sample before it, so one sample less is tried too and kept if validation J says so.
+    const int nk_estimated = linear.tf.nk;
+    if (linear.tf.nk > 0 && linear.tf.nb() >= 2) {
+      progress("trying one sample less of delay than estimated");
+      TransferFunction shorter = linear.tf;
+      shorter.nk -= 1;
+      shorter.b = Eigen::VectorXd::Zero(linear.tf.nb());
+      shorter.b.tail(linear.tf.nb() - 1) = linear.tf.b.head(linear.tf.nb() - 1);
+      if (auto m = refit_linear(r, linear, shorter, options.oe_iterations))
+        if (simulation_j_percent(*m, u_val, y_val, r.init) < simulation_j_percent(linear, u_val, y_val, r.init)) linear = *m;
+    }
+    d.baseline_info = {{"source", "identified"}, {"method", "oe"}, {"na", linear.tf.na()}, {"nb", linear.tf.nb()},
+                       {"nk", linear.tf.nk}, {"nk_estimated", nk_estimated},
+                       {"order_rule", "lowest validation J over the scan, then nk or nk − 1 by validation J"}, {"scan", scan}};
+  }
+
+  progress("locating the residual of the baseline");
+  Fit current = fit_terms(r, linear, {});
+  d.baseline_j_val_pct = current.j_val;
+  d.baseline_j_est_pct = current.j_est;
+  d.j_val_before_pct = current.j_val;
+  d.located_est = locate_residual(u_est, y_est, simulate_augmented(current.model, u_est, y_est, r.init), fs, r.init);
+  d.located_val = locate_residual(u_val, y_val, simulate_augmented(current.model, u_val, y_val, r.init), fs, r.init);
+  d.noise_floor_pct = d.located_val.noise_floor_pct;
+
+  const double n_val = static_cast<double>(u_val.size() - r.init);
+  for (int round = 0; round < options.max_findings; ++round) {
+    progress("round " + std::to_string(round + 1) + ": scoring candidate effects");
+    const ResidualLocation where_est =
+        locate_residual(u_est, y_est, simulate_augmented(current.model, u_est, y_est, r.init), fs, r.init);
+    const ResidualLocation where_val =
+        locate_residual(u_val, y_val, simulate_augmented(current.model, u_val, y_val, r.init), fs, r.init);
+    std::vector<Candidate> scored = candidates(r, current, where_est, options.oe_iterations);
+    // BIC on the validation residual: N·ln(J_before/J_after) − p·ln(N) > 0 to be kept.
+    const Candidate* chosen = nullptr;
+    double best_score = 0.0;
+    nlohmann::json round_json = nlohmann::json::array();
+    for (const auto& c : scored) {
+      const double score = n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val);
+      round_json.push_back({{"effect", to_string(c.effect)}, {"variant", c.variant}, {"parameters", c.parameters},
+                            {"J_val_pct", c.fit.j_val}, {"score", score}});
+      // …and it must remove at least kMinimumGain of J: below that it is not worth a finding.
+    if (score > best_score && c.fit.j_val < (1.0 - kMinimumGain) * current.j_val) best_score = score, chosen = &c;
+    }
+    d.rounds.push_back(round_json);
+    if (chosen == nullptr) break;
+    const double correlation = added_correlation(r, current, chosen->fit);
+    Finding f;
+    f.effect = chosen->effect;
+    f.added_parameters = chosen->parameters;
+    f.j_val_before_pct = current.j_val;
+    f.j_val_after_pct = chosen->fit.j_val;
+    f.explanation = explain(*chosen, where_est, correlation);
+    f.evidence = {{"score_bic", best_score},
+                  {"added_correlation", correlation},
+                  {"J_est_before_pct", current.j_est},
+                  {"J_est_after_pct", chosen->fit.j_est},
+                  {"residual_estimation", location_to_json(where_est)},
+                  {"residual_validation", location_to_json(where_val)}};
+    f.parameters = chosen->parameters_json;
+    f.parameters["added"] = chosen->parameters;
+    f.parameters["terms"] = terms_json(chosen->fit.model);
+    progress("found " + to_string(f.effect) + ": validation J " + fixed(f.j_val_before_pct, 3) + " % → " +
+             fixed(f.j_val_after_pct, 3) + " %");
+    d.findings.push_back(std::move(f));
+    current = chosen->fit;
+  }
+  d.j_val_after_pct = current.j_val;
+  d.located_val_after = locate_residual(u_val, y_val, simulate_augmented(current.model, u_val, y_val, r.init), fs, r.init);
+  d.model = current.model;
+  d.baseline = linear;
+  return d;
+}
+
+nlohmann::json diagnosis_to_json(const Diagnosis& d) {
+  nlohmann::json findings = nlohmann::json::array();
+  for (const auto& f : d.findings)
+    findings.push_back({{"effect", to_string(f.effect)},
+                        {"explanation", f.explanation},
+                        {"evidence", f.evidence},
+                        {"parameters", f.parameters},
+                        {"J_val_before_pct", f.j_val_before_pct},
+                        {"J_val_after_pct", f.j_val_after_pct}});
+  nlohmann::json baseline = d.baseline_info;
+  baseline["kind"] = d.baseline_kind;
+  baseline["J_val_pct"] = d.baseline_j_val_pct;
+  baseline["J_est_pct"] = d.baseline_j_est_pct;
+  return {{"baseline", baseline},
+          {"findings", findings},
+          {"J_val_before_pct", d.j_val_before_pct},
+          {"J_val_after_pct", d.j_val_after_pct},
+          {"noise_floor_pct", d.noise_floor_pct},
+          {"location",
+           {{"estimation", location_to_json(d.located_est)},
+            {"validation", location_to_json(d.located_val)},
+            {"validation_after", location_to_json(d.located_val_after)}}},
+          {"rounds", d.rounds},
+          {"rule", "an augmentation is kept when N·ln(J_before/J_after) > p·ln(N) on the N validation samples (BIC), p its added parameters, and it lowers validation J by at least 1 %"}};
+}
+
+}  // namespace panelbass::models

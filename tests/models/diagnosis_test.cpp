@@ -1,0 +1,217 @@
+// Diagnosis on concealed scenarios made with the virtual transducer: the linear preset with one effect
+// switched on, small enough that the baseline's residual on the noise-free output lies below the sensor
+// noise at every frequency of a Welch spectrum (each test shows it), yet found from a long record. Also:
+// no effect gives no finding (several seeds); a given baseline with a sensor offset or a wrong delay is
+// diagnosed as such; the pieces (filtering, the residual's location) against plain computations.
+#include "models/diagnosis.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "dsp/excitation.h"
+#include "dsp/spectrum.h"
+#include "models/linear_identification.h"
+#include "models/performance.h"
+#include "models/plant_presets.h"
+#include "models/virtual_transducer.h"
+#include "tests/support/expect_error.h"
+#include "tests/support/linear_systems.h"
+
+namespace panelbass::models {
+namespace {
+
+using testing_support::expect_invalid;
+using testing_support::gaussian;
+
+constexpr double kFs = 3000.0;
+constexpr Eigen::Index kInit = 50;
+
+struct Scenario {
+  Eigen::VectorXd u_est, y_est, u_val, y_val;
+  Eigen::VectorXd y_val_clean;  ///< the validation output without sensor noise
+};
+
+// Uniform white noise at full drive through `plant`, split into estimation and validation records.
+Scenario make_scenario(const PlantConfig& plant, std::uint64_t seed, Eigen::Index n_est, Eigen::Index n_val) {
+  PlantConfig quiet = plant;
+  quiet.sensor.noise_rms_V = 0.0;
+  const Eigen::VectorXd u = dsp::uniform_noise(static_cast<std::size_t>(n_est + n_val), 1.0, seed);
+  const Eigen::VectorXd y = simulate(plant, u, seed + 100).y;
+  const Eigen::VectorXd y_clean = simulate(quiet, u, seed + 100).y;
+  return {u.head(n_est), y.head(n_est), u.tail(n_val), y.tail(n_val), y_clean.tail(n_val)};
+}
+
+DiagnosisOptions narrow_scan() {
+  // The true linear structure has 13 states (see linear_identification_test.cpp); a narrow scan keeps
+  // the test short and still lets the validation data choose.
+  DiagnosisOptions o;
+  o.scan_from = 12;
+  o.scan_to = 13;
+  return o;
+}
+
+// Largest ratio, over the bins of a Welch spectrum (512-sample Hann segments), of the PSD of what the
+// baseline misses on the noise-free output to the PSD of the sensor noise.
+double concealment_ratio(const Scenario& s, const LinearModel& baseline) {
+  const Eigen::VectorXd missed = s.y_val_clean - baseline.simulate(s.u_val, s.y_val_clean, kInit);
+  const Eigen::VectorXd noise = s.y_val - s.y_val_clean;
+  const Eigen::Index n = s.u_val.size() - kInit;
+  const dsp::WelchSpec spec{512, 0.5, dsp::Window::hann};
+  const dsp::PowerSpectrum effect = dsp::welch_psd(missed.tail(n), kFs, spec);
+  const dsp::PowerSpectrum sensor = dsp::welch_psd(noise.tail(n), kFs, spec);
+  double worst = 0.0;
+  for (Eigen::Index k = 1; k < effect.psd.size(); ++k) worst = std::max(worst, effect.psd[k] / sensor.psd[k]);
+  return worst;
+}
+
+TEST(Diagnosis, FilterThroughIsTheLinearModelsSimulation) {
+  TransferFunction tf;
+  tf.a = Eigen::Vector2d(-1.5, 0.7);
+  tf.b = Eigen::Vector2d(0.5, 0.2);
+  tf.nk = 1;
+  LinearModel model;
+  model.tf = tf;
+  model.fs = kFs;
+  const Eigen::VectorXd x = gaussian(500, 1.0, 3);
+  EXPECT_LT((filter_through(tf, x) - model.simulate(x)).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(Diagnosis, LocateFindsTheNoiseFloorAnOffsetAndALine) {
+  // A residual of white noise (σ = 0.1) on an output of unit power: the noise floor is 1 % by [2A].
+  const Eigen::Index n = 20000;
+  const Eigen::VectorXd u = gaussian(n, 1.0, 1);
+  const Eigen::VectorXd y = gaussian(n, 1.0, 2);
+  const Eigen::VectorXd noise = gaussian(n, 0.1, 3);
+  const double expected_pct = 100.0 * noise.squaredNorm() / y.squaredNorm();
+  const ResidualLocation white = locate_residual(u, y, y - noise, kFs, 0);
+  EXPECT_NEAR(white.noise_floor_pct, expected_pct, 0.1 * expected_pct);
+  EXPECT_LT(std::abs(white.mean_t), 4.0);
+  // An offset of 0.01 (σ/10): the mean is found, tens of standard errors from zero.
+  const ResidualLocation offset = locate_residual(u, y, (y - noise).array() - 0.01, kFs, 0);
+  EXPECT_NEAR(offset.mean, 0.01 + noise.mean(), 1e-12);
+  EXPECT_GT(offset.mean_t, 10.0);
+  // A line at 400 Hz with the noise's power: far above the floor, at its frequency.
+  Eigen::VectorXd line = noise;
+  for (Eigen::Index k = 0; k < n; ++k) line[k] += 0.1 * std::sqrt(2.0) * std::sin(2.0 * std::numbers::pi * 400.0 * k / kFs);
+  const ResidualLocation tone = locate_residual(u, y, y - line, kFs, 0);
+  EXPECT_NEAR(tone.peak_frequency_hz, 400.0, kFs / 2048.0);
+  EXPECT_GT(tone.peak_over_noise, 10.0 * tone.peak_threshold);
+  expect_invalid([&] { locate_residual(u.head(100), y.head(100), y.head(100), kFs, 0); }, "256");
+}
+
+TEST(Diagnosis, ConcealedCubicStiffnessIsFoundFirstAndImprovesValidation) {
+  PlantConfig plant = plant_preset("linear");
+  plant.nonlinear.stiffness.enabled = true;
+  plant.nonlinear.stiffness.k1_per_mm = 0.0;    // symmetric: cubic only
+  plant.nonlinear.stiffness.k2_per_mm2 = 0.06;  // the panel exciter's hardening spring …
+  plant.nonlinear.stiffness.scale = 0.035;      // … at 3.5 % of its strength
+  const Scenario s = make_scenario(plant, 1, 60000, 40000);
+  const Diagnosis d = diagnose(s.u_est, s.y_est, s.u_val, s.y_val, kFs, std::nullopt, narrow_scan());
+  // Concealed: what the baseline misses lies below the sensor noise at every frequency.
+  EXPECT_LT(concealment_ratio(s, d.baseline), 1.0);
+  ASSERT_FALSE(d.findings.empty()) << diagnosis_to_json(d).dump(1);
+  EXPECT_EQ(d.findings[0].effect, Effect::cubic_stiffness) << d.findings[0].explanation;
+  EXPECT_LT(d.findings[0].j_val_after_pct, d.findings[0].j_val_before_pct);
+  EXPECT_LT(d.j_val_after_pct, d.j_val_before_pct);
+  // The improvement is most of what separates the baseline from the sensor noise's own J.
+  const double noise_j = j_percent(s.y_val_clean, s.y_val, kInit);
+  EXPECT_LT(d.j_val_after_pct - noise_j, 0.5 * (d.j_val_before_pct - noise_j)) << "noise alone: " << noise_j << " %";
+  EXPECT_NE(d.findings[0].explanation.find("cubic"), std::string::npos);
+}
+
+// Not concealed (their residual peaks 8–15 times the noise near the main resonance): the even-order
+// spring and the clipping amplifier are named first and validation J improves. The gray-box terms explain
+// only part of what the baseline misses here (see the report), so only the id and the direction are
+// asserted.
+TEST(Diagnosis, VisibleAsymmetricStiffnessIsNamedFirst) {
+  PlantConfig plant = plant_preset("linear");
+  plant.nonlinear.stiffness.enabled = true;
+  plant.nonlinear.stiffness.k1_per_mm = 0.03;  // the panel exciter's asymmetry, no cubic part
+  plant.nonlinear.stiffness.k2_per_mm2 = 0.0;
+  const Scenario s = make_scenario(plant, 2, 30000, 20000);
+  const Diagnosis d = diagnose(s.u_est, s.y_est, s.u_val, s.y_val, kFs, std::nullopt, narrow_scan());
+  ASSERT_FALSE(d.findings.empty());
+  EXPECT_EQ(d.findings[0].effect, Effect::asymmetric_stiffness) << d.findings[0].explanation;
+  EXPECT_LT(d.findings[0].j_val_after_pct, 0.97 * d.findings[0].j_val_before_pct);
+}
+
+TEST(Diagnosis, VisibleClippingIsNamedSaturationFirst) {
+  PlantConfig plant = plant_preset("linear");
+  plant.nonlinear.clipping.enabled = true;
+  plant.nonlinear.clipping.level = 0.8;
+  plant.nonlinear.clipping.knee = 0.05;
+  const Scenario s = make_scenario(plant, 2, 30000, 20000);
+  const Diagnosis d = diagnose(s.u_est, s.y_est, s.u_val, s.y_val, kFs, std::nullopt, narrow_scan());
+  ASSERT_FALSE(d.findings.empty());
+  EXPECT_EQ(d.findings[0].effect, Effect::saturation) << d.findings[0].explanation;
+  EXPECT_LT(d.findings[0].j_val_after_pct, 0.97 * d.findings[0].j_val_before_pct);
+}
+
+TEST(Diagnosis, NoEffectGivesNoFinding) {
+  for (std::uint64_t seed : {1u, 2u, 3u}) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    const Scenario s = make_scenario(plant_preset("linear"), seed, 20000, 10000);
+    const Diagnosis d = diagnose(s.u_est, s.y_est, s.u_val, s.y_val, kFs, std::nullopt, narrow_scan());
+    EXPECT_TRUE(d.findings.empty()) << diagnosis_to_json(d)["findings"].dump(1);
+    EXPECT_EQ(d.j_val_after_pct, d.j_val_before_pct);
+    // What is left is noise: the baseline's J is within 10 % of the sensor noise's own.
+    EXPECT_LT(d.j_val_before_pct, 1.1 * j_percent(s.y_val_clean, s.y_val, kInit));
+  }
+}
+
+// The linear preset identified (OE, the true order 13 and delay 1) from its own record, seed 50.
+LinearModel reference_baseline() {
+  const Scenario s = make_scenario(plant_preset("linear"), 50, 20000, 5000);
+  LinearIdentificationSpec spec;
+  spec.method = LinearMethod::oe;
+  spec.order = 13;
+  spec.delay = 1;
+  spec.fs = kFs;
+  return identify_linear(s.u_est, s.y_est, s.u_val, s.y_val, spec).model;
+}
+
+TEST(Diagnosis, GivenBaselineMissingASensorOffsetGetsADcOffset) {
+  PlantConfig plant = plant_preset("linear");
+  plant.sensor.offset_V = 0.03;
+  const Scenario s = make_scenario(plant, 7, 20000, 10000);
+  const Diagnosis d = diagnose(s.u_est, s.y_est, s.u_val, s.y_val, kFs, reference_baseline(), {});
+  ASSERT_FALSE(d.findings.empty());
+  EXPECT_EQ(d.findings[0].effect, Effect::dc_offset) << d.findings[0].explanation;
+  EXPECT_LT(d.findings[0].j_val_after_pct, d.findings[0].j_val_before_pct);
+  // The offset fitted, in raw units, is the sensor's: Σ coefficient · y_scale.
+  const DiagnosisTerm& term = d.model.terms.front();
+  EXPECT_NEAR(term.coefficients[0] * d.baseline.scaling.y_scale, 0.03, 0.003);
+}
+
+TEST(Diagnosis, GivenBaselineWithTooShortADelayGetsADelay) {
+  PlantConfig plant = plant_preset("linear");
+  plant.converters.delay_samples = 2;  // one sample more latency than the baseline knows
+  const Scenario s = make_scenario(plant, 8, 20000, 10000);
+  const Diagnosis d = diagnose(s.u_est, s.y_est, s.u_val, s.y_val, kFs, reference_baseline(), {});
+  ASSERT_FALSE(d.findings.empty());
+  EXPECT_EQ(d.findings[0].effect, Effect::delay) << d.findings[0].explanation;
+  EXPECT_EQ(d.findings[0].parameters["nk_after"].get<int>(), 2);
+  EXPECT_LT(d.findings[0].j_val_after_pct, 0.5 * d.findings[0].j_val_before_pct);
+}
+
+TEST(Diagnosis, BadRecordsAreNamed) {
+  const Eigen::VectorXd u = gaussian(2000, 1.0, 1), y = gaussian(2000, 1.0, 2);
+  expect_invalid([&] { diagnose(u, y.head(1999), u, y, kFs, std::nullopt); }, "estimation record");
+  expect_invalid([&] { diagnose(u, y, u.head(100), y.head(100), kFs, std::nullopt); }, "validation record");
+  expect_invalid([&] { diagnose(u, y, u, y, 0.0, std::nullopt); }, "sample rate");
+  Eigen::VectorXd bad = y;
+  bad[10] = std::nan("");
+  expect_invalid([&] { diagnose(u, bad, u, y, kFs, std::nullopt); }, "not finite");
+}
+
+TEST(Diagnosis, EffectIdsAreTheVocabulary) {
+  EXPECT_EQ(to_string(Effect::cubic_stiffness), "cubic_stiffness");
+  EXPECT_EQ(to_string(Effect::thermal_compression), "thermal_compression");
+  EXPECT_EQ(to_string(Effect::dc_offset), "dc_offset");
+}
+
+}  // namespace
+}  // namespace panelbass::models
