@@ -45,8 +45,7 @@ std::vector<dsp::Biquad> band_pass_sections(double lo, double hi, int order, dou
                   hi, fs / 2.0);
     throw std::invalid_argument(message);
   }
-  if (lo == 0.0) return dsp::butterworth_lowpass(order, hi, fs);
-  return dsp::butterworth_bandpass(order, lo, hi, fs);
+  return dsp::butterworth_band(order, lo, hi, fs);
 }
 
 std::vector<dsp::Biquad> band_pass_sections(const std::string& text, int order, double fs) {

@@ -133,4 +133,8 @@ std::vector<Biquad> butterworth_bandpass(int order, double low_hz, double high_h
   return sections;
 }
 
+std::vector<Biquad> butterworth_band(int order, double low_hz, double high_hz, double fs) {
+  return low_hz == 0.0 ? butterworth_lowpass(order, high_hz, fs) : butterworth_bandpass(order, low_hz, high_hz, fs);
+}
+
 }  // namespace panelbass::dsp

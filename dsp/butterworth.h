@@ -28,4 +28,8 @@ std::vector<Biquad> butterworth_highpass(int order, double cutoff_hz, double fs)
 /// Band-pass as a high-pass at `low_hz` cascaded with a low-pass at `high_hz`, each of `order`.
 std::vector<Biquad> butterworth_bandpass(int order, double low_hz, double high_hz, double fs);
 
+/// The chain's band-pass: butterworth_bandpass(), or with `low_hz` = 0 the low-pass alone (the thesis's
+/// "0–1200 Hz" band).
+std::vector<Biquad> butterworth_band(int order, double low_hz, double high_hz, double fs);
+
 }  // namespace panelbass::dsp

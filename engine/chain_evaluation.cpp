@@ -29,8 +29,7 @@ constexpr double kAnalysisSeconds = 1.0;
 std::vector<dsp::Biquad> band_pass_sections(const BandPassConfig& bp, double fs) {
   if (bp.bypass) return {};
   const BandPassDesign& d = bp.design;
-  return d.low.value == 0.0 ? dsp::butterworth_lowpass(d.order, d.high.value, fs)
-                            : dsp::butterworth_bandpass(d.order, d.low.value, d.high.value, fs);
+  return dsp::butterworth_band(d.order, d.low.value, d.high.value, fs);
 }
 
 /// Which stages a row runs.

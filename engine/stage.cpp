@@ -44,9 +44,7 @@ void BandPassStage::prepare(const ProcessSpec& spec) {
                                 std::to_string(spec.fs / 2.0) + " Hz, got low = " + std::to_string(low) +
                                 " Hz, high = " + std::to_string(high) + " Hz");
   }
-  // A low corner of 0 is the thesis's "0–1200 Hz" band-pass: the low-pass alone.
-  filter_ = dsp::SosFilter(low == 0.0 ? dsp::butterworth_lowpass(design_.order, high, spec.fs)
-                                      : dsp::butterworth_bandpass(design_.order, low, high, spec.fs));
+  filter_ = dsp::SosFilter(dsp::butterworth_band(design_.order, low, high, spec.fs));
 }
 
 LinearStage::LinearStage(models::LinearModel model) : model_(std::move(model)) {}
