@@ -45,4 +45,7 @@ void register_evaluate(CLI::App& app);
 /// `panelbass diagnose`: locate where a simulation and a recording disagree, name the physics left out, model it.
 void register_diagnose(CLI::App& app);
 
+/// `panelbass serve`: the engine, the HTTP API and the web UI in one process.
+void register_serve(CLI::App& app);
+
 }  // namespace panelbass::cli

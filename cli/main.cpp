@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   panelbass::cli::register_chain(app);
   panelbass::cli::register_evaluate(app);
   panelbass::cli::register_diagnose(app);
+  panelbass::cli::register_serve(app);
 
   try {
     app.parse(argc, argv);

@@ -1,7 +1,5 @@
 // `panelbass run`: a chain file on a live backend until interrupted (SIGINT/SIGTERM) or for a set time,
 // then the engine's metrics as one JSON object.
-#include <signal.h>
-
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -15,11 +13,14 @@
 
 #include "cli/commands.h"
 #include "cli/json_output.h"
+#include "cli/looped_program.h"
+#include "cli/stop_signals.h"
 #include "dsp/excitation.h"
 #include "dsp/resample.h"
 #include "dsp/wav_file.h"
 #include "engine/alsa_backend.h"
 #include "engine/chain_file.h"
+#include "engine/metrics_json.h"
 #include "engine/virtual_backend.h"
 #include "models/plant_presets.h"
 
@@ -50,123 +51,13 @@ struct RunOptions {
   int realtime_priority = 0;
 };
 
-// Set by SIGINT/SIGTERM; read by the control loop. A lock-free atomic is safe to store from a handler.
-std::atomic<bool> interrupted{false};
-static_assert(std::atomic<bool>::is_always_lock_free);
-
-extern "C" void on_stop_signal(int) { interrupted.store(true, std::memory_order_relaxed); }
-
-// SIGINT and SIGTERM set `interrupted` while this lives; the previous handlers come back afterwards.
-class StopSignals {
- public:
-  StopSignals() {
-    interrupted.store(false, std::memory_order_relaxed);
-    struct sigaction action {};
-    action.sa_handler = on_stop_signal;
-    sigemptyset(&action.sa_mask);
-    sigaction(SIGINT, &action, &old_int_);
-    sigaction(SIGTERM, &action, &old_term_);
-  }
-  ~StopSignals() {
-    sigaction(SIGINT, &old_int_, nullptr);
-    sigaction(SIGTERM, &old_term_, nullptr);
-  }
-  StopSignals(const StopSignals&) = delete;
-  StopSignals& operator=(const StopSignals&) = delete;
-
- private:
-  struct sigaction old_int_ {};
-  struct sigaction old_term_ {};
-};
-
-/// A program the backend loops, and how it was made.
-struct LoopedProgram {
-  std::vector<double> samples;  ///< at the chain's rate
-  nlohmann::json description;   ///< for the result
-};
-
-// A sine that loops without a click: the whole number of periods (in about one second) whose length is
-// closest to a whole number of samples, at the frequency that makes it exact.
-LoopedProgram looped_sine(double frequency, double amplitude, double fs) {
-  const double period = fs / frequency;
-  const long most = std::max(1L, static_cast<long>(std::floor(fs / period)));
-  long periods = most;
-  double best_miss = 1.0;
-  for (long m = most; m >= std::max(1L, most / 2); --m) {
-    const double miss = std::abs(static_cast<double>(m) * period - std::round(static_cast<double>(m) * period));
-    if (miss < best_miss - 1e-12) {
-      best_miss = miss;
-      periods = m;
-    }
-  }
-  const auto length = static_cast<std::size_t>(std::max(1.0, std::round(static_cast<double>(periods) * period)));
-  const double exact = static_cast<double>(periods) * fs / static_cast<double>(length);
-  const Eigen::VectorXd x = dsp::sine(length, fs, exact, amplitude);
-  return {{x.data(), x.data() + x.size()},
-          {{"signal", "sine"}, {"frequency_hz", exact}, {"amplitude", amplitude}, {"loop_samples", length}}};
-}
-
-LoopedProgram make_program(const RunOptions& o, double fs) {
-  if (!o.program.empty()) {
-    const dsp::Record r = dsp::read_wav(o.program, {o.channel});
-    Eigen::VectorXd x = r.columns.front();
-    if (!(std::abs(r.fs - fs) <= 1e-9 * fs)) x = dsp::resample(x, r.fs, fs);
-    return {{x.data(), x.data() + x.size()},
-            {{"file", o.program}, {"channel", o.channel}, {"fs_file", r.fs}, {"loop_samples", x.size()}}};
-  }
-  if (o.signal == "silence") return {{}, {{"signal", "silence"}}};
-  if (o.signal == "noise") {
-    // Ten seconds of uniform white noise, looped.
-    const auto n = static_cast<std::size_t>(std::lround(10.0 * fs));
-    const Eigen::VectorXd x = dsp::uniform_noise(n, o.amplitude, o.seed);
-    return {{x.data(), x.data() + x.size()},
-            {{"signal", "noise"}, {"amplitude", o.amplitude}, {"seed", o.seed}, {"loop_samples", n}}};
-  }
-  if (o.signal.rfind("sine:", 0) == 0) {
-    const std::string text = o.signal.substr(5);
-    std::size_t used = 0;
-    double f = 0.0;
-    try {
-      f = std::stod(text, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != text.size()) {
-      throw std::invalid_argument("--signal " + o.signal + ": expected sine:HZ, e.g. sine:80");
-    }
-    if (!(f > 0.0 && f < fs / 2.0)) {
-      throw std::invalid_argument("--signal " + o.signal + ": the frequency must be within (0, " +
-                                  std::to_string(fs / 2.0) + ") Hz, half the chain's rate");
-    }
-    return looped_sine(f, o.amplitude, fs);
-  }
-  throw std::invalid_argument("--signal " + o.signal + ": expected noise, silence or sine:HZ");
-}
-
-nlohmann::json metrics_json(const engine::MetricsSnapshot& m) {
-  return {{"blocks", m.blocks},
-          {"samples", m.samples},
-          {"xruns", m.xruns},
-          {"faults", m.faults},
-          {"in_fault", m.in_fault},
-          {"last_fault", engine::fault_name(m.last_fault)},
-          {"swaps", m.swaps},
-          {"mean_block_ns", m.mean_block_ns},
-          {"p99_block_ns", m.p99_block_ns},
-          {"max_block_ns", m.max_block_ns},
-          {"ns_per_sample", m.ns_per_sample},
-          {"load", m.load},
-          {"active_ids",
-           {{"band_pass", m.active_ids[0]}, {"feedforward", m.active_ids[1]}, {"feedback", m.active_ids[2]}}}};
-}
-
 // Runs until a stop signal or `seconds` (0: no limit), freeing retired stages now and then.
 double wait_for_stop(double seconds, engine::Chain& chain) {
   using clock = std::chrono::steady_clock;
   const auto started = clock::now();
   for (;;) {
     const double elapsed = std::chrono::duration<double>(clock::now() - started).count();
-    if (interrupted.load(std::memory_order_relaxed) || (seconds > 0.0 && elapsed >= seconds)) return elapsed;
+    if (stop_requested() || (seconds > 0.0 && elapsed >= seconds)) return elapsed;
     const double left = seconds > 0.0 ? seconds - elapsed : 0.05;
     std::this_thread::sleep_for(std::chrono::duration<double>(std::min(0.05, left)));
     chain.collect_retired();
@@ -179,7 +70,7 @@ void run_virtual(const RunOptions& o, const engine::ChainConfig& config, nlohman
     throw std::invalid_argument("--plant " + o.plant + ": the plant runs at " + std::to_string(plant.fs) +
                                 " Hz, the chain (" + o.chain + ") at " + std::to_string(config.fs) + " Hz");
   }
-  LoopedProgram program = make_program(o, config.fs);
+  LoopedProgram program = looped_program(o.program, o.channel, o.signal, o.amplitude, o.seed, config.fs);
   std::unique_ptr<engine::Chain> chain = engine::make_chain(config);
   engine::VirtualBackendOptions options;
   options.block = engine::Samples{config.block};
@@ -202,8 +93,8 @@ void run_virtual(const RunOptions& o, const engine::ChainConfig& config, nlohman
   result["plant"] = plant.name;
   result["program"] = program.description;
   result["seconds"] = elapsed;
-  result["interrupted"] = interrupted.load(std::memory_order_relaxed);
-  result["metrics"] = metrics_json(chain->metrics().snapshot());
+  result["interrupted"] = stop_requested();
+  result["metrics"] = engine::metrics_to_json(chain->metrics().snapshot());
 }
 
 engine::ResampleQuality quality_of(const std::string& name) {
@@ -247,7 +138,7 @@ void run_alsa(const RunOptions& o, const engine::ChainConfig& config, nlohmann::
   nlohmann::json program_description = {{"capture_channel", o.program_channel}};
   if (o.program_channel == engine::kNoChannel) {
     // The program is played from memory at the device's rate.
-    LoopedProgram program = make_program(o, o.rate);
+    LoopedProgram program = looped_program(o.program, o.channel, o.signal, o.amplitude, o.seed, o.rate);
     options.program = std::move(program.samples);
     program_description = program.description;
   }
@@ -271,9 +162,9 @@ void run_alsa(const RunOptions& o, const engine::ChainConfig& config, nlohmann::
   }
   result["program"] = program_description;
   result["seconds"] = elapsed;
-  result["interrupted"] = interrupted.load(std::memory_order_relaxed);
+  result["interrupted"] = stop_requested();
   result["alsa"] = alsa_status_json(status, backend.resampling_latency());
-  result["metrics"] = metrics_json(chain->metrics().snapshot());
+  result["metrics"] = engine::metrics_to_json(chain->metrics().snapshot());
 }
 
 void run_run(const RunOptions& o) {

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Sets panelbass up on a Debian 12 machine (as root), builds it in Release, then runs
-#   run   the main job on the embedded virtual transducer, or
-#   test  the whole test suite (ctest, in parallel).
+#   run   `panelbass serve` on the embedded virtual transducer: the API and the web UI at
+#         http://127.0.0.1:8080/, with an excitation, identification and LQ design at start-up, or
+#   test  the whole test suite (ctest, in parallel; the browser test included).
 # Idempotent: packages already installed are not touched, and the build is incremental.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -28,14 +29,17 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive "${apt_get[@]}" install -y -q --no-install-recommends "${missing[@]}"
 fi
 
+# The web UI's packages (npm) and Debian's Chromium for the browser test.
+bash scripts/web_setup.sh
+
 jobs=$(nproc)
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j"$jobs"
 
 case "$1" in
   run)
-    mkdir -p build/demo
-    build/bin/panelbass plant survey panel-exciter --seed 1
+    echo "bootstrap: starting panelbass serve (Ctrl-C to stop); open the address it prints" >&2
+    exec build/bin/panelbass serve --store build/store
     ;;
   test)
     ctest --test-dir build --output-on-failure -j"$jobs"

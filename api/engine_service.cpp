@@ -1,0 +1,239 @@
+#include "api/engine_service.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "models/config_error.h"
+#include "models/virtual_transducer.h"
+
+namespace panelbass::api {
+namespace {
+
+constexpr std::array<const char*, 2> kSlotKeys = {"feedforward", "feedback"};
+
+// "chain.band_pass.low_hz: …" (the chain file's wording) → "config.band_pass.low_hz: …".
+std::string as_config_message(const std::string& message) {
+  const std::string prefix = "chain.";
+  return message.rfind(prefix, 0) == 0 ? "config." + message.substr(prefix.size()) : message;
+}
+
+nlohmann::json change_json(const engine::ConfigChange& change) {
+  nlohmann::json keys = nlohmann::json::array();
+  for (const auto& d : change.differences) keys.push_back(d.key);
+  return {{"kind", engine::change_class_name(change.kind)}, {"keys", keys}};
+}
+
+std::string keys_needing_restart(const engine::ConfigChange& change) {
+  std::string keys;
+  for (const auto& d : change.differences) {
+    if (d.kind != engine::ChangeClass::restart) continue;
+    keys += (keys.empty() ? "" : ", ") + d.key;
+  }
+  return keys;
+}
+
+// The chain-file object of API settings: format tag added, fs/block/history filled in from `running`,
+// slot models looked up by id and written inline (a null model leaves the slot out). The ids chosen go to
+// `ids`.
+nlohmann::json chain_json_of(const nlohmann::json& settings, const engine::ChainConfig& running,
+                             const ModelLookup& lookup, std::array<std::optional<std::string>, 2>& ids) {
+  if (!settings.is_object()) throw EngineRequestError(400, "bad_request", "config: expected a JSON object");
+  if (settings.contains("format")) {
+    throw EngineRequestError(400, "bad_request", "config.format: unknown field (the API's settings carry no format tag)");
+  }
+  nlohmann::json chain = settings;
+  chain["format"] = engine::kChainFormat;
+  if (!chain.contains("fs")) chain["fs"] = running.fs;
+  if (!chain.contains("block")) chain["block"] = running.block;
+  if (!chain.contains("history")) chain["history"] = running.history;
+  for (std::size_t s = 0; s < kSlotKeys.size(); ++s) {
+    const std::string key = kSlotKeys[s];
+    ids[s].reset();
+    if (!chain.contains(key)) continue;
+    nlohmann::json& slot = chain[key];
+    if (!slot.is_object()) throw EngineRequestError(400, "bad_request", "config." + key + ": expected an object");
+    if (!slot.contains("model") || slot["model"].is_null()) {
+      chain.erase(key);
+      continue;
+    }
+    if (!slot["model"].is_string()) {
+      throw EngineRequestError(400, "bad_request", "config." + key + ".model: expected a stored model id or null");
+    }
+    const std::string id = slot["model"].get<std::string>();
+    std::optional<nlohmann::json> model = lookup(id);
+    if (!model) throw EngineRequestError(400, "bad_request", "config." + key + ".model: no stored model \"" + id + "\"");
+    slot["model"] = std::move(*model);
+    ids[s] = id;
+  }
+  return chain;
+}
+
+}  // namespace
+
+const char* slot_name(ModelSlotName slot) { return kSlotKeys[static_cast<std::size_t>(slot)]; }
+
+ModelSlotName parse_slot_name(const std::string& name) {
+  if (name == "feedforward") return ModelSlotName::feedforward;
+  if (name == "feedback") return ModelSlotName::feedback;
+  throw EngineRequestError(400, "bad_request", "slot: expected \"feedforward\" or \"feedback\", got \"" + name + "\"");
+}
+
+EngineService::EngineService(EngineServiceOptions options) : options_(std::move(options)) {
+  if (!(std::abs(options_.plant.fs - options_.chain.fs) <= 1e-9 * options_.chain.fs)) {
+    throw std::invalid_argument("engine: the plant runs at " + std::to_string(options_.plant.fs) +
+                                " Hz, the chain at " + std::to_string(options_.chain.fs) + " Hz");
+  }
+  if (options_.chain.feedforward || options_.chain.feedback) {
+    throw std::invalid_argument("engine: the service starts with empty model slots; activate stored models instead");
+  }
+  running_ = options_.chain;
+  chain_ = engine::make_chain(running_);
+  engine::VirtualBackendOptions backend;
+  backend.block = engine::Samples{running_.block};
+  backend.pacing = options_.pacing;
+  backend.program = options_.program;
+  backend.loop = true;
+  backend.plant = options_.plant;
+  backend.noise_seed = options_.seed;
+  backend_ = std::make_unique<engine::VirtualBackend>(*chain_, std::move(backend));
+}
+
+EngineService::~EngineService() { stop(); }
+
+void EngineService::start() {
+  const std::lock_guard lock(mutex_);
+  if (playing_) return;
+  backend_->start();
+  playing_ = true;
+  started_ = std::chrono::steady_clock::now();
+}
+
+void EngineService::stop() {
+  const std::lock_guard lock(mutex_);
+  if (!playing_) return;
+  backend_->stop();
+  playing_ = false;
+  chain_->collect_retired();
+}
+
+void EngineService::collect_retired() {
+  const std::lock_guard lock(mutex_);
+  chain_->collect_retired();
+}
+
+nlohmann::json EngineService::engine_status() const {
+  const std::lock_guard lock(mutex_);
+  const double uptime =
+      playing_ ? std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count() : 0.0;
+  return {{"state", playing_ ? "running" : "stopped"},
+          {"backend", "virtual"},
+          {"plant", options_.plant.name},
+          {"fs", running_.fs},
+          {"block", running_.block},
+          {"uptime_s", uptime}};
+}
+
+engine::MetricsSnapshot EngineService::metrics() const { return chain_->metrics().snapshot(); }
+
+std::optional<std::string> EngineService::active_model(ModelSlotName slot) const {
+  const std::lock_guard lock(mutex_);
+  return active_ids_[static_cast<std::size_t>(slot)];
+}
+
+nlohmann::json EngineService::config() const {
+  const std::lock_guard lock(mutex_);
+  nlohmann::json j = engine::chain_config_to_json(running_);
+  j.erase("format");
+  const std::array<const std::optional<engine::SlotConfig>*, 2> slots = {&running_.feedforward, &running_.feedback};
+  for (std::size_t s = 0; s < slots.size(); ++s) {
+    const std::optional<engine::SlotConfig>& slot = *slots[s];
+    nlohmann::json out = {{"model", active_ids_[s] ? nlohmann::json(*active_ids_[s]) : nlohmann::json(nullptr)},
+                          {"bypass", slot && slot->bypass}};
+    if (s == 1) out["source"] = slot && slot->source == engine::FeedbackSource::sensor ? "sensor" : "model";
+    j[kSlotKeys[s]] = out;
+  }
+  return j;
+}
+
+nlohmann::json EngineService::apply(const nlohmann::json& settings, const ModelLookup& lookup) {
+  // Caller holds mutex_.
+  std::array<std::optional<std::string>, 2> ids;
+  const nlohmann::json chain = chain_json_of(settings, running_, lookup, ids);
+  engine::ChainConfig next;
+  try {
+    next = engine::chain_config_from_json(chain, ".");
+  } catch (const models::ConfigError& e) {
+    throw EngineRequestError(400, "bad_request", as_config_message(e.what()));
+  }
+  const engine::ConfigChange change = engine::classify_change(running_, next);
+  if (change.kind == engine::ChangeClass::restart) {
+    throw EngineRequestError(409, "conflict",
+                             "config: " + keys_needing_restart(change) +
+                                 " cannot change while the engine plays (a restart of panelbass serve is needed)");
+  }
+  try {
+    engine::apply_change(*chain_, running_, next);
+  } catch (const std::invalid_argument& e) {
+    throw EngineRequestError(400, "bad_request", as_config_message(e.what()));
+  }
+  running_ = std::move(next);
+  active_ids_ = ids;
+  return change_json(change);
+}
+
+nlohmann::json EngineService::put_config(const nlohmann::json& settings, const ModelLookup& lookup) {
+  const std::lock_guard lock(mutex_);
+  return apply(settings, lookup);
+}
+
+nlohmann::json EngineService::patch_config(const nlohmann::json& patch, const ModelLookup& lookup) {
+  if (!patch.is_object()) throw EngineRequestError(400, "bad_request", "config: a merge patch must be a JSON object");
+  const std::lock_guard lock(mutex_);
+  nlohmann::json settings = engine::chain_config_to_json(running_);
+  settings.erase("format");
+  for (std::size_t s = 0; s < kSlotKeys.size(); ++s) {
+    if (settings.contains(kSlotKeys[s])) settings[kSlotKeys[s]]["model"] = *active_ids_[s];
+  }
+  settings.merge_patch(patch);
+  return apply(settings, lookup);
+}
+
+nlohmann::json EngineService::activate(ModelSlotName slot, const std::string& id, const nlohmann::json& model) {
+  const std::lock_guard lock(mutex_);
+  nlohmann::json settings = engine::chain_config_to_json(running_);
+  settings.erase("format");
+  for (std::size_t s = 0; s < kSlotKeys.size(); ++s) {
+    if (settings.contains(kSlotKeys[s])) settings[kSlotKeys[s]]["model"] = *active_ids_[s];
+  }
+  const std::string key = slot_name(slot);
+  if (!settings.contains(key)) settings[key] = nlohmann::json::object();
+  settings[key]["model"] = id;
+  const ModelLookup lookup = [&](const std::string& wanted) -> std::optional<nlohmann::json> {
+    if (wanted == id) return model;
+    for (std::size_t s = 0; s < kSlotKeys.size(); ++s) {
+      if (active_ids_[s] == wanted) {
+        const auto& running = s == 0 ? running_.feedforward : running_.feedback;
+        if (running) return running->model;
+      }
+    }
+    return std::nullopt;
+  };
+  return apply(settings, lookup);
+}
+
+Eigen::VectorXd EngineService::excite(const Eigen::VectorXd& drive) {
+  for (Eigen::Index k = 0; k < drive.size(); ++k) {
+    if (!std::isfinite(drive[k]) || std::abs(drive[k]) > 1.0) {
+      throw std::invalid_argument("excite: drive sample " + std::to_string(k) + " is " + std::to_string(drive[k]) +
+                                  ", outside [-1, 1]");
+    }
+  }
+  std::uint64_t seed = 0;
+  {
+    const std::lock_guard lock(mutex_);
+    seed = options_.seed + 1 + excitations_++;
+  }
+  return models::simulate(options_.plant, drive, seed).y;
+}
+
+}  // namespace panelbass::api

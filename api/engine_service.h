@@ -1,0 +1,119 @@
+#pragma once
+// The engine as the API sees it: a chain playing on the virtual transducer, its settings in the API's
+// form (models named by their store ids), changes validated completely before they are applied without
+// interruption, and excitation records for identification jobs.
+
+#include <Eigen/Core>
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "engine/chain.h"
+#include "engine/chain_file.h"
+#include "engine/virtual_backend.h"
+#include "models/plant_config.h"
+
+namespace panelbass::api {
+
+/// A request the engine refuses; `status` is the HTTP status it maps to (400 bad input, 409 conflict).
+class EngineRequestError : public std::runtime_error {
+ public:
+  /// `status` 400 or 409, `code` "bad_request" or "conflict".
+  EngineRequestError(int status, std::string code, const std::string& message)
+      : std::runtime_error(message), status_(status), code_(std::move(code)) {}
+  /// HTTP status.
+  int status() const { return status_; }
+  /// Error code of the API's error object.
+  const std::string& code() const { return code_; }
+
+ private:
+  int status_;
+  std::string code_;
+};
+
+/// Finds a stored model file object by id (nullopt if there is none).
+using ModelLookup = std::function<std::optional<nlohmann::json>(const std::string& id)>;
+
+/// What the engine runs when the service starts.
+struct EngineServiceOptions {
+  models::PlantConfig plant;                ///< the virtual transducer (its fs is the chain's)
+  engine::ChainConfig chain;                ///< band-pass, limiter, crossfade … (slots empty)
+  std::vector<double> program;              ///< looped program input at the chain's rate (empty: silence)
+  std::uint64_t seed = 1;                   ///< sensor noise of the playing plant; excitations use seed + 1, + 2, …
+  engine::Pacing pacing = engine::Pacing::real_time;  ///< the audio thread's pacing
+};
+
+/// The chain slots a model can be activated in.
+enum class ModelSlotName { feedforward, feedback };
+
+/// "feedforward" or "feedback".
+const char* slot_name(ModelSlotName slot);
+/// The slot named `name`; throws EngineRequestError (400) otherwise.
+ModelSlotName parse_slot_name(const std::string& name);
+
+/// The running engine (thread-safe: every call may come from any HTTP or job thread).
+class EngineService {
+ public:
+  /// Builds the chain and the backend (not yet playing); throws std::invalid_argument for bad options.
+  explicit EngineService(EngineServiceOptions options);
+  /// Stops the audio thread.
+  ~EngineService();
+  EngineService(const EngineService&) = delete;
+  EngineService& operator=(const EngineService&) = delete;
+
+  /// Starts the audio thread.
+  void start();
+  /// Stops the audio thread (idempotent).
+  void stop();
+  /// Frees retired stages; call now and then from a control thread.
+  void collect_retired();
+
+  /// {"state","backend","plant","fs","block","uptime_s"}.
+  nlohmann::json engine_status() const;
+  /// The chain's metrics now.
+  engine::MetricsSnapshot metrics() const;
+  /// The store id of the model active in `slot` (nullopt: the slot passes its input through).
+  std::optional<std::string> active_model(ModelSlotName slot) const;
+  /// The settings in the API's form (ROUTES.md "GET /api/config").
+  nlohmann::json config() const;
+
+  /// Replaces the settings with `settings` (the API's form, all of it; fs, block and history may be left
+  /// out). Validated completely first (unknown fields, types, ranges, models looked up in `lookup` and
+  /// checked to run at the engine's rate) — EngineRequestError 400 naming "config.<key>", 409 for a change
+  /// that needs a restart; then applied without interruption. Returns {"kind","keys"} of the change.
+  nlohmann::json put_config(const nlohmann::json& settings, const ModelLookup& lookup);
+  /// Applies a JSON merge patch (RFC 7386) to the settings, then as put_config.
+  nlohmann::json patch_config(const nlohmann::json& patch, const ModelLookup& lookup);
+  /// Puts stored model `id` (file object `model`) into `slot`, crossfaded. Returns {"kind","keys"}.
+  nlohmann::json activate(ModelSlotName slot, const std::string& id, const nlohmann::json& model);
+
+  /// Plays `drive` through the backend's transducer (a copy of the virtual transducer, so the chain keeps
+  /// playing) and returns the measured response; throws std::invalid_argument for a drive outside [−1, 1]
+  /// or non-finite.
+  Eigen::VectorXd excite(const Eigen::VectorXd& drive);
+  /// The simulated transducer.
+  const models::PlantConfig& plant() const { return options_.plant; }
+  /// The engine's rate, Hz.
+  double fs() const { return options_.chain.fs; }
+
+ private:
+  nlohmann::json apply(const nlohmann::json& settings, const ModelLookup& lookup);
+
+  EngineServiceOptions options_;
+  mutable std::mutex mutex_;                 // serialises changes and guards the fields below
+  engine::ChainConfig running_;              // what the chain runs now (models inline)
+  std::array<std::optional<std::string>, 2> active_ids_;  // store ids in the feedforward and feedback slots
+  std::unique_ptr<engine::Chain> chain_;
+  std::unique_ptr<engine::VirtualBackend> backend_;
+  bool playing_ = false;
+  std::chrono::steady_clock::time_point started_{};
+  std::uint64_t excitations_ = 0;
+};
+
+}  // namespace panelbass::api

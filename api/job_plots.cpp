@@ -1,0 +1,103 @@
+#include "api/job_plots.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "dsp/spectrum.h"
+
+namespace panelbass::api {
+
+using nlohmann::json;
+
+json finite_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json without_non_finite(const json& value) {
+  if (value.is_number_float()) return finite_or_null(value.get<double>());
+  if (value.is_array() || value.is_object()) {
+    json out = value;
+    for (auto& element : out) element = without_non_finite(element);
+    return out;
+  }
+  return value;
+}
+
+json column(const Eigen::VectorXd& x) {
+  json out = json::array();
+  for (Eigen::Index k = 0; k < x.size(); ++k) out.push_back(finite_or_null(x[k]));
+  return out;
+}
+
+Eigen::Index welch_segment(Eigen::Index samples) {
+  Eigen::Index segment = 64;
+  while (segment * 2 <= std::min<Eigen::Index>(1024, samples / 4)) segment *= 2;
+  return segment;
+}
+
+json fit_plot(const Eigen::VectorXd& measured, const Eigen::VectorXd& simulated, double fs, Eigen::Index first_sample,
+              Eigen::Index max_points) {
+  if (measured.size() != simulated.size()) throw std::invalid_argument("fit plot: measured and simulated lengths differ");
+  const Eigen::Index n = std::min(measured.size(), max_points);
+  const Eigen::VectorXd t = (Eigen::VectorXd::LinSpaced(n, 0.0, static_cast<double>(n - 1)).array() + first_sample) / fs;
+  return {{"t", column(t)}, {"measured", column(measured.head(n))}, {"simulated", column(simulated.head(n))}};
+}
+
+Eigen::VectorXd magnitude_db(const Eigen::VectorXcd& h) {
+  Eigen::VectorXd db(h.size());
+  for (Eigen::Index k = 0; k < h.size(); ++k) db[k] = 20.0 * std::log10(std::abs(h[k]));
+  return db;
+}
+
+json spectrum_plot(const Eigen::VectorXd& f, const Eigen::VectorXcd& measured, const Eigen::VectorXcd& model) {
+  if (f.size() != measured.size() || f.size() != model.size()) throw std::invalid_argument("spectrum plot: lengths differ");
+  std::vector<Eigen::Index> bins;
+  for (Eigen::Index k = 0; k < f.size(); ++k) {
+    if (f[k] > 0.0) bins.push_back(k);
+  }
+  Eigen::VectorXd fk(bins.size());
+  Eigen::VectorXcd mk(bins.size()), hk(bins.size());
+  for (std::size_t i = 0; i < bins.size(); ++i) {
+    fk[i] = f[bins[i]];
+    mk[i] = measured[bins[i]];
+    hk[i] = model[bins[i]];
+  }
+  return {{"f", column(fk)}, {"measured_db", column(magnitude_db(mk))}, {"model_db", column(magnitude_db(hk))}};
+}
+
+json spectrum_plot(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const Eigen::VectorXd& y_model, double fs) {
+  if (u.size() != y.size() || u.size() != y_model.size()) throw std::invalid_argument("spectrum plot: lengths differ");
+  if (u.size() < 64) throw std::invalid_argument("spectrum plot: fewer than 64 samples");
+  dsp::WelchSpec spec;
+  spec.segment = static_cast<std::size_t>(welch_segment(u.size()));
+  const dsp::FrequencyResponse measured = dsp::h1_frf(u, y, fs, spec);
+  const dsp::FrequencyResponse model = dsp::h1_frf(u, y_model, fs, spec);
+  return spectrum_plot(measured.frequency, measured.h, model.h);
+}
+
+json history_plot(const std::vector<HistoryPoint>& points) {
+  json iteration = json::array(), est = json::array(), val = json::array();
+  for (const HistoryPoint& p : points) {
+    iteration.push_back(p.iteration);
+    est.push_back(finite_or_null(p.j_est_pct));
+    val.push_back(finite_or_null(p.j_val_pct));
+  }
+  return {{"iteration", iteration}, {"j_est_pct", est}, {"j_val_pct", val}};
+}
+
+json harmonics_plot(const models::DistortionComparison& comparison) {
+  json f = json::array(), ph2 = json::array(), ph3 = json::array(), mh2 = json::array(), mh3 = json::array();
+  const auto level = [](const models::DistortionRow& row, std::size_t index) {
+    return index < row.harmonic_db.size() ? finite_or_null(row.harmonic_db[index]) : json(nullptr);
+  };
+  const std::size_t n = std::min(comparison.plant.size(), comparison.model.size());
+  for (std::size_t k = 0; k < n; ++k) {
+    f.push_back(finite_or_null(comparison.plant[k].frequency));
+    ph2.push_back(level(comparison.plant[k], 0));
+    ph3.push_back(level(comparison.plant[k], 1));
+    mh2.push_back(level(comparison.model[k], 0));
+    mh3.push_back(level(comparison.model[k], 1));
+  }
+  return {{"f", f}, {"measured_h2_db", ph2}, {"measured_h3_db", ph3}, {"model_h2_db", mh2}, {"model_h3_db", mh3}};
+}
+
+}  // namespace panelbass::api

@@ -1,0 +1,55 @@
+#pragma once
+// Plot-ready columns of a job's result (ROUTES.md "Jobs"): every plot is an object of equal-length
+// columns, and every number in a result is finite or null (JSON has no NaN or infinity).
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "models/distortion_comparison.h"
+
+namespace panelbass::api {
+
+/// `v` as JSON when finite, null otherwise.
+nlohmann::json finite_or_null(double v);
+
+/// A copy of `value` with every non-finite number replaced by null.
+nlohmann::json without_non_finite(const nlohmann::json& value);
+
+/// The samples of `x` as a column (non-finite entries null).
+nlohmann::json column(const Eigen::VectorXd& x);
+
+/// The Welch segment for a record of `samples`: the largest power of 2 ≤ min(1024, samples/4), at least 64.
+Eigen::Index welch_segment(Eigen::Index samples);
+
+/// "fit": {"t":[s],"measured","simulated"} of the first ≤ `max_points` samples; sample k is at
+/// (first_sample + k)/fs seconds. Throws std::invalid_argument for unequal lengths.
+nlohmann::json fit_plot(const Eigen::VectorXd& measured, const Eigen::VectorXd& simulated, double fs,
+                        Eigen::Index first_sample = 0, Eigen::Index max_points = 2000);
+
+/// "spectrum": {"f":[Hz],"measured_db","model_db"}: magnitudes of the H1 estimates u → y and u → y_model
+/// (Welch, welch_segment()), the bins above DC. Throws std::invalid_argument for unequal lengths or a
+/// record shorter than 64 samples.
+nlohmann::json spectrum_plot(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const Eigen::VectorXd& y_model, double fs);
+
+/// "spectrum" of two responses on the frequencies `f` (Hz), the bins above DC (f > 0) only.
+nlohmann::json spectrum_plot(const Eigen::VectorXd& f, const Eigen::VectorXcd& measured, const Eigen::VectorXcd& model);
+
+/// One point of a J history.
+struct HistoryPoint {
+  int iteration = 0;
+  double j_est_pct = 0.0;
+  double j_val_pct = 0.0;  ///< NaN when there is no validation figure
+};
+
+/// "history": {"iteration","j_est_pct","j_val_pct"}.
+nlohmann::json history_plot(const std::vector<HistoryPoint>& points);
+
+/// "harmonics": {"f","measured_h2_db","measured_h3_db","model_h2_db","model_h3_db"} from the plant's and
+/// the model's rows (the same order: frequency within amplitude), dB relative to the fundamental.
+nlohmann::json harmonics_plot(const models::DistortionComparison& comparison);
+
+/// 20·log10|h| per entry (−inf for 0).
+Eigen::VectorXd magnitude_db(const Eigen::VectorXcd& h);
+
+}  // namespace panelbass::api

@@ -1,0 +1,243 @@
+#include "api/model_validation.h"
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <numbers>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "dsp/random.h"
+#include "models/config_error.h"
+#include "models/extended_precision.h"
+#include "models/linear_model.h"
+#include "models/lq_feedforward.h"
+#include "models/narx_model.h"
+#include "models/network_fields.h"
+#include "models/neural_feedback.h"
+#include "models/scaling.h"
+
+namespace panelbass::api {
+namespace {
+
+using nlohmann::json;
+
+constexpr const char* kBadRequest = "bad_request";
+constexpr const char* kInvalidModel = "invalid_model";
+
+// The free run that stands in for a stability proof of a network: its length, the seed of its noise and
+// how far (in scaled output units, where the identification data spans [−1, 1]) it may wander.
+constexpr Eigen::Index kFreeRunSamples = 2000;
+// The seed is the NARX loader's, so that both free runs see the same noise and agree.
+constexpr std::uint64_t kFreeRunSeed = 20240501;
+constexpr double kFreeRunBound = 100.0;
+
+std::string show(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+// The kind of `model`, or ModelRejected("bad_request") naming "model.kind".
+std::string read_kind(const json& model) {
+  if (!model.is_object()) {
+    throw ModelRejected(kBadRequest, std::string("model: expected a JSON object, got ") + model.type_name());
+  }
+  const auto it = model.find("kind");
+  if (it == model.end()) throw ModelRejected(kBadRequest, "model.kind: missing");
+  if (!it->is_string()) {
+    throw ModelRejected(kBadRequest, std::string("model.kind: expected a string, got ") + it->type_name());
+  }
+  const std::string kind = it->get<std::string>();
+  for (const char* known : {"linear", "narx", "lq_feedforward", "neural_feedback"}) {
+    if (kind == known) return kind;
+  }
+  throw ModelRejected(kBadRequest, "model.kind: unknown kind \"" + kind +
+                                       "\" (expected linear, narx, lq_feedforward or neural_feedback)");
+}
+
+// The key path of the first non-finite number in `root` (depth first, object keys in their stored
+// order), with an explicit stack so that a deeply nested body cannot overflow the thread's stack.
+std::optional<std::pair<std::string, double>> first_non_finite(const json& root, const std::string& root_path) {
+  std::vector<std::pair<const json*, std::string>> stack{{&root, root_path}};
+  while (!stack.empty()) {
+    auto [value, path] = std::move(stack.back());
+    stack.pop_back();
+    if (value->is_number_float()) {
+      const double v = value->get<double>();
+      if (!std::isfinite(v)) return std::pair{path, v};
+    } else if (value->is_object()) {
+      std::vector<std::pair<const json*, std::string>> children;
+      for (auto it = value->begin(); it != value->end(); ++it) children.emplace_back(&*it, path + "." + it.key());
+      stack.insert(stack.end(), children.rbegin(), children.rend());
+    } else if (value->is_array()) {
+      for (std::size_t i = value->size(); i-- > 0;) {
+        stack.emplace_back(&(*value)[i], path + "[" + std::to_string(i) + "]");
+      }
+    }
+  }
+  return std::nullopt;
+}
+
+// A JSON array of numbers as a vector; throws (any exception: the loader names the problem) otherwise.
+Eigen::VectorXd numbers(const json& v) {
+  if (!v.is_array()) throw std::invalid_argument("not an array");
+  Eigen::VectorXd out(static_cast<Eigen::Index>(v.size()));
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (!v[i].is_number()) throw std::invalid_argument("not a number");
+    out[static_cast<Eigen::Index>(i)] = v[i].get<double>();
+  }
+  return out;
+}
+
+std::string pole_problem(const std::string& path, double radius, double hz) {
+  return path + ": unstable: pole at |z| = " + show(radius) + (std::isfinite(hz) ? " (" + show(hz) + " Hz)" : "");
+}
+
+// Linear: the poles, roots of z^na·A(z), must lie strictly inside the unit circle.
+std::optional<std::string> linear_instability(const json& model) {
+  models::TransferFunction tf;
+  tf.a = numbers(model.at("params").at("a"));
+  tf.b = Eigen::VectorXd::Ones(1);
+  const Eigen::VectorXcd poles = tf.poles();
+  Eigen::Index worst = -1;
+  for (Eigen::Index i = 0; i < poles.size(); ++i) {
+    if (worst < 0 || std::abs(poles[i]) > std::abs(poles[worst])) worst = i;
+  }
+  if (worst < 0 || std::abs(poles[worst]) < 1.0) return std::nullopt;
+  const double fs = model.contains("fs") && model["fs"].is_number() ? model["fs"].get<double>() : NAN;
+  return pole_problem("model.params.a", std::abs(poles[worst]),
+                      std::abs(std::arg(poles[worst])) * fs / (2.0 * std::numbers::pi));
+}
+
+// LQ feedforward: the controller runs x(k+1) = (A − B·L)·x(k) + B·u(k); its spectral radius must be < 1.
+std::optional<std::string> lq_instability(const json& model) {
+  const json& params = model.at("params");
+  const json& a = params.at("A");
+  if (!a.is_array()) return std::nullopt;
+  const auto n = static_cast<Eigen::Index>(a.size());
+  Eigen::MatrixXd A(n, n);
+  for (Eigen::Index r = 0; r < n; ++r) {
+    const Eigen::VectorXd row = numbers(a[static_cast<std::size_t>(r)]);
+    if (row.size() != n) return std::nullopt;
+    A.row(r) = row.transpose();
+  }
+  const Eigen::VectorXd B = numbers(params.at("B"));
+  const Eigen::VectorXd L = numbers(params.at("L"));
+  if (B.size() != n || L.size() != n || n == 0) return std::nullopt;
+  const Eigen::MatrixXd closed = A - B * L.transpose();
+  const double radius = static_cast<double>(models::extended::spectral_radius(closed.cast<models::extended::Real>()));
+  if (radius < 1.0) return std::nullopt;
+  return "model.params: unstable: pole of A − B·L at |z| = " + show(radius);
+}
+
+// n samples of uniform noise over [lo, hi), the same every time.
+Eigen::VectorXd uniform_noise(Eigen::Index n, double lo, double hi) {
+  dsp::Rng rng(kFreeRunSeed);
+  Eigen::VectorXd u(n);
+  for (Eigen::Index k = 0; k < n; ++k) u[k] = rng.uniform(lo, hi);
+  return u;
+}
+
+// The first sample of a scaled output record that is not finite or beyond the bound, as a problem.
+std::optional<std::string> runaway(const Eigen::VectorXd& y_scaled, const std::string& path, const std::string& what) {
+  for (Eigen::Index k = 0; k < y_scaled.size(); ++k) {
+    if (!(std::abs(y_scaled[k]) <= kFreeRunBound)) {
+      return path + ": unstable: " + what + " on uniform noise leaves ±" + show(kFreeRunBound) +
+             " output ranges (|y| = " + show(std::abs(y_scaled[k])) + " after " + std::to_string(k + 1) + " samples)";
+    }
+  }
+  return std::nullopt;
+}
+
+// NARX (at `path`, e.g. "model" or "model.plant"): a free run on uniform noise spanning the scaled input
+// range [−1, 1] must stay finite and within 100 output ranges. Read leniently: what does not parse is left
+// for the loader to name.
+std::optional<std::string> narx_instability(const json& model, const std::string& path) {
+  const models::Scaling scaling = models::scaling_from_json(model.at("scaling"), path + ".scaling");
+  const json& params = model.at("params");
+  models::NarxStructure s;
+  // Orders beyond these are a corrupt file (the loader's limits say which).
+  const auto order = [&params](const char* key, std::int64_t hi) {
+    const json& v = params.at(key);
+    if (!v.is_number_integer()) throw std::invalid_argument("not an integer");
+    const std::int64_t n = v.get<std::int64_t>();
+    if (n < 0 || n > hi) throw std::invalid_argument("out of range");
+    return static_cast<int>(n);
+  };
+  s.na = order("na", 999);
+  s.nb = order("nb", 999);
+  // Any delay of the whole run or more gives the same run: the input never arrives.
+  s.nk = static_cast<int>(std::min<std::int64_t>(order("nk", 384000L * 60L), kFreeRunSamples));
+  if (s.inputs() > 1000) return std::nullopt;
+  s.hidden = models::read_hidden(params.contains("hidden") ? &params["hidden"] : nullptr, path + ".params.hidden");
+  const std::int64_t count = models::parameter_count(s.inputs(), s.hidden);
+  const Eigen::VectorXd theta =
+      models::read_theta(params.contains("theta") ? &params["theta"] : nullptr, path + ".params.theta", count);
+  models::NarxModel m = models::NarxModel::with_structure(s, scaling, 1.0);
+  m.net.parameters() = theta;
+  return runaway(m.simulate_scaled(uniform_noise(kFreeRunSamples, -1.0, 1.0)), path, "the free run");
+}
+
+// The stability problem of `model`, if its shape is readable enough to tell; nullopt otherwise.
+std::optional<std::string> instability(const std::string& kind, const json& model) {
+  try {
+    if (kind == "linear") return linear_instability(model);
+    if (kind == "lq_feedforward") return lq_instability(model);
+    if (kind == "narx") return narx_instability(model, "model");
+    if (kind == "neural_feedback") return narx_instability(model.at("plant"), "model.plant");
+  } catch (...) {
+    // Malformed: the kind's loader says what is wrong, as a bad request.
+  }
+  return std::nullopt;
+}
+
+// The controller and its plant model in closed loop (fig. 7.10) on full-scale drive noise must stay bounded.
+void require_bounded_closed_loop(const models::NeuralFeedback& c) {
+  const models::ClosedLoopRun run = models::simulate_closed_loop(c, uniform_noise(kFreeRunSamples, -1.0, 1.0));
+  if (auto problem = runaway(c.plant.scaling.scale_y(run.y), "model", "the closed loop with its plant model")) {
+    throw ModelRejected(kInvalidModel, *problem);
+  }
+}
+
+// Runs the kind's loader (format, fields, dimensions) and returns the model's rate.
+double load(const std::string& kind, const json& model) {
+  if (kind == "linear") return models::linear_model_from_json(model).fs;
+  if (kind == "narx") return models::narx_model_from_json(model).fs;
+  if (kind == "lq_feedforward") return models::lq_feedforward_from_json(model).fs;
+  const models::NeuralFeedback c = models::neural_feedback_from_json(model);
+  require_bounded_closed_loop(c);
+  return c.fs;
+}
+
+}  // namespace
+
+ValidatedModel validate_model(const json& model) {
+  ValidatedModel out;
+  out.kind = read_kind(model);
+  // Before the loader: it would call a non-finite number or an unstable model malformed (bad_request),
+  // while the API answers both with invalid_model.
+  if (const auto bad = first_non_finite(model, "model")) {
+    throw ModelRejected(kInvalidModel, bad->first + ": not finite (" + show(bad->second) + ")");
+  }
+  if (const auto problem = instability(out.kind, model)) throw ModelRejected(kInvalidModel, *problem);
+  try {
+    out.fs = load(out.kind, model);
+  } catch (const ModelRejected&) {
+    throw;
+  } catch (const nlohmann::json::exception& e) {
+    throw ModelRejected(kBadRequest, std::string("model: ") + e.what());
+  } catch (const std::exception& e) {
+    // models::ConfigError and std::invalid_argument name the key themselves.
+    throw ModelRejected(kBadRequest, e.what());
+  }
+  return out;
+}
+
+}  // namespace panelbass::api

@@ -1,0 +1,70 @@
+#include "api/prometheus.h"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+namespace panelbass::api {
+namespace {
+
+// Writes one metric family with its samples ({labels, value}).
+class Exposition {
+ public:
+  void family(const std::string& name, const char* type, const char* help) {
+    out_ << "# HELP " << name << ' ' << help << "\n# TYPE " << name << ' ' << type << '\n';
+  }
+  void sample(const std::string& name, const std::string& labels, double value) {
+    out_ << name;
+    if (!labels.empty()) out_ << '{' << labels << '}';
+    out_ << ' ';
+    // Counts exactly (a double's default 6 digits would round 1234567 to 1.23457e+06), the rest to 10 digits.
+    if (value == std::floor(value) && std::abs(value) < 1e15) {
+      out_ << static_cast<long long>(value);
+    } else {
+      out_ << std::setprecision(10) << value;
+    }
+    out_ << '\n';
+  }
+  std::string text() const { return out_.str(); }
+
+ private:
+  std::ostringstream out_;
+};
+
+}  // namespace
+
+std::string prometheus_text(const engine::MetricsSnapshot& m, const ServiceCounts& service) {
+  Exposition e;
+  const auto counter = [&e](const std::string& name, const char* help, double value) {
+    e.family(name, "counter", help);
+    e.sample(name, "", value);
+  };
+  const auto gauge = [&e](const std::string& name, const char* help, double value) {
+    e.family(name, "gauge", help);
+    e.sample(name, "", value);
+  };
+  counter("panelbass_blocks_total", "Audio blocks processed.", static_cast<double>(m.blocks));
+  counter("panelbass_samples_total", "Audio samples processed.", static_cast<double>(m.samples));
+  counter("panelbass_xruns_total", "Blocks that missed their deadline.", static_cast<double>(m.xruns));
+  counter("panelbass_faults_total", "Times the chain dropped to its safe bypass.", static_cast<double>(m.faults));
+  counter("panelbass_swaps_total", "Stages taken over by a slot (model activations).", static_cast<double>(m.swaps));
+  gauge("panelbass_in_fault", "1 while the chain is in its safe bypass.", m.in_fault ? 1.0 : 0.0);
+  gauge("panelbass_load", "Processing time over audio time.", m.load);
+  e.family("panelbass_block_seconds", "summary", "Processing time of an audio block.");
+  e.sample("panelbass_block_seconds", "quantile=\"0.99\"", m.p99_block_ns * 1e-9);
+  e.sample("panelbass_block_seconds_max", "", m.max_block_ns * 1e-9);
+  e.sample("panelbass_block_seconds_sum", "", m.mean_block_ns * 1e-9 * static_cast<double>(m.blocks));
+  e.sample("panelbass_block_seconds_count", "", static_cast<double>(m.blocks));
+  gauge("panelbass_models_stored", "Models in the store.", static_cast<double>(service.models_stored));
+  e.family("panelbass_jobs", "gauge", "Jobs by state.");
+  for (const auto& [state, n] : service.jobs_by_state) {
+    e.sample("panelbass_jobs", "state=\"" + state + "\"", static_cast<double>(n));
+  }
+  e.family("panelbass_http_requests_total", "counter", "HTTP responses sent, by status code.");
+  for (const auto& [status, n] : service.responses_by_status) {
+    e.sample("panelbass_http_requests_total", "code=\"" + std::to_string(status) + "\"", static_cast<double>(n));
+  }
+  return e.text();
+}
+
+}  // namespace panelbass::api

@@ -1,0 +1,139 @@
+// `panelbass serve`: the engine on the virtual transducer, the HTTP API and the web UI in one process.
+// With --demo (the default) it excites the transducer, identifies a linear model, designs the LQ
+// feedforward on it and activates it, so that a new user opens the address and sees everything working.
+#include <chrono>
+#include <iostream>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+#include "api/server.h"
+#include "cli/commands.h"
+#include "cli/looped_program.h"
+#include "cli/stop_signals.h"
+#include "models/plant_presets.h"
+
+namespace panelbass::cli {
+namespace {
+
+struct ServeOptions {
+  std::string bind = "127.0.0.1";
+  int port = 8080;
+  std::string token;
+  std::string store = "panelbass-store";
+  std::string web = PANELBASS_WEB_DIR;
+  std::string plant = "panel-exciter";
+  std::string signal = "noise";
+  double amplitude = 0.2;
+  std::uint64_t seed = 1;
+  int workers = 1;
+  bool demo = true;
+  double seconds = 0.0;
+  std::size_t body_limit_mib = 16;
+};
+
+// Waits for `id` to end, printing its progress now and then; true if it succeeded.
+bool follow_job(api::Server& server, const std::string& id, const std::string& what) {
+  using namespace std::chrono_literals;
+  while (!server.jobs().wait(id, 2000ms)) {
+    const std::optional<api::JobRecord> job = server.jobs().get(id);
+    if (!job) return false;
+    std::cerr << "serve: " << what << " " << static_cast<int>(100.0 * job->progress) << " % " << job->message << "\n";
+  }
+  const std::optional<api::JobRecord> job = server.jobs().get(id);
+  if (!job || job->state != api::JobState::succeeded) {
+    std::cerr << "serve: " << what << " did not succeed: " << (job ? job->error : "unknown job") << "\n";
+    return false;
+  }
+  return true;
+}
+
+// The start-up demo: excitation + linear identification, then the LQ feedforward on that model, activated.
+void run_demo(api::Server& server) {
+  const std::string identify = server.submit_job(
+      "identify-linear", {{"excite", {{"samples", 10000}, {"seed", 1}}}, {"method", "oe"}, {"order", 8}}, false);
+  std::cerr << "serve: demo: job " << identify << " excites the transducer and identifies a linear model\n";
+  if (!follow_job(server, identify, "demo " + identify)) return;
+  const std::string plant_model = server.jobs().get(identify)->result.at("model_id").get<std::string>();
+  const std::string design = server.submit_job("design-lq", {{"plant_model", plant_model}}, true);
+  std::cerr << "serve: demo: job " << design << " designs the LQ feedforward on " << plant_model << "\n";
+  if (!follow_job(server, design, "demo " + design)) return;
+  std::cerr << "serve: demo: done; the LQ feedforward "
+            << server.jobs().get(design)->result.at("model_id").get<std::string>() << " plays in the chain\n";
+}
+
+void run_serve(const ServeOptions& o) {
+  api::ServerOptions options;
+  options.bind = o.bind;
+  options.port = o.port;
+  options.token = o.token;
+  options.store = o.store;
+  options.web_root = o.web;
+  options.workers = o.workers;
+  options.body_limit = o.body_limit_mib << 20;
+  options.engine.plant = models::plant_from_name_or_file(o.plant);
+  options.engine.chain.fs = options.engine.plant.fs;
+  options.engine.seed = o.seed + 1;
+  options.engine.program = looped_program("", "0", o.signal, o.amplitude, o.seed, options.engine.plant.fs).samples;
+  options.log = [](const std::string& line) { std::cerr << "serve: " << line << "\n"; };
+  if (!o.web.empty() && !std::filesystem::is_directory(o.web)) {
+    throw std::invalid_argument("--web " + o.web + ": no such folder (run scripts/web_setup.sh, or --web \"\" for no UI)");
+  }
+
+  const StopSignals signals;
+  api::Server server(options);
+  server.start();
+  // The address first, on stdout, so that scripts and tests can read it.
+  std::cout << "panelbass: serving " << server.address() << " (store " << o.store << ")" << std::endl;
+  std::thread demo;
+  if (o.demo) demo = std::thread([&server] { run_demo(server); });
+  const auto started = std::chrono::steady_clock::now();
+  while (!stop_requested() &&
+         (o.seconds <= 0.0 ||
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() < o.seconds)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  std::cerr << "serve: stopping\n";
+  server.stop();
+  if (demo.joinable()) demo.join();
+}
+
+}  // namespace
+
+void register_serve(CLI::App& app) {
+  auto o = std::make_shared<ServeOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "serve", "Run the engine on the virtual transducer with the HTTP API and the web UI (Ctrl-C to stop)");
+  cmd->add_option("--bind", o->bind, "Address to listen on (beyond loopback only with --token)")->capture_default_str();
+  cmd->add_option("--port", o->port, "Port (0: any free port; the address is printed first)")
+      ->check(CLI::Range(0, 65535))
+      ->capture_default_str();
+  cmd->add_option("--token", o->token, "Require Authorization: Bearer TOKEN on /api and /metrics");
+  cmd->add_option("--store", o->store, "Folder of the model store (created if missing)")->capture_default_str();
+  cmd->add_option("--web", o->web, "Folder of the web UI (\"\": no UI)")->capture_default_str();
+  cmd->add_option("--plant", o->plant, "The virtual transducer: preset (panel-exciter, linear) or plant JSON file")
+      ->capture_default_str();
+  cmd->add_option("--signal", o->signal, "Program the engine loops: noise, silence or sine:HZ")->capture_default_str();
+  cmd->add_option("--amplitude", o->amplitude, "Peak of --signal, within (0, 1]")
+      ->check(CLI::Range(1e-12, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--seed", o->seed, "Seed of the noise program (the transducer's sensor noise uses seed + 1)")
+      ->capture_default_str();
+  cmd->add_option("--workers", o->workers, "Job worker threads")->check(CLI::Range(1, 64))->capture_default_str();
+  cmd->add_option("--body-limit", o->body_limit_mib, "Largest request body, MiB")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+  cmd->add_flag("--demo,!--no-demo", o->demo,
+                "At start-up: excite, identify a linear model, design the LQ feedforward and activate it")
+      ->capture_default_str();
+  cmd->add_option("--seconds", o->seconds, "Stop after this long (default: until SIGINT/SIGTERM)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->footer(
+      "Examples:\n  panelbass serve                      (http://127.0.0.1:8080/, demo jobs at start-up)\n"
+      "  panelbass serve --port 0 --no-demo --store /tmp/store\n"
+      "  panelbass serve --bind 0.0.0.0 --token s3cret      (clients send Authorization: Bearer s3cret)");
+  cmd->callback([o] { run_serve(*o); });
+}
+
+}  // namespace panelbass::cli

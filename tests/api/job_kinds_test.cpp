@@ -1,0 +1,567 @@
+// The job kinds of ROUTES.md "Jobs": params validation (named fields, defaults), and each kind's work
+// against a fake environment whose backend is an independent reference — a second-order system written
+// as its textbook difference equation (tests/support/linear_systems.h), or the virtual transducer.
+
+#include "api/job_kinds.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <complex>
+#include <map>
+#include <memory>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "api/model_store.h"
+#include "api/model_validation.h"
+#include "models/linear_model.h"
+#include "models/lq_feedforward.h"
+#include "models/model_file.h"
+#include "models/neural_feedback.h"
+#include "models/plant_presets.h"
+#include "models/virtual_transducer.h"
+#include "tests/support/expect_error.h"
+#include "tests/support/linear_systems.h"
+#include "tests/support/scratch_directory.h"
+
+namespace panelbass::api {
+namespace {
+
+using nlohmann::json;
+using testing_support::one_line_error;
+
+// A progress report the fake control received.
+struct Report {
+  double fraction;
+  std::string message;
+};
+
+// Records every progress report; throws JobCancelled on the report after `cancel_after` of them.
+class FakeControl : public JobControl {
+ public:
+  explicit FakeControl(std::string id, int cancel_after = -1) : id_(std::move(id)), cancel_after_(cancel_after) {}
+  void progress(double fraction, const std::string& message) override {
+    if (cancel_after_ >= 0 && static_cast<int>(reports.size()) >= cancel_after_) {
+      cancelled_ = true;
+      throw JobCancelled{};
+    }
+    reports.push_back({fraction, message});
+  }
+  bool cancelled() const override { return cancelled_; }
+  const std::string& job_id() const override { return id_; }
+
+  std::vector<Report> reports;
+
+ private:
+  std::string id_;
+  int cancel_after_;
+  bool cancelled_ = false;
+};
+
+// The reference system: a resonance at 300 Hz (pole radius 0.9) with one sample of delay,
+// y(k) = 2r·cos θ·y(k−1) − r²·y(k−2) + 0.3·u(k−1) + 0.2·u(k−2), at fs = 3000 Hz.
+constexpr double kFs = 3000.0;
+constexpr double kRadius = 0.9;
+constexpr double kResonanceHz = 300.0;
+
+models::TransferFunction reference_system() {
+  const double theta = 2.0 * std::numbers::pi * kResonanceHz / kFs;
+  models::TransferFunction tf;
+  tf.a = Eigen::Vector2d(-2.0 * kRadius * std::cos(theta), kRadius * kRadius);
+  tf.b = Eigen::Vector2d(0.3, 0.2);
+  tf.nk = 1;
+  return tf;
+}
+
+// Every number in `value` finite (no NaN or infinity left in a result).
+bool finite_everywhere(const json& value) {
+  if (value.is_number_float()) return std::isfinite(value.get<double>());
+  if (value.is_array() || value.is_object()) {
+    for (const json& v : value) {
+      if (!finite_everywhere(v)) return false;
+    }
+  }
+  return true;
+}
+
+// A plot: the named columns, all arrays of the same non-zero length, of finite numbers (or null where
+// `nullable` allows).
+void expect_plot(const json& plot, const std::vector<std::string>& columns, const std::vector<std::string>& nullable = {}) {
+  ASSERT_TRUE(plot.is_object()) << plot.dump().substr(0, 200);
+  ASSERT_EQ(plot.size(), columns.size()) << plot.dump().substr(0, 200);
+  const std::size_t n = plot.at(columns.front()).size();
+  EXPECT_GT(n, 0u);
+  for (const std::string& c : columns) {
+    ASSERT_TRUE(plot.contains(c)) << c;
+    ASSERT_TRUE(plot.at(c).is_array()) << c;
+    EXPECT_EQ(plot.at(c).size(), n) << c;
+    const bool may_be_null = std::find(nullable.begin(), nullable.end(), c) != nullable.end();
+    for (const json& v : plot.at(c)) {
+      if (v.is_null() && may_be_null) continue;
+      ASSERT_TRUE(v.is_number()) << c << ": " << v;
+      ASSERT_TRUE(std::isfinite(v.get<double>())) << c;
+    }
+  }
+}
+
+// Progress reports rise (never fall) within [0, 1] and end at 1.
+void expect_progress(const FakeControl& control) {
+  ASSERT_FALSE(control.reports.empty());
+  for (std::size_t k = 0; k < control.reports.size(); ++k) {
+    EXPECT_GE(control.reports[k].fraction, 0.0);
+    EXPECT_LE(control.reports[k].fraction, 1.0);
+    if (k > 0) {
+      EXPECT_GE(control.reports[k].fraction, control.reports[k - 1].fraction) << control.reports[k].message;
+    }
+  }
+  EXPECT_DOUBLE_EQ(control.reports.back().fraction, 1.0);
+}
+
+class JobKindsTest : public testing_support::ScratchDirectoryTest {
+ protected:
+  JobKindsTest() {
+    store_ = std::make_unique<ModelStore>(dir_ / "store");
+    env_.fs = kFs;
+    env_.store = store_.get();
+    // The backend: the reference system from rest, plus a little seeded measurement noise.
+    env_.excite = [this](const Eigen::VectorXd& drive) {
+      ++excitations_;
+      max_drive_ = std::max(max_drive_, drive.cwiseAbs().maxCoeff());
+      return Eigen::VectorXd(testing_support::simulate(reference_system(), drive) +
+                             testing_support::gaussian(drive.size(), 1e-4, 100 + excitations_));
+    };
+    env_.job_result = [this](const std::string& id) -> std::optional<json> {
+      const auto it = results_.find(id);
+      if (it == results_.end()) return std::nullopt;
+      return it->second;
+    };
+  }
+
+  // Backend: the virtual transducer `name` (a fresh plant per excitation), and the plant known to jobs.
+  void use_plant(const std::string& name) {
+    const models::PlantConfig plant = models::plant_preset(name);
+    env_.plant = plant;
+    env_.excite = [this, plant](const Eigen::VectorXd& drive) {
+      ++excitations_;
+      return Eigen::VectorXd(models::simulate(plant, drive, 7 + excitations_).y);
+    };
+  }
+
+  // Validates and runs `kind` as job `id`; keeps the result for later "record" params.
+  json run(const std::string& kind, const json& params, const std::string& id) {
+    FakeControl control(id);
+    return run(kind, params, control);
+  }
+
+  json run(const std::string& kind, const json& params, FakeControl& control) {
+    const json filled = validate_job_params(kind, params, env_);
+    const json result = job_work(kind, env_)(filled, control);
+    EXPECT_TRUE(finite_everywhere(result));
+    EXPECT_EQ(json::parse(result.dump()), result);
+    results_[control.job_id()] = result;
+    return result;
+  }
+
+  // The message validate_job_params throws for `kind` and `params`.
+  std::string refusal(const std::string& kind, const json& params) {
+    return one_line_error<std::invalid_argument>([&] { validate_job_params(kind, params, env_); });
+  }
+
+  // Stores the reference system as a linear model file; returns its id.
+  std::string store_reference_model() {
+    models::LinearModel m;
+    m.tf = reference_system();
+    m.fs = kFs;
+    m.method = "oe";
+    const json file = models::linear_model_to_json(m);
+    const ValidatedModel v = validate_model(file);
+    return store_->put(file, v.kind, v.fs, "reference", "upload").id;
+  }
+
+  std::unique_ptr<ModelStore> store_;
+  JobEnvironment env_;
+  std::map<std::string, json> results_;
+  int excitations_ = 0;
+  double max_drive_ = 0.0;
+};
+
+// ----- validation ------------------------------------------------------------------------------------
+
+TEST(JobKinds, ListsTheKindsInTheOrderOfRoutes) {
+  EXPECT_EQ(job_kinds(), (std::vector<std::string>{"excite", "identify-linear", "identify-narx", "design-lq", "design-nn",
+                                                   "analyze", "diagnose"}));
+}
+
+TEST_F(JobKindsTest, UnknownKindIsRefusedWithTheKindsThereAre) {
+  const std::string message = refusal("fly", json::object());
+  EXPECT_NE(message.find("kind: unknown job kind \"fly\"; expected one of excite, identify-linear"), std::string::npos) << message;
+  EXPECT_THROW(job_work("fly", env_), std::invalid_argument);
+}
+
+TEST_F(JobKindsTest, UnknownFieldIsNamedAtItsPath) {
+  EXPECT_EQ(refusal("excite", {{"samples", 3000}, {"foo", 1}}), "params.foo: unknown field");
+  EXPECT_EQ(refusal("identify-linear", {{"excite", {{"bar", true}}}}), "params.excite.bar: unknown field");
+  EXPECT_EQ(refusal("design-lq", {{"plant_model", store_reference_model()}, {"band_pass", {{"q", 1}}}}),
+            "params.band_pass.q: unknown field");
+}
+
+TEST_F(JobKindsTest, WrongTypesAndRangesAreNamed) {
+  EXPECT_EQ(refusal("excite", {{"samples", "many"}}), "params.samples: must be an integer in [200, 10000000], got \"many\"");
+  EXPECT_EQ(refusal("excite", {{"samples", 100}}), "params.samples: must be an integer in [200, 10000000], got 100");
+  EXPECT_EQ(refusal("excite", {{"amplitude", 1.5}}), "params.amplitude: must be a number in (0, 1], got 1.5");
+  EXPECT_EQ(refusal("excite", {{"amplitude", 0}}), "params.amplitude: must be a number in (0, 1], got 0");
+  EXPECT_NE(refusal("excite", {{"signal", "chirp"}}).find("params.signal: must be one of \"noise\", \"multisine\""), std::string::npos);
+  EXPECT_NE(refusal("excite", {{"validation_samples", 50}}).find("params.validation_samples"), std::string::npos);
+  EXPECT_NE(refusal("identify-linear", {{"order", 41}}).find("params.order: must be an integer in [1, 40], got 41"), std::string::npos);
+  EXPECT_NE(refusal("identify-linear", {{"order", 2.5}}).find("params.order"), std::string::npos);
+  EXPECT_NE(refusal("identify-linear", {{"scan", {5, 2}}}).find("params.scan"), std::string::npos);
+  EXPECT_NE(refusal("identify-linear", {{"scan", {2, 6}}, {"excite", {{"validation_samples", 0}}}}).find("params.scan: an order scan needs validation data"),
+            std::string::npos);
+  EXPECT_NE(refusal("identify-narx", {{"hidden", json::array()}}).find("params.hidden"), std::string::npos);
+  EXPECT_NE(refusal("identify-narx", {{"hidden", {8, 0}}}).find("params.hidden[1]"), std::string::npos);
+  EXPECT_NE(refusal("identify-narx", {{"modes", {"pem", "gradient"}}}).find("params.modes[1]"), std::string::npos);
+  EXPECT_EQ(refusal("excite", json::array()), "params: expected an object, got array");
+  EXPECT_NE(refusal("diagnose", {{"excite", {{"validation_samples", 0}}}}).find("params.excite.validation_samples"), std::string::npos);
+}
+
+TEST_F(JobKindsTest, DefaultsAreFilledIn) {
+  const json excite = validate_job_params("excite", json::object(), env_);
+  EXPECT_EQ(excite, (json{{"signal", "noise"}, {"samples", 10000}, {"validation_samples", 5000}, {"amplitude", 0.3}, {"seed", 1}}));
+  // An integral float such as 1e4 is an integer.
+  EXPECT_EQ(validate_job_params("excite", {{"samples", 1e4}}, env_).at("samples"), 10000);
+
+  const json linear = validate_job_params("identify-linear", nullptr, env_);
+  EXPECT_EQ(linear.at("excite"), excite);
+  EXPECT_FALSE(linear.contains("record"));
+  EXPECT_EQ(linear.at("method"), "oe");
+  EXPECT_EQ(linear.at("order"), 8);
+  EXPECT_EQ(linear.at("delay"), -1);
+  EXPECT_TRUE(linear.at("scan").is_null());
+  EXPECT_EQ(linear.at("max_iterations"), 100);
+
+  const json narx = validate_job_params("identify-narx", json::object(), env_);
+  EXPECT_EQ(narx.at("hidden"), json({8}));
+  EXPECT_EQ(narx.at("modes"), json({"pem", "oem-d"}));
+  EXPECT_EQ(narx.at("na"), 2);
+  EXPECT_EQ(narx.at("nb"), 3);
+
+  const json lq = validate_job_params("design-lq", {{"plant_model", store_reference_model()}}, env_);
+  EXPECT_EQ(lq.at("r"), 1e-5);
+  EXPECT_EQ(lq.at("band_pass"), (json{{"low_hz", 20.0}, {"high_hz", 1200.0}, {"order", 2}}));
+}
+
+TEST_F(JobKindsTest, ReferencedModelsMustExistWithTheRightKind) {
+  EXPECT_EQ(refusal("design-lq", json::object()), "params.plant_model: required");
+  EXPECT_EQ(refusal("design-lq", {{"plant_model", "m000000000000"}}), "params.plant_model: no stored model \"m000000000000\"");
+  EXPECT_NE(refusal("design-lq", {{"plant_model", "../etc"}}).find("params.plant_model: must be an id"), std::string::npos);
+  const std::string linear = store_reference_model();
+  EXPECT_EQ(refusal("design-nn", {{"plant_model", linear}, {"feedforward_model", linear}}),
+            "params.plant_model: model " + linear + " is of kind \"linear\", expected narx");
+  EXPECT_EQ(refusal("analyze", json::object()), "params.model: required");
+  EXPECT_NO_THROW(validate_job_params("diagnose", {{"baseline_model", linear}}, env_));
+  EXPECT_NE(refusal("design-lq", {{"plant_model", linear}, {"band_pass", {{"high_hz", 1600}}}}).find("params.band_pass.high_hz"),
+            std::string::npos);
+}
+
+TEST_F(JobKindsTest, RecordMustNameAFinishedExciteJob) {
+  EXPECT_EQ(refusal("identify-linear", {{"record", "j99"}}),
+            "params.record: no succeeded job \"j99\" (the record must name a finished excite job)");
+  results_["j2"] = {{"model_id", "m0123456789ab"}};
+  EXPECT_EQ(refusal("analyze", {{"model", store_reference_model()}, {"record", "j2"}}),
+            "params.record: job j2 is not an excite job (its result has no \"record\")");
+  results_["j3"] = {{"fs", kFs}, {"record", {{"u_est", {1.0, 2.0}}, {"y_est", {1.0}}, {"u_val", json::array()}, {"y_val", json::array()}}}};
+  EXPECT_EQ(refusal("identify-narx", {{"record", "j3"}}),
+            "params.record: job j3 has a record whose drive and response differ in length");
+  EXPECT_EQ(refusal("identify-linear", {{"record", "j99"}, {"excite", json::object()}}),
+            "params.record: give either \"record\" or \"excite\", not both");
+  EXPECT_NE(refusal("identify-linear", {{"record", 3}}).find("params.record: expected the id of a finished excite job"), std::string::npos);
+}
+
+// ----- work --------------------------------------------------------------------------------------------
+
+TEST_F(JobKindsTest, ExciteRecordsTheBackendsResponse) {
+  FakeControl control("j1");
+  const json result = run("excite", {{"samples", 3000}, {"validation_samples", 1000}, {"amplitude", 0.5}, {"seed", 4}}, control);
+  expect_progress(control);
+  EXPECT_EQ(excitations_, 2);
+  EXPECT_LE(max_drive_, 0.5);
+  EXPECT_EQ(result.at("samples"), 3000);
+  EXPECT_EQ(result.at("validation_samples"), 1000);
+  EXPECT_EQ(result.at("fs"), kFs);
+  const json& record = result.at("record");
+  ASSERT_EQ(record.at("u_est").size(), 3000u);
+  ASSERT_EQ(record.at("y_val").size(), 1000u);
+  // The response is the reference system's to this drive (within the added noise).
+  Eigen::VectorXd u(3000), y(3000);
+  for (int k = 0; k < 3000; ++k) {
+    u[k] = record.at("u_est")[k].get<double>();
+    y[k] = record.at("y_est")[k].get<double>();
+  }
+  EXPECT_LT((y - testing_support::simulate(reference_system(), u)).cwiseAbs().maxCoeff(), 1e-3);
+  // Uniform noise in [−0.5, 0.5]: rms 0.5/√3.
+  EXPECT_NEAR(result.at("rms_drive").get<double>(), 0.5 / std::sqrt(3.0), 0.01);
+  expect_plot(result.at("plots").at("fit"), {"t", "drive", "measured"});
+  EXPECT_EQ(result.at("plots").at("fit").at("t").size(), 2000u);
+}
+
+TEST_F(JobKindsTest, ExciteMultisineStaysWithinItsPeak) {
+  const json result = run("excite", {{"signal", "multisine"}, {"samples", 5000}, {"validation_samples", 0}, {"amplitude", 0.8}}, "j1");
+  EXPECT_LE(max_drive_, 0.8 + 1e-12);
+  EXPECT_GT(max_drive_, 0.7);
+  EXPECT_EQ(result.at("record").at("u_val").size(), 0u);
+  EXPECT_EQ(excitations_, 1);
+}
+
+TEST_F(JobKindsTest, IdentifyLinearRecoversTheReferenceSystem) {
+  run("excite", {{"samples", 3000}, {"validation_samples", 1000}, {"amplitude", 0.5}}, "j1");
+  FakeControl control("j2");
+  const json result = run("identify-linear", {{"record", "j1"}, {"method", "oe"}, {"order", 2}, {"max_iterations", 30}}, control);
+  expect_progress(control);
+  EXPECT_EQ(excitations_, 2) << "a record of its own was made although one was named";
+  // The noise (σ = 1e-4 against an output rms near 0.5) leaves J far below 0.01 %.
+  EXPECT_LT(result.at("j_est_pct").get<double>(), 0.01);
+  EXPECT_LT(result.at("j_val_pct").get<double>(), 0.01);
+
+  const std::string id = result.at("model_id").get<std::string>();
+  const std::optional<StoredModel> stored = store_->find(id);
+  ASSERT_TRUE(stored);
+  EXPECT_EQ(stored->kind, "linear");
+  EXPECT_EQ(stored->source, "j2");
+  EXPECT_EQ(stored->name, "oe order 2 (j2)");
+  const models::LinearModel model = models::linear_model_from_json(*store_->model(id));
+  EXPECT_EQ(model.tf.nk, 1);
+  // Poles: r·e^{±jθ} (scaling does not move poles); response in raw units at a few frequencies.
+  const Eigen::VectorXcd poles = model.tf.poles();
+  ASSERT_EQ(poles.size(), 2);
+  for (Eigen::Index k = 0; k < 2; ++k) {
+    EXPECT_NEAR(std::abs(poles[k]), kRadius, 1e-3);
+    EXPECT_NEAR(std::abs(std::arg(poles[k])), 2.0 * std::numbers::pi * kResonanceHz / kFs, 1e-3);
+  }
+  for (double f : {50.0, 300.0, 900.0}) {
+    const std::complex<double> h = model.tf.response(f, kFs) * model.scaling.y_scale / model.scaling.u_scale;
+    const std::complex<double> truth = reference_system().response(f, kFs);
+    EXPECT_LT(std::abs(h - truth) / std::abs(truth), 1e-2) << f << " Hz";
+  }
+  EXPECT_EQ(model.meta.at("J_est_pct"), result.at("j_est_pct"));
+
+  const json& plots = result.at("plots");
+  expect_plot(plots.at("fit"), {"t", "measured", "simulated"});
+  EXPECT_EQ(plots.at("fit").at("t").size(), 950u);  // the validation part after the 50 initial samples
+  expect_plot(plots.at("spectrum"), {"f", "measured_db", "model_db"});
+  expect_plot(plots.at("history"), {"iteration", "j_est_pct", "j_val_pct"}, {"j_val_pct"});
+  EXPECT_FALSE(plots.contains("harmonics")) << "a linear model has no harmonics";
+  // The measured and the model's response agree at the resonance.
+  const json& s = plots.at("spectrum");
+  for (std::size_t k = 0; k < s.at("f").size(); ++k) {
+    if (std::abs(s.at("f")[k].get<double>() - kResonanceHz) < 15.0) {
+      EXPECT_NEAR(s.at("measured_db")[k].get<double>(), s.at("model_db")[k].get<double>(), 0.5);
+    }
+  }
+  EXPECT_EQ(result.at("summary").at("order"), 2);
+}
+
+TEST_F(JobKindsTest, IdentifyLinearMakesItsOwnExcitationAndScansOrders) {
+  FakeControl control("j5");
+  const json result = run("identify-linear",
+                          {{"excite", {{"samples", 2000}, {"validation_samples", 1000}}}, {"scan", {1, 4}}, {"max_iterations", 20}},
+                          control);
+  expect_progress(control);
+  EXPECT_EQ(excitations_, 2);
+  EXPECT_EQ(result.at("summary").at("scan").size(), 4u);
+  // The smallest order within 5 % of the best validation J is the true one.
+  EXPECT_EQ(result.at("summary").at("order"), 2);
+  EXPECT_TRUE(store_->find(result.at("model_id").get<std::string>()));
+}
+
+TEST_F(JobKindsTest, CancellationInsideTheFitUnwindsTheJob) {
+  run("excite", {{"samples", 3000}, {"validation_samples", 1000}}, "j1");
+  FakeControl control("j2", 4);
+  const json params = validate_job_params("identify-linear", {{"record", "j1"}, {"order", 4}}, env_);
+  EXPECT_THROW(job_work("identify-linear", env_)(params, control), JobCancelled);
+  EXPECT_TRUE(control.cancelled());
+  EXPECT_EQ(control.reports.size(), 4u);
+  EXPECT_TRUE(store_->list().empty()) << "a cancelled job stored a model";
+}
+
+TEST_F(JobKindsTest, CancellationDuringNarxTraining) {
+  FakeControl control("j2", 6);
+  const json params = validate_job_params(
+      "identify-narx", {{"excite", {{"samples", 1000}, {"validation_samples", 500}}}, {"hidden", {3}}, {"max_iterations", 50}}, env_);
+  EXPECT_THROW(job_work("identify-narx", env_)(params, control), JobCancelled);
+  EXPECT_TRUE(store_->list().empty());
+}
+
+TEST_F(JobKindsTest, IdentifyNarxOnTheVirtualTransducer) {
+  use_plant("panel-exciter");
+  run("excite", {{"samples", 3000}, {"validation_samples", 1000}, {"amplitude", 0.8}}, "j1");
+  FakeControl control("j2");
+  const json result = run("identify-narx",
+                          {{"record", "j1"}, {"na", 4}, {"nb", 4}, {"hidden", {4}}, {"modes", {"pem", "oem-d"}}, {"max_iterations", 4}},
+                          control);
+  expect_progress(control);
+  bool named_iteration = false;
+  for (const Report& r : control.reports) named_iteration = named_iteration || r.message == "oem-d iteration 5";
+  EXPECT_TRUE(named_iteration);
+
+  const std::string id = result.at("model_id").get<std::string>();
+  ASSERT_TRUE(store_->find(id));
+  EXPECT_EQ(store_->find(id)->kind, "narx");
+  const models::AnyModel model = models::model_from_json(*store_->model(id));
+  EXPECT_EQ(model.kind(), "narx");
+  EXPECT_DOUBLE_EQ(model.fs(), kFs);
+  // The panel exciter's sensor noise alone leaves a few percent; a short training stays well below 100 %.
+  EXPECT_LT(result.at("j_val_pct").get<double>(), 60.0);
+  const json& plots = result.at("plots");
+  expect_plot(plots.at("fit"), {"t", "measured", "simulated"});
+  expect_plot(plots.at("spectrum"), {"f", "measured_db", "model_db"});
+  expect_plot(plots.at("history"), {"iteration", "j_est_pct", "j_val_pct"});
+  EXPECT_EQ(plots.at("history").at("iteration").size(), std::size_t{result.at("summary").at("iterations").get<std::size_t>() + 1});
+  ASSERT_TRUE(plots.contains("harmonics"));
+  expect_plot(plots.at("harmonics"), {"f", "measured_h2_db", "measured_h3_db", "model_h2_db", "model_h3_db"});
+  EXPECT_EQ(plots.at("harmonics").at("f").size(), 4u);
+  // The history is in the model file too, where analyze finds it.
+  EXPECT_EQ(store_->model(id)->at("meta").at("history").size(), plots.at("history").at("iteration").size());
+}
+
+TEST_F(JobKindsTest, DesignLqMakesAStableControllerThatLoads) {
+  const std::string plant = store_reference_model();
+  FakeControl control("j3");
+  const json result = run("design-lq", {{"plant_model", plant}, {"r", 3.0}, {"band_pass", {{"low_hz", 0}, {"high_hz", 1000}}}}, control);
+  expect_progress(control);
+  const std::string id = result.at("model_id").get<std::string>();
+  ASSERT_TRUE(store_->find(id));
+  EXPECT_EQ(store_->find(id)->kind, "lq_feedforward");
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(*store_->model(id));
+  EXPECT_LT(ff.poles().cwiseAbs().maxCoeff(), 1.0);
+  EXPECT_DOUBLE_EQ(ff.weights.R, 3.0);
+  EXPECT_EQ(ff.meta.at("model"), plant);
+  EXPECT_EQ(ff.meta.at("bandpass"), json({0.0, 1000.0}));
+  EXPECT_GT(result.at("summary").at("max_input_noise").get<double>(), 0.0);
+  expect_plot(result.at("plots").at("spectrum"), {"f", "plant_db", "controlled_db", "controller_db"});
+  // The plant's magnitude peaks at its resonance.
+  const json& s = result.at("plots").at("spectrum");
+  std::size_t top = 0;
+  for (std::size_t k = 0; k < s.at("f").size(); ++k) {
+    if (s.at("plant_db")[k].get<double>() > s.at("plant_db")[top].get<double>()) top = k;
+  }
+  EXPECT_NEAR(s.at("f")[top].get<double>(), kResonanceHz, 30.0);
+}
+
+TEST_F(JobKindsTest, DesignNnTrainsOnANarxPlantBehindTheLqController) {
+  const std::string lq = run("design-lq", {{"plant_model", store_reference_model()}, {"r", 3.0}}, "j1").at("model_id");
+  const std::string narx = run("identify-narx",
+                               {{"excite", {{"samples", 2000}, {"validation_samples", 500}, {"amplitude", 0.5}}},
+                                {"na", 2}, {"nb", 2}, {"hidden", {3}}, {"max_iterations", 5}},
+                               "j2")
+                               .at("model_id");
+  FakeControl control("j3");
+  const json result = run("design-nn", {{"plant_model", narx}, {"feedforward_model", lq}, {"samples", 1000}, {"max_iterations", 3}, {"hidden", {3}}},
+                          control);
+  expect_progress(control);
+  const std::string id = result.at("model_id").get<std::string>();
+  ASSERT_TRUE(store_->find(id));
+  EXPECT_EQ(store_->find(id)->kind, "neural_feedback");
+  const models::NeuralFeedback fb = models::neural_feedback_from_json(*store_->model(id));
+  EXPECT_EQ(fb.structure.hidden, std::vector<int>{3});
+  EXPECT_EQ(fb.meta.at("plant"), narx);
+  const json& history = result.at("plots").at("history");
+  expect_plot(history, {"iteration", "j_est_pct", "j_val_pct"});
+  EXPECT_LE(history.at("iteration").size(), 4u);
+  EXPECT_LE(result.at("j_val_pct").get<double>(), result.at("summary").at("jc_val_before_pct").get<double>());
+}
+
+TEST_F(JobKindsTest, AnalyzeJudgesAModelOnARecord) {
+  const std::string model = store_reference_model();
+  run("excite", {{"samples", 3000}, {"validation_samples", 2000}}, "j1");
+  FakeControl control("j2");
+  const json result = run("analyze", {{"model", model}, {"record", "j1"}}, control);
+  expect_progress(control);
+  EXPECT_FALSE(result.contains("model_id"));
+  // The reference model is the system itself: J is the noise's share, tiny.
+  EXPECT_LT(result.at("j_val_pct").get<double>(), 0.01);
+  EXPECT_LT(result.at("j_est_pct").get<double>(), 0.01);
+  EXPECT_EQ(result.at("summary").at("kind"), "linear");
+  EXPECT_EQ(result.at("summary").at("model"), model);
+  expect_plot(result.at("plots").at("fit"), {"t", "measured", "simulated"});
+  expect_plot(result.at("plots").at("spectrum"), {"f", "measured_db", "model_db"});
+  expect_plot(result.at("plots").at("history"), {"iteration", "j_est_pct", "j_val_pct"}, {"j_val_pct"});
+}
+
+TEST_F(JobKindsTest, DiagnoseAgainstAGivenBaseline) {
+  const std::string baseline = store_reference_model();
+  FakeControl control("j4");
+  const json result =
+      run("diagnose", {{"excite", {{"samples", 3000}, {"validation_samples", 2000}}}, {"baseline_model", baseline}, {"max_findings", 1}},
+          control);
+  expect_progress(control);
+  EXPECT_TRUE(result.contains("findings"));
+  EXPECT_LT(result.at("J_val_before_pct").get<double>(), 0.01);
+  EXPECT_LE(result.at("J_val_after_pct").get<double>(), result.at("J_val_before_pct").get<double>());
+  expect_plot(result.at("plots").at("fit"), {"t", "measured", "simulated"});
+}
+
+TEST_F(JobKindsTest, AnalyzeANarxModelShowsHarmonicsOfPlantAndModel) {
+  use_plant("panel-exciter");
+  run("excite", {{"samples", 3000}, {"validation_samples", 1000}, {"amplitude", 0.8}}, "j1");
+  const std::string narx =
+      run("identify-narx", {{"record", "j1"}, {"na", 4}, {"nb", 4}, {"hidden", {4}}, {"max_iterations", 3}}, "j2").at("model_id");
+  FakeControl control("j3");
+  const json result = run("analyze", {{"model", narx}, {"record", "j1"}}, control);
+  expect_progress(control);
+  EXPECT_EQ(result.at("summary").at("kind"), "narx");
+  const json& plots = result.at("plots");
+  expect_plot(plots.at("fit"), {"t", "measured", "simulated"});
+  expect_plot(plots.at("spectrum"), {"f", "measured_db", "model_db"});
+  // The training history comes from the model file's meta.
+  expect_plot(plots.at("history"), {"iteration", "j_est_pct", "j_val_pct"});
+  expect_plot(plots.at("harmonics"), {"f", "measured_h2_db", "measured_h3_db", "model_h2_db", "model_h3_db"});
+}
+
+TEST_F(JobKindsTest, DiagnoseFindsItsOwnBaselineOnTheVirtualTransducer) {
+  use_plant("panel-exciter");
+  FakeControl control("j1");
+  const json result =
+      run("diagnose", {{"excite", {{"samples", 3000}, {"validation_samples", 2000}, {"amplitude", 0.8}}}, {"max_findings", 1}}, control);
+  expect_progress(control);
+  EXPECT_EQ(result.at("baseline").at("source"), "identified");
+  EXPECT_LE(result.at("J_val_after_pct").get<double>(), result.at("J_val_before_pct").get<double>());
+  expect_plot(result.at("plots").at("fit"), {"t", "measured", "simulated"});
+}
+
+TEST_F(JobKindsTest, TheSameSeedRecordsTheSameExcitation) {
+  const json a = run("excite", {{"samples", 500}, {"validation_samples", 300}, {"seed", 9}}, "j1");
+  excitations_ = 0;  // the fake backend's noise is seeded by its call count
+  const json b = run("excite", {{"samples", 500}, {"validation_samples", 300}, {"seed", 9}}, "j2");
+  EXPECT_EQ(a.at("record"), b.at("record"));
+  const json c = run("excite", {{"samples", 500}, {"validation_samples", 300}, {"seed", 10}}, "j3");
+  EXPECT_NE(a.at("record").at("u_est"), c.at("record").at("u_est"));
+}
+
+TEST_F(JobKindsTest, WithoutValidationDataTheValidationFiguresAreNull) {
+  const json result =
+      run("identify-linear", {{"excite", {{"samples", 2000}, {"validation_samples", 0}}}, {"method", "arx"}, {"order", 2}}, "j1");
+  EXPECT_TRUE(result.at("j_val_pct").is_null());
+  EXPECT_LT(result.at("j_est_pct").get<double>(), 0.01);
+  // ARX has no iterations: the history is the final model's one point.
+  const json& history = result.at("plots").at("history");
+  expect_plot(history, {"iteration", "j_est_pct", "j_val_pct"}, {"j_val_pct"});
+  EXPECT_EQ(history.at("iteration").size(), 1u);
+  EXPECT_TRUE(history.at("j_val_pct")[0].is_null());
+  // The fit is shown on the estimation part.
+  EXPECT_EQ(result.at("plots").at("fit").at("t").size(), 1950u);
+  EXPECT_EQ(store_->model(result.at("model_id").get<std::string>())->at("meta").at("J_val_pct"), nullptr);
+}
+
+TEST_F(JobKindsTest, ABackendThatRecordsTooLittleFailsTheJob) {
+  env_.excite = [](const Eigen::VectorXd& drive) { return Eigen::VectorXd(drive.head(drive.size() - 1)); };
+  FakeControl control("j1");
+  const json params = validate_job_params("excite", {{"samples", 300}}, env_);
+  const std::string message =
+      testing_support::message_of<std::runtime_error>([&] { job_work("excite", env_)(params, control); });
+  EXPECT_EQ(message, "the backend recorded 299 samples for a drive of 300");
+}
+
+}  // namespace
+}  // namespace panelbass::api

@@ -1,0 +1,414 @@
+// The real server on a loopback port, exercised route by route with cpp-httplib's client, bad input
+// included (api/ROUTES.md is the specification).
+#include "api/server.h"
+
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <chrono>
+#include <fstream>
+#include <mutex>
+#include <regex>
+#include <set>
+#include <thread>
+
+#include "models/linear_model.h"
+#include "models/plant_presets.h"
+#include "tests/engine/engine_test_models.h"
+#include "tests/support/scratch_directory.h"
+
+namespace panelbass::api {
+namespace {
+
+using namespace std::chrono_literals;
+using engine::testing::example_linear;
+using engine::testing::resonant_linear;
+
+/// A response: status and the body parsed as JSON (null when it is not JSON).
+struct Reply {
+  int status = 0;
+  nlohmann::json body;
+  std::string text;
+};
+
+Reply reply_of(const httplib::Result& r) {
+  if (!r) return {-1, nullptr, "transport error " + httplib::to_string(r.error())};
+  Reply out{r->status, nullptr, r->body};
+  out.body = nlohmann::json::parse(r->body, nullptr, false);
+  if (out.body.is_discarded()) out.body = nullptr;
+  return out;
+}
+
+std::string error_message(const Reply& r) {
+  return r.body.is_object() && r.body.contains("error") ? r.body["error"].value("message", "") : "";
+}
+
+class ServerTest : public testing_support::ScratchDirectoryTest {
+ protected:
+  ServerOptions options(const std::filesystem::path& store) {
+    ServerOptions o;
+    o.port = 0;
+    o.store = store;
+    o.engine.plant = models::plant_preset("panel-exciter");
+    o.engine.chain.fs = o.engine.plant.fs;
+    const Eigen::VectorXd program = engine::testing::uniform(3000, 0.2, 7);
+    o.engine.program.assign(program.data(), program.data() + program.size());
+    o.log = [this](const std::string& line) {
+      const std::lock_guard lock(log_mutex_);
+      log_.push_back(line);
+    };
+    return o;
+  }
+
+  void start(ServerOptions o) {
+    server_ = std::make_unique<Server>(std::move(o));
+    port_ = server_->start();
+    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
+    client_->set_read_timeout(30, 0);
+  }
+  void start() { start(options(dir_ / "store")); }
+
+  Reply get(const std::string& path) { return reply_of(client_->Get(path.c_str())); }
+  Reply post(const std::string& path, const std::string& body) {
+    return reply_of(client_->Post(path.c_str(), body, "application/json"));
+  }
+  Reply post(const std::string& path, const nlohmann::json& body) { return post(path, body.dump()); }
+  Reply put(const std::string& path, const nlohmann::json& body) {
+    return reply_of(client_->Put(path.c_str(), body.dump(), "application/json"));
+  }
+  Reply patch(const std::string& path, const std::string& body) {
+    return reply_of(client_->Patch(path.c_str(), body, "application/json"));
+  }
+  Reply del(const std::string& path) { return reply_of(client_->Delete(path.c_str())); }
+
+  // Waits until job `id` has ended (at most `timeout`) and returns its record.
+  nlohmann::json wait_job(const std::string& id, std::chrono::seconds timeout = 120s) {
+    const auto until = std::chrono::steady_clock::now() + timeout;
+    for (;;) {
+      const Reply r = get("/api/jobs/" + id);
+      const std::string state = r.body.value("state", "");
+      if (state == "succeeded" || state == "failed" || state == "cancelled") return r.body;
+      if (std::chrono::steady_clock::now() > until) return r.body;
+      std::this_thread::sleep_for(50ms);
+    }
+  }
+
+  std::string upload(const nlohmann::json& model) {
+    const Reply r = post("/api/models", model);
+    EXPECT_TRUE(r.status == 201 || r.status == 200) << r.text;
+    return r.body.value("id", "");
+  }
+
+  std::vector<std::string> log_lines() {
+    const std::lock_guard lock(log_mutex_);
+    return log_;
+  }
+
+  std::unique_ptr<Server> server_;
+  int port_ = 0;
+  std::unique_ptr<httplib::Client> client_;
+  std::mutex log_mutex_;
+  std::vector<std::string> log_;
+};
+
+TEST_F(ServerTest, HealthStatusAndMetricsDescribeARunningEngine) {
+  start();
+  const Reply health = get("/api/health");
+  ASSERT_EQ(health.status, 200);
+  EXPECT_EQ(health.body["status"], "ok");
+
+  std::this_thread::sleep_for(200ms);  // a few blocks of 64 samples at 3 kHz (21 ms each)
+  const Reply status = get("/api/status");
+  ASSERT_EQ(status.status, 200) << status.text;
+  EXPECT_EQ(status.body["engine"]["state"], "running");
+  EXPECT_EQ(status.body["engine"]["backend"], "virtual");
+  EXPECT_EQ(status.body["engine"]["fs"], 3000.0);
+  EXPECT_GT(status.body["metrics"]["blocks"].get<double>(), 2.0);
+  EXPECT_TRUE(status.body["active_models"]["feedforward"].is_null());
+
+  const Reply metrics = get("/metrics");
+  ASSERT_EQ(metrics.status, 200);
+  // Prometheus text: the block counter is at least what the status saw, and the earlier 200s are counted.
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(metrics.text, m, std::regex(R"(\npanelbass_blocks_total (\d+)\n)"))) << metrics.text;
+  EXPECT_GE(std::stod(m[1]), status.body["metrics"]["blocks"].get<double>());
+  ASSERT_TRUE(std::regex_search(metrics.text, m, std::regex(R"(panelbass_http_requests_total\{code="200"\} (\d+))")));
+  EXPECT_GE(std::stoi(m[1]), 2);
+  EXPECT_NE(metrics.text.find("# TYPE panelbass_xruns_total counter"), std::string::npos);
+}
+
+TEST_F(ServerTest, TheOpenApiDocumentNamesExactlyTheRoutesTheServerHas) {
+  start();
+  const Reply doc = get("/api/openapi.json");
+  ASSERT_EQ(doc.status, 200);
+  std::set<std::pair<std::string, std::string>> documented, served;
+  for (const auto& [path, item] : doc.body["paths"].items()) {
+    for (const auto& [method, operation] : item.items()) documented.insert({method, path});
+  }
+  for (const Route& r : api_routes()) served.insert({r.method, r.path});
+  EXPECT_EQ(documented, served);
+  // Every served route answers something other than "no such route" (path ids filled in).
+  for (const Route& r : api_routes()) {
+    const std::string path = std::regex_replace(r.path, std::regex(R"(\{id\})"), "unknown-id");
+    httplib::Request req;
+    req.method = r.method == "get" ? "GET" : r.method == "post" ? "POST" : r.method == "put" ? "PUT"
+                 : r.method == "patch" ? "PATCH" : "DELETE";
+    req.path = path;
+    if (r.path == "/api/jobs/{id}/events") continue;  // a stream; covered by its own test
+    const httplib::Result res = client_->send(req);
+    ASSERT_TRUE(res) << path;
+    const nlohmann::json body = nlohmann::json::parse(res->body, nullptr, false);
+    const std::string message = body.is_object() && body.contains("error") ? body["error"].value("message", "") : "";
+    EXPECT_EQ(message.find("no such route"), std::string::npos) << r.method << " " << path;
+  }
+  // An unknown route is a 404 with the error object.
+  const Reply none = get("/api/nothing");
+  EXPECT_EQ(none.status, 404);
+  EXPECT_EQ(none.body["error"]["code"], "not_found");
+}
+
+TEST_F(ServerTest, ConfigChangesAreValidatedThenAppliedWithoutStoppingTheEngine) {
+  start();
+  const Reply before = get("/api/config");
+  ASSERT_EQ(before.status, 200);
+  EXPECT_EQ(before.body["band_pass"]["low_hz"], 20.0);
+  EXPECT_TRUE(before.body["feedforward"]["model"].is_null());
+
+  const Reply changed = patch("/api/config", R"({"band_pass":{"low_hz":30},"limiter":{"knee":0.7}})");
+  ASSERT_EQ(changed.status, 200) << changed.text;
+  EXPECT_EQ(changed.body["change"]["kind"], "rebuild with crossfade");
+  EXPECT_EQ(changed.body["config"]["band_pass"]["low_hz"], 30.0);
+  EXPECT_EQ(get("/api/config").body["limiter"]["knee"], 0.7);
+
+  // Bad changes leave everything as it was, and say what is wrong.
+  const Reply unknown = patch("/api/config", R"({"band_pass":{"lowhz":30}})");
+  EXPECT_EQ(unknown.status, 400);
+  EXPECT_NE(error_message(unknown).find("band_pass.lowhz"), std::string::npos) << unknown.text;
+  const Reply wrong_type = patch("/api/config", R"({"crossfade_ms":"long"})");
+  EXPECT_EQ(wrong_type.status, 400);
+  EXPECT_NE(error_message(wrong_type).find("crossfade_ms"), std::string::npos) << wrong_type.text;
+  const Reply above_nyquist = patch("/api/config", R"({"band_pass":{"high_hz":2000}})");
+  EXPECT_EQ(above_nyquist.status, 400);
+  EXPECT_NE(error_message(above_nyquist).find("high_hz"), std::string::npos) << above_nyquist.text;
+  const Reply restart = patch("/api/config", R"({"block":128})");
+  EXPECT_EQ(restart.status, 409);
+  EXPECT_NE(error_message(restart).find("block"), std::string::npos);
+  const Reply malformed = patch("/api/config", R"({"band_pass":)");
+  EXPECT_EQ(malformed.status, 400);
+  EXPECT_NE(error_message(malformed).find("malformed JSON"), std::string::npos);
+  const Reply no_model = patch("/api/config", R"({"feedforward":{"model":"m000000000000"}})");
+  EXPECT_EQ(no_model.status, 400);
+  EXPECT_NE(error_message(no_model).find("feedforward.model"), std::string::npos);
+  EXPECT_EQ(get("/api/config").body, changed.body["config"]);
+
+  // PUT with the whole object.
+  nlohmann::json whole = changed.body["config"];
+  whole["band_pass"]["bypass"] = true;
+  const Reply replaced = put("/api/config", whole);
+  ASSERT_EQ(replaced.status, 200) << replaced.text;
+  EXPECT_EQ(replaced.body["change"]["kind"], "in place");
+  EXPECT_EQ(get("/api/status").body["engine"]["state"], "running");
+}
+
+TEST_F(ServerTest, ModelsAreValidatedStoredListedActivatedAndDeleted) {
+  start();
+  const nlohmann::json model = models::linear_model_to_json(example_linear());
+  const Reply first = post("/api/models?name=example", model);
+  ASSERT_EQ(first.status, 201) << first.text;
+  const std::string id = first.body["id"];
+  EXPECT_EQ(id, model_store_id(model));
+  EXPECT_EQ(first.body["kind"], "linear");
+  EXPECT_EQ(first.body["name"], "example");
+  const Reply again = post("/api/models", model);
+  EXPECT_EQ(again.status, 200);
+  EXPECT_EQ(again.body["id"], id);
+
+  const Reply list = get("/api/models");
+  ASSERT_EQ(list.body["models"].size(), 1u);
+  EXPECT_EQ(get("/api/models/" + id).body["model"], model);
+
+  const std::uint64_t swaps_before = get("/api/status").body["metrics"]["swaps"];
+  const Reply activated = post("/api/models/" + id + "/activate", std::string());
+  ASSERT_EQ(activated.status, 200) << activated.text;
+  EXPECT_EQ(activated.body["slot"], "feedforward");
+  EXPECT_EQ(get("/api/status").body["active_models"]["feedforward"], id);
+  EXPECT_EQ(get("/api/config").body["feedforward"]["model"], id);
+  EXPECT_EQ(get("/api/models").body["models"][0]["active_in"], nlohmann::json::array({"feedforward"}));
+  // The slot takes the new stage over at a block boundary.
+  const auto until = std::chrono::steady_clock::now() + 5s;
+  while (get("/api/status").body["metrics"]["swaps"].get<std::uint64_t>() <= swaps_before &&
+         std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(20ms);
+  }
+  EXPECT_GT(get("/api/status").body["metrics"]["swaps"].get<std::uint64_t>(), swaps_before);
+
+  const Reply busy = del("/api/models/" + id);
+  EXPECT_EQ(busy.status, 409);
+  const Reply bad_slot = post("/api/models/" + id + "/activate", nlohmann::json{{"slot", "middle"}});
+  EXPECT_EQ(bad_slot.status, 400);
+  const Reply unknown_field = post("/api/models/" + id + "/activate", nlohmann::json{{"slto", "feedback"}});
+  EXPECT_EQ(unknown_field.status, 400);
+  EXPECT_NE(error_message(unknown_field).find("slto"), std::string::npos);
+
+  // A second model replaces it; then the first can go.
+  const std::string other = upload(models::linear_model_to_json(resonant_linear(0.9, 0.3, Eigen::Vector2d(0.1, 0.05), 1)));
+  ASSERT_EQ(post("/api/models/" + other + "/activate", nlohmann::json::object()).status, 200);
+  EXPECT_EQ(del("/api/models/" + id).status, 204);
+  EXPECT_EQ(get("/api/models/" + id).status, 404);
+  EXPECT_EQ(get("/api/models").body["models"].size(), 1u);
+}
+
+TEST_F(ServerTest, BadModelsAndBadIdsAreRefusedWithTheReason) {
+  ServerOptions o = options(dir_ / "store");
+  o.body_limit = 64 * 1024;
+  start(std::move(o));
+  // Unstable: poles at |z| = 1.05.
+  const Reply unstable =
+      post("/api/models", models::linear_model_to_json(resonant_linear(1.05, 0.3, Eigen::Vector2d(0.1, 0.0), 1)));
+  EXPECT_EQ(unstable.status, 422) << unstable.text;
+  EXPECT_EQ(unstable.body["error"]["code"], "invalid_model");
+  // A non-finite coefficient (1e999 parses as infinity).
+  std::string text = models::linear_model_to_json(example_linear()).dump();
+  const std::size_t b = text.find("0.03");
+  ASSERT_NE(b, std::string::npos);
+  text.replace(b, 4, "1e999");
+  const Reply infinite = post("/api/models", text);
+  EXPECT_EQ(infinite.status, 422) << infinite.text;
+  // Not a model at all, malformed JSON, wrong kind.
+  EXPECT_EQ(post("/api/models", R"({"kind":"linear"})").status, 400);
+  EXPECT_EQ(post("/api/models", R"({"kind":"teapot"})").status, 400);
+  EXPECT_EQ(post("/api/models", std::string("{\"kind\":")).status, 400);
+  EXPECT_EQ(post("/api/models", std::string("[1,2]")).status, 400);
+  // At another rate than the engine.
+  models::LinearModel fast = example_linear();
+  fast.fs = 48000.0;
+  EXPECT_EQ(post("/api/models", models::linear_model_to_json(fast)).status, 422);
+  // Oversized body.
+  const Reply big = post("/api/models", std::string(100 * 1024, ' '));
+  EXPECT_EQ(big.status, 413);
+  EXPECT_EQ(big.body["error"]["code"], "too_large");
+  // Unknown and path-traversal ids.
+  EXPECT_EQ(get("/api/models/m123456789abc").status, 404);
+  EXPECT_EQ(get("/api/jobs/j999").status, 404);
+  const Reply traversal = get("/api/models/%2E%2E");
+  EXPECT_EQ(traversal.status, 400) << traversal.text;
+  EXPECT_EQ(del("/api/models/a.b").status, 400);
+  EXPECT_EQ(get("/api/models").body["models"].size(), 0u);
+}
+
+TEST_F(ServerTest, AnIdentificationJobRunsReportsProgressAndActivatesItsModel) {
+  start();
+  const Reply submitted = post("/api/jobs", nlohmann::json{
+      {"kind", "identify-linear"},
+      {"params", {{"excite", {{"samples", 3000}, {"seed", 3}}}, {"method", "oe"}, {"order", 4}}},
+      {"activate", true}});
+  ASSERT_EQ(submitted.status, 202) << submitted.text;
+  const std::string id = submitted.body["id"];
+
+  // The event stream, read to its end: progress events, then the final state.
+  std::string stream;
+  httplib::Client sse("127.0.0.1", port_);
+  sse.set_read_timeout(120, 0);
+  const httplib::Result r = sse.Get(("/api/jobs/" + id + "/events").c_str(),
+                                    [&stream](const char* data, std::size_t n) {
+                                      stream.append(data, n);
+                                      return true;
+                                    });
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->get_header_value("Content-Type"), "text/event-stream");
+  EXPECT_NE(stream.find("event: progress"), std::string::npos) << stream;
+  EXPECT_NE(stream.find("event: state\ndata: {\"state\":\"succeeded\""), std::string::npos) << stream;
+
+  const nlohmann::json job = wait_job(id);
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  const std::string model_id = job["result"]["model_id"];
+  EXPECT_EQ(job["activated"]["id"], model_id);
+  EXPECT_EQ(get("/api/status").body["active_models"]["feedforward"], model_id);
+  EXPECT_EQ(get("/api/models/" + model_id).body["source"], id);
+  const nlohmann::json& fit = job["result"]["plots"]["fit"];
+  EXPECT_EQ(fit["measured"].size(), fit["simulated"].size());
+  EXPECT_GT(fit["measured"].size(), 100u);
+  EXPECT_EQ(get("/api/jobs").body["jobs"][0]["id"], id);
+}
+
+TEST_F(ServerTest, JobsCanBeCancelledMidwayAndBadJobRequestsAreRefused) {
+  start();
+  const Reply submitted = post("/api/jobs", nlohmann::json{
+      {"kind", "identify-narx"},
+      {"params", {{"excite", {{"samples", 4000}, {"seed", 2}}}, {"hidden", {10}}, {"max_iterations", 5000}}}});
+  ASSERT_EQ(submitted.status, 202) << submitted.text;
+  const std::string id = submitted.body["id"];
+  const auto until = std::chrono::steady_clock::now() + 60s;
+  while (get("/api/jobs/" + id).body.value("progress", 0.0) <= 0.0 && std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(20ms);
+  }
+  const Reply cancel = del("/api/jobs/" + id);
+  ASSERT_EQ(cancel.status, 200) << cancel.text;
+  const nlohmann::json job = wait_job(id, 60s);
+  EXPECT_EQ(job["state"], "cancelled") << job.dump();
+  EXPECT_TRUE(job["result"].is_null());
+  EXPECT_EQ(del("/api/jobs/" + id).status, 409);
+
+  const Reply unknown_kind = post("/api/jobs", nlohmann::json{{"kind", "teleport"}});
+  EXPECT_EQ(unknown_kind.status, 400);
+  EXPECT_NE(error_message(unknown_kind).find("teleport"), std::string::npos);
+  const Reply bad_param = post("/api/jobs", nlohmann::json{{"kind", "identify-linear"}, {"params", {{"order", "eight"}}}});
+  EXPECT_EQ(bad_param.status, 400);
+  EXPECT_NE(error_message(bad_param).find("order"), std::string::npos) << bad_param.text;
+  const Reply unknown_param = post("/api/jobs", nlohmann::json{{"kind", "excite"}, {"params", {{"sampels", 10}}}});
+  EXPECT_EQ(unknown_param.status, 400);
+  EXPECT_NE(error_message(unknown_param).find("sampels"), std::string::npos);
+  const Reply no_plant = post("/api/jobs", nlohmann::json{{"kind", "design-lq"}, {"params", nlohmann::json::object()}});
+  EXPECT_EQ(no_plant.status, 400);
+  EXPECT_NE(error_message(no_plant).find("plant_model"), std::string::npos);
+  const Reply extra = post("/api/jobs", nlohmann::json{{"kind", "excite"}, {"priority", 1}});
+  EXPECT_EQ(extra.status, 400);
+  EXPECT_NE(error_message(extra).find("priority"), std::string::npos);
+}
+
+TEST_F(ServerTest, TheStoreSurvivesARestartWithACorruptFileInIt) {
+  const std::filesystem::path store = dir_ / "store";
+  std::string id;
+  {
+    start(options(store));
+    id = upload(models::linear_model_to_json(example_linear()));
+    ASSERT_FALSE(id.empty());
+    server_->stop();
+  }
+  server_.reset();
+  std::ofstream(store / "models" / "m0123456789ab.json") << "{\"format\":\"panelbass.stored-model/1\",\"id\":";
+  std::ofstream(store / "models" / "foreign.json") << R"({"format":"something-else/2"})";
+  start(options(store));
+  const Reply list = get("/api/models");
+  ASSERT_EQ(list.status, 200);
+  ASSERT_EQ(list.body["models"].size(), 1u) << list.text;
+  EXPECT_EQ(list.body["models"][0]["id"], id);
+  const std::vector<std::string> lines = log_lines();
+  const auto names = [&lines](const std::string& file) {
+    for (const std::string& l : lines) {
+      if (l.find(file) != std::string::npos) return true;
+    }
+    return false;
+  };
+  EXPECT_TRUE(names("m0123456789ab.json"));
+  EXPECT_TRUE(names("foreign.json"));
+}
+
+TEST_F(ServerTest, ATokenGuardsTheApiAndIsRequiredBeyondLoopback) {
+  ServerOptions open = options(dir_ / "a");
+  open.bind = "0.0.0.0";
+  EXPECT_THROW(Server{open}, std::invalid_argument);
+
+  ServerOptions guarded = options(dir_ / "b");
+  guarded.token = "s3cret";
+  start(std::move(guarded));
+  EXPECT_EQ(get("/api/status").status, 401);
+  EXPECT_EQ(get("/metrics").status, 401);
+  client_->set_bearer_token_auth("s3cret");
+  EXPECT_EQ(get("/api/status").status, 200);
+  client_->set_bearer_token_auth("wrong");
+  EXPECT_EQ(get("/api/status").status, 401);
+}
+
+}  // namespace
+}  // namespace panelbass::api

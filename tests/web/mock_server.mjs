@@ -1,0 +1,256 @@
+#!/usr/bin/env node
+// A stand-in for `panelbass serve`, for developing and checking the web UI without the C++ server:
+// it serves web/ and answers the routes of api/ROUTES.md with canned, plausible data (jobs progress over
+// ~2 s, identify jobs make a model with fit/spectrum/history plots). Same command line and first stdout
+// line as the real server, so ui_test.mjs can drive it:
+//   node tests/web/ui_test.mjs --server tests/web/mock_server.mjs --artifacts /tmp/ui
+// Not a test of the server: the real test runs against build/bin/panelbass.
+
+import http from 'node:http';
+import fs from 'node:fs';
+import path from 'node:path';
+import crypto from 'node:crypto';
+import { fileURLToPath } from 'node:url';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const webRoot = path.resolve(here, '../../web');
+
+const args = process.argv.slice(2);
+if (args[0] !== 'serve') {
+  console.error('usage: mock_server.mjs serve [--port N] [--store DIR] [--no-demo]');
+  process.exit(2);
+}
+const portArg = args.indexOf('--port');
+const port = portArg >= 0 ? Number(args[portArg + 1]) : 8080;
+
+const FS = 3000;
+const started = Date.now();
+const models = new Map();   // id → {summary, model}
+const jobs = new Map();     // id → record
+let nextJob = 1;
+const active = { feedforward: null, feedback: null };
+let config = {
+  band_pass: { low_hz: 20, high_hz: 1200, order: 2, bypass: false },
+  feedforward: { model: null, bypass: false },
+  feedback: { model: null, source: 'model', bypass: false },
+  crossfade_ms: 20, limiter: { knee: 0.8, pinned_level: 1.0, max_pinned_ms: 100 },
+  fs: FS, block: 64, history: 512,
+};
+const now = () => new Date().toISOString().replace(/\.\d+Z$/, 'Z');
+
+function send(res, status, body, type = 'application/json') {
+  const text = type === 'application/json' ? JSON.stringify(body) : body;
+  res.writeHead(status, { 'Content-Type': type, 'Cache-Control': 'no-store' });
+  res.end(text);
+}
+const fail = (res, status, code, message) => send(res, status, { error: { code, message } });
+
+function readBody(req) {
+  return new Promise((resolve) => {
+    let data = '';
+    req.on('data', (c) => { data += c; });
+    req.on('end', () => resolve(data));
+  });
+}
+
+function storeModel(model, name, source) {
+  const id = 'm' + crypto.createHash('sha256').update(JSON.stringify(model)).digest('hex').slice(0, 12);
+  const fresh = !models.has(id);
+  if (fresh) models.set(id, { summary: { id, kind: model.kind, fs: model.fs, name: name || '', created: now(), source }, model });
+  return { id, fresh };
+}
+
+const modelSummary = (id) => ({ ...models.get(id).summary,
+  active_in: Object.entries(active).filter(([, v]) => v === id).map(([k]) => k) });
+
+function plots(kind) {
+  const n = 600, t = [], measured = [], simulated = [];
+  for (let i = 0; i < n; i++) {
+    t.push(i / FS);
+    const y = Math.sin(2 * Math.PI * 50 * i / FS) + 0.4 * Math.sin(2 * Math.PI * 310 * i / FS + 1);
+    measured.push(y + 0.05 * Math.sin(i * 1.7));
+    simulated.push(y);
+  }
+  const f = [], mdb = [], odb = [];
+  for (let i = 0; i <= 200; i++) {
+    const fr = (i * FS) / 2 / 200;
+    f.push(fr);
+    const h = 20 * Math.log10(1 / Math.hypot(1 - (fr / 180) ** 2, 0.3 * fr / 180) + 1e-3);
+    mdb.push(h + 0.5 * Math.sin(i));
+    odb.push(h);
+  }
+  const out = { fit: { t, measured, simulated }, spectrum: { f, measured_db: mdb, model_db: odb },
+                history: { iteration: [0, 1, 2, 3, 4, 5], j_est_pct: [40, 12, 4, 2.1, 1.9, 1.85], j_val_pct: [42, 13, 4.5, 2.4, 2.2, 2.2] } };
+  if (kind === 'identify-narx') {
+    const hf = [50, 80, 120, 200, 300, 450];
+    out.harmonics = { f: hf, measured_h2_db: hf.map((x) => -30 - x / 30), measured_h3_db: hf.map((x) => -40 - x / 40),
+                      model_h2_db: hf.map((x) => -31 - x / 30), model_h3_db: hf.map((x) => -41 - x / 40) };
+  }
+  return out;
+}
+
+const summaryOf = (j) => ({ id: j.id, kind: j.kind, state: j.state, progress: j.progress, message: j.message,
+                            created: j.created, finished: j.finished, error: j.error });
+
+function emit(job, type, data) {
+  for (const res of job.listeners) res.write(`event: ${type}\ndata: ${JSON.stringify(data)}\n\n`);
+  if (type === 'state' && ['succeeded', 'failed', 'cancelled'].includes(data.state)) {
+    for (const res of job.listeners) res.end();
+    job.listeners = [];
+  }
+}
+
+function runJob(job) {
+  let step = 0;
+  const steps = 10;
+  const timer = setInterval(() => {
+    if (job.state === 'cancelled') { clearInterval(timer); return; }
+    if (job.state === 'queued') {
+      job.state = 'running';
+      emit(job, 'state', { state: 'running' });
+    }
+    step++;
+    job.progress = step / steps;
+    job.message = `${job.kind} iteration ${step}`;
+    emit(job, 'progress', { progress: job.progress, message: job.message });
+    if (step < steps) return;
+    clearInterval(timer);
+    const result = { j_est_pct: 1.85, j_val_pct: 2.2, summary: { method: job.params.method || 'oe', order: job.params.order ?? 8, delay: 1 },
+                     plots: plots(job.kind) };
+    if (job.kind !== 'excite' && job.kind !== 'analyze' && job.kind !== 'diagnose') {
+      const kind = { 'identify-linear': 'linear', 'identify-narx': 'narx', 'design-lq': 'lq_feedforward', 'design-nn': 'neural_feedback' }[job.kind];
+      const { id } = storeModel({ format: 'panelbass.model/1', kind, fs: FS, params: { job: job.id, p: job.params } }, `${job.kind} ${job.id}`, job.id);
+      result.model_id = id;
+      if (job.activate) {
+        const slot = kind === 'neural_feedback' ? 'feedback' : 'feedforward';
+        active[slot] = id;
+        job.activated = { slot, id };
+      }
+    }
+    job.result = result;
+    job.state = 'succeeded';
+    job.finished = now();
+    emit(job, 'state', { state: 'succeeded' });
+  }, 200);
+}
+
+const MIME = { '.html': 'text/html; charset=utf-8', '.js': 'text/javascript; charset=utf-8', '.mjs': 'text/javascript; charset=utf-8',
+               '.css': 'text/css; charset=utf-8', '.json': 'application/json', '.png': 'image/png', '.svg': 'image/svg+xml' };
+
+function serveStatic(req, res, pathname) {
+  const rel = decodeURIComponent(pathname === '/' ? '/index.html' : pathname);
+  const file = path.resolve(webRoot, '.' + rel);
+  if (!file.startsWith(webRoot + path.sep)) return fail(res, 404, 'not_found', 'no such file');
+  fs.readFile(file, (err, data) => {
+    if (err) return fail(res, 404, 'not_found', `no such file: ${rel}`);
+    res.writeHead(200, { 'Content-Type': MIME[path.extname(file)] || 'application/octet-stream' });
+    res.end(data);
+  });
+}
+
+async function handle(req, res) {
+  const url = new URL(req.url, 'http://x');
+  const p = url.pathname;
+  const m = req.method;
+  let match;
+  if (!p.startsWith('/api/')) return serveStatic(req, res, p);
+  if (p === '/api/health' && m === 'GET') return send(res, 200, { status: 'ok', version: '0.1.0-mock' });
+  if (p === '/api/status' && m === 'GET') {
+    const running = [...jobs.values()].filter((j) => j.state === 'running').length;
+    const queued = [...jobs.values()].filter((j) => j.state === 'queued').length;
+    const up = (Date.now() - started) / 1000;
+    return send(res, 200, {
+      engine: { state: 'running', backend: 'virtual', plant: 'panel-exciter', fs: FS, block: 64, uptime_s: up },
+      metrics: { blocks: Math.floor(up * FS / 64), samples: Math.floor(up * FS), xruns: 0, faults: 0, in_fault: false, last_fault: '',
+                 swaps: 0, mean_block_ns: 8200, p99_block_ns: 14100, max_block_ns: 30100, ns_per_sample: 128, load: 0.0066 },
+      active_models: active, jobs: { queued, running } });
+  }
+  if (p === '/api/config' && m === 'GET') {
+    return send(res, 200, { ...config, feedforward: { ...config.feedforward, model: active.feedforward }, feedback: { ...config.feedback, model: active.feedback } });
+  }
+  if (p === '/api/config' && m === 'PATCH') {
+    let patch;
+    try { patch = JSON.parse(await readBody(req)); } catch { return fail(res, 400, 'bad_request', 'malformed JSON'); }
+    if (patch.band_pass && patch.band_pass.low_hz !== undefined && patch.band_pass.low_hz >= (patch.band_pass.high_hz ?? config.band_pass.high_hz)) {
+      return fail(res, 400, 'bad_request', 'band_pass.low_hz: must be below band_pass.high_hz');
+    }
+    const keys = [];
+    const merge = (dst, src, prefix) => {
+      for (const [k, v] of Object.entries(src)) {
+        if (v && typeof v === 'object') merge(dst[k], v, prefix + k + '.');
+        else { dst[k] = v; keys.push(prefix + k); }
+      }
+    };
+    merge(config, patch, '');
+    return send(res, 200, { config, change: { kind: keys.some((k) => k.startsWith('band_pass.') && !k.endsWith('bypass')) ? 'rebuild with crossfade' : 'in place', keys } });
+  }
+  if (p === '/api/models' && m === 'GET') return send(res, 200, { models: [...models.keys()].map(modelSummary) });
+  if (p === '/api/models' && m === 'POST') {
+    let model;
+    try { model = JSON.parse(await readBody(req)); } catch { return fail(res, 400, 'bad_request', 'malformed JSON'); }
+    if (model.format !== 'panelbass.model/1') return fail(res, 400, 'bad_request', 'format: must be "panelbass.model/1"');
+    const { id, fresh } = storeModel(model, url.searchParams.get('name'), 'upload');
+    return send(res, fresh ? 201 : 200, models.get(id).summary);
+  }
+  if ((match = p.match(/^\/api\/models\/([A-Za-z0-9_-]{1,64})(\/activate)?$/))) {
+    const id = match[1];
+    if (!models.has(id)) return fail(res, 404, 'not_found', `no model ${id}`);
+    if (match[2] && m === 'POST') {
+      const kind = models.get(id).summary.kind;
+      const slot = kind === 'neural_feedback' ? 'feedback' : 'feedforward';
+      active[slot] = id;
+      return send(res, 200, { slot, id, change: { kind: 'rebuild with crossfade', keys: [`${slot}.model`] } });
+    }
+    if (m === 'GET') return send(res, 200, { ...modelSummary(id), model: models.get(id).model });
+    if (m === 'DELETE') {
+      if (Object.values(active).includes(id)) return fail(res, 409, 'conflict', `${id} is active`);
+      models.delete(id);
+      res.writeHead(204);
+      return res.end();
+    }
+  }
+  if (p === '/api/jobs' && m === 'GET') return send(res, 200, { jobs: [...jobs.values()].map(summaryOf) });
+  if (p === '/api/jobs' && m === 'POST') {
+    let body;
+    try { body = JSON.parse(await readBody(req)); } catch { return fail(res, 400, 'bad_request', 'malformed JSON'); }
+    const params = body.params || {};
+    if (params.order !== undefined && (!Number.isInteger(params.order) || params.order < 1)) {
+      return fail(res, 400, 'bad_request', `params.order: must be an integer ≥ 1, got ${JSON.stringify(params.order)}`);
+    }
+    if (['design-lq', 'design-nn'].includes(body.kind) && !params.plant_model) return fail(res, 400, 'bad_request', 'params.plant_model: required');
+    const id = `j${nextJob++}`;
+    const job = { id, kind: body.kind, state: 'queued', progress: 0, message: '', created: now(), finished: '', error: '',
+                  params, activate: !!body.activate, result: null, activated: null, listeners: [] };
+    jobs.set(id, job);
+    runJob(job);
+    return send(res, 202, { id, kind: job.kind, state: job.state });
+  }
+  if ((match = p.match(/^\/api\/jobs\/([A-Za-z0-9_-]{1,64})(\/events)?$/))) {
+    const job = jobs.get(match[1]);
+    if (!job) return fail(res, 404, 'not_found', `no job ${match[1]}`);
+    if (match[2] && m === 'GET') {
+      res.writeHead(200, { 'Content-Type': 'text/event-stream', 'Cache-Control': 'no-store' });
+      res.write(`event: state\ndata: ${JSON.stringify({ state: job.state })}\n\n`);
+      if (['succeeded', 'failed', 'cancelled'].includes(job.state)) return res.end();
+      job.listeners.push(res);
+      return;
+    }
+    if (m === 'GET') return send(res, 200, { ...summaryOf(job), params: job.params, result: job.result, activated: job.activated });
+    if (m === 'DELETE') {
+      if (['succeeded', 'failed', 'cancelled'].includes(job.state)) return fail(res, 409, 'conflict', `${job.id} already ${job.state}`);
+      job.state = 'cancelled';
+      job.finished = now();
+      emit(job, 'state', { state: 'cancelled' });
+      return send(res, 200, summaryOf(job));
+    }
+  }
+  return fail(res, 404, 'not_found', `no route ${m} ${p}`);
+}
+
+const server = http.createServer((req, res) => {
+  handle(req, res).catch((e) => fail(res, 500, 'internal', e.message));
+});
+server.listen(port, '127.0.0.1', () => {
+  console.log(`panelbass: serving http://127.0.0.1:${server.address().port}/`);
+});
+process.on('SIGTERM', () => process.exit(0));

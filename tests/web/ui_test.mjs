@@ -1,0 +1,315 @@
+// Browser test of the web UI against a real `panelbass serve`:
+//   node tests/web/ui_test.mjs --server build/bin/panelbass --artifacts build/test-artifacts
+// Starts the server on a free port with a fresh store and no demo, drives Debian's headless Chromium
+// (/usr/bin/chromium, through playwright-core from web/node_modules; no browser is downloaded) and checks,
+// as a person would: the status is shown; an "Excite + identify" job (identify-linear, 3000 samples,
+// order 6) started from the form runs with its progress shown and succeeds; its model activated from the
+// result panel appears as the active feedforward model in the status; the fit plot is drawn (uPlot canvas
+// with the series' colours in it). Saves ARTIFACTS/ui.png (and ui-server.log, ui-console.log).
+// Exit 0 on success; 1 with "ui_test: FAIL <step>: <reason>" otherwise; 2 on bad usage.
+
+import { spawn } from 'node:child_process';
+import { createRequire } from 'node:module';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+const OVERALL_TIMEOUT_MS = 90_000;
+const JOB_TIMEOUT_MS = 60_000;
+const CHROMIUM = '/usr/bin/chromium';
+const CHROMIUM_ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+                       '--disable-background-networking', '--disable-component-update', '--disable-sync'];
+// The fit plot's series colours (web/plots.js: MEASURED, MODEL).
+const SERIES_RGB = [[0x4e, 0xa1, 0xff], [0xff, 0x8a, 0x3d]];
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const webPackage = path.resolve(here, '../../web/package.json');
+
+function usage(message) {
+  console.error(`ui_test: ${message}\nusage: node tests/web/ui_test.mjs --server PATH_TO_panelbass --artifacts DIR`);
+  process.exit(2);
+}
+
+const argv = process.argv.slice(2);
+const opts = {};
+for (let i = 0; i < argv.length; i++) {
+  const a = argv[i];
+  if (a === '--server' || a === '--artifacts') {
+    if (i + 1 >= argv.length) usage(`${a} needs a value`);
+    opts[a.slice(2)] = argv[++i];
+  } else usage(`unknown argument ${a}`);
+}
+if (!opts.server) usage('--server is required');
+if (!opts.artifacts) usage('--artifacts is required');
+const serverPath = path.resolve(opts.server);
+const artifacts = path.resolve(opts.artifacts);
+
+let step = 'setup';
+const log = (m) => console.log(`ui_test: ${m}`);
+class TestFailure extends Error {}
+const check = (cond, message) => {
+  if (!cond) throw new TestFailure(message);
+};
+
+// ---------------------------------------------------------------------------------------------
+// Resources, released in reverse order on every exit path
+
+let server = null;
+let serverExited = null;   // promise resolved with {code, signal}
+const serverStderr = [];
+let context = null;
+let page = null;
+const tempDirs = [];
+const consoleLines = [];
+const pageErrors = [];
+
+async function stopServer() {
+  if (!server || server.exitCode !== null || server.signalCode !== null) return;
+  server.kill('SIGTERM');
+  const timer = new Promise((r) => setTimeout(() => r('timeout'), 3000));
+  if ((await Promise.race([serverExited, timer])) === 'timeout') {
+    server.kill('SIGKILL');
+    await serverExited;
+  }
+}
+
+async function cleanup() {
+  try {
+    if (context) await Promise.race([context.close(), new Promise((r) => setTimeout(r, 5000))]);
+  } catch { /* already gone */ }
+  await stopServer();
+  try {
+    fs.mkdirSync(artifacts, { recursive: true });
+    fs.writeFileSync(path.join(artifacts, 'ui-server.log'), serverStderr.join('\n') + '\n');
+    fs.writeFileSync(path.join(artifacts, 'ui-console.log'), consoleLines.join('\n') + '\n');
+  } catch { /* best effort */ }
+  for (const d of tempDirs) fs.rmSync(d, { recursive: true, force: true });
+}
+
+async function finish(code, message) {
+  clearTimeout(overall);
+  if (code !== 0) {
+    console.error(`ui_test: FAIL ${step}: ${message}`);
+    if (pageErrors.length) console.error(`ui_test: page errors:\n  ${pageErrors.join('\n  ')}`);
+    if (serverStderr.length) console.error(`ui_test: last server stderr lines:\n  ${serverStderr.slice(-15).join('\n  ')}`);
+    if (page) {
+      try {
+        fs.mkdirSync(artifacts, { recursive: true });
+        await page.screenshot({ path: path.join(artifacts, 'ui-failure.png'), fullPage: true, timeout: 5000 });
+        console.error(`ui_test: screenshot of the failure: ${path.join(artifacts, 'ui-failure.png')}`);
+      } catch { /* no screenshot */ }
+    }
+  } else log(message);
+  await cleanup();
+  process.exit(code);
+}
+
+const overall = setTimeout(() => {
+  finish(1, `timed out after ${OVERALL_TIMEOUT_MS / 1000} s`);
+}, OVERALL_TIMEOUT_MS);
+
+// ---------------------------------------------------------------------------------------------
+
+/** Starts the server; resolves with its base URL from the first stdout line. */
+function startServer(storeDir) {
+  return new Promise((resolve, reject) => {
+    server = spawn(serverPath, ['serve', '--port', '0', '--store', storeDir, '--no-demo'],
+                   { stdio: ['ignore', 'pipe', 'pipe'] });
+    serverExited = new Promise((r) => server.on('exit', (code, signal) => r({ code, signal })));
+    let out = '';
+    let resolved = false;
+    const timer = setTimeout(() => reject(new TestFailure('no "panelbass: serving http://…" line on stdout within 15 s')), 15_000);
+    server.on('error', (e) => {
+      clearTimeout(timer);
+      reject(new TestFailure(`cannot start ${serverPath}: ${e.message}`));
+    });
+    let errBuf = '';
+    server.stderr.on('data', (d) => {
+      errBuf += d;
+      const lines = errBuf.split('\n');
+      errBuf = lines.pop();
+      serverStderr.push(...lines);
+    });
+    server.stdout.on('data', (d) => {
+      if (resolved) return;
+      out += d;
+      const nl = out.indexOf('\n');
+      if (nl < 0) return;
+      const first = out.slice(0, nl);
+      const m = first.match(/^panelbass: serving (http:\/\/\S+?)\/?\s*$/);
+      clearTimeout(timer);
+      resolved = true;
+      if (m) resolve(m[1] + '/');
+      else reject(new TestFailure(`first stdout line is not "panelbass: serving http://HOST:PORT/": ${JSON.stringify(first)}`));
+    });
+    serverExited.then(({ code, signal }) => {
+      if (resolved) {
+        if (step !== 'done') pageErrors.push(`server exited during the test (code ${code}, signal ${signal})`);
+        return;
+      }
+      clearTimeout(timer);
+      reject(new TestFailure(`server exited before serving (code ${code}, signal ${signal})`));
+    });
+  });
+}
+
+/** Polls `fn` (async) until it returns a truthy value; throws `message` after `timeoutMs`. */
+async function until(fn, timeoutMs, message, periodMs = 100) {
+  const end = Date.now() + timeoutMs;
+  for (;;) {
+    const v = await fn();
+    if (v) return v;
+    if (Date.now() > end) throw new TestFailure(message);
+    await new Promise((r) => setTimeout(r, periodMs));
+  }
+}
+
+async function main() {
+  step = 'loading playwright-core';
+  let chromium;
+  try {
+    ({ chromium } = createRequire(webPackage)('playwright-core'));
+  } catch (e) {
+    throw new TestFailure(`playwright-core not found from ${webPackage} (run scripts/web_setup.sh): ${e.message}`);
+  }
+  step = 'checking the tools';
+  check(fs.existsSync(CHROMIUM), `${CHROMIUM} not found (run scripts/web_setup.sh, which installs Debian's chromium)`);
+  check(fs.existsSync(serverPath), `no server binary at ${serverPath}`);
+
+  step = 'starting the server';
+  const storeDir = fs.mkdtempSync(path.join(os.tmpdir(), 'panelbass-ui-store-'));
+  tempDirs.push(storeDir);
+  const base = await startServer(storeDir);
+  log(`server at ${base} (store ${storeDir})`);
+
+  step = 'launching chromium';
+  const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'panelbass-ui-profile-'));
+  tempDirs.push(profile);
+  context = await chromium.launchPersistentContext(profile, {
+    executablePath: CHROMIUM, headless: true, args: CHROMIUM_ARGS,
+    viewport: { width: 1440, height: 1000 }, timeout: 30_000,
+  });
+  page = context.pages()[0] || await context.newPage();
+  page.setDefaultTimeout(15_000);
+  page.on('console', (m) => consoleLines.push(`[${m.type()}] ${m.text()}`));
+  page.on('pageerror', (e) => pageErrors.push(`uncaught: ${e.message}`));
+  const badStatic = [];
+  page.on('response', (r) => {
+    const u = new URL(r.url());
+    if (r.status() >= 400 && !u.pathname.startsWith('/api/') && u.pathname !== '/favicon.ico') badStatic.push(`${r.status()} ${u.pathname}`);
+  });
+
+  step = 'loading the page';
+  await page.goto(base, { waitUntil: 'load' });
+  check(badStatic.length === 0, `static files not served: ${badStatic.join(', ')}`);
+  check(await page.evaluate(() => typeof window.uPlot === 'function'), 'uPlot did not load (node_modules/uplot/dist/uPlot.iife.min.js)');
+
+  step = 'status shown';
+  await page.waitForSelector('#conn[data-state="online"]', { timeout: 10_000 });
+  await until(async () => (await page.textContent('#status-state')).trim() !== '—', 5000, 'engine state never shown');
+  const status = await page.evaluate(() => Object.fromEntries(['state', 'backend', 'fs', 'block', 'load', 'p99', 'xruns', 'faults']
+    .map((k) => [k, document.querySelector(`#status-${k}`).textContent.trim()])));
+  check(/\d/.test(status.fs), `sample rate not shown: ${JSON.stringify(status)}`);
+  check(status.backend !== '—' && status.xruns !== '—', `status incomplete: ${JSON.stringify(status)}`);
+  log(`status: ${Object.entries(status).map(([k, v]) => `${k}=${v}`).join(', ')}`);
+  await until(async () => (await page.inputValue('[name="band_pass.high_hz"]')) !== '', 8000, 'chain settings never loaded from GET /api/config');
+
+  step = 'starting an excite + identify job';
+  await page.selectOption('#job-kind', 'identify-linear');
+  await page.selectOption('#job-source', '');
+  await page.fill('#excite-samples', '3000');
+  await page.selectOption('#lin-method', 'oe');
+  await page.fill('#lin-order', '6');
+  await page.click('#job-start');
+  const jobId = await until(async () => {
+    const err = await page.$eval('#job-error', (e) => (e.hidden ? '' : e.textContent));
+    if (err) throw new TestFailure(`the server refused the job: ${err}`);
+    return page.$eval('#result', (e) => (e.hidden ? '' : e.dataset.jobId || ''));
+  }, 10_000, 'the result panel never showed the started job');
+  log(`job ${jobId} started`);
+
+  step = `following job ${jobId}`;
+  const seen = new Set();
+  const t0 = Date.now();
+  const final = await until(async () => {
+    const s = await page.$eval('#result', (e) => ({ state: e.dataset.state, progress: e.dataset.progress,
+      bar: document.querySelector('#job-progress').value, message: document.querySelector('#job-message').textContent,
+      transport: e.dataset.transport || '' }));
+    seen.add(`${s.bar}`);
+    if (['failed', 'cancelled'].includes(s.state)) {
+      const err = await page.textContent('#result-error');
+      throw new TestFailure(`job ${jobId} ${s.state}: ${err}`);
+    }
+    return s.state === 'succeeded' ? s : null;
+  }, JOB_TIMEOUT_MS, `job ${jobId} did not succeed within ${JOB_TIMEOUT_MS / 1000} s`, 50);
+  const intermediate = [...seen].filter((v) => Number(v) > 0 && Number(v) < 1).length;
+  log(`job ${jobId} succeeded in ${((Date.now() - t0) / 1000).toFixed(1)} s; progress values seen: ` +
+      `${[...seen].map((v) => Math.round(100 * Number(v)) + '%').join(' ')} (${intermediate} between 0 and 100 %, via ${final.transport || '?'})`);
+  check(Number(final.bar) === 1, `progress bar at ${final.bar} after success, expected 1`);
+  check(await page.isVisible('#job-progress'), 'progress bar not visible');
+  const row = `#jobs-table tr[data-job-id="${jobId}"]`;
+  await until(async () => (await page.$(row)) && (await page.$eval(row, (e) => e.dataset.state)) === 'succeeded',
+              6000, `job ${jobId} not listed as succeeded in the jobs table`);
+
+  step = 'result figures';
+  await page.waitForSelector('#result-body:not([hidden])', { timeout: 5000 });
+  const jVal = (await page.textContent('#result-j-val')).trim();
+  check(/\d/.test(jVal), `J validation not shown (got "${jVal}")`);
+  const modelId = await page.$eval('#result-activate', (e) => e.dataset.modelId);
+  check(/^m[0-9a-f]{12}$/.test(modelId), `the result names no model id (got "${modelId}")`);
+  log(`J est ${(await page.textContent('#result-j-est')).trim()}, J val ${jVal}, model ${modelId}`);
+  const modelRow = `#models-table tr[data-model-id="${modelId}"]`;
+  await page.waitForSelector(modelRow, { timeout: 8000 });
+
+  step = `activating ${modelId}`;
+  await page.click('#result-activate');
+  await until(async () => {
+    const err = await page.$eval('#result-activate-error', (e) => (e.hidden ? '' : e.textContent));
+    if (err) throw new TestFailure(err);
+    return (await page.getAttribute('#active-feedforward', 'data-model-id')) === modelId;
+  }, 8000, `status never showed ${modelId} as the active feedforward model (shows "${await page.textContent('#active-feedforward')}")`);
+  await until(async () => ((await page.getAttribute(modelRow, 'data-active-in')) || '').includes('feedforward'),
+              8000, `models table never showed ${modelId} active in feedforward`);
+  log(`active feedforward: ${(await page.textContent('#active-feedforward')).trim()}`);
+
+  step = 'fit plot drawn';
+  await page.waitForSelector('#plot-fit canvas', { timeout: 5000 });
+  const pixels = await page.$eval('#plot-fit canvas', (canvas, series) => {
+    const ctx = canvas.getContext('2d');
+    const { data } = ctx.getImageData(0, 0, canvas.width, canvas.height);
+    let painted = 0, seriesPixels = 0;
+    for (let i = 0; i < data.length; i += 4) {
+      if (data[i + 3] === 0) continue;
+      painted++;
+      if (data[i + 3] < 128) continue;
+      for (const [r, g, b] of series) {
+        if (Math.abs(data[i] - r) + Math.abs(data[i + 1] - g) + Math.abs(data[i + 2] - b) <= 90) {
+          seriesPixels++;
+          break;
+        }
+      }
+    }
+    return { width: canvas.width, height: canvas.height, painted, seriesPixels };
+  }, SERIES_RGB);
+  log(`fit canvas ${pixels.width}x${pixels.height}: ${pixels.painted} painted pixels, ${pixels.seriesPixels} in the series' colours`);
+  check(pixels.width > 100 && pixels.height > 100, 'fit canvas too small');
+  check(pixels.seriesPixels >= 300, `fit plot looks blank: only ${pixels.seriesPixels} pixels in the series' colours`);
+  const plotsShown = await page.$$eval('#plots [data-plot]', (els) => els.map((e) => e.dataset.plot));
+  log(`plots shown: ${plotsShown.join(', ')}`);
+
+  step = 'no page errors';
+  check(pageErrors.length === 0, `${pageErrors.length} error(s) in the page`);
+
+  step = 'screenshot';
+  fs.mkdirSync(artifacts, { recursive: true });
+  const shot = path.join(artifacts, 'ui.png');
+  await page.screenshot({ path: shot, fullPage: true });
+  log(`screenshot ${shot}`);
+  step = 'done';
+}
+
+main().then(
+  () => finish(0, 'PASS'),
+  (e) => finish(1, e instanceof TestFailure ? e.message : (e && e.stack) || String(e)),
+);

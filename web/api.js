@@ -1,0 +1,71 @@
+// The HTTP API of `panelbass serve` (api/ROUTES.md), as small async functions.
+// Every failure becomes an ApiError carrying the server's {"error":{"code","message"}}.
+
+/** An API error: HTTP status, the server's error code and its message. */
+export class ApiError extends Error {
+  constructor(status, code, message) {
+    super(message);
+    this.status = status;
+    this.code = code;
+  }
+  /** "bad_request: params.order: must be …" — what the UI shows next to a form. */
+  toString() {
+    return this.code ? `${this.code}: ${this.message}` : this.message;
+  }
+}
+
+/** A request to the API; JSON in and out. `body` is sent as JSON unless it is already a string. */
+export async function request(method, path, body) {
+  const init = { method, headers: { Accept: 'application/json' } };
+  if (body !== undefined) {
+    init.headers['Content-Type'] = 'application/json';
+    init.body = typeof body === 'string' ? body : JSON.stringify(body);
+  }
+  let response;
+  try {
+    response = await fetch(path, init);
+  } catch (e) {
+    throw new ApiError(0, 'unreachable', `server unreachable (${e.message})`);
+  }
+  if (response.status === 204) return null;
+  const text = await response.text();
+  let json = null;
+  if (text) {
+    try {
+      json = JSON.parse(text);
+    } catch {
+      if (!response.ok) throw new ApiError(response.status, `http_${response.status}`, text.slice(0, 300));
+      throw new ApiError(response.status, 'bad_response', `${method} ${path}: response is not JSON`);
+    }
+  }
+  if (!response.ok) {
+    const err = json && json.error;
+    throw new ApiError(response.status, err?.code ?? `http_${response.status}`,
+                       err?.message ?? `${method} ${path} failed with HTTP ${response.status}`);
+  }
+  return json;
+}
+
+export const api = {
+  health: () => request('GET', '/api/health'),
+  status: () => request('GET', '/api/status'),
+  config: () => request('GET', '/api/config'),
+  patchConfig: (patch) => request('PATCH', '/api/config', patch),
+
+  models: () => request('GET', '/api/models'),
+  model: (id) => request('GET', `/api/models/${encodeURIComponent(id)}`),
+  uploadModel: (text, name) =>
+    request('POST', '/api/models' + (name ? `?name=${encodeURIComponent(name)}` : ''), text),
+  deleteModel: (id) => request('DELETE', `/api/models/${encodeURIComponent(id)}`),
+  activateModel: (id, slot) =>
+    request('POST', `/api/models/${encodeURIComponent(id)}/activate`, slot ? { slot } : {}),
+
+  jobs: () => request('GET', '/api/jobs'),
+  job: (id) => request('GET', `/api/jobs/${encodeURIComponent(id)}`),
+  startJob: (kind, params, activate) => request('POST', '/api/jobs', { kind, params, activate: !!activate }),
+  cancelJob: (id) => request('DELETE', `/api/jobs/${encodeURIComponent(id)}`),
+  jobEventsUrl: (id) => `/api/jobs/${encodeURIComponent(id)}/events`,
+};
+
+/** Job states after which nothing changes any more. */
+export const FINISHED_STATES = new Set(['succeeded', 'failed', 'cancelled']);
