@@ -68,6 +68,11 @@ nlohmann::json parse_body(const httplib::Request& req, const nlohmann::json& emp
     return nlohmann::json::parse(req.body);
   } catch (const nlohmann::json::parse_error& e) {
     throw HttpError{400, "bad_request", std::string("body: malformed JSON: ") + e.what()};
+  } catch (const nlohmann::json::out_of_range& e) {
+    // JSON has no NaN or infinity; a number beyond a double's range is the only way one can arrive.
+    throw HttpError{422, "invalid_model", std::string("body: a number is not finite as a double: ") + e.what()};
+  } catch (const nlohmann::json::exception& e) {
+    throw HttpError{400, "bad_request", std::string("body: ") + e.what()};
   }
 }
 
@@ -240,6 +245,8 @@ std::string Server::metrics_text() const {
 void Server::register_routes() {
   httplib::Server& http = *http_;
   http.set_payload_max_length(options_.body_limit);
+  // Without it, small responses on a kept-alive connection wait for the client's delayed ACK (~40 ms).
+  http.set_tcp_nodelay(true);
   http.new_task_queue = [threads = options_.http_threads] {
     return new httplib::ThreadPool(static_cast<std::size_t>(threads));
   };

@@ -3,7 +3,6 @@
 // one JSON object: requests, failures, latency percentiles, and the engine's xruns, faults and swaps.
 //
 //   build/bin/api_load_bench [--requests 12000] [--connections 4] [--seed 1]
-#include <httplib.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -22,6 +21,9 @@
 #include "models/linear_model.h"
 #include "models/plant_presets.h"
 #include "models/transfer_function.h"
+
+// After Eigen: glibc's <resolv.h>, which cpp-httplib includes, defines the macro _res that Eigen uses as a name.
+#include <httplib.h>
 
 namespace {
 
@@ -102,26 +104,28 @@ int main(int argc, char** argv) try {
     clients.emplace_back([&, c] {
       httplib::Client client("127.0.0.1", port);
       client.set_keep_alive(true);
+      client.set_tcp_nodelay(true);
       dsp::Rng rng(o.seed * 1000 + static_cast<std::uint64_t>(c));
       std::vector<double> mine;
       for (int k = next++; k < o.requests; k = next++) {
         const double pick = rng.uniform(0.0, 1.0);
         const auto t0 = std::chrono::steady_clock::now();
-        httplib::Result r;
         int expected = 200;
-        if (pick < 0.10) {
-          r = client.Post("/api/models", numbered_model(k).dump(), "application/json");
-          expected = 201;
-          ++uploads;
-        } else if (pick < 0.20) {
-          const std::string& id = active_pool[static_cast<std::size_t>(k) % 2];
-          r = client.Post(("/api/models/" + id + "/activate").c_str(), "", "application/json");
-          ++activations;
-        } else {
+        const httplib::Result r = [&] {
+          if (pick < 0.10) {
+            expected = 201;
+            ++uploads;
+            return client.Post("/api/models", numbered_model(k).dump(), "application/json");
+          }
+          if (pick < 0.20) {
+            ++activations;
+            const std::string& id = active_pool[static_cast<std::size_t>(k) % 2];
+            return client.Post(("/api/models/" + id + "/activate").c_str(), "", "application/json");
+          }
           static const char* const paths[] = {"/api/status", "/api/models", "/api/config", "/api/jobs", "/metrics"};
-          r = client.Get(paths[static_cast<std::size_t>(k) % 5]);
           ++reads;
-        }
+          return client.Get(paths[static_cast<std::size_t>(k) % 5]);
+        }();
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         mine.push_back(ms);
         if (!r || r->status != expected) {

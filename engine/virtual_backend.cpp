@@ -22,6 +22,10 @@ const VirtualBackendOptions& checked(const Chain& chain, const VirtualBackendOpt
     throw std::invalid_argument("virtual backend: the plant runs at " + std::to_string(options.plant.fs) +
                                 " Hz, the chain at " + std::to_string(spec.fs) + " Hz");
   }
+  if (options.buffer_periods < 1) {
+    throw std::invalid_argument("virtual backend: buffer_periods must be at least 1, got " +
+                                std::to_string(options.buffer_periods));
+  }
   return options;
 }
 
@@ -57,6 +61,8 @@ void VirtualBackend::run() noexcept {
   const auto period = std::chrono::duration_cast<clock::duration>(
       std::chrono::duration<double>(options_.block.value / chain_.options().spec.fs));
   const std::vector<double>& program = options_.program;
+  // The buffer's slack: how late a block may be before the card it stands for would run dry.
+  const auto slack = period * (options_.buffer_periods - 1);
   auto deadline = clock::now();
   while (!stop_.load(std::memory_order_relaxed)) {
     // Next block of program input: looped, or up to the end of the program.
@@ -85,12 +91,12 @@ void VirtualBackend::run() noexcept {
     if (options_.pacing == Pacing::real_time) {
       deadline += period;
       const auto now = clock::now();
-      if (now > deadline) {
+      if (now > deadline + slack) {
         chain_.metrics().record_xrun();
         deadline = now;  // start afresh rather than rushing to catch up
-      } else {
+      } else if (now < deadline) {
         std::this_thread::sleep_until(deadline);
-      }
+      }  // else: late, but within the buffer; the next block follows at once to catch up
     }
   }
 }

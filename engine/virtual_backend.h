@@ -34,6 +34,9 @@ struct BlockView {
 struct VirtualBackendOptions {
   Samples block{64};                   ///< block length (≤ the chain's max_block)
   Pacing pacing = Pacing::real_time;   ///< how the audio thread is paced
+  /// Real time: periods of the sound card this stands for (ALSA's minimum is 2). A block may be late by
+  /// up to buffer_periods − 1 periods, as a card's buffer allows, before it counts as an xrun.
+  int buffer_periods = 2;
   std::vector<double> program;         ///< program input from its start (empty: silence)
   bool loop = true;                    ///< repeat the program; else the run ends when it has been played
   models::PlantConfig plant;           ///< the simulated transducer (its fs must be the chain's)

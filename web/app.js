@@ -677,6 +677,7 @@ function follow(id) {
     f.timer = setTimeout(poll, JOB_POLL_MS);
   };
   if (typeof EventSource !== 'function') {
+    $('#result').dataset.transport = 'polling';
     poll();
     return;
   }
@@ -759,6 +760,22 @@ function flatten(obj, prefix = '', out = []) {
   return out;
 }
 
+/** A summary value: numbers to 4 digits, [re, im] pairs (poles, zeros) as complex numbers, long lists cut. */
+function fmtValue(v) {
+  if (v === null || v === undefined) return '—';
+  if (typeof v === 'number') return fmtNumber(v, 4);
+  if (!Array.isArray(v)) return String(v);
+  const item = (x) => {
+    if (Array.isArray(x) && x.length === 2 && x.every(num)) {
+      const [re, im] = x;
+      return im === 0 ? fmtNumber(re, 4) : `${fmtNumber(re, 4)}${im < 0 ? '−' : '+'}${fmtNumber(Math.abs(im), 4)}j`;
+    }
+    return Array.isArray(x) ? `[${x.map(item).join(', ')}]` : typeof x === 'number' ? fmtNumber(x, 4) : String(x);
+  };
+  const shown = v.slice(0, 16).map(item).join(', ');
+  return v.length > 16 ? `[${shown}, … ${v.length} values]` : `[${shown}]`;
+}
+
 function renderResult(job) {
   const r = job.result;
   $('#result-body').hidden = false;
@@ -772,9 +789,7 @@ function renderResult(job) {
   // Summary: the server's summary object, plus the excite figures when this is a record.
   const summary = { ...(r.summary || {}) };
   for (const k of ['fs', 'samples', 'validation_samples', 'rms_drive', 'rms_response']) if (k in r) summary[k] = r[k];
-  const rows = flatten(summary).map(([k, v]) => [el('dt', {}, k), el('dd', { class: 'mono' },
-    Array.isArray(v) ? (v.length > 12 ? `[${v.slice(0, 12).map((x) => fmtNumber(x)).join(', ')}, … ${v.length} values]` : `[${v.map((x) => fmtNumber(x)).join(', ')}]`)
-      : typeof v === 'number' ? fmtNumber(v, 4) : String(v))]).flat();
+  const rows = flatten(summary).map(([k, v]) => [el('dt', {}, k), el('dd', { class: 'mono' }, fmtValue(v))]).flat();
   $('#result-summary').replaceChildren(...rows);
   $('#result-summary-box').hidden = rows.length === 0;
 

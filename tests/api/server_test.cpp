@@ -275,8 +275,8 @@ TEST_F(ServerTest, BadModelsAndBadIdsAreRefusedWithTheReason) {
   const Reply infinite = post("/api/models", text);
   EXPECT_EQ(infinite.status, 422) << infinite.text;
   // Not a model at all, malformed JSON, wrong kind.
-  EXPECT_EQ(post("/api/models", R"({"kind":"linear"})").status, 400);
-  EXPECT_EQ(post("/api/models", R"({"kind":"teapot"})").status, 400);
+  EXPECT_EQ(post("/api/models", std::string(R"({"kind":"linear"})")).status, 400);
+  EXPECT_EQ(post("/api/models", std::string(R"({"kind":"teapot"})")).status, 400);
   EXPECT_EQ(post("/api/models", std::string("{\"kind\":")).status, 400);
   EXPECT_EQ(post("/api/models", std::string("[1,2]")).status, 400);
   // At another rate than the engine.

@@ -131,5 +131,33 @@ TEST(VirtualBackend, RealTimePacingTakesTheBlocksTime) {
   EXPECT_LT(chain.metrics().snapshot().load, 0.5);
 }
 
+// A block late by less than the buffer's slack is no xrun; one later than that is. The audio thread is
+// held up once, from on_block (a test's liberty: real callbacks must not wait), by 1.5 or 3 periods.
+std::uint64_t xruns_after_one_stall(double stall_periods, int buffer_periods) {
+  Chain chain(ChainOptions{});
+  VirtualBackendOptions o;
+  o.block = Samples{60};  // 20 ms
+  o.pacing = Pacing::real_time;
+  o.buffer_periods = buffer_periods;
+  o.program = periodic_program();
+  o.plant = models::plant_preset("linear");
+  const auto stall = std::chrono::duration<double>(stall_periods * 0.020);
+  o.on_block = [stall](const BlockView& b) {
+    if (b.index == 3) std::this_thread::sleep_for(stall);
+  };
+  VirtualBackend backend(chain, std::move(o));
+  backend.start();
+  while (backend.blocks() < 10) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  backend.stop();
+  return chain.metrics().snapshot().xruns;
+}
+
+TEST(VirtualBackend, ALateBlockIsAnXrunOnlyWhenTheBufferWouldHaveRunDry) {
+  EXPECT_EQ(xruns_after_one_stall(3.0, 1), 1u);
+  EXPECT_EQ(xruns_after_one_stall(3.0, 2), 1u);
+  EXPECT_EQ(xruns_after_one_stall(1.5, 1), 1u);
+  EXPECT_EQ(xruns_after_one_stall(1.5, 4), 0u);
+}
+
 }  // namespace
 }  // namespace panelbass::engine

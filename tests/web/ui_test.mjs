@@ -137,10 +137,11 @@ function startServer(storeDir) {
       const nl = out.indexOf('\n');
       if (nl < 0) return;
       const first = out.slice(0, nl);
-      const m = first.match(/^panelbass: serving (http:\/\/\S+?)\/?\s*$/);
+      // "panelbass: serving http://127.0.0.1:PORT/" (anything after the address, e.g. "(store …)", is ignored)
+      const m = first.match(/^panelbass: serving (http:\/\/[^\s/]+)\/?(\s|$)/);
       clearTimeout(timer);
       resolved = true;
-      if (m) resolve(m[1] + '/');
+      if (m) resolve(`${m[1]}/`);
       else reject(new TestFailure(`first stdout line is not "panelbass: serving http://HOST:PORT/": ${JSON.stringify(first)}`));
     });
     serverExited.then(({ code, signal }) => {
