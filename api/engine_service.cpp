@@ -116,9 +116,27 @@ void EngineService::stop() {
   chain_->collect_retired();
 }
 
-void EngineService::collect_retired() {
+void EngineService::housekeeping() {
+  using clock = std::chrono::steady_clock;
   const std::lock_guard lock(mutex_);
   chain_->collect_retired();
+  const clock::time_point now = clock::now();
+  if (!chain_->in_fault()) {
+    fault_since_.reset();
+    return;
+  }
+  if (!fault_since_) {
+    // A fault soon after the last recovery: it came back, so wait longer this time.
+    const bool came_back = recoveries_ > 0 && now - last_recovery_ < std::chrono::seconds(10);
+    hold_s_ = came_back ? std::min(2.0 * hold_s_, 30.0) : 1.0;
+    fault_since_ = now;
+  }
+  if (std::chrono::duration<double>(now - *fault_since_).count() >= hold_s_) {
+    chain_->clear_fault();
+    ++recoveries_;
+    last_recovery_ = now;
+    fault_since_.reset();
+  }
 }
 
 nlohmann::json EngineService::engine_status() const {
@@ -130,7 +148,9 @@ nlohmann::json EngineService::engine_status() const {
           {"plant", options_.plant.name},
           {"fs", running_.fs},
           {"block", running_.block},
-          {"uptime_s", uptime}};
+          {"uptime_s", uptime},
+          {"recoveries", recoveries_},
+          {"fault_hold_s", hold_s_}};
 }
 
 engine::MetricsSnapshot EngineService::metrics() const { return chain_->metrics().snapshot(); }

@@ -71,8 +71,11 @@ class EngineService {
   void start();
   /// Stops the audio thread (idempotent).
   void stop();
-  /// Frees retired stages; call now and then from a control thread.
-  void collect_retired();
+  /// Frees retired stages and recovers from a fault: call every ~100 ms from a control thread. A chain
+  /// in its safe bypass is cleared after a hold time (1 s, doubled up to 30 s while faults come back within
+  /// 10 s of a recovery), so a passing fault costs a second of bypass and a persistent one is retried
+  /// ever more rarely.
+  void housekeeping();
 
   /// {"state","backend","plant","fs","block","uptime_s"}.
   nlohmann::json engine_status() const;
@@ -114,6 +117,11 @@ class EngineService {
   bool playing_ = false;
   std::chrono::steady_clock::time_point started_{};
   std::uint64_t excitations_ = 0;
+  // Fault recovery (housekeeping thread only, besides the counters read under mutex_).
+  std::optional<std::chrono::steady_clock::time_point> fault_since_;
+  std::chrono::steady_clock::time_point last_recovery_{};
+  double hold_s_ = 1.0;
+  std::uint64_t recoveries_ = 0;
 };
 
 }  // namespace panelbass::api

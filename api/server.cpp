@@ -469,7 +469,7 @@ int Server::start() {
   housekeeping_ = std::thread([this] {
     while (running_.load(std::memory_order_relaxed)) {
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      engine_->collect_retired();
+      engine_->housekeeping();
     }
   });
   return port_;

@@ -50,6 +50,11 @@ void Chain::begin_block() noexcept {
     safe_bypass_ = false;
     metrics_.set_in_fault(false);
   }
+  // Faults a stage raised in the previous block (a lost sensor): recorded, nothing bypassed.
+  for (auto& slot : slots_) {
+    const Fault fault = slot->take_fault();
+    if (fault != Fault::none) metrics_.record_fault(fault);
+  }
   band_pass().begin_block();
   // In the safe bypass the model slots are not run; a pending install waits until the fault is cleared.
   if (!safe_bypass_) {
@@ -79,6 +84,7 @@ double Chain::process_sample(double x) noexcept {
       enter_safe_bypass(Fault::pinned);
       break;
     case Fault::non_finite_input:
+    case Fault::sensor_lost:
       break;
   }
   return drive;

@@ -81,10 +81,13 @@ class Chain {
   void process_block(std::span<const double> program, std::span<double> drive, Sensor&& sensor) noexcept {
     const auto started = std::chrono::steady_clock::now();
     begin_block();
+    double peak = 0.0;
     for (std::size_t k = 0; k < program.size(); ++k) {
       drive[k] = process_sample(program[k]);
+      peak = std::fmax(peak, std::abs(drive[k]));
       observe(sensor(drive[k]));
     }
+    metrics_.record_peak_drive(peak);
     const auto elapsed = std::chrono::steady_clock::now() - started;
     metrics_.record_block(static_cast<std::uint64_t>(std::chrono::nanoseconds(elapsed).count()), program.size());
   }

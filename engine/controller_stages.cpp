@@ -1,5 +1,6 @@
 #include "engine/controller_stages.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -48,20 +49,34 @@ NeuralFeedbackStage::NeuralFeedbackStage(models::NeuralFeedback controller, Feed
 void NeuralFeedbackStage::prepare(const ProcessSpec& spec) {
   require_rate(controller_.fs, spec.fs, "neural feedback stage");
   runner_ = std::make_unique<models::FeedbackRunner>(controller_);
+  // A tenth of a second of silence while the model predicts signal: the sensor is lost.
+  watch_ = SensorWatch({.silence = 1e-6, .timeout = std::max(1, static_cast<int>(std::lround(0.1 * spec.fs)))});
 }
 
 double NeuralFeedbackStage::process(double x) noexcept {
   const double v = runner_->control(x);
-  if (source_ == FeedbackSource::model) runner_->push_output(runner_->plant_model_output());
+  // The plant model runs in both modes: it is the output in model mode, and the stand-in for a lost sensor.
+  predicted_ = runner_->plant_model_output();
+  if (source_ == FeedbackSource::model) runner_->push_output(predicted_);
   return v;
 }
 
 void NeuralFeedbackStage::observe(double measured) noexcept {
-  if (source_ == FeedbackSource::sensor) runner_->push_output(measured);
+  if (source_ != FeedbackSource::sensor) return;
+  if (watch_.update(measured, predicted_) && watch_.lost()) fault_pending_ = true;
+  runner_->push_output(watch_.lost() ? predicted_ : measured);
 }
 
 void NeuralFeedbackStage::reset() noexcept {
   if (runner_) runner_->reset();
+  watch_.reset();
+  predicted_ = 0.0;
+}
+
+Fault NeuralFeedbackStage::take_fault() noexcept {
+  if (!fault_pending_) return Fault::none;
+  fault_pending_ = false;
+  return Fault::sensor_lost;
 }
 
 }  // namespace panelbass::engine

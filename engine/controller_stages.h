@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <memory>
 
+#include "engine/sensor_watch.h"
 #include "engine/stage.h"
 #include "models/neural_feedback.h"
 #include "models/state_space.h"
@@ -40,15 +41,23 @@ class NeuralFeedbackStage final : public Stage {
   void prepare(const ProcessSpec& spec) override;
   /// v(k) = soft_limit(u(k) + N1(…)); in model mode, also steps the plant model.
   double process(double x) noexcept override;
-  /// In sensor mode, the measured plant output becomes the newest past output.
+  /// In sensor mode, the measured plant output becomes the newest past output — unless the sensor has
+  /// gone silent (see SensorWatch), when the plant model's output stands in until it comes back.
   void observe(double measured) noexcept override;
   /// Every history to zero.
   void reset() noexcept override;
+  /// Fault::sensor_lost once when the sensor went silent (the stage then runs on its plant model).
+  Fault take_fault() noexcept override;
+  /// True while a silent sensor is replaced by the plant model.
+  bool on_model_fallback() const noexcept { return watch_.lost(); }
 
  private:
   models::NeuralFeedback controller_;
   FeedbackSource source_;
   std::unique_ptr<models::FeedbackRunner> runner_;
+  SensorWatch watch_;
+  double predicted_ = 0.0;     // the plant model's output for the sample just processed
+  bool fault_pending_ = false;
 };
 
 }  // namespace panelbass::engine

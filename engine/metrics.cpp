@@ -11,6 +11,7 @@ const char* fault_name(Fault fault) {
     case Fault::non_finite_input: return "non-finite input";
     case Fault::non_finite_output: return "non-finite output";
     case Fault::pinned: return "drive pinned at the rails";
+    case Fault::sensor_lost: return "sensor lost (feedback runs on its plant model)";
   }
   return "unknown";
 }
@@ -55,6 +56,7 @@ MetricsSnapshot Metrics::snapshot() const {
   s.swaps = swaps_.load(std::memory_order_relaxed);
   s.xruns = xruns_.load(std::memory_order_relaxed);
   s.in_fault = in_fault_.load(std::memory_order_relaxed);
+  s.peak_drive = peak_drive_.load(std::memory_order_relaxed);
   s.last_fault = last_fault_.load(std::memory_order_relaxed);
   for (std::size_t i = 0; i < kSlotCount; ++i) s.active_ids[i] = active_ids_[i].load(std::memory_order_relaxed);
   const double total_ns = static_cast<double>(total_ns_.load(std::memory_order_relaxed));

@@ -15,6 +15,7 @@ enum class Fault : std::uint8_t {
   non_finite_input,   ///< the program input was NaN or infinite
   non_finite_output,  ///< a stage produced NaN or infinity
   pinned,             ///< the drive stayed at the rails longer than allowed
+  sensor_lost,        ///< the sensor went silent: the feedback stage runs on its plant model (no bypass)
 };
 
 /// A short name of `fault` ("none", "non-finite input", …).
@@ -35,6 +36,7 @@ struct MetricsSnapshot {
   double max_block_ns = 0.0;     ///< longest block
   double ns_per_sample = 0.0;    ///< processing time per sample
   double load = 0.0;             ///< processing time / audio time (1 = no headroom left)
+  double peak_drive = 0.0;       ///< largest |drive| sent so far (the limiter keeps it ≤ 1)
   bool in_fault = false;         ///< the chain is in its safe bypass now
   Fault last_fault = Fault::none;  ///< the most recent fault
   std::array<std::uint64_t, kSlotCount> active_ids{};  ///< id of the stage active in each slot
@@ -59,6 +61,10 @@ class Metrics {
   void record_swap() noexcept { swaps_.fetch_add(1, std::memory_order_relaxed); }
   /// The stage now active in `slot` has id `id`.
   void set_active_id(std::size_t slot, std::uint64_t id) noexcept;
+  /// The largest |drive| of a block.
+  void record_peak_drive(double peak) noexcept {
+    if (peak > peak_drive_.load(std::memory_order_relaxed)) peak_drive_.store(peak, std::memory_order_relaxed);
+  }
   /// A block missed its deadline.
   void record_xrun() noexcept { xruns_.fetch_add(1, std::memory_order_relaxed); }
 
@@ -82,6 +88,8 @@ class Metrics {
   std::atomic<std::uint64_t> blocks_{0}, samples_{0}, total_ns_{0}, max_ns_{0};
   std::atomic<std::uint64_t> faults_{0}, swaps_{0}, xruns_{0};
   std::atomic<bool> in_fault_{false};
+  std::atomic<double> peak_drive_{0.0};
+  static_assert(std::atomic<double>::is_always_lock_free);
   std::atomic<Fault> last_fault_{Fault::none};
   std::array<std::atomic<std::uint64_t>, kSlotCount> active_ids_{};
   std::array<std::atomic<std::uint64_t>, kBins> histogram_{};

@@ -8,6 +8,7 @@ nlohmann::json metrics_to_json(const MetricsSnapshot& m) {
           {"xruns", m.xruns},
           {"faults", m.faults},
           {"in_fault", m.in_fault},
+          {"peak_drive", m.peak_drive},
           {"last_fault", fault_name(m.last_fault)},
           {"swaps", m.swaps},
           {"mean_block_ns", m.mean_block_ns},

@@ -138,6 +138,12 @@ void ModelSlot::observe(double measured) noexcept {
   if (incoming_ != nullptr) incoming_->observe(measured);
 }
 
+Fault ModelSlot::take_fault() noexcept {
+  const Fault incoming = incoming_ != nullptr ? incoming_->take_fault() : Fault::none;
+  const Fault active = active_ != nullptr ? active_->take_fault() : Fault::none;
+  return active != Fault::none ? active : incoming;
+}
+
 void ModelSlot::reset() noexcept {
   if (active_ != nullptr) active_->reset();
   if (incoming_ != nullptr) incoming_->reset();

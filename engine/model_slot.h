@@ -74,6 +74,8 @@ class ModelSlot {
   void observe(double measured) noexcept;
   /// The stages back to rest (after a fault).
   void reset() noexcept;
+  /// A fault the active (or incoming) stage raised since the last call (Stage::take_fault).
+  Fault take_fault() noexcept;
 
  private:
   double next_fade_gain(double old_out, double new_out) const noexcept;

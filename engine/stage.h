@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "dsp/biquad.h"
+#include "engine/metrics.h"
 #include "models/linear_model.h"
 #include "models/mlp.h"
 #include "models/narx_model.h"
@@ -49,6 +50,9 @@ class Stage {
 
   /// Back to rest.
   virtual void reset() noexcept = 0;
+  /// A fault the stage raised since the last call (e.g. its sensor went silent), Fault::none if none;
+  /// the chain polls it once per block and records it without bypassing anything.
+  virtual Fault take_fault() noexcept { return Fault::none; }
 
   /// A block: out[k] = process(in[k]); `out` as long as `in`.
   void process_block(std::span<const double> in, std::span<double> out) noexcept;

@@ -5,7 +5,11 @@
 #include <gtest/gtest.h>
 #include <httplib.h>
 
+#include <sys/resource.h>
+
 #include <chrono>
+#include <csignal>
+#include <functional>
 #include <fstream>
 #include <mutex>
 #include <regex>
@@ -408,6 +412,72 @@ TEST_F(ServerTest, ATokenGuardsTheApiAndIsRequiredBeyondLoopback) {
   EXPECT_EQ(get("/api/status").status, 200);
   client_->set_bearer_token_auth("wrong");
   EXPECT_EQ(get("/api/status").status, 401);
+}
+
+TEST_F(ServerTest, ASaturatingControllerTripsTheChainWhichRecoversAndTheDriveStaysBounded) {
+  start();
+  // A pure gain of 8 behind the band-pass pins the drive at the rails on the engine's noise program;
+  // with max_pinned_ms = 1 (3 samples) the limiter trips at once.
+  models::LinearModel gain;
+  gain.tf.b = Eigen::VectorXd::Constant(1, 8.0);
+  gain.fs = 3000.0;
+  ASSERT_EQ(patch("/api/config", R"({"limiter":{"max_pinned_ms":1}})").status, 200);
+  const std::string id = upload(models::linear_model_to_json(gain));
+  ASSERT_EQ(post("/api/models/" + id + "/activate", nlohmann::json::object()).status, 200);
+  const auto wait_for = [this](const std::function<bool(const nlohmann::json&)>& condition) {
+    const auto until = std::chrono::steady_clock::now() + 20s;
+    nlohmann::json status;
+    do {
+      status = get("/api/status").body;
+      if (condition(status)) return status;
+      std::this_thread::sleep_for(20ms);
+    } while (std::chrono::steady_clock::now() < until);
+    return status;
+  };
+  const nlohmann::json tripped = wait_for([](const nlohmann::json& s) { return s["metrics"]["in_fault"] == true; });
+  ASSERT_EQ(tripped["metrics"]["in_fault"], true) << tripped.dump();
+  EXPECT_EQ(tripped["metrics"]["last_fault"], "drive pinned at the rails");
+  EXPECT_GE(tripped["metrics"]["faults"].get<int>(), 1);
+  // The housekeeping brings it back after its hold time (and it trips again: the gain is still there).
+  const nlohmann::json recovered =
+      wait_for([](const nlohmann::json& s) { return s["engine"]["recoveries"].get<int>() >= 1; });
+  ASSERT_GE(recovered["engine"]["recoveries"].get<int>(), 1) << recovered.dump();
+  // The controller removed, the next recovery holds.
+  ASSERT_EQ(patch("/api/config", R"({"feedforward":{"model":null}})").status, 200);
+  const nlohmann::json clear = wait_for([](const nlohmann::json& s) { return s["metrics"]["in_fault"] == false; });
+  EXPECT_EQ(clear["metrics"]["in_fault"], false) << clear.dump();
+  EXPECT_EQ(clear["engine"]["state"], "running");
+  EXPECT_LE(clear["metrics"]["peak_drive"].get<double>(), 1.0);
+  EXPECT_GT(clear["metrics"]["peak_drive"].get<double>(), 0.5);  // the gain did reach the limiter
+  const std::string metrics = get("/metrics").text;
+  EXPECT_NE(metrics.find("panelbass_faults_total"), std::string::npos);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(metrics, m, std::regex(R"(\npanelbass_peak_drive ([0-9.e+-]+)\n)")));
+  EXPECT_LE(std::stod(m[1]), 1.0);
+}
+
+TEST_F(ServerTest, AStoreThatCannotBeWrittenGivesAClearErrorAndKeepsWhatItHad) {
+  start();
+  const std::string kept = upload(models::linear_model_to_json(example_linear()));
+  // A file size limit of 64 bytes stands in for a full disk: the write fails (EFBIG, SIGXFSZ ignored).
+  struct rlimit old {};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
+  const auto previous = std::signal(SIGXFSZ, SIG_IGN);
+  struct rlimit small = old;
+  small.rlim_cur = 64;
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+  const Reply refused = post("/api/models", models::linear_model_to_json(resonant_linear(0.9, 0.3, Eigen::Vector2d(0.1, 0.05), 1)));
+  setrlimit(RLIMIT_FSIZE, &old);
+  std::signal(SIGXFSZ, previous);
+  EXPECT_EQ(refused.status, 507) << refused.text;
+  EXPECT_EQ(refused.body["error"]["code"], "storage");
+  EXPECT_NE(error_message(refused).find("File too large"), std::string::npos) << refused.text;
+  const Reply list = get("/api/models");
+  ASSERT_EQ(list.body["models"].size(), 1u);
+  EXPECT_EQ(list.body["models"][0]["id"], kept);
+  for (const auto& entry : std::filesystem::directory_iterator(dir_ / "store" / "models")) {
+    EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos) << "left-over " << entry.path();
+  }
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // neural feedback controller in model and sensor mode, and the stage factory's dispatch on the kind.
 #include <gtest/gtest.h>
 
+#include "engine/chain.h"
 #include "engine/controller_stages.h"
 #include "engine/stage_factory.h"
 #include "models/config_error.h"
@@ -97,6 +98,55 @@ TEST(ControllerStagesTest, FactoryBuildsEveryKindAndRefusesOthers) {
   nlohmann::json wrong_rate = models::neural_feedback_to_json(c);
   const std::unique_ptr<Stage> at_3k = make_stage(wrong_rate);
   EXPECT_THROW(at_3k->prepare(ProcessSpec{48000.0, 64}), std::invalid_argument);
+}
+
+TEST(ControllerStagesTest, ASilentSensorIsReplacedByThePlantModelAndReportedOnce) {
+  const models::NeuralFeedback c = example_feedback();
+  const Eigen::VectorXd u = noise(2400, 0.7, 5);
+  const models::ClosedLoopRun loop = models::simulate_closed_loop(c, u);
+  NeuralFeedbackStage stage(c, FeedbackSource::sensor);
+  stage.prepare(ProcessSpec{kFs, 64});
+  // The sensor reads the plant (model) until sample 600, nothing from 600 to 1499, a signal again after.
+  const auto reading = [&loop](Eigen::Index k) { return k >= 600 && k < 1500 ? 0.0 : loop.y[k]; };
+  std::vector<Eigen::Index> faults;
+  Eigen::Index lost_from = -1, back_from = -1;
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    const double v = stage.process(u[k]);
+    ASSERT_TRUE(std::isfinite(v));
+    ASSERT_LE(std::abs(v), 1.0);
+    if (k < 600) {
+      ASSERT_NEAR(v, loop.v[k], 1e-12) << k;
+    }
+    stage.observe(reading(k));
+    if (stage.take_fault() == Fault::sensor_lost) faults.push_back(k);
+    if (stage.on_model_fallback() && lost_from < 0) lost_from = k;
+    if (!stage.on_model_fallback() && lost_from >= 0 && back_from < 0) back_from = k;
+  }
+  // 0.1 s at 3 kHz = 300 samples of silence while the model predicts signal; as long to come back.
+  EXPECT_EQ(faults, std::vector<Eigen::Index>{899});
+  EXPECT_EQ(lost_from, 899);
+  EXPECT_EQ(back_from, 1799);
+}
+
+TEST(ControllerStagesTest, TheChainRecordsALostSensorWithoutBypassingAnything) {
+  const models::NeuralFeedback c = example_feedback();
+  ChainOptions options;
+  Chain chain(options);
+  chain.feedback().set_initial(std::make_unique<NeuralFeedbackStage>(c, FeedbackSource::sensor));
+  const Eigen::VectorXd u = noise(3000, 0.5, 6);
+  std::vector<double> drive(64);
+  // A sensor that reads a scaled copy of the drive for 0.5 s, then nothing.
+  std::size_t sample = 0;
+  for (Eigen::Index pos = 0; pos + 64 <= u.size(); pos += 64) {
+    chain.process_block(std::span<const double>(u.data() + pos, 64), drive, [&sample](double d) noexcept {
+      return sample++ < 1500 ? 0.8 * d : 0.0;
+    });
+    for (const double d : drive) ASSERT_LE(std::abs(d), 1.0);
+  }
+  const MetricsSnapshot m = chain.metrics().snapshot();
+  EXPECT_EQ(m.faults, 1u);
+  EXPECT_EQ(m.last_fault, Fault::sensor_lost);
+  EXPECT_FALSE(m.in_fault);  // the feedback runs on its plant model; nothing is bypassed
 }
 
 }  // namespace
