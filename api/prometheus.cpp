@@ -52,6 +52,7 @@ std::string prometheus_text(const engine::MetricsSnapshot& m, const ServiceCount
   gauge("panelbass_load", "Processing time over audio time.", m.load);
   gauge("panelbass_peak_drive", "Largest |drive| sent to the amplifier (never above 1).", m.peak_drive);
   e.family("panelbass_block_seconds", "summary", "Processing time of an audio block.");
+  e.sample("panelbass_block_seconds", "quantile=\"0.5\"", m.p50_block_ns * 1e-9);
   e.sample("panelbass_block_seconds", "quantile=\"0.99\"", m.p99_block_ns * 1e-9);
   e.sample("panelbass_block_seconds_max", "", m.max_block_ns * 1e-9);
   e.sample("panelbass_block_seconds_sum", "", m.mean_block_ns * 1e-9 * static_cast<double>(m.blocks));

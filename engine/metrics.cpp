@@ -64,19 +64,21 @@ MetricsSnapshot Metrics::snapshot() const {
   if (s.blocks > 0) s.mean_block_ns = total_ns / static_cast<double>(s.blocks);
   if (s.samples > 0) s.ns_per_sample = total_ns / static_cast<double>(s.samples);
   if (s.samples > 0 && fs_ > 0.0) s.load = total_ns / (static_cast<double>(s.samples) / fs_ * 1e9);
-  // p99: the first bin where the cumulative count reaches 99 % of the blocks counted in the histogram
+  // A quantile: the first bin where the cumulative count reaches that share of the blocks counted.
   std::array<std::uint64_t, kBins> counts{};
   std::uint64_t counted = 0;
   for (std::size_t b = 0; b < kBins; ++b) counted += counts[b] = histogram_[b].load(std::memory_order_relaxed);
-  const auto target = static_cast<std::uint64_t>(std::ceil(0.99 * static_cast<double>(counted)));
-  std::uint64_t cumulative = 0;
-  for (std::size_t b = 0; b < kBins && counted > 0; ++b) {
-    cumulative += counts[b];
-    if (cumulative >= target) {
-      s.p99_block_ns = std::fmin(bin_upper_ns(b), s.max_block_ns);
-      break;
+  const auto quantile = [&](double share) {
+    const auto target = static_cast<std::uint64_t>(std::ceil(share * static_cast<double>(counted)));
+    std::uint64_t cumulative = 0;
+    for (std::size_t b = 0; b < kBins && counted > 0; ++b) {
+      cumulative += counts[b];
+      if (cumulative >= target) return std::fmin(bin_upper_ns(b), s.max_block_ns);
     }
-  }
+    return 0.0;
+  };
+  s.p50_block_ns = quantile(0.50);
+  s.p99_block_ns = quantile(0.99);
   return s;
 }
 

@@ -32,6 +32,7 @@ struct MetricsSnapshot {
   std::uint64_t swaps = 0;       ///< stages taken over from a pending install
   std::uint64_t xruns = 0;       ///< blocks that missed their deadline (backends report them)
   double mean_block_ns = 0.0;    ///< mean processing time of a block
+  double p50_block_ns = 0.0;     ///< median (upper edge of its histogram bin, ≤ max)
   double p99_block_ns = 0.0;     ///< 99th percentile (upper edge of its histogram bin, ≤ max)
   double max_block_ns = 0.0;     ///< longest block
   double ns_per_sample = 0.0;    ///< processing time per sample

@@ -12,6 +12,7 @@ nlohmann::json metrics_to_json(const MetricsSnapshot& m) {
           {"last_fault", fault_name(m.last_fault)},
           {"swaps", m.swaps},
           {"mean_block_ns", m.mean_block_ns},
+          {"p50_block_ns", m.p50_block_ns},
           {"p99_block_ns", m.p99_block_ns},
           {"max_block_ns", m.max_block_ns},
           {"ns_per_sample", m.ns_per_sample},

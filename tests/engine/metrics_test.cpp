@@ -1,4 +1,4 @@
-// Metrics: the histogram bins cover every time in order, p99/mean/max of known block times, and a
+// Metrics: the histogram bins cover every time in order, p50/p99/mean/max of known block times, and a
 // reader thread that snapshots while the writer records.
 #include "engine/metrics.h"
 
@@ -40,6 +40,16 @@ TEST(Metrics, MeanP99AndMaxOfKnownBlockTimes) {
 
   s = m.snapshot();
   EXPECT_DOUBLE_EQ(s.p99_block_ns, 1e6);
+  // The median is still a 1000 ns block.
+  EXPECT_GE(s.p50_block_ns, 1000.0);
+  EXPECT_LE(s.p50_block_ns, 1250.0);
+  // Half and half: the median is the fast bin's edge; one more slow block moves it to the slow bin.
+  Metrics half;
+  for (int i = 0; i < 50; ++i) half.record_block(1000, 64);
+  for (int i = 0; i < 50; ++i) half.record_block(1'000'000, 64);
+  EXPECT_LE(half.snapshot().p50_block_ns, 1250.0);
+  half.record_block(1'000'000, 64);
+  EXPECT_DOUBLE_EQ(half.snapshot().p50_block_ns, 1e6);
 }
 
 TEST(Metrics, FaultsSwapsXrunsAndActiveIds) {
