@@ -254,7 +254,22 @@ void JobQueue::finish(const std::shared_ptr<Entry>& entry, JobRecord ended) {
   entry->record = std::move(ended);
   entry->work = nullptr;
   publish(*entry, "state", final_state_data(entry->record));
+  drop_old_results();
   changed_.notify_all();
+}
+
+// Caller holds mutex_. Newest first: the first kResultsKept finished jobs keep everything.
+void JobQueue::drop_old_results() {
+  std::size_t finished = 0;
+  for (auto it = order_.rbegin(); it != order_.rend(); ++it) {
+    Entry& entry = *jobs_.at(*it);
+    if (!has_ended(entry.record.state) || !entry.finishing) continue;
+    if (++finished <= kResultsKept || entry.record.result_dropped) continue;
+    entry.record.result_dropped = true;
+    entry.record.result = nullptr;
+    entry.record.params = nullptr;
+    while (entry.events.size() > 1) entry.events.pop_front();  // the final state event stays
+  }
 }
 
 void JobQueue::worker() noexcept {
@@ -306,7 +321,8 @@ void JobQueue::worker() noexcept {
   }
 }
 
-std::string JobQueue::submit(const std::string& kind, const json& params, JobWork work) {
+std::string JobQueue::submit(const std::string& kind, const json& params, JobWork work,
+                             const std::function<void(const JobRecord&)>& before_queued) {
   auto entry = std::make_shared<Entry>();
   entry->record.kind = kind;
   entry->record.params = params;
@@ -316,8 +332,10 @@ std::string JobQueue::submit(const std::string& kind, const json& params, JobWor
   {
     const std::lock_guard lock(mutex_);
     if (stopping_) throw std::logic_error("JobQueue::submit: the queue is stopping");
-    id = "j" + std::to_string(next_number_++);
-    entry->record.id = id;
+    entry->record.id = "j" + std::to_string(next_number_);
+    if (before_queued) before_queued(entry->record);  // may throw: then nothing was queued
+    id = entry->record.id;
+    ++next_number_;
     publish(*entry, "state", {{"state", "queued"}});
     jobs_[id] = entry;
     order_.push_back(id);
@@ -345,6 +363,7 @@ void JobQueue::restore(JobRecord job) {
   jobs_[id] = entry;
   // Restored jobs may come in any order; the list stays in order of submission (= of id number).
   order_.insert(std::upper_bound(order_.begin(), order_.end(), id, job_id_less), id);
+  drop_old_results();
   changed_.notify_all();
 }
 
@@ -359,7 +378,22 @@ std::vector<JobRecord> JobQueue::list() const {
   const std::lock_guard lock(mutex_);
   std::vector<JobRecord> out;
   out.reserve(order_.size());
-  for (const std::string& id : order_) out.push_back(jobs_.at(id)->record);
+  for (const std::string& id : order_) {
+    const JobRecord& r = jobs_.at(id)->record;
+    JobRecord summary;  // field by field: params and result can be large
+    summary.id = r.id;
+    summary.kind = r.kind;
+    summary.state = r.state;
+    summary.progress = r.progress;
+    summary.message = r.message;
+    summary.error = r.error;
+    summary.created = r.created;
+    summary.started = r.started;
+    summary.finished = r.finished;
+    summary.extra = r.extra;
+    summary.result_dropped = r.result_dropped;
+    out.push_back(std::move(summary));
+  }
   return out;
 }
 

@@ -62,6 +62,7 @@ struct JobRecord {
   std::string error;              ///< why it failed ("" otherwise)
   std::string created, started, finished;  ///< UTC ISO 8601 ("" until it happens)
   nlohmann::json extra = nlohmann::json::object();  ///< set by the owner after it finished (e.g. "activated")
+  bool result_dropped = false;    ///< the result was dropped from memory (see JobQueue::kResultsKept); the owner's store has it
 };
 
 /// The record as JSON; `with_details` adds "params", "result" and the extra fields.
@@ -84,14 +85,22 @@ class JobQueue {
   JobQueue& operator=(const JobQueue&) = delete;
 
   /// Queues `work`; returns the new job's id. Ids continue after the largest restored one.
-  std::string submit(const std::string& kind, const nlohmann::json& params, JobWork work);
+  /// `before_queued` (if set) sees the queued record before any worker can start it — the place to
+  /// persist it, so that a later write of the finished record can never be overtaken; if it throws, the
+  /// job is not queued and the exception propagates.
+  std::string submit(const std::string& kind, const nlohmann::json& params, JobWork work,
+                     const std::function<void(const JobRecord&)>& before_queued = {});
   /// Adds a finished job read back from the store (a queued or running one comes back as failed,
   /// "interrupted by a restart"); an id already known is ignored.
   void restore(JobRecord job);
   /// The record of `id`.
   std::optional<JobRecord> get(const std::string& id) const;
-  /// Every job, in order of submission.
+  /// Every job, in order of submission, without params and results (summaries).
   std::vector<JobRecord> list() const;
+  /// Finished jobs whose results and events stay in memory (the newest); older ones keep their summary
+  /// and final state event only, so memory stays bounded however many jobs run. The owner persists every
+  /// record in on_finished and serves dropped results from there.
+  static constexpr std::size_t kResultsKept = 64;
   /// Number of jobs in `state`.
   std::size_t count(JobState state) const;
   /// Cancels `id`: a queued job at once, a running one at its next progress report. Returns the state
@@ -108,6 +117,7 @@ class JobQueue {
   struct Entry;
   class Control;
   void worker() noexcept;
+  void drop_old_results();
   // Appends an event to `entry`'s stream (mutex_ held).
   void publish(Entry& entry, const std::string& type, nlohmann::json data);
   // Ends `entry` with the record `ended`: on_finished, then the record and its final state event (mutex_ not held).

@@ -237,7 +237,22 @@ void ModelStore::put_job(const std::string& id, const json& record) {
   stored["id"] = id;
   const std::lock_guard lock(mutex_);
   write_file_atomically(root_ / "jobs" / (id + ".json"), file.dump(2));
-  jobs_[id] = std::move(stored);
+}
+
+void ModelStore::release_jobs() {
+  const std::lock_guard lock(mutex_);
+  jobs_.clear();
+}
+
+std::optional<json> ModelStore::job(const std::string& id) const {
+  if (!is_valid_id(id)) return std::nullopt;
+  try {
+    json record = read_stored(root_ / "jobs" / (id + ".json"), kJobFormat);
+    record.erase("format");
+    return record;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
 }
 
 // The records as job_to_json() made them (without the store's format tag), in natural id order (j2 before

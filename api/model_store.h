@@ -62,10 +62,15 @@ class ModelStore {
   /// Deletes `id`'s file; false if it was not stored. Throws StoreError if the file cannot be removed.
   bool remove(const std::string& id);
 
-  /// Writes (atomically, replacing) the record of job `id`. Throws StoreError.
+  /// Writes (atomically, replacing) the record of job `id`; the store does not keep it in memory.
+  /// Throws StoreError.
   void put_job(const std::string& id, const nlohmann::json& record);
-  /// Every job record read at start-up or written since, by id.
+  /// The job records read at start-up, in submission order (until release_jobs()).
   std::vector<nlohmann::json> jobs() const;
+  /// Forgets the records read at start-up (once the job queue holds them), so memory stays bounded.
+  void release_jobs();
+  /// The stored record of job `id`, read from its file (nullopt if there is none or it is unreadable).
+  std::optional<nlohmann::json> job(const std::string& id) const;
 
   /// The folder.
   const std::filesystem::path& root() const { return root_; }

@@ -36,7 +36,8 @@ const char* kJsonType = "application/json";
 
 void send_json(httplib::Response& res, int status, const nlohmann::json& body) {
   res.status = status;
-  res.set_content(body.dump(), kJsonType);
+  // Error messages may quote what a client sent, invalid UTF-8 included: replace it rather than throw.
+  res.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), kJsonType);
 }
 
 void send_error(httplib::Response& res, int status, const std::string& code, const std::string& message) {
@@ -148,6 +149,11 @@ Server::Server(ServerOptions options) : options_(std::move(options)) {
   environment_.job_result = [this](const std::string& id) -> std::optional<nlohmann::json> {
     const std::optional<JobRecord> job = jobs_->get(id);
     if (!job || job->state != JobState::succeeded) return std::nullopt;
+    if (job->result_dropped) {
+      const std::optional<nlohmann::json> stored = store_->job(id);
+      if (!stored || !stored->contains("result")) return std::nullopt;
+      return (*stored)["result"];
+    }
     return job->result;
   };
   jobs_ = std::make_unique<JobQueue>(options_.workers, [this](JobRecord& job) { on_job_finished(job); });
@@ -158,6 +164,7 @@ Server::Server(ServerOptions options) : options_(std::move(options)) {
       options_.log(std::string("warning: a stored job record was skipped: ") + e.what());
     }
   }
+  store_->release_jobs();
   http_ = std::make_unique<httplib::Server>();
   register_routes();
 }
@@ -206,12 +213,15 @@ void Server::on_job_finished(JobRecord& job) {
 
 std::string Server::submit_job(const std::string& kind, const nlohmann::json& params, bool activate) {
   const nlohmann::json checked = validate_job_params(kind, params, environment_);
-  const std::string id = jobs_->submit(kind, checked, job_work(kind, environment_));
-  if (activate) {
-    const std::lock_guard lock(activate_mutex_);
-    activate_on_success_[id] = true;
-  }
-  return id;
+  // The queued record is on disk before a worker can start the job (a restart shows it as interrupted).
+  // So is the wish to activate its result, which a fast job could otherwise finish before.
+  return jobs_->submit(kind, checked, job_work(kind, environment_), [this, activate](const JobRecord& queued) {
+    store_->put_job(queued.id, job_to_json(queued, true));
+    if (activate) {
+      const std::lock_guard lock(activate_mutex_);
+      activate_on_success_[queued.id] = true;
+    }
+  });
 }
 
 nlohmann::json Server::status_json() const {
@@ -399,19 +409,18 @@ void Server::register_routes() {
               }
               const std::string kind = body["kind"].get<std::string>();
               const std::string id = submit_job(kind, params, body.value("activate", false));
-              if (const std::optional<JobRecord> job = jobs_->get(id)) {
-                try {
-                  store_->put_job(id, job_to_json(*job, true));
-                } catch (const std::exception& e) {
-                  options_.log(std::string("warning: job ") + id + " could not be stored: " + e.what());
-                }
-              }
               send_json(res, 202, {{"id", id}, {"kind", kind}, {"state", "queued"}});
             }));
   http.Get(R"(/api/jobs/([^/]+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
              const std::string id = path_id(req, "job");
              const std::optional<JobRecord> job = jobs_->get(id);
              if (!job) throw HttpError{404, "not_found", "no job \"" + id + "\""};
+             if (job->result_dropped) {  // an old job: its whole record is in the store
+               if (std::optional<nlohmann::json> stored = store_->job(id)) {
+                 send_json(res, 200, *stored);
+                 return;
+               }
+             }
              send_json(res, 200, job_to_json(*job, true));
            }));
   http.Delete(R"(/api/jobs/([^/]+))", guarded([this](const httplib::Request& req, httplib::Response& res) {

@@ -386,5 +386,40 @@ TEST(JobRecordJson, ErrorsNameTheField) {
   EXPECT_NE(message(json::array()).find("job"), std::string::npos);
 }
 
+TEST(JobQueue, OnlyTheNewestFinishedJobsKeepTheirResultsInMemory) {
+  std::vector<std::string> persisted;
+  JobQueue queue(1, [&persisted](JobRecord& job) { persisted.push_back(job.result.dump()); });
+  const std::size_t extra = 5;
+  std::vector<std::string> ids;
+  for (std::size_t k = 0; k < JobQueue::kResultsKept + extra; ++k) {
+    ids.push_back(queue.submit("echo", {{"k", k}}, [](const json& params, JobControl&) -> json {
+      return {{"k", params["k"]}, {"padding", std::string(1000, 'x')}};
+    }));
+  }
+  for (const std::string& id : ids) ASSERT_TRUE(queue.wait(id, kPatience));
+  // Every result reached the owner before anything was dropped.
+  ASSERT_EQ(persisted.size(), ids.size());
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    EXPECT_NE(persisted[k].find("\"k\":" + std::to_string(k)), std::string::npos) << persisted[k];
+    const JobRecord job = *queue.get(ids[k]);
+    EXPECT_EQ(job.state, JobState::succeeded);
+    if (k < extra) {
+      EXPECT_TRUE(job.result_dropped) << ids[k];
+      EXPECT_TRUE(job.result.is_null());
+      // Its stream still ends with the final state.
+      bool ended = false;
+      const std::vector<JobEvent> events = queue.events_after(ids[k], 0, milliseconds(10), &ended);
+      ASSERT_EQ(events.size(), 1u);
+      EXPECT_EQ(events[0].data["state"], "succeeded");
+      EXPECT_TRUE(ended);
+    } else {
+      EXPECT_FALSE(job.result_dropped) << ids[k];
+      EXPECT_EQ(job.result["k"], k);
+    }
+  }
+  // The list carries summaries only.
+  for (const JobRecord& summary : queue.list()) EXPECT_TRUE(summary.result.is_null());
+}
+
 }  // namespace
 }  // namespace panelbass::api

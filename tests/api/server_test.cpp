@@ -132,12 +132,14 @@ TEST_F(ServerTest, HealthStatusAndMetricsDescribeARunningEngine) {
 
   const Reply metrics = get("/metrics");
   ASSERT_EQ(metrics.status, 200);
-  // Prometheus text: the block counter is at least what the status saw, and the earlier 200s are counted.
+  // Prometheus text: the block counter is at least what the status saw, and the earlier 200 is counted.
   std::smatch m;
   ASSERT_TRUE(std::regex_search(metrics.text, m, std::regex(R"(\npanelbass_blocks_total (\d+)\n)"))) << metrics.text;
   EXPECT_GE(std::stod(m[1]), status.body["metrics"]["blocks"].get<double>());
   ASSERT_TRUE(std::regex_search(metrics.text, m, std::regex(R"(panelbass_http_requests_total\{code="200"\} (\d+))")));
-  EXPECT_GE(std::stoi(m[1]), 2);
+  // At least the health check's (the logger counts a response after sending it, so the status request
+  // just before may not be counted yet).
+  EXPECT_GE(std::stoi(m[1]), 1);
   EXPECT_NE(metrics.text.find("# TYPE panelbass_xruns_total counter"), std::string::npos);
 }
 
@@ -478,6 +480,27 @@ TEST_F(ServerTest, AStoreThatCannotBeWrittenGivesAClearErrorAndKeepsWhatItHad) {
   for (const auto& entry : std::filesystem::directory_iterator(dir_ / "store" / "models")) {
     EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos) << "left-over " << entry.path();
   }
+}
+
+TEST_F(ServerTest, AnOldJobsResultComesFromTheStoreAfterMemoryDroppedIt) {
+  start();
+  std::vector<std::string> ids;
+  for (std::size_t k = 0; k < JobQueue::kResultsKept + 2; ++k) {
+    const Reply r = post("/api/jobs", nlohmann::json{{"kind", "excite"},
+                                                     {"params", {{"samples", 200}, {"validation_samples", 200}, {"seed", k + 1}}}});
+    ASSERT_EQ(r.status, 202) << r.text;
+    ids.push_back(r.body["id"]);
+  }
+  for (const std::string& id : ids) ASSERT_EQ(wait_job(id)["state"], "succeeded");
+  ASSERT_TRUE(server_->jobs().get(ids.front())->result_dropped);
+  const Reply oldest = get("/api/jobs/" + ids.front());
+  ASSERT_EQ(oldest.status, 200);
+  EXPECT_EQ(oldest.body["result"]["record"]["u_est"].size(), 200u) << oldest.text.substr(0, 300);
+  // It can still be used as the record of an identification.
+  const Reply identify = post("/api/jobs", nlohmann::json{{"kind", "identify-linear"},
+                                                          {"params", {{"record", ids.front()}, {"order", 2}}}});
+  ASSERT_EQ(identify.status, 202) << identify.text;
+  EXPECT_EQ(wait_job(identify.body["id"])["state"], "succeeded");
 }
 
 }  // namespace

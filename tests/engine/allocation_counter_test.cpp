@@ -38,8 +38,13 @@ void count_free(void* p) {
 
 }  // namespace
 
-#if defined(__SANITIZE_ADDRESS__)
-// AddressSanitizer owns malloc: count operator new/delete only, on top of its allocator.
+// AddressSanitizer and ThreadSanitizer own malloc (replacing it breaks their start-up): count operator
+// new/delete only, on top of their allocators.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define PANELBASS_SANITIZER_OWNS_MALLOC 1
+#endif
+
+#if defined(PANELBASS_SANITIZER_OWNS_MALLOC)
 namespace {
 void* raw_malloc(std::size_t n) { return std::malloc(n); }
 void* raw_aligned(std::size_t align, std::size_t n) {
@@ -160,7 +165,7 @@ TEST(AllocationCounter, SeesAllocationsAndFrees) {
   }
   EXPECT_GE(seen_allocations, 2);
   EXPECT_GE(seen_frees, 2);
-#if !defined(__SANITIZE_ADDRESS__)
+#if !defined(PANELBASS_SANITIZER_OWNS_MALLOC)
   void* (*volatile allocate)(std::size_t) = std::malloc;
   {
     Counting c;
