@@ -1,6 +1,7 @@
 #include "api/server.h"
 
 #include <httplib.h>
+#include <malloc.h>
 
 #include <chrono>
 #include <cmath>
@@ -476,9 +477,12 @@ int Server::start() {
   engine_->start();
   http_thread_ = std::thread([this] { http_->listen_after_bind(); });
   housekeeping_ = std::thread([this] {
-    while (running_.load(std::memory_order_relaxed)) {
+    for (std::uint64_t tick = 1; running_.load(std::memory_order_relaxed); ++tick) {
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
       engine_->housekeeping();
+      // Every 10 s, hand freed memory back to the system: each HTTP thread's malloc arena otherwise keeps
+      // its largest response's worth (a list of thousands of models) for the life of the process.
+      if (tick % 100 == 0) malloc_trim(0);
     }
   });
   return port_;
