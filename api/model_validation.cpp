@@ -206,9 +206,22 @@ void require_bounded_closed_loop(const models::NeuralFeedback& c) {
   }
 }
 
+// The engine realizes a linear model as a dense state space of order max(na, nb + nk) (O(n³) work when it
+// is activated), so a huge delay would hang the server; identified models stay far below this.
+constexpr Eigen::Index kMaxLinearStates = 64;
+
 // Runs the kind's loader (format, fields, dimensions) and returns the model's rate.
 double load(const std::string& kind, const json& model) {
-  if (kind == "linear") return models::linear_model_from_json(model).fs;
+  if (kind == "linear") {
+    const models::LinearModel m = models::linear_model_from_json(model);
+    const Eigen::Index states = std::max<Eigen::Index>(m.tf.a.size(), m.tf.b.size() + m.tf.nk);
+    if (states > kMaxLinearStates) {
+      throw ModelRejected(kInvalidModel, "model.params: " + std::to_string(states) +
+                                             " states (max(na, nb + nk)) are more than the engine runs (" +
+                                             std::to_string(kMaxLinearStates) + ")");
+    }
+    return m.fs;
+  }
   if (kind == "narx") return models::narx_model_from_json(model).fs;
   if (kind == "lq_feedforward") return models::lq_feedforward_from_json(model).fs;
   const models::NeuralFeedback c = models::neural_feedback_from_json(model);

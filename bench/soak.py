@@ -5,7 +5,7 @@ polls, config changes, uploads, activations, small jobs, and bad requests (which
 4xx, never a 5xx). Reports xruns, faults, per-buffer time (p50/p99/max), request latencies, failed valid
 requests and memory (RSS at start, every minute, and at the end).
 
-    python3 bench/soak.py [--minutes 10] [--rate 50] [--seed 1] [--bin build/bin/panelbass]
+    python3 bench/soak.py [--minutes 10] [--rate 50] [--seed 1] [--bin build/bin/panelbass] [--no-uploads]
 
 Exits 1 if a valid request failed, a bad request got anything but a 4xx, an xrun happened, or the drive
 left [-1, 1].
@@ -92,6 +92,8 @@ def main():
     parser.add_argument("--rate", type=float, default=50.0, help="requests per second (bounded client)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--bin", default="build/bin/panelbass")
+    parser.add_argument("--no-uploads", action="store_true",
+                        help="no new models during the soak (memory then has no stored data to grow with)")
     args = parser.parse_args()
     rng = random.Random(args.seed)
     store = tempfile.mkdtemp(prefix="panelbass-soak-")
@@ -138,6 +140,8 @@ def main():
                 kind, (status, _, ms) = "models", call(address, "GET", "/api/models")
             elif pick < 0.62:
                 kind, (status, _, ms) = "metrics", call(address, "GET", "/metrics")
+            elif pick < 0.70 and args.no_uploads:
+                kind, (status, _, ms) = "status", call(address, "GET", "/api/status")
             elif pick < 0.70:
                 uploads += 1
                 kind, (status, _, ms) = "upload", call(address, "POST", "/api/models", numbered_model(uploads))

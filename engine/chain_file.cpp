@@ -199,7 +199,10 @@ ChainConfig chain_config_from_json(const nlohmann::json& json, const std::filesy
   c.fs = top.number("fs");
   models::require_within(c.fs, 1.0, 1e6, top.path_of("fs"));
   c.block = static_cast<int>(top.integer("block", c.block, 1, 8192));
-  if (const nlohmann::json* v = top.member("band_pass")) c.band_pass = parse_band_pass(*v, c.fs);
+  // An absent band_pass stands for its defaults, which must suit fs as well (a 1200 Hz corner at fs = 300 Hz
+  // is no filter: the chain was accepted, then its own JSON form was refused).
+  const nlohmann::json* band_pass = top.member("band_pass");
+  c.band_pass = parse_band_pass(band_pass != nullptr ? *band_pass : nlohmann::json::object(), c.fs);
   if (const nlohmann::json* v = top.member("feedforward")) c.feedforward = parse_slot(*v, "feedforward", c.fs, folder, false);
   if (const nlohmann::json* v = top.member("feedback")) c.feedback = parse_slot(*v, "feedback", c.fs, folder, true);
   c.crossfade_ms = top.number("crossfade_ms", c.crossfade_ms);

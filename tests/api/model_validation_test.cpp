@@ -193,5 +193,19 @@ TEST(ModelValidation, AMissingOrUnknownKindIsABadRequestNamingKind) {
   expect_rejected(json::array({1, 2}), "bad_request", "model");
 }
 
+TEST(ModelValidation, ALinearModelWithMoreStatesThanTheEngineRunsIsInvalid) {
+  // Found by fuzzing: a huge delay makes the engine realize a state space of that order (O(n³)).
+  json model = linear_json();
+  const std::size_t nb = model["params"]["b"].size();
+  const std::size_t na = model["params"]["a"].size();
+  model["params"]["nk"] = 64 - static_cast<int>(nb);  // exactly 64 states: accepted
+  EXPECT_EQ(validate_model(model).kind, "linear");
+  model["params"]["nk"] = 65 - static_cast<int>(nb);
+  expect_rejected(model, "invalid_model", "65 states");
+  model["params"]["nk"] = 100000;
+  expect_rejected(model, "invalid_model", std::to_string(100000 + nb) + " states");
+  EXPECT_LE(na, 64u);
+}
+
 }  // namespace
 }  // namespace panelbass::api
