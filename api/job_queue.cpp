@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "api/utc_time.h"
+
 namespace panelbass::api {
 namespace {
 
@@ -16,16 +18,6 @@ using nlohmann::json;
 constexpr std::size_t kMaxEvents = 1000;
 
 constexpr const char* kInterrupted = "interrupted by a restart";
-
-// Now, UTC, ISO 8601 to the second.
-std::string utc_now() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  ::gmtime_r(&now, &tm);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return text;
-}
 
 bool has_ended(JobState state) {
   return state == JobState::succeeded || state == JobState::failed || state == JobState::cancelled;

@@ -11,6 +11,7 @@
 
 #include "api/job_queue.h"
 #include "api/model_validation.h"
+#include "api/utc_time.h"
 #include "engine/chain_file.h"
 
 namespace panelbass::api {
@@ -20,16 +21,6 @@ using nlohmann::json;
 
 constexpr const char* kStoredModelFormat = "panelbass.stored-model/1";
 constexpr const char* kJobFormat = "panelbass.job/1";
-
-// Now, UTC, ISO 8601 to the second.
-std::string utc_now() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  ::gmtime_r(&now, &tm);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return text;
-}
 
 // A temporary file write_file_atomically() leaves behind when the process dies mid-write.
 bool is_temporary(const std::string& name) { return name.starts_with(".") && name.find(".tmp-") != std::string::npos; }

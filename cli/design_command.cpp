@@ -88,9 +88,7 @@ void check_output_file(const std::string& option, const std::string& path) {
 
 // `count` frequencies spaced logarithmically from `lo` to `hi` Hz.
 Eigen::VectorXd log_grid(double lo, double hi, Eigen::Index count) {
-  Eigen::VectorXd f(count);
-  for (Eigen::Index k = 0; k < count; ++k) f[k] = lo * std::pow(hi / lo, static_cast<double>(k) / (count - 1));
-  return f;
+  return Eigen::VectorXd::LinSpaced(count, std::log(lo), std::log(hi)).array().exp();
 }
 
 Eigen::VectorXd magnitude_db(const models::StateSpace& ss, const Eigen::VectorXd& f, double fs) {
