@@ -201,6 +201,16 @@ nlohmann::json EngineService::apply(const nlohmann::json& settings, const ModelL
   return change_json(change);
 }
 
+nlohmann::json EngineService::running_settings() const {
+  // Caller holds mutex_. The chain file's form of what runs, models named by their store ids.
+  nlohmann::json settings = engine::chain_config_to_json(running_);
+  settings.erase("format");
+  for (std::size_t s = 0; s < kSlotKeys.size(); ++s) {
+    if (settings.contains(kSlotKeys[s])) settings[kSlotKeys[s]]["model"] = *active_ids_[s];
+  }
+  return settings;
+}
+
 nlohmann::json EngineService::put_config(const nlohmann::json& settings, const ModelLookup& lookup) {
   const std::lock_guard lock(mutex_);
   return apply(settings, lookup);
@@ -209,22 +219,14 @@ nlohmann::json EngineService::put_config(const nlohmann::json& settings, const M
 nlohmann::json EngineService::patch_config(const nlohmann::json& patch, const ModelLookup& lookup) {
   if (!patch.is_object()) throw EngineRequestError(400, "bad_request", "config: a merge patch must be a JSON object");
   const std::lock_guard lock(mutex_);
-  nlohmann::json settings = engine::chain_config_to_json(running_);
-  settings.erase("format");
-  for (std::size_t s = 0; s < kSlotKeys.size(); ++s) {
-    if (settings.contains(kSlotKeys[s])) settings[kSlotKeys[s]]["model"] = *active_ids_[s];
-  }
+  nlohmann::json settings = running_settings();
   settings.merge_patch(patch);
   return apply(settings, lookup);
 }
 
 nlohmann::json EngineService::activate(ModelSlotName slot, const std::string& id, const nlohmann::json& model) {
   const std::lock_guard lock(mutex_);
-  nlohmann::json settings = engine::chain_config_to_json(running_);
-  settings.erase("format");
-  for (std::size_t s = 0; s < kSlotKeys.size(); ++s) {
-    if (settings.contains(kSlotKeys[s])) settings[kSlotKeys[s]]["model"] = *active_ids_[s];
-  }
+  nlohmann::json settings = running_settings();
   const std::string key = slot_name(slot);
   if (!settings.contains(key)) settings[key] = nlohmann::json::object();
   settings[key]["model"] = id;

@@ -107,6 +107,7 @@ class EngineService {
 
  private:
   nlohmann::json apply(const nlohmann::json& settings, const ModelLookup& lookup);
+  nlohmann::json running_settings() const;
 
   EngineServiceOptions options_;
   mutable std::mutex mutex_;                 // serialises changes and guards the fields below
