@@ -6,6 +6,10 @@
 #include <stdexcept>
 #include <utility>
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include "api/utc_time.h"
 
 namespace panelbass::api {
@@ -18,6 +22,16 @@ using nlohmann::json;
 constexpr std::size_t kMaxEvents = 1000;
 
 constexpr const char* kInterrupted = "interrupted by a restart";
+
+// Niceness of the worker threads: a training job may keep a core busy for minutes, and the audio thread
+// (normal priority) must win every contest for a core against it. Raising one's own niceness needs no
+// privilege; if the system refuses, the job still runs.
+constexpr int kWorkerNiceness = 10;
+
+void lower_this_thread_priority() {
+  const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
+  (void)::setpriority(PRIO_PROCESS, tid, kWorkerNiceness);
+}
 
 bool has_ended(JobState state) {
   return state == JobState::succeeded || state == JobState::failed || state == JobState::cancelled;
@@ -265,6 +279,7 @@ void JobQueue::drop_old_results() {
 }
 
 void JobQueue::worker() noexcept {
+  lower_this_thread_priority();
   for (;;) {
     std::shared_ptr<Entry> entry;
     {

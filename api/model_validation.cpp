@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "dsp/random.h"
+#include "engine/stage.h"
 #include "models/config_error.h"
 #include "models/extended_precision.h"
 #include "models/linear_model.h"
@@ -206,19 +207,16 @@ void require_bounded_closed_loop(const models::NeuralFeedback& c) {
   }
 }
 
-// The engine realizes a linear model as a dense state space of order max(na, nb + nk) (O(n³) work when it
-// is activated), so a huge delay would hang the server; identified models stay far below this.
-constexpr Eigen::Index kMaxLinearStates = 64;
-
 // Runs the kind's loader (format, fields, dimensions) and returns the model's rate.
 double load(const std::string& kind, const json& model) {
   if (kind == "linear") {
     const models::LinearModel m = models::linear_model_from_json(model);
-    const Eigen::Index states = std::max<Eigen::Index>(m.tf.a.size(), m.tf.b.size() + m.tf.nk);
-    if (states > kMaxLinearStates) {
+    // The engine's limit (a huge delay would stall the model swap).
+    const Eigen::Index states = engine::linear_stage_states(m.tf);
+    if (states > engine::kMaxLinearStageStates) {
       throw ModelRejected(kInvalidModel, "model.params: " + std::to_string(states) +
                                              " states (max(na, nb + nk)) are more than the engine runs (" +
-                                             std::to_string(kMaxLinearStates) + ")");
+                                             std::to_string(engine::kMaxLinearStageStates) + ")");
     }
     return m.fs;
   }

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "dsp/butterworth.h"
+#include "models/config_error.h"
 
 namespace panelbass::engine {
 namespace {
@@ -47,7 +48,17 @@ void BandPassStage::prepare(const ProcessSpec& spec) {
   filter_ = dsp::SosFilter(dsp::butterworth_band(design_.order, low, high, spec.fs));
 }
 
-LinearStage::LinearStage(models::LinearModel model) : model_(std::move(model)) {}
+Eigen::Index linear_stage_states(const models::TransferFunction& tf) {
+  return std::max<Eigen::Index>(tf.a.size(), tf.b.size() + tf.nk);
+}
+
+LinearStage::LinearStage(models::LinearModel model) : model_(std::move(model)) {
+  const Eigen::Index states = linear_stage_states(model_.tf);
+  if (states > kMaxLinearStageStates) {
+    throw models::ConfigError("params: " + std::to_string(states) + " states (max(na, nb + nk)) are more than " +
+                              "the engine runs (" + std::to_string(kMaxLinearStageStates) + ")");
+  }
+}
 
 void LinearStage::prepare(const ProcessSpec& spec) {
   require_rate(model_.fs, spec.fs, "linear stage");

@@ -108,10 +108,18 @@ class BandPassStage final : public Stage {
   dsp::SosFilter filter_;
 };
 
+/// The most states a LinearStage realizes: it runs a dense state space of order max(na, nb + nk), realized
+/// with O(n³) work when the stage is prepared, so a long pure delay would stall a model swap; identified
+/// models stay far below this.
+inline constexpr Eigen::Index kMaxLinearStageStates = 64;
+
+/// The order of the state space a LinearStage realizes for `tf`: max(na, nb + nk).
+Eigen::Index linear_stage_states(const models::TransferFunction& tf);
+
 /// A linear model as a stage: its state-space realisation run on raw input, giving raw output.
 class LinearStage : public Stage {
  public:
-  /// The stage of `model` (realised in prepare()).
+  /// The stage of `model` (realised in prepare()); a ConfigError if it has more than kMaxLinearStageStates.
   explicit LinearStage(models::LinearModel model);
   /// Realises the model; throws if its fs differs from spec.fs (resampling is not the stage's job).
   void prepare(const ProcessSpec& spec) override;

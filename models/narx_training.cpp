@@ -275,13 +275,14 @@ struct Trainer {
   Trainer(const NarxModel& model, const Eigen::VectorXd& ue, const Eigen::VectorXd& ye, const Eigen::VectorXd& uv,
           const Eigen::VectorXd& yv, Eigen::Index skip_, const TrainingOptions& opt)
       : u_est(ue), y_est(ye), u_val(uv), y_val(yv), skip(skip_), has_validation(uv.size() > 0), options(opt),
-        est(model, ue.size()), val(model, uv.size()), trial(model) {
+        est(model, ue.size()), val(model, uv.size()), trial(model),
+        // Sized in place: copy-assigning a fresh LDLT would copy its not-yet-set ComputationInfo.
+        ldlt(opt.optimizer == Optimizer::lm ? model.net.parameter_count() : 0) {
     const Eigen::Index P = model.net.parameter_count();
     g.resize(P);
     if (opt.optimizer == Optimizer::lm) {
       H.resize(P, P);
       A.resize(P, P);
-      ldlt = Eigen::LDLT<Eigen::MatrixXd>(P);
     }
     delta.resize(P);
   }

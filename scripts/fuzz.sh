@@ -7,7 +7,8 @@
 #   bash scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET ...]    (default 600 s; targets: csv wav model_json
 #                                                              chain_json plant_json http; default all)
 # Environment: FUZZ_JOBS build parallelism (2), FUZZ_PARALLEL targets run at once (1),
-#              FUZZ_WORK scratch folder (a new one under /tmp), FUZZ_BUILD build folder (build-fuzz).
+#              FUZZ_WORK scratch folder (a new one under /tmp), FUZZ_BUILD build folder (build-fuzz),
+#              FUZZ_CONFIGURE=0 to use FUZZ_BUILD as it is configured (scripts/sanitize.sh's clang build).
 # Exit 0: no crash; 1: a crash, hang, leak or out-of-memory input (its file is printed); 2: bad usage.
 set -euo pipefail
 
@@ -36,8 +37,10 @@ for t in "${targets[@]}"; do
 done
 
 echo "== configure and build ($build)" >&2
-CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DPANELBASS_FUZZ=ON -DBUILD_TESTING=OFF \
-  -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+if [[ ${FUZZ_CONFIGURE:-1} != 0 ]]; then
+  CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DPANELBASS_FUZZ=ON -DBUILD_TESTING=OFF \
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+fi
 cmake --build "$build" -j "$jobs" --target "${targets[@]/%/_fuzz}" >&2
 
 # Runs one target in $work/<target>: corpus/ (the scratch copy), artifacts/, log.

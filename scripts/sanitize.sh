@@ -1,27 +1,33 @@
 #!/usr/bin/env bash
-# The sanitizer runs CI does after the main tests:
-#   1. AddressSanitizer + UBSan (build-asan): the engine tests (the real-time path). The API tests are not
-#      here yet: under UBSan, Eigen's LDLT (NARX training in the identify-narx, design-nn and analyze jobs)
-#      loads an uninitialised ComputationInfo (Eigen/src/Cholesky/LDLT.h:59) — to be resolved first;
-#   2. ThreadSanitizer (build-tsan): the engine tests (audio thread, control thread, lock-free handover).
+# The sanitizer runs CI does after the main tests (issue #10, item 5; item 1's brief fuzz runs):
+#   1. AddressSanitizer + UBSan, clang (build-asan): the whole test suite, every layer. The same build has
+#      the libFuzzer targets (PANELBASS_FUZZ: every library carries the fuzzer's coverage hooks too), and
+#      each target then runs for a few seconds on its seed corpus, so a parser regression fails CI;
+#   2. ThreadSanitizer, gcc (build-tsan): the engine tests (audio thread, control thread, lock-free handover).
 # Both at -O1 without debug info, to keep the instrumented Eigen code quick to compile. Any sanitizer
 # report fails the test that caused it.
+#
+#   bash scripts/sanitize.sh [FUZZ_SECONDS_PER_TARGET]     (default 10)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+fuzz_seconds=${1:-10}
 jobs=$(nproc)
-# Only the executables built here are run: ctest's placeholders for the others, and the tests of
-# programs not built (the browser test, the load bench), are left out.
+# Only the executables built here are run: the browser test and the load bench (not built here) are left out.
 not_built='_NOT_BUILT$|^web\.|^api\.load'
 
 started=$(date +%s)
-cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" -DPANELBASS_SANITIZE=ON >/dev/null
-cmake --build build-asan -j"$jobs" --target engine_tests
+CC=clang CXX=clang++ cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" \
+  -DPANELBASS_SANITIZE=ON -DPANELBASS_FUZZ=ON >/dev/null
+cmake --build build-asan -j"$jobs" --target dsp_tests models_tests engine_tests api_tests cli_tests \
+  csv_fuzz wav_fuzz model_json_fuzz chain_json_fuzz plant_json_fuzz http_fuzz
 built=$(date +%s)
 # halt_on_error: a UBSan finding fails the test instead of scrolling past; leaks are reported at exit.
 ASAN_OPTIONS="detect_leaks=1:abort_on_error=1" UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
   ctest --test-dir build-asan --output-on-failure -j2 -E "$not_built"
 asan_done=$(date +%s)
+FUZZ_BUILD=build-asan FUZZ_CONFIGURE=0 FUZZ_PARALLEL=2 bash scripts/fuzz.sh "$fuzz_seconds"
+fuzz_done=$(date +%s)
 
 cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" -DPANELBASS_TSAN=ON >/dev/null
 cmake --build build-tsan -j"$jobs" --target engine_tests
@@ -31,5 +37,5 @@ tsan_built=$(date +%s)
 TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1" \
   ctest --test-dir build-tsan --output-on-failure -j2 -E "$not_built|AlsaBackend\.Jack"
 finished=$(date +%s)
-echo "sanitize: asan build $((built - started)) s, tests $((asan_done - built)) s;" \
-  "tsan build $((tsan_built - asan_done)) s, tests $((finished - tsan_built)) s" >&2
+echo "sanitize: asan build $((built - started)) s, tests $((asan_done - built)) s, fuzz $((fuzz_done - asan_done)) s;" \
+  "tsan build $((tsan_built - fuzz_done)) s, tests $((finished - tsan_built)) s" >&2

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <memory>
 #include <mutex>
@@ -12,6 +14,10 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 namespace panelbass::api {
 namespace {
@@ -70,6 +76,24 @@ TEST(JobQueue, ASucceededJobHasItsResult) {
   EXPECT_TRUE(is_utc_time(job.started)) << job.started;
   EXPECT_TRUE(is_utc_time(job.finished)) << job.finished;
   EXPECT_EQ(queue.submit("double", {{"x", 1}}, [](const json&, JobControl&) { return json(); }), "j2");
+}
+
+// The niceness of the calling thread (getpriority on its own thread id).
+int this_thread_niceness() {
+  errno = 0;
+  return ::getpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)));
+}
+
+TEST(JobQueue, WorkRunsAtALowerPriorityThanTheAudioThreadCanHave) {
+  // The worker lowers its own priority to niceness 10 so the audio thread (never niced) wins a core;
+  // under a parent already niced beyond 10 it stays where it was, since no process may raise it back.
+  const int ours = this_thread_niceness();
+  JobQueue queue(1);
+  const std::string id =
+      queue.submit("niceness", json::object(), [](const json&, JobControl&) -> json { return this_thread_niceness(); });
+  ASSERT_TRUE(queue.wait(id, kPatience));
+  EXPECT_EQ(queue.get(id)->result.get<int>(), std::max(ours, 10));
+  EXPECT_EQ(this_thread_niceness(), ours) << "the submitting thread is left alone";
 }
 
 TEST(JobQueue, AFailedJobKeepsItsMessage) {
