@@ -3,6 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "engine/alsa_status_json.h"
 #include "models/config_error.h"
 #include "models/virtual_transducer.h"
 
@@ -88,6 +89,10 @@ EngineService::EngineService(EngineServiceOptions options) : options_(std::move(
   }
   running_ = options_.chain;
   chain_ = engine::make_chain(running_);
+  if (options_.alsa) {
+    alsa_ = std::make_unique<engine::AlsaBackend>(*chain_, *options_.alsa);
+    return;
+  }
   engine::VirtualBackendOptions backend;
   backend.block = engine::Samples{running_.block};
   backend.pacing = options_.pacing;
@@ -103,7 +108,11 @@ EngineService::~EngineService() { stop(); }
 void EngineService::start() {
   const std::lock_guard lock(mutex_);
   if (playing_) return;
-  backend_->start();
+  if (alsa_) {
+    alsa_->start();
+  } else {
+    backend_->start();
+  }
   playing_ = true;
   started_ = std::chrono::steady_clock::now();
 }
@@ -111,7 +120,11 @@ void EngineService::start() {
 void EngineService::stop() {
   const std::lock_guard lock(mutex_);
   if (!playing_) return;
-  backend_->stop();
+  if (alsa_) {
+    alsa_->stop();
+  } else {
+    backend_->stop();
+  }
   playing_ = false;
   chain_->collect_retired();
 }
@@ -143,14 +156,21 @@ nlohmann::json EngineService::engine_status() const {
   const std::lock_guard lock(mutex_);
   const double uptime =
       playing_ ? std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count() : 0.0;
-  return {{"state", playing_ ? "running" : "stopped"},
-          {"backend", "virtual"},
-          {"plant", options_.plant.name},
-          {"fs", running_.fs},
-          {"block", running_.block},
-          {"uptime_s", uptime},
-          {"recoveries", recoveries_},
-          {"fault_hold_s", hold_s_}};
+  nlohmann::json status = {{"state", playing_ ? "running" : "stopped"},
+                            {"backend", alsa_ ? "alsa" : "virtual"},
+                            {"plant", options_.plant.name},
+                            {"fs", running_.fs},
+                            {"block", running_.block},
+                            {"uptime_s", uptime},
+                            {"recoveries", recoveries_},
+                            {"fault_hold_s", hold_s_}};
+  if (alsa_) status["device"] = engine::alsa_status_to_json(alsa_->status(), alsa_->resampling_latency());
+  return status;
+}
+
+std::optional<engine::AlsaStatus> EngineService::device_status() const {
+  if (!alsa_) return std::nullopt;
+  return alsa_->status();
 }
 
 engine::MetricsSnapshot EngineService::metrics() const { return chain_->metrics().snapshot(); }
@@ -249,6 +269,12 @@ Eigen::VectorXd EngineService::excite(const Eigen::VectorXd& drive) {
       throw std::invalid_argument("excite: drive sample " + std::to_string(k) + " is " + std::to_string(drive[k]) +
                                   ", outside [-1, 1]");
     }
+  }
+  if (alsa_) {
+    throw EngineRequestError(409, "conflict",
+                             "excite: this server plays on a sound card (ALSA), which it cannot measure through "
+                             "yet: identify from a recording of the transducer (panelbass identify linear --data "
+                             "rec.wav) and upload the model");
   }
   std::uint64_t seed = 0;
   {

@@ -1,7 +1,7 @@
 #pragma once
-// The engine as the API sees it: a chain playing on the virtual transducer, its settings in the API's
-// form (models named by their store ids), changes validated completely before they are applied without
-// interruption, and excitation records for identification jobs.
+// The engine as the API sees it: a chain playing on the virtual transducer or on a sound card (ALSA), its
+// settings in the API's form (models named by their store ids), changes validated completely before they
+// are applied without interruption, and excitation records for identification jobs.
 
 #include <Eigen/Core>
 #include <array>
@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/alsa_backend.h"
 #include "engine/chain.h"
 #include "engine/chain_file.h"
 #include "engine/virtual_backend.h"
@@ -47,6 +48,9 @@ struct EngineServiceOptions {
   std::vector<double> program;              ///< looped program input at the chain's rate (empty: silence)
   std::uint64_t seed = 1;                   ///< sensor noise of the playing plant; excitations use seed + 1, + 2, …
   engine::Pacing pacing = engine::Pacing::real_time;  ///< the audio thread's pacing
+  /// Play on a sound card instead (program from its options, at the device rate); the virtual transducer
+  /// then only sets the chain's rate. nullopt: the virtual transducer.
+  std::optional<engine::AlsaOptions> alsa;
 };
 
 /// The chain slots a model can be activated in.
@@ -77,8 +81,11 @@ class EngineService {
   /// ever more rarely.
   void housekeeping();
 
-  /// {"state","backend","plant","fs","block","uptime_s"}.
+  /// {"state","backend","plant","fs","block","uptime_s","recoveries","fault_hold_s"}; on a sound card
+  /// also "device" (engine/alsa_status_json.h: its state, losses, reopens, last error).
   nlohmann::json engine_status() const;
+  /// The sound card's status (nullopt on the virtual transducer).
+  std::optional<engine::AlsaStatus> device_status() const;
   /// The chain's metrics now.
   engine::MetricsSnapshot metrics() const;
   /// The store id of the model active in `slot` (nullopt: the slot passes its input through).
@@ -98,7 +105,7 @@ class EngineService {
 
   /// Plays `drive` through the backend's transducer (a copy of the virtual transducer, so the chain keeps
   /// playing) and returns the measured response; throws std::invalid_argument for a drive outside [−1, 1]
-  /// or non-finite.
+  /// or non-finite, and EngineRequestError (409) on a sound card, which this service cannot measure through.
   Eigen::VectorXd excite(const Eigen::VectorXd& drive);
   /// The simulated transducer.
   const models::PlantConfig& plant() const { return options_.plant; }
@@ -114,7 +121,8 @@ class EngineService {
   engine::ChainConfig running_;              // what the chain runs now (models inline)
   std::array<std::optional<std::string>, 2> active_ids_;  // store ids in the feedforward and feedback slots
   std::unique_ptr<engine::Chain> chain_;
-  std::unique_ptr<engine::VirtualBackend> backend_;
+  std::unique_ptr<engine::VirtualBackend> backend_;  // one of these two plays
+  std::unique_ptr<engine::AlsaBackend> alsa_;
   bool playing_ = false;
   std::chrono::steady_clock::time_point started_{};
   std::uint64_t excitations_ = 0;

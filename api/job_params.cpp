@@ -62,8 +62,13 @@ std::string list_text(const std::vector<std::string>& names) {
 
 // ----- the parts several kinds share -------------------------------------------------------------
 
-// The excite params at `path` (the excite kind's own params, or the "excite" field of another kind).
-json excite_params(const json& params, const std::string& path) {
+// The excite params at `path` (the excite kind's own params, or the "excite" field of another kind); refused
+// when the backend cannot be excited (a sound card).
+json excite_params(const json& params, const std::string& path, const JobEnvironment& env) {
+  if (!env.excite) {
+    fail(path, "this server plays on a sound card (ALSA), which jobs cannot measure through yet: identify from a "
+               "recording of the transducer (panelbass identify linear --data rec.wav) and upload the model");
+  }
   ParamReader r(params, path);
   r.choice("signal", "noise", {"noise", "multisine"});
   r.integer("samples", 10000, kMinSamples, kMaxSamples);
@@ -98,7 +103,7 @@ long long record_source(ParamReader& r, const JobEnvironment& env, std::string& 
     validation_path = where;
     return data.u_val.size();
   }
-  const json filled = excite_params(excite != nullptr ? *excite : json::object(), r.path_of("excite"));
+  const json filled = excite_params(excite != nullptr ? *excite : json::object(), r.path_of("excite"), env);
   r.set("excite", filled);
   validation_path = r.path_of("excite") + ".validation_samples";
   return filled.at("validation_samples").get<long long>();
@@ -395,7 +400,7 @@ ExcitationRecord excitation_record_from_result(const json& result, double fs, co
 }
 
 json validate_kind_params(const std::string& kind, const json& params, const JobEnvironment& env) {
-  if (kind == "excite") return excite_params(params, "params");
+  if (kind == "excite") return excite_params(params, "params", env);
   if (kind == "identify-linear") return identify_linear_params(params, env);
   if (kind == "identify-narx") return identify_narx_params(params, env);
   if (kind == "design-lq") return design_lq_params(params, env);

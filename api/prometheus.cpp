@@ -57,6 +57,14 @@ std::string prometheus_text(const engine::MetricsSnapshot& m, const ServiceCount
   e.sample("panelbass_block_seconds_max", "", m.max_block_ns * 1e-9);
   e.sample("panelbass_block_seconds_sum", "", m.mean_block_ns * 1e-9 * static_cast<double>(m.blocks));
   e.sample("panelbass_block_seconds_count", "", static_cast<double>(m.blocks));
+  if (service.device) {
+    const engine::AlsaStatus& d = *service.device;
+    gauge("panelbass_device_up", "1 while the sound card streams.", d.state == engine::AlsaState::running ? 1.0 : 0.0);
+    counter("panelbass_device_losses_total", "Times a streaming sound card was lost.", static_cast<double>(d.losses));
+    counter("panelbass_device_reopens_total", "Times a lost sound card came back.", static_cast<double>(d.reopens()));
+    counter("panelbass_device_failed_opens_total", "Attempts to open the sound card that failed.",
+            static_cast<double>(d.failed_opens));
+  }
   gauge("panelbass_models_stored", "Models in the store.", static_cast<double>(service.models_stored));
   e.family("panelbass_jobs", "gauge", "Jobs by state.");
   for (const auto& [state, n] : service.jobs_by_state) {

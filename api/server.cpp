@@ -144,8 +144,11 @@ Server::Server(ServerOptions options) : options_(std::move(options)) {
   engine_ = std::make_unique<EngineService>(options_.engine);
 
   environment_.fs = engine_->fs();
-  environment_.excite = [this](const Eigen::VectorXd& drive) { return engine_->excite(drive); };
-  environment_.plant = engine_->plant();
+  // On a sound card there is no transducer to excite, nor a simulated one to compare with.
+  if (!engine_->device_status()) {
+    environment_.excite = [this](const Eigen::VectorXd& drive) { return engine_->excite(drive); };
+    environment_.plant = engine_->plant();
+  }
   environment_.store = store_.get();
   environment_.job_result = [this](const std::string& id) -> std::optional<nlohmann::json> {
     const std::optional<JobRecord> job = jobs_->get(id);
@@ -250,6 +253,7 @@ std::string Server::metrics_text() const {
     counts.responses_by_status = responses_;
   }
   counts.models_stored = store_->list().size();
+  counts.device = engine_->device_status();
   return prometheus_text(engine_->metrics(), counts);
 }
 

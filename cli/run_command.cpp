@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include "cli/alsa_options.h"
 #include "cli/commands.h"
 #include "cli/json_output.h"
 #include "cli/looped_program.h"
@@ -19,6 +20,7 @@
 #include "dsp/resample.h"
 #include "dsp/wav_file.h"
 #include "engine/alsa_backend.h"
+#include "engine/alsa_status_json.h"
 #include "engine/chain_file.h"
 #include "engine/metrics_json.h"
 #include "engine/virtual_backend.h"
@@ -37,18 +39,7 @@ struct RunOptions {
   double amplitude = 0.3;
   double seconds = 0.0;
   std::uint64_t seed = 1;
-  std::string playback = "default";
-  std::string capture;
-  double rate = 48000.0;
-  int period = 64;
-  int periods = 4;
-  int playback_channels = 2;
-  int drive_channel = 0;
-  int capture_channels = 2;
-  int program_channel = engine::kNoChannel;
-  int sensor_channel = engine::kNoChannel;
-  std::string quality = "fastest";
-  int realtime_priority = 0;
+  AlsaCliOptions alsa;
 };
 
 // Runs until a stop signal or `seconds` (0: no limit), freeing retired stages now and then.
@@ -97,48 +88,17 @@ void run_virtual(const RunOptions& o, const engine::ChainConfig& config, nlohman
   result["metrics"] = engine::metrics_to_json(chain->metrics().snapshot());
 }
 
-engine::ResampleQuality quality_of(const std::string& name) {
-  if (name == "best") return engine::ResampleQuality::best;
-  if (name == "medium") return engine::ResampleQuality::medium;
-  return engine::ResampleQuality::fastest;
-}
-
-nlohmann::json alsa_status_json(const engine::AlsaStatus& s, const engine::RateBridgeLatency& latency) {
-  return {{"state", engine::alsa_state_name(s.state)},
-          {"opens", s.opens},
-          {"failed_opens", s.failed_opens},
-          {"losses", s.losses},
-          {"reopens", s.reopens()},
-          {"xruns", s.xruns},
-          {"periods", s.periods},
-          {"realtime", s.realtime},
-          {"last_error", std::string(s.last_error.data())},
-          {"resampling_latency_samples", latency.total_samples},
-          {"resampling_latency_ms", latency.total_ms}};
-}
-
 void run_alsa(const RunOptions& o, const engine::ChainConfig& config, nlohmann::json& result) {
+  const AlsaCliOptions& a = o.alsa;
   if (config.feedback && config.feedback->source == engine::FeedbackSource::sensor &&
-      o.sensor_channel == engine::kNoChannel) {
+      a.sensor_channel == engine::kNoChannel) {
     throw std::invalid_argument(o.chain + ": feedback.source is \"sensor\" but no --sensor-channel is given");
   }
-  engine::AlsaOptions options;
-  options.playback_device = o.playback;
-  options.capture_device = o.capture;
-  options.rate = engine::Hertz{o.rate};
-  options.period = engine::Samples{o.period};
-  options.periods = o.periods;
-  options.playback_channels = o.playback_channels;
-  options.drive_channel = o.drive_channel;
-  options.capture_channels = o.capture_channels;
-  options.program_channel = o.program_channel;
-  options.sensor_channel = o.sensor_channel;
-  options.quality = quality_of(o.quality);
-  options.realtime_priority = o.realtime_priority;
-  nlohmann::json program_description = {{"capture_channel", o.program_channel}};
-  if (o.program_channel == engine::kNoChannel) {
+  engine::AlsaOptions options = alsa_options_of(a);
+  nlohmann::json program_description = {{"capture_channel", a.program_channel}};
+  if (a.program_channel == engine::kNoChannel) {
     // The program is played from memory at the device's rate.
-    LoopedProgram program = looped_program(o.program, o.channel, o.signal, o.amplitude, o.seed, o.rate);
+    LoopedProgram program = looped_program(o.program, o.channel, o.signal, o.amplitude, o.seed, a.rate);
     options.program = std::move(program.samples);
     program_description = program.description;
   }
@@ -147,8 +107,8 @@ void run_alsa(const RunOptions& o, const engine::ChainConfig& config, nlohmann::
   engine::AlsaBackend backend(*chain, std::move(options));
 
   const StopSignals signals;
-  std::cerr << "run: " << o.chain << " on ALSA (playback \"" << o.playback << "\", capture \"" << o.capture << "\") at "
-            << o.rate << " Hz, period " << o.period << ", chain at " << config.fs << " Hz"
+  std::cerr << "run: " << o.chain << " on ALSA (playback \"" << a.playback << "\", capture \"" << a.capture << "\") at "
+            << a.rate << " Hz, period " << a.period << ", chain at " << config.fs << " Hz"
             << (o.seconds > 0.0 ? "" : "; Ctrl-C to stop") << "\n";
   backend.start();
   const double elapsed = wait_for_stop(o.seconds, *chain);
@@ -157,13 +117,13 @@ void run_alsa(const RunOptions& o, const engine::ChainConfig& config, nlohmann::
   chain->collect_retired();
   std::cerr << "run: stopped after " << elapsed << " s\n";
   if (status.opens == 0) {
-    throw std::runtime_error("--backend alsa: the devices never opened (playback \"" + o.playback + "\", capture \"" +
-                             o.capture + "\"): " + std::string(status.last_error.data()));
+    throw std::runtime_error("--backend alsa: the devices never opened (playback \"" + a.playback + "\", capture \"" +
+                             a.capture + "\"): " + std::string(status.last_error.data()));
   }
   result["program"] = program_description;
   result["seconds"] = elapsed;
   result["interrupted"] = stop_requested();
-  result["alsa"] = alsa_status_json(status, backend.resampling_latency());
+  result["alsa"] = engine::alsa_status_to_json(status, backend.resampling_latency());
   result["metrics"] = engine::metrics_to_json(chain->metrics().snapshot());
 }
 
@@ -202,28 +162,7 @@ void register_run(CLI::App& app) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--seed", o->seed, "Seed of the noise signal (the plant's sensor noise uses seed + 1)")
       ->capture_default_str();
-  cmd->add_option("--playback", o->playback, "ALSA: playback PCM, feeding the amplifier (\"\" = none)")
-      ->capture_default_str();
-  cmd->add_option("--capture", o->capture, "ALSA: capture PCM with program input and/or sensor (default: none)");
-  cmd->add_option("--rate", o->rate, "ALSA: device rate, Hz (another than the chain's puts a resampler between)")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
-  cmd->add_option("--period", o->period, "ALSA: period size, frames")->check(CLI::PositiveNumber)->capture_default_str();
-  cmd->add_option("--periods", o->periods, "ALSA: periods in the device buffer")->capture_default_str();
-  cmd->add_option("--playback-channels", o->playback_channels, "ALSA: channels of the playback PCM")
-      ->capture_default_str();
-  cmd->add_option("--drive-channel", o->drive_channel, "ALSA: playback channel carrying the drive (others silent)")
-      ->capture_default_str();
-  cmd->add_option("--capture-channels", o->capture_channels, "ALSA: channels of the capture PCM")->capture_default_str();
-  cmd->add_option("--program-channel", o->program_channel,
-                  "ALSA: capture channel with the program input (default: --program/--signal played from memory)");
-  cmd->add_option("--sensor-channel", o->sensor_channel,
-                  "ALSA: capture channel with the sensor (needed for a feedback stage in sensor mode)");
-  cmd->add_option("--quality", o->quality, "ALSA: resampler quality when the device runs at another rate")
-      ->check(CLI::IsMember({"fastest", "medium", "best"}))
-      ->capture_default_str();
-  cmd->add_option("--realtime-priority", o->realtime_priority, "ALSA: SCHED_FIFO priority of the device thread (0: none)")
-      ->capture_default_str();
+  add_alsa_options(cmd, o->alsa);
   cmd->footer(
       "Examples:\n  panelbass run --chain chain.json --backend virtual --signal sine:80 --amplitude 0.5 --seconds 10\n"
       "  panelbass run --chain chain.json --backend virtual --program music.wav     (Ctrl-C to stop)\n"

@@ -1,14 +1,17 @@
-// `panelbass serve`: the engine on the virtual transducer, the HTTP API and the web UI in one process.
-// With --demo (the default) it excites the transducer, identifies a linear model, designs the LQ
-// feedforward on it and activates it, so that a new user opens the address and sees everything working.
+// `panelbass serve`: the engine on the virtual transducer (or a sound card), the HTTP API and the web UI in
+// one process. With --demo (the default, virtual transducer only) it excites the transducer, identifies a
+// linear model, designs the LQ feedforward on it and activates it, so that a new user opens the address
+// and sees everything working.
 #include <chrono>
 #include <iostream>
 #include <memory>
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "api/server.h"
+#include "cli/alsa_options.h"
 #include "cli/commands.h"
 #include "cli/looped_program.h"
 #include "cli/stop_signals.h"
@@ -31,6 +34,8 @@ struct ServeOptions {
   bool demo = true;
   double seconds = 0.0;
   std::size_t body_limit_mib = 16;
+  std::string backend = "virtual";
+  AlsaCliOptions alsa;
 };
 
 // Waits for `id` to end, printing its progress now and then; true if it succeeded.
@@ -75,7 +80,16 @@ void run_serve(const ServeOptions& o) {
   options.engine.plant = models::plant_from_name_or_file(o.plant);
   options.engine.chain.fs = options.engine.plant.fs;
   options.engine.seed = o.seed + 1;
-  options.engine.program = looped_program("", "0", o.signal, o.amplitude, o.seed, options.engine.plant.fs).samples;
+  const bool on_card = o.backend == "alsa";
+  // The program at the rate it is played at: the chain's on the virtual transducer, the card's on ALSA.
+  std::vector<double> program =
+      looped_program("", "0", o.signal, o.amplitude, o.seed, on_card ? o.alsa.rate : options.engine.plant.fs).samples;
+  if (on_card) {
+    options.engine.alsa = alsa_options_of(o.alsa);
+    if (o.alsa.program_channel == engine::kNoChannel) options.engine.alsa->program = std::move(program);
+  } else {
+    options.engine.program = std::move(program);
+  }
   options.log = [](const std::string& line) { std::cerr << "serve: " << line << "\n"; };
   if (!o.web.empty() && !std::filesystem::is_directory(o.web)) {
     throw std::invalid_argument("--web " + o.web + ": no such folder (run scripts/web_setup.sh, or --web \"\" for no UI)");
@@ -87,7 +101,11 @@ void run_serve(const ServeOptions& o) {
   // The address first, on stdout, so that scripts and tests can read it.
   std::cout << "panelbass: serving " << server.address() << " (store " << o.store << ")" << std::endl;
   std::thread demo;
-  if (o.demo) demo = std::thread([&server] { run_demo(server); });
+  if (o.demo && on_card) {
+    std::cerr << "serve: no demo on a sound card (its jobs excite the virtual transducer)\n";
+  } else if (o.demo) {
+    demo = std::thread([&server] { run_demo(server); });
+  }
   const auto started = std::chrono::steady_clock::now();
   while (!stop_requested() &&
          (o.seconds <= 0.0 ||
@@ -104,7 +122,7 @@ void run_serve(const ServeOptions& o) {
 void register_serve(CLI::App& app) {
   auto o = std::make_shared<ServeOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "serve", "Run the engine on the virtual transducer with the HTTP API and the web UI (Ctrl-C to stop)");
+      "serve", "Run the engine (virtual transducer or sound card) with the HTTP API and the web UI (Ctrl-C to stop)");
   cmd->add_option("--bind", o->bind, "Address to listen on (beyond loopback only with --token)")->capture_default_str();
   cmd->add_option("--port", o->port, "Port (0: any free port; the address is printed first)")
       ->check(CLI::Range(0, 65535))
@@ -112,7 +130,12 @@ void register_serve(CLI::App& app) {
   cmd->add_option("--token", o->token, "Require Authorization: Bearer TOKEN on /api and /metrics");
   cmd->add_option("--store", o->store, "Folder of the model store (created if missing)")->capture_default_str();
   cmd->add_option("--web", o->web, "Folder of the web UI (\"\": no UI)")->capture_default_str();
-  cmd->add_option("--plant", o->plant, "The virtual transducer: preset (panel-exciter, linear) or plant JSON file")
+  cmd->add_option("--backend", o->backend, "virtual: the simulated transducer in-process; alsa: a sound card")
+      ->check(CLI::IsMember({"virtual", "alsa"}))
+      ->capture_default_str();
+  cmd->add_option("--plant", o->plant,
+                  "The virtual transducer: preset (panel-exciter, linear) or plant JSON file (on ALSA: sets the "
+                  "chain's rate)")
       ->capture_default_str();
   cmd->add_option("--signal", o->signal, "Program the engine loops: noise, silence or sine:HZ")->capture_default_str();
   cmd->add_option("--amplitude", o->amplitude, "Peak of --signal, within (0, 1]")
@@ -129,9 +152,11 @@ void register_serve(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seconds", o->seconds, "Stop after this long (default: until SIGINT/SIGTERM)")
       ->check(CLI::NonNegativeNumber);
+  add_alsa_options(cmd, o->alsa);
   cmd->footer(
       "Examples:\n  panelbass serve                      (http://127.0.0.1:8080/, demo jobs at start-up)\n"
       "  panelbass serve --port 0 --no-demo --store /tmp/store\n"
+      "  panelbass serve --backend alsa --playback hw:1 --capture hw:1 --sensor-channel 1 --period 64\n"
       "  panelbass serve --bind 0.0.0.0 --token s3cret      (clients send Authorization: Bearer s3cret)");
   cmd->callback([o] { run_serve(*o); });
 }

@@ -69,8 +69,9 @@ TEST(Resample, LengthIsTheRoundedRatioAndEqualRatesChangeNothing) {
 TEST(Resample, RefusesBadRatesAndSamplesNamingThem) {
   const Eigen::VectorXd x = Eigen::VectorXd::Ones(10);
   constexpr double nan = std::numeric_limits<double>::quiet_NaN();
-  for (auto [from, to] : {std::pair{0.0, 3000.0}, {3000.0, -1.0}, {nan, 3000.0}}) {
-    const std::string message = testing_support::one_line_error<std::invalid_argument>([&] { resample(x, from, to); });
+  for (const auto& rates : {std::pair{0.0, 3000.0}, {3000.0, -1.0}, {nan, 3000.0}}) {
+    const std::string message =
+        testing_support::one_line_error<std::invalid_argument>([&] { resample(x, rates.first, rates.second); });
     EXPECT_NE(message.find("rates must be finite and > 0"), std::string::npos) << message;
   }
   EXPECT_NE(testing_support::one_line_error<std::invalid_argument>([&] { resample(x, 100.0, 48000.0); })

@@ -38,11 +38,14 @@
 #include <vector>
 
 #include "dsp/random.h"
-
-extern char** environ;
+#include "tests/support/jack_server.h"
 
 namespace panelbass::engine {
 namespace {
+
+using testing_support::JackServer;
+using testing_support::loopback_config;
+using testing_support::skip_jack;
 
 using namespace std::chrono_literals;
 
@@ -51,126 +54,6 @@ constexpr int kPeriod = 64;
 // Eight periods (10.7 ms) of slack: jackd without real-time scheduling on a machine busy compiling is
 // sometimes descheduled for several milliseconds and then catches up with a burst of cycles.
 constexpr int kPeriods = 8;
-
-bool skip_jack() {
-  const char* v = std::getenv("PANELBASS_SKIP_JACK");
-  return v != nullptr && std::string(v) == "1";
-}
-
-/// The first executable `name` on PATH ("" if none).
-std::string find_on_path(const std::string& name) {
-  const char* path = std::getenv("PATH");
-  std::stringstream dirs(path != nullptr ? path : "/usr/bin:/bin");
-  for (std::string dir; std::getline(dirs, dir, ':');) {
-    const std::string candidate = dir + "/" + name;
-    if (::access(candidate.c_str(), X_OK) == 0) return candidate;
-  }
-  return "";
-}
-
-/// A JACK server with the dummy driver, started and stopped by the test.
-class JackServer {
- public:
-  /// A server named `name` (not started).
-  explicit JackServer(std::string name)
-      : name_(std::move(name)),
-        log_(std::filesystem::temp_directory_path() / ("panelbass-" + name_ + ".log")),
-        socket_(std::string("/dev/shm/jack_") + name_ + "_" + std::to_string(::getuid()) + "_0") {}
-  ~JackServer() {
-    stop();
-    std::error_code ignored;
-    std::filesystem::remove(log_, ignored);
-  }
-
-  /// Starts jackd and waits until its socket is there; "" on success, else what went wrong.
-  std::string start() {
-    const std::string jackd = find_on_path("jackd");
-    if (jackd.empty()) {
-      return "jackd is not on PATH: install the Debian packages jackd2 and libasound2-plugins "
-             "(scripts/bootstrap.sh installs them), or set PANELBASS_SKIP_JACK=1 to skip this test";
-    }
-    // No D-Bus device reservation in a container; the server must not look for one.
-    ::setenv("JACK_NO_AUDIO_RESERVATION", "1", 1);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, log_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    posix_spawn_file_actions_adddup2(&actions, 1, 2);
-    posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
-    const std::string rate = std::to_string(static_cast<int>(kDeviceRate)), period = std::to_string(kPeriod);
-    // --no-realtime: no real-time scheduling needed (nor asked for) in a container. -S (synchronous
-    // mode): the server waits for every client each cycle, so on a loaded machine a late client delays
-    // the cycle instead of being skipped for it, which would slip the capture against the playback.
-    std::vector<std::string> args = {jackd, "--no-realtime", "-S", "-n", name_, "-d", "dummy", "-r", rate, "-p", period};
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    const int err = posix_spawn(&pid_, jackd.c_str(), &actions, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    if (err != 0) {
-      pid_ = -1;
-      return "cannot spawn " + jackd + ": " + std::strerror(err);
-    }
-    for (auto until = std::chrono::steady_clock::now() + 5s; std::chrono::steady_clock::now() < until;) {
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        return "jackd exited at start-up (status " + std::to_string(status) + "); its output:\n" + log();
-      }
-      if (std::filesystem::exists(socket_)) return "";
-      std::this_thread::sleep_for(20ms);
-    }
-    stop();
-    return "jackd did not open its socket " + socket_ + " within 5 s; its output:\n" + log();
-  }
-
-  /// Stops the server (SIGTERM, then SIGKILL after 3 s) and waits for it.
-  void stop() {
-    if (pid_ <= 0) return;
-    ::kill(pid_, SIGTERM);
-    int status = 0;
-    for (auto until = std::chrono::steady_clock::now() + 3s; std::chrono::steady_clock::now() < until;) {
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        return;
-      }
-      std::this_thread::sleep_for(10ms);
-    }
-    ::kill(pid_, SIGKILL);
-    ::waitpid(pid_, &status, 0);
-    pid_ = -1;
-  }
-
-  /// What the server printed so far (its last 2000 characters).
-  std::string log() const {
-    std::ifstream in(log_);
-    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    return text.size() > 2000 ? text.substr(text.size() - 2000) : text;
-  }
-  /// The server's name.
-  const std::string& name() const { return name_; }
-
- private:
-  std::string name_;
-  std::filesystem::path log_;
-  std::string socket_;
-  pid_t pid_ = -1;
-};
-
-/// The in-memory ALSA configuration: a playback PCM whose two ports go to the dummy card, and a capture
-/// PCM whose channel 0 listens to the dummy card (silence) and channel 1 to the playback's drive port.
-/// The capture connects when it starts, after the playback (the backend starts them in that order).
-std::string loopback_config(const std::string& tag) {
-  return "pcm.pb_play {\n"
-         "  type jack\n"
-         "  name \"" + tag + "p\"\n"
-         "  playback_ports { 0 \"system:playback_1\" 1 \"system:playback_2\" }\n"
-         "}\n"
-         "pcm.pb_capture {\n"
-         "  type jack\n"
-         "  name \"" + tag + "c\"\n"
-         "  capture_ports { 0 \"system:capture_1\" 1 \"" + tag + "p:out_000\" }\n"
-         "}\n";
-}
 
 /// What the device thread saw, period by period, in buffers sized before the run (no allocation there).
 struct Recording {
@@ -270,7 +153,7 @@ ChainOptions chain_options(double fs, int max_block) {
 TEST(AlsaBackend, JackLoopbackRunsWithoutXrunsAndSurvivesAServerRestart) {
   if (skip_jack()) GTEST_SKIP() << "PANELBASS_SKIP_JACK=1";
   const std::string tag = "pb" + std::to_string(::getpid());
-  JackServer server("panelbass-" + std::to_string(::getpid()));
+  JackServer server("panelbass-" + std::to_string(::getpid()), kDeviceRate, kPeriod);
   ::setenv("JACK_DEFAULT_SERVER", server.name().c_str(), 1);
   const std::string started = server.start();
   ASSERT_EQ(started, "") << "the JACK dummy server could not be started: " << started;
@@ -384,7 +267,7 @@ TEST(AlsaBackend, PlaybackOnlyAtTheChainsOwnRateIsPacedByTheDevice) {
   // No capture, no rate bridge: the chain runs at 48 kHz, paced by room in the playback buffer, with
   // S16/S32/float conversion as the device asks (float for JACK) and the drive on channel 1 of 2.
   if (skip_jack()) GTEST_SKIP() << "PANELBASS_SKIP_JACK=1";
-  JackServer server("panelbass-" + std::to_string(::getpid()) + "-p");
+  JackServer server("panelbass-" + std::to_string(::getpid()) + "-p", kDeviceRate, kPeriod);
   ::setenv("JACK_DEFAULT_SERVER", server.name().c_str(), 1);
   const std::string started = server.start();
   ASSERT_EQ(started, "") << "the JACK dummy server could not be started: " << started;
