@@ -50,6 +50,7 @@ std::string prometheus_text(const engine::MetricsSnapshot& m, const ServiceCount
   counter("panelbass_swaps_total", "Stages taken over by a slot (model activations).", static_cast<double>(m.swaps));
   gauge("panelbass_in_fault", "1 while the chain is in its safe bypass.", m.in_fault ? 1.0 : 0.0);
   gauge("panelbass_load", "Processing time over audio time.", m.load);
+  gauge("panelbass_max_late_seconds", "Most a paced block was behind its schedule.", m.max_late_ns * 1e-9);
   gauge("panelbass_peak_drive", "Largest |drive| sent to the amplifier (never above 1).", m.peak_drive);
   e.family("panelbass_block_seconds", "summary", "Processing time of an audio block.");
   e.sample("panelbass_block_seconds", "quantile=\"0.5\"", m.p50_block_ns * 1e-9);

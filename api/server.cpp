@@ -134,6 +134,12 @@ const std::vector<Route>& api_routes() { return kRoutes; }
 
 Server::Server(ServerOptions options) : options_(std::move(options)) {
   if (!options_.log) options_.log = [](const std::string&) {};
+  // Two malloc arenas for the process instead of glibc's 8 per core: with a pool of HTTP threads each
+  // taking an arena of its own, freed memory scattered over many arenas kept the resident size growing
+  // for as long as the server ran (bench/soak.py: 33 → 105 MB in 10 min, while heaptrack saw a peak heap
+  // of 18 MB and 71 KB left at exit; with two arenas 19 → 33 MB in 6 min).
+  // Set before any of the server's threads exists.
+  mallopt(M_ARENA_MAX, 2);
   if (!is_loopback(options_.bind) && options_.token.empty()) {
     throw std::invalid_argument("--bind " + options_.bind +
                                 ": binding beyond the loopback address requires --token (clients then send "

@@ -185,6 +185,7 @@ def main():
                        "faults": m1["faults"] - m0["faults"], "last_fault": m1["last_fault"],
                        "peak_drive": m1["peak_drive"], "p50_block_ns": m1["p50_block_ns"],
                        "p99_block_ns": m1["p99_block_ns"], "max_block_ns": m1["max_block_ns"],
+                       "max_late_ns": m1["max_late_ns"],
                        "load": m1["load"]},
             "rss_kib": rss, "rss_growth_kib": rss[-1][1] - rss[0][1],
         })

@@ -57,6 +57,7 @@ MetricsSnapshot Metrics::snapshot() const {
   s.xruns = xruns_.load(std::memory_order_relaxed);
   s.in_fault = in_fault_.load(std::memory_order_relaxed);
   s.peak_drive = peak_drive_.load(std::memory_order_relaxed);
+  s.max_late_ns = static_cast<double>(max_late_ns_.load(std::memory_order_relaxed));
   s.last_fault = last_fault_.load(std::memory_order_relaxed);
   for (std::size_t i = 0; i < kSlotCount; ++i) s.active_ids[i] = active_ids_[i].load(std::memory_order_relaxed);
   const double total_ns = static_cast<double>(total_ns_.load(std::memory_order_relaxed));

@@ -38,6 +38,7 @@ struct MetricsSnapshot {
   double ns_per_sample = 0.0;    ///< processing time per sample
   double load = 0.0;             ///< processing time / audio time (1 = no headroom left)
   double peak_drive = 0.0;       ///< largest |drive| sent so far (the limiter keeps it ≤ 1)
+  double max_late_ns = 0.0;      ///< most a paced block was behind its schedule (beyond the buffer: an xrun)
   bool in_fault = false;         ///< the chain is in its safe bypass now
   Fault last_fault = Fault::none;  ///< the most recent fault
   std::array<std::uint64_t, kSlotCount> active_ids{};  ///< id of the stage active in each slot
@@ -68,6 +69,11 @@ class Metrics {
   }
   /// A block missed its deadline.
   void record_xrun() noexcept { xruns_.fetch_add(1, std::memory_order_relaxed); }
+  /// A paced block ended `ns` after its place in the schedule (0 when on time); the largest is kept. It
+  /// tells an xrun from slow processing (max_block_ns) apart from one from a late wake-up.
+  void record_lateness(std::uint64_t ns) noexcept {
+    if (ns > max_late_ns_.load(std::memory_order_relaxed)) max_late_ns_.store(ns, std::memory_order_relaxed);
+  }
 
   /// True while the chain is in its safe bypass (cheaper than a snapshot).
   bool in_fault() const noexcept { return in_fault_.load(std::memory_order_relaxed); }
@@ -87,7 +93,7 @@ class Metrics {
 
   double fs_ = 0.0;
   std::atomic<std::uint64_t> blocks_{0}, samples_{0}, total_ns_{0}, max_ns_{0};
-  std::atomic<std::uint64_t> faults_{0}, swaps_{0}, xruns_{0};
+  std::atomic<std::uint64_t> faults_{0}, swaps_{0}, xruns_{0}, max_late_ns_{0};
   std::atomic<bool> in_fault_{false};
   std::atomic<double> peak_drive_{0.0};
   static_assert(std::atomic<double>::is_always_lock_free);

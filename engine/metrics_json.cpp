@@ -15,6 +15,7 @@ nlohmann::json metrics_to_json(const MetricsSnapshot& m) {
           {"p50_block_ns", m.p50_block_ns},
           {"p99_block_ns", m.p99_block_ns},
           {"max_block_ns", m.max_block_ns},
+          {"max_late_ns", m.max_late_ns},
           {"ns_per_sample", m.ns_per_sample},
           {"load", m.load},
           {"active_ids",

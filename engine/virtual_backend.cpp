@@ -91,6 +91,10 @@ void VirtualBackend::run() noexcept {
     if (options_.pacing == Pacing::real_time) {
       deadline += period;
       const auto now = clock::now();
+      if (now > deadline) {
+        const auto late = std::chrono::duration_cast<std::chrono::nanoseconds>(now - deadline);
+        chain_.metrics().record_lateness(static_cast<std::uint64_t>(late.count()));
+      }
       if (now > deadline + slack) {
         chain_.metrics().record_xrun();
         deadline = now;  // start afresh rather than rushing to catch up

@@ -40,8 +40,12 @@ void count_free(void* p) {
 
 // AddressSanitizer and ThreadSanitizer own malloc (replacing it breaks their start-up): count operator
 // new/delete only, on top of their allocators.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)  // GCC
 #define PANELBASS_SANITIZER_OWNS_MALLOC 1
+#elif defined(__has_feature)  // clang (14 does not define GCC's macros)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define PANELBASS_SANITIZER_OWNS_MALLOC 1
+#endif
 #endif
 
 #if defined(PANELBASS_SANITIZER_OWNS_MALLOC)

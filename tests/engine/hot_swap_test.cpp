@@ -133,7 +133,7 @@ TEST(VirtualBackend, RealTimePacingTakesTheBlocksTime) {
 
 // A block late by less than the buffer's slack is no xrun; one later than that is. The audio thread is
 // held up once, from on_block (a test's liberty: real callbacks must not wait), by 1.5 or 3 periods.
-std::uint64_t xruns_after_one_stall(double stall_periods, int buffer_periods) {
+MetricsSnapshot metrics_after_one_stall(double stall_periods, int buffer_periods) {
   Chain chain(ChainOptions{});
   VirtualBackendOptions o;
   o.block = Samples{60};  // 20 ms
@@ -149,14 +149,22 @@ std::uint64_t xruns_after_one_stall(double stall_periods, int buffer_periods) {
   backend.start();
   while (backend.blocks() < 10) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   backend.stop();
-  return chain.metrics().snapshot().xruns;
+  return chain.metrics().snapshot();
 }
 
 TEST(VirtualBackend, ALateBlockIsAnXrunOnlyWhenTheBufferWouldHaveRunDry) {
-  EXPECT_EQ(xruns_after_one_stall(3.0, 1), 1u);
-  EXPECT_EQ(xruns_after_one_stall(3.0, 2), 1u);
-  EXPECT_EQ(xruns_after_one_stall(1.5, 1), 1u);
-  EXPECT_EQ(xruns_after_one_stall(1.5, 4), 0u);
+  EXPECT_EQ(metrics_after_one_stall(3.0, 1).xruns, 1u);
+  EXPECT_EQ(metrics_after_one_stall(3.0, 2).xruns, 1u);
+  EXPECT_EQ(metrics_after_one_stall(1.5, 1).xruns, 1u);
+  EXPECT_EQ(metrics_after_one_stall(1.5, 4).xruns, 0u);
+}
+
+TEST(VirtualBackend, HowLateTheLatestBlockWasIsReported) {
+  // A stall of 1.5 periods (30 ms) puts the block 30 ms minus its own 20 ms period behind: at least 10 ms
+  // (a lower bound: the machine can only add to it), within the buffer of 4 periods, so no xrun.
+  const MetricsSnapshot m = metrics_after_one_stall(1.5, 4);
+  EXPECT_GE(m.max_late_ns, 10e6);
+  EXPECT_EQ(m.xruns, 0u);
 }
 
 }  // namespace

@@ -69,6 +69,13 @@ TEST(Metrics, FaultsSwapsXrunsAndActiveIds) {
   EXPECT_EQ(s.active_ids[1], 42u);
 }
 
+TEST(Metrics, TheLatestBlockIsKept) {
+  Metrics m;
+  EXPECT_EQ(m.snapshot().max_late_ns, 0.0);
+  for (const std::uint64_t ns : {300u, 7000u, 20u}) m.record_lateness(ns);
+  EXPECT_EQ(m.snapshot().max_late_ns, 7000.0);
+}
+
 TEST(Metrics, AnotherThreadReadsWhileTheAudioThreadWrites) {
   Metrics m;
   std::atomic<bool> done{false};
