@@ -100,6 +100,7 @@ EngineService::EngineService(EngineServiceOptions options) : options_(std::move(
   backend.loop = true;
   backend.plant = options_.plant;
   backend.noise_seed = options_.seed;
+  backend.realtime_priority = options_.realtime_priority;
   backend_ = std::make_unique<engine::VirtualBackend>(*chain_, std::move(backend));
 }
 
@@ -162,6 +163,7 @@ nlohmann::json EngineService::engine_status() const {
                             {"fs", running_.fs},
                             {"block", running_.block},
                             {"uptime_s", uptime},
+                            {"realtime", alsa_ ? alsa_->status().realtime : backend_->realtime()},
                             {"recoveries", recoveries_},
                             {"fault_hold_s", hold_s_}};
   if (alsa_) status["device"] = engine::alsa_status_to_json(alsa_->status(), alsa_->resampling_latency());

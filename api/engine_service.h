@@ -48,6 +48,7 @@ struct EngineServiceOptions {
   std::vector<double> program;              ///< looped program input at the chain's rate (empty: silence)
   std::uint64_t seed = 1;                   ///< sensor noise of the playing plant; excitations use seed + 1, + 2, …
   engine::Pacing pacing = engine::Pacing::real_time;  ///< the audio thread's pacing
+  int realtime_priority = 0;  ///< SCHED_FIFO priority of the virtual backend's audio thread (0: none)
   /// Play on a sound card instead (program from its options, at the device rate); the virtual transducer
   /// then only sets the chain's rate. nullopt: the virtual transducer.
   std::optional<engine::AlsaOptions> alsa;
@@ -81,7 +82,7 @@ class EngineService {
   /// ever more rarely.
   void housekeeping();
 
-  /// {"state","backend","plant","fs","block","uptime_s","recoveries","fault_hold_s"}; on a sound card
+  /// {"state","backend","plant","fs","block","uptime_s","realtime","recoveries","fault_hold_s"}; on a sound card
   /// also "device" (engine/alsa_status_json.h: its state, losses, reopens, last error).
   nlohmann::json engine_status() const;
   /// The sound card's status (nullopt on the virtual transducer).

@@ -6,6 +6,7 @@ polls, config changes, uploads, activations, small jobs, and bad requests (which
 requests and memory (RSS at start, every minute, and at the end).
 
     python3 bench/soak.py [--minutes 10] [--rate 50] [--seed 1] [--bin build/bin/panelbass] [--no-uploads]
+                          [--realtime-priority N]   (SCHED_FIFO for the audio thread; the report says if granted)
 
 Exits 1 if a valid request failed, a bad request got anything but a 4xx, an xrun happened, or the drive
 left [-1, 1].
@@ -24,9 +25,10 @@ import urllib.error
 import urllib.request
 
 
-def start_server(binary, store, seed):
+def start_server(binary, store, seed, realtime_priority=0):
     proc = subprocess.Popen(
-        [binary, "serve", "--port", "0", "--no-demo", "--store", store, "--web", "", "--seed", str(seed)],
+        [binary, "serve", "--port", "0", "--no-demo", "--store", store, "--web", "", "--seed", str(seed),
+         "--realtime-priority", str(realtime_priority)],
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     line = proc.stdout.readline()
     if "serving http://" not in line:
@@ -92,12 +94,14 @@ def main():
     parser.add_argument("--rate", type=float, default=50.0, help="requests per second (bounded client)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--bin", default="build/bin/panelbass")
+    parser.add_argument("--realtime-priority", type=int, default=0,
+                        help="SCHED_FIFO priority of the engine's audio thread (0: normal scheduling)")
     parser.add_argument("--no-uploads", action="store_true",
                         help="no new models during the soak (memory then has no stored data to grow with)")
     args = parser.parse_args()
     rng = random.Random(args.seed)
     store = tempfile.mkdtemp(prefix="panelbass-soak-")
-    proc, address = start_server(args.bin, store, args.seed)
+    proc, address = start_server(args.bin, store, args.seed, args.realtime_priority)
     report = {"minutes": args.minutes, "rate_target": args.rate}
     try:
         # The full chain: a linear model and its LQ feedforward, a NARX model and the neural feedback on it.
@@ -185,7 +189,7 @@ def main():
                        "faults": m1["faults"] - m0["faults"], "last_fault": m1["last_fault"],
                        "peak_drive": m1["peak_drive"], "p50_block_ns": m1["p50_block_ns"],
                        "p99_block_ns": m1["p99_block_ns"], "max_block_ns": m1["max_block_ns"],
-                       "max_late_ns": m1["max_late_ns"],
+                       "max_late_ns": m1["max_late_ns"], "realtime": end_status["engine"]["realtime"],
                        "load": m1["load"]},
             "rss_kib": rss, "rss_growth_kib": rss[-1][1] - rss[0][1],
         })

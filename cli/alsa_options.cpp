@@ -36,8 +36,6 @@ void add_alsa_options(CLI::App* cmd, AlsaCliOptions& o) {
   cmd->add_option("--quality", o.quality, "ALSA: resampler quality when the device runs at another rate")
       ->check(CLI::IsMember({"fastest", "medium", "best"}))
       ->capture_default_str();
-  cmd->add_option("--realtime-priority", o.realtime_priority, "ALSA: SCHED_FIFO priority of the device thread (0: none)")
-      ->capture_default_str();
   cmd->add_option("--alsa-config", o.config_file,
                   "ALSA: configuration file defining the PCMs named above (default: the system's configuration)")
       ->check(CLI::ExistingFile);
@@ -56,7 +54,6 @@ engine::AlsaOptions alsa_options_of(const AlsaCliOptions& o) {
   options.program_channel = o.program_channel;
   options.sensor_channel = o.sensor_channel;
   options.quality = quality_of(o.quality);
-  options.realtime_priority = o.realtime_priority;
   if (!o.config_file.empty()) {
     std::ifstream in(o.config_file);
     if (!in) throw std::invalid_argument("--alsa-config " + o.config_file + ": cannot be read");

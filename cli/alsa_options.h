@@ -22,7 +22,6 @@ struct AlsaCliOptions {
   int program_channel = engine::kNoChannel;   ///< capture channel with the program input
   int sensor_channel = engine::kNoChannel;    ///< capture channel with the sensor
   std::string quality = "fastest";            ///< the rate bridge's resampler quality
-  int realtime_priority = 0;                  ///< SCHED_FIFO priority of the device thread (0: none)
   std::string config_file;                    ///< ALSA configuration file to open the PCMs from ("" = system's)
 };
 

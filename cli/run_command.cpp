@@ -39,6 +39,7 @@ struct RunOptions {
   double amplitude = 0.3;
   double seconds = 0.0;
   std::uint64_t seed = 1;
+  int realtime_priority = 0;
   AlsaCliOptions alsa;
 };
 
@@ -70,6 +71,7 @@ void run_virtual(const RunOptions& o, const engine::ChainConfig& config, nlohman
   options.loop = true;
   options.plant = plant;
   options.noise_seed = o.seed + 1;
+  options.realtime_priority = o.realtime_priority;
   engine::VirtualBackend backend(*chain, std::move(options));
 
   const StopSignals signals;
@@ -82,6 +84,7 @@ void run_virtual(const RunOptions& o, const engine::ChainConfig& config, nlohman
   std::cerr << "run: stopped after " << elapsed << " s\n";
 
   result["plant"] = plant.name;
+  result["realtime"] = backend.realtime();
   result["program"] = program.description;
   result["seconds"] = elapsed;
   result["interrupted"] = stop_requested();
@@ -95,6 +98,7 @@ void run_alsa(const RunOptions& o, const engine::ChainConfig& config, nlohmann::
     throw std::invalid_argument(o.chain + ": feedback.source is \"sensor\" but no --sensor-channel is given");
   }
   engine::AlsaOptions options = alsa_options_of(a);
+  options.realtime_priority = o.realtime_priority;
   nlohmann::json program_description = {{"capture_channel", a.program_channel}};
   if (a.program_channel == engine::kNoChannel) {
     // The program is played from memory at the device's rate.
@@ -161,6 +165,10 @@ void register_run(CLI::App& app) {
   cmd->add_option("--seconds", o->seconds, "Stop after this long (default: run until SIGINT/SIGTERM)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--seed", o->seed, "Seed of the noise signal (the plant's sensor noise uses seed + 1)")
+      ->capture_default_str();
+  cmd->add_option("--realtime-priority", o->realtime_priority,
+                  "SCHED_FIFO priority of the audio thread, 1..99 (0: normal scheduling)")
+      ->check(CLI::Range(0, 99))
       ->capture_default_str();
   add_alsa_options(cmd, o->alsa);
   cmd->footer(

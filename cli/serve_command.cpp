@@ -35,6 +35,7 @@ struct ServeOptions {
   double seconds = 0.0;
   std::size_t body_limit_mib = 16;
   std::string backend = "virtual";
+  int realtime_priority = 0;
   AlsaCliOptions alsa;
 };
 
@@ -80,12 +81,14 @@ void run_serve(const ServeOptions& o) {
   options.engine.plant = models::plant_from_name_or_file(o.plant);
   options.engine.chain.fs = options.engine.plant.fs;
   options.engine.seed = o.seed + 1;
+  options.engine.realtime_priority = o.realtime_priority;
   const bool on_card = o.backend == "alsa";
   // The program at the rate it is played at: the chain's on the virtual transducer, the card's on ALSA.
   std::vector<double> program =
       looped_program("", "0", o.signal, o.amplitude, o.seed, on_card ? o.alsa.rate : options.engine.plant.fs).samples;
   if (on_card) {
     options.engine.alsa = alsa_options_of(o.alsa);
+    options.engine.alsa->realtime_priority = o.realtime_priority;
     if (o.alsa.program_channel == engine::kNoChannel) options.engine.alsa->program = std::move(program);
   } else {
     options.engine.program = std::move(program);
@@ -152,6 +155,10 @@ void register_serve(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seconds", o->seconds, "Stop after this long (default: until SIGINT/SIGTERM)")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--realtime-priority", o->realtime_priority,
+                  "SCHED_FIFO priority of the audio thread, 1..99 (0: normal scheduling; status says if granted)")
+      ->check(CLI::Range(0, 99))
+      ->capture_default_str();
   add_alsa_options(cmd, o->alsa);
   cmd->footer(
       "Examples:\n  panelbass serve                      (http://127.0.0.1:8080/, demo jobs at start-up)\n"

@@ -1,8 +1,6 @@
 #include "engine/alsa_backend.h"
 
 #include <alsa/asoundlib.h>
-#include <pthread.h>
-#include <sched.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -11,6 +9,8 @@
 #include <cstring>
 #include <stdexcept>
 #include <utility>
+
+#include "engine/realtime_thread.h"
 
 namespace panelbass::engine {
 
@@ -628,11 +628,7 @@ bool AlsaBackend::stream() noexcept {
 }
 
 void AlsaBackend::run() noexcept {
-  if (options_.realtime_priority > 0) {
-    sched_param param{};
-    param.sched_priority = options_.realtime_priority;
-    realtime_.store(pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) == 0, std::memory_order_relaxed);
-  }
+  realtime_.store(make_this_thread_realtime(options_.realtime_priority), std::memory_order_relaxed);
   auto wait = options_.reopen_min;
   while (!stop_.load(std::memory_order_relaxed)) {
     state_.store(AlsaState::opening, std::memory_order_relaxed);

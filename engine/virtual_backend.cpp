@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "engine/closed_loop.h"
+#include "engine/realtime_thread.h"
 
 namespace panelbass::engine {
 namespace {
@@ -57,6 +58,9 @@ void VirtualBackend::wait() {
 }
 
 void VirtualBackend::run() noexcept {
+  if (options_.pacing == Pacing::real_time) {
+    realtime_.store(make_this_thread_realtime(options_.realtime_priority), std::memory_order_relaxed);
+  }
   using clock = std::chrono::steady_clock;
   const auto period = std::chrono::duration_cast<clock::duration>(
       std::chrono::duration<double>(options_.block.value / chain_.options().spec.fs));

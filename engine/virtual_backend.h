@@ -41,6 +41,7 @@ struct VirtualBackendOptions {
   bool loop = true;                    ///< repeat the program; else the run ends when it has been played
   models::PlantConfig plant;           ///< the simulated transducer (its fs must be the chain's)
   std::uint64_t noise_seed = 1;        ///< the plant's sensor noise seed
+  int realtime_priority = 0;           ///< SCHED_FIFO priority of the audio thread (0: normal scheduling)
   /// Called on the audio thread after each block; must not allocate, lock or wait.
   std::function<void(const BlockView&)> on_block;
 };
@@ -65,6 +66,8 @@ class VirtualBackend {
   bool finished() const { return finished_.load(std::memory_order_acquire); }
   /// Blocks processed so far.
   std::uint64_t blocks() const { return blocks_.load(std::memory_order_relaxed); }
+  /// The audio thread got its SCHED_FIFO priority.
+  bool realtime() const { return realtime_.load(std::memory_order_relaxed); }
 
  private:
   void run() noexcept;
@@ -78,6 +81,7 @@ class VirtualBackend {
   std::atomic<bool> stop_{false};
   std::atomic<bool> finished_{false};
   std::atomic<std::uint64_t> blocks_{0};
+  std::atomic<bool> realtime_{false};
 };
 
 }  // namespace panelbass::engine

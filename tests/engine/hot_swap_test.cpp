@@ -2,11 +2,14 @@
 // can. The output never steps further from one sample to the next than either model's output does on
 // its own (bounds computed here by rendering each model alone), and every retired stage is freed.
 #include <gtest/gtest.h>
+#include <pthread.h>
+#include <sched.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <numbers>
 #include <thread>
 #include <vector>
@@ -165,6 +168,46 @@ TEST(VirtualBackend, HowLateTheLatestBlockWasIsReported) {
   const MetricsSnapshot m = metrics_after_one_stall(1.5, 4);
   EXPECT_GE(m.max_late_ns, 10e6);
   EXPECT_EQ(m.xruns, 0u);
+}
+
+// Whether this system lets a thread of this process run under SCHED_FIFO (asked on a throwaway thread).
+bool system_grants_fifo() {
+  bool granted = false;
+  std::thread probe([&granted] {
+    sched_param param{};
+    param.sched_priority = 5;
+    granted = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) == 0;
+  });
+  probe.join();
+  return granted;
+}
+
+// The scheduling policy the audio thread runs under, read from inside it, with and without a priority.
+TEST(VirtualBackend, TheAudioThreadRunsUnderTheRealTimePolicyWhenTheSystemGrantsIt) {
+  const bool granted = system_grants_fifo();
+  for (const int priority : {0, 5}) {
+    Chain chain(ChainOptions{});
+    VirtualBackendOptions o;
+    o.block = Samples{30};  // 10 ms
+    o.pacing = Pacing::real_time;
+    o.program = periodic_program();
+    o.plant = models::plant_preset("linear");
+    o.realtime_priority = priority;
+    auto policy = std::make_shared<std::atomic<int>>(-1);
+    o.on_block = [policy](const BlockView&) {
+      int p = 0;
+      sched_param param{};
+      pthread_getschedparam(pthread_self(), &p, &param);
+      policy->store(p);
+    };
+    VirtualBackend backend(chain, std::move(o));
+    backend.start();
+    while (backend.blocks() < 3) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    backend.stop();
+    const bool expect_fifo = priority > 0 && granted;
+    EXPECT_EQ(backend.realtime(), expect_fifo) << "priority " << priority;
+    EXPECT_EQ(policy->load(), expect_fifo ? SCHED_FIFO : SCHED_OTHER) << "priority " << priority;
+  }
 }
 
 }  // namespace
