@@ -117,13 +117,19 @@ TEST(HotSwap, AThousandSwapsWhileRunningAddNoStepAndFreeEveryRetiredStage) {
   EXPECT_LE(largest, bound * (1 + 1e-12)) << "largest step " << largest << ", bound " << bound;
 }
 
-TEST(VirtualBackend, RealTimePacingTakesTheBlocksTime) {
-  Chain chain(ChainOptions{});
+// Real-time pacing of the periodic program into the linear plant, `block` samples (at 3 kHz) a block.
+VirtualBackendOptions paced_options(int block) {
   VirtualBackendOptions o;
-  o.block = Samples{30};  // 10 ms
+  o.block = Samples{block};
   o.pacing = Pacing::real_time;
   o.program = periodic_program();
   o.plant = models::plant_preset("linear");
+  return o;
+}
+
+TEST(VirtualBackend, RealTimePacingTakesTheBlocksTime) {
+  Chain chain(ChainOptions{});
+  VirtualBackendOptions o = paced_options(30);  // 10 ms
   VirtualBackend backend(chain, std::move(o));
   const auto t0 = std::chrono::steady_clock::now();
   backend.start();
@@ -138,12 +144,8 @@ TEST(VirtualBackend, RealTimePacingTakesTheBlocksTime) {
 // held up once, from on_block (a test's liberty: real callbacks must not wait), by 1.5 or 3 periods.
 MetricsSnapshot metrics_after_one_stall(double stall_periods, int buffer_periods) {
   Chain chain(ChainOptions{});
-  VirtualBackendOptions o;
-  o.block = Samples{60};  // 20 ms
-  o.pacing = Pacing::real_time;
+  VirtualBackendOptions o = paced_options(60);  // 20 ms
   o.buffer_periods = buffer_periods;
-  o.program = periodic_program();
-  o.plant = models::plant_preset("linear");
   const auto stall = std::chrono::duration<double>(stall_periods * 0.020);
   o.on_block = [stall](const BlockView& b) {
     if (b.index == 3) std::this_thread::sleep_for(stall);
@@ -187,11 +189,7 @@ TEST(VirtualBackend, TheAudioThreadRunsUnderTheRealTimePolicyWhenTheSystemGrants
   const bool granted = system_grants_fifo();
   for (const int priority : {0, 5}) {
     Chain chain(ChainOptions{});
-    VirtualBackendOptions o;
-    o.block = Samples{30};  // 10 ms
-    o.pacing = Pacing::real_time;
-    o.program = periodic_program();
-    o.plant = models::plant_preset("linear");
+    VirtualBackendOptions o = paced_options(30);  // 10 ms
     o.realtime_priority = priority;
     auto policy = std::make_shared<std::atomic<int>>(-1);
     o.on_block = [policy](const BlockView&) {
