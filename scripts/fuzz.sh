@@ -23,7 +23,8 @@ targets=("$@")
 (( ${#targets[@]} )) || targets=("${all_targets[@]}")
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-build=${FUZZ_BUILD:-$root/build-fuzz}
+# Absolute: the targets run from their own scratch folders.
+build=$(realpath -m "${FUZZ_BUILD:-$root/build-fuzz}")
 jobs=${FUZZ_JOBS:-2}
 parallel=${FUZZ_PARALLEL:-1}
 work=${FUZZ_WORK:-$(mktemp -d /tmp/panelbass-fuzz.XXXXXX)}
@@ -87,7 +88,7 @@ for t in "${targets[@]}"; do
 done
 
 if (( ${#failed[@]} )); then
-  echo "== CRASHES (reproduce: build-fuzz/bin/<target>_fuzz FILE; logs in $work/<target>/log)" >&2
+  echo "== CRASHES (reproduce: $build/bin/<target>_fuzz FILE; logs in $work/<target>/log)" >&2
   printf '   %s\n' "${failed[@]}" >&2
   exit 1
 fi
