@@ -12,6 +12,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 fuzz_seconds=${1:-10}
+# clang with its sanitizer and libFuzzer runtimes (the main build's packages are bootstrap.sh's).
+bash scripts/install_packages.sh clang libclang-rt-14-dev
 jobs=$(nproc)
 # Only the executables built here are run: the browser test and the load bench (not built here) are left out.
 not_built='_NOT_BUILT$|^web\.|^api\.load'

@@ -8,21 +8,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(chromium)
+# node and npm only when the commands are absent (they may come from elsewhere than Debian).
 command -v node >/dev/null 2>&1 || packages+=(nodejs)
 command -v npm >/dev/null 2>&1 || packages+=(npm)
-missing=()
-for p in "${packages[@]}"; do
-  case "$p" in
-    nodejs|npm) missing+=("$p") ;;   # only listed when the command is absent
-    *) dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'ok installed' || missing+=("$p") ;;
-  esac
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "web_setup: installing ${missing[*]}" >&2
-  apt_get=(apt-get); [ "$(id -u)" -eq 0 ] || apt_get=(sudo apt-get)
-  "${apt_get[@]}" update -q
-  DEBIAN_FRONTEND=noninteractive "${apt_get[@]}" install -y -q --no-install-recommends "${missing[@]}"
-fi
+bash scripts/install_packages.sh "${packages[@]}"
 [ -x /usr/bin/chromium ] || { echo "web_setup: /usr/bin/chromium missing after installing chromium" >&2; exit 1; }
 
 # npm ci when node_modules is missing or was installed from another lock file (its hash is kept inside
