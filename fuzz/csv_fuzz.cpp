@@ -26,16 +26,12 @@ const fs::path& input_path() {
   return path;
 }
 
-void write_file(const fs::path& path, const std::uint8_t* data, std::size_t size) {
-  panelbass::fuzz::write_input(path, data, size);
-}
-
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using panelbass::dsp::DataError;
   const fs::path& path = input_path();
-  write_file(path, data, size);
+  panelbass::fuzz::write_input(path, data, size);
   try {
     const panelbass::dsp::Record record = panelbass::dsp::read_csv(path, {"u", "y"});
     (void)record;

@@ -25,16 +25,12 @@ const fs::path& input_path() {
   return path;
 }
 
-void write_file(const fs::path& path, const std::uint8_t* data, std::size_t size) {
-  panelbass::fuzz::write_input(path, data, size);
-}
-
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using panelbass::dsp::DataError;
   const fs::path& path = input_path();
-  write_file(path, data, size);
+  panelbass::fuzz::write_input(path, data, size);
   // Channels by index, or (odd sizes) by the names stored in the comment tag: one read per input, since
   // each read_wav allocates its 8 MB chunk buffer, which costs ~50 ms of page faults under ASan.
   try {
