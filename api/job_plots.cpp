@@ -74,6 +74,25 @@ json spectrum_plot(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const Eig
   return spectrum_plot(measured.frequency, measured.h, model.h);
 }
 
+json residual_spectrum_plot(const Eigen::VectorXd& residual_before, const Eigen::VectorXd& residual_after,
+                            double noise_psd, double fs) {
+  if (residual_before.size() != residual_after.size()) throw std::invalid_argument("residual spectrum plot: lengths differ");
+  if (residual_before.size() < 64) throw std::invalid_argument("residual spectrum plot: fewer than 64 samples");
+  dsp::WelchSpec spec;
+  spec.segment = static_cast<std::size_t>(welch_segment(residual_before.size()));
+  const dsp::PowerSpectrum before = dsp::welch_psd(residual_before, fs, spec);
+  const dsp::PowerSpectrum after = dsp::welch_psd(residual_after, fs, spec);
+  const Eigen::Index n = before.frequency.size() - 1;  // DC left out
+  const auto db = [](const Eigen::VectorXd& p) {
+    return Eigen::VectorXd(p.unaryExpr([](double v) { return v > 0.0 ? 10.0 * std::log10(v) : std::nan(""); }));
+  };
+  const double floor_db = noise_psd > 0.0 ? 10.0 * std::log10(noise_psd) : std::nan("");
+  return {{"frequency_hz", column(before.frequency.tail(n))},
+          {"before_db", column(db(before.psd.tail(n)))},
+          {"after_db", column(db(after.psd.tail(n)))},
+          {"noise_floor_db", column(Eigen::VectorXd::Constant(n, floor_db))}};
+}
+
 json history_plot(const std::vector<HistoryPoint>& points) {
   json iteration = json::array(), est = json::array(), val = json::array();
   for (const HistoryPoint& p : points) {

@@ -35,6 +35,13 @@ nlohmann::json spectrum_plot(const Eigen::VectorXd& u, const Eigen::VectorXd& y,
 /// "spectrum" of two responses on the frequencies `f` (Hz), the bins above DC (f > 0) only.
 nlohmann::json spectrum_plot(const Eigen::VectorXd& f, const Eigen::VectorXcd& measured, const Eigen::VectorXcd& model);
 
+/// "residual_spectrum": {"frequency_hz","before_db","after_db","noise_floor_db"}: Welch PSDs (welch_segment(),
+/// dB re 1 unit²/Hz) of two residuals of one record, the bins above DC, with the constant `noise_psd`
+/// (units²/Hz; null where not positive) beside them. Throws std::invalid_argument for unequal lengths or
+/// fewer than 64 samples.
+nlohmann::json residual_spectrum_plot(const Eigen::VectorXd& residual_before, const Eigen::VectorXd& residual_after,
+                                      double noise_psd, double fs);
+
 /// One point of a J history.
 struct HistoryPoint {
   int iteration = 0;

@@ -1,12 +1,9 @@
 // `panelbass analyze`: the Analysis report of one model on one record (numbers from
 // models::analyze_model; figures by gnuplot; an optional self-contained HTML page).
 
-#include <unistd.h>
-
 #include <cmath>
 #include <filesystem>
 #include <memory>
-#include <random>
 #include <string>
 #include <variant>
 #include <vector>
@@ -17,6 +14,7 @@
 #include "cli/html_report.h"
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
+#include "cli/report_output.h"
 #include "cli/report_plots.h"
 #include "models/json_file.h"
 #include "models/model_analysis.h"
@@ -29,8 +27,9 @@ namespace {
 namespace fs = std::filesystem;
 
 struct AnalyzeOptions {
-  std::string model, data, plant, out, html, plots, history, gain_range;
+  std::string model, data, plant, history, gain_range;
   DataOptions columns;
+  ReportOutputOptions outputs;
   long init = 50;
   int lags = 20;
   std::size_t segment = 0;
@@ -39,37 +38,7 @@ struct AnalyzeOptions {
   std::vector<double> frequencies{40.0, 80.0, 160.0, 320.0, 640.0};
   std::vector<double> amplitudes{0.8};
   std::size_t measure = 3000;
-  std::string plot_format = "png";
 };
-
-// A directory for the figures of an HTML-only report, removed when the command ends.
-class TemporaryDirectory {
- public:
-  TemporaryDirectory() {
-    path_ = fs::temp_directory_path() /
-            ("panelbass-analyze-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}()));
-    fs::create_directories(path_);
-  }
-  ~TemporaryDirectory() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  TemporaryDirectory(const TemporaryDirectory&) = delete;
-  TemporaryDirectory& operator=(const TemporaryDirectory&) = delete;
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-// Throws unless the file `path` could be created: its directory exists.
-void check_output_file(const std::string& option, const std::string& path) {
-  const fs::path parent = fs::absolute(path).parent_path();
-  if (!fs::is_directory(parent)) {
-    throw std::invalid_argument(option + " " + path + ": directory " + parent.string() + " does not exist");
-  }
-  if (fs::is_directory(path)) throw std::invalid_argument(option + " " + path + ": is a directory");
-}
 
 // KMIN:KMAX → the two gains.
 std::pair<double, double> parse_gain_range(const std::string& text) {
@@ -120,12 +89,7 @@ void run_analyze(const AnalyzeOptions& o) {
   }
 
   // Everything that can be refused is refused before the work starts.
-  check_output_file("--out", o.out);
-  if (!o.html.empty()) check_output_file("--html", o.html);
-  const PlotFormat format = parse_plot_format(o.plot_format);
-  const bool plotting = !o.html.empty() || !o.plots.empty();
-  if (plotting) find_gnuplot();
-  if (!o.plots.empty()) fs::create_directories(o.plots);
+  const PlotFormat format = o.outputs.prepare();
 
   ProgressBar bar("analyze");
   spec.progress = [&bar](const std::string&, double f) { bar.update(0.8 * f); };
@@ -136,27 +100,19 @@ void run_analyze(const AnalyzeOptions& o) {
   result["model"] = o.model;
   result["data"] = o.data;
   result["plant"] = o.plant.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.plant);
-  result["out"] = o.out;
-  result["html"] = o.html.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.html);
-  result["plots"] = nullptr;
-
-  if (plotting) {
-    std::unique_ptr<TemporaryDirectory> scratch;
-    if (o.plots.empty()) scratch = std::make_unique<TemporaryDirectory>();
-    const fs::path dir = o.plots.empty() ? scratch->path() : fs::path(o.plots);
-    ReportPlotOptions plot_options;
-    plot_options.format = format;
-    plot_options.window = o.window;
-    const std::vector<ReportFigure> figures = plot_analysis(analysis, dir, plot_options);
-    bar.update(0.95);
-    if (!o.plots.empty()) {
-      nlohmann::json plots = nlohmann::json::object();
-      for (const ReportFigure& f : figures) plots[f.name] = (fs::path(o.plots) / f.path.filename()).string();
-      result["plots"] = plots;
-    }
-    if (!o.html.empty()) write_html_report(o.html, result, figures, format);
-  }
-  models::write_json_file(o.out, result);
+  o.outputs.name_outputs(result);
+  ReportPlotOptions plot_options;
+  plot_options.format = format;
+  plot_options.window = o.window;
+  o.outputs.draw_figures(
+      "panelbass-analyze", result,
+      [&](const fs::path& dir) {
+        std::vector<ReportFigure> figures = plot_analysis(analysis, dir, plot_options);
+        bar.update(0.95);
+        return figures;
+      },
+      [&](const std::vector<ReportFigure>& figures) { write_html_report(o.outputs.html, result, figures, format); });
+  models::write_json_file(o.outputs.out, result);
   bar.update(1.0);
   print_result(result);
 }
@@ -174,10 +130,7 @@ void register_analyze(CLI::App& app) {
       ->check(CLI::Range(0L, 100000000L))
       ->capture_default_str();
   cmd->add_option("--plant", o->plant, "Plant preset or plant JSON file: harmonic distortion plant vs model, sensor noise floor");
-  cmd->add_option("--out", o->out, "Report as JSON (the object printed on stdout)")->required();
-  cmd->add_option("--html", o->html, "Self-contained HTML report (figures embedded)");
-  cmd->add_option("--plots", o->plots, "Directory for the figures, their gnuplot scripts and data (created)");
-  cmd->add_option("--plot-format", o->plot_format, "png or svg")->check(CLI::IsMember({"png", "svg"}))->capture_default_str();
+  o->outputs.add_to(cmd, "Report as JSON (the object printed on stdout)", "Self-contained HTML report (figures embedded)");
   cmd->add_option("--lags", o->lags, "Lags of the residual correlation tests")->check(CLI::Range(1, 10000))->capture_default_str();
   cmd->add_option("--segment", o->segment, "Welch segment length (default: a power of 2 up to 1024, N/8)")
       ->check(CLI::Range(std::size_t{16}, std::size_t{1} << 24));

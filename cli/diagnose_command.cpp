@@ -2,6 +2,7 @@
 // physics modelled, and validation J before and after (models/diagnosis.h does the work).
 
 #include <cmath>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -10,7 +11,11 @@
 
 #include "cli/commands.h"
 #include "cli/data_options.h"
+#include "cli/diagnosis_plots.h"
+#include "cli/diagnosis_report.h"
+#include "cli/gnuplot.h"
 #include "cli/json_output.h"
+#include "cli/report_output.h"
 #include "models/diagnosis.h"
 #include "models/json_file.h"
 #include "models/linear_model.h"
@@ -18,12 +23,16 @@
 namespace panelbass::cli {
 namespace {
 
+namespace fs = std::filesystem;
+
 struct DiagnoseOptions {
-  std::string data, val, model, out;
+  std::string data, val, model;
   DataOptions columns;
+  ReportOutputOptions outputs;
   long init = 50;
   int scan_from = 2, scan_to = 14;
   int max_findings = 4;
+  long window = 300;
 };
 
 void run_diagnose(const DiagnoseOptions& o) {
@@ -38,6 +47,9 @@ void run_diagnose(const DiagnoseOptions& o) {
   if (std::abs(val.fs - est.fs) > 1e-9 * est.fs)
     throw std::invalid_argument(o.val + ": sample rate " + std::to_string(val.fs) + " Hz differs from " + o.data + "'s " +
                                 std::to_string(est.fs) + " Hz");
+  // Everything that can be refused is refused before the work starts.
+  const PlotFormat format = o.outputs.prepare();
+
   models::DiagnosisOptions options;
   options.init = o.init;
   options.scan_from = o.scan_from;
@@ -51,13 +63,26 @@ void run_diagnose(const DiagnoseOptions& o) {
   report["val"] = o.val;
   report["fs"] = est.fs;
   if (!o.model.empty()) report["model"] = o.model;
-  models::write_json_file(o.out, report);
+  o.outputs.name_outputs(report);
+  DiagnosisPlotOptions plot_options;
+  plot_options.format = format;
+  plot_options.window = o.window;
+  o.outputs.draw_figures(
+      "panelbass-diagnose", report,
+      [&](const fs::path& dir) {
+        options.progress("drawing the figures");
+        return plot_diagnosis(d, DiagnosisValidation{val.columns[0], val.columns[1], o.init}, dir, plot_options);
+      },
+      [&](const std::vector<ReportFigure>& figures) { write_diagnosis_html(o.outputs.html, report, figures, format); });
+  models::write_json_file(o.outputs.out, report);
   // stdout: the summary (the report file holds the evidence in full).
   nlohmann::json summary = {{"baseline", report["baseline"]},
                             {"J_val_before_pct", d.j_val_before_pct},
                             {"J_val_after_pct", d.j_val_after_pct},
                             {"noise_floor_pct", d.noise_floor_pct},
-                            {"out", o.out}};
+                            {"out", o.outputs.out},
+                            {"html", report["html"]},
+                            {"plots", report["plots"]}};
   summary["baseline"].erase("scan");
   nlohmann::json findings = nlohmann::json::array();
   for (const auto& f : report["findings"])
@@ -83,12 +108,15 @@ void register_diagnose(CLI::App& app) {
   cmd->add_option("--scan-from", o->scan_from, "Without --model: lowest OE order scanned")->check(CLI::Range(1, 60))->capture_default_str();
   cmd->add_option("--scan-to", o->scan_to, "Without --model: highest OE order scanned")->check(CLI::Range(1, 60))->capture_default_str();
   cmd->add_option("--max-findings", o->max_findings, "Augmentation rounds at most")->check(CLI::Range(0, 20))->capture_default_str();
-  cmd->add_option("--out", o->out, "Report to write (JSON)")->required();
+  o->outputs.add_to(cmd, "Report to write (JSON)", "Self-contained HTML report (findings, J per step, figures embedded)");
+  cmd->add_option("--window", o->window, "Samples shown in the fit plot")->check(CLI::Range(2L, 100000000L))->capture_default_str();
   cmd->footer(
       "Each candidate effect (dc_offset, delay, resonance, cubic_stiffness, asymmetric_stiffness, hysteresis,\n"
       "saturation) is fitted on --data and judged on --val; the best is kept while\n"
       "N·ln(J_before/J_after) > p·ln(N) (BIC, N validation samples, p added parameters).\n"
-      "Example:\n  panelbass diagnose --data est.csv --val val.csv --fs 3000 --out report.json");
+      "Example:\n"
+      "  panelbass diagnose --data est.csv --val val.csv --fs 3000 --out report.json \\\n"
+      "      --html report.html --plots plots/");
   cmd->callback([o] {
     if (o->scan_from > o->scan_to)
       throw CLI::ValidationError("--scan-from", std::to_string(o->scan_from) + " is above --scan-to " +

@@ -14,29 +14,11 @@ namespace {
 
 using nlohmann::json;
 
-// A number for a table: 4 significant digits, "–" for null.
-std::string cell(const json& v, int digits = 4) {
-  if (v.is_null()) return "–";
-  if (v.is_boolean()) return v.get<bool>() ? "yes" : "no";
-  if (v.is_number_integer() || v.is_number_unsigned()) return v.dump();
-  if (v.is_number()) {
-    char text[64];
-    std::snprintf(text, sizeof text, "%.*g", digits, v.get<double>());
-    return text;
-  }
-  if (v.is_string()) return html_escaped(v.get<std::string>());
-  return html_escaped(v.dump());
-}
+const json& at(const json& j, const char* key) { return report_field(j, key); }
 
-const json& at(const json& j, const char* key) {
-  static const json null_value;
-  return j.is_object() && j.contains(key) ? j.at(key) : null_value;
-}
+std::string cell(const json& v, int digits = 4) { return html_cell(v, digits); }
 
-// <tr><th>name</th><td>value</td></tr> rows of a two-column table.
-void row(std::ostream& out, const std::string& name, const std::string& value) {
-  out << "<tr><th>" << html_escaped(name) << "</th><td>" << value << "</td></tr>\n";
-}
+void row(std::ostream& out, const std::string& name, const std::string& value) { out << html_row(name, value); }
 
 std::string verdict(bool passes) {
   return passes ? "<span class=\"pass\">pass</span>" : "<span class=\"fail\">fail</span>";
@@ -63,7 +45,7 @@ body { font-family: "DejaVu Sans", Helvetica, Arial, sans-serif; max-width: 1100
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; border-bottom: 1px solid #ccc; margin-top: 2em; } h3 { font-size: 1em; }
 table { border-collapse: collapse; margin: 0.5em 0 1em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; font-variant-numeric: tabular-nums; }
-th { background: #f3f3f3; text-align: left; }
+td { white-space: nowrap; } th { background: #f3f3f3; text-align: left; } td.text { text-align: left; white-space: normal; }
 .pass { color: #1a7f37; font-weight: bold; } .fail { color: #c62828; font-weight: bold; }
 figure { margin: 1.5em 0; } figure img { max-width: 100%; border: 1px solid #ddd; }
 figcaption { font-size: 0.9em; color: #555; }
@@ -112,13 +94,51 @@ std::string html_escaped(std::string_view text) {
   return out;
 }
 
+const json& report_field(const json& object, const char* key) {
+  static const json null_value;
+  return object.is_object() && object.contains(key) ? object.at(key) : null_value;
+}
+
+std::string html_cell(const json& v, int digits) {
+  if (v.is_null()) return "–";
+  if (v.is_boolean()) return v.get<bool>() ? "yes" : "no";
+  if (v.is_number_integer() || v.is_number_unsigned()) return v.dump();
+  if (v.is_number()) {
+    char text[64];
+    std::snprintf(text, sizeof text, "%.*g", digits, v.get<double>());
+    return text;
+  }
+  if (v.is_string()) return html_escaped(v.get<std::string>());
+  return html_escaped(v.dump());
+}
+
+std::string html_row(const std::string& name, const std::string& value) {
+  return "<tr><th>" + html_escaped(name) + "</th><td>" + value + "</td></tr>\n";
+}
+
+std::string html_figures(const std::vector<ReportFigure>& figures, PlotFormat format) {
+  std::string out;
+  for (const ReportFigure& f : figures) {
+    out += "<figure id=\"" + html_escaped(f.name) + "\"><img src=\"data:" + mime_type_of(format) + ";base64," +
+           base64_encode(read_bytes(f.path)) + "\" alt=\"" + html_escaped(f.name) + "\">\n<figcaption>" +
+           html_escaped(f.caption) + "</figcaption></figure>\n";
+  }
+  return out;
+}
+
+void write_html_page(const std::filesystem::path& path, const std::string& title, const std::string& body) {
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  file << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" << html_escaped(title)
+       << "</title>\n<style>" << kStyle << "</style>\n</head>\n<body>\n"
+       << body << "</body>\n</html>\n";
+  if (!file.flush()) throw std::runtime_error(path.string() + ": cannot write the HTML report");
+}
+
 void write_html_report(const std::filesystem::path& path, const json& result, const std::vector<ReportFigure>& figures,
                        PlotFormat format) {
   std::ostringstream out;
   const std::string model = at(result, "model").is_string() ? at(result, "model").get<std::string>() : "model";
   const double fs = at(result, "fs").is_number() ? at(result, "fs").get<double>() : 0.0;
-  out << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>panelbass analysis: "
-      << html_escaped(model) << "</title>\n<style>" << kStyle << "</style>\n</head>\n<body>\n";
   out << "<h1>panelbass analysis of <code>" << html_escaped(model) << "</code></h1>\n";
 
   out << "<h2>Performance</h2>\n<table>\n";
@@ -209,18 +229,9 @@ void write_html_report(const std::filesystem::path& path, const json& result, co
     out << "</table>\n";
   }
 
-  out << "<h2>Figures</h2>\n";
-  for (const ReportFigure& f : figures) {
-    out << "<figure id=\"" << html_escaped(f.name) << "\"><img src=\"data:" << mime_type_of(format) << ";base64,"
-        << base64_encode(read_bytes(f.path)) << "\" alt=\"" << html_escaped(f.name) << "\">\n<figcaption>"
-        << html_escaped(f.caption) << "</figcaption></figure>\n";
-  }
-  out << "<p><small>Written by <code>panelbass analyze</code>. J is [2A] Σ(ŷ−y)²/Σy² in percent.</small></p>\n"
-      << "</body>\n</html>\n";
-
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  file << out.str();
-  if (!file.flush()) throw std::runtime_error(path.string() + ": cannot write the HTML report");
+  out << "<h2>Figures</h2>\n" << html_figures(figures, format);
+  out << "<p><small>Written by <code>panelbass analyze</code>. J is [2A] Σ(ŷ−y)²/Σy² in percent.</small></p>\n";
+  write_html_page(path, "panelbass analysis: " + model, out.str());
 }
 
 }  // namespace panelbass::cli

@@ -776,9 +776,43 @@ function fmtValue(v) {
   return v.length > 16 ? `[${shown}, … ${v.length} values]` : `[${shown}]`;
 }
 
+/** "linear · oe, na 8 nb 8 nk 1 (identified)" from a diagnose result's baseline. */
+function baselineLabel(b) {
+  if (!b) return '—';
+  const orders = ['na', 'nb', 'nk'].filter((k) => num(b[k])).map((k) => `${k} ${b[k]}`).join(' ');
+  const method = [b.method, orders].filter(Boolean).join(', ');
+  return `${b.kind || 'model'}${method ? ` · ${method}` : ''}${b.source ? ` (${b.source})` : ''}`;
+}
+
+/** A diagnose job's own view: baseline, J before and after, the findings, final J against the noise floor. */
+function renderDiagnosis(r) {
+  const baseline = r.baseline || {};
+  setText('#diag-baseline', baselineLabel(baseline));
+  setText('#diag-j-before', fmtPct(baseline.J_val_pct ?? r.J_val_before_pct));
+  setText('#diag-j-after', fmtPct(r.J_val_after_pct));
+  setText('#diag-noise-floor', fmtPct(r.noise_floor_pct));
+  const ratio = num(r.J_val_after_pct) && num(r.noise_floor_pct) && r.noise_floor_pct > 0
+    ? r.J_val_after_pct / r.noise_floor_pct : null;
+  setText('#diag-verdict', ratio === null ? ''
+    : ratio < 1.1 ? 'The final model is at the noise floor: what is left of the residual is noise.'
+    : `The final model's J is ${fmtNumber(ratio, 2)} × the noise floor: ${fmtPct(r.J_val_after_pct - r.noise_floor_pct)} is still unexplained.`);
+  const findings = Array.isArray(r.findings) ? r.findings : [];
+  $('#diag-findings tbody').replaceChildren(...findings.map((f, i) => el('tr', { dataset: { effect: f.effect } },
+    el('td', { class: 'num' }, String(i + 1)),
+    el('td', { class: 'mono' }, f.effect ?? '—'),
+    el('td', { class: 'explanation' }, f.explanation ?? ''),
+    el('td', { class: 'j' }, `${fmtPct(f.J_val_before_pct)} → ${fmtPct(f.J_val_after_pct)}`))));
+  $('#diag-findings').hidden = findings.length === 0;
+  $('#diag-no-findings').hidden = findings.length > 0;
+}
+
 function renderResult(job) {
   const r = job.result;
+  const diagnosis = job.kind === 'diagnose';
   $('#result-body').hidden = false;
+  $('#result-figures').hidden = diagnosis;
+  $('#result-diagnosis').hidden = !diagnosis;
+  if (diagnosis) renderDiagnosis(r);
   setText('#result-j-est', fmtPct(r.j_est_pct));
   setText('#result-j-val', fmtPct(r.j_val_pct));
   const box = $('#result-model-box');
@@ -786,9 +820,14 @@ function renderResult(job) {
   setText('#result-model', r.model_id ? modelLabel(r.model_id) : '—');
   $('#result-activate').dataset.modelId = r.model_id || '';
 
-  // Summary: the server's summary object, plus the excite figures when this is a record.
+  // Summary: the server's summary object, plus the excite figures when this is a record (a diagnosis has
+  // none: its data, rate, baseline and rule instead, the scan of orders left out).
   const summary = { ...(r.summary || {}) };
   for (const k of ['fs', 'samples', 'validation_samples', 'rms_drive', 'rms_response']) if (k in r) summary[k] = r[k];
+  if (diagnosis) {
+    const { scan, ...baseline } = r.baseline || {};
+    Object.assign(summary, { data: r.data, baseline, rule: r.rule });
+  }
   const rows = flatten(summary).map(([k, v]) => [el('dt', {}, k), el('dd', { class: 'mono' }, fmtValue(v))]).flat();
   $('#result-summary').replaceChildren(...rows);
   $('#result-summary-box').hidden = rows.length === 0;

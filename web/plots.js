@@ -7,6 +7,7 @@ const MEASURED = '#4ea1ff';
 const MODEL = '#ff8a3d';
 const H2 = '#4ea1ff';
 const H3 = '#5fd38d';
+const BEFORE = '#ff5c6a';
 const EXTRA = ['#c792ea', '#f7c948', '#ff5c8a', '#7fdbca', '#a3be8c'];
 
 /** How each known plot is drawn; columns it does not name are drawn too, in extra colours. */
@@ -25,6 +26,15 @@ const SPECS = {
     series: {
       measured_db: { label: 'measured', stroke: MEASURED },
       model_db: { label: 'model', stroke: MODEL },
+    },
+  },
+  residual_spectrum: {
+    title: 'Residual spectrum on the validation record (Welch PSD)',
+    x: 'frequency_hz', xLabel: 'frequency (Hz)', yLabel: 'dB re 1 unit²/Hz',
+    series: {
+      before_db: { label: 'before (baseline)', stroke: BEFORE },
+      after_db: { label: 'after (final model)', stroke: MEASURED },
+      noise_floor_db: { label: 'noise floor', stroke: H3, dash: [6, 4] },
     },
   },
   harmonics: {
@@ -48,7 +58,7 @@ const SPECS = {
 };
 
 /** The order in which a result's plots are shown; unknown plot names follow. */
-export const PLOT_ORDER = ['fit', 'spectrum', 'harmonics', 'history'];
+export const PLOT_ORDER = ['fit', 'spectrum', 'residual_spectrum', 'harmonics', 'history'];
 
 const AXIS = { stroke: '#aab4c0', grid: { stroke: 'rgba(160,175,190,0.14)', width: 1 },
                ticks: { stroke: 'rgba(160,175,190,0.3)', width: 1 } };

@@ -500,6 +500,7 @@ TEST_F(JobKindsTest, DiagnoseAgainstAGivenBaseline) {
   EXPECT_LT(result.at("J_val_before_pct").get<double>(), 0.01);
   EXPECT_LE(result.at("J_val_after_pct").get<double>(), result.at("J_val_before_pct").get<double>());
   expect_plot(result.at("plots").at("fit"), {"t", "measured", "simulated"});
+  expect_plot(result.at("plots").at("residual_spectrum"), {"frequency_hz", "before_db", "after_db", "noise_floor_db"});
 }
 
 TEST_F(JobKindsTest, AnalyzeANarxModelShowsHarmonicsOfPlantAndModel) {
@@ -528,6 +529,20 @@ TEST_F(JobKindsTest, DiagnoseFindsItsOwnBaselineOnTheVirtualTransducer) {
   EXPECT_EQ(result.at("baseline").at("source"), "identified");
   EXPECT_LE(result.at("J_val_after_pct").get<double>(), result.at("J_val_before_pct").get<double>());
   expect_plot(result.at("plots").at("fit"), {"t", "measured", "simulated"});
+  // The residual spectra before and after: the residual's power (Σ of the PSD bins) falls with J.
+  const json& spectrum = result.at("plots").at("residual_spectrum");
+  expect_plot(spectrum, {"frequency_hz", "before_db", "after_db", "noise_floor_db"});
+  double before = 0.0, after = 0.0;
+  for (std::size_t k = 0; k < spectrum.at("frequency_hz").size(); ++k) {
+    EXPECT_GT(spectrum.at("frequency_hz")[k].get<double>(), 0.0) << "DC is left out";
+    before += std::pow(10.0, spectrum.at("before_db")[k].get<double>() / 10.0);
+    after += std::pow(10.0, spectrum.at("after_db")[k].get<double>() / 10.0);
+  }
+  EXPECT_LE(after, 1.01 * before);
+  // The noise floor is one level, below the residual before the diagnosis.
+  const double floor_db = spectrum.at("noise_floor_db")[0].get<double>();
+  for (const json& v : spectrum.at("noise_floor_db")) EXPECT_EQ(v.get<double>(), floor_db);
+  EXPECT_LT(std::pow(10.0, floor_db / 10.0) * static_cast<double>(spectrum.at("frequency_hz").size()), before);
 }
 
 TEST_F(JobKindsTest, TheSameSeedRecordsTheSameExcitation) {

@@ -1,7 +1,11 @@
 // `panelbass diagnose` run as a user runs it: a linear transducer with a hardening spring simulated by
-// `panelbass simulate`, diagnosed end to end; and bad input named.
+// `panelbass simulate`, diagnosed end to end, with its HTML report and figures; and bad input named.
 
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <set>
+#include <string>
 
 #include "models/plant_config.h"
 #include "models/plant_presets.h"
@@ -52,6 +56,75 @@ TEST_F(CliDiagnose, FindsTheCubicSpringAndWritesTheReport) {
   EXPECT_EQ(report["baseline"]["J_val_pct"], r["baseline"]["J_val_pct"]);
 }
 
+TEST_F(CliDiagnose, HtmlReportShowsTheFindingsAndEmbedsEveryFigure) {
+  const fs::path out = dir_ / "report.json", html = dir_ / "report.html", plots = dir_ / "plots";
+  const json r = expect_result(run("diagnose --data " + est() + " --val " + val() +
+                                   " --fs 3000 --scan-from 12 --scan-to 13 --max-findings 1 --out " + quoted(out) +
+                                   " --html " + quoted(html) + " --plots " + quoted(plots)));
+  ASSERT_FALSE(r["findings"].empty()) << r.dump(1);
+  EXPECT_EQ(r["html"], html.string());
+  // The report file names the page and the figures too.
+  const json report = json::parse(text_of(out));
+  EXPECT_EQ(report["html"], r["html"]);
+  EXPECT_EQ(report["plots"], r["plots"]);
+
+  // The figures: the residual spectrum, the fit, J per step, and the cubic spring's term against its state.
+  ASSERT_TRUE(r["plots"].is_object()) << r.dump(1);
+  std::set<std::string> plotted;
+  for (const auto& [name, path] : r["plots"].items()) {
+    plotted.insert(name);
+    EXPECT_EQ(text_of(path.get<std::string>()).substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8)) << path;
+    EXPECT_TRUE(fs::exists(plots / (name + ".gp"))) << name;
+    EXPECT_TRUE(fs::exists(plots / (name + ".dat"))) << name;
+  }
+  for (const char* name : {"residual_spectrum", "fit", "j_per_step"}) EXPECT_TRUE(plotted.count(name)) << name;
+  // One figure per gray-box term of the final model (the last finding's terms), named after its effect and
+  // state, its scatter thinned to a few thousand points (the validation record has 8000 samples).
+  const json& terms = report["findings"].back()["parameters"]["terms"];
+  ASSERT_TRUE(terms.is_array()) << report["findings"].back().dump(1);
+  std::size_t term_figures = 0;
+  for (std::size_t i = 0; i < terms.size(); ++i) {
+    const std::string name = "term-" + std::to_string(i + 1);
+    if (!plotted.count(name)) continue;
+    ++term_figures;
+    const std::string script = text_of(plots / (name + ".gp")), data = text_of(plots / (name + ".dat"));
+    EXPECT_TRUE(contains(script, terms[i]["effect"].get<std::string>())) << script;
+    EXPECT_TRUE(contains(script, terms[i]["state"].get<std::string>())) << script;
+    EXPECT_LE(std::count(data.begin(), data.end(), '\n'), 3000);
+    EXPECT_GE(std::count(data.begin(), data.end(), '\n'), 1000);
+  }
+  EXPECT_GE(term_figures, 1u) << "the spring is a gray-box term: " << terms.dump();
+
+  // The page reads on its own: the baseline, the findings with J before and after, every figure embedded.
+  const std::string page = text_of(html);
+  EXPECT_EQ(page.rfind("<!DOCTYPE html>", 0), 0u);
+  EXPECT_FALSE(contains(page, "src=\"http")) << "the page must not load external assets";
+  for (const char* part : {"<h2>Baseline</h2>", "<h2>Findings</h2>", "noise floor", "J before", "J after"})
+    EXPECT_TRUE(contains(page, part)) << part;
+  EXPECT_TRUE(contains(page, "<code>" + r["findings"][0]["effect"].get<std::string>() + "</code>"));
+  std::size_t images = 0;
+  for (std::size_t at = page.find("<img src=\"data:image/png;base64,"); at != std::string::npos;
+       at = page.find("<img src=\"data:image/png;base64,", at + 1))
+    ++images;
+  EXPECT_EQ(images, plotted.size());
+  for (const std::string& name : plotted) EXPECT_TRUE(contains(page, "<figure id=\"" + name + "\"")) << name;
+}
+
+TEST_F(CliDiagnose, HtmlIntoAMissingFolderIsRefusedBeforeTheWork) {
+  const fs::path missing = dir_ / "no-such-folder" / "r.html";
+  const RunResult r = run("diagnose --data " + est() + " --val " + val() + " --fs 3000 --out " +
+                          quoted(dir_ / "r.json") + " --html " + quoted(missing));
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "--html")) << r.err;
+  EXPECT_TRUE(contains(r.err, "does not exist")) << r.err;
+  EXPECT_FALSE(contains(r.err, "diagnose: identifying")) << "refused only after the work: " << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "r.json"));
+  EXPECT_FALSE(fs::exists(missing.parent_path()));
+  expect_usage_error(run("diagnose --data " + est() + " --val " + val() + " --fs 3000 --out " + quoted(dir_ / "r.json") +
+                         " --html " + quoted(dir_ / "r.html") + " --plot-format gif"));
+  EXPECT_FALSE(fs::exists(dir_ / "r.html"));
+}
+
 TEST_F(CliDiagnose, BadInputIsNamed) {
   const std::string out = " --out " + quoted(dir_ / "r.json");
   const RunResult missing = run("diagnose --data " + quoted(dir_ / "nope.csv") + " --val " + val() + " --fs 3000" + out);
@@ -72,6 +145,7 @@ TEST_F(CliDiagnose, HelpHasAnExample) {
   const RunResult r = run("diagnose --help");
   EXPECT_EQ(r.status, 0);
   EXPECT_TRUE(contains(r.out, "Example:")) << r.out;
+  EXPECT_TRUE(contains(r.out, "--html report.html")) << r.out;
 }
 
 }  // namespace

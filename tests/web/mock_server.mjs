@@ -1,7 +1,7 @@
 #!/usr/bin/env node
 // A stand-in for `panelbass serve`, for developing and checking the web UI without the C++ server:
 // it serves web/ and answers the routes of api/ROUTES.md with canned, plausible data (jobs progress over
-// ~2 s, identify jobs make a model with fit/spectrum/history plots). Same command line and first stdout
+// ~2 s, identify jobs make a model with fit/spectrum/history plots, diagnose jobs a one-finding report). Same command line and first stdout
 // line as the real server, so ui_test.mjs can drive it:
 //   node tests/web/ui_test.mjs --server tests/web/mock_server.mjs --artifacts /tmp/ui
 // Not a test of the server: the real test runs against build/bin/panelbass.
@@ -86,8 +86,28 @@ function plots(kind) {
     out.harmonics = { f: hf, measured_h2_db: hf.map((x) => -30 - x / 30), measured_h3_db: hf.map((x) => -40 - x / 40),
                       model_h2_db: hf.map((x) => -31 - x / 30), model_h3_db: hf.map((x) => -41 - x / 40) };
   }
+  if (kind === 'diagnose') {
+    const rf = f.slice(1);
+    const peak = (x, at, width) => 14 * Math.exp(-(((x - at) / width) ** 2));
+    out.residual_spectrum = { frequency_hz: rf, before_db: rf.map((x, i) => -52 + peak(x, 150, 40) + 0.6 * Math.sin(i)),
+                              after_db: rf.map((x, i) => -52 + 0.4 * peak(x, 150, 40) + 0.6 * Math.sin(i + 1)),
+                              noise_floor_db: rf.map(() => -52.5) };
+    delete out.spectrum;
+    delete out.history;
+  }
   return out;
 }
+
+// A diagnose job's report (api/ROUTES.md "Jobs"): one cubic-spring finding.
+const diagnosisReport = (params) => ({
+  baseline: { kind: 'linear', source: params.baseline_model ? 'given' : 'identified', method: 'oe', na: 8, nb: 8, nk: 1,
+              J_val_pct: 4.6, J_est_pct: 5.4 },
+  findings: [{ effect: 'cubic_stiffness', J_val_before_pct: 4.6, J_val_after_pct: 2.5,
+               explanation: 'The model leaves out a cubic stiffness (a spring that hardens or softens with excursion): '
+                 + 'the residual follows the cube of the estimated output (odd and level-dependent; correlation 0.54).' }],
+  J_val_before_pct: 4.6, J_val_after_pct: 2.5, noise_floor_pct: 0.69, j_val_pct: 2.5,
+  rule: 'an augmentation is kept when N·ln(J_before/J_after) > p·ln(N) on the N validation samples (BIC)',
+});
 
 const summaryOf = (j) => ({ id: j.id, kind: j.kind, state: j.state, progress: j.progress, message: j.message,
                             created: j.created, finished: j.finished, error: j.error });
@@ -115,8 +135,9 @@ function runJob(job) {
     emit(job, 'progress', { progress: job.progress, message: job.message });
     if (step < steps) return;
     clearInterval(timer);
-    const result = { j_est_pct: 1.85, j_val_pct: 2.2, summary: { method: job.params.method || 'oe', order: job.params.order ?? 8, delay: 1 },
-                     plots: plots(job.kind) };
+    const result = job.kind === 'diagnose' ? { ...diagnosisReport(job.params), plots: plots(job.kind) }
+      : { j_est_pct: 1.85, j_val_pct: 2.2, summary: { method: job.params.method || 'oe', order: job.params.order ?? 8, delay: 1 },
+          plots: plots(job.kind) };
     if (job.kind !== 'excite' && job.kind !== 'analyze' && job.kind !== 'diagnose') {
       const kind = { 'identify-linear': 'linear', 'identify-narx': 'narx', 'design-lq': 'lq_feedforward', 'design-nn': 'neural_feedback' }[job.kind];
       const { id } = storeModel({ format: 'panelbass.model/1', kind, fs: FS, params: { job: job.id, p: job.params } }, `${job.kind} ${job.id}`, job.id);

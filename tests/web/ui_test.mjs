@@ -5,7 +5,10 @@
 // as a person would: the status is shown; an "Excite + identify" job (identify-linear, 3000 samples,
 // order 6) started from the form runs with its progress shown and succeeds; its model activated from the
 // result panel appears as the active feedforward model in the status; the fit plot is drawn (uPlot canvas
-// with the series' colours in it). Saves ARTIFACTS/ui.png (and ui-server.log, ui-console.log).
+// with the series' colours in it); a "Diagnose" job (its own 3000 + 2000-sample excitation, the identified
+// model as baseline, one finding at most) shows the baseline, J before and after, the noise floor, the
+// findings table (or its "no finding" line) and the residual-spectrum plot. Saves ARTIFACTS/ui.png (and
+// ui-server.log, ui-console.log).
 // Exit 0 on success; 1 with "ui_test: FAIL <step>: <reason>" otherwise; 2 on bad usage.
 
 import { spawn } from 'node:child_process';
@@ -298,6 +301,62 @@ async function main() {
   check(pixels.seriesPixels >= 300, `fit plot looks blank: only ${pixels.seriesPixels} pixels in the series' colours`);
   const plotsShown = await page.$$eval('#plots [data-plot]', (els) => els.map((e) => e.dataset.plot));
   log(`plots shown: ${plotsShown.join(', ')}`);
+
+  step = 'starting a diagnose job';
+  await page.selectOption('#job-kind', 'diagnose');
+  await page.selectOption('#job-source', '');
+  await page.fill('#excite-samples', '3000');
+  await page.fill('#excite-validation', '2000');
+  await page.fill('#excite-amplitude', '0.8');  // loud enough for the exciter's nonlinearity to show
+  await page.selectOption('#diag-baseline-model', modelId);
+  await page.fill('#diag-max-findings', '1');
+  await page.click('#job-start');
+  const diagnoseId = await until(async () => {
+    const err = await page.$eval('#job-error', (e) => (e.hidden ? '' : e.textContent));
+    if (err) throw new TestFailure(`the server refused the diagnose job: ${err}`);
+    const id = await page.$eval('#result', (e) => (e.hidden ? '' : e.dataset.jobId || ''));
+    return id && id !== jobId ? id : '';
+  }, 10_000, 'the result panel never showed the diagnose job');
+  log(`diagnose job ${diagnoseId} started`);
+
+  step = `following diagnose job ${diagnoseId}`;
+  const t1 = Date.now();
+  await until(async () => {
+    const s = await page.$eval('#result', (e) => e.dataset.state);
+    if (['failed', 'cancelled'].includes(s)) throw new TestFailure(`job ${diagnoseId} ${s}: ${await page.textContent('#result-error')}`);
+    return s === 'succeeded';
+  }, JOB_TIMEOUT_MS, `diagnose job ${diagnoseId} did not succeed within ${JOB_TIMEOUT_MS / 1000} s`, 100);
+  log(`diagnose job ${diagnoseId} succeeded in ${((Date.now() - t1) / 1000).toFixed(1)} s`);
+
+  step = 'diagnosis shown';
+  await page.waitForSelector('#result-diagnosis:not([hidden])', { timeout: 5000 });
+  const diagnosis = await page.evaluate(() => ({
+    baseline: document.querySelector('#diag-baseline').textContent.trim(),
+    before: document.querySelector('#diag-j-before').textContent.trim(),
+    after: document.querySelector('#diag-j-after').textContent.trim(),
+    floor: document.querySelector('#diag-noise-floor').textContent.trim(),
+    verdict: document.querySelector('#diag-verdict').textContent.trim(),
+    findings: Array.from(document.querySelectorAll('#diag-findings tbody tr'))
+      .map((tr) => Array.from(tr.children).map((td) => td.textContent.trim())),
+    tableShown: !document.querySelector('#diag-findings').hidden,
+    noneShown: !document.querySelector('#diag-no-findings').hidden,
+    genericHidden: document.querySelector('#result-figures').hidden,
+  }));
+  log(`diagnosis: baseline ${diagnosis.baseline}; J ${diagnosis.before} → ${diagnosis.after}, noise floor ${diagnosis.floor}; ` +
+      `${diagnosis.findings.length} finding(s)${diagnosis.findings.map(([, effect, , j]) => `; ${effect}: ${j}`).join('')}`);
+  check(diagnosis.baseline.startsWith('linear'), `baseline not shown (got "${diagnosis.baseline}")`);
+  for (const k of ['before', 'after', 'floor']) check(/\d/.test(diagnosis[k]), `J ${k} not shown (got "${diagnosis[k]}")`);
+  check(diagnosis.verdict !== '', 'no verdict on the final J against the noise floor');
+  check(diagnosis.genericHidden, 'the J estimation/validation figures of other kinds are shown for a diagnosis');
+  // At drive 0.8 the exciter's nonlinearity is well above the noise: the linear baseline leaves something out.
+  check(diagnosis.findings.length >= 1 && diagnosis.tableShown && !diagnosis.noneShown,
+        `no finding shown at drive 0.8: ${JSON.stringify(diagnosis)}`);
+  for (const [, effect, explanation, j] of diagnosis.findings) {
+    check(/^[a-z_]+$/.test(effect) && explanation.length > 20, `a finding without effect id or explanation: ${effect} / ${explanation}`);
+    check(/\d.*→.*\d/.test(j), `a finding without J before → after: "${j}"`);
+  }
+  await page.waitForSelector('#plot-residual_spectrum canvas', { timeout: 5000 });
+  await page.waitForSelector('#plot-fit canvas', { timeout: 5000 });
 
   step = 'no page errors';
   check(pageErrors.length === 0, `${pageErrors.length} error(s) in the page`);

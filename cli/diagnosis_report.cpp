@@ -1,0 +1,100 @@
+#include "cli/diagnosis_report.h"
+
+#include <sstream>
+#include <string>
+
+#include "cli/html_report.h"
+
+namespace panelbass::cli {
+namespace {
+
+using nlohmann::json;
+
+const json& at(const json& j, const char* key) { return report_field(j, key); }
+
+std::string pct(const json& v) { return v.is_null() ? html_cell(v) : html_cell(v) + " %"; }
+
+void baseline_table(std::ostream& out, const json& baseline) {
+  out << "<h2>Baseline</h2>\n<table>\n"
+      << html_row("kind", html_cell(at(baseline, "kind"))) << html_row("source", html_cell(at(baseline, "source")))
+      << html_row("method", html_cell(at(baseline, "method")))
+      << html_row("orders na, nb, nk", html_cell(at(baseline, "na")) + ", " + html_cell(at(baseline, "nb")) + ", " +
+                                           html_cell(at(baseline, "nk")))
+      << html_row("J on the estimation record", pct(at(baseline, "J_est_pct")))
+      << html_row("J on the validation record", pct(at(baseline, "J_val_pct")));
+  if (!at(baseline, "order_rule").is_null()) out << html_row("how it was chosen", html_cell(at(baseline, "order_rule")));
+  out << "</table>\n";
+}
+
+void findings_table(std::ostream& out, const json& findings) {
+  out << "<h2>Findings</h2>\n";
+  if (!findings.is_array() || findings.empty()) {
+    out << "<p>No augmentation was significant: every candidate effect either lowered validation J too little "
+           "or cost more parameters than it earned (see the rule below).</p>\n";
+    return;
+  }
+  out << "<table class=\"findings\"><tr><th>#</th><th>effect</th><th>explanation</th><th>J before</th>"
+         "<th>J after</th><th>parameters added</th><th>BIC score</th></tr>\n";
+  int step = 0;
+  for (const json& f : findings) {
+    out << "<tr><td>" << ++step << "</td><th><code>" << html_cell(at(f, "effect")) << "</code></th><td class=\"text\">"
+        << html_cell(at(f, "explanation")) << "</td><td>" << pct(at(f, "J_val_before_pct")) << "</td><td>"
+        << pct(at(f, "J_val_after_pct")) << "</td><td>" << html_cell(at(at(f, "parameters"), "added")) << "</td><td>"
+        << html_cell(at(at(f, "evidence"), "score_bic"), 3) << "</td></tr>\n";
+  }
+  out << "</table>\n";
+}
+
+void location_table(std::ostream& out, const json& location) {
+  const json& before = at(location, "validation");
+  const json& after = at(location, "validation_after");
+  struct Row {
+    const char* key;
+    const char* label;
+  };
+  const Row rows[] = {{"residual_pct", "J (%)"},
+                      {"noise_floor_pct", "noise floor: the residual's white-noise share (%)"},
+                      {"peak_frequency_hz", "largest residual PSD bin (Hz)"},
+                      {"peak_over_noise", "that bin over the noise level"},
+                      {"peak_threshold", "ratio pure noise exceeds with probability 0.1 %"},
+                      {"level_ratio", "residual rms at high |u| over that at low |u|"},
+                      {"drift_ratio", "residual rms at the end over that at the start"},
+                      {"mean_t", "residual mean over its standard error"},
+                      {"xcorr_lag", "lag of the largest input–residual correlation (samples)"},
+                      {"xcorr_peak", "that correlation"}};
+  out << "<h2>Where the residual lies (validation record)</h2>\n"
+         "<table><tr><th></th><th>before (baseline)</th><th>after (final model)</th></tr>\n";
+  for (const Row& r : rows) {
+    out << "<tr><th>" << html_escaped(r.label) << "</th><td>" << html_cell(at(before, r.key)) << "</td><td>"
+        << html_cell(at(after, r.key)) << "</td></tr>\n";
+  }
+  out << "</table>\n";
+}
+
+}  // namespace
+
+void write_diagnosis_html(const std::filesystem::path& path, const json& report, const std::vector<ReportFigure>& figures,
+                          PlotFormat format) {
+  const std::string data = at(report, "data").is_string() ? at(report, "data").get<std::string>() : "data";
+  std::ostringstream out;
+  out << "<h1>panelbass diagnosis of <code>" << html_escaped(data) << "</code></h1>\n";
+  out << "<h2>Result</h2>\n<table>\n"
+      << html_row("estimation data", html_cell(at(report, "data")))
+      << html_row("validation data", html_cell(at(report, "val")));
+  if (!at(report, "model").is_null()) out << html_row("model diagnosed", html_cell(at(report, "model")));
+  out << html_row("sample rate (Hz)", html_cell(at(report, "fs"), 8))
+      << html_row("validation J before (linear baseline)", pct(at(report, "J_val_before_pct")))
+      << html_row("validation J after (final model)", pct(at(report, "J_val_after_pct")))
+      << html_row("noise floor (J of a perfect model)", pct(at(report, "noise_floor_pct")))
+      << html_row("findings", std::to_string(at(report, "findings").size())) << "</table>\n";
+  baseline_table(out, at(report, "baseline"));
+  findings_table(out, at(report, "findings"));
+  location_table(out, at(report, "location"));
+  out << "<h2>Figures</h2>\n" << html_figures(figures, format);
+  out << "<p><small>Written by <code>panelbass diagnose</code>. J is [2A] Σ(ŷ−y)²/Σy² in percent, from free-run "
+         "simulation. Rule: "
+      << html_cell(at(report, "rule")) << ".</small></p>\n";
+  write_html_page(path, "panelbass diagnosis: " + data, out.str());
+}
+
+}  // namespace panelbass::cli
