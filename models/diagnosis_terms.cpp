@@ -1,5 +1,6 @@
 #include "models/diagnosis_terms.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -7,14 +8,17 @@
 namespace panelbass::models {
 namespace {
 
-// (x − mean)/rms, with the mean and rms measured here (slot not yet set) or taken from the reference.
-Eigen::VectorXd normalised(Eigen::VectorXd x, int slot, StateSignals& s, const StateSignals* reference) {
+// (x − mean)/rms, with the mean and rms measured here (no reference) or taken from the reference. With
+// `own_mean` the mean is always this record's: an integral's slow wander differs from record to record.
+Eigen::VectorXd normalised(Eigen::VectorXd x, int slot, StateSignals& s, const StateSignals* reference,
+                           bool own_mean = false) {
+  const double mean = x.mean();
   if (reference != nullptr) {
-    s.mean[slot] = reference->mean[slot];
+    s.mean[slot] = own_mean ? mean : reference->mean[slot];
     s.rms[slot] = reference->rms[slot];
   } else {
-    s.mean[slot] = x.mean();
-    const Eigen::VectorXd c = x.array() - s.mean[slot];
+    s.mean[slot] = mean;
+    const Eigen::VectorXd c = x.array() - mean;
     const double r = std::sqrt(c.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, x.size())));
     s.rms[slot] = r > 0.0 ? r : 1.0;
   }
@@ -28,6 +32,25 @@ Eigen::VectorXd leaky_integral(const Eigen::VectorXd& x, double fs) {
   double s = 0.0;
   for (Eigen::Index k = 0; k < x.size(); ++k) out[k] = s = lambda * s + x[k] / fs;
   return out;
+}
+
+// T(k) = λ·T(k−1) + (1 − λ)·u(k)², λ = exp(−1/τ) (τ in samples): a first-order thermal state driven by
+// the power. It starts at the mean power of its first τ samples (the record starts warm, not cold).
+Eigen::VectorXd slow_power(const Eigen::VectorXd& u, double tau_samples) {
+  if (!(tau_samples > 0.0)) throw std::invalid_argument("slow_power: the time constant must be positive");
+  const double lambda = std::exp(-1.0 / tau_samples);
+  const Eigen::Index warm = std::min<Eigen::Index>(u.size(), static_cast<Eigen::Index>(std::ceil(tau_samples)));
+  double t = warm > 0 ? u.head(warm).squaredNorm() / static_cast<double>(warm) : 0.0;
+  Eigen::VectorXd out(u.size());
+  for (Eigen::Index k = 0; k < u.size(); ++k) out[k] = t = lambda * t + (1.0 - lambda) * u[k] * u[k];
+  return out;
+}
+
+// v(k) = x(k) − x(k−1), v(0) = 0.
+Eigen::VectorXd first_difference(const Eigen::VectorXd& x) {
+  Eigen::VectorXd v = Eigen::VectorXd::Zero(x.size());
+  for (Eigen::Index k = 1; k < x.size(); ++k) v[k] = x[k] - x[k - 1];
+  return v;
 }
 
 // x minus its projection on `basis` (what a linear model of `basis` already explains).
@@ -79,10 +102,13 @@ const Eigen::VectorXd& StateSignals::of(StateProxy proxy) const {
 StateSignals state_signals(const Eigen::VectorXd& u, const Eigen::VectorXd& y_sim, double fs,
                            const StateSignals* reference) {
   StateSignals s;
+  s.fs = fs;
   s.input = normalised(u, 3, s, reference);
   s.output = normalised(y_sim, 0, s, reference);
-  s.integral = normalised(leaky_integral(s.output, fs), 1, s, reference);
-  s.double_integral = normalised(leaky_integral(s.integral, fs), 2, s, reference);
+  // The integrals of the output without its own mean: a DC part, integrated, would grow without bound.
+  const Eigen::VectorXd centred = s.output.array() - s.output.mean();
+  s.integral = normalised(leaky_integral(centred, fs), 1, s, reference, true);
+  s.double_integral = normalised(leaky_integral(s.integral, fs), 2, s, reference, true);
   return s;
 }
 
@@ -114,8 +140,7 @@ Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& stat
       return orthogonal_to(g, z);
     }
     case Effect::hysteresis: {  // friction Fc·tanh(v/v0): the direction of motion, v = dz/dt
-      Eigen::VectorXd v = Eigen::VectorXd::Zero(z.size());
-      for (Eigen::Index k = 1; k < z.size(); ++k) v[k] = z[k] - z[k - 1];
+      const Eigen::VectorXd v = first_difference(z);
       const double r = std::sqrt(v.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, v.size())));
       Eigen::VectorXd g = (v.array() / (0.1 * std::max(r, 1e-300))).tanh().matrix();
       return orthogonal_to(orthogonal_to(g, v), z);
@@ -126,23 +151,73 @@ Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& stat
       for (Eigen::Index k = 0; k < z.size(); ++k) g[k] = std::max(std::abs(z[k]) - c, 0.0) * (z[k] < 0 ? -1.0 : 1.0);
       return orthogonal_to(g, z);
     }
+    case Effect::force_factor:  // the first of term_features'
+      return term_features(term, states).col(0);
+    case Effect::inductance:
+      return term_features(term, states).col(0);
+    case Effect::thermal_compression: {  // Re(T): the current falls by ∝ u·ΔT, T a low-pass of the power u²
+      const Eigen::VectorXd& u = states.input;
+      const Eigen::VectorXd p = slow_power(u, term.time_constant_s * states.fs);
+      Eigen::VectorXd g = (u.array() * (p.array() - p.mean())).matrix();
+      return orthogonal_to(g, u);
+    }
     case Effect::dc_offset: return Eigen::VectorXd::Ones(z.size());
     default: throw std::invalid_argument("term_feature: no static term for effect " + to_string(term.effect));
   }
 }
 
+int feature_count(Effect effect) {
+  return effect == Effect::force_factor || effect == Effect::inductance ? 2 : 1;
+}
+
+Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& states) {
+  const Eigen::VectorXd& z = states.of(term.proxy);
+  const Eigen::VectorXd& u = states.input;
+  switch (term.effect) {
+    case Effect::force_factor: {
+      // Bl(x) = Bl₀(1 + b₂x²) in the force Bl(x)·i and the back-EMF Bl(x)·v: with i ≈ (u − Bl·v)/Re the
+      // force changes by ∝ x²·u and ∝ x²·v (v the change of the state per sample).
+      Eigen::MatrixXd g(z.size(), 2);
+      g.col(0) = orthogonal_to(orthogonal_to((z.array().square() * u.array()).matrix(), u), z);
+      const Eigen::VectorXd v = first_difference(z);
+      g.col(1) = orthogonal_to(orthogonal_to((z.array().square() * v.array()).matrix(), v), z);
+      return g;
+    }
+    case Effect::inductance: {
+      // Le(x) (or Le(i) for the input proxy) in Le·di/dt: the current changes by ∝ z·Δu; and the reluctance
+      // force ½·i²·dLe/dx ∝ u².
+      Eigen::MatrixXd g(z.size(), 2);
+      Eigen::VectorXd d = (z.array() * first_difference(u).array()).matrix();
+      d.array() -= d.mean();
+      g.col(0) = orthogonal_to(orthogonal_to(d, u), z);
+      Eigen::VectorXd r = u.array().square().matrix();
+      r.array() -= r.mean();
+      g.col(1) = orthogonal_to(r, u);
+      return g;
+    }
+    default: return term_feature(term, states);
+  }
+}
+
 Eigen::MatrixXd term_regressors(const DiagnosisTerm& term, const StateSignals& states,
                                 const TransferFunction& dynamics, int lags) {
-  const Eigen::VectorXd g = term_feature(term, states);
-  if (term.effect == Effect::dc_offset) return g;
-  const Eigen::VectorXd f = filter_through(dynamics, g);
-  Eigen::MatrixXd phi = Eigen::MatrixXd::Zero(f.size(), lags + kTermLead);
-  for (int l = -kTermLead; l < lags; ++l) {
-    const Eigen::Index c = l + kTermLead, m = f.size() - std::abs(l);
-    if (l >= 0) phi.col(c).tail(m) = f.head(m);
-    else phi.col(c).head(m) = f.tail(m);
+  if (term.effect == Effect::dc_offset) return Eigen::VectorXd::Ones(states.input.size());
+  const Eigen::MatrixXd g = term_features(term, states);
+  const int width = lags + kTermLead;
+  Eigen::MatrixXd phi = Eigen::MatrixXd::Zero(g.rows(), width * g.cols());
+  for (Eigen::Index j = 0; j < g.cols(); ++j) {
+    const Eigen::VectorXd f = filter_through(dynamics, g.col(j));
+    for (int l = -kTermLead; l < lags; ++l) {
+      const Eigen::Index c = j * width + l + kTermLead, m = f.size() - std::abs(l);
+      if (l >= 0) phi.col(c).tail(m) = f.head(m);
+      else phi.col(c).head(m) = f.tail(m);
+    }
   }
   return phi;
+}
+
+int term_columns(const DiagnosisTerm& term, int lags) {
+  return term.effect == Effect::dc_offset ? 1 : feature_count(term.effect) * (lags + kTermLead);
 }
 
 }  // namespace panelbass::models

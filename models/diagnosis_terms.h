@@ -46,6 +46,7 @@ struct DiagnosisTerm {
   Effect effect = Effect::dc_offset;
   StateProxy proxy = StateProxy::output;
   double threshold = 0.0;   ///< saturation: the knee, in units of the normalised input
+  double time_constant_s = 0.0;  ///< thermal_compression: the time constant of the power-driven state
   Eigen::VectorXd coefficients;  ///< one per lag (dc_offset: one, the offset in scaled output units)
 };
 
@@ -55,6 +56,7 @@ struct StateSignals {
   Eigen::VectorXd input, output, integral, double_integral;
   Eigen::Vector4d mean = Eigen::Vector4d::Zero();  ///< subtracted from each, in proxy order
   Eigen::Vector4d rms = Eigen::Vector4d::Ones();   ///< divided into each, in proxy order
+  double fs = 1.0;                                 ///< sample rate, Hz
   /// The signal of `proxy`.
   const Eigen::VectorXd& of(StateProxy proxy) const;
 };
@@ -68,17 +70,28 @@ StateSignals state_signals(const Eigen::VectorXd& u, const Eigen::VectorXd& y_si
 /// y = B(q)/A(q)·x from rest.
 Eigen::VectorXd filter_through(const TransferFunction& tf, const Eigen::VectorXd& x);
 
-/// The static feature g of `term` (before filtering): z³, z², tanh of the motion's direction, the drive
-/// beyond a knee, or a constant; orthogonalised against z where z carries a linear part.
+/// The static feature g of `term` (before filtering): z³ (cubic stiffness), z² (asymmetric stiffness),
+/// z²·u (force factor), z·Δu (inductance), tanh of the motion's direction (hysteresis), the drive beyond a
+/// knee (saturation), u times a slow power-driven state (thermal compression), or a constant; orthogonalised
+/// against z and u where they carry a linear part.
 Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& states);
+
+/// Features of a term: 2 for force_factor (x²·u, x²·v) and inductance (z·Δu, u²), else 1.
+int feature_count(Effect effect);
+
+/// Every static feature of `term` (feature_count columns; the first is term_feature).
+Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& states);
 
 /// Samples by which a term may lead the baseline's dynamics: the baseline's path from the drive includes
 /// converter latency and filters that a force acting on the mechanics does not pass.
 inline constexpr int kTermLead = 5;
 
-/// The regressors of `term`: its feature through `dynamics`, shifted by −kTermLead..lags−1 samples
-/// (lags + kTermLead columns; dc_offset: one column of ones).
+/// The regressors of `term`: each of its features through `dynamics`, shifted by −kTermLead..lags−1
+/// samples (term_columns columns; dc_offset: one column of ones).
 Eigen::MatrixXd term_regressors(const DiagnosisTerm& term, const StateSignals& states,
                                 const TransferFunction& dynamics, int lags);
+
+/// Columns (coefficients) of `term` with `lags` lags: feature_count·(lags + kTermLead), dc_offset 1.
+int term_columns(const DiagnosisTerm& term, int lags);
 
 }  // namespace panelbass::models

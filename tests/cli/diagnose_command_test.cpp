@@ -18,14 +18,14 @@ using namespace testing_support;
 
 class CliDiagnose : public CliTest {
  protected:
-  /// 24 000 samples of the linear preset with half the panel exciter's cubic stiffness: rows 0..16 000
+  /// 24 000 samples of the linear preset with a tenth of the panel exciter's cubic stiffness: rows 0..16 000
   /// to estimate, the rest to validate.
   void SetUp() override {
     models::PlantConfig plant = models::plant_preset("linear");
     plant.nonlinear.stiffness.enabled = true;
     plant.nonlinear.stiffness.k1_per_mm = 0.0;
     plant.nonlinear.stiffness.k2_per_mm2 = 0.06;
-    plant.nonlinear.stiffness.scale = 0.5;
+    plant.nonlinear.stiffness.scale = 0.1;
     file("cubic.json", models::plant_to_json(plant).dump());
     expect_result(run("simulate --plant " + quoted(dir_ / "cubic.json") + " --samples 24000 --seed 3 --out " +
                       quoted(dir_ / "all.csv")));
