@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # `panelbass diagnose` on real data: Silverbox (../shared/data/silverbox), an electronic Duffing
-# oscillator whose documented physics is a hardening cubic spring. Estimation = rows 0..52000 of the
-# official train/val multisine part, validation = the rest (as bench/linear_benchmarks.sh); the test
-# sets are not used. Reports the baseline, every finding and validation J before/after.
-# Usage: bash bench/diagnose_bench.sh [BUILD_DIR]   (default: build)
+# oscillator whose documented physics is a hardening cubic spring: estimation = rows 0..52000 of the
+# official train/val multisine part, validation = the rest; and Wiener–Hammerstein 2009
+# (../shared/data/wiener_hammerstein_2009), a diode-resistor saturation between two filters: estimation
+# = rows 0..80000 of the official estimation part, validation = the rest (as bench/linear_benchmarks.sh).
+# The test sets are not used. Reports the baseline, every finding and validation J before/after.
+# Usage: bash bench/diagnose_bench.sh [BUILD_DIR]   (default: build; PANELBASS_HTML=DIR also writes DIR/sb.html, wh.html)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${1:-build}/bin/panelbass
@@ -17,15 +19,8 @@ split() {  # split FILE at data row N into $work/NAME-est.csv and $work/NAME-val
   { head -n 1 "$file"; tail -n +$((rows + 2)) "$file"; } > "$work/$name-val.csv"
 }
 
-sb=$data/silverbox/splits
-fs_sb=610.3515625
-split "$sb/train_val_multisine.csv" 52000 sb
-echo "## Silverbox (fs $fs_sb Hz): diagnose, estimation rows 0..52000 of train_val_multisine, validation the rest"
-start=$(date +%s.%N)
-"$bin" diagnose --data "$work/sb-est.csv" --val "$work/sb-val.csv" --fs "$fs_sb" --scan-from 2 --scan-to 8 \
-  --out "$work/sb-report.json" > "$work/sb-summary.json"
-end=$(date +%s.%N)
-python3 - "$work/sb-report.json" "$(echo "$end - $start" | bc)" <<'PY'
+report() {  # report REPORT.json SECONDS: the baseline, every finding, the first, J before/after
+  python3 - "$1" "$2" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
 b = r["baseline"]
@@ -37,3 +32,24 @@ for i, f in enumerate(r["findings"], 1):
 first = r["findings"][0]["effect"] if r["findings"] else "none"
 print(f"first finding: {first}; J_val {r['J_val_before_pct']:.4f} % -> {r['J_val_after_pct']:.4f} % ({float(sys.argv[2]):.1f} s)")
 PY
+}
+
+run() {  # run NAME FS SCAN_FROM SCAN_TO: diagnose $work/NAME-est.csv against $work/NAME-val.csv
+  local name=$1 fs=$2 from=$3 to=$4 start end
+  start=$(date +%s.%N)
+  "$bin" diagnose --data "$work/$name-est.csv" --val "$work/$name-val.csv" --fs "$fs" --scan-from "$from" --scan-to "$to" \
+    --out "$work/$name-report.json" ${PANELBASS_HTML:+--html "$PANELBASS_HTML/$name.html"} > "$work/$name-summary.json"
+  end=$(date +%s.%N)
+  report "$work/$name-report.json" "$(echo "$end - $start" | bc)"
+}
+
+sb=$data/silverbox/splits
+split "$sb/train_val_multisine.csv" 52000 sb
+echo "## Silverbox (fs 610.3515625 Hz): diagnose, estimation rows 0..52000 of train_val_multisine, validation the rest"
+run sb 610.3515625 2 8
+
+wh=$data/wiener_hammerstein_2009/splits
+split "$wh/train.csv" 80000 wh
+echo
+echo "## Wiener-Hammerstein 2009 (fs 51200 Hz): diagnose, estimation rows 0..80000 of train, validation the rest"
+run wh 51200 2 10

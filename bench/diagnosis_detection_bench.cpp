@@ -21,13 +21,8 @@ using namespace panelbass::models;
 constexpr Eigen::Index kInit = 50;
 bool verbose = false;  // every round's candidates on stderr
 
-const std::vector<Effect> kAllEffects = {
-    Effect::resonance,  Effect::antiresonance, Effect::delay,      Effect::cubic_stiffness,
-    Effect::asymmetric_stiffness, Effect::force_factor, Effect::inductance, Effect::hysteresis,
-    Effect::saturation, Effect::thermal_compression, Effect::dc_offset};
-
 Effect effect_named(const std::string& id) {
-  for (Effect e : kAllEffects)
+  for (Effect e : all_effects())
     if (to_string(e) == id) return e;
   throw CLI::ValidationError("--effects", "unknown effect id \"" + id + "\"");
 }
@@ -101,7 +96,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::Error& e) {
     return app.exit(e);
   }
-  if (chosen.empty()) chosen = kAllEffects;
+  if (chosen.empty()) chosen = all_effects();
 
   std::printf("## diagnose detection rate (%ld + %ld samples, seeds %llu..%llu)\n\n", n_est, n_val,
               static_cast<unsigned long long>(first_seed), static_cast<unsigned long long>(first_seed + seeds - 1));

@@ -111,8 +111,8 @@ void register_diagnose(CLI::App& app) {
   o->outputs.add_to(cmd, "Report to write (JSON)", "Self-contained HTML report (findings, J per step, figures embedded)");
   cmd->add_option("--window", o->window, "Samples shown in the fit plot")->check(CLI::Range(2L, 100000000L))->capture_default_str();
   cmd->footer(
-      "Each candidate effect (dc_offset, delay, resonance, cubic_stiffness, asymmetric_stiffness, hysteresis,\n"
-      "saturation) is fitted on --data and judged on --val; the best is kept while\n"
+      "Each candidate effect (" + models::vocabulary_text() + ")\n"
+      "is fitted on --data and judged on --val; the best is kept while\n"
       "N·ln(J_before/J_after) > p·ln(N) (BIC, N validation samples, p added parameters).\n"
       "Example:\n"
       "  panelbass diagnose --data est.csv --val val.csv --fs 3000 --out report.json \\\n"

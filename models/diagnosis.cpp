@@ -20,9 +20,6 @@ namespace {
 // Passes in which the terms' states are re-estimated from the augmented output.
 constexpr int kRefinements = 2;
 
-// The smallest relative improvement of validation J an augmentation must bring.
-constexpr double kMinimumGain = 0.0;
-
 struct Records {
   const Eigen::VectorXd& u_est;
   const Eigen::VectorXd& y_est;
@@ -217,10 +214,13 @@ bool has_effect(const std::vector<DiagnosisTerm>& terms, Effect e) {
 std::vector<Candidate> candidates(const Records& r, const Fit& current, const ResidualLocation& where,
                                   int oe_iterations) {
   std::vector<Candidate> best;
-  auto offer = [&best](Candidate c) {
+  // Of the variants of one effect, the one with the best BIC score against `current` is kept.
+  const double n_val = static_cast<double>(r.u_val.size() - r.init);
+  auto score = [&](const Candidate& c) { return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val); };
+  auto offer = [&](Candidate c) {
     for (auto& b : best)
       if (b.effect == c.effect) {
-        if (c.fit.j_val < b.fit.j_val) b = std::move(c);
+        if (score(c) > score(b)) b = std::move(c);
         return;
       }
     best.push_back(std::move(c));
@@ -253,12 +253,17 @@ std::vector<Candidate> candidates(const Records& r, const Fit& current, const Re
       add_term(term_of(Effect::thermal_compression, StateProxy::input, 0.0, tau), "tau " + fixed(tau, 1) + " s",
                1, {{"time_constant_s", tau}});
   {
-    // Knees at fractions of the normalised input's peak (estimation record).
+    // Saturation of the drive, both sides alike (an amplifier) or each on its own (a diode); knees at
+    // fractions of the normalised input's peak on the estimation record.
     const Eigen::VectorXd z = state_signals(linear.scaling.scale_u(r.u_est), linear.scaling.scale_u(r.u_est), r.fs).input;
     const double peak = z.cwiseAbs().maxCoeff();
-    for (double fraction : {0.5, 0.6, 0.7, 0.8, 0.9, 0.93, 0.95, 0.97, 0.99})
-      add_term(term_of(Effect::saturation, StateProxy::input, fraction * peak), "knee " + fixed(fraction, 2), 1,
-               {{"knee_fraction_of_peak", fraction}});
+    for (bool one_sided : {false, true})
+      for (double fraction : {0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.93, 0.95, 0.97, 0.99}) {
+        DiagnosisTerm t = term_of(Effect::saturation, StateProxy::input, fraction * peak);
+        t.one_sided = one_sided;
+        add_term(t, std::string(one_sided ? "each side" : "both sides") + ", knee " + fixed(fraction, 2), 1,
+                 {{"knee_fraction_of_peak", fraction}, {"one_sided", one_sided}});
+      }
   }
   // The linear refits below are judged against the same structure refitted on the same record, so that
   // what a refit gains by itself (a given baseline from other data) is credited to no effect.
@@ -379,8 +384,10 @@ std::string explain(const Candidate& c, const ResidualLocation& where, double co
       return "The model leaves out friction or hysteresis: the residual follows the direction of motion of the estimated " +
              state + " rather than its position (correlation " + r + ").";
     case Effect::saturation:
-      return "The model leaves out clipping of the drive: the residual follows the input beyond " +
-             fixed(c.parameters_json["knee_fraction_of_peak"].get<double>() * 100.0, 0) +
+      return std::string(c.parameters_json["one_sided"].get<bool>()
+                             ? "The model leaves out a saturation that differs between the two directions (diode-like): "
+                             : "The model leaves out a saturation (clipping) alike in both directions: ") +
+             "the residual follows the input beyond " + fixed(c.parameters_json["knee_fraction_of_peak"].get<double>() * 100.0, 0) +
              " % of its peak and is " + fixed(where.level_ratio, 1) + " times larger at high input level than at low.";
     case Effect::force_factor:
       return "The model leaves out a force factor that falls with excursion (the coil leaving the gap): the residual "
@@ -405,6 +412,7 @@ nlohmann::json terms_json(const AugmentedModel& m) {
                    {"state", to_string(t.proxy)},
                    {"threshold", t.threshold},
                    {"time_constant_s", t.time_constant_s},
+                   {"one_sided", t.one_sided},
                    {"coefficients", std::vector<double>(t.coefficients.data(), t.coefficients.data() + t.coefficients.size())}});
   return out;
 }
@@ -536,8 +544,7 @@ Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, c
       const double score = n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val);
       round_json.push_back({{"effect", to_string(c.effect)}, {"variant", c.variant}, {"parameters", c.parameters},
                             {"J_val_pct", c.fit.j_val}, {"score", score}});
-      // …and it must remove at least kMinimumGain of J: below that it is not worth a finding.
-    if (score > best_score && c.fit.j_val < (1.0 - kMinimumGain) * current.j_val) best_score = score, chosen = &c;
+      if (score > best_score) best_score = score, chosen = &c;
     }
     d.rounds.push_back(round_json);
     if (chosen == nullptr) break;
@@ -592,7 +599,7 @@ nlohmann::json diagnosis_to_json(const Diagnosis& d) {
             {"validation", location_to_json(d.located_val)},
             {"validation_after", location_to_json(d.located_val_after)}}},
           {"rounds", d.rounds},
-          {"rule", "an augmentation is kept when N·ln(J_before/J_after) > p·ln(N) on the N validation samples (BIC), p its added parameters, and it lowers validation J by at least 1 %"}};
+          {"rule", "an augmentation is kept when N·ln(J_before/J_after) > p·ln(N) on the N validation samples (BIC), p its added parameters; the best such augmentation of each round is applied"}};
 }
 
 }  // namespace panelbass::models

@@ -67,7 +67,7 @@ struct Diagnosis {
 /// estimation and validation records at rate `fs`: locates the residual, scores the candidate effects
 /// by fitting each augmentation on the estimation record and judging it on the validation record, and
 /// keeps the best while N·ln(J_before/J_after) > p·ln(N) on the N validation samples (a BIC rule, p the
-/// parameters added) and J falls by at least 1 %. Throws std::invalid_argument for unusable records (naming which and why).
+/// parameters added). Throws std::invalid_argument for unusable records (naming which and why).
 Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, const Eigen::VectorXd& u_val,
                    const Eigen::VectorXd& y_val, double fs, const std::optional<LinearModel>& baseline,
                    const DiagnosisOptions& options = {});

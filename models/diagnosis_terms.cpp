@@ -79,6 +79,18 @@ std::string to_string(Effect effect) {
   return "unknown";
 }
 
+std::vector<Effect> all_effects() {
+  return {Effect::resonance,  Effect::antiresonance, Effect::delay,      Effect::cubic_stiffness,
+          Effect::asymmetric_stiffness, Effect::force_factor, Effect::inductance, Effect::hysteresis,
+          Effect::saturation, Effect::thermal_compression, Effect::dc_offset};
+}
+
+std::string vocabulary_text() {
+  std::string text;
+  for (Effect e : all_effects()) text += (text.empty() ? "" : ", ") + to_string(e);
+  return text;
+}
+
 std::string to_string(StateProxy proxy) {
   switch (proxy) {
     case StateProxy::output: return "output";
@@ -145,7 +157,8 @@ Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& stat
       Eigen::VectorXd g = (v.array() / (0.1 * std::max(r, 1e-300))).tanh().matrix();
       return orthogonal_to(orthogonal_to(g, v), z);
     }
-    case Effect::saturation: {  // the drive beyond a knee: (|u| − c)₊·sign(u)
+    case Effect::saturation: {  // the drive beyond a knee on both sides alike: (|u| − c)₊·sign(u)
+      if (term.one_sided) return term_features(term, states).col(0);
       const double c = term.threshold;
       Eigen::VectorXd g(z.size());
       for (Eigen::Index k = 0; k < z.size(); ++k) g[k] = std::max(std::abs(z[k]) - c, 0.0) * (z[k] < 0 ? -1.0 : 1.0);
@@ -166,8 +179,9 @@ Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& stat
   }
 }
 
-int feature_count(Effect effect) {
-  return effect == Effect::force_factor || effect == Effect::inductance ? 2 : 1;
+int feature_count(const DiagnosisTerm& term) {
+  if (term.effect == Effect::saturation) return term.one_sided ? 2 : 1;
+  return term.effect == Effect::force_factor || term.effect == Effect::inductance ? 2 : 1;
 }
 
 Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& states) {
@@ -195,6 +209,22 @@ Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& sta
       g.col(1) = orthogonal_to(r, u);
       return g;
     }
+    case Effect::saturation: {
+      if (!term.one_sided) return term_feature(term, states);
+      // The drive beyond a knee c on either side, (z − c)₊ and (z + c)₋, each with its own coefficients:
+      // one alone clips one way (a diode).
+      const double c = term.threshold;
+      Eigen::MatrixXd g(z.size(), 2);
+      for (Eigen::Index k = 0; k < z.size(); ++k) {
+        g(k, 0) = std::max(z[k] - c, 0.0);
+        g(k, 1) = std::min(z[k] + c, 0.0);
+      }
+      for (Eigen::Index j = 0; j < 2; ++j) {
+        g.col(j).array() -= g.col(j).mean();
+        g.col(j) = orthogonal_to(g.col(j), z);
+      }
+      return g;
+    }
     default: return term_feature(term, states);
   }
 }
@@ -217,7 +247,7 @@ Eigen::MatrixXd term_regressors(const DiagnosisTerm& term, const StateSignals& s
 }
 
 int term_columns(const DiagnosisTerm& term, int lags) {
-  return term.effect == Effect::dc_offset ? 1 : feature_count(term.effect) * (lags + kTermLead);
+  return term.effect == Effect::dc_offset ? 1 : feature_count(term) * (lags + kTermLead);
 }
 
 }  // namespace panelbass::models

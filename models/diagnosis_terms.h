@@ -30,6 +30,12 @@ enum class Effect {
 /// The effect's id ("cubic_stiffness", …).
 std::string to_string(Effect effect);
 
+/// Every effect of the vocabulary, in the order of ../shared/PHYSICS.md.
+std::vector<Effect> all_effects();
+
+/// The ids of all_effects() joined by ", ".
+std::string vocabulary_text();
+
 /// Which signal a term's function acts on.
 enum class StateProxy {
   output = 0,       ///< the simulated output ŷ itself (a displacement sensor: Silverbox)
@@ -47,6 +53,7 @@ struct DiagnosisTerm {
   StateProxy proxy = StateProxy::output;
   double threshold = 0.0;   ///< saturation: the knee, in units of the normalised input
   double time_constant_s = 0.0;  ///< thermal_compression: the time constant of the power-driven state
+  bool one_sided = false;   ///< saturation: each side of the knee fitted on its own (a diode), not alike
   Eigen::VectorXd coefficients;  ///< one per lag (dc_offset: one, the offset in scaled output units)
 };
 
@@ -76,8 +83,9 @@ Eigen::VectorXd filter_through(const TransferFunction& tf, const Eigen::VectorXd
 /// against z and u where they carry a linear part.
 Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& states);
 
-/// Features of a term: 2 for force_factor (x²·u, x²·v) and inductance (z·Δu, u²), else 1.
-int feature_count(Effect effect);
+/// Features of a term: 2 for force_factor (x²·u, x²·v), inductance (z·Δu, u²) and a one-sided saturation
+/// (each side of the knee with its own coefficients), else 1.
+int feature_count(const DiagnosisTerm& term);
 
 /// Every static feature of `term` (feature_count columns; the first is term_feature).
 Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& states);

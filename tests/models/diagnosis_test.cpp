@@ -9,6 +9,7 @@
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <vector>
 
 #include "models/plant_presets.h"
 #include "tests/support/expect_error.h"
@@ -144,9 +145,14 @@ TEST(Diagnosis, BadRecordsAreNamed) {
 }
 
 TEST(Diagnosis, EffectIdsAreTheVocabulary) {
-  EXPECT_EQ(to_string(Effect::cubic_stiffness), "cubic_stiffness");
-  EXPECT_EQ(to_string(Effect::thermal_compression), "thermal_compression");
-  EXPECT_EQ(to_string(Effect::dc_offset), "dc_offset");
+  // The ids of issue #9, in the order of ../shared/PHYSICS.md's table.
+  const std::vector<std::string> expected = {"resonance",  "antiresonance", "delay",      "cubic_stiffness",
+                                             "asymmetric_stiffness", "force_factor", "inductance", "hysteresis",
+                                             "saturation", "thermal_compression", "dc_offset"};
+  std::vector<std::string> ids;
+  for (Effect e : all_effects()) ids.push_back(to_string(e));
+  EXPECT_EQ(ids, expected);
+  EXPECT_EQ(vocabulary_text().substr(0, 26), "resonance, antiresonance, ");
 }
 
 }  // namespace
