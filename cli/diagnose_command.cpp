@@ -8,6 +8,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <variant>
 
 #include "cli/commands.h"
 #include "cli/data_options.h"
@@ -19,6 +20,9 @@
 #include "models/diagnosis.h"
 #include "models/json_file.h"
 #include "models/linear_model.h"
+#include "models/model_file.h"
+#include "models/plant_config.h"
+#include "models/virtual_transducer.h"
 
 namespace panelbass::cli {
 namespace {
@@ -35,15 +39,47 @@ struct DiagnoseOptions {
   long window = 300;
 };
 
+// The simulation --model names: a linear model, or a simulation that is not linear (a NARX model, a
+// virtual-transducer plant JSON run without sensor noise).
+struct Baseline {
+  std::optional<models::LinearModel> linear;
+  std::optional<models::SimulationBaseline> simulation;
+  double fs() const { return linear ? linear->fs : simulation->fs; }
+};
+
+Baseline load_baseline(const std::string& path) {
+  Baseline b;
+  const nlohmann::json j = models::read_json_file(path);
+  if (j.is_object() && j.contains("format") && j["format"].is_string() &&
+      j["format"].get<std::string>().starts_with("panelbass.plant")) {
+    models::PlantConfig plant = models::load_plant_file(path);
+    plant.sensor.noise_rms_V = 0.0;
+    b.simulation = models::SimulationBaseline{
+        "plant", plant.fs,
+        [plant](const Eigen::VectorXd& u, const Eigen::VectorXd&, Eigen::Index) { return models::simulate(plant, u, 0).y; }};
+    return b;
+  }
+  const models::AnyModel model = models::load_model(path);
+  if (const auto* linear = std::get_if<models::LinearModel>(&model.model)) {
+    b.linear = *linear;
+  } else {
+    const models::NarxModel narx = std::get<models::NarxModel>(model.model);
+    b.simulation = models::SimulationBaseline{
+        "narx", narx.fs,
+        [narx](const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) { return narx.simulate(u, y, init); }};
+  }
+  return b;
+}
+
 void run_diagnose(const DiagnoseOptions& o) {
-  std::optional<models::LinearModel> baseline;
+  std::optional<Baseline> baseline;
   DataOptions columns = o.columns;
   if (!o.model.empty()) {
-    baseline = models::load_linear_model(o.model);
-    if (!(columns.fs > 0.0)) columns.fs = baseline->fs;
+    baseline = load_baseline(o.model);
+    if (!(columns.fs > 0.0)) columns.fs = baseline->fs();
   }
-  const dsp::Record est = baseline ? columns.read_at_model_rate(o.data, baseline->fs) : columns.read(o.data);
-  const dsp::Record val = baseline ? columns.read_at_model_rate(o.val, baseline->fs) : columns.read(o.val);
+  const dsp::Record est = baseline ? columns.read_at_model_rate(o.data, baseline->fs()) : columns.read(o.data);
+  const dsp::Record val = baseline ? columns.read_at_model_rate(o.val, baseline->fs()) : columns.read(o.val);
   if (std::abs(val.fs - est.fs) > 1e-9 * est.fs)
     throw std::invalid_argument(o.val + ": sample rate " + std::to_string(val.fs) + " Hz differs from " + o.data + "'s " +
                                 std::to_string(est.fs) + " Hz");
@@ -57,7 +93,10 @@ void run_diagnose(const DiagnoseOptions& o) {
   options.max_findings = o.max_findings;
   options.progress = [](const std::string& stage) { std::cerr << "diagnose: " << stage << std::endl; };
   const models::Diagnosis d =
-      models::diagnose(est.columns[0], est.columns[1], val.columns[0], val.columns[1], est.fs, baseline, options);
+      baseline && baseline->simulation
+          ? models::diagnose(est.columns[0], est.columns[1], val.columns[0], val.columns[1], est.fs, *baseline->simulation, options)
+          : models::diagnose(est.columns[0], est.columns[1], val.columns[0], val.columns[1], est.fs,
+                             baseline ? baseline->linear : std::nullopt, options);
   nlohmann::json report = models::diagnosis_to_json(d);
   report["data"] = o.data;
   report["val"] = o.val;
@@ -101,7 +140,8 @@ void register_diagnose(CLI::App& app) {
   cmd->add_option("--data", o->data, "Estimation data, .csv or .wav")->required();
   cmd->add_option("--val", o->val, "Validation data, .csv or .wav (judges every augmentation)")->required();
   o->columns.add_to(cmd);
-  cmd->add_option("--model", o->model, "Linear model file to diagnose (default: the best OE model of the order scan)");
+  cmd->add_option("--model", o->model,
+                  "Simulation to diagnose: a linear or NARX model file, or a plant JSON (default: the best OE model of the order scan)");
   cmd->add_option("--init", o->init, "Measured outputs that set a simulation's state before J is computed")
       ->check(CLI::Range(0L, 100000000L))
       ->capture_default_str();

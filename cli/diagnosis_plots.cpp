@@ -61,7 +61,7 @@ fs::path plot_residual_spectrum(const Diagnosis& d, const JudgedSimulations& s, 
     << "set xrange [0:" + number(fs / 2.0, 8) + "]"
     << "set key top right box opaque";
   std::string plot = "plot " + f.data() +
-                     " index 0 using 1:2 with lines lw 1.5 lc rgb '#d62728' title 'before: linear baseline (J = " +
+                     " index 0 using 1:2 with lines lw 1.5 lc rgb '#d62728' title 'before: " + d.baseline_kind + " baseline (J = " +
                      number(d.j_val_before_pct) + " %)', \\\n"
                      "     '' index 0 using 1:3 with lines lw 1.5 lc rgb '#1f77b4' title 'after: augmented model (J = " +
                      number(d.j_val_after_pct) + " %)'";
@@ -85,7 +85,7 @@ fs::path plot_fit(const Diagnosis& d, const JudgedSimulations& s, double fs, Eig
     << "set ylabel 'output (raw units)'"
     << "set key top right box opaque"
     << "plot " + f.data() + " index 0 using 1:2 with lines lw 1.8 lc rgb '#202020' title 'measured y', \\\n"
-       "     '' index 0 using 1:3 with lines lw 1 dt 2 lc rgb '#d62728' title 'linear baseline (J = " +
+       "     '' index 0 using 1:3 with lines lw 1 dt 2 lc rgb '#d62728' title '" + d.baseline_kind + " baseline (J = " +
            number(d.j_val_before_pct) + " %)', \\\n"
        "     '' index 0 using 1:4 with lines lw 1.3 lc rgb '#1f77b4' title 'augmented model (J = " +
            number(d.j_val_after_pct) + " %)'";
@@ -122,25 +122,28 @@ fs::path plot_j_per_step(const Diagnosis& d, const fs::path& dir, const Diagnosi
   return f.render(dir, o.format);
 }
 
-// The term's static contribution g(z)·Σc (raw output units) against its state z, thinned to at most
+// The term's static contribution Σⱼ gⱼ·Σcⱼ (raw output units) against its state z, thinned to at most
 // o.scatter_points points; nothing when the term has no static feature or the feature does not vary.
 std::optional<fs::path> plot_term(const Diagnosis& d, std::size_t index, const models::StateSignals& states,
                                   Eigen::Index init, const fs::path& dir, const DiagnosisPlotOptions& o) {
   const models::DiagnosisTerm& term = d.model.terms[index];
-  Eigen::VectorXd feature;
+  Eigen::MatrixXd features;
   try {
-    feature = models::term_feature(term, states);
+    features = models::term_features(term, states);
   } catch (const std::invalid_argument&) {
     return std::nullopt;  // an effect that acts through the dynamics, not through a static function of a state
   }
   const Eigen::VectorXd& z = states.of(term.proxy);
   const Eigen::Index n = z.size() - init;
-  if (n < 2 || feature.size() != z.size()) return std::nullopt;
+  // The coefficients come in one block of lags + kTermLead per feature of the term (models::term_regressors):
+  // a block's sum is its feature's gain at low frequency, and the term's static contribution their sum.
+  const Eigen::Index block = d.model.lags + models::kTermLead;
+  if (n < 2 || features.rows() != z.size() || term.coefficients.size() != block * features.cols()) return std::nullopt;
+  Eigen::VectorXd feature = Eigen::VectorXd::Zero(z.size());
+  for (Eigen::Index j = 0; j < features.cols(); ++j)
+    feature += features.col(j) * term.coefficients.segment(j * block, block).sum();
   if (!(feature.tail(n).maxCoeff() > feature.tail(n).minCoeff())) return std::nullopt;  // a constant is not a function of a state
-  // The coefficients come in one block of lags + kTermLead per feature of the term, the static feature
-  // first (models::term_regressors): its block's sum is the feature's gain at low frequency.
-  const Eigen::Index block = std::min<Eigen::Index>(d.model.lags + models::kTermLead, term.coefficients.size());
-  const double gain = term.coefficients.head(block).sum() * d.model.linear.scaling.y_scale;
+  const double gain = d.model.linear.scaling.y_scale;
   const Eigen::Index stride = std::max<Eigen::Index>(1, (n + o.scatter_points - 1) / std::max<Eigen::Index>(o.scatter_points, 1));
   const Eigen::Index points = (n + stride - 1) / stride;
   Eigen::VectorXd x(points), y(points);
@@ -151,10 +154,10 @@ std::optional<fs::path> plot_term(const Diagnosis& d, std::size_t index, const m
   const std::string effect = models::to_string(term.effect), proxy = models::to_string(term.proxy);
   GnuplotFigure f("term-" + std::to_string(index + 1), 760, 560);
   f.add_block({x, y});
-  f << "set title " + gnuplot_quoted(effect + " acting on the " + proxy + " state: the term's static feature times its "
+  f << "set title " + gnuplot_quoted(effect + " acting on the " + proxy + " state: the term's static features times their "
                                      "summed coefficients") + " noenhanced"
     << "set xlabel " + gnuplot_quoted(proxy + " state z (zero mean, unit rms on the estimation record)") + " noenhanced"
-    << "set ylabel 'g(z)·Σc (raw output units)'"
+    << "set ylabel 'Σ g_j(z)·Σc_j (raw output units)'"
     << "set key top left box opaque"
     << "plot " + f.data() + " index 0 using 1:2 with points pt 7 ps 0.3 lc rgb '#1f77b4' title " +
            gnuplot_quoted(std::to_string(points) + " validation samples") + ", \\\n"
@@ -177,13 +180,13 @@ std::vector<ReportFigure> plot_diagnosis(const Diagnosis& d, const DiagnosisVali
   JudgedSimulations s;
   s.final_full = models::simulate_augmented(d.model, validation.u, validation.y, init);
   s.y = validation.y.tail(n);
-  s.baseline = d.baseline.simulate(validation.u, validation.y, init).tail(n);
+  s.baseline = models::simulate_augmented(d.baseline_model, validation.u, validation.y, init).tail(n);
   s.final = s.final_full.tail(n);
 
   const fs::path where = fs::absolute(dir);
   std::vector<ReportFigure> figures;
   figures.push_back({"residual_spectrum",
-                     "Power spectrum of the validation residual y − ŷ of the linear baseline and of the final augmented "
+                     "Power spectrum of the validation residual y − ŷ of the baseline and of the final augmented "
                      "model; the dashed line is the residual's white-noise level, which no model can go below.",
                      plot_residual_spectrum(d, s, fs, where, options)});
   figures.push_back({"fit", "Measured validation output against the baseline's and the final model's free-run simulation, "

@@ -83,7 +83,7 @@ void write_diagnosis_html(const std::filesystem::path& path, const json& report,
       << html_row("validation data", html_cell(at(report, "val")));
   if (!at(report, "model").is_null()) out << html_row("model diagnosed", html_cell(at(report, "model")));
   out << html_row("sample rate (Hz)", html_cell(at(report, "fs"), 8))
-      << html_row("validation J before (linear baseline)", pct(at(report, "J_val_before_pct")))
+      << html_row("validation J before (the baseline)", pct(at(report, "J_val_before_pct")))
       << html_row("validation J after (final model)", pct(at(report, "J_val_after_pct")))
       << html_row("noise floor (J of a perfect model)", pct(at(report, "noise_floor_pct")))
       << html_row("findings", std::to_string(at(report, "findings").size())) << "</table>\n";

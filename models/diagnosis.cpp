@@ -10,6 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dsp/excitation.h"
 #include "models/linear_identification.h"
 #include "models/oe_estimator.h"
 #include "models/performance.h"
@@ -28,7 +29,16 @@ struct Records {
   double fs;
   Eigen::Index init;
   int lags;
+  const AugmentedModel* base = nullptr;  ///< the simulation diagnosed (its linear part and, if not linear, its simulation)
 };
+
+// The output of `m` without its terms: the linear simulation, or the baseline's simulation plus the change
+// a refit made to its linearisation.
+Eigen::VectorXd base_output(const AugmentedModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                            Eigen::Index init) {
+  if (!m.simulate_baseline) return m.linear.simulate(u, y, init);
+  return m.simulate_baseline(u, y, init) + m.linear.simulate(u) - m.reference.simulate(u);
+}
 
 // An augmented model with its coefficients fitted, and its simulation J on both records.
 struct Fit {
@@ -78,10 +88,11 @@ Eigen::MatrixXd stacked_regressors(const std::vector<DiagnosisTerm>& terms, cons
 // and simulates the result on both records.
 Fit fit_terms(const Records& r, const LinearModel& linear, std::vector<DiagnosisTerm> terms) {
   Fit f;
+  f.model = *r.base;
   f.model.linear = linear;
   f.model.lags = r.lags;
-  const Eigen::VectorXd y_lin = linear.scaling.scale_y(linear.simulate(r.u_est, r.y_est, r.init));
-  const Eigen::VectorXd y_rest = linear.scaling.scale_y(linear.simulate(r.u_est));  // states: see simulate_augmented
+  const Eigen::VectorXd y_lin = linear.scaling.scale_y(base_output(f.model, r.u_est, r.y_est, r.init));
+  const Eigen::VectorXd y_rest = linear.scaling.scale_y(base_output(f.model, r.u_est, {}, 0));  // states: see simulate_augmented
   const StateSignals states = state_signals(linear.scaling.scale_u(r.u_est), y_rest, r.fs);
   f.model.state_mean = states.mean;
   f.model.state_rms = states.rms;
@@ -431,12 +442,12 @@ void check_record(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const std:
 
 Eigen::VectorXd simulate_augmented(const AugmentedModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
                                    Eigen::Index init) {
-  const Eigen::VectorXd y_lin = m.linear.simulate(u, y, init);
+  const Eigen::VectorXd y_lin = base_output(m, u, y, init);
   if (m.terms.empty()) return y_lin;
   const Eigen::VectorXd ys = m.linear.scaling.scale_y(y_lin);
   // The terms' states come from the simulation started at rest, as on the estimation record: a state set
   // from a few noisy outputs can start a slow transient that the integrals behind the states magnify.
-  const Eigen::VectorXd ys_rest = m.linear.scaling.scale_y(m.linear.simulate(u));
+  const Eigen::VectorXd ys_rest = m.linear.scaling.scale_y(base_output(m, u, {}, 0));
   const StateSignals reference = reference_of(m);
   const StateSignals states = state_signals(m.linear.scaling.scale_u(u), ys_rest, m.linear.fs, &reference);
   Eigen::MatrixXd phi = stacked_regressors(m.terms, states, m.linear.tf, m.lags, ys.size());
@@ -456,78 +467,64 @@ Eigen::VectorXd simulate_augmented(const AugmentedModel& m, const Eigen::VectorX
   return m.linear.scaling.unscale_y(y_aug);
 }
 
-Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, const Eigen::VectorXd& u_val,
-                   const Eigen::VectorXd& y_val, double fs, const std::optional<LinearModel>& baseline,
-                   const DiagnosisOptions& options) {
+namespace {
+
+// The OE model with the lowest validation J over the order scan of `options`, from (u_est, y_est) and
+// judged on (u_val, y_val), and the scan as JSON.
+std::pair<LinearModel, nlohmann::json> best_linear(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est,
+                                                   const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, double fs,
+                                                   const DiagnosisOptions& options) {
+  LinearIdentificationSpec spec;
+  spec.method = LinearMethod::oe;
+  spec.fs = fs;
+  spec.init = options.init;
+  spec.order = options.scan_to;
+  spec.scan_from = options.scan_from;
+  spec.scan_to = options.scan_to;
+  LinearIdentification id = identify_linear(u_est, y_est, u_val, y_val, spec);
+  // The order with the lowest validation J (the scan's own rule allows 5 % more, which would leave
+  // a dynamic mismatch for the diagnosis to find).
+  int best_order = id.model.tf.na();
+  double best_j = std::numeric_limits<double>::infinity();
+  for (const auto& e : id.scan)
+    if (e.j_val_pct < best_j) best_j = e.j_val_pct, best_order = e.order;
+  nlohmann::json scan = nlohmann::json::array();
+  for (const auto& e : id.scan) scan.push_back({{"order", e.order}, {"J_val_pct", e.j_val_pct}});
+  if (best_order != id.model.tf.na()) {
+    spec.scan_from = spec.scan_to = 0;
+    spec.order = best_order;
+    id = identify_linear(u_est, y_est, u_val, y_val, spec);
+  }
+  return {id.model, scan};
+}
+
+void check_arguments(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, const Eigen::VectorXd& u_val,
+                     const Eigen::VectorXd& y_val, double fs, const DiagnosisOptions& options) {
   if (!(fs > 0.0) || !std::isfinite(fs)) throw std::invalid_argument("diagnose: sample rate " + std::to_string(fs) + " Hz is not positive");
   if (options.init < 0) throw std::invalid_argument("diagnose: init must not be negative");
   if (options.lags < 1) throw std::invalid_argument("diagnose: lags must be at least 1");
   check_record(u_est, y_est, "estimation", options.init);
   check_record(u_val, y_val, "validation", options.init);
+}
+
+// The rounds of a diagnosis from the baseline r.base: locate, score the candidates, keep the best while
+// its BIC score is positive.
+void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d) {
   const auto progress = [&](const std::string& stage) {
     if (options.progress) options.progress(stage);
   };
-  const Records r{u_est, y_est, u_val, y_val, fs, options.init, options.lags};
-
-  Diagnosis d;
-  LinearModel linear;
-  if (baseline) {
-    linear = *baseline;
-    if (std::abs(linear.fs - fs) > 1e-6 * fs)
-      throw std::invalid_argument("diagnose: the model was identified at " + std::to_string(linear.fs) +
-                                  " Hz but the data is at " + std::to_string(fs) + " Hz");
-    d.baseline_info = {{"source", "given"}, {"method", linear.method}, {"na", linear.tf.na()}, {"nb", linear.tf.nb()}, {"nk", linear.tf.nk}};
-  } else {
-    progress("identifying the best linear model (OE, orders " + std::to_string(options.scan_from) + ".." +
-             std::to_string(options.scan_to) + ")");
-    LinearIdentificationSpec spec;
-    spec.method = LinearMethod::oe;
-    spec.fs = fs;
-    spec.init = options.init;
-    spec.order = options.scan_to;
-    spec.scan_from = options.scan_from;
-    spec.scan_to = options.scan_to;
-    LinearIdentification id = identify_linear(u_est, y_est, u_val, y_val, spec);
-    // The order with the lowest validation J (the scan's own rule allows 5 % more, which would leave
-    // a dynamic mismatch for the diagnosis to find).
-    int best_order = id.model.tf.na();
-    double best_j = std::numeric_limits<double>::infinity();
-    for (const auto& e : id.scan)
-      if (e.j_val_pct < best_j) best_j = e.j_val_pct, best_order = e.order;
-    nlohmann::json scan = nlohmann::json::array();
-    for (const auto& e : id.scan) scan.push_back({{"order", e.order}, {"J_val_pct", e.j_val_pct}});
-    if (best_order != id.model.tf.na()) {
-      spec.scan_from = spec.scan_to = 0;
-      spec.order = best_order;
-      id = identify_linear(u_est, y_est, u_val, y_val, spec);
-    }
-    linear = id.model;
-    // The delay estimated from the data is the first *visible* one; a converter's latency often leaves
-    // a small first sample before it, so one sample less is tried too and kept if validation J says so.
-    const int nk_estimated = linear.tf.nk;
-    if (linear.tf.nk > 0 && linear.tf.nb() >= 2) {
-      progress("trying one sample less of delay than estimated");
-      TransferFunction shorter = linear.tf;
-      shorter.nk -= 1;
-      shorter.b = Eigen::VectorXd::Zero(linear.tf.nb());
-      shorter.b.tail(linear.tf.nb() - 1) = linear.tf.b.head(linear.tf.nb() - 1);
-      if (auto m = refit_linear(r, linear, shorter, options.oe_iterations))
-        if (simulation_j_percent(*m, u_val, y_val, r.init) < simulation_j_percent(linear, u_val, y_val, r.init)) linear = *m;
-    }
-    d.baseline_info = {{"source", "identified"}, {"method", "oe"}, {"na", linear.tf.na()}, {"nb", linear.tf.nb()},
-                       {"nk", linear.tf.nk}, {"nk_estimated", nk_estimated},
-                       {"order_rule", "lowest validation J over the scan, then nk or nk − 1 by validation J"}, {"scan", scan}};
-  }
-
+  const Eigen::VectorXd &u_est = r.u_est, &y_est = r.y_est, &u_val = r.u_val, &y_val = r.y_val;
+  const double fs = r.fs;
   progress("locating the residual of the baseline");
-  Fit current = fit_terms(r, linear, {});
+  Fit current = fit_terms(r, r.base->linear, {});
+  d.baseline_model = current.model;
+  d.baseline = r.base->linear;
   d.baseline_j_val_pct = current.j_val;
   d.baseline_j_est_pct = current.j_est;
   d.j_val_before_pct = current.j_val;
   d.located_est = locate_residual(u_est, y_est, simulate_augmented(current.model, u_est, y_est, r.init), fs, r.init);
   d.located_val = locate_residual(u_val, y_val, simulate_augmented(current.model, u_val, y_val, r.init), fs, r.init);
   d.noise_floor_pct = d.located_val.noise_floor_pct;
-
   const double n_val = static_cast<double>(u_val.size() - r.init);
   for (int round = 0; round < options.max_findings; ++round) {
     progress("round " + std::to_string(round + 1) + ": scoring candidate effects");
@@ -572,7 +569,108 @@ Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, c
   d.j_val_after_pct = current.j_val;
   d.located_val_after = locate_residual(u_val, y_val, simulate_augmented(current.model, u_val, y_val, r.init), fs, r.init);
   d.model = current.model;
-  d.baseline = linear;
+}
+
+// `simulate` with its results kept per record (input and output data, length, init): a diagnosis simulates
+// the same two records for every candidate, and a plant simulation is costly.
+RecordSimulation remembered(RecordSimulation simulate) {
+  struct Entry {
+    const double* u;
+    const double* y;
+    Eigen::Index size, init;
+    double u_sum;
+    Eigen::VectorXd output;
+  };
+  auto entries = std::make_shared<std::vector<Entry>>();
+  return [simulate = std::move(simulate), entries](const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) {
+    const double sum = u.sum();
+    for (const Entry& e : *entries)
+      if (e.u == u.data() && e.y == y.data() && e.size == u.size() && e.init == init && e.u_sum == sum) return e.output;
+    Eigen::VectorXd output = simulate(u, y, init);
+    if (output.size() != u.size() || !output.allFinite())
+      throw std::invalid_argument("diagnose: the baseline's simulation of " + std::to_string(u.size()) +
+                                  " samples is not finite or not as long as its input");
+    entries->push_back({u.data(), y.data(), u.size(), init, sum, output});
+    return output;
+  };
+}
+
+}  // namespace
+
+Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, const Eigen::VectorXd& u_val,
+                   const Eigen::VectorXd& y_val, double fs, const std::optional<LinearModel>& baseline,
+                   const DiagnosisOptions& options) {
+  check_arguments(u_est, y_est, u_val, y_val, fs, options);
+  Records r{u_est, y_est, u_val, y_val, fs, options.init, options.lags};
+  Diagnosis d;
+  LinearModel linear;
+  if (baseline) {
+    linear = *baseline;
+    if (std::abs(linear.fs - fs) > 1e-6 * fs)
+      throw std::invalid_argument("diagnose: the model was identified at " + std::to_string(linear.fs) +
+                                  " Hz but the data is at " + std::to_string(fs) + " Hz");
+    d.baseline_info = {{"source", "given"}, {"method", linear.method}, {"na", linear.tf.na()}, {"nb", linear.tf.nb()}, {"nk", linear.tf.nk}};
+  } else {
+    if (options.progress)
+      options.progress("identifying the best linear model (OE, orders " + std::to_string(options.scan_from) + ".." +
+                       std::to_string(options.scan_to) + ")");
+    nlohmann::json scan;
+    std::tie(linear, scan) = best_linear(u_est, y_est, u_val, y_val, fs, options);
+    // The delay estimated from the data is the first *visible* one; a converter's latency often leaves
+    // a small first sample before it, so one sample less is tried too and kept if validation J says so.
+    const int nk_estimated = linear.tf.nk;
+    if (linear.tf.nk > 0 && linear.tf.nb() >= 2) {
+      if (options.progress) options.progress("trying one sample less of delay than estimated");
+      TransferFunction shorter = linear.tf;
+      shorter.nk -= 1;
+      shorter.b = Eigen::VectorXd::Zero(linear.tf.nb());
+      shorter.b.tail(linear.tf.nb() - 1) = linear.tf.b.head(linear.tf.nb() - 1);
+      if (auto m = refit_linear(r, linear, shorter, options.oe_iterations))
+        if (simulation_j_percent(*m, u_val, y_val, r.init) < simulation_j_percent(linear, u_val, y_val, r.init)) linear = *m;
+    }
+    d.baseline_info = {{"source", "identified"}, {"method", "oe"}, {"na", linear.tf.na()}, {"nb", linear.tf.nb()},
+                       {"nk", linear.tf.nk}, {"nk_estimated", nk_estimated},
+                       {"order_rule", "lowest validation J over the scan, then nk or nk − 1 by validation J"}, {"scan", scan}};
+  }
+  AugmentedModel base;
+  base.linear = linear;
+  r.base = &base;
+  run_rounds(r, options, d);
+  return d;
+}
+
+Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, const Eigen::VectorXd& u_val,
+                   const Eigen::VectorXd& y_val, double fs, const SimulationBaseline& baseline,
+                   const DiagnosisOptions& options) {
+  check_arguments(u_est, y_est, u_val, y_val, fs, options);
+  if (!baseline.simulate) throw std::invalid_argument("diagnose: the " + baseline.kind + " baseline has no simulation");
+  if (std::abs(baseline.fs - fs) > 1e-6 * fs)
+    throw std::invalid_argument("diagnose: the " + baseline.kind + " baseline runs at " + std::to_string(baseline.fs) +
+                                " Hz but the data is at " + std::to_string(fs) + " Hz");
+  Records r{u_est, y_est, u_val, y_val, fs, options.init, options.lags};
+  AugmentedModel base;
+  base.simulate_baseline = remembered(baseline.simulate);
+  if (options.progress) options.progress("simulating the " + baseline.kind + " baseline and fitting its linearisation (OE)");
+  const Eigen::VectorXd b_est = base.simulate_baseline(u_est, y_est, options.init);
+  const Eigen::VectorXd b_val = base.simulate_baseline(u_val, y_val, options.init);
+  // A noise-free output lets high orders fit it exactly (rank-deficient least squares): a dither ~90 dB
+  // below it (fixed seeds) keeps the order scan well posed without changing the fit.
+  auto dithered = [](const Eigen::VectorXd& y, std::uint64_t seed) -> Eigen::VectorXd {
+    const double rms = std::sqrt(y.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, y.size())));
+    return y + dsp::gaussian_noise(static_cast<std::size_t>(y.size()), 1e-4 * std::max(rms, 1e-300), seed);
+  };
+  auto [linear, scan] = best_linear(u_est, dithered(b_est, 1), u_val, dithered(b_val, 2), fs, options);
+  base.linear = linear;
+  base.reference = linear;
+  r.base = &base;
+  Diagnosis d;
+  d.baseline_kind = baseline.kind;
+  d.baseline_info = {{"source", "given"},
+                     {"linearisation",
+                      {{"method", "oe"}, {"na", linear.tf.na()}, {"nb", linear.tf.nb()}, {"nk", linear.tf.nk},
+                       {"J_val_pct_of_the_baseline_output", simulation_j_percent(linear, u_val, b_val, options.init)},
+                       {"scan", scan}}}};
+  run_rounds(r, options, d);
   return d;
 }
 

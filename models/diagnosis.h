@@ -37,9 +37,24 @@ struct Finding {
   double j_val_after_pct = 0.0;
 };
 
+/// A free-run simulation on raw data (the first `init` measured outputs `y` may set its state).
+using RecordSimulation =
+    std::function<Eigen::VectorXd(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init)>;
+
+/// A simulation to diagnose that is not a linear model: a NARX model or a virtual-transducer plant.
+struct SimulationBaseline {
+  std::string kind;             ///< "narx" or "plant", as reported
+  double fs = 0.0;              ///< its sample rate, Hz
+  RecordSimulation simulate;    ///< raw units in and out
+};
+
 /// The augmented model a diagnosis ends with: the (possibly refitted) linear part and the gray-box terms.
+/// With a baseline that is not linear, the output is that simulation plus the change a refit made to the
+/// linear part (`linear` − `reference`, both simulated from rest), plus the terms.
 struct AugmentedModel {
-  LinearModel linear;
+  LinearModel linear;       ///< the linear baseline, or the linearisation of a simulation baseline (maybe refitted)
+  LinearModel reference;    ///< with simulate_baseline: the linearisation `linear` started from
+  RecordSimulation simulate_baseline;  ///< empty for a linear baseline
   std::vector<DiagnosisTerm> terms;
   int lags = 3;                                          ///< delays of each term (see DiagnosisOptions)
   Eigen::Vector4d state_mean = Eigen::Vector4d::Zero();  ///< state-proxy normalisation from the estimation record
@@ -60,7 +75,8 @@ struct Diagnosis {
   ResidualLocation located_val_after;         ///< the final model's validation residual
   nlohmann::json rounds = nlohmann::json::array();  ///< per round: every candidate's best variant and its score
   AugmentedModel model;     ///< the final model
-  LinearModel baseline;     ///< the linear model diagnosed
+  AugmentedModel baseline_model;  ///< the simulation diagnosed, as a model without terms
+  LinearModel baseline;     ///< the linear model diagnosed (a simulation baseline: its linearisation)
 };
 
 /// Diagnoses `baseline` (or, without one, the best linear OE model over the order scan of `options`) on
@@ -70,6 +86,14 @@ struct Diagnosis {
 /// parameters added). Throws std::invalid_argument for unusable records (naming which and why).
 Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, const Eigen::VectorXd& u_val,
                    const Eigen::VectorXd& y_val, double fs, const std::optional<LinearModel>& baseline,
+                   const DiagnosisOptions& options = {});
+
+/// Diagnoses a simulation that is not a linear model (a NARX model, a virtual-transducer plant): the
+/// gray-box terms act through the dynamics of its linearisation (the best OE model of its own output over
+/// the order scan of `options`), and a linear refit adds its change to the simulation. Throws
+/// std::invalid_argument as the linear form does, and for a simulation that is not finite or at another rate.
+Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, const Eigen::VectorXd& u_val,
+                   const Eigen::VectorXd& y_val, double fs, const SimulationBaseline& baseline,
                    const DiagnosisOptions& options = {});
 
 /// Simulates `model` on raw data, state set by the first `init` measured outputs (raw units out).

@@ -22,7 +22,6 @@ using testing_support::expect_invalid;
 using testing_support::gaussian;
 
 constexpr double kFs = 3000.0;
-constexpr Eigen::Index kInit = 50;
 
 // Uniform white noise at full drive through `plant`, split into estimation and validation records.
 ScenarioRecords make_scenario(const PlantConfig& plant, std::uint64_t seed, Eigen::Index n_est, Eigen::Index n_val) {
@@ -142,6 +141,19 @@ TEST(Diagnosis, BadRecordsAreNamed) {
   Eigen::VectorXd bad = y;
   bad[10] = std::nan("");
   expect_invalid([&] { diagnose(u, bad, u, y, kFs, std::nullopt); }, "not finite");
+}
+
+TEST(Diagnosis, SimulationBaselineAtAnotherRateOrNotFiniteIsNamed) {
+  const Eigen::VectorXd u = gaussian(3000, 1.0, 1), y = gaussian(3000, 1.0, 2);
+  const SimulationBaseline slow{"narx", 1000.0, [](const Eigen::VectorXd& x, const Eigen::VectorXd&, Eigen::Index) { return x; }};
+  expect_invalid([&] { diagnose(u, y, u, y, kFs, slow); }, "1000");
+  const SimulationBaseline broken{"plant", kFs, [](const Eigen::VectorXd& x, const Eigen::VectorXd&, Eigen::Index) {
+                                    Eigen::VectorXd out = x;
+                                    out[5] = std::nan("");
+                                    return out;
+                                  }};
+  expect_invalid([&] { diagnose(u, y, u, y, kFs, broken); }, "not finite");
+  expect_invalid([&] { diagnose(u, y, u, y, kFs, SimulationBaseline{"narx", kFs, {}}); }, "no simulation");
 }
 
 TEST(Diagnosis, EffectIdsAreTheVocabulary) {
