@@ -125,6 +125,18 @@ TEST_F(CliDiagnose, APlantBaselineIsDiagnosedThroughItsLinearisation) {
   EXPECT_LT(r["J_val_after_pct"].get<double>(), r["J_val_before_pct"].get<double>());
 }
 
+// A NARX model as the baseline: its J before is the J `validate` gives it (same records, same init).
+TEST_F(CliDiagnose, ANarxBaselineStartsFromItsOwnSimulation) {
+  expect_result(run("identify narx --data " + est() + " --fs 3000 --na 2 --nb 2 --hidden 3 --max-iter 3 --out " +
+                    quoted(dir_ / "nn.json")));
+  const json v = expect_result(run("validate --model " + quoted(dir_ / "nn.json") + " --data " + val() + " --init 50"));
+  const json r = expect_result(run("diagnose --data " + est() + " --val " + val() + " --model " + quoted(dir_ / "nn.json") +
+                                   " --max-findings 1 --out " + quoted(dir_ / "report.json")));
+  EXPECT_EQ(r["baseline"]["kind"], "narx");
+  EXPECT_NEAR(r["J_val_before_pct"].get<double>(), v["J_sim_pct"].get<double>(), 1e-6 * v["J_sim_pct"].get<double>());
+  EXPECT_LE(r["J_val_after_pct"].get<double>(), r["J_val_before_pct"].get<double>());
+}
+
 TEST_F(CliDiagnose, HtmlIntoAMissingFolderIsRefusedBeforeTheWork) {
   const fs::path missing = dir_ / "no-such-folder" / "r.html";
   const RunResult r = run("diagnose --data " + est() + " --val " + val() + " --fs 3000 --out " +
