@@ -657,7 +657,7 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
   report["j_val_pct"] = d.j_val_after_pct;
   const Eigen::Index init = std::min<Eigen::Index>(kInit, r.u_val.size() / 10);
   const Eigen::VectorXd y_sim = models::simulate_augmented(d.model, r.u_val, r.y_val, init);
-  const Eigen::VectorXd y_baseline = d.baseline.simulate(r.u_val, r.y_val, init);
+  const Eigen::VectorXd y_baseline = models::simulate_augmented(d.baseline_model, r.u_val, r.y_val, init);
   const Eigen::Index n = r.u_val.size() - init;
   const Eigen::VectorXd y_judged = r.y_val.tail(n);
   report["plots"] = {{"fit", fit_plot(y_judged, y_sim.tail(n), env.fs, init)},

@@ -6,7 +6,6 @@
 #include <iomanip>
 #include <limits>
 #include <numbers>
-#include <set>
 #include <sstream>
 #include <stdexcept>
 
