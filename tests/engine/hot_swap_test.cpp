@@ -137,7 +137,10 @@ TEST(VirtualBackend, RealTimePacingTakesTheBlocksTime) {
   backend.stop();
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_GE(elapsed, 0.09);  // 10 blocks of 10 ms, the first one at once
-  EXPECT_LT(chain.metrics().snapshot().load, 0.5);
+  // Every paced block went through the chain whole (how fast is measured in bench/, not asserted here).
+  const MetricsSnapshot s = chain.metrics().snapshot();
+  EXPECT_EQ(s.blocks, backend.blocks());
+  EXPECT_EQ(s.samples, 30 * s.blocks);
 }
 
 // A block late by less than the buffer's slack is no xrun; one later than that is. The audio thread is
