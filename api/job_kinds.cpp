@@ -18,6 +18,7 @@
 #include "dsp/excitation.h"
 #include "models/data_survey.h"
 #include "models/diagnosis.h"
+#include "models/diagnosis_baselines.h"
 #include "models/distortion_comparison.h"
 #include "models/feedback_design.h"
 #include "models/linear_identification.h"
@@ -637,9 +638,10 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
   Progress progress(control);
   const SourcedRecord data = acquire_record(params, env, progress, control);
   const ExcitationRecord& r = data.record;
-  std::optional<models::LinearModel> baseline;
+  // The simulation diagnosed: a stored linear or NARX model, or (without one) the best linear OE model.
+  std::optional<models::AnyModel> baseline;
   if (params.contains("baseline_model") && params.at("baseline_model").is_string()) {
-    baseline = models::linear_model_from_json(stored_model_file(env, params.at("baseline_model").get<std::string>()));
+    baseline = models::model_from_json(stored_model_file(env, params.at("baseline_model").get<std::string>()));
   }
   models::DiagnosisOptions options;
   options.init = kInit;
@@ -648,7 +650,13 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
   progress.span(kExcitationShare, 0.95);
   // The diagnosis names its stages but not how many remain: each one closes part of the gap to the end.
   options.progress = [&](const std::string& stage) { progress.at(1.0 - std::pow(0.8, ++stages), "diagnose: " + stage); };
-  const models::Diagnosis d = models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs, baseline, options);
+  const auto* narx = baseline ? std::get_if<models::NarxModel>(&baseline->model) : nullptr;
+  const models::Diagnosis d =
+      narx != nullptr
+          ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs, models::narx_baseline(*narx), options)
+          : models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs,
+                             baseline ? std::optional(std::get<models::LinearModel>(baseline->model)) : std::nullopt,
+                             options);
 
   progress.span(0.95, 1.0);
   json report = models::diagnosis_to_json(d);

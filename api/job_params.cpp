@@ -203,7 +203,7 @@ json diagnose_params(const json& params, const JobEnvironment& env) {
   std::string validation_path;
   const long long validation = record_source(r, env, validation_path);
   if (validation == 0) fail(validation_path, "diagnose needs validation data (it judges every augmentation on it)");
-  stored_model(r, "baseline_model", false, {"linear"}, env);
+  stored_model(r, "baseline_model", false, {"linear", "narx"}, env);
   r.integer("max_findings", 4, 0, 20);
   return r.finish();
 }

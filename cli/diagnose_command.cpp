@@ -18,11 +18,11 @@
 #include "cli/json_output.h"
 #include "cli/report_output.h"
 #include "models/diagnosis.h"
+#include "models/diagnosis_baselines.h"
 #include "models/json_file.h"
 #include "models/linear_model.h"
 #include "models/model_file.h"
 #include "models/plant_config.h"
-#include "models/virtual_transducer.h"
 
 namespace panelbass::cli {
 namespace {
@@ -52,21 +52,14 @@ Baseline load_baseline(const std::string& path) {
   const nlohmann::json j = models::read_json_file(path);
   if (j.is_object() && j.contains("format") && j["format"].is_string() &&
       j["format"].get<std::string>().starts_with("panelbass.plant")) {
-    models::PlantConfig plant = models::load_plant_file(path);
-    plant.sensor.noise_rms_V = 0.0;
-    b.simulation = models::SimulationBaseline{
-        "plant", plant.fs,
-        [plant](const Eigen::VectorXd& u, const Eigen::VectorXd&, Eigen::Index) { return models::simulate(plant, u, 0).y; }};
+    b.simulation = models::plant_baseline(models::load_plant_file(path));
     return b;
   }
   const models::AnyModel model = models::load_model(path);
   if (const auto* linear = std::get_if<models::LinearModel>(&model.model)) {
     b.linear = *linear;
   } else {
-    const models::NarxModel narx = std::get<models::NarxModel>(model.model);
-    b.simulation = models::SimulationBaseline{
-        "narx", narx.fs,
-        [narx](const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) { return narx.simulate(u, y, init); }};
+    b.simulation = models::narx_baseline(std::get<models::NarxModel>(model.model));
   }
   return b;
 }

@@ -545,6 +545,31 @@ TEST_F(JobKindsTest, DiagnoseFindsItsOwnBaselineOnTheVirtualTransducer) {
   EXPECT_LT(std::pow(10.0, floor_db / 10.0) * static_cast<double>(spectrum.at("frequency_hz").size()), before);
 }
 
+TEST_F(JobKindsTest, DiagnoseANarxBaselineStartsFromTheJTheAnalyzeJobGivesIt) {
+  use_plant("panel-exciter");
+  run("excite", {{"samples", 3000}, {"validation_samples", 2000}, {"amplitude", 0.8}}, "j1");
+  const std::string narx =
+      run("identify-narx", {{"record", "j1"}, {"na", 2}, {"nb", 3}, {"hidden", {3}}, {"max_iterations", 3}}, "j2").at("model_id");
+  const double j_analyzed = run("analyze", {{"model", narx}, {"record", "j1"}}, "j3").at("j_val_pct").get<double>();
+  FakeControl control("j4");
+  const json result = run("diagnose", {{"record", "j1"}, {"baseline_model", narx}, {"max_findings", 1}}, control);
+  expect_progress(control);
+  EXPECT_EQ(result.at("baseline").at("kind"), "narx");
+  EXPECT_NEAR(result.at("J_val_before_pct").get<double>(), j_analyzed, 1e-6 * j_analyzed);
+  EXPECT_LE(result.at("J_val_after_pct").get<double>(), result.at("J_val_before_pct").get<double>());
+  expect_plot(result.at("plots").at("residual_spectrum"), {"frequency_hz", "before_db", "after_db", "noise_floor_db"});
+}
+
+TEST_F(JobKindsTest, DiagnoseRefusesABaselineThatIsNotASimulation) {
+  const std::string lq = run("design-lq", {{"plant_model", store_reference_model()}, {"r", 3.0}}, "j1").at("model_id");
+  try {
+    validate_job_params("diagnose", {{"baseline_model", lq}}, env_);
+    FAIL() << "an LQ feedforward is not a simulation of the plant";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("baseline_model"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(JobKindsTest, TheSameSeedRecordsTheSameExcitation) {
   const json a = run("excite", {{"samples", 500}, {"validation_samples", 300}, {"seed", 9}}, "j1");
   excitations_ = 0;  // the fake backend's noise is seeded by its call count
