@@ -122,6 +122,29 @@ fs::path plot_j_per_step(const Diagnosis& d, const fs::path& dir, const Diagnosi
   return f.render(dir, o.format);
 }
 
+// The residual's mean in bins of each state (models::StateProfile), before the diagnosis (solid) and after
+// it (dashed): a missing nonlinearity shows as a curve, a residual that ignores the state as a flat line.
+fs::path plot_residual_against_states(const Diagnosis& d, const fs::path& dir, const DiagnosisPlotOptions& o) {
+  static const char* const kColours[] = {"#9467bd", "#d62728", "#1f77b4", "#2ca02c"};
+  GnuplotFigure f("residual_vs_state", 900, 560);
+  std::string plot = "plot ";
+  const auto add = [&](const models::StateProfile& p, std::size_t colour, bool after) {
+    const int block = f.add_block({p.centre, p.mean});
+    if (plot.size() > 5) plot += ", \\\n     ";
+    plot += (plot.size() > 5 ? "''" : f.data()) + " index " + std::to_string(block) + " using 1:2 with linespoints lw " +
+            (after ? "1 dt 2" : "1.6") + " pt 7 ps 0.6 lc rgb '" + kColours[colour % 4] + "' title " +
+            gnuplot_quoted(p.state + (after ? " (after)" : " (before)"));
+  };
+  for (std::size_t i = 0; i < d.located_val.states.size(); ++i) add(d.located_val.states[i], i, false);
+  for (std::size_t i = 0; i < d.located_val_after.states.size(); ++i) add(d.located_val_after.states[i], i, true);
+  f << "set title 'Validation residual against each state: its mean in 12 equal-count bins' noenhanced"
+    << "set xlabel 'state (units of its rms about its mean)'"
+    << "set ylabel 'mean of y − ŷ in the bin (raw output units)'"
+    << "set key outside right box opaque noenhanced"
+    << plot + ", \\\n     0 with lines lw 1 lc rgb '#555555' notitle";
+  return f.render(dir, o.format);
+}
+
 // The term's static contribution Σⱼ gⱼ·Σcⱼ (raw output units) against its state z, thinned to at most
 // o.scatter_points points; nothing when the term has no static feature or the feature does not vary.
 std::optional<fs::path> plot_term(const Diagnosis& d, std::size_t index, const models::StateSignals& states,
@@ -195,6 +218,14 @@ std::vector<ReportFigure> plot_diagnosis(const Diagnosis& d, const DiagnosisVali
                      plot_fit(d, s, fs, init, where, options)});
   figures.push_back({"j_per_step", "Validation J of the baseline and after each finding, against the noise floor.",
                      plot_j_per_step(d, where, options)});
+
+  if (!d.located_val.states.empty()) {
+    figures.push_back({"residual_vs_state",
+                       "The validation residual's mean in bins of the input, the simulated output and its leaky single "
+                       "and double integral (velocity and displacement for an accelerometer), before the diagnosis "
+                       "(solid) and after it (dashed): a physics left out that depends on a state bends its curve.",
+                       plot_residual_against_states(d, where, options)});
+  }
 
   models::StateSignals reference;
   reference.mean = d.model.state_mean;

@@ -27,7 +27,7 @@ struct DiagnosisPlotOptions {
   Eigen::Index scatter_points = 3000;  ///< points at most in a term's scatter (the record thinned evenly)
 };
 
-/// Draws into `dir` (which must exist): "residual_spectrum", "fit", "j_per_step", and "term-N" for every
+/// Draws into `dir` (which must exist): "residual_spectrum", "fit", "j_per_step", "residual_vs_state", and "term-N" for every
 /// gray-box term N (from 1) of the final model whose static feature varies with a state (a constant
 /// offset, or a term without a static feature, is left out). Throws std::runtime_error if gnuplot is
 /// missing or fails, std::invalid_argument if the record is shorter than `init` + 256 samples.

@@ -45,11 +45,38 @@ void findings_table(std::ostream& out, const json& findings) {
   out << "</table>\n";
 }
 
+// The residual against each state (before the diagnosis): how much its bin means depend on the state, its
+// level at large against small values, and its change with the direction of motion.
+void state_table(std::ostream& out, const json& location) {
+  const json& states = at(location, "states");
+  if (!states.is_array() || states.empty()) return;
+  out << "<h3>The residual against the states (baseline, validation record)</h3>\n"
+         "<table><tr><th>state</th><th>bin means over their standard error (χ²/dof; ≈ 1: none)</th>"
+         "<th>rms at high |state| over low</th><th>rising − falling, in standard errors</th></tr>\n";
+  for (const json& p : states) {
+    out << "<tr><th>" << html_cell(at(p, "state")) << "</th><td>" << html_cell(at(p, "shape_chi2"), 3) << "</td><td>"
+        << html_cell(at(p, "level_ratio"), 3) << "</td><td>" << html_cell(at(p, "direction_t"), 3) << "</td></tr>\n";
+  }
+  out << "</table>\n";
+}
+
+// A field of a location by its path ("frf_error.coherence"); null when absent.
+const json& location_field(const json& location, const std::string& path) {
+  const json* node = &location;
+  std::size_t from = 0;
+  while (true) {
+    const std::size_t dot = path.find('.', from);
+    node = &report_field(*node, path.substr(from, dot == std::string::npos ? std::string::npos : dot - from).c_str());
+    if (dot == std::string::npos) return *node;
+    from = dot + 1;
+  }
+}
+
 void location_table(std::ostream& out, const json& location) {
   const json& before = at(location, "validation");
   const json& after = at(location, "validation_after");
   struct Row {
-    const char* key;
+    const char* path;
     const char* label;
   };
   const Row rows[] = {{"residual_pct", "J (%)"},
@@ -57,18 +84,36 @@ void location_table(std::ostream& out, const json& location) {
                       {"peak_frequency_hz", "largest residual PSD bin (Hz)"},
                       {"peak_over_noise", "that bin over the noise level"},
                       {"peak_threshold", "ratio pure noise exceeds with probability 0.1 %"},
+                      {"frf_error.significant", "FRF error: does the input explain part of the residual"},
+                      {"frf_error.frequency_hz", "FRF error: where most (Hz)"},
+                      {"frf_error.band_low_hz", "FRF error: band from (Hz)"},
+                      {"frf_error.band_high_hz", "FRF error: band to (Hz)"},
+                      {"frf_error.relative_db", "FRF error: |H_ue / H_uy| there (dB)"},
+                      {"frf_error.coherence", "FRF error: coherence of input and residual there"},
+                      {"frf_error.threshold", "coherence pure noise exceeds with probability 1 %"},
+                      {"distortion.periodic", "periodic input"},
+                      {"distortion.period", "period (samples)"},
+                      {"distortion.output_even_db", "measured output at the empty even lines over noise (dB)"},
+                      {"distortion.output_odd_db", "measured output at the empty odd lines over noise (dB)"},
+                      {"distortion.residual_even_db", "residual at the empty even lines over noise (dB)"},
+                      {"distortion.residual_odd_db", "residual at the empty odd lines over noise (dB)"},
                       {"level_ratio", "residual rms at high |u| over that at low |u|"},
+                      {"output_level_ratio", "residual rms at high |ŷ| over that at low |ŷ|"},
                       {"drift_ratio", "residual rms at the end over that at the start"},
+                      {"change_time_s", "where the residual's level changes most (s)"},
+                      {"change_ratio", "residual rms after it over before"},
+                      {"change_t", "that change over its standard error"},
                       {"mean_t", "residual mean over its standard error"},
                       {"xcorr_lag", "lag of the largest input–residual correlation (samples)"},
                       {"xcorr_peak", "that correlation"}};
   out << "<h2>Where the residual lies (validation record)</h2>\n"
          "<table><tr><th></th><th>before (baseline)</th><th>after (final model)</th></tr>\n";
   for (const Row& r : rows) {
-    out << "<tr><th>" << html_escaped(r.label) << "</th><td>" << html_cell(at(before, r.key)) << "</td><td>"
-        << html_cell(at(after, r.key)) << "</td></tr>\n";
+    out << "<tr><th>" << html_escaped(r.label) << "</th><td>" << html_cell(location_field(before, r.path)) << "</td><td>"
+        << html_cell(location_field(after, r.path)) << "</td></tr>\n";
   }
   out << "</table>\n";
+  state_table(out, before);
 }
 
 }  // namespace

@@ -1,12 +1,52 @@
 #pragma once
 // Diagnosis, step one: where a simulation and a recording disagree. The residual of a simulation is
-// located in frequency (against the noise floor), in amplitude (against the input level), and in time
-// (drift between the start and the end of the record); see ../shared/PHYSICS.md.
+// located in frequency (against the noise floor, as an FRF error, and as odd/even distortion at the empty
+// lines of periodic data), in amplitude and state (against the input and output level, the estimated
+// velocity and displacement and the direction of motion), and in time (drift, and the onset of a change);
+// see ../shared/PHYSICS.md.
 
 #include <Eigen/Core>
+#include <limits>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 namespace panelbass::models {
+
+/// The linear part of the residual: H_ue = H_uy − H_uŷ, the FRF error, where the input explains the residual.
+struct FrfError {
+  double frequency_hz = 0.0;   ///< the bin whose residual the input explains most (largest coherence γ²_ue)
+  double coherence = 0.0;      ///< γ²_ue there
+  double threshold = 1.0;      ///< the coherence pure noise exceeds at any bin of the band with probability ≈ 1 %
+  double relative_db = -std::numeric_limits<double>::infinity();  ///< 20·log10|H_ue/H_uy| there
+  double band_low_hz = 0.0;    ///< the contiguous band around it where γ²_ue is above the threshold
+  double band_high_hz = 0.0;
+  bool significant = false;    ///< coherence > threshold: the simulation's frequency response is wrong there
+};
+
+/// Nonlinear distortion of periodic data at the lines its input leaves empty.
+struct PeriodicDistortion {
+  bool periodic = false;          ///< the input repeats (dsp::find_period) at least three times after init
+  Eigen::Index period = 0;        ///< samples
+  int periods = 0;                ///< whole periods judged (after one period to settle)
+  int excited_lines = 0;          ///< DFT lines of a period carrying the input
+  bool odd_lines_only = false;    ///< every excited line is odd: even and odd distortion can be told apart
+  double output_even_db = std::numeric_limits<double>::quiet_NaN();    ///< y at the empty even lines over its noise
+  double output_odd_db = std::numeric_limits<double>::quiet_NaN();     ///< y at the empty odd lines over its noise
+  double residual_even_db = std::numeric_limits<double>::quiet_NaN();  ///< the same of y − ŷ: what the simulation leaves
+  double residual_odd_db = std::numeric_limits<double>::quiet_NaN();
+  double threshold_db = 3.0;      ///< above which distortion counts as seen
+};
+
+/// The residual against one state: its mean in bins of the state, and how it depends on the direction.
+struct StateProfile {
+  std::string state;           ///< "input", "output", "integral", "double_integral" (see StateProxy)
+  Eigen::VectorXd centre;      ///< bin centres (equal-count bins), in units of the state's rms about its mean
+  Eigen::VectorXd mean;        ///< the residual's mean in each bin, output units
+  double level_ratio = 1.0;    ///< residual rms where |state| is in its top quartile over its bottom quartile
+  double shape_chi2 = 0.0;     ///< Σ (bin mean / its standard error)² / bins: ≈ 1 when the residual ignores the state
+  double direction_t = 0.0;    ///< (residual mean while the state rises − while it falls) / its standard error
+};
 
 /// Where the residual e = y − ŷ of one record lies.
 struct ResidualLocation {
@@ -23,14 +63,24 @@ struct ResidualLocation {
   double gain_drift = 0.0;         ///< LS gain of y on ŷ in the last quarter minus that in the first
   int xcorr_lag = 0;               ///< lag (samples, ±10) of the largest input–residual cross-correlation
   double xcorr_peak = 0.0;         ///< that normalised correlation
+  double output_level_ratio = 1.0; ///< residual rms where |ŷ| is in its top quartile over its bottom quartile
+  double change_time_s = 0.0;      ///< where the residual's level changes most (from the record's first sample)
+  double change_ratio = 1.0;       ///< residual rms after that time over before
+  double change_t = 0.0;           ///< the change of log block power over its standard error (Welch's t)
+  double effective_samples = 0.0;  ///< N shrunk by the residual's own correlation (for the standard errors)
+  FrfError frf_error;
+  PeriodicDistortion distortion;
+  std::vector<StateProfile> states;  ///< input, output, integral, double integral of the simulated output
 };
 
-/// Locates the residual `y − y_sim` over samples [start, end) at sample rate `fs`; u is the input.
-/// Throws std::invalid_argument for unequal lengths or fewer than 256 samples after `start`.
+/// Locates the residual `y − y_sim` over samples [start, end) at sample rate `fs`; u is the input. The
+/// states are the input and the simulated output with its leaky single and double integrals
+/// (state_signals): velocity and displacement for an accelerometer, their integrals for a displacement
+/// sensor. Throws std::invalid_argument for unequal lengths or fewer than 256 samples after `start`.
 ResidualLocation locate_residual(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const Eigen::VectorXd& y_sim,
                                  double fs, Eigen::Index start);
 
-/// The location as JSON (every field, named as in the struct).
+/// The location as JSON (every field, named as in the structs; `frf_error`, `distortion` and `states` nested).
 nlohmann::json location_to_json(const ResidualLocation& location);
 
 }  // namespace panelbass::models

@@ -6,7 +6,7 @@
 
 namespace panelbass::models {
 
-Eigen::VectorXd estimate_fir(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index taps) {
+Eigen::VectorXd estimate_fir(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index taps, double ridge) {
   const Eigen::Index n = taps, N = u.size();
   if (y.size() != N) throw std::invalid_argument("FIR: input and output lengths differ");
   if (n < 1) throw std::invalid_argument("FIR: taps must be >= 1");
@@ -30,6 +30,7 @@ Eigen::VectorXd estimate_fir(const Eigen::VectorXd& u, const Eigen::VectorXd& y,
   }
   R.triangularView<Eigen::StrictlyLower>() = R.transpose();
   if (!(R(0, 0) > 0.0)) throw std::invalid_argument("FIR: the input has no energy");
+  if (ridge > 0.0) R.diagonal().array() += ridge * R.diagonal().mean();
   Eigen::LDLT<Eigen::MatrixXd> ldlt(R);
   // LDLT reports exactly zero pivots as "positive"; a pivot this small relative to the largest means
   // the input's autocorrelation matrix is singular (e.g. a constant input for more than one tap).

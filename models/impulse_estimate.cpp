@@ -14,14 +14,22 @@ ImpulseEstimate estimate_impulse(const Eigen::VectorXd& u, const Eigen::VectorXd
   ImpulseEstimate e;
   // The raw cross-correlation r_uy = h * r̂_uu carries the input's sample autocorrelation (≈ 1/√N off
   // lag 0) smeared by a resonant h: bursts long after the response has died. Least squares divides
-  // r̂_uu out exactly, leaving only what the output's noise and distortion put in.
+  // r̂_uu out exactly, leaving only what the output's noise and distortion put in. An input that leaves the
+  // normal equations singular (a multisine, empty outside its band) gets a ridge of 1e-3 instead: no
+  // response where it has no power, the least-squares one where it has.
   const Eigen::VectorXd uc = u.array() - u.mean();
   const Eigen::VectorXd yc = y.array() - y.mean();
   if (!(uc.squaredNorm() > 0.0) || !(yc.squaredNorm() > 1e-24 * y.squaredNorm()) || !(yc.squaredNorm() > 0.0)) {
     throw std::invalid_argument("impulse estimate: the input or the output is constant");
   }
   const double std_ratio = std::sqrt(uc.squaredNorm() / yc.squaredNorm());
-  e.response = estimate_fir(uc, yc, max_lag + 1) * std_ratio;
+  Eigen::VectorXd fir;
+  try {
+    fir = estimate_fir(uc, yc, max_lag + 1);
+  } catch (const std::invalid_argument&) {
+    fir = estimate_fir(uc, yc, max_lag + 1, 1e-3);  // singular; a record too short throws here again
+  }
+  e.response = fir * std_ratio;
   const Eigen::VectorXd& r = e.response;
 
   // Its noise level is measured on the second half of the lags, where only noise is assumed (a floor

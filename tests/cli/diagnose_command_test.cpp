@@ -77,7 +77,7 @@ TEST_F(CliDiagnose, HtmlReportShowsTheFindingsAndEmbedsEveryFigure) {
     EXPECT_TRUE(fs::exists(plots / (name + ".gp"))) << name;
     EXPECT_TRUE(fs::exists(plots / (name + ".dat"))) << name;
   }
-  for (const char* name : {"residual_spectrum", "fit", "j_per_step"}) EXPECT_TRUE(plotted.count(name)) << name;
+  for (const char* name : {"residual_spectrum", "fit", "j_per_step", "residual_vs_state"}) EXPECT_TRUE(plotted.count(name)) << name;
   // One figure per gray-box term of the final model (the last finding's terms), named after its effect and
   // state, its scatter thinned to a few thousand points (the validation record has 8000 samples).
   const json& terms = report["findings"].back()["parameters"]["terms"];

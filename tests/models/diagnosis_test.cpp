@@ -11,7 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "dsp/excitation.h"
 #include "models/plant_presets.h"
+#include "models/virtual_transducer.h"
 #include "tests/support/expect_error.h"
 #include "tests/support/linear_systems.h"
 
@@ -131,6 +133,35 @@ TEST(Diagnosis, GivenBaselineWithTooShortADelayGetsADelay) {
   EXPECT_EQ(d.findings[0].effect, Effect::delay) << d.findings[0].explanation;
   EXPECT_EQ(d.findings[0].parameters["nk_after"].get<int>(), 2);
   EXPECT_LT(d.findings[0].j_val_after_pct, 0.5 * d.findings[0].j_val_before_pct);
+}
+
+TEST(Diagnosis, APeriodicMultisineRecordIsIdentifiedAndItsEmptyLinesAreRead) {
+  // Five periods of a random-odd multisine (10–1200 Hz) through the linear plant: the input has no power
+  // above 1200 Hz (the baseline's delay estimate must not need it), the record is found periodic, and a
+  // linear plant puts nothing on the empty lines beyond its noise.
+  dsp::MultisineSpec spec;
+  spec.period = 4096;
+  spec.periods = 5;
+  spec.fs = kFs;
+  spec.f_min = 10.0;
+  spec.lines = dsp::MultisineLines::random_odd;
+  spec.amplitude = 0.8;
+  const PlantConfig plant = plant_preset("linear");
+  spec.seed = 1;
+  const Eigen::VectorXd u_est = dsp::multisine(spec).signal;
+  spec.seed = 2;
+  const Eigen::VectorXd u_val = dsp::multisine(spec).signal;
+  const Diagnosis d = diagnose(u_est, simulate(plant, u_est, 3).y, u_val, simulate(plant, u_val, 4).y, kFs, std::nullopt,
+                               narrow_scan());
+  const PeriodicDistortion& p = d.located_val.distortion;
+  ASSERT_TRUE(p.periodic);
+  EXPECT_EQ(p.period, 4096);
+  // After the 50 samples that set the state, four whole periods are left; one settles, three are judged.
+  EXPECT_EQ(p.periods, 3);
+  EXPECT_TRUE(p.odd_lines_only);
+  EXPECT_LT(p.output_even_db, p.threshold_db);
+  EXPECT_LT(p.output_odd_db, p.threshold_db);
+  EXPECT_LT(d.baseline_j_val_pct, 2.0 * d.noise_floor_pct) << "the linear plant is fitted to its noise";
 }
 
 TEST(Diagnosis, BadRecordsAreNamed) {
