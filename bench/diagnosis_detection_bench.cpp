@@ -49,7 +49,7 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
   Run run;
   run.findings = static_cast<int>(d.findings.size());
   if (!d.findings.empty()) run.first = to_string(d.findings.front().effect);
-  run.concealment = concealment_ratio(r, d.baseline, kInit);
+  run.concealment = concealment_ratio(r, d.baseline_model.linear, kInit);
   run.j_before = d.j_val_before_pct;
   run.j_after = d.j_val_after_pct;
   run.baseline = d.baseline_info.dump();

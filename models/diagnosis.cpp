@@ -517,7 +517,6 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
   progress("locating the residual of the baseline");
   Fit current = fit_terms(r, r.base->linear, {});
   d.baseline_model = current.model;
-  d.baseline = r.base->linear;
   d.baseline_j_val_pct = current.j_val;
   d.baseline_j_est_pct = current.j_est;
   d.j_val_before_pct = current.j_val;

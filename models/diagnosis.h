@@ -75,8 +75,7 @@ struct Diagnosis {
   ResidualLocation located_val_after;         ///< the final model's validation residual
   nlohmann::json rounds = nlohmann::json::array();  ///< per round: every candidate's best variant and its score
   AugmentedModel model;     ///< the final model
-  AugmentedModel baseline_model;  ///< the simulation diagnosed, as a model without terms
-  LinearModel baseline;     ///< the linear model diagnosed (a simulation baseline: its linearisation)
+  AugmentedModel baseline_model;  ///< the simulation diagnosed, as a model without terms (.linear: the linear model, or a simulation's linearisation)
 };
 
 /// Diagnoses `baseline` (or, without one, the best linear OE model over the order scan of `options`) on

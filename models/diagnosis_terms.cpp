@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
+#include <utility>
 
 namespace panelbass::models {
 namespace {
@@ -58,6 +59,12 @@ Eigen::VectorXd orthogonal_to(Eigen::VectorXd x, const Eigen::VectorXd& basis) {
   const double d = basis.squaredNorm();
   if (d > 0.0) x -= (basis.dot(x) / d) * basis;
   return x;
+}
+
+// x without its mean (a feature with a DC part, which the offset term owns), then orthogonal to `basis`.
+Eigen::VectorXd centred_orthogonal_to(Eigen::VectorXd x, const Eigen::VectorXd& basis) {
+  x.array() -= x.mean();
+  return orthogonal_to(std::move(x), basis);
 }
 
 }  // namespace
@@ -146,11 +153,8 @@ Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& stat
   switch (term.effect) {
     case Effect::cubic_stiffness:  // a restoring force K·k2·x³ beyond the linear spring
       return orthogonal_to(z.array().cube().matrix(), z);
-    case Effect::asymmetric_stiffness: {  // K·k1·x²: even, with a DC part
-      Eigen::VectorXd g = z.array().square().matrix();
-      g.array() -= g.mean();
-      return orthogonal_to(g, z);
-    }
+    case Effect::asymmetric_stiffness:  // K·k1·x²: even, with a DC part
+      return centred_orthogonal_to(z.array().square().matrix(), z);
     case Effect::hysteresis: {  // friction Fc·tanh(v/v0): the direction of motion, v = dz/dt
       const Eigen::VectorXd v = first_difference(z);
       const double r = std::sqrt(v.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, v.size())));
@@ -201,12 +205,8 @@ Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& sta
       // Le(x) (or Le(i) for the input proxy) in Le·di/dt: the current changes by ∝ z·Δu; and the reluctance
       // force ½·i²·dLe/dx ∝ u².
       Eigen::MatrixXd g(z.size(), 2);
-      Eigen::VectorXd d = (z.array() * first_difference(u).array()).matrix();
-      d.array() -= d.mean();
-      g.col(0) = orthogonal_to(orthogonal_to(d, u), z);
-      Eigen::VectorXd r = u.array().square().matrix();
-      r.array() -= r.mean();
-      g.col(1) = orthogonal_to(r, u);
+      g.col(0) = orthogonal_to(centred_orthogonal_to((z.array() * first_difference(u).array()).matrix(), u), z);
+      g.col(1) = centred_orthogonal_to(u.array().square().matrix(), u);
       return g;
     }
     case Effect::saturation: {
@@ -219,10 +219,7 @@ Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& sta
         g(k, 0) = std::max(z[k] - c, 0.0);
         g(k, 1) = std::min(z[k] + c, 0.0);
       }
-      for (Eigen::Index j = 0; j < 2; ++j) {
-        g.col(j).array() -= g.col(j).mean();
-        g.col(j) = orthogonal_to(g.col(j), z);
-      }
+      for (Eigen::Index j = 0; j < 2; ++j) g.col(j) = centred_orthogonal_to(g.col(j), z);
       return g;
     }
     default: return term_feature(term, states);

@@ -54,7 +54,7 @@ TEST_P(ConcealedEffect, IsNamedFirstAndImprovesValidation) {
   const Diagnosed run = diagnose_scenario(concealed_scenario(effect), 1, 2);
   const Diagnosis& d = run.diagnosis;
   // Concealed: what the baseline misses on the noise-free output lies below the sensor noise everywhere.
-  EXPECT_LT(concealment_ratio(run.records, d.baseline, kInit), 1.0);
+  EXPECT_LT(concealment_ratio(run.records, d.baseline_model.linear, kInit), 1.0);
   ASSERT_FALSE(d.findings.empty()) << diagnosis_to_json(d)["rounds"].dump(1);
   const Finding& first = d.findings.front();
   EXPECT_EQ(to_string(first.effect), to_string(effect)) << first.explanation;
@@ -83,7 +83,7 @@ TEST(DiagnosisScenarios, FittedParametersMatchThePlant) {
     ASSERT_FALSE(d.findings.empty());
     // The sensor offset, 3.5 mV, in raw units: the coefficient times the output scale; its standard error
     // over 40 000 samples of 70 mV noise is 0.35 mV.
-    EXPECT_NEAR(d.model.terms.front().coefficients[0] * d.baseline.scaling.y_scale, 0.0035, 0.0012);
+    EXPECT_NEAR(d.model.terms.front().coefficients[0] * d.baseline_model.linear.scaling.y_scale, 0.0035, 0.0012);
   }
   {
     const Diagnosis d = diagnose_scenario(concealed_scenario(Effect::delay), 1, 1).diagnosis;

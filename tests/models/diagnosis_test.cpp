@@ -121,7 +121,7 @@ TEST(Diagnosis, GivenBaselineMissingASensorOffsetGetsADcOffset) {
   EXPECT_LT(d.findings[0].j_val_after_pct, d.findings[0].j_val_before_pct);
   // The offset fitted, in raw units, is the sensor's: Σ coefficient · y_scale.
   const DiagnosisTerm& term = d.model.terms.front();
-  EXPECT_NEAR(term.coefficients[0] * d.baseline.scaling.y_scale, 0.03, 0.003);
+  EXPECT_NEAR(term.coefficients[0] * d.baseline_model.linear.scaling.y_scale, 0.03, 0.003);
 }
 
 TEST(Diagnosis, GivenBaselineWithTooShortADelayGetsADelay) {
