@@ -341,6 +341,7 @@ async function main() {
     tableShown: !document.querySelector('#diag-findings').hidden,
     noneShown: !document.querySelector('#diag-no-findings').hidden,
     genericHidden: document.querySelector('#result-figures').hidden,
+    location: Array.from(document.querySelectorAll('#diag-location li')).map((li) => li.textContent.trim()),
   }));
   log(`diagnosis: baseline ${diagnosis.baseline}; J ${diagnosis.before} → ${diagnosis.after}, noise floor ${diagnosis.floor}; ` +
       `${diagnosis.findings.length} finding(s)${diagnosis.findings.map(([, effect, , j]) => `; ${effect}: ${j}`).join('')}`);
@@ -354,6 +355,11 @@ async function main() {
   for (const [, effect, explanation, j] of diagnosis.findings) {
     check(/^[a-z_]+$/.test(effect) && explanation.length > 20, `a finding without effect id or explanation: ${effect} / ${explanation}`);
     check(/\d.*→.*\d/.test(j), `a finding without J before → after: "${j}"`);
+  }
+  // Where the residual lies: a sentence each on frequency, state and time at least.
+  log(`location: ${diagnosis.location.join(' | ')}`);
+  for (const topic of ['Frequency:', 'State:', 'Time:']) {
+    check(diagnosis.location.some((t) => t.startsWith(topic)), `no "${topic}" sentence on where the residual lies: ${JSON.stringify(diagnosis.location)}`);
   }
   await page.waitForSelector('#plot-residual_spectrum canvas', { timeout: 5000 });
   await page.waitForSelector('#plot-fit canvas', { timeout: 5000 });
