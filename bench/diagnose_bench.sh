@@ -4,7 +4,8 @@
 # official train/val multisine part, validation = the rest; and Wiener–Hammerstein 2009
 # (../shared/data/wiener_hammerstein_2009), a diode-resistor saturation between two filters: estimation
 # = rows 0..80000 of the official estimation part, validation = the rest (as bench/linear_benchmarks.sh).
-# The test sets are not used. Reports the baseline, every finding and validation J before/after.
+# The test sets are not used. Then periodic data of the virtual transducer. Reports the baseline, every
+# finding, validation J before/after and where the residual lies before and after.
 # Usage: bash bench/diagnose_bench.sh [BUILD_DIR]   (default: build; PANELBASS_HTML=DIR also writes DIR/sb.html, wh.html)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,6 +30,18 @@ print("| # | effect | J_val before % | J_val after % | explanation |")
 print("|---:|---|---:|---:|---|")
 for i, f in enumerate(r["findings"], 1):
     print(f"| {i} | {f['effect']} | {f['J_val_before_pct']:.4f} | {f['J_val_after_pct']:.4f} | {f['explanation']} |")
+def where(l):
+    f, d = l["frf_error"], l["distortion"]
+    frf = (f"FRF error {f['band_low_hz']:.0f}-{f['band_high_hz']:.0f} Hz ({f['relative_db']:.1f} dB at {f['frequency_hz']:.0f} Hz)"
+           if f["significant"] else "no FRF error")
+    db = lambda x: "n/a" if x is None else f"{x:.2f} dB"
+    dist = (f"periodic ({d['period']} samples): residual odd {db(d['residual_odd_db'])}, even {db(d['residual_even_db'])} over noise"
+            if d["periodic"] and d["odd_lines_only"] else "not periodic" if not d["periodic"] else "periodic, even lines excited")
+    top = max(l["states"], key=lambda p: p["shape_chi2"])
+    return f"{frf}; {dist}; most state-dependent: {top['state']} (chi2 {top['shape_chi2']:.1f})"
+loc = r["location"]
+print(f"where the residual lies, before: {where(loc['validation'])}")
+print(f"where the residual lies, after:  {where(loc['validation_after'])}")
 first = r["findings"][0]["effect"] if r["findings"] else "none"
 print(f"first finding: {first}; J_val {r['J_val_before_pct']:.4f} % -> {r['J_val_after_pct']:.4f} % ({float(sys.argv[2]):.1f} s)")
 PY
@@ -53,3 +66,16 @@ split "$wh/train.csv" 80000 wh
 echo
 echo "## Wiener-Hammerstein 2009 (fs 51200 Hz): diagnose, estimation rows 0..80000 of train, validation the rest"
 run wh 51200 2 10
+
+# Periodic data: the panel-exciter virtual transducer driven by five periods of a random-odd multisine
+# (8192 samples, 10-1200 Hz, full drive), estimation and validation with different phases: the odd and even
+# distortion at the empty lines is read before and after the diagnosis.
+for seed in 1 2; do
+  "$bin" simulate --plant panel-exciter --signal multisine --lines random-odd --period 8192 --samples 40960 \
+    --seed "$seed" --out "$work/ms-$seed.csv" > /dev/null 2>&1
+done
+mv "$work/ms-1.csv" "$work/ms-est.csv"
+mv "$work/ms-2.csv" "$work/ms-val.csv"
+echo
+echo "## panel-exciter, periodic random-odd multisine (fs 3000 Hz, 5 periods of 8192): diagnose"
+run ms 3000 8 14
