@@ -34,7 +34,7 @@ TEST(FindPeriod, ARepeatedRecordWithMeasurementNoiseStillRepeats) {
 
 TEST(FindPeriod, WhiteNoiseAndTooFewRepeatsHaveNone) {
   EXPECT_EQ(find_period(uniform_noise(8000, 1.0, 1)), 0);
-  EXPECT_EQ(find_period(uniform_noise(1000, 1.0, 1).head(1500)), 0) << "one and a half copies are not two";
+  EXPECT_EQ(find_period(repeated(uniform_noise(1000, 1.0, 1), 2).head(1500)), 0) << "one and a half copies are not two";
   PeriodSearch three;
   three.min_repeats = 3;
   EXPECT_EQ(find_period(repeated(uniform_noise(1000, 1.0, 2), 2), three), 0);
