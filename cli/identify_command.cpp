@@ -1,4 +1,3 @@
-#include <cmath>
 #include <limits>
 #include <vector>
 #include <memory>
@@ -8,6 +7,7 @@
 #include "cli/data_options.h"
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
+#include "models/json_fields.h"
 #include "models/linear_identification.h"
 #include "models/model_file.h"
 #include "models/narx_structure.h"
@@ -34,8 +34,6 @@ nlohmann::json roots_json(const Eigen::VectorXcd& roots) {
   for (Eigen::Index k = 0; k < roots.size(); ++k) out.push_back({roots[k].real(), roots[k].imag()});
   return out;
 }
-
-nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 void run_identify_linear(const IdentifyLinearOptions& o) {
   const dsp::Record est = o.columns.read(o.data);
@@ -73,13 +71,13 @@ void run_identify_linear(const IdentifyLinearOptions& o) {
                    {"nb", id.model.tf.nb()},
                    {"nk", id.model.tf.nk},
                    {"J_est_pct", id.j_est_pct},
-                   {"J_val_pct", number_or_null(id.j_val_pct)}};
+                   {"J_val_pct", models::number_or_null(id.j_val_pct)}};
   models::save_linear_model(o.out, id.model);
 
   nlohmann::json result = {{"method", o.method},
                            {"order", id.model.tf.na() > 0 ? id.model.tf.na() : id.model.tf.nb()},
                            {"J_est_pct", id.j_est_pct},
-                           {"J_val_pct", number_or_null(id.j_val_pct)},
+                           {"J_val_pct", models::number_or_null(id.j_val_pct)},
                            {"J_pred_est_pct", id.j_pred_est_pct},
                            {"delay", id.model.tf.nk},
                            {"poles", roots_json(id.model.tf.poles())},
@@ -184,7 +182,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
     nlohmann::json steps = nlohmann::json::array();
     for (const auto& g : grown.steps) {
       steps.push_back({{"hidden", g.hidden}, {"params", g.params}, {"J_est_pct", g.j_est_pct},
-                       {"J_val_pct", number_or_null(g.j_val_pct)}, {"improvement", g.improvement}, {"threshold", g.threshold}});
+                       {"J_val_pct", models::number_or_null(g.j_val_pct)}, {"improvement", g.improvement}, {"threshold", g.threshold}});
     }
     structure_report["growth"] = {{"chosen_hidden", grown.chosen_hidden}, {"rule", grown.rule}, {"steps", steps}};
   } else {
@@ -207,8 +205,8 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   bar.update(1.0);
   nlohmann::json history = nlohmann::json::array();
   for (const auto& r : result.history) {
-    history.push_back({{"iter", r.iteration}, {"mode", models::to_string(r.mode)}, {"J_est_pct", number_or_null(r.j_est_pct)},
-                       {"J_val_pct", number_or_null(r.j_val_pct)}});
+    history.push_back({{"iter", r.iteration}, {"mode", models::to_string(r.mode)}, {"J_est_pct", models::number_or_null(r.j_est_pct)},
+                       {"J_val_pct", models::number_or_null(r.j_val_pct)}});
   }
   // The same protocol as the linear models: the first measured outputs set the state, then free run.
   const auto judged = [&](const Eigen::VectorXd& u, const Eigen::VectorXd& y) {
@@ -218,10 +216,10 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   const double j_est = judged(est.columns[0], est.columns[1]);
   const double j_val = u_val.size() ? judged(u_val, y_val) : std::numeric_limits<double>::quiet_NaN();
   result.model.meta = {{"data", o.data}, {"val", o.val}, {"train", o.train}, {"optimizer", o.optimizer},
-                       {"J_est_pct", j_est}, {"J_val_pct", number_or_null(j_val)}, {"seed", o.seed}};
+                       {"J_est_pct", j_est}, {"J_val_pct", models::number_or_null(j_val)}, {"seed", o.seed}};
   models::save_narx_model(o.out, result.model);
   print_result({{"J_est_pct", j_est},
-                {"J_val_pct", number_or_null(j_val)},
+                {"J_val_pct", models::number_or_null(j_val)},
                 {"iterations", result.iterations},
                 {"seconds", result.seconds},
                 {"params", result.model.net.parameter_count()},

@@ -1,11 +1,11 @@
 #include "models/diagnosis_locate.h"
 
 #include <algorithm>
-#include <complex>
-#include <unsupported/Eigen/FFT>
 #include <cmath>
+#include <complex>
 #include <stdexcept>
 #include <string>
+#include <unsupported/Eigen/FFT>
 #include <vector>
 
 #include "dsp/best_linear_approximation.h"
@@ -13,6 +13,7 @@
 #include "dsp/period.h"
 #include "dsp/spectrum.h"
 #include "models/diagnosis_terms.h"
+#include "models/json_fields.h"
 
 namespace panelbass::models {
 namespace {
@@ -282,9 +283,6 @@ ResidualLocation locate_residual(const Eigen::VectorXd& u_all, const Eigen::Vect
 }
 
 namespace {
-
-// A number, or null where it is not available (NaN, ±inf).
-nlohmann::json number_or_null(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
 
 nlohmann::json frf_error_to_json(const FrfError& f) {
   return {{"frequency_hz", f.frequency_hz}, {"coherence", f.coherence},        {"threshold", f.threshold},

@@ -97,4 +97,6 @@ void require_within(double v, double lo, double hi, const std::string& path) {
   }
 }
 
+nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+
 }  // namespace panelbass::models

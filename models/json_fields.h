@@ -1,6 +1,6 @@
 #pragma once
 // Validated reading of one JSON object: typed fields, defaults, key paths in every error, and no
-// unknown keys let through.
+// unknown keys let through; and the one rule for writing a number that may not be finite.
 
 #include <nlohmann/json.hpp>
 #include <set>
@@ -46,5 +46,8 @@ void require_positive(double v, const std::string& path);
 void require_non_negative(double v, const std::string& path);
 /// Throws ConfigError "`path`: must be within [lo, hi], got v" unless lo <= v <= hi.
 void require_within(double v, double lo, double hi, const std::string& path);
+
+/// `v` as a JSON number, or null where it is not finite (NaN, ±inf: JSON has no such numbers).
+nlohmann::json number_or_null(double v);
 
 }  // namespace panelbass::models

@@ -8,6 +8,7 @@
 
 #include "dsp/spectrum.h"
 #include "models/config_error.h"
+#include "models/json_fields.h"
 #include "models/oe_estimator.h"
 #include "models/performance.h"
 
@@ -17,8 +18,6 @@ namespace {
 using nlohmann::json;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-json number_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 json vector_json(const Eigen::VectorXd& v) {
   json out = json::array();
