@@ -38,20 +38,42 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   const double noise_amplitude = max_input(ff, band_pass, 100000, seed).noise;
   for (Eigen::Index k = 0; k < n_noise; ++k) r.program[k] = rng.uniform(-noise_amplitude, noise_amplitude);
   const auto step = static_cast<Eigen::Index>(o.sine_step_seconds * fs);
-  const auto fade = std::min<Eigen::Index>(static_cast<Eigen::Index>(0.01 * fs), step / 4);
+  struct Step {
+    Eigen::Index start, length;
+  };
+  std::vector<Step> steps;
   for (Eigen::Index start = n_noise; start < o.samples; start += step) {
     const double f = o.sine_low_hz * std::pow(o.sine_high_hz / o.sine_low_hz, rng.uniform(0.0, 1.0));
     const double gain = std::abs(shape.response(f, fs) * response(controller, f, fs));
     const double amplitude = std::min(1.0, o.sine_peak / gain);
     const Eigen::Index length = std::min(step, o.samples - start);
+    // two periods of fade (at least 10 ms, at most a quarter step): a short fade splatters into the band
+    // below the pass band's corner, where the feedforward's gain can be far above its gain at f
+    const auto fade = std::min<Eigen::Index>(
+        static_cast<Eigen::Index>(std::max(0.01 * fs, 2.0 * fs / f)), std::max<Eigen::Index>(1, length / 4));
     for (Eigen::Index k = 0; k < length; ++k) {
       const double edge = static_cast<double>(std::min(k, length - 1 - k));
-      const double window = edge < fade ? 0.5 - 0.5 * std::cos(std::numbers::pi * edge / fade) : 1.0;
+      const double window = edge < static_cast<double>(fade) ? 0.5 - 0.5 * std::cos(std::numbers::pi * edge / fade) : 1.0;
       r.program[start + k] = window * amplitude * std::sin(2.0 * std::numbers::pi * f * k / fs);
     }
+    steps.push_back({start, length});
   }
-  dsp::SosFilter filter(band_pass);
-  const Eigen::VectorXd shaped = filter.process(r.program);
+  // The steady-state gain sets each step's level; what the feedforward's slow poles carry over from the
+  // fades and the earlier steps can still lift a step's peak. Steps whose drive passes sine_peak are scaled
+  // down until none does (the chain is linear, so a few passes settle it).
+  const auto drive = [&] { return simulate(controller, dsp::SosFilter(band_pass).process(r.program)); };
+  for (int pass = 0; pass < 20; ++pass) {
+    const Eigen::VectorXd u = drive();
+    bool within = true;
+    for (const Step& s : steps) {
+      const double peak = u.segment(s.start, s.length).cwiseAbs().maxCoeff();
+      if (peak <= o.sine_peak) continue;
+      within = false;
+      r.program.segment(s.start, s.length) *= 0.999 * o.sine_peak / peak;
+    }
+    if (within) break;
+  }
+  const Eigen::VectorXd shaped = dsp::SosFilter(band_pass).process(r.program);
   r.u = simulate(controller, shaped);
   r.y_desired = simulate(ff.desired(), shaped);
   return r;

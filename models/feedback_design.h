@@ -36,7 +36,9 @@ struct ControlRecord {
 
 /// A record of `o.samples`: uniform white noise at the largest safe amplitude (models::max_input's noise
 /// case), then stepped sines at log-uniform random frequencies, each at the amplitude where band-pass +
-/// feedforward reach a steady peak of o.sine_peak, faded in and out over 10 ms. Deterministic in `seed`.
+/// feedforward reach a steady peak of o.sine_peak, faded in and out over two periods (10 ms at least), and
+/// scaled down where the feedforward's slow transients would lift the step's drive above o.sine_peak.
+/// Deterministic in `seed`.
 ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
                              const FeedbackDesignOptions& o, std::uint64_t seed);
 
