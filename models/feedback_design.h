@@ -18,11 +18,12 @@ namespace panelbass::models {
 struct FeedbackDesignOptions {
   FeedbackStructure structure{};     ///< N1's inputs and hidden layers
   Eigen::Index samples = 6000;       ///< samples of each record (estimation, validation)
-  double sine_share = 0.5;           ///< share of a record made of stepped sines (the rest: white noise)
+  double sine_share = 0.75;          ///< share of a record made of stepped sines (the rest: white noise)
   double sine_low_hz = 30.0;         ///< stepped sines: lowest frequency, Hz (log-uniform draw)
   double sine_high_hz = 400.0;       ///< stepped sines: highest frequency, Hz
   double sine_step_seconds = 0.25;   ///< stepped sines: duration of each
-  double sine_peak = 1.0;            ///< stepped sines: steady peak of the feedforward output, in (0, 1]
+  double sine_peak = 0.6;            ///< stepped sines: steady peak of the feedforward output, in (0, 1]; below the
+                                     ///< soft limit's knee (0.8), so the controller has headroom to correct
   std::uint64_t seed = 1;            ///< records (estimation: seed, validation: seed + 1) and initial weights
   FeedbackTrainingOptions training{};  ///< the training itself
 };

@@ -26,6 +26,7 @@ TEST(FeedbackDesignTest, ControlRecordIsTheProgramThroughBandPassAndFeedforward)
   const std::vector<dsp::Biquad> bp = dsp::butterworth_bandpass(2, 20.0, 1200.0, 3000.0);
   FeedbackDesignOptions o;
   o.samples = 6000;
+  o.sine_share = 0.5;
   o.sine_peak = 0.3;
   const ControlRecord r = control_record(ff, bp, o, 3);
   ASSERT_EQ(r.u.size(), 6000);
