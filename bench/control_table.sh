@@ -3,17 +3,19 @@
 #   1. full-drive uniform noise → linear model (OE, order scan)            identify linear
 #   2. LQ feedforward, R = 1e-5, R0 = 20, band-pass 20-1200 Hz              design lq
 #   3. the plant driven in its operating regime: the feedforward's output
-#      for noise + stepped sines, six records at steady drive peaks 0.4-0.9
+#      for noise + stepped sines, six records at steady drive peaks 0.35-0.85
 #      (135 000 samples: the small-drive harmonics need them) → NARX model  simulate --signal control, identify narx
 #   4. neural feedback controller trained through the loop                  design nn
 #   5. chain files (feedback in model mode and in sensor mode) → table      chain, evaluate
 # The probes run where band-pass + feedforward reach a steady drive peak of 0.6: below the amplifier's
 # clipping (0.7) and the controller's soft limit (0.8), so that the feedback has headroom to correct; the
 # table at the limiter's knee (0.8, the evaluate default) follows for comparison.
-# Usage: bash bench/control_table.sh [SEED] [SINE_SHARE]   (PANELBASS_BIN overrides the binary)
+# Usage: bash bench/control_table.sh [SEED] [SINE_SHARE]   (PANELBASS_BIN overrides the binary; PLOTS=DIR keeps the
+# evaluation figures of the model-mode chain at the 0.6 probe peak: response and harmonics per probe)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=$(realpath "${PANELBASS_BIN:-build/bin/panelbass}")
+if [ -n "${PLOTS:-}" ]; then PLOTS=$(realpath -m "$PLOTS"); fi
 seed=${1:-1}
 share=${2:-0.75}
 work=$(mktemp -d)
@@ -28,15 +30,15 @@ lin=$("$bin" identify linear --data est.csv --val val.csv --fs 3000 --method oe 
 lq=$("$bin" design lq --model lin.json --R 1e-5 --R0 20 --bandpass 20,1200 --out ff.json)
 : > reg_est.csv
 for i in 0 1 2 3 4 5; do
-  peak=$(awk -v i="$i" 'BEGIN { printf "%.1f", 0.4 + 0.1 * i }')
+  peak=$(awk -v i="$i" 'BEGIN { printf "%.2f", 0.35 + 0.1 * i }')
   "$bin" simulate --signal control --ff ff.json --samples 22500 --seed $((seed + 10 + i)) --sine-peak "$peak" --out reg.csv > /dev/null 2>&1
   if [ "$i" = 0 ]; then cat reg.csv > reg_est.csv; else tail -n +2 reg.csv >> reg_est.csv; fi
 done
 "$bin" simulate --signal control --ff ff.json --samples 10000 --seed $((seed + 20)) --sine-peak 0.65 --out reg_val.csv > /dev/null 2>&1
 nn=$("$bin" identify narx --data reg_est.csv --val reg_val.csv --fs 3000 --na 10 --nb 10 --hidden 20 --train pem,oem-d \
        --max-iter 60 --seed "$seed" --out narx.json 2> /dev/null)
-fb=$("$bin" design nn --plant narx.json --ff ff.json --bandpass 20,1200 --hidden 6 --nu 4 --nv 2 --ny 4 --iterations 60 \
-       --samples 12000 --sine-peak 0.6 --sine-share "$share" --seed "$seed" --out fb.json 2> /dev/null)
+fb=$("$bin" design nn --plant narx.json --ff ff.json --bandpass 20,1200 --hidden 8 --nu 6 --nv 2 --ny 4 --iterations 150 \
+       --samples 48000 --sine-peak 0.6 --sine-share "$share" --seed "$seed" --out fb.json 2> /dev/null)
 echo "## Control on panel-exciter (seed $seed)"
 echo "- linear model: OE order $(echo "$lin" | field order), J_val $(echo "$lin" | field J_val_pct | awk '{printf "%.2f", $1}') %;" \
      "LQ (R 1e-5, R0 20, 20-1200 Hz): max in $(echo "$lq" | field max_input_worst | awk '{printf "%.3f", $1}') worst," \
@@ -64,7 +66,9 @@ PY
 }
 for source in model sensor; do
   "$bin" chain --bandpass 20,1200 --ff ff.json --fb fb.json --source "$source" --out "chain-$source.json" > /dev/null
-  "$bin" evaluate --plant panel-exciter --chain "chain-$source.json" --probe-peak 0.6 --out "eval-$source.json" > /dev/null 2>&1
+  plots=()
+  if [ -n "${PLOTS:-}" ] && [ "$source" = model ]; then plots=(--plot "$PLOTS"); fi
+  "$bin" evaluate --plant panel-exciter --chain "chain-$source.json" --probe-peak 0.6 --out "eval-$source.json" "${plots[@]}" > /dev/null 2>&1
   table "eval-$source.json" "feedback in $source mode, probes at a drive peak of 0.6"
 done
 "$bin" evaluate --plant panel-exciter --chain chain-model.json --out eval-knee.json > /dev/null 2>&1

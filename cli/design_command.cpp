@@ -45,12 +45,6 @@ struct DesignLqOptions {
   std::string plot_format = "png";
 };
 
-std::string number(double v, int digits = 3) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.*g", digits, v);
-  return text;
-}
-
 nlohmann::json roots_json(const Eigen::VectorXcd& roots) {
   nlohmann::json out = nlohmann::json::array();
   for (Eigen::Index k = 0; k < roots.size(); ++k) out.push_back({roots[k].real(), roots[k].imag()});
@@ -72,9 +66,9 @@ CLI::Validator at_least(double bound, bool inclusive) {
         double v = 0.0;
         if (!CLI::detail::lexical_cast(text, v) || !std::isfinite(v)) return "must be a number, got \"" + text + "\"";
         if (inclusive ? v >= bound : v > bound) return std::string();
-        return "must be " + relation + " " + number(bound) + ", got " + text;
+        return "must be " + relation + " " + gnuplot_number(bound) + ", got " + text;
       },
-      "NUMBER " + relation + " " + number(bound), "at_least");
+      "NUMBER " + relation + " " + gnuplot_number(bound), "at_least");
 }
 
 // Throws unless the file `path` could be created: its directory exists and it is not a directory.
@@ -126,7 +120,7 @@ fs::path plot_lq_pole_zero(const models::LqFeedforward& ff, const fs::path& dir,
   block_of(model_poles);  // index 1
   block_of(zeros);        // index 2
   block_of(ff.poles());   // index 3
-  const std::string weights = "R = " + number(ff.weights.R, 4) + ", R_0 = " + number(ff.weights.R0, 4);
+  const std::string weights = "R = " + gnuplot_number(ff.weights.R, 4) + ", R_0 = " + gnuplot_number(ff.weights.R0, 4);
   f << "set multiplot layout 1,2 title " + gnuplot_quoted("Poles (×) and zeros (o): linear model and model with state feedback (" +
                                                            weights + ")")
     << "set size ratio -1"
@@ -156,14 +150,14 @@ fs::path plot_lq_magnitude(const models::LqFeedforward& ff, double lo, double hi
   fig.add_block({f, magnitude_db(ff.plant, f, ff.fs), magnitude_db(ff.desired(), f, ff.fs),
                  magnitude_db(ff.controller(), f, ff.fs)});
   fig << "set title " + gnuplot_quoted("Magnitude responses (raw units): linear model and with state feedback, R = " +
-                                       number(ff.weights.R, 4) + ", R_0 = " + number(ff.weights.R0, 4))
+                                       gnuplot_number(ff.weights.R, 4) + ", R_0 = " + gnuplot_number(ff.weights.R0, 4))
       << "set xlabel 'frequency (Hz)'"
       << "set ylabel 'magnitude (dB)'"
       << "set logscale x"
-      << "set xrange [1:" + number(ff.fs / 2.0, 8) + "]"
+      << "set xrange [1:" + gnuplot_number(ff.fs / 2.0, 8) + "]"
       << "set key top left box opaque";
-  if (lo > 0.0) fig << "set arrow from " + number(lo, 8) + ", graph 0 to " + number(lo, 8) + ", graph 1 nohead dt 3 lc rgb '#888888'";
-  fig << "set arrow from " + number(hi, 8) + ", graph 0 to " + number(hi, 8) + ", graph 1 nohead dt 3 lc rgb '#888888'"
+  if (lo > 0.0) fig << "set arrow from " + gnuplot_number(lo, 8) + ", graph 0 to " + gnuplot_number(lo, 8) + ", graph 1 nohead dt 3 lc rgb '#888888'";
+  fig << "set arrow from " + gnuplot_number(hi, 8) + ", graph 0 to " + gnuplot_number(hi, 8) + ", graph 1 nohead dt 3 lc rgb '#888888'"
       << "plot " + fig.data() + " index 0 using 1:2 with lines lw 1.8 lc rgb '#202020' title 'linear model y/u*', \\\n"
          "     '' index 0 using 1:3 with lines lw 1.8 dt 2 lc rgb '#d62728' title 'controlled y_{lin}/u', \\\n"
          "     '' index 0 using 1:4 with lines lw 1.2 dt 3 lc rgb '#1f77b4' title 'controller u*/u'";

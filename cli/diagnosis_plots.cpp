@@ -19,12 +19,6 @@ using models::Diagnosis;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string number(double v, int digits = 3) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.*g", digits, v);
-  return text;
-}
-
 // The validation record's two simulations, from the first judged sample on.
 struct JudgedSimulations {
   Eigen::VectorXd y;         ///< measured
@@ -58,16 +52,16 @@ fs::path plot_residual_spectrum(const Diagnosis& d, const JudgedSimulations& s, 
                                       "-point segments): before and after the diagnosis")
     << "set xlabel 'frequency (Hz)'"
     << "set ylabel 'PSD of y − ŷ (dB re 1 unit²/Hz)'"
-    << "set xrange [0:" + number(fs / 2.0, 8) + "]"
+    << "set xrange [0:" + gnuplot_number(fs / 2.0, 8) + "]"
     << "set key top right box opaque";
   std::string plot = "plot " + f.data() +
                      " index 0 using 1:2 with lines lw 1.5 lc rgb '#d62728' title 'before: " + d.baseline_kind + " baseline (J = " +
-                     number(d.j_val_before_pct) + " %)', \\\n"
+                     gnuplot_number(d.j_val_before_pct) + " %)', \\\n"
                      "     '' index 0 using 1:3 with lines lw 1.5 lc rgb '#1f77b4' title 'after: augmented model (J = " +
-                     number(d.j_val_after_pct) + " %)'";
+                     gnuplot_number(d.j_val_after_pct) + " %)'";
   if (std::isfinite(d.located_val.noise_psd) && d.located_val.noise_psd > 0.0) {
-    plot += ", \\\n     " + number(10.0 * std::log10(d.located_val.noise_psd), 8) +
-            " with lines lw 1.2 dt 2 lc rgb '#2ca02c' title 'noise floor (J = " + number(d.noise_floor_pct) + " %)'";
+    plot += ", \\\n     " + gnuplot_number(10.0 * std::log10(d.located_val.noise_psd), 8) +
+            " with lines lw 1.2 dt 2 lc rgb '#2ca02c' title 'noise floor (J = " + gnuplot_number(d.noise_floor_pct) + " %)'";
   }
   f << plot;
   return f.render(dir, o.format);
@@ -86,9 +80,9 @@ fs::path plot_fit(const Diagnosis& d, const JudgedSimulations& s, double fs, Eig
     << "set key top right box opaque"
     << "plot " + f.data() + " index 0 using 1:2 with lines lw 1.8 lc rgb '#202020' title 'measured y', \\\n"
        "     '' index 0 using 1:3 with lines lw 1 dt 2 lc rgb '#d62728' title '" + d.baseline_kind + " baseline (J = " +
-           number(d.j_val_before_pct) + " %)', \\\n"
+           gnuplot_number(d.j_val_before_pct) + " %)', \\\n"
        "     '' index 0 using 1:4 with lines lw 1.3 lc rgb '#1f77b4' title 'augmented model (J = " +
-           number(d.j_val_after_pct) + " %)'";
+           gnuplot_number(d.j_val_after_pct) + " %)'";
   return f.render(dir, o.format);
 }
 
@@ -109,16 +103,16 @@ fs::path plot_j_per_step(const Diagnosis& d, const fs::path& dir, const Diagnosi
   const double top = std::max(j.maxCoeff(), d.noise_floor_pct);
   f << "set title 'Validation J after each step of the diagnosis'"
     << tics + ") noenhanced"
-    << "set xrange [-0.6:" + number(static_cast<double>(steps) - 0.4, 6) + "]"
-    << "set yrange [0:" + number(1.15 * std::max(top, 1e-12), 8) + "]"
+    << "set xrange [-0.6:" + gnuplot_number(static_cast<double>(steps) - 0.4, 6) + "]"
+    << "set yrange [0:" + gnuplot_number(1.15 * std::max(top, 1e-12), 8) + "]"
     << "set ylabel 'J on the validation record (%)'"
     << "set style fill solid 0.6 border rgb '#1f77b4'"
     << "set boxwidth 0.6"
     << "set key top right box opaque"
     << "plot " + f.data() + " index 0 using 1:2 with boxes lc rgb '#1f77b4' title 'J (%)', \\\n"
        "     '' index 0 using 1:2:(sprintf('%.3g %%', $2)) with labels offset 0,0.8 notitle, \\\n"
-       "     " + number(d.noise_floor_pct, 8) + " with lines lw 1.2 dt 2 lc rgb '#2ca02c' title 'noise floor (J = " +
-           number(d.noise_floor_pct) + " %)'";
+       "     " + gnuplot_number(d.noise_floor_pct, 8) + " with lines lw 1.2 dt 2 lc rgb '#2ca02c' title 'noise floor (J = " +
+           gnuplot_number(d.noise_floor_pct) + " %)'";
   return f.render(dir, o.format);
 }
 

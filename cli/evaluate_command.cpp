@@ -1,13 +1,17 @@
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "cli/commands.h"
+#include "cli/evaluation_plots.h"
+#include "cli/gnuplot.h"
 #include "cli/json_output.h"
 #include "engine/chain_evaluation.h"
 #include "engine/chain_file.h"
+#include "models/json_fields.h"
 #include "models/json_file.h"
 #include "models/plant_presets.h"
 
@@ -15,18 +19,22 @@ namespace panelbass::cli {
 namespace {
 
 struct EvaluateOptions {
-  std::string plant = "panel-exciter", chain, out;
+  std::string plant = "panel-exciter", chain, out, plots;
+  std::string plot_format = "png";
   engine::EvaluationOptions evaluation;
 };
 
 nlohmann::json row_json(const engine::EvaluationRow& row) {
   nlohmann::json probes = nlohmann::json::array();
   for (const engine::ProbeResult& p : row.probes) {
+    nlohmann::json harmonics = nlohmann::json::array();  // H2..Hn; null for a harmonic that is exactly zero
+    for (double db : p.harmonics_db) harmonics.push_back(models::number_or_null(db));
     probes.push_back({{"frequency_hz", p.frequency_hz},
                       {"amplitude", p.amplitude},
                       {"h2_db", p.h2_db},
                       {"h3_db", p.h3_db},
-                      {"thd_pct", p.thd_pct}});
+                      {"thd_pct", p.thd_pct},
+                      {"harmonics_db", harmonics}});
   }
   return {{"name", row.name},         {"ripple_db", row.ripple_db},       {"jc_pct", row.jc_pct},
           {"max_drive", row.max_drive}, {"rail_fraction", row.rail_fraction}, {"faults", row.faults},
@@ -46,6 +54,8 @@ void print_table(const engine::ChainEvaluation& e) {
 }
 
 void run_evaluate(const EvaluateOptions& o) {
+  const PlotFormat format = parse_plot_format(o.plot_format);
+  if (!o.plots.empty()) find_gnuplot();  // before the work, not after it
   const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
   const engine::ChainConfig config = engine::load_chain_file(o.chain);
   const engine::ChainEvaluation e = engine::evaluate_chain(config, plant, o.evaluation);
@@ -53,13 +63,20 @@ void run_evaluate(const EvaluateOptions& o) {
   std::fprintf(stderr, "(J_c noise floor of the sensor: %.2f %%)\n", e.jc_noise_floor_pct);
   nlohmann::json rows = nlohmann::json::array();
   for (const engine::EvaluationRow& row : e.rows) rows.push_back(row_json(row));
-  const nlohmann::json result = {{"plant", plant.name},
+  nlohmann::json result = {{"plant", plant.name},
                                  {"chain", o.chain},
                                  {"noise_amplitude", e.noise_amplitude},
                                  {"jc_noise_floor_pct", e.jc_noise_floor_pct},
                                  {"probe_peak", o.evaluation.probe_peak},
                                  {"ripple_band_hz", {o.evaluation.ripple_low_hz, o.evaluation.ripple_high_hz}},
-                                 {"rows", rows}};
+                                 {"rows", rows},
+                                 {"plots", nullptr}};
+  if (!o.plots.empty()) {
+    const std::filesystem::path dir(o.plots);
+    std::filesystem::create_directories(dir);
+    result["plots"] = {{"response", plot_evaluation_response(e, o.evaluation, dir, format).string()},
+                       {"harmonics", plot_evaluation_harmonics(e, dir, format).string()}};
+  }
   if (!o.out.empty()) models::write_json_file(o.out, result);
   print_result(result);
 }
@@ -84,7 +101,10 @@ void register_evaluate(CLI::App& app) {
       ->check(CLI::Range(4096L, 100000000L))
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Also write the result here (JSON)");
-  cmd->footer("Example:\n  panelbass evaluate --plant panel-exciter --chain chain.json --out eval.json");
+  cmd->add_option("--plot", o->plots, "Directory for the response and harmonics figures (created)");
+  cmd->add_option("--plot-format", o->plot_format, "png or svg")->check(CLI::IsMember({"png", "svg"}))->capture_default_str();
+  cmd->footer(
+      "Example:\n  panelbass evaluate --plant panel-exciter --chain chain.json --probe-peak 0.6 --out eval.json --plot plots/");
   cmd->callback([o] { run_evaluate(*o); });
 }
 

@@ -23,6 +23,9 @@ std::string mime_type_of(PlotFormat format);
 /// (gnuplot-nox) when there is none.
 std::filesystem::path find_gnuplot();
 
+/// `v` written with `digits` significant digits (printf's %g), for titles, ranges and labels.
+std::string gnuplot_number(double v, int digits = 3);
+
 /// `text` as a single-quoted gnuplot string ('' stands for a quote inside).
 std::string gnuplot_quoted(const std::string& text);
 

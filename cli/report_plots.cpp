@@ -15,12 +15,6 @@ using models::ModelAnalysis;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 const char* const kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"};
 
-std::string number(double v, int digits = 3) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.*g", digits, v);
-  return text;
-}
-
 std::string colour(std::size_t i) { return std::string("lc rgb '") + kColours[i % std::size(kColours)] + "'"; }
 
 // 10·log10 of a power, NaN where it is not positive.
@@ -64,7 +58,7 @@ fs::path plot_time(const ModelAnalysis& a, const fs::path& dir, const ReportPlot
   GnuplotFigure f("time");
   f.add_block({t, y, y_sim, e});
   f << "set title " + gnuplot_quoted("Measured and simulated output (free run after " + std::to_string(a.init) +
-                                      " measured outputs): J = " + number(a.j_sim_pct) + " %")
+                                      " measured outputs): J = " + gnuplot_number(a.j_sim_pct) + " %")
     << "set xlabel 'time (s)'"
     << "set ylabel 'output (raw units)'"
     << "set key top right box opaque"
@@ -84,17 +78,17 @@ fs::path plot_psd(const ModelAnalysis& a, const fs::path& dir, const ReportPlotO
                                       std::to_string(s.segment) + "-point segments)")
     << "set xlabel 'frequency (Hz)'"
     << "set ylabel 'PSD (dB re 1 unit²/Hz)'"
-    << "set xrange [0:" + number(a.fs / 2.0, 8) + "]"
+    << "set xrange [0:" + gnuplot_number(a.fs / 2.0, 8) + "]"
     << "set key top right box opaque";
   std::string plot = "plot " + f.data() +
                      " index 0 using 1:2 with lines lw 1.5 lc rgb '#202020' title 'output y', \\\n"
                      "     '' index 0 using 1:3 with lines lw 1.5 lc rgb '#d62728' title 'residual y − ŷ (J = " +
-                     number(a.j_sim_pct) + " %)', \\\n"
+                     gnuplot_number(a.j_sim_pct) + " %)', \\\n"
                      "     '' index 0 using 1:4 with lines lw 1.2 dt 2 lc rgb '#1f77b4' title 'non-coherent output (1−γ²)·S_{yy}, upper estimate (J = " +
-                     number(a.j_noncoherent_pct) + " %)'";
+                     gnuplot_number(a.j_noncoherent_pct) + " %)'";
   if (std::isfinite(s.sensor_noise_psd) && s.sensor_noise_psd > 0.0) {
-    plot += ", \\\n     " + number(10.0 * std::log10(s.sensor_noise_psd), 8) +
-            " with lines lw 1.2 dt 3 lc rgb '#2ca02c' title 'plant sensor noise (J = " + number(a.j_noise_pct) + " %)'";
+    plot += ", \\\n     " + gnuplot_number(10.0 * std::log10(s.sensor_noise_psd), 8) +
+            " with lines lw 1.2 dt 3 lc rgb '#2ca02c' title 'plant sensor noise (J = " + gnuplot_number(a.j_noise_pct) + " %)'";
   }
   f << plot;
   return f.render(dir, o.format);
@@ -110,7 +104,7 @@ fs::path plot_frf(const ModelAnalysis& a, const fs::path& dir, const ReportPlotO
     << "set ylabel 'magnitude (dB re 1 output unit per input unit)'"
     << "set y2label 'coherence γ²'"
     << "set logscale x"
-    << "set xrange [" + number(r.frequency[1], 8) + ":" + number(a.fs / 2.0, 8) + "]"
+    << "set xrange [" + gnuplot_number(r.frequency[1], 8) + ":" + gnuplot_number(a.fs / 2.0, 8) + "]"
     << "set y2range [0:1.05]"
     << "set ytics nomirror"
     << "set y2tics 0.2"
@@ -152,15 +146,15 @@ fs::path plot_residual_tests(const ModelAnalysis& a, const fs::path& dir, const 
     f << "set title " + gnuplot_quoted(std::string(panels[i].label) + ": " + (t.passes ? "pass" : "FAIL") + " (" +
                                       std::to_string(t.outside) + " of " + std::to_string(t.lags.size()) +
                                       " lags outside, " + std::to_string(t.allowed_outside) + " allowed; peak " +
-                                      number(t.peak, 2) + ")")
+                                      gnuplot_number(t.peak, 2) + ")")
       << "set xrange [" + std::to_string(t.lags.front()) + "-0.5:" + std::to_string(t.lags.back()) + "+0.5]"
-      << "set yrange [" + number(-top, 6) + ":" + number(top, 6) + "]"
+      << "set yrange [" + gnuplot_number(-top, 6) + ":" + gnuplot_number(top, 6) + "]"
       << "plot " + f.data() + " index " + std::to_string(i) + " using 1:2 with impulses lw 3 " +
              (t.passes ? colour(0) : colour(1)) + " title 'φ', \\\n"
-             "     " + number(t.band, 6) + " with lines dt 2 lc rgb '#555555' title '95 % band ±1.96/√N', \\\n"
-             "     " + number(-t.band, 6) + " with lines dt 2 lc rgb '#555555' notitle, \\\n"
-             "     " + number(t.peak_band, 6) + " with lines dt 3 lc rgb '#ff7f0e' title 'peak band', \\\n"
-             "     " + number(-t.peak_band, 6) + " with lines dt 3 lc rgb '#ff7f0e' notitle";
+             "     " + gnuplot_number(t.band, 6) + " with lines dt 2 lc rgb '#555555' title '95 % band ±1.96/√N', \\\n"
+             "     " + gnuplot_number(-t.band, 6) + " with lines dt 2 lc rgb '#555555' notitle, \\\n"
+             "     " + gnuplot_number(t.peak_band, 6) + " with lines dt 3 lc rgb '#ff7f0e' title 'peak band', \\\n"
+             "     " + gnuplot_number(-t.peak_band, 6) + " with lines dt 3 lc rgb '#ff7f0e' notitle";
   }
   f << "unset title"
     << "unset key"
@@ -208,10 +202,10 @@ fs::path plot_pole_zero(const ModelAnalysis& a, const fs::path& dir, const Repor
   block_of(pz.poles);
   block_of(pz.zeros);
   block_of(pz.best.poles);
-  const std::string length = std::isfinite(pz.best.impulse_length) ? number(pz.best.impulse_length) + " samples" : "unbounded";
-  const std::string open = std::isfinite(pz.open_loop.impulse_length) ? number(pz.open_loop.impulse_length) : "∞";
+  const std::string length = std::isfinite(pz.best.impulse_length) ? gnuplot_number(pz.best.impulse_length) + " samples" : "unbounded";
+  const std::string open = std::isfinite(pz.open_loop.impulse_length) ? gnuplot_number(pz.open_loop.impulse_length) : "∞";
   f << "set title " + gnuplot_quoted("Poles, zeros and root locus of u = r − k·y: shortest impulse at k = " +
-                                      number(pz.best.gain, 4) + " (" + length + ", open loop " + open + ")")
+                                      gnuplot_number(pz.best.gain, 4) + " (" + length + ", open loop " + open + ")")
     << "set size ratio -1"
     << "set xrange [-1.6:1.6]"
     << "set yrange [-1.6:1.6]"
@@ -219,14 +213,14 @@ fs::path plot_pole_zero(const ModelAnalysis& a, const fs::path& dir, const Repor
     << "set ylabel 'Im z'"
     << "set cblabel 'feedback gain k (raw units)'"
     << "set palette defined (0 '#3b4cc0', 0.5 '#aaaaaa', 1 '#b40426')"
-    << "set cbrange [" + number(pz.gain_min, 8) + ":" + number(pz.gain_max, 8) + "]"
+    << "set cbrange [" + gnuplot_number(pz.gain_min, 8) + ":" + gnuplot_number(pz.gain_max, 8) + "]"
     << "set key bottom left box opaque font ',9'"
     << "plot " + f.data() + " index 0 using 1:2 with lines lw 1 lc rgb '#555555' title 'unit circle', \\\n"
        "     '' index 1 using 1:2:3 with points pt 7 ps 0.35 lc palette title 'closed-loop poles (root locus)', \\\n"
        "     '' index 2 using 1:2 with points pt 2 ps 2 lw 2 lc rgb '#202020' title 'poles (k = 0)', \\\n"
        "     '' index 3 using 1:2 with points pt 6 ps 2 lw 2 lc rgb '#1f77b4' title 'zeros', \\\n"
        "     '' index 4 using 1:2 with points pt 9 ps 1.8 lc rgb '#2ca02c' title " +
-           gnuplot_quoted("poles at k = " + number(pz.best.gain, 4));
+           gnuplot_quoted("poles at k = " + gnuplot_number(pz.best.gain, 4));
   return f.render(dir, o.format);
 }
 
@@ -313,13 +307,13 @@ fs::path plot_harmonics(const ModelAnalysis& a, std::size_t amplitude_index, con
   for (const std::size_t r : rows) {
     for (const double v : d.model[r].harmonic_db) model_visible = model_visible || (std::isfinite(v) && v >= axis_low);
   }
-  f << "set title " + gnuplot_quoted("Harmonic distortion at drive " + number(amplitude) +
+  f << "set title " + gnuplot_quoted("Harmonic distortion at drive " + gnuplot_number(amplitude) +
                                       ": plant (solid) and model (dashed), stepped sine" +
                                       (model_visible ? "" : "; the model's lie below the axis"))
     << "set xlabel 'fundamental frequency (Hz)'"
     << "set ylabel 'harmonic level (dB re fundamental)'"
     << "set logscale x"
-    << "set yrange [" + number(axis_low, 8) + ":" + number(std::ceil(high / 10.0) * 10.0 + 5.0, 8) + "]"
+    << "set yrange [" + gnuplot_number(axis_low, 8) + ":" + gnuplot_number(std::ceil(high / 10.0) * 10.0 + 5.0, 8) + "]"
     << "set key outside right top box";
   std::string plot = "plot ";
   for (std::size_t h = 0; h < orders; ++h) {
@@ -364,7 +358,7 @@ std::vector<ReportFigure> plot_analysis(const ModelAnalysis& a, const fs::path& 
   if (a.distortion) {
     for (std::size_t i = 0; i < a.distortion_amplitudes.size(); ++i) {
       figures.push_back({"harmonics-" + std::to_string(i + 1),
-                         "Harmonic levels against frequency at drive " + number(a.distortion_amplitudes[i]) +
+                         "Harmonic levels against frequency at drive " + gnuplot_number(a.distortion_amplitudes[i]) +
                              ", plant and model, by stepped sine.",
                          plot_harmonics(a, i, where, options)});
     }

@@ -60,15 +60,21 @@ Run run_variant(const ChainConfig& config, const Variant& variant, const models:
   return run;
 }
 
-double ripple_db(const Eigen::VectorXd& program, const Eigen::VectorXd& y, double fs, const EvaluationOptions& o) {
+/// |program → y| by H1 (Welch), in dB.
+void measure_response(const Eigen::VectorXd& program, const Eigen::VectorXd& y, double fs, EvaluationRow& row) {
   const dsp::FrequencyResponse frf = dsp::h1_frf(program, y, fs, dsp::WelchSpec{1024, 0.5});
+  row.response_hz = frf.frequency;
+  row.response_db = frf.h.cwiseAbs().array().log10() * 20.0;
+}
+
+/// max − min of the response over the ripple band, dB.
+double ripple_db(const EvaluationRow& row, const EvaluationOptions& o) {
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (Eigen::Index i = 0; i < frf.frequency.size(); ++i) {
-    const double f = frf.frequency[i];
+  for (Eigen::Index i = 0; i < row.response_hz.size(); ++i) {
+    const double f = row.response_hz[i];
     if (f < o.ripple_low_hz || f > o.ripple_high_hz) continue;
-    const double db = 20.0 * std::log10(std::abs(frf.h[i]));
-    lo = std::min(lo, db);
-    hi = std::max(hi, db);
+    lo = std::min(lo, row.response_db[i]);
+    hi = std::max(hi, row.response_db[i]);
   }
   return hi - lo;
 }
@@ -136,7 +142,8 @@ ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantCon
     account(noise_run);
     const Eigen::VectorXd y = noise_run.rendering.measured.array() - noise_run.rendering.measured.mean();
     row.jc_pct = models::jc_percent(y, y_desired, kNoiseSkip);
-    row.ripple_db = ripple_db(noise, y, fs, o);
+    measure_response(noise, y, fs, row);
+    row.ripple_db = ripple_db(row, o);
 
     for (double f : o.probe_hz) {
       ProbeResult probe;
@@ -157,6 +164,7 @@ ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantCon
       probe.h2_db = levels.relative_db(2);
       probe.h3_db = levels.relative_db(3);
       probe.thd_pct = levels.thd_percent();
+      for (std::size_t h = 2; h <= levels.amplitude.size(); ++h) probe.harmonics_db.push_back(levels.relative_db(h));
       row.probes.push_back(probe);
     }
     row.rail_fraction = static_cast<double>(railed) / static_cast<double>(drive_samples);

@@ -34,6 +34,7 @@ struct ProbeResult {
   double h2_db = 0.0;           ///< 2nd harmonic relative to the fundamental, dB
   double h3_db = 0.0;           ///< 3rd harmonic relative to the fundamental, dB
   double thd_pct = 0.0;         ///< total harmonic distortion, percent
+  std::vector<double> harmonics_db;  ///< harmonics 2..n relative to the fundamental, dB (−inf when absent)
 };
 
 /// One configuration's row of the table.
@@ -45,6 +46,8 @@ struct EvaluationRow {
   double rail_fraction = 0.0;        ///< share of drive samples above the limiter's knee
   std::uint64_t faults = 0;          ///< times the chain dropped to its safe bypass
   std::vector<ProbeResult> probes;   ///< one per probe frequency
+  Eigen::VectorXd response_hz;       ///< frequencies of the response |program → measured output| (H1, Welch)
+  Eigen::VectorXd response_db;       ///< its magnitude, dB
 };
 
 /// The whole evaluation.

@@ -53,9 +53,15 @@ TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates)
   EXPECT_EQ(config.feedforward->path, "ff.json") << "model paths relative to the chain file";
 
   const json e = expect_result(run("evaluate --plant linear --chain " + quoted(path("chain.json")) +
-                                   " --noise-samples 8000 --probes 80,160 --out " + quoted(path("eval.json"))));
+                                   " --noise-samples 8000 --probes 80,160 --out " + quoted(path("eval.json")) +
+                                   " --plot " + quoted(path("plots"))));
   ASSERT_EQ(e["rows"].size(), 3u);
   EXPECT_EQ(json::parse(text_of(path("eval.json"))), e);
+  for (const char* name : {"response", "harmonics"}) {
+    const fs::path image = e["plots"][name].get<std::string>();
+    EXPECT_GT(fs::file_size(image), 1000u) << image;
+    EXPECT_TRUE(fs::exists(path("plots") / ("evaluation_" + std::string(name) + ".gp"))) << name;
+  }
   const json& bare = e["rows"][0];
   const json& ff = e["rows"][1];
   EXPECT_LT(ff["ripple_db"].get<double>(), bare["ripple_db"].get<double>());
@@ -64,6 +70,16 @@ TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates)
     EXPECT_EQ(row["faults"], 0);
     ASSERT_EQ(row["probes"].size(), 2u);
     EXPECT_TRUE(std::isfinite(row["probes"][1]["thd_pct"].get<double>()));
+    // the harmonics listed are those of the THD and of H2/H3: THD = sqrt(Σ 10^(dB/10)) · 100 %
+    for (const json& probe : row["probes"]) {
+      const json& h = probe["harmonics_db"];
+      ASSERT_GE(h.size(), 2u);
+      EXPECT_DOUBLE_EQ(h[0].get<double>(), probe["h2_db"].get<double>());
+      EXPECT_DOUBLE_EQ(h[1].get<double>(), probe["h3_db"].get<double>());
+      double power = 0.0;
+      for (const json& db : h) power += db.is_null() ? 0.0 : std::pow(10.0, db.get<double>() / 10.0);
+      EXPECT_NEAR(100.0 * std::sqrt(power), probe["thd_pct"].get<double>(), 1e-9 * (1.0 + probe["thd_pct"].get<double>()));
+    }
   }
 }
 
