@@ -3,15 +3,16 @@
 #   1. full-drive uniform noise → linear model (OE, order scan)            identify linear
 #   2. LQ feedforward, R = 1e-5, R0 = 20, band-pass 20-1200 Hz              design lq
 #   3. the plant driven in its operating regime: the feedforward's output
-#      for noise + stepped sines, six records at steady drive peaks 0.35-0.85
-#      (135 000 samples: the small-drive harmonics need them) → NARX model  simulate --signal control, identify narx
+#      for noise + stepped sines, RECORDS records of 22 500 samples at steady
+#      drive peaks 0.35-0.85 (default 24 = 540 000 samples: the harmonics
+#      at small drives, 40 dB under the fundamental, need them) → NARX      simulate --signal control, identify narx
 #   4. neural feedback controller trained through the loop                  design nn
 #   5. chain files (feedback in model mode and in sensor mode) → table      chain, evaluate
 # The probes run where band-pass + feedforward reach a steady drive peak of 0.6: below the amplifier's
 # clipping (0.7) and the controller's soft limit (0.8), so that the feedback has headroom to correct; the
 # table at the limiter's knee (0.8, the evaluate default) follows for comparison.
-# Usage: bash bench/control_table.sh [SEED] [SINE_SHARE]   (PANELBASS_BIN overrides the binary; PLOTS=DIR keeps the
-# evaluation figures of the model-mode chain at the 0.6 probe peak: response and harmonics per probe)
+# Usage: [RECORDS=24] bash bench/control_table.sh [SEED] [SINE_SHARE]   (about 15 min)
+# PANELBASS_BIN overrides the binary; PLOTS=DIR keeps the evaluation figures of the model-mode chain at the 0.6 probe peak: response and harmonics per probe)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=$(realpath "${PANELBASS_BIN:-build/bin/panelbass}")
@@ -29,12 +30,13 @@ head -n 12001 all.csv > est.csv
 lin=$("$bin" identify linear --data est.csv --val val.csv --fs 3000 --method oe --scan 1:16 --out lin.json 2> /dev/null)
 lq=$("$bin" design lq --model lin.json --R 1e-5 --R0 20 --bandpass 20,1200 --out ff.json)
 : > reg_est.csv
-for i in 0 1 2 3 4 5; do
-  peak=$(awk -v i="$i" 'BEGIN { printf "%.2f", 0.35 + 0.1 * i }')
-  "$bin" simulate --signal control --ff ff.json --samples 22500 --seed $((seed + 10 + i)) --sine-peak "$peak" --out reg.csv > /dev/null 2>&1
+records=${RECORDS:-24}
+for i in $(seq 0 $((records - 1))); do
+  peak=$(awk -v i="$i" 'BEGIN { printf "%.2f", 0.35 + 0.1 * (i % 6) }')
+  "$bin" simulate --signal control --ff ff.json --samples 22500 --seed $((seed * 1000 + 10 + i)) --sine-peak "$peak" --out reg.csv > /dev/null 2>&1
   if [ "$i" = 0 ]; then cat reg.csv > reg_est.csv; else tail -n +2 reg.csv >> reg_est.csv; fi
 done
-"$bin" simulate --signal control --ff ff.json --samples 10000 --seed $((seed + 20)) --sine-peak 0.65 --out reg_val.csv > /dev/null 2>&1
+"$bin" simulate --signal control --ff ff.json --samples 10000 --seed $((seed * 1000 + 999)) --sine-peak 0.65 --out reg_val.csv > /dev/null 2>&1
 nn=$("$bin" identify narx --data reg_est.csv --val reg_val.csv --fs 3000 --na 10 --nb 10 --hidden 20 --train pem,oem-d \
        --max-iter 60 --seed "$seed" --out narx.json 2> /dev/null)
 fb=$("$bin" design nn --plant narx.json --ff ff.json --bandpass 20,1200 --hidden 8 --nu 6 --nv 2 --ny 4 --iterations 150 \
@@ -43,7 +45,7 @@ echo "## Control on panel-exciter (seed $seed)"
 echo "- linear model: OE order $(echo "$lin" | field order), J_val $(echo "$lin" | field J_val_pct | awk '{printf "%.2f", $1}') %;" \
      "LQ (R 1e-5, R0 20, 20-1200 Hz): max in $(echo "$lq" | field max_input_worst | awk '{printf "%.3f", $1}') worst," \
      "$(echo "$lq" | field max_input_noise | awk '{printf "%.3f", $1}') noise"
-echo "- NARX plant model (regime data 135 000 samples, 10/10/20): J_val $(echo "$nn" | field J_val_pct | awk '{printf "%.2f", $1}') %;" \
+echo "- NARX plant model (regime data $((records * 22500)) samples, 10/10/20): J_val $(echo "$nn" | field J_val_pct | awk '{printf "%.2f", $1}') %;" \
      "neural feedback: J_c on the plant model $(echo "$fb" | field jc_val_before_pct | awk '{printf "%.2f", $1}') %" \
      "→ $(echo "$fb" | field jc_val_after_pct | awk '{printf "%.2f", $1}') % (validation, sine share $share)"
 table() {  # table EVAL.json TITLE

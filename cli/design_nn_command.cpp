@@ -40,11 +40,12 @@ void run_design_nn(DesignNnOptions o) {
   const std::vector<dsp::Biquad> band_pass = band_pass_sections(o.bandpass, o.order, ff.fs);
   ProgressBar bar("design nn");
   o.design.training.progress = [&](const models::FeedbackTrainingRecord& r) {
-    bar.update(static_cast<double>(r.iteration) / o.design.training.max_iterations);
+    bar.update((r.restart + static_cast<double>(r.iteration) / o.design.training.max_iterations) / o.design.restarts);
   };
   models::FeedbackDesign d = models::design_feedback(*plant, ff, band_pass, o.design);
   d.controller.meta = {{"plant", o.plant}, {"feedforward", o.ff}, {"bandpass", o.bandpass}, {"order", o.order},
-                       {"seed", o.design.seed}, {"training", history_json(d.training.history)}};
+                       {"seed", o.design.seed}, {"restart", d.chosen_restart},
+                       {"training", history_json(d.training.history)}};
   models::write_json_file(o.out, models::neural_feedback_to_json(d.controller));
   const models::FeedbackTrainingRecord& first = d.training.history.front();
   double best = first.jc_val_pct;
@@ -54,6 +55,8 @@ void run_design_nn(DesignNnOptions o) {
                 {"iterations", d.training.iterations},
                 {"jc_val_before_pct", first.jc_val_pct},
                 {"jc_val_after_pct", best},
+                {"restarts_jc_val_pct", d.restart_jc_val_pct},
+                {"chosen_restart", d.chosen_restart},
                 {"history", history_json(d.training.history)}});
 }
 
@@ -96,6 +99,10 @@ void add_design_nn(CLI::App& design) {
       ->check(CLI::Range(0.0, 1e12))
       ->capture_default_str();
   cmd->add_option("--seed", o->design.seed, "Seed of the training records and initial weights")->capture_default_str();
+  cmd->add_option("--restarts", o->design.restarts,
+                 "Trainings from different initial weights (seed, seed+1, ...); the lowest validation J_c is kept")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
   cmd->add_option("--out", o->out, "Controller file to write (JSON)")->required();
   cmd->footer("Example:\n  panelbass design nn --plant nn.json --ff ff.json --bandpass 20,1200 --hidden 8 --out fb.json");
   cmd->callback([o] { run_design_nn(*o); });

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -85,13 +87,34 @@ FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
     throw std::invalid_argument("design nn: the plant model runs at " + std::to_string(plant.fs) +
                                 " Hz, the feedforward controller at " + std::to_string(ff.fs) + " Hz");
   }
+  if (o.restarts < 1) throw std::invalid_argument("design nn: restarts must be >= 1, got " + std::to_string(o.restarts));
   const ControlRecord est = control_record(ff, band_pass, o, o.seed);
   const ControlRecord val = control_record(ff, band_pass, o, o.seed + 1);
-  NeuralFeedback initial = NeuralFeedback::with_structure(o.structure, plant);
-  initialize_feedback(initial, o.seed);
-  FeedbackDesign d{initial, train_feedback(initial, est.u, est.y_desired, val.u, val.y_desired, o.training)};
-  d.controller = d.training.controller;
-  return d;
+  std::optional<FeedbackDesign> best;
+  double best_score = std::numeric_limits<double>::infinity();
+  std::vector<double> scores;
+  for (int restart = 0; restart < o.restarts; ++restart) {
+    NeuralFeedback initial = NeuralFeedback::with_structure(o.structure, plant);
+    initialize_feedback(initial, o.seed + static_cast<std::uint64_t>(restart));
+    FeedbackTrainingOptions training = o.training;
+    if (o.training.progress) {
+      training.progress = [&o, restart](FeedbackTrainingRecord r) {
+        r.restart = restart;
+        o.training.progress(r);
+      };
+    }
+    FeedbackDesign d{initial, train_feedback(initial, est.u, est.y_desired, val.u, val.y_desired, training), {}, restart};
+    d.controller = d.training.controller;
+    double score = std::numeric_limits<double>::infinity();  // early stopping kept the best validation J_c
+    for (const FeedbackTrainingRecord& r : d.training.history) score = std::min(score, r.jc_val_pct);
+    scores.push_back(score);
+    if (!best || score < best_score) {
+      best = std::move(d);
+      best_score = score;
+    }
+  }
+  best->restart_jc_val_pct = scores;
+  return *best;
 }
 
 }  // namespace panelbass::models

@@ -25,6 +25,8 @@ struct FeedbackDesignOptions {
   double sine_peak = 0.6;            ///< stepped sines: steady peak of the feedforward output, in (0, 1]; below the
                                      ///< soft limit's knee (0.8), so the controller has headroom to correct
   std::uint64_t seed = 1;            ///< records (estimation: seed, validation: seed + 1) and initial weights
+  int restarts = 1;                  ///< trainings from different initial weights on the same records; the one
+                                     ///< with the lowest validation J_c (on the plant model) is kept
   FeedbackTrainingOptions training{};  ///< the training itself
 };
 
@@ -47,10 +49,13 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
 struct FeedbackDesign {
   NeuralFeedback controller;              ///< the trained controller
   FeedbackTrainingResult training;        ///< its training history
+  std::vector<double> restart_jc_val_pct;  ///< every restart's best validation J_c, percent
+  int chosen_restart = 0;                 ///< the restart kept
 };
 
-/// Designs the controller on `plant` (a NARX model at ff's rate) behind `ff` and `band_pass`. Throws
-/// std::invalid_argument for a rate mismatch or bad options.
+/// Designs the controller on `plant` (a NARX model at ff's rate) behind `ff` and `band_pass`: o.restarts
+/// trainings from initial weights seeded seed, seed + 1, … on the same records, the best by validation J_c
+/// kept. Throws std::invalid_argument for a rate mismatch or bad options.
 FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
                                const std::vector<dsp::Biquad>& band_pass, const FeedbackDesignOptions& o);
 

@@ -25,6 +25,7 @@ struct FeedbackTrainingRecord {
   double jc_est_pct = 0.0;     ///< [2C] J_c on the estimation data (plant model in the loop)
   double jc_val_pct = 0.0;     ///< [2C] J_c on the validation data (NaN without)
   double rail_fraction = 0.0;  ///< share of estimation samples with |s| above the knee
+  int restart = 0;             ///< which training from fresh initial weights this is (design_feedback's restarts)
 };
 
 /// How training runs.

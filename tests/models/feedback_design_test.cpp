@@ -2,8 +2,11 @@
 // its levels, and its determinism.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "dsp/butterworth.h"
 #include "models/feedback_design.h"
+#include "models/narx_model.h"
 #include "models/state_space.h"
 #include "tests/support/linear_systems.h"
 
@@ -77,6 +80,42 @@ TEST(FeedbackDesignTest, SteppedSinesKeepTheirPeakWhenTheFeedforwardRingsBelowTh
     EXPECT_LE(r.u.cwiseAbs().maxCoeff(), 0.6 * 1.005) << "seed " << seed;
     EXPECT_GE(r.u.cwiseAbs().maxCoeff(), 0.6 * 0.95) << "seed " << seed;
   }
+}
+
+// Restarts train from different initial weights on the same records and keep the best validation J_c: the
+// kept controller's J_c, recomputed here from its closed loop on the validation record, is the smallest of
+// the restarts', and restart 0 is the design without restarts.
+TEST(FeedbackDesignTest, RestartsKeepTheLowestValidationJc) {
+  const LqFeedforward ff = design_lq(resonant_model(), {1e-3, 20.0});
+  const std::vector<dsp::Biquad> bp = dsp::butterworth_bandpass(2, 20.0, 1200.0, 3000.0);
+  NarxStructure ps;
+  ps.na = 2;
+  ps.nb = 1;
+  ps.hidden = {3};
+  NarxModel plant = NarxModel::with_structure(ps, Scaling{}, 3000.0);
+  plant.net.initialize(0.5, 7);
+  FeedbackDesignOptions o;
+  o.structure.nu = 1;
+  o.structure.nv = 1;
+  o.structure.ny = 1;
+  o.structure.hidden = {3};
+  o.samples = 2000;
+  o.training.max_iterations = 4;
+  o.restarts = 3;
+  const FeedbackDesign d = design_feedback(plant, ff, bp, o);
+  ASSERT_EQ(d.restart_jc_val_pct.size(), 3u);
+  const auto smallest = std::min_element(d.restart_jc_val_pct.begin(), d.restart_jc_val_pct.end());
+  EXPECT_EQ(d.chosen_restart, smallest - d.restart_jc_val_pct.begin());
+  const ControlRecord val = control_record(ff, bp, o, o.seed + 1);
+  const double kept = jc_percent(simulate_closed_loop(d.controller, val.u).y, val.y_desired, o.training.transient_skip);
+  EXPECT_NEAR(kept, *smallest, 1e-9 * *smallest);
+  EXPECT_NE(d.restart_jc_val_pct[0], d.restart_jc_val_pct[1]) << "restarts start from different weights";
+  o.restarts = 1;
+  const FeedbackDesign single = design_feedback(plant, ff, bp, o);
+  ASSERT_EQ(single.restart_jc_val_pct.size(), 1u);
+  EXPECT_DOUBLE_EQ(single.restart_jc_val_pct[0], d.restart_jc_val_pct[0]);
+  o.restarts = 0;
+  EXPECT_THROW(design_feedback(plant, ff, bp, o), std::invalid_argument);
 }
 
 TEST(FeedbackDesignTest, RefusesBadOptions) {
