@@ -12,7 +12,8 @@
 # clipping (0.7) and the controller's soft limit (0.8), so that the feedback has headroom to correct; the
 # table at the limiter's knee (0.8, the evaluate default) follows for comparison.
 # Usage: [RECORDS=24] bash bench/control_table.sh [SEED] [SINE_SHARE]   (about 15 min)
-# PANELBASS_BIN overrides the binary; PLOTS=DIR keeps the evaluation figures of the model-mode chain at the 0.6 probe peak: response and harmonics per probe)
+# PANELBASS_BIN overrides the binary; PLOTS=DIR keeps the evaluation figures of the model-mode chain at the
+# 0.6 probe peak (the response, and the harmonics per probe).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=$(realpath "${PANELBASS_BIN:-build/bin/panelbass}")

@@ -24,9 +24,12 @@ LinearModel resonant_model() {
   return m;
 }
 
+// The band-pass in front of the controllers: 2nd order, 20–1200 Hz at 3000 Hz.
+std::vector<dsp::Biquad> audio_band() { return dsp::butterworth_bandpass(2, 20.0, 1200.0, 3000.0); }
+
 TEST(FeedbackDesignTest, ControlRecordIsTheProgramThroughBandPassAndFeedforward) {
   const LqFeedforward ff = design_lq(resonant_model(), {1e-3, 20.0});
-  const std::vector<dsp::Biquad> bp = dsp::butterworth_bandpass(2, 20.0, 1200.0, 3000.0);
+  const std::vector<dsp::Biquad> bp = audio_band();
   FeedbackDesignOptions o;
   o.samples = 6000;
   o.sine_share = 0.5;
@@ -69,7 +72,7 @@ LinearModel accelerometer_model() {
 
 TEST(FeedbackDesignTest, SteppedSinesKeepTheirPeakWhenTheFeedforwardRingsBelowTheBand) {
   const LqFeedforward ff = design_lq(accelerometer_model(), {1e-5, 20.0});
-  const std::vector<dsp::Biquad> bp = dsp::butterworth_bandpass(2, 20.0, 1200.0, 3000.0);
+  const std::vector<dsp::Biquad> bp = audio_band();
   FeedbackDesignOptions o;
   o.samples = 12000;
   o.sine_share = 1.0;
@@ -87,7 +90,7 @@ TEST(FeedbackDesignTest, SteppedSinesKeepTheirPeakWhenTheFeedforwardRingsBelowTh
 // the restarts', and restart 0 is the design without restarts.
 TEST(FeedbackDesignTest, RestartsKeepTheLowestValidationJc) {
   const LqFeedforward ff = design_lq(resonant_model(), {1e-3, 20.0});
-  const std::vector<dsp::Biquad> bp = dsp::butterworth_bandpass(2, 20.0, 1200.0, 3000.0);
+  const std::vector<dsp::Biquad> bp = audio_band();
   NarxStructure ps;
   ps.na = 2;
   ps.nb = 1;
