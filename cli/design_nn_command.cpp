@@ -48,13 +48,11 @@ void run_design_nn(DesignNnOptions o) {
                        {"training", history_json(d.training.history)}};
   models::write_json_file(o.out, models::neural_feedback_to_json(d.controller));
   const models::FeedbackTrainingRecord& first = d.training.history.front();
-  double best = first.jc_val_pct;
-  for (const auto& r : d.training.history) best = std::min(best, r.jc_val_pct);
   print_result({{"out", o.out},
                 {"parameters", d.controller.net.parameter_count()},
                 {"iterations", d.training.iterations},
                 {"jc_val_before_pct", first.jc_val_pct},
-                {"jc_val_after_pct", best},
+                {"jc_val_after_pct", models::best_validation_jc_pct(d.training)},
                 {"restarts_jc_val_pct", d.restart_jc_val_pct},
                 {"chosen_restart", d.chosen_restart},
                 {"history", history_json(d.training.history)}});

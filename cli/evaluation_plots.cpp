@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -47,7 +46,8 @@ std::filesystem::path plot_evaluation_response(const engine::ChainEvaluation& e,
 std::filesystem::path plot_evaluation_harmonics(const engine::ChainEvaluation& e, const std::filesystem::path& dir,
                                                 PlotFormat format) {
   GnuplotFigure fig("evaluation_harmonics", 1100, 560);
-  // x positions: probe p's harmonic h at p·(H + 1) + h − 2, a gap between probes
+  // x positions: harmonic h + 2 of probe p at p·(H + 1) + h (H harmonics per probe, a gap between probes),
+  // each configuration's bar offset within that slot
   const std::size_t harmonics = e.rows.empty() || e.rows.front().probes.empty()
                                     ? 0
                                     : e.rows.front().probes.front().harmonics_db.size();

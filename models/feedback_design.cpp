@@ -105,8 +105,7 @@ FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
     }
     FeedbackDesign d{initial, train_feedback(initial, est.u, est.y_desired, val.u, val.y_desired, training), {}, restart};
     d.controller = d.training.controller;
-    double score = std::numeric_limits<double>::infinity();  // early stopping kept the best validation J_c
-    for (const FeedbackTrainingRecord& r : d.training.history) score = std::min(score, r.jc_val_pct);
+    const double score = best_validation_jc_pct(d.training);
     scores.push_back(score);
     if (!best || score < best_score) {
       best = std::move(d);

@@ -129,6 +129,12 @@ struct LoopSweep {
 
 }  // namespace
 
+double best_validation_jc_pct(const FeedbackTrainingResult& result) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const FeedbackTrainingRecord& r : result.history) best = std::min(best, r.jc_val_pct);
+  return best;
+}
+
 double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Eigen::Index skip) {
   if (y.size() != y_desired.size()) {
     throw std::invalid_argument("jc_percent: y has " + std::to_string(y.size()) + " samples, y_desired " +

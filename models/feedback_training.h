@@ -45,6 +45,9 @@ struct FeedbackTrainingResult {
   int iterations = 0;
 };
 
+/// The lowest validation J_c of a training's history, percent (the one early stopping kept).
+double best_validation_jc_pct(const FeedbackTrainingResult& result);
+
 /// [2C] J_c = Σ (y_des − y)² / Σ y_des² in percent, over k ≥ skip.
 double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Eigen::Index skip = 0);
 
