@@ -538,14 +538,27 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
 
   models::FeedbackDesignOptions options;
   options.structure.hidden = ints_of(params.at("hidden"));
+  options.structure.nu = params.at("nu").get<int>();
+  options.structure.nv = params.at("nv").get<int>();
+  options.structure.ny = params.at("ny").get<int>();
   options.samples = params.at("samples").get<Eigen::Index>();
+  options.sine_share = params.at("sine_share").get<double>();
+  options.sine_peak = params.at("sine_peak").get<double>();
+  options.program_share = params.at("program_share").get<double>();
+  options.restarts = params.at("restarts").get<int>();
   options.seed = params.at("seed").get<std::uint64_t>();
   options.training.max_iterations = params.at("max_iterations").get<int>();
+  options.training.rail_penalty = params.at("rail_penalty").get<double>();
   const int total = std::max(1, options.training.max_iterations);
+  const int restarts = options.restarts;
   progress.span(0.05, 0.9);
   progress.at(0.0, "training records");
+  // Restart r's iterations fill [r/K, (r+1)/K] of the training's span.
   options.training.progress = [&](const models::FeedbackTrainingRecord& rec) {
-    progress.at(static_cast<double>(rec.iteration) / total, "closed-loop iteration " + std::to_string(rec.iteration));
+    const std::string restart =
+        restarts > 1 ? "restart " + std::to_string(rec.restart + 1) + "/" + std::to_string(restarts) + ", " : "";
+    progress.at((rec.restart + static_cast<double>(rec.iteration) / total) / restarts,
+                restart + "closed-loop iteration " + std::to_string(rec.iteration));
   };
   models::FeedbackDesign d = models::design_feedback(plant, ff, band_pass, options);
 
@@ -556,38 +569,46 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
                         {"jc_val_pct", finite_or_null(rec.jc_val_pct)}, {"rail_fraction", rec.rail_fraction}});
     history.push_back({rec.iteration, rec.jc_est_pct, rec.jc_val_pct});
   }
+  json restart_jc_val = json::array();
+  for (const double jc : d.restart_jc_val_pct) restart_jc_val.push_back(finite_or_null(jc));
+  const json design = models::feedback_design_options_json(options);
   d.controller.meta = {{"plant", plant_id},
                        {"feedforward", ff_id},
                        {"bandpass", number_text(lo) + "," + number_text(hi)},
                        {"order", band_order},
-                       {"seed", options.seed},
+                       {"restart", d.chosen_restart},
+                       {"restart_jc_val_pct", restart_jc_val},
                        {"training", training}};
+  d.controller.meta.update(design);
   progress.span(0.9, 1.0);
   progress.at(0.0, "storing the controller");
   const std::string name = "nn " + hidden_text(options.structure.hidden) + " on " + plant_id + " (" + control.job_id() + ")";
   const std::string model_id = store_model(env, models::neural_feedback_to_json(d.controller), name, control);
 
-  // Early stopping keeps the parameters of the best validation J_c.
+  // Early stopping keeps the parameters of the best validation J_c; its record gives J_c on the estimation
+  // data and the rail fraction there.
+  const double jc_val_after = models::best_validation_jc_pct(d.training);
   const models::FeedbackTrainingRecord& first = d.training.history.front();
-  const models::FeedbackTrainingRecord* best = &first;
-  for (const auto& rec : d.training.history) {
-    if (rec.jc_val_pct < best->jc_val_pct) best = &rec;
-  }
+  const models::FeedbackTrainingRecord* kept = models::best_validation_record(d.training);
+  const models::FeedbackTrainingRecord& best = kept ? *kept : first;
+  json summary = {{"figure", "J_c [2C]: loop output (plant model) against the desired linear response"},
+                  {"plant_model", plant_id},
+                  {"feedforward_model", ff_id},
+                  {"parameters", d.controller.net.parameter_count()},
+                  {"iterations", d.training.iterations},
+                  {"jc_val_before_pct", finite_or_null(first.jc_val_pct)},
+                  {"jc_val_after_pct", finite_or_null(jc_val_after)},
+                  {"rail_fraction", best.rail_fraction},
+                  {"chosen_restart", d.chosen_restart},
+                  {"restart_jc_val_pct", restart_jc_val},
+                  {"bandpass", {lo, hi}},
+                  {"bandpass_order", band_order}};
+  summary.update(design);
   progress.at(1.0, "done");
   return {{"model_id", model_id},
-          {"j_est_pct", finite_or_null(best->jc_est_pct)},
-          {"j_val_pct", finite_or_null(best->jc_val_pct)},
-          {"summary",
-           {{"figure", "J_c [2C]: loop output (plant model) against the desired linear response"},
-            {"plant_model", plant_id},
-            {"feedforward_model", ff_id},
-            {"parameters", d.controller.net.parameter_count()},
-            {"iterations", d.training.iterations},
-            {"jc_val_before_pct", finite_or_null(first.jc_val_pct)},
-            {"jc_val_after_pct", finite_or_null(best->jc_val_pct)},
-            {"rail_fraction", best->rail_fraction},
-            {"bandpass", {lo, hi}},
-            {"bandpass_order", band_order}}},
+          {"j_est_pct", finite_or_null(best.jc_est_pct)},
+          {"j_val_pct", finite_or_null(jc_val_after)},
+          {"summary", summary},
           {"plots", {{"history", history_plot(history)}}}};
 }
 

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "api/model_store.h"
+#include "models/feedback_design.h"
 
 namespace panelbass::api {
 namespace {
@@ -20,6 +21,11 @@ constexpr long long kMaxOrder = 40;
 constexpr long long kMaxFirTaps = 2000;
 // Iterations of any training loop.
 constexpr long long kMaxIterations = 10'000;
+// The NN feedback controller's input lags and rail penalty, as far as `panelbass design nn` takes them.
+constexpr long long kMaxControllerLag = 100;
+constexpr double kMaxRailPenalty = 1e12;
+// Trainings from fresh initial weights in one design-nn job (each costs as much as the whole training).
+constexpr long long kMaxRestarts = 20;
 
 // A short rendering of a value for a message: `"x"`, `12.5`, `[1,2]` (long ones cut).
 std::string shown(const json& value) {
@@ -183,9 +189,18 @@ json design_nn_params(const json& params, const JobEnvironment& env) {
   ParamReader r(params, "params");
   stored_model(r, "plant_model", true, {"narx"}, env);
   stored_model(r, "feedforward_model", true, {"lq_feedforward"}, env);
+  const models::FeedbackDesignOptions design;
   r.integer("samples", 3000, 1000, kMaxSamples);
   r.integer("max_iterations", 20, 0, kMaxIterations);
   hidden_layers(r, {6});
+  r.integer("nu", design.structure.nu, 0, kMaxControllerLag);
+  r.integer("nv", design.structure.nv, 0, kMaxControllerLag);
+  r.integer("ny", design.structure.ny, 0, kMaxControllerLag);
+  r.number("sine_share", design.sine_share, {0.0, 1.0, false, false});
+  r.number("sine_peak", design.sine_peak, {0.0, 1.0, true, false});
+  r.number("program_share", design.program_share, {0.0, 1.0, false, false});
+  r.integer("restarts", design.restarts, 1, kMaxRestarts);
+  r.number("rail_penalty", design.training.rail_penalty, {0.0, kMaxRailPenalty, false, false});
   r.integer("seed", 1, 0, kMaxSeed);
   return r.finish();
 }

@@ -43,9 +43,14 @@ void run_design_nn(DesignNnOptions o) {
     bar.update((r.restart + static_cast<double>(r.iteration) / o.design.training.max_iterations) / o.design.restarts);
   };
   models::FeedbackDesign d = models::design_feedback(*plant, ff, band_pass, o.design);
-  d.controller.meta = {{"plant", o.plant}, {"feedforward", o.ff}, {"bandpass", o.bandpass}, {"order", o.order},
-                       {"seed", o.design.seed}, {"restart", d.chosen_restart},
+  d.controller.meta = {{"plant", o.plant},
+                       {"feedforward", o.ff},
+                       {"bandpass", o.bandpass},
+                       {"order", o.order},
+                       {"restart", d.chosen_restart},
+                       {"restart_jc_val_pct", d.restart_jc_val_pct},
                        {"training", history_json(d.training.history)}};
+  d.controller.meta.update(models::feedback_design_options_json(o.design));
   models::write_json_file(o.out, models::neural_feedback_to_json(d.controller));
   const models::FeedbackTrainingRecord& first = d.training.history.front();
   print_result({{"out", o.out},
@@ -53,7 +58,7 @@ void run_design_nn(DesignNnOptions o) {
                 {"iterations", d.training.iterations},
                 {"jc_val_before_pct", first.jc_val_pct},
                 {"jc_val_after_pct", models::best_validation_jc_pct(d.training)},
-                {"restarts_jc_val_pct", d.restart_jc_val_pct},
+                {"restart_jc_val_pct", d.restart_jc_val_pct},
                 {"chosen_restart", d.chosen_restart},
                 {"history", history_json(d.training.history)}});
 }
@@ -89,6 +94,11 @@ void add_design_nn(CLI::App& design) {
       ->capture_default_str();
   cmd->add_option("--sine-peak", o->design.sine_peak, "Steady peak of the feedforward output in the stepped sines")
       ->check(CLI::Range(1e-6, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--program-share", o->design.program_share,
+                  "Share of the stepped sines at a program level (the same amplitudes at every frequency), the rest "
+                  "at the drive level")
+      ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   cmd->add_option("--iterations", o->design.training.max_iterations, "Levenberg-Marquardt iterations")
       ->check(CLI::Range(0, 100000))

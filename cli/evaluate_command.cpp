@@ -31,6 +31,7 @@ nlohmann::json row_json(const engine::EvaluationRow& row) {
     for (double db : p.harmonics_db) harmonics.push_back(models::number_or_null(db));
     probes.push_back({{"frequency_hz", p.frequency_hz},
                       {"amplitude", p.amplitude},
+                      {"drive_peak", p.drive_peak},
                       {"h2_db", p.h2_db},
                       {"h3_db", p.h3_db},
                       {"thd_pct", p.thd_pct},

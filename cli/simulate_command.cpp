@@ -36,6 +36,7 @@ struct SimulateOptions {
   std::string ff;
   std::string bandpass = "20,1200";
   double sine_peak = 1.0;
+  double program_share = models::FeedbackDesignOptions{}.program_share;
   std::string out;
 };
 
@@ -59,6 +60,7 @@ Eigen::VectorXd make_excitation(const SimulateOptions& o, double fs) {
     models::FeedbackDesignOptions design;
     design.samples = static_cast<Eigen::Index>(o.samples);
     design.sine_peak = o.sine_peak;
+    design.program_share = o.program_share;
     return models::control_record(ff, band_pass_sections(o.bandpass, 2, fs), design, o.seed).u;
   }
   if (o.signal == "noise") return dsp::uniform_noise(o.samples, o.amplitude, o.seed);
@@ -137,6 +139,10 @@ void register_simulate(CLI::App& app) {
   add_bandpass_option(cmd, o->bandpass, "--signal control: band-pass corners LO,HI in front of it, Hz");
   cmd->add_option("--sine-peak", o->sine_peak, "--signal control: steady feedforward peak of the stepped sines")
       ->check(CLI::Range(1e-6, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--program-share", o->program_share,
+                  "--signal control: share of the stepped sines at a program level (the rest at the drive level)")
+      ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   cmd->add_option("--noise-seed", o->noise_seed, "Seed of the sensor noise (default: seed + 1)")
       ->each([o](const std::string&) { o->noise_seed_given = true; });

@@ -161,6 +161,7 @@ ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantCon
       account(sine_run);
       const dsp::HarmonicLevels levels =
           dsp::harmonic_levels(sine_run.rendering.measured.tail(n_analysis), fs, f, o.harmonics);
+      probe.drive_peak = sine_run.rendering.drive.tail(n_analysis).cwiseAbs().maxCoeff();
       probe.h2_db = levels.relative_db(2);
       probe.h3_db = levels.relative_db(3);
       probe.thd_pct = levels.thd_percent();

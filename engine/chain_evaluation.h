@@ -31,6 +31,7 @@ struct EvaluationOptions {
 struct ProbeResult {
   double frequency_hz = 0.0;    ///< the probe frequency
   double amplitude = 0.0;       ///< program amplitude (the largest safe one for band-pass + feedforward)
+  double drive_peak = 0.0;      ///< largest |drive| over the analysed part: the steady drive this probe runs at
   double h2_db = 0.0;           ///< 2nd harmonic relative to the fundamental, dB
   double h3_db = 0.0;           ///< 3rd harmonic relative to the fundamental, dB
   double thd_pct = 0.0;         ///< total harmonic distortion, percent

@@ -21,7 +21,24 @@ void require_options(const FeedbackDesignOptions& o, double fs) {
     throw std::invalid_argument("design nn: stepped sines need 0 < low < high < fs/2");
   }
   if (!(o.sine_peak > 0.0 && o.sine_peak <= 1.0)) throw std::invalid_argument("design nn: sine_peak must be within (0, 1]");
+  if (!(o.program_share >= 0.0 && o.program_share <= 1.0)) {
+    throw std::invalid_argument("design nn: program_share must be within [0, 1]");
+  }
   if (!(o.sine_step_seconds * fs >= 20.0)) throw std::invalid_argument("design nn: sine steps must last >= 20 samples");
+}
+
+// |band-pass · feedforward| at f Hz.
+double chain_gain(const dsp::SosFilter& shape, const StateSpace& controller, double f, double fs) {
+  return std::abs(shape.response(f, fs) * response(controller, f, fs));
+}
+
+// The largest gain of band-pass + feedforward over [low, high] Hz, on a log grid of 400 frequencies.
+double largest_gain(const dsp::SosFilter& shape, const StateSpace& controller, double low, double high, double fs) {
+  double largest = 0.0;
+  for (int i = 0; i < 400; ++i) {
+    largest = std::max(largest, chain_gain(shape, controller, low * std::pow(high / low, i / 399.0), fs));
+  }
+  return largest;
 }
 
 }  // namespace
@@ -44,10 +61,14 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
     Eigen::Index start, length;
   };
   std::vector<Step> steps;
+  const double program_top = o.sine_peak / largest_gain(shape, controller, o.sine_low_hz, o.sine_high_hz, fs);
   for (Eigen::Index start = n_noise; start < o.samples; start += step) {
     const double f = o.sine_low_hz * std::pow(o.sine_high_hz / o.sine_low_hz, rng.uniform(0.0, 1.0));
-    const double gain = std::abs(shape.response(f, fs) * response(controller, f, fs));
-    const double amplitude = std::min(1.0, o.sine_peak / gain);
+    const double gain = chain_gain(shape, controller, f, fs);
+    const bool program_level = rng.uniform(0.0, 1.0) < o.program_share;
+    const double drive_level = o.sine_peak / gain;
+    const double amplitude =
+        std::min(1.0, program_level ? std::min(drive_level, program_top * rng.uniform(0.25, 2.0)) : drive_level);
     const Eigen::Index length = std::min(step, o.samples - start);
     // two periods of fade (at least 10 ms, at most a quarter step): a short fade splatters into the band
     // below the pass band's corner, where the feedforward's gain can be far above its gain at f
@@ -79,6 +100,21 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   r.u = simulate(controller, shaped);
   r.y_desired = simulate(ff.desired(), shaped);
   return r;
+}
+
+nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o) {
+  return {{"samples", o.samples},
+          {"max_iterations", o.training.max_iterations},
+          {"hidden", o.structure.hidden},
+          {"nu", o.structure.nu},
+          {"nv", o.structure.nv},
+          {"ny", o.structure.ny},
+          {"sine_share", o.sine_share},
+          {"sine_peak", o.sine_peak},
+          {"program_share", o.program_share},
+          {"restarts", o.restarts},
+          {"rail_penalty", o.training.rail_penalty},
+          {"seed", o.seed}};
 }
 
 FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "dsp/biquad.h"
@@ -24,6 +25,9 @@ struct FeedbackDesignOptions {
   double sine_step_seconds = 0.25;   ///< stepped sines: duration of each
   double sine_peak = 0.6;            ///< stepped sines: steady peak of the feedforward output, in (0, 1]; below the
                                      ///< soft limit's knee (0.8), so the controller has headroom to correct
+  double program_share = 0.0;        ///< share of the stepped sines played at a program level (the same program
+                                     ///< amplitude range at every frequency, as music would), the rest at a drive
+                                     ///< level (steady drive peak sine_peak at each step's own frequency)
   std::uint64_t seed = 1;            ///< records (estimation: seed, validation: seed + 1) and initial weights
   int restarts = 1;                  ///< trainings from different initial weights on the same records; the one
                                      ///< with the lowest validation J_c (on the plant model) is kept
@@ -38,10 +42,13 @@ struct ControlRecord {
 };
 
 /// A record of `o.samples`: uniform white noise at the largest safe amplitude (models::max_input's noise
-/// case), then stepped sines at log-uniform random frequencies, each at the amplitude where band-pass +
-/// feedforward reach a steady peak of o.sine_peak, faded in and out over two periods (10 ms at least), and
-/// scaled down where the feedforward's slow transients would lift the step's drive above o.sine_peak.
-/// Deterministic in `seed`.
+/// case), then stepped sines at log-uniform random frequencies. A drive-level step plays at the amplitude
+/// where band-pass + feedforward reach a steady peak of o.sine_peak at its frequency; a program-level step
+/// (share o.program_share) at a program amplitude drawn uniformly from a quarter to twice the one at which the
+/// band's loudest frequency reaches o.sine_peak, capped at the drive level — so that where the feedforward
+/// cuts (near the plant's resonance) the steps are as small as a program makes them. Every step fades in and
+/// out over two periods (10 ms at least) and is scaled down where the feedforward's slow transients would
+/// lift its drive above o.sine_peak. Deterministic in `seed`.
 ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
                              const FeedbackDesignOptions& o, std::uint64_t seed);
 
@@ -52,6 +59,11 @@ struct FeedbackDesign {
   std::vector<double> restart_jc_val_pct;  ///< every restart's best validation J_c, percent
   int chosen_restart = 0;                 ///< the restart kept
 };
+
+/// The options a design ran with, as a controller file's meta and a design's report list them:
+/// {"samples","max_iterations","hidden","nu","nv","ny","sine_share","sine_peak","program_share","restarts",
+///  "rail_penalty","seed"}.
+nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o);
 
 /// Designs the controller on `plant` (a NARX model at ff's rate) behind `ff` and `band_pass`: o.restarts
 /// trainings from initial weights seeded seed, seed + 1, … on the same records, the best by validation J_c

@@ -129,10 +129,21 @@ struct LoopSweep {
 
 }  // namespace
 
-double best_validation_jc_pct(const FeedbackTrainingResult& result) {
-  double best = std::numeric_limits<double>::infinity();
-  for (const FeedbackTrainingRecord& r : result.history) best = std::min(best, r.jc_val_pct);
+const FeedbackTrainingRecord* best_validation_record(const FeedbackTrainingResult& result) {
+  const FeedbackTrainingRecord* best = nullptr;
+  double best_jc = std::numeric_limits<double>::infinity();
+  for (const FeedbackTrainingRecord& r : result.history) {
+    if (r.jc_val_pct < best_jc) {
+      best = &r;
+      best_jc = r.jc_val_pct;
+    }
+  }
   return best;
+}
+
+double best_validation_jc_pct(const FeedbackTrainingResult& result) {
+  const FeedbackTrainingRecord* best = best_validation_record(result);
+  return best ? best->jc_val_pct : std::numeric_limits<double>::infinity();
 }
 
 double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Eigen::Index skip) {

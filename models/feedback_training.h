@@ -45,7 +45,11 @@ struct FeedbackTrainingResult {
   int iterations = 0;
 };
 
-/// The lowest validation J_c of a training's history, percent (the one early stopping kept).
+/// The first record of a training's history with the lowest validation J_c (the one early stopping kept);
+/// null when no record has a finite one.
+const FeedbackTrainingRecord* best_validation_record(const FeedbackTrainingResult& result);
+
+/// The lowest validation J_c of a training's history, percent (infinity when none is finite).
 double best_validation_jc_pct(const FeedbackTrainingResult& result);
 
 /// [2C] J_c = Σ (y_des − y)² / Σ y_des² in percent, over k ≥ skip.

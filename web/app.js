@@ -760,12 +760,14 @@ function flatten(obj, prefix = '', out = []) {
   return out;
 }
 
-/** A summary value: numbers to 4 digits, [re, im] pairs (poles, zeros) as complex numbers, long lists cut. */
+/** A summary value: numbers to 4 digits, [re, im] pairs (poles, zeros) as complex numbers, long lists cut;
+ *  null (a non-finite figure, e.g. a restart's J_c) as "—", in a list too. */
 function fmtValue(v) {
   if (v === null || v === undefined) return '—';
   if (typeof v === 'number') return fmtNumber(v, 4);
   if (!Array.isArray(v)) return String(v);
   const item = (x) => {
+    if (x === null || x === undefined) return '—';
     if (Array.isArray(x) && x.length === 2 && x.every(num)) {
       const [re, im] = x;
       return im === 0 ? fmtNumber(re, 4) : `${fmtNumber(re, 4)}${im < 0 ? '−' : '+'}${fmtNumber(Math.abs(im), 4)}j`;

@@ -17,6 +17,7 @@
 #include "api/model_store.h"
 #include "api/model_validation.h"
 #include "models/linear_model.h"
+#include "models/feedback_design.h"
 #include "models/lq_feedforward.h"
 #include "models/model_file.h"
 #include "models/neural_feedback.h"
@@ -180,6 +181,18 @@ class JobKindsTest : public testing_support::ScratchDirectoryTest {
     return store_->put(file, v.kind, v.fs, "reference", "upload").id;
   }
 
+  // The models a design-nn job needs, made by jobs j1 (an LQ controller of the reference system) and j2 (a
+  // small NARX model of it): {"plant_model": narx, "feedforward_model": lq}.
+  json design_nn_models() {
+    const std::string lq = run("design-lq", {{"plant_model", store_reference_model()}, {"r", 3.0}}, "j1").at("model_id");
+    const std::string narx = run("identify-narx",
+                                 {{"excite", {{"samples", 2000}, {"validation_samples", 500}, {"amplitude", 0.5}}},
+                                  {"na", 2}, {"nb", 2}, {"hidden", {3}}, {"max_iterations", 5}},
+                                 "j2")
+                                 .at("model_id");
+    return {{"plant_model", narx}, {"feedforward_model", lq}};
+  }
+
   std::unique_ptr<ModelStore> store_;
   JobEnvironment env_;
   std::map<std::string, json> results_;
@@ -250,6 +263,48 @@ TEST_F(JobKindsTest, DefaultsAreFilledIn) {
   const json lq = validate_job_params("design-lq", {{"plant_model", store_reference_model()}}, env_);
   EXPECT_EQ(lq.at("r"), 1e-5);
   EXPECT_EQ(lq.at("band_pass"), (json{{"low_hz", 20.0}, {"high_hz", 1200.0}, {"order", 2}}));
+}
+
+TEST_F(JobKindsTest, DesignNnDefaultsComeFromTheDesignOptions) {
+  const json models = design_nn_models();
+  const json nn = validate_job_params("design-nn", models, env_);
+  const models::FeedbackDesignOptions design;
+  EXPECT_EQ(nn.at("nu"), design.structure.nu);
+  EXPECT_EQ(nn.at("nv"), design.structure.nv);
+  EXPECT_EQ(nn.at("ny"), design.structure.ny);
+  EXPECT_EQ(nn.at("sine_share"), design.sine_share);
+  EXPECT_EQ(nn.at("sine_peak"), design.sine_peak);
+  EXPECT_EQ(nn.at("program_share"), design.program_share);
+  EXPECT_EQ(nn.at("restarts"), 1);
+  EXPECT_EQ(nn.at("rail_penalty"), design.training.rail_penalty);
+  EXPECT_EQ(nn.at("samples"), 3000);
+  EXPECT_EQ(nn.at("max_iterations"), 20);
+  EXPECT_EQ(nn.at("hidden"), json({6}));
+}
+
+TEST_F(JobKindsTest, DesignNnRangesAreNamed) {
+  const json models = design_nn_models();
+  const auto with = [&](const json& extra) {
+    json params = models;
+    params.update(extra);
+    return params;
+  };
+  const auto refused = [&](const json& extra) { return refusal("design-nn", with(extra)); };
+  EXPECT_EQ(refused({{"nu", 101}}), "params.nu: must be an integer in [0, 100], got 101");
+  EXPECT_EQ(refused({{"nv", -1}}), "params.nv: must be an integer in [0, 100], got -1");
+  EXPECT_EQ(refused({{"ny", 2.5}}), "params.ny: must be an integer in [0, 100], got 2.5");
+  EXPECT_EQ(refused({{"sine_share", 1.5}}), "params.sine_share: must be a number in [0, 1], got 1.5");
+  EXPECT_EQ(refused({{"sine_peak", 0}}), "params.sine_peak: must be a number in (0, 1], got 0");
+  EXPECT_EQ(refused({{"program_share", -0.1}}), "params.program_share: must be a number in [0, 1], got -0.1");
+  EXPECT_EQ(refused({{"restarts", 0}}), "params.restarts: must be an integer in [1, 20], got 0");
+  EXPECT_EQ(refused({{"restarts", 21}}), "params.restarts: must be an integer in [1, 20], got 21");
+  EXPECT_EQ(refused({{"rail_penalty", -1}}), "params.rail_penalty: must be a number in [0, 1e+12], got -1");
+  EXPECT_EQ(refused({{"rail_penalty", "high"}}), "params.rail_penalty: must be a number in [0, 1e+12], got \"high\"");
+  EXPECT_EQ(refused({{"restart", 2}}), "params.restart: unknown field");
+  // The ends that belong to the ranges.
+  const json ends = with({{"nu", 0}, {"nv", 100}, {"sine_share", 0}, {"sine_peak", 1}, {"program_share", 1}, {"restarts", 20},
+                          {"rail_penalty", 0}});
+  EXPECT_NO_THROW(validate_job_params("design-nn", ends, env_));
 }
 
 TEST_F(JobKindsTest, ReferencedModelsMustExistWithTheRightKind) {
@@ -450,15 +505,11 @@ TEST_F(JobKindsTest, DesignLqMakesAStableControllerThatLoads) {
 }
 
 TEST_F(JobKindsTest, DesignNnTrainsOnANarxPlantBehindTheLqController) {
-  const std::string lq = run("design-lq", {{"plant_model", store_reference_model()}, {"r", 3.0}}, "j1").at("model_id");
-  const std::string narx = run("identify-narx",
-                               {{"excite", {{"samples", 2000}, {"validation_samples", 500}, {"amplitude", 0.5}}},
-                                {"na", 2}, {"nb", 2}, {"hidden", {3}}, {"max_iterations", 5}},
-                               "j2")
-                               .at("model_id");
+  json params = design_nn_models();
+  const std::string narx = params.at("plant_model");
+  params.update({{"samples", 1000}, {"max_iterations", 3}, {"hidden", {3}}});
   FakeControl control("j3");
-  const json result = run("design-nn", {{"plant_model", narx}, {"feedforward_model", lq}, {"samples", 1000}, {"max_iterations", 3}, {"hidden", {3}}},
-                          control);
+  const json result = run("design-nn", params, control);
   expect_progress(control);
   const std::string id = result.at("model_id").get<std::string>();
   ASSERT_TRUE(store_->find(id));
@@ -470,6 +521,64 @@ TEST_F(JobKindsTest, DesignNnTrainsOnANarxPlantBehindTheLqController) {
   expect_plot(history, {"iteration", "j_est_pct", "j_val_pct"});
   EXPECT_LE(history.at("iteration").size(), 4u);
   EXPECT_LE(result.at("j_val_pct").get<double>(), result.at("summary").at("jc_val_before_pct").get<double>());
+}
+
+TEST_F(JobKindsTest, DesignNnTakesTheControllersLagsAndTheRecordsShape) {
+  json params = design_nn_models();
+  params.update({{"samples", 1000}, {"max_iterations", 2}, {"hidden", {3}}, {"nu", 1}, {"nv", 3}, {"ny", 2},
+                 {"sine_share", 0.5}, {"sine_peak", 0.4}, {"program_share", 0.25}, {"rail_penalty", 3.0}, {"seed", 5}});
+  FakeControl control("j3");
+  const json result = run("design-nn", params, control);
+  expect_progress(control);
+
+  // The stored controller has the lags asked for: N1 takes u(k..k-1), v(k-1..k-3), y(k-1..k-2).
+  const std::string id = result.at("model_id").get<std::string>();
+  const models::NeuralFeedback fb = models::neural_feedback_from_json(*store_->model(id));
+  EXPECT_EQ(fb.structure.nu, 1);
+  EXPECT_EQ(fb.structure.nv, 3);
+  EXPECT_EQ(fb.structure.ny, 2);
+  EXPECT_EQ(fb.structure.inputs(), 7);
+  // Summary and meta report what the design ran with (read back from the options it was given).
+  const json& summary = result.at("summary");
+  for (const json* reported : {&summary, &fb.meta}) {
+    for (const char* key : {"samples", "max_iterations", "hidden", "nu", "nv", "ny", "sine_share", "sine_peak",
+                            "program_share", "rail_penalty", "seed"}) {
+      EXPECT_EQ(reported->at(key), params.at(key)) << key;
+    }
+    EXPECT_EQ(reported->at("restarts"), 1);
+    EXPECT_EQ(reported->at("restart_jc_val_pct").size(), 1u);
+  }
+  EXPECT_EQ(summary.at("chosen_restart"), 0);
+  EXPECT_EQ(fb.meta.at("restart"), 0);
+
+  // The record's shape reaches the design: other sine shares make other records, so another J_c before training.
+  params.update({{"sine_share", 0.0}, {"max_iterations", 0}});
+  const json noise_only = run("design-nn", params, "j4");
+  EXPECT_NE(noise_only.at("summary").at("jc_val_before_pct"), summary.at("jc_val_before_pct"));
+}
+
+TEST_F(JobKindsTest, DesignNnKeepsTheBestOfItsRestarts) {
+  json params = design_nn_models();
+  params.update({{"samples", 1000}, {"max_iterations", 2}, {"hidden", {3}}, {"restarts", 2}});
+  FakeControl control("j3");
+  const json result = run("design-nn", params, control);
+  expect_progress(control);
+  bool named_second_restart = false;
+  for (const Report& r : control.reports) named_second_restart = named_second_restart || r.message.starts_with("restart 2/2");
+  EXPECT_TRUE(named_second_restart);
+
+  const json& summary = result.at("summary");
+  EXPECT_EQ(summary.at("restarts"), 2);
+  const std::vector<double> scores = summary.at("restart_jc_val_pct").get<std::vector<double>>();
+  ASSERT_EQ(scores.size(), 2u);
+  EXPECT_NE(scores[0], scores[1]) << "restarts start from different weights";
+  const int chosen = scores[1] < scores[0] ? 1 : 0;
+  EXPECT_EQ(summary.at("chosen_restart"), chosen);
+  EXPECT_DOUBLE_EQ(result.at("j_val_pct").get<double>(), scores[static_cast<std::size_t>(chosen)]);
+  EXPECT_DOUBLE_EQ(summary.at("jc_val_after_pct").get<double>(), scores[static_cast<std::size_t>(chosen)]);
+  const json meta = store_->model(result.at("model_id").get<std::string>())->at("meta");
+  EXPECT_EQ(meta.at("restart"), chosen);
+  EXPECT_EQ(meta.at("restart_jc_val_pct"), summary.at("restart_jc_val_pct"));
 }
 
 TEST_F(JobKindsTest, AnalyzeJudgesAModelOnARecord) {

@@ -5,7 +5,12 @@
 
 #include <cmath>
 
+#include "dsp/butterworth.h"
+#include "dsp/csv_table.h"
 #include "engine/chain_file.h"
+#include "models/feedback_design.h"
+#include "models/lq_feedforward.h"
+#include "models/json_file.h"
 #include "models/neural_feedback.h"
 #include "tests/support/cli_runner.h"
 
@@ -32,6 +37,30 @@ class CliControl : public CliTest {
   fs::path path(const char* name) const { return dir_ / name; }
 };
 
+// `--program-share` reaches the record: the drive simulate writes is control_record's, computed here with the
+// same options, and differs from the drive-level record of the same seed.
+TEST_F(CliControl, ProgramShareShapesTheControlSignal) {
+  expect_result(run("simulate --plant linear --signal control --ff " + quoted(path("ff.json")) +
+                    " --samples 3000 --seed 5 --sine-peak 0.6 --program-share 1 --out " + quoted(path("prog.csv"))));
+  expect_result(run("simulate --plant linear --signal control --ff " + quoted(path("ff.json")) +
+                    " --samples 3000 --seed 5 --sine-peak 0.6 --out " + quoted(path("drive.csv"))));
+  const Eigen::VectorXd prog = dsp::read_csv(path("prog.csv"), {"u"}).column("u");
+  const Eigen::VectorXd drive = dsp::read_csv(path("drive.csv"), {"u"}).column("u");
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(models::read_json_file(path("ff.json")));
+  models::FeedbackDesignOptions o;
+  o.samples = 3000;
+  o.sine_peak = 0.6;
+  o.program_share = 1.0;
+  const Eigen::VectorXd expected = models::control_record(ff, dsp::butterworth_band(2, 20.0, 1200.0, 3000.0), o, 5).u;
+  ASSERT_EQ(prog.size(), expected.size());
+  EXPECT_LT((prog - expected).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_GT((prog - drive).cwiseAbs().maxCoeff(), 1e-3);
+  const RunResult bad = run("simulate --plant linear --signal control --ff " + quoted(path("ff.json")) +
+                            " --samples 3000 --program-share 2 --out " + quoted(path("bad.csv")));
+  expect_usage_error(bad);
+  EXPECT_TRUE(contains(bad.err, "--program-share")) << bad.err;
+}
+
 TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates) {
   const json sim = expect_result(run("simulate --plant linear --signal control --ff " + quoted(path("ff.json")) +
                                      " --samples 3000 --seed 5 --sine-peak 0.6 --out " + quoted(path("reg.csv"))));
@@ -44,6 +73,10 @@ TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates)
   EXPECT_LE(nn["jc_val_after_pct"].get<double>(), nn["jc_val_before_pct"].get<double>());
   const models::NeuralFeedback fb = models::neural_feedback_from_json(json::parse(text_of(path("fb.json"))));
   EXPECT_EQ(fb.structure.hidden, std::vector<int>{4});
+  // the controller file says how its training records were made
+  EXPECT_EQ(fb.meta.at("samples"), 2000);
+  EXPECT_EQ(fb.meta.at("sine_peak"), models::FeedbackDesignOptions{}.sine_peak);
+  EXPECT_EQ(fb.meta.at("restart_jc_val_pct"), nn["restart_jc_val_pct"]);
 
   const json chain = expect_result(run("chain --bandpass 20,1200 --ff " + quoted(path("ff.json")) + " --fb " +
                                        quoted(path("fb.json")) + " --source sensor --out " + quoted(path("chain.json"))));

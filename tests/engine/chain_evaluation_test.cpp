@@ -5,11 +5,13 @@
 
 #include <cmath>
 
+#include "dsp/butterworth.h"
 #include "dsp/random.h"
 #include "engine/chain_evaluation.h"
 #include "models/linear_identification.h"
 #include "models/lq_feedforward.h"
 #include "models/plant_presets.h"
+#include "models/state_space.h"
 #include "models/virtual_transducer.h"
 
 namespace panelbass::engine {
@@ -51,6 +53,16 @@ TEST(ChainEvaluationTest, OnALinearPlantTheFeedforwardFlattensAndNothingDistorts
   EXPECT_GT(e.noise_amplitude, 0.0);
   EXPECT_LE(ff.max_drive, 1.0);
   EXPECT_EQ(ff.faults, 0u);
+  // each probe's steady drive: the program sine itself for the plant alone, and through band-pass and
+  // feedforward its amplitude times their gain at the probe (recomputed here from the controller file)
+  const models::LqFeedforward lq = models::lq_feedforward_from_json(config.feedforward->model);
+  const std::vector<dsp::Biquad> bp = dsp::butterworth_band(2, 20.0, 1200.0, plant.fs);
+  for (std::size_t i = 0; i < o.probe_hz.size(); ++i) {
+    const double f = o.probe_hz[i];
+    EXPECT_NEAR(bare.probes[i].drive_peak, bare.probes[i].amplitude, 0.01 * bare.probes[i].amplitude) << f;
+    const double gain = std::abs(dsp::SosFilter(bp).response(f, plant.fs) * models::response(lq.controller(), f, plant.fs));
+    EXPECT_NEAR(ff.probes[i].drive_peak, ff.probes[i].amplitude * gain, 0.01 * ff.probes[i].amplitude * gain) << f;
+  }
   for (const EvaluationRow& row : e.rows) {
     ASSERT_EQ(row.probes.size(), o.probe_hz.size());
     for (const ProbeResult& p : row.probes) {

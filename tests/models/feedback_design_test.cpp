@@ -85,6 +85,49 @@ TEST(FeedbackDesignTest, SteppedSinesKeepTheirPeakWhenTheFeedforwardRingsBelowTh
   }
 }
 
+// The peak of each stepped sine of a record made of sines only (steps of o.sine_step_seconds from the start).
+std::vector<double> step_peaks(const Eigen::VectorXd& signal, const FeedbackDesignOptions& o) {
+  const auto step = static_cast<Eigen::Index>(o.sine_step_seconds * 3000.0);
+  std::vector<double> peaks;
+  for (Eigen::Index start = 0; start + step <= signal.size(); start += step) {
+    peaks.push_back(signal.segment(start, step).cwiseAbs().maxCoeff());
+  }
+  return peaks;
+}
+
+// Drive-level steps reach the drive peak, whatever the feedforward's gain at their frequency, so their
+// program amplitudes spread as that gain does (the accelerometer-like model's LQ boosts 30 Hz and cuts near
+// its 150 Hz resonance); program-level steps play program amplitudes within a factor 8 of each other
+// (a quarter to twice one level), so near the resonance their drive stays far below the peak.
+TEST(FeedbackDesignTest, ProgramLevelStepsShareOneAmplitudeRangeDriveLevelStepsOneDrivePeak) {
+  const LqFeedforward ff = design_lq(accelerometer_model(), {1e-5, 20.0});
+  const std::vector<dsp::Biquad> bp = audio_band();
+  FeedbackDesignOptions o;
+  o.samples = 30000;  // 40 steps
+  o.sine_share = 1.0;
+  o.sine_peak = 0.6;
+  o.program_share = 0.0;
+  const ControlRecord drive_level = control_record(ff, bp, o, 5);
+  // most steps reach it (some are scaled down where the previous step's transient lifts their drive)
+  const std::vector<double> drive_peaks = step_peaks(drive_level.u, o);
+  const auto reaching = std::count_if(drive_peaks.begin(), drive_peaks.end(), [](double p) { return p >= 0.6 * 0.9; });
+  EXPECT_GE(reaching, 3 * static_cast<long>(drive_peaks.size()) / 4);
+  const std::vector<double> drive_programs = step_peaks(drive_level.program, o);
+  const auto [dmin, dmax] = std::minmax_element(drive_programs.begin(), drive_programs.end());
+  EXPECT_GT(*dmax / *dmin, 20.0) << "the feedforward's gain spreads the drive-level steps' program amplitudes";
+
+  o.program_share = 1.0;
+  const ControlRecord program_level = control_record(ff, bp, o, 5);
+  EXPECT_LE(program_level.u.cwiseAbs().maxCoeff(), 0.6 * 1.005);
+  const std::vector<double> programs = step_peaks(program_level.program, o);
+  const auto [pmin, pmax] = std::minmax_element(programs.begin(), programs.end());
+  EXPECT_LE(*pmax / *pmin, 8.0 * 1.01);
+  const std::vector<double> peaks = step_peaks(program_level.u, o);
+  EXPECT_LT(*std::min_element(peaks.begin(), peaks.end()), 0.6 / 4.0) << "steps near the resonance stay small";
+  o.program_share = 1.5;
+  EXPECT_THROW(control_record(ff, bp, o, 5), std::invalid_argument);
+}
+
 // Restarts train from different initial weights on the same records and keep the best validation J_c: the
 // kept controller's J_c, recomputed here from its closed loop on the validation record, is the smallest of
 // the restarts', and restart 0 is the design without restarts.

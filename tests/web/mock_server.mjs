@@ -1,7 +1,8 @@
 #!/usr/bin/env node
 // A stand-in for `panelbass serve`, for developing and checking the web UI without the C++ server:
 // it serves web/ and answers the routes of api/ROUTES.md with canned, plausible data (jobs progress over
-// ~2 s, identify jobs make a model with fit/spectrum/history plots, diagnose jobs a one-finding report). Same command line and first stdout
+// ~2 s, identify jobs make a model with fit/spectrum/history plots, design-nn jobs a summary with the restarts and
+// the design's params, diagnose jobs a one-finding report). Same command line and first stdout
 // line as the real server, so ui_test.mjs can drive it:
 //   node tests/web/ui_test.mjs --server tests/web/mock_server.mjs --artifacts /tmp/ui
 // Not a test of the server: the real test runs against build/bin/panelbass.
@@ -116,6 +117,20 @@ const diagnosisReport = (params) => ({
   rule: 'an augmentation is kept when N·ln(J_before/J_after) > p·ln(N) on the N validation samples (BIC)',
 });
 
+// A design-nn job's summary (api/ROUTES.md "Jobs"): the J_c figures, the restarts' validation J_c and the one
+// kept, and the design's params with the server's defaults filled in.
+function designNnSummary(params) {
+  const design = { samples: 3000, max_iterations: 20, hidden: [6], nu: 2, nv: 2, ny: 4, sine_share: 0.75, sine_peak: 0.6,
+                   program_share: 0, restarts: 1, rail_penalty: 10, seed: 1 };
+  for (const k of Object.keys(design)) if (params[k] !== undefined) design[k] = params[k];
+  const restartJc = Array.from({ length: design.restarts }, (_, r) => 2.4 - 0.3 * Math.sin(r + design.seed));
+  const chosen = restartJc.indexOf(Math.min(...restartJc));
+  return { figure: 'J_c [2C]: loop output (plant model) against the desired linear response',
+           plant_model: params.plant_model, feedforward_model: params.feedforward_model ?? null, parameters: 55,
+           iterations: design.max_iterations, jc_val_before_pct: 9.7, jc_val_after_pct: restartJc[chosen], rail_fraction: 0,
+           chosen_restart: chosen, restart_jc_val_pct: restartJc, bandpass: [20, 1200], bandpass_order: 2, ...design };
+}
+
 const summaryOf = (j) => ({ id: j.id, kind: j.kind, state: j.state, progress: j.progress, message: j.message,
                             created: j.created, finished: j.finished, error: j.error });
 
@@ -145,6 +160,10 @@ function runJob(job) {
     const result = job.kind === 'diagnose' ? { ...diagnosisReport(job.params), plots: plots(job.kind) }
       : { j_est_pct: 1.85, j_val_pct: 2.2, summary: { method: job.params.method || 'oe', order: job.params.order ?? 8, delay: 1 },
           plots: plots(job.kind) };
+    if (job.kind === 'design-nn') {
+      result.summary = designNnSummary(job.params);
+      result.j_val_pct = result.summary.jc_val_after_pct;
+    }
     if (job.kind !== 'excite' && job.kind !== 'analyze' && job.kind !== 'diagnose') {
       const kind = { 'identify-linear': 'linear', 'identify-narx': 'narx', 'design-lq': 'lq_feedforward', 'design-nn': 'neural_feedback' }[job.kind];
       const { id } = storeModel({ format: 'panelbass.model/1', kind, fs: FS, params: { job: job.id, p: job.params } }, `${job.kind} ${job.id}`, job.id);

@@ -7,8 +7,11 @@
 // result panel appears as the active feedforward model in the status; the fit plot is drawn (uPlot canvas
 // with the series' colours in it); a "Diagnose" job (its own 3000 + 2000-sample excitation, the identified
 // model as baseline, one finding at most) shows the baseline, J before and after, the noise floor, the
-// findings table (or its "no finding" line) and the residual-spectrum plot. Saves ARTIFACTS/ui.png (and
-// ui-server.log, ui-console.log).
+// findings table (or its "no finding" line) and the residual-spectrum plot; an LQ feedforward designed on the
+// identified model and a small NARX plant identified, a "Design NN feedback" job with every field of its form
+// set off its default sends each value in its request body, succeeds, and its summary shows the restart kept,
+// every restart's validation J_c and the design's params. Saves ARTIFACTS/ui.png (and ui-server.log,
+// ui-console.log).
 // Exit 0 on success; 1 with "ui_test: FAIL <step>: <reason>" otherwise; 2 on bad usage.
 
 import { spawn } from 'node:child_process';
@@ -167,6 +170,33 @@ async function until(fn, timeoutMs, message, periodMs = 100) {
     if (Date.now() > end) throw new TestFailure(message);
     await new Promise((r) => setTimeout(r, periodMs));
   }
+}
+
+/** Clicks Start on the job form and waits for the job (not `previousId`) to succeed; returns its id. */
+async function runFormJob(what, previousId) {
+  await page.click('#job-start');
+  const id = await until(async () => {
+    const err = await page.$eval('#job-error', (e) => (e.hidden ? '' : e.textContent));
+    if (err) throw new TestFailure(`the server refused the ${what} job: ${err}`);
+    const shown = await page.$eval('#result', (e) => (e.hidden ? '' : e.dataset.jobId || ''));
+    return shown && shown !== previousId ? shown : '';
+  }, 10_000, `the result panel never showed the ${what} job`);
+  const t = Date.now();
+  await until(async () => {
+    const s = await page.$eval('#result', (e) => e.dataset.state);
+    if (['failed', 'cancelled'].includes(s)) throw new TestFailure(`${what} job ${id} ${s}: ${await page.textContent('#result-error')}`);
+    return s === 'succeeded';
+  }, JOB_TIMEOUT_MS, `${what} job ${id} did not succeed within ${JOB_TIMEOUT_MS / 1000} s`, 100);
+  await page.waitForSelector('#result-body:not([hidden])', { timeout: 5000 });
+  log(`${what} job ${id} succeeded in ${((Date.now() - t) / 1000).toFixed(1)} s`);
+  return id;
+}
+
+/** The model id the result panel shows (a model-making job's). */
+async function resultModel(what) {
+  const id = await page.$eval('#result-activate', (e) => e.dataset.modelId);
+  check(/^m[0-9a-f]{12}$/.test(id), `the ${what} result names no model id (got "${id}")`);
+  return id;
 }
 
 async function main() {
@@ -363,6 +393,69 @@ async function main() {
   }
   await page.waitForSelector('#plot-residual_spectrum canvas', { timeout: 5000 });
   await page.waitForSelector('#plot-fit canvas', { timeout: 5000 });
+
+  // A NN feedback design needs a NARX plant and an LQ feedforward: both made here, small and quick.
+  step = 'designing an LQ feedforward';
+  await page.selectOption('#job-kind', 'design-lq');
+  await page.selectOption('#lq-plant', modelId);
+  const lqJob = await runFormJob('design-lq', diagnoseId);
+  const lqModel = await resultModel('design-lq');
+
+  step = 'identifying a NARX plant';
+  await page.selectOption('#job-kind', 'identify-narx');
+  await page.selectOption('#job-source', '');
+  await page.fill('#excite-samples', '3000');
+  await page.fill('#excite-validation', '2000');
+  await page.fill('#excite-amplitude', '0.3');
+  const narx = (param) => `fieldset[data-kinds="identify-narx"] [data-param="${param}"]`;
+  await page.fill(narx('hidden'), '3');
+  await page.fill(narx('modes'), 'pem');
+  await page.fill(narx('max_iterations'), '5');
+  const narxJob = await runFormJob('identify-narx', lqJob);
+  const narxModel = await resultModel('identify-narx');
+
+  // Every design-nn field off its default, so that each one is seen to reach the request body.
+  step = 'starting a design-nn job';
+  await page.selectOption('#job-kind', 'design-nn');
+  await until(async () => (await page.$$eval('#nn-plant option', (os) => os.map((o) => o.value))).includes(narxModel),
+              8000, `the NARX model ${narxModel} is never offered as the plant of a design-nn job`);
+  await page.selectOption('#nn-plant', narxModel);
+  await page.selectOption('#nn-feedforward', lqModel);
+  const nnFields = { samples: ['#nn-samples', '1000', 1000], max_iterations: ['#nn-max-iterations', '2', 2],
+                     hidden: ['#nn-hidden', '3', [3]], nu: ['#nn-nu', '1', 1], nv: ['#nn-nv', '1', 1], ny: ['#nn-ny', '3', 3],
+                     sine_share: ['#nn-sine-share', '0.5', 0.5], sine_peak: ['#nn-sine-peak', '0.45', 0.45],
+                     program_share: ['#nn-program-share', '0.25', 0.25], restarts: ['#nn-restarts', '2', 2],
+                     rail_penalty: ['#nn-rail-penalty', '4', 4], seed: ['#nn-seed', '7', 7] };
+  for (const [selector, text] of Object.values(nnFields)) {
+    check(await page.isVisible(selector), `design-nn field ${selector} not shown`);
+    await page.fill(selector, text);
+  }
+  const posted = page.waitForRequest((r) => r.method() === 'POST' && new URL(r.url()).pathname === '/api/jobs', { timeout: 10_000 });
+  const nnJob = await runFormJob('design-nn', narxJob);
+  const body = (await posted).postDataJSON();
+  const wanted = { plant_model: narxModel, feedforward_model: lqModel,
+                   ...Object.fromEntries(Object.entries(nnFields).map(([k, [, , v]]) => [k, v])) };
+  log(`design-nn request: ${JSON.stringify(body)}`);
+  check(body.kind === 'design-nn', `request kind "${body.kind}", expected design-nn`);
+  for (const [k, v] of Object.entries(wanted)) {
+    check(JSON.stringify(body.params?.[k]) === JSON.stringify(v),
+          `params.${k} in the request is ${JSON.stringify(body.params?.[k])}, expected ${JSON.stringify(v)}`);
+  }
+
+  step = 'design-nn summary shown';
+  const summary = await page.$$eval('#result-summary dt', (dts) => Object.fromEntries(
+    dts.map((dt) => [dt.textContent.trim(), dt.nextElementSibling.textContent.trim()])));
+  log(`design-nn ${nnJob} summary: ${Object.entries(summary).map(([k, v]) => `${k}=${v}`).join(', ')}`);
+  check(await page.isVisible('#result-figures') && !(await page.isVisible('#result-diagnosis')),
+        'the J figures are not shown (or the diagnosis still is) for a design-nn result');
+  check(['0', '1'].includes(summary.chosen_restart), `chosen_restart not shown as 0 or 1: ${JSON.stringify(summary.chosen_restart)}`);
+  check(/^\[[^,\]]*\d[^,\]]*, [^,\]]*\d[^,\]]*\]$/.test(summary.restart_jc_val_pct || ''),
+        `restart_jc_val_pct not shown as two values: ${JSON.stringify(summary.restart_jc_val_pct)}`);
+  const shownDesign = { samples: '1,000', max_iterations: '2', hidden: '[3]', nu: '1', nv: '1', ny: '3', sine_share: '0.5',
+                        sine_peak: '0.45', program_share: '0.25', restarts: '2', rail_penalty: '4', seed: '7' };
+  for (const [k, v] of Object.entries(shownDesign)) {
+    check(summary[k] === v, `summary ${k} shown as ${JSON.stringify(summary[k])}, expected "${v}"`);
+  }
 
   step = 'no page errors';
   check(pageErrors.length === 0, `${pageErrors.length} error(s) in the page`);
