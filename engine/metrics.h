@@ -79,6 +79,8 @@ class Metrics {
   bool in_fault() const noexcept { return in_fault_.load(std::memory_order_relaxed); }
   /// Stages taken over so far (cheaper than a snapshot).
   std::uint64_t swaps() const noexcept { return swaps_.load(std::memory_order_relaxed); }
+  /// Xruns so far (cheaper than a snapshot).
+  std::uint64_t xruns() const noexcept { return xruns_.load(std::memory_order_relaxed); }
 
   /// A consistent-enough copy of every figure (each counter read atomically).
   MetricsSnapshot snapshot() const;
