@@ -7,8 +7,8 @@
 #      drive peaks 0.35-0.85 (default 24 = 540 000 samples: the harmonics
 #      at small drives, 40 dB under the fundamental, need them) → NARX      simulate --signal control, identify narx
 #   4. the NARX model's harmonics checked against a 100 s stepped-sine
-#      recording at each probe's drive (MODELS candidates: the one whose
-#      harmonics leave the most to cancel is kept)                          evaluate, simulate, harmonics
+#      recording at each probe's drive, level and phase (MODELS candidates:
+#      the one that would cancel the most at its worst probe is kept)                          evaluate, simulate, harmonics
 #   5. neural feedback controller trained through the loop                  design nn
 #   6. chain files (feedback in model mode and in sensor mode) → table      chain, evaluate
 # The probes run where band-pass + feedforward reach a steady drive peak of 0.6: below the amplifier's
@@ -52,8 +52,9 @@ for probe in $probes; do
   "$bin" simulate --signal stepped --freqs "${probe%%:*}" --amplitude "${probe#*:}" --measure 300000 --seed "$seed" \
     --out "stepped-${probe%%:*}.csv" > /dev/null 2>&1
 done
-# harmonics_check MODEL: the recording's and the model's harmonics at every probe and the most a canceller
-# designed on the model can remove there (bench/harmonics_bound.py); the last line is the smallest, dB.
+# harmonics_check MODEL: the recording's and the model's harmonics (level and phase) at every probe and how
+# much of the recording's distortion a canceller designed on the model would remove there, from the complex
+# difference of the harmonics (bench/harmonics_bound.py); the last line is the smallest, dB.
 harmonics_check() {
   for probe in $probes; do
     "$bin" harmonics --data "stepped-${probe%%:*}.csv" --fs 3000 --freqs "${probe%%:*}" --amplitudes "${probe#*:}" \

@@ -1,5 +1,8 @@
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -25,21 +28,45 @@ struct HarmonicsOptions {
   std::size_t measure = 3000;
 };
 
+nlohmann::json number_or_null(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
 nlohmann::json rows_json(const std::vector<models::DistortionRow>& rows) {
   nlohmann::json out = nlohmann::json::array();
   for (const auto& r : rows) {
-    nlohmann::json levels = nlohmann::json::object();
+    nlohmann::json levels = nlohmann::json::object(), phases = nlohmann::json::object();
     for (std::size_t h = 0; h < r.harmonic_db.size(); ++h) {
-      const double db = r.harmonic_db[h];
-      levels["H" + std::to_string(h + 2) + "_db"] = std::isfinite(db) ? nlohmann::json(db) : nlohmann::json(nullptr);
+      const std::string name = "H" + std::to_string(h + 2);
+      levels[name + "_db"] = number_or_null(r.harmonic_db[h]);
+      // against a cosine fundamental of phase zero (dsp::HarmonicLevels::relative), degrees
+      const double phase = h < r.harmonic_relative.size() ? std::arg(r.harmonic_relative[h]) : std::nan("");
+      phases[name + "_deg"] = number_or_null(phase * 180.0 / std::numbers::pi);
     }
     out.push_back({{"frequency_hz", r.frequency},
                    {"amplitude", r.amplitude},
                    {"fundamental", r.fundamental},
                    {"harmonics", levels},
-                   {"thd_pct", std::isfinite(r.thd_percent) ? nlohmann::json(r.thd_percent) : nlohmann::json(nullptr)}});
+                   {"phases", phases},
+                   {"thd_pct", number_or_null(r.thd_percent)}});
   }
   return out;
+}
+
+// Per row, how much of the measured distortion a canceller designed on the model would remove
+// (models::cancellable_db, and the levels-only bound); the smallest over the rows summarises it.
+void add_cancellation(nlohmann::json& result, const std::vector<models::DistortionRow>& measured,
+                      const std::vector<models::DistortionRow>& model) {
+  nlohmann::json rows = nlohmann::json::array();
+  double smallest = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < measured.size() && k < model.size(); ++k) {
+    const double db = models::cancellable_db(measured[k], model[k]);
+    smallest = std::min(smallest, db);
+    rows.push_back({{"frequency_hz", measured[k].frequency},
+                    {"amplitude", measured[k].amplitude},
+                    {"cancellable_db", number_or_null(db)},
+                    {"cancellable_magnitude_db", number_or_null(models::cancellable_magnitude_db(measured[k], model[k]))}});
+  }
+  result["cancellable"] = rows;
+  result["smallest_cancellable_db"] = number_or_null(smallest);
 }
 
 // A recording made with the stepped sine of `spec` (`panelbass simulate --signal stepped`, or played
@@ -74,8 +101,13 @@ void run_harmonics(const HarmonicsOptions& o) {
   spec.measure = o.measure;
   spec.sensor_noise = o.noise ? models::SensorNoise::keep : models::SensorNoise::off;
   if (!o.data.empty()) {
-    nlohmann::json result = {{"data", o.data}, {"recording_rows", rows_json(recording_distortion(o, spec))}};
-    if (!o.model.empty()) result["model_rows"] = rows_json(models::model_distortion(models::load_model(o.model), spec));
+    const std::vector<models::DistortionRow> recorded = recording_distortion(o, spec);
+    nlohmann::json result = {{"data", o.data}, {"recording_rows", rows_json(recorded)}};
+    if (!o.model.empty()) {
+      const std::vector<models::DistortionRow> modelled = models::model_distortion(models::load_model(o.model), spec);
+      result["model_rows"] = rows_json(modelled);
+      add_cancellation(result, recorded, modelled);
+    }
     print_result(result);
     return;
   }
@@ -91,6 +123,7 @@ void run_harmonics(const HarmonicsOptions& o) {
     result["kind"] = model.kind();
     result["plant_rows"] = rows_json(c.plant);
     result["model_rows"] = rows_json(c.model);
+    add_cancellation(result, c.plant, c.model);
   }
   print_result(result);
 }
@@ -100,7 +133,10 @@ void run_harmonics(const HarmonicsOptions& o) {
 void register_harmonics(CLI::App& app) {
   auto o = std::make_shared<HarmonicsOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "harmonics", "Harmonic distortion by stepped sine: a plant, and a model of it side by side (thesis fig. 6.7)");
+      "harmonics",
+      "Harmonic distortion by stepped sine: a plant, and a model of it side by side (thesis fig. 6.7), with each\n"
+      "harmonic's level and phase against the fundamental and, beside a model, how much of the measured distortion\n"
+      "a canceller designed on that model would remove (cancellable_db; the levels alone give an upper bound)");
   cmd->add_option("--plant", o->plant, "Preset (panel-exciter, linear) or plant JSON file")->capture_default_str();
   cmd->add_option("--model", o->model, "Model file to compare with the plant");
   cmd->add_option("--freqs", o->frequencies, "Fundamentals, Hz")->delimiter(',')->check(CLI::PositiveNumber);

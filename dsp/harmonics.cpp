@@ -5,6 +5,7 @@
 #include <limits>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 
 namespace panelbass::dsp {
 
@@ -20,6 +21,13 @@ double HarmonicLevels::relative_db(std::size_t h) const {
   return 20.0 * std::log10(amplitude[h - 1] / amplitude[0]);
 }
 
+std::complex<double> HarmonicLevels::relative(std::size_t h) const {
+  if (h < 1 || h > amplitude.size() || h > phase.size()) {
+    throw std::out_of_range("harmonic " + std::to_string(h) + " not measured");
+  }
+  return std::polar(amplitude[h - 1] / amplitude[0], phase[h - 1] - static_cast<double>(h) * phase[0]);
+}
+
 HarmonicLevels harmonic_levels(const Eigen::VectorXd& x, double fs, double frequency, int max_order) {
   if (x.size() < 2) throw std::invalid_argument("harmonic levels: need at least 2 samples");
   if (!(frequency > 0.0 && frequency < fs / 2.0)) {
@@ -29,11 +37,12 @@ HarmonicLevels harmonic_levels(const Eigen::VectorXd& x, double fs, double frequ
   out.frequency = frequency;
   const double n = static_cast<double>(x.size());
   for (int h = 1; h <= max_order && h * frequency < fs / 2.0; ++h) {
-    // Single-bin DFT: a_h = (2/N)·|Σ x(k)·e^{−j2π·h·f·k/fs}|
+    // Single-bin DFT: a_h·e^{jφ_h} = (2/N)·Σ x(k)·e^{−j2π·h·f·k/fs}
     std::complex<double> sum = 0.0;
     const double w = 2.0 * std::numbers::pi * h * frequency / fs;
     for (Eigen::Index k = 0; k < x.size(); ++k) sum += x[k] * std::polar(1.0, -w * static_cast<double>(k));
     out.amplitude.push_back(2.0 * std::abs(sum) / n);
+    out.phase.push_back(std::arg(sum));
   }
   return out;
 }

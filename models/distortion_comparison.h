@@ -4,6 +4,7 @@
 // process measured with tracking band-pass filters, the model by the DFT at each harmonic).
 
 #include <Eigen/Core>
+#include <complex>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -37,6 +38,9 @@ struct DistortionRow {
   double fundamental = 0.0;      ///< output amplitude at the fundamental (raw output units)
   /// Level of harmonic h = 2..max_order in dB re the fundamental, at index h − 2; NaN at or above fs/2.
   std::vector<double> harmonic_db;
+  /// Harmonic h = 2..max_order relative to the fundamental as a complex ratio (dsp::HarmonicLevels::relative:
+  /// level and phase against a cosine fundamental of phase zero), at index h − 2; NaN at or above fs/2.
+  std::vector<std::complex<double>> harmonic_relative;
   double thd_percent = 0.0;      ///< 100·√(Σ_{h≥2} a_h²)/a_1 over the harmonics below fs/2 (NaN if none is)
 };
 
@@ -62,5 +66,17 @@ std::vector<DistortionRow> model_distortion(const AnyModel& model, const Distort
 
 /// Both, side by side. Throws std::invalid_argument when the plant's and the model's fs differ.
 DistortionComparison compare_distortion(const PlantConfig& plant, const AnyModel& model, const DistortionSpec& spec);
+
+/// How much of `recorded`'s distortion a canceller that removes `model`'s harmonics would take away, dB:
+/// 10·log10(Σ_h |R_h|² / Σ_h |R_h − M_h|²) over the harmonics measured in both (R, M relative to their own
+/// fundamentals, DistortionRow::harmonic_relative). A correction of the drive acts on plant and model alike to
+/// first order, so the plant keeps R − M: +inf when the model's harmonics are the recording's, 0 for a model
+/// without harmonics, negative when the correction would add distortion (a harmonic of the right level and the
+/// wrong phase). Throws std::invalid_argument when the rows are at different frequencies or share no harmonic.
+double cancellable_db(const DistortionRow& recorded, const DistortionRow& model);
+
+/// The same from the levels alone, with ||R_h| − |M_h|| for |R_h − M_h|: an upper bound of cancellable_db that
+/// a model with every harmonic at the right level and the wrong phase would still reach.
+double cancellable_magnitude_db(const DistortionRow& recorded, const DistortionRow& model);
 
 }  // namespace panelbass::models

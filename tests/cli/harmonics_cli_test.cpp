@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "tests/support/cli_runner.h"
 
 namespace panelbass {
@@ -35,6 +37,21 @@ TEST_F(CliHarmonics, ModelRowsBesideThePlantRows) {
     EXPECT_NEAR(fitted, plant, 0.03 * plant);
     // Only the tail of the settling transient leaks into the measured window.
     EXPECT_LT(r["model_rows"][k]["thd_pct"].get<double>(), 1e-3);
+  }
+  // Set against the panel exciter, which distorts, a model without harmonics can cancel none of it: 0 dB by the
+  // complex difference and by the levels alone (within what the settling tail leaks, above); each harmonic's
+  // phase is reported, in degrees.
+  const json panel =
+      expect_result(run("harmonics --plant panel-exciter --model " + quoted(model) + " --freqs 60,200 --amplitudes 0.7"));
+  ASSERT_EQ(panel["cancellable"].size(), 2u);
+  for (const auto& row : panel["cancellable"]) {
+    EXPECT_NEAR(row["cancellable_db"].get<double>(), 0.0, 1e-3);
+    EXPECT_NEAR(row["cancellable_magnitude_db"].get<double>(), 0.0, 1e-3);
+  }
+  EXPECT_NEAR(panel["smallest_cancellable_db"].get<double>(), 0.0, 1e-3);
+  for (const auto& row : panel["plant_rows"]) {
+    const double phase = row["phases"]["H3_deg"];
+    EXPECT_LE(std::abs(phase), 180.0);
   }
 }
 

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <complex>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -82,6 +83,65 @@ TEST(HarmonicLevelsTest, RelativeDbIs20Log10OfAmplitudeRatio) {
   EXPECT_EQ(hand.relative_db(3), -std::numeric_limits<double>::infinity());
   EXPECT_THROW(hand.relative_db(0), std::out_of_range);
   EXPECT_THROW(hand.relative_db(4), std::out_of_range);
+}
+
+// A sine is a cosine delayed by a quarter period: sin(θ + φ) = cos(θ + φ − π/2).
+TEST(HarmonicLevelsTest, PhasesAreThoseOfTheCosinesOverWholePeriods) {
+  const double fs = 48000.0, f = 1000.0;
+  const std::vector<double> a = {0.8, 0.1, 0.05};
+  const std::vector<double> phase = {0.3, -1.1, 2.0};
+  const HarmonicLevels lv = harmonic_levels(sum_of_sines(4800, fs, f, a, phase), fs, f, 3);
+  ASSERT_EQ(lv.phase.size(), 3u);
+  for (std::size_t h = 0; h < a.size(); ++h) {
+    EXPECT_NEAR(std::remainder(lv.phase[h] - (phase[h] - std::numbers::pi / 2), 2 * std::numbers::pi), 0.0, 1e-10)
+        << "harmonic " << h + 1;
+  }
+}
+
+// relative(h) = (a_h/a_1)·e^{j(φ_h − h·φ_1)} with cosine phases, and a delay of d samples (φ_h → φ_h − h·ω·d)
+// leaves it as it is.
+TEST(HarmonicLevelsTest, RelativeHarmonicIsLevelAndPhaseAgainstTheFundamentalWhateverTheDelay) {
+  const double fs = 48000.0, f = 1000.0;
+  const std::vector<double> a = {0.8, 0.1, 0.05};
+  const std::vector<double> phase = {0.3, -1.1, 2.0};
+  for (const int delay : {0, 7, 30}) {
+    std::vector<double> delayed = phase;
+    for (std::size_t h = 0; h < a.size(); ++h) {
+      delayed[h] -= static_cast<double>(h + 1) * 2.0 * std::numbers::pi * f / fs * delay;
+    }
+    const HarmonicLevels lv = harmonic_levels(sum_of_sines(4800, fs, f, a, delayed), fs, f, 3);
+    EXPECT_NEAR(std::abs(lv.relative(1) - 1.0), 0.0, 1e-10);
+    for (std::size_t h = 2; h <= 3; ++h) {
+      // sine phases: φ_h − π/2 − h·(φ_1 − π/2) = φ_h − h·φ_1 + (h − 1)·π/2
+      const std::complex<double> expected =
+          std::polar(a[h - 1] / a[0], phase[h - 1] - h * phase[0] + (h - 1.0) * std::numbers::pi / 2);
+      EXPECT_NEAR(std::abs(lv.relative(h) - expected), 0.0, 1e-10) << "harmonic " << h << ", delay " << delay;
+    }
+  }
+  HarmonicLevels hand;
+  hand.amplitude = {1.0, 0.1};
+  hand.phase = {0.0, 0.0};
+  EXPECT_THROW(hand.relative(3), std::out_of_range);
+  EXPECT_THROW(hand.relative(0), std::out_of_range);
+}
+
+// y = x + c·x³ on x = A·cos θ: cos³θ = (3·cos θ + cos 3θ)/4, so H3 is (c·A³/4)/(A + 3·c·A³/4), in phase with
+// the cosine fundamental for c > 0 and opposite to it for c < 0 — and the same on x = A·sin θ.
+TEST(HarmonicLevelsTest, CubicNonlinearityHasItsClosedFormRelativeThirdHarmonic) {
+  const double fs = 48000.0, f = 1000.0, amplitude = 0.7;
+  for (const double c : {0.2, -0.2}) {
+    for (const double start : {0.0, -std::numbers::pi / 2}) {  // cosine, then sine
+      Eigen::VectorXd y(4800);
+      for (Eigen::Index k = 0; k < y.size(); ++k) {
+        const double x = amplitude * std::cos(2.0 * std::numbers::pi * f / fs * k + start);
+        y[k] = x + c * x * x * x;
+      }
+      const HarmonicLevels lv = harmonic_levels(y, fs, f, 3);
+      const double a3 = c * std::pow(amplitude, 3) / 4, a1 = amplitude + 3 * c * std::pow(amplitude, 3) / 4;
+      EXPECT_NEAR(std::abs(lv.relative(3) - a3 / a1), 0.0, 1e-10) << "c " << c << ", start " << start;
+      EXPECT_NEAR(std::abs(lv.relative(2)), 0.0, 1e-10);
+    }
+  }
 }
 
 TEST(HarmonicLevelsTest, HarmonicsAtOrAboveNyquistAreNotReported) {

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <stdexcept>
 
 #include "models/plant_presets.h"
@@ -125,6 +126,56 @@ TEST(DistortionComparisonTest, LinearModelGivesItsFrequencyResponseAndNoHarmonic
   PlantConfig other_rate = plant_preset("linear");
   other_rate.fs = 6000.0;
   expect_invalid([&] { compare_distortion(other_rate, model, spec); }, "6000");
+}
+
+// Static polynomials y = x + b·x² + c·x³ on a sine of amplitude A: the fundamental is A + 3·c·A³/4, H2 is
+// b·A²/2 and H3 c·A³/4, each in phase with the cosine fundamental (their sign is the coefficient's). So a
+// "recording" with (b, c) set against a model with (−b, −c) has harmonics of nearly the same levels and
+// opposite phase: the levels alone promise a large cut, the complex difference says the canceller doubles them.
+TEST(DistortionComparisonTest, CancellableDistortionIsTheComplexDifferenceOfTheHarmonics) {
+  const double amplitude = 0.6, b = 0.05, c = 0.08;
+  const auto polynomial = [](double bb, double cc, Eigen::Index delay) {
+    return [=](const Eigen::VectorXd& u) {
+      Eigen::VectorXd y = Eigen::VectorXd::Zero(u.size());
+      for (Eigen::Index k = delay; k < u.size(); ++k) {
+        const double x = u[k - delay];
+        y[k] = x + bb * x * x + cc * x * x * x;
+      }
+      return y;
+    };
+  };
+  DistortionSpec spec = small_spec();
+  spec.frequencies = {60.0, 150.0};
+  spec.amplitudes = {amplitude};
+  const std::vector<DistortionRow> recorded = measure_distortion(polynomial(b, c, 0), 3000.0, spec);
+  const std::vector<DistortionRow> opposite = measure_distortion(polynomial(-b, -c, 0), 3000.0, spec);
+  const std::vector<DistortionRow> delayed = measure_distortion(polynomial(b, c, 5), 3000.0, spec);
+  const std::vector<DistortionRow> linear = measure_distortion(polynomial(0.0, 0.0, 0), 3000.0, spec);
+  const double a = amplitude;
+  const double r2 = b * a * a / 2 / (a + 0.75 * c * a * a * a), r3 = c * a * a * a / 4 / (a + 0.75 * c * a * a * a);
+  const double m2 = -b * a * a / 2 / (a - 0.75 * c * a * a * a), m3 = -c * a * a * a / 4 / (a - 0.75 * c * a * a * a);
+  const double complex_db = 10 * std::log10((r2 * r2 + r3 * r3) / ((r2 - m2) * (r2 - m2) + (r3 - m3) * (r3 - m3)));
+  const double levels_db = 10 * std::log10((r2 * r2 + r3 * r3) /
+                                           ((r2 + m2) * (r2 + m2) + (r3 + m3) * (r3 + m3)));  // |m| = −m here
+  ASSERT_EQ(recorded.size(), 2u);
+  for (std::size_t k = 0; k < recorded.size(); ++k) {
+    EXPECT_NEAR(std::real(recorded[k].harmonic_relative[0]), r2, 1e-9);
+    EXPECT_NEAR(std::real(recorded[k].harmonic_relative[1]), r3, 1e-9);
+    EXPECT_NEAR(cancellable_db(recorded[k], opposite[k]), complex_db, 1e-6);  // ≈ −6 dB: doubled
+    EXPECT_NEAR(cancellable_magnitude_db(recorded[k], opposite[k]), levels_db, 1e-6);
+    EXPECT_LT(complex_db, -5.0);
+    EXPECT_GT(levels_db, 20.0);
+    // The same polynomial behind a delay of 5 samples: the same harmonics against their fundamental.
+    EXPECT_GT(cancellable_db(recorded[k], delayed[k]), 150.0);
+    // A model without harmonics removes nothing.
+    EXPECT_NEAR(cancellable_db(recorded[k], linear[k]), 0.0, 1e-9);
+    EXPECT_NEAR(cancellable_magnitude_db(recorded[k], linear[k]), 0.0, 1e-9);
+  }
+  expect_invalid([&] { cancellable_db(recorded[0], recorded[1]); }, "150");
+  DistortionSpec high = spec;
+  high.frequencies = {900.0};  // H2 = 1800 Hz lies above Nyquist at 3000 Hz
+  const std::vector<DistortionRow> none = measure_distortion(polynomial(b, c, 0), 3000.0, high);
+  expect_invalid([&] { cancellable_db(none[0], none[0]); }, "no harmonic");
 }
 
 TEST(DistortionComparisonTest, RejectsBadSpecsAndSystems) {
