@@ -1,3 +1,4 @@
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -35,7 +36,8 @@ nlohmann::json row_json(const engine::EvaluationRow& row) {
                       {"h2_db", p.h2_db},
                       {"h3_db", p.h3_db},
                       {"thd_pct", p.thd_pct},
-                      {"harmonics_db", harmonics}});
+                      {"harmonics_db", harmonics},
+                      {"model_thd_pct", models::number_or_null(p.model_thd_pct)}});
   }
   return {{"name", row.name},         {"ripple_db", row.ripple_db},       {"jc_pct", row.jc_pct},
           {"max_drive", row.max_drive}, {"rail_fraction", row.rail_fraction}, {"faults", row.faults},
@@ -51,6 +53,11 @@ void print_table(const engine::ChainEvaluation& e) {
     std::fprintf(stderr, "%-36s %9.2f %8.2f", row.name.c_str(), row.ripple_db, row.jc_pct);
     for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.2f", p.thd_pct);
     std::fprintf(stderr, "  %10.3f\n", row.max_drive);
+    if (!row.probes.empty() && std::isfinite(row.probes.front().model_thd_pct)) {
+      std::fprintf(stderr, "%-36s %9s %8s", "  (the design's plant model)", "", "");
+      for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.2f", p.model_thd_pct);
+      std::fprintf(stderr, "\n");
+    }
   }
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -13,6 +14,7 @@
 #include "engine/offline_renderer.h"
 #include "models/feedback_training.h"
 #include "models/lq_feedforward.h"
+#include "models/neural_feedback.h"
 #include "models/state_space.h"
 
 namespace panelbass::engine {
@@ -79,6 +81,19 @@ double ripple_db(const EvaluationRow& row, const EvaluationOptions& o) {
   return hi - lo;
 }
 
+/// The THD of the design's NARX plant model (fb.plant) driven as `variant` drives the transducer: `sine`
+/// through the band-pass and the [7B] feedforward, then the neural feedback in closed loop with the model
+/// (fig. 7.10, model mode). The chain's limiter is left out: at a probe's drive it passes the drive unchanged.
+double model_thd_pct(const models::NeuralFeedback& fb, const Variant& variant, const std::vector<dsp::Biquad>& sections,
+                     const models::StateSpace& controller, const Eigen::VectorXd& sine, Eigen::Index n_analysis,
+                     double f, int harmonics) {
+  Eigen::VectorXd u = sine;
+  if (variant.band_pass) u = dsp::SosFilter(sections).process(u);
+  if (variant.feedforward) u = models::simulate(controller, u);
+  const Eigen::VectorXd y = variant.feedback ? models::simulate_closed_loop(fb, u).y : fb.plant.simulate(u);
+  return dsp::harmonic_levels(y.tail(n_analysis), fb.fs, f, harmonics).thd_percent();
+}
+
 void require_options(const EvaluationOptions& o, double fs) {
   if (!(o.ripple_low_hz >= 0.0 && o.ripple_low_hz < o.ripple_high_hz && o.ripple_high_hz <= fs / 2.0)) {
     throw std::invalid_argument("evaluate: the ripple band must satisfy 0 <= low < high <= fs/2");
@@ -120,6 +135,12 @@ ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantCon
   result.jc_noise_floor_pct = 100.0 * plant.sensor.noise_rms_V * plant.sensor.noise_rms_V / desired_power;
   models::PlantConfig quiet_plant = plant;
   quiet_plant.sensor.noise_rms_V = 0.0;
+
+  // The design's plant model, when the chain's feedback stage is a neural feedback controller.
+  std::optional<models::NeuralFeedback> design;
+  if (config.feedback && config.feedback->model.value("kind", "") == "neural_feedback") {
+    design = models::neural_feedback_from_json(config.feedback->model);
+  }
 
   std::vector<Variant> variants{{"plant", false, false, false}, {"band-pass + feedforward", true, true, false}};
   if (config.feedback) variants.push_back({"band-pass + feedforward + feedback", true, true, true});
@@ -166,6 +187,9 @@ ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantCon
       probe.h3_db = levels.relative_db(3);
       probe.thd_pct = levels.thd_percent();
       for (std::size_t h = 2; h <= levels.amplitude.size(); ++h) probe.harmonics_db.push_back(levels.relative_db(h));
+      if (design) {
+        probe.model_thd_pct = model_thd_pct(*design, variant, sections, controller, sine, n_analysis, f, o.harmonics);
+      }
       row.probes.push_back(probe);
     }
     row.rail_fraction = static_cast<double>(railed) / static_cast<double>(drive_samples);

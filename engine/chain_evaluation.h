@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,10 @@ struct ProbeResult {
   double h3_db = 0.0;           ///< 3rd harmonic relative to the fundamental, dB
   double thd_pct = 0.0;         ///< total harmonic distortion, percent
   std::vector<double> harmonics_db;  ///< harmonics 2..n relative to the fundamental, dB (−inf when absent)
+  /// THD the design's NARX plant model predicts for this configuration at this probe, percent: the model driven
+  /// by what the row's stages make of the same sine (the neural feedback in closed loop with it, model mode).
+  /// What the design expected, beside what the transducer did; NaN for a chain without a neural feedback stage.
+  double model_thd_pct = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// One configuration's row of the table.

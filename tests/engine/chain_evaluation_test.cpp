@@ -4,15 +4,19 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 
 #include "dsp/butterworth.h"
 #include "dsp/random.h"
 #include "engine/chain_evaluation.h"
 #include "models/linear_identification.h"
+#include "models/feedback_training.h"
 #include "models/lq_feedforward.h"
+#include "models/neural_feedback.h"
 #include "models/plant_presets.h"
 #include "models/state_space.h"
 #include "models/virtual_transducer.h"
+#include "tests/engine/engine_test_models.h"
 
 namespace panelbass::engine {
 namespace {
@@ -31,12 +35,18 @@ nlohmann::json lq_on_linear_plant(const models::PlantConfig& plant) {
   return models::lq_feedforward_to_json(models::design_lq(model, {1e-5, 20.0}));
 }
 
-TEST(ChainEvaluationTest, OnALinearPlantTheFeedforwardFlattensAndNothingDistorts) {
-  const models::PlantConfig plant = models::plant_preset("linear");
+// A chain of the default band-pass and that LQ feedforward, at the plant's rate.
+ChainConfig lq_chain(const models::PlantConfig& plant) {
   ChainConfig config;
   config.fs = plant.fs;
   config.feedforward = SlotConfig{};
   config.feedforward->model = lq_on_linear_plant(plant);
+  return config;
+}
+
+TEST(ChainEvaluationTest, OnALinearPlantTheFeedforwardFlattensAndNothingDistorts) {
+  const models::PlantConfig plant = models::plant_preset("linear");
+  ChainConfig config = lq_chain(plant);
   EvaluationOptions o;
   o.noise_samples = 30000;
   const ChainEvaluation e = evaluate_chain(config, plant, o);
@@ -67,10 +77,60 @@ TEST(ChainEvaluationTest, OnALinearPlantTheFeedforwardFlattensAndNothingDistorts
     ASSERT_EQ(row.probes.size(), o.probe_hz.size());
     for (const ProbeResult& p : row.probes) {
       EXPECT_LT(p.thd_pct, 1.0) << row.name << " at " << p.frequency_hz << " Hz: a linear plant has no harmonics";
+      EXPECT_TRUE(std::isnan(p.model_thd_pct)) << "no neural feedback stage, no design model";
       EXPECT_GT(p.amplitude, 0.0);
       EXPECT_LE(p.amplitude, 1.0);
     }
   }
+}
+
+// With a neural feedback stage, every probe also reports the THD its design's NARX plant model predicts:
+// recomputed here from the controller file alone, with a plain sine of the probe's amplitude (no fade: the
+// steady state is the same), through the band-pass and the feedforward as the row runs them, and for the
+// full chain the closed loop of fig. 7.10 on the model.
+TEST(ChainEvaluationTest, EachProbeReportsTheThdTheDesignsPlantModelPredicts) {
+  const models::PlantConfig plant = models::plant_preset("linear");
+  ChainConfig config = lq_chain(plant);
+  models::FeedbackStructure structure;
+  structure.nu = 2;
+  structure.nv = 1;
+  structure.ny = 2;
+  structure.hidden = {4};
+  models::NeuralFeedback fb = models::NeuralFeedback::with_structure(structure, testing::example_narx(3));
+  models::initialize_feedback(fb, 7, 0.05);
+  config.feedback = SlotConfig{};
+  config.feedback->model = models::neural_feedback_to_json(fb);
+  EvaluationOptions o;
+  o.noise_samples = 4096;
+  o.probe_hz = {40.0, 160.0};
+  o.probe_peak = 0.6;
+  const ChainEvaluation e = evaluate_chain(config, plant, o);
+  ASSERT_EQ(e.rows.size(), 3u);
+
+  const models::LqFeedforward lq = models::lq_feedforward_from_json(config.feedforward->model);
+  const std::vector<dsp::Biquad> bp = dsp::butterworth_band(2, 20.0, 1200.0, plant.fs);
+  const models::NeuralFeedback design = models::neural_feedback_from_json(config.feedback->model);
+  for (std::size_t r = 0; r < e.rows.size(); ++r) {
+    for (const ProbeResult& p : e.rows[r].probes) {
+      Eigen::VectorXd sine(9000);
+      for (Eigen::Index k = 0; k < sine.size(); ++k) {
+        sine[k] = p.amplitude * std::sin(2.0 * std::numbers::pi * p.frequency_hz * static_cast<double>(k) / plant.fs);
+      }
+      Eigen::VectorXd y;
+      if (r == 0) {
+        y = design.plant.simulate(sine);
+      } else {
+        const Eigen::VectorXd u = models::simulate(lq.controller(), dsp::SosFilter(bp).process(sine));
+        y = r == 1 ? design.plant.simulate(u) : models::simulate_closed_loop(design, u).y;
+      }
+      const double expected = dsp::harmonic_levels(y.tail(3000), plant.fs, p.frequency_hz, o.harmonics).thd_percent();
+      EXPECT_GT(expected, 0.01) << "the example NARX distorts";
+      EXPECT_NEAR(p.model_thd_pct, expected, 0.01 * expected) << e.rows[r].name << " at " << p.frequency_hz << " Hz";
+    }
+  }
+  // The feedback changes what the model predicts.
+  EXPECT_GT(std::abs(e.rows[2].probes[0].model_thd_pct - e.rows[1].probes[0].model_thd_pct),
+            0.01 * e.rows[1].probes[0].model_thd_pct);
 }
 
 TEST(ChainEvaluationTest, RefusesAChainWithoutAnLqFeedforward) {
