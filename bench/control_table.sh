@@ -98,6 +98,10 @@ for r in e["rows"]:
 if len(e["rows"]) == 3:
     change = [20 * math.log10(c["thd_pct"] / b["thd_pct"]) for b, c in zip(e["rows"][1]["probes"], e["rows"][2]["probes"])]
     print("THD change by the feedback: " + ", ".join(f"{f:.0f} Hz {d:+.1f} dB" for f, d in zip(probes, change)))
+    predicted = [20 * math.log10(c["model_thd_pct"] / b["model_thd_pct"])
+                 for b, c in zip(e["rows"][1]["probes"], e["rows"][2]["probes"])]
+    print("the same on the design's NARX plant model (what the design expected): " +
+          ", ".join(f"{f:.0f} Hz {d:+.1f} dB" for f, d in zip(probes, predicted)))
 print(f'J_c noise floor of the sensor: {e["jc_noise_floor_pct"]:.1f} %; noise program amplitude {e["noise_amplitude"]:.3f}')
 PY
 }
