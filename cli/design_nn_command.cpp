@@ -100,6 +100,9 @@ void add_design_nn(CLI::App& design) {
                   "at the drive level")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
+  cmd->add_flag("--level-weighting", o->design.level_weighting,
+               "Weight the noise and every sine step by the inverse of its desired output's power, so small steps "
+               "count as much as loud ones (J_c is then weighted too)");
   cmd->add_option("--iterations", o->design.training.max_iterations, "Levenberg-Marquardt iterations")
       ->check(CLI::Range(0, 100000))
       ->capture_default_str();

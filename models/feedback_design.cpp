@@ -99,6 +99,20 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   const Eigen::VectorXd shaped = dsp::SosFilter(band_pass).process(r.program);
   r.u = simulate(controller, shaped);
   r.y_desired = simulate(ff.desired(), shaped);
+  if (o.level_weighting) {
+    // w = (record's mean power / part's mean power) of the desired output, per part (capped at 10⁴)
+    const auto power = [&](Eigen::Index start, Eigen::Index length) {
+      return r.y_desired.segment(start, length).squaredNorm() / static_cast<double>(length);
+    };
+    const double reference = power(0, o.samples);
+    r.weight = Eigen::VectorXd::Ones(o.samples);
+    const auto weigh = [&](Eigen::Index start, Eigen::Index length) {
+      const double p = power(start, length);
+      r.weight.segment(start, length).setConstant(p > 0.0 ? std::min(1e4, reference / p) : 1.0);
+    };
+    if (n_noise > 0) weigh(0, n_noise);
+    for (const Step& s : steps) weigh(s.start, s.length);
+  }
   return r;
 }
 
@@ -112,6 +126,7 @@ nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o) {
           {"sine_share", o.sine_share},
           {"sine_peak", o.sine_peak},
           {"program_share", o.program_share},
+          {"level_weighting", o.level_weighting},
           {"restarts", o.restarts},
           {"rail_penalty", o.training.rail_penalty},
           {"seed", o.seed}};
@@ -133,6 +148,8 @@ FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
     NeuralFeedback initial = NeuralFeedback::with_structure(o.structure, plant);
     initialize_feedback(initial, o.seed + static_cast<std::uint64_t>(restart));
     FeedbackTrainingOptions training = o.training;
+    training.weight_est = est.weight;
+    training.weight_val = val.weight;
     if (o.training.progress) {
       training.progress = [&o, restart](FeedbackTrainingRecord r) {
         r.restart = restart;

@@ -28,6 +28,10 @@ struct FeedbackDesignOptions {
   double program_share = 0.0;        ///< share of the stepped sines played at a program level (the same program
                                      ///< amplitude range at every frequency, as music would), the rest at a drive
                                      ///< level (steady drive peak sine_peak at each step's own frequency)
+  bool level_weighting = false;      ///< weight each part of a record (the noise, every sine step) by the inverse
+                                     ///< of its desired output's power, so a small step's relative error counts as
+                                     ///< much as a loud one's (otherwise a step at a twelfth of the level counts
+                                     ///< 1/144 as much, and the harmonics of small drives are all but invisible)
   std::uint64_t seed = 1;            ///< records (estimation: seed, validation: seed + 1) and initial weights
   int restarts = 1;                  ///< trainings from different initial weights on the same records; the one
                                      ///< with the lowest validation J_c (on the plant model) is kept
@@ -39,6 +43,7 @@ struct ControlRecord {
   Eigen::VectorXd program;    ///< the program input
   Eigen::VectorXd u;          ///< the feedforward output u* (band-pass, then [7B]), raw drive units
   Eigen::VectorXd y_desired;  ///< the desired output [7B] y_lin of the band-passed program, raw units
+  Eigen::VectorXd weight;     ///< tracking weight per sample (level_weighting), else empty (all 1)
 };
 
 /// A record of `o.samples`: uniform white noise at the largest safe amplitude (models::max_input's noise

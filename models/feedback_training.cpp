@@ -29,6 +29,21 @@ void require_data(const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired, Ei
   }
 }
 
+// Tracking weights: none (all 1), or one finite w(k) >= 0 per sample.
+void require_weights(const Eigen::VectorXd& weight, Eigen::Index samples, const char* which) {
+  if (weight.size() == 0) return;
+  const std::string where = std::string("train_feedback: ") + which;
+  if (weight.size() != samples) {
+    throw std::invalid_argument(where + " weights: " + std::to_string(weight.size()) + " for " +
+                                std::to_string(samples) + " samples");
+  }
+  for (Eigen::Index k = 0; k < weight.size(); ++k) {
+    if (!(std::isfinite(weight[k]) && weight[k] >= 0.0)) {
+      throw std::invalid_argument(where + " weight at sample " + std::to_string(k) + " is not finite and >= 0");
+    }
+  }
+}
+
 /// One pass of the loop over a record: the outputs, the loss, and (when asked) the Gauss–Newton normal
 /// equations g = Σ r·∂r/∂θ, H = Σ ∂r/∂θ·∂r/∂θᵀ over the residuals r = e and √λ·p.
 struct LoopSweep {
@@ -45,9 +60,10 @@ struct LoopSweep {
         x(controller.plant.structure.inputs()), dx(controller.plant.structure.inputs()),
         plant_dtheta(controller.plant.net.parameter_count()), ds(controller.net.parameter_count()) {}
 
-  /// Runs the loop on `u`; returns V. With `g`/`H`, also the normal equations (normalised like V).
-  double run(const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired, double lambda, Eigen::Index skip,
-             Eigen::VectorXd* g, Eigen::MatrixXd* H) {
+  /// Runs the loop on `u`; returns V. With `g`/`H`, also the normal equations (normalised like V). `weight`:
+  /// w(k) of each tracking residual (empty = 1).
+  double run(const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired, const Eigen::VectorXd& weight, double lambda,
+             Eigen::Index skip, Eigen::VectorXd* g, Eigen::MatrixXd* H) {
     const Eigen::Index n = u.size();
     const Eigen::Index P = c.net.parameter_count();
     const FeedbackStructure& s = c.structure;
@@ -90,11 +106,12 @@ struct LoopSweep {
       }
       if (k < skip) continue;
       const double e = y_scaled[k] - y_desired[k] / sc.y_scale;
+      const double w = weight.size() > 0 ? weight[k] : 1.0;
       const double over = std::abs(s_k) - c.knee;
       const double p = over > 0.0 ? sqrt_lambda * over : 0.0;
-      sum += e * e + p * p;
+      sum += w * e * e + p * p;
       if (jacobian) {
-        g->noalias() += e * Dy.col(k);
+        g->noalias() += (w * e) * Dy.col(k);
         if (p > 0.0) {
           const double sign = s_k > 0.0 ? sqrt_lambda : -sqrt_lambda;
           g->noalias() += (p * sign) * ds;
@@ -104,7 +121,9 @@ struct LoopSweep {
     }
     const double count = static_cast<double>(n - skip);
     if (jacobian) {
-      // H += Σ ψψᵀ over the tracking residuals, as one product of the stored sensitivities
+      // H += Σ w·ψψᵀ over the tracking residuals, as one product of the stored sensitivities (each scaled by
+      // √w: they are not needed after this pass)
+      if (weight.size() > 0) Dy.rightCols(n - skip) *= weight.tail(n - skip).cwiseSqrt().asDiagonal();
       const auto psi = Dy.rightCols(n - skip);
       H->selfadjointView<Eigen::Lower>().rankUpdate(psi);
       *H = H->selfadjointView<Eigen::Lower>();
@@ -114,9 +133,9 @@ struct LoopSweep {
     return sum / (2.0 * count);
   }
 
-  /// [2C] J_c of the last run, percent.
-  double jc(const Eigen::VectorXd& y_desired, Eigen::Index skip) const {
-    return jc_percent(y_scaled, y_desired / c.plant.scaling.y_scale, skip);
+  /// [2C] J_c of the last run (weighted by `weight` unless it is empty), percent.
+  double jc(const Eigen::VectorXd& y_desired, const Eigen::VectorXd& weight, Eigen::Index skip) const {
+    return jc_percent(y_scaled, y_desired / c.plant.scaling.y_scale, skip, weight);
   }
 
   /// Share of samples k ≥ skip whose unlimited output was above the knee in the last run.
@@ -146,17 +165,23 @@ double best_validation_jc_pct(const FeedbackTrainingResult& result) {
   return best ? best->jc_val_pct : std::numeric_limits<double>::infinity();
 }
 
-double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Eigen::Index skip) {
+double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Eigen::Index skip,
+                  const Eigen::VectorXd& weight) {
   if (y.size() != y_desired.size()) {
     throw std::invalid_argument("jc_percent: y has " + std::to_string(y.size()) + " samples, y_desired " +
                                 std::to_string(y_desired.size()));
   }
+  if (weight.size() > 0 && weight.size() != y.size()) {
+    throw std::invalid_argument("jc_percent: " + std::to_string(weight.size()) + " weights for " +
+                                std::to_string(y.size()) + " samples");
+  }
   const Eigen::Index n = y.size() - skip;
   if (n <= 0) throw std::invalid_argument("jc_percent: nothing left after the skip of " + std::to_string(skip));
-  const double energy = y_desired.tail(n).squaredNorm();
+  const Eigen::ArrayXd w = weight.size() > 0 ? Eigen::ArrayXd(weight.tail(n).array()) : Eigen::ArrayXd::Ones(n);
+  const double energy = (w * y_desired.tail(n).array().square()).sum();
   if (!(energy > 0.0)) throw std::invalid_argument("jc_percent: the desired output is zero");
-  // [2C] J_c = Σ (y_desired − y_system)² / Σ y_desired²
-  return 100.0 * (y_desired.tail(n) - y.tail(n)).squaredNorm() / energy;
+  // [2C] J_c = Σ (y_desired − y_system)² / Σ y_desired² (each term times w(k) when weighted)
+  return 100.0 * (w * (y_desired.tail(n) - y.tail(n)).array().square()).sum() / energy;
 }
 
 void initialize_feedback(NeuralFeedback& controller, std::uint64_t seed, double output_scale) {
@@ -166,19 +191,22 @@ void initialize_feedback(NeuralFeedback& controller, std::uint64_t seed, double 
 }
 
 double feedback_loss(const NeuralFeedback& controller, const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired,
-                     double rail_penalty, Eigen::Index skip) {
+                     double rail_penalty, Eigen::Index skip, const Eigen::VectorXd& weight) {
   require_data(u, y_desired, skip, "");
+  require_weights(weight, u.size(), "");
   LoopSweep sweep(controller, u.size());
-  return sweep.run(u, y_desired, rail_penalty, skip, nullptr, nullptr);
+  return sweep.run(u, y_desired, weight, rail_penalty, skip, nullptr, nullptr);
 }
 
 Eigen::VectorXd feedback_gradient(const NeuralFeedback& controller, const Eigen::VectorXd& u,
-                                  const Eigen::VectorXd& y_desired, double rail_penalty, Eigen::Index skip) {
+                                  const Eigen::VectorXd& y_desired, double rail_penalty, Eigen::Index skip,
+                                  const Eigen::VectorXd& weight) {
   require_data(u, y_desired, skip, "");
+  require_weights(weight, u.size(), "");
   LoopSweep sweep(controller, u.size());
   Eigen::VectorXd g;
   Eigen::MatrixXd H;
-  sweep.run(u, y_desired, rail_penalty, skip, &g, &H);
+  sweep.run(u, y_desired, weight, rail_penalty, skip, &g, &H);
   return g;
 }
 
@@ -191,8 +219,10 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
     throw std::invalid_argument("train_feedback: rail_penalty must be finite and >= 0");
   }
   require_data(u_est, y_desired_est, skip, "estimation");
+  require_weights(o.weight_est, u_est.size(), "estimation");
   const bool has_validation = u_val.size() > 0;
   if (has_validation) require_data(u_val, y_desired_val, skip, "validation");
+  if (has_validation) require_weights(o.weight_val, u_val.size(), "validation");
 
   FeedbackTrainingResult result{initial, {}, 0};
   NeuralFeedback current = initial;
@@ -202,13 +232,13 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
   const auto record = [&](int iteration) {
     FeedbackTrainingRecord r;
     r.iteration = iteration;
-    est.run(u_est, y_desired_est, o.rail_penalty, skip, nullptr, nullptr);
-    r.jc_est_pct = est.jc(y_desired_est, skip);
+    est.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, skip, nullptr, nullptr);
+    r.jc_est_pct = est.jc(y_desired_est, o.weight_est, skip);
     r.rail_fraction = est.rail_fraction(skip);
     r.jc_val_pct = std::numeric_limits<double>::quiet_NaN();
     if (has_validation) {
-      val.run(u_val, y_desired_val, o.rail_penalty, skip, nullptr, nullptr);
-      r.jc_val_pct = val.jc(y_desired_val, skip);
+      val.run(u_val, y_desired_val, o.weight_val, o.rail_penalty, skip, nullptr, nullptr);
+      r.jc_val_pct = val.jc(y_desired_val, o.weight_val, skip);
     }
     result.history.push_back(r);
     if (o.progress) o.progress(r);
@@ -221,7 +251,7 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
   Eigen::VectorXd g, delta;
   Eigen::MatrixXd H, A;
   for (int it = 1; it <= o.max_iterations; ++it) {
-    const double V = est.run(u_est, y_desired_est, o.rail_penalty, skip, &g, &H);
+    const double V = est.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, skip, &g, &H);
     if (!std::isfinite(V) || !g.allFinite() || !H.allFinite()) break;
     // Levenberg–Marquardt: (H + μ·diag(H)) δ = g, θ ← θ − δ if V decreases; μ ÷10 on success, ×10 on failure
     const double floor = 1e-9 * std::max(H.diagonal().mean(), 1e-300);
@@ -232,7 +262,7 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
       delta = A.ldlt().solve(g);
       trial.net.parameters() = current.net.parameters() - delta;
       const double V_new = delta.allFinite()
-                               ? trial_sweep.run(u_est, y_desired_est, o.rail_penalty, skip, nullptr, nullptr)
+                               ? trial_sweep.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, skip, nullptr, nullptr)
                                : std::numeric_limits<double>::infinity();
       if (std::isfinite(V_new) && V_new < V) {
         current.net.parameters() = trial.net.parameters();

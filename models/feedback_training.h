@@ -5,8 +5,8 @@
 // both networks (exact, the closed-loop form of [5L]), Levenberg–Marquardt steps, early stopping on
 // validation data.
 //
-// The loss: V = 1/(2(N − skip))·Σ_{k≥skip} [e(k)² + λ·p(k)²], with the tracking error
-// e(k) = ŷ_s(k) − y_des(k)/y_scale (the plant model's scaled units) and the rail penalty
+// The loss: V = 1/(2(N − skip))·Σ_{k≥skip} [w(k)·e(k)² + λ·p(k)²] (w = 1 unless weights are given), with
+// the tracking error e(k) = ŷ_s(k) − y_des(k)/y_scale (the plant model's scaled units) and the rail penalty
 // p(k) = max(0, |s(k)| − knee) on the unlimited controller output s (time spent in the soft limit,
 // i.e. near the rails).
 
@@ -36,6 +36,9 @@ struct FeedbackTrainingOptions {
   bool early_stopping = true;      ///< keep the parameters with the best validation J_c
   int patience = 10;               ///< iterations without validation improvement before stopping
   std::function<void(const FeedbackTrainingRecord&)> progress;  ///< called after every iteration
+  /// Per-sample weights w(k) >= 0 of the tracking error on the estimation and validation records (empty = 1):
+  /// the loss becomes Σ w(k)·e(k)² + λ·p(k)², and J_c (the records' and early stopping's) is weighted alike.
+  Eigen::VectorXd weight_est, weight_val;
 };
 
 /// What training produced.
@@ -52,8 +55,9 @@ const FeedbackTrainingRecord* best_validation_record(const FeedbackTrainingResul
 /// The lowest validation J_c of a training's history, percent (infinity when none is finite).
 double best_validation_jc_pct(const FeedbackTrainingResult& result);
 
-/// [2C] J_c = Σ (y_des − y)² / Σ y_des² in percent, over k ≥ skip.
-double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Eigen::Index skip = 0);
+/// [2C] J_c = Σ (y_des − y)² / Σ y_des² in percent, over k ≥ skip; with `weight`, each term times w(k).
+double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Eigen::Index skip = 0,
+                  const Eigen::VectorXd& weight = {});
 
 /// Small random weights for N1 (Mlp::initialize with `seed`) with the output layer scaled down by
 /// `output_scale`, so the controller starts close to the identity but not at a symmetric saddle.
@@ -61,12 +65,13 @@ void initialize_feedback(NeuralFeedback& controller, std::uint64_t seed, double 
 
 /// The loss V above for feedforward output `u` (raw drive units) and desired output `y_desired` (raw).
 double feedback_loss(const NeuralFeedback& controller, const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired,
-                     double rail_penalty, Eigen::Index skip);
+                     double rail_penalty, Eigen::Index skip, const Eigen::VectorXd& weight = {});
 
 /// dV/dθ1 by dynamic backpropagation through the loop (Appendix 3 [1]/[2]): forward sensitivities of v
 /// and ŷ, each the sum of the direct term and the terms through every fed-back past value.
 Eigen::VectorXd feedback_gradient(const NeuralFeedback& controller, const Eigen::VectorXd& u,
-                                  const Eigen::VectorXd& y_desired, double rail_penalty, Eigen::Index skip);
+                                  const Eigen::VectorXd& y_desired, double rail_penalty, Eigen::Index skip,
+                                  const Eigen::VectorXd& weight = {});
 
 /// Trains `initial` by Levenberg–Marquardt on the exact closed-loop Jacobian. Throws std::invalid_argument
 /// for mismatched lengths, non-finite data or records not longer than the skip.

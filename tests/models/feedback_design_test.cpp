@@ -128,6 +128,36 @@ TEST(FeedbackDesignTest, ProgramLevelStepsShareOneAmplitudeRangeDriveLevelStepsO
   EXPECT_THROW(control_record(ff, bp, o, 5), std::invalid_argument);
 }
 
+// Level weighting: the noise part and every step get one weight each, the inverse of their desired output's
+// mean power relative to the record's, so that every part then weighs in with the record's mean power (checked
+// part by part, from the step grid alone); without it the record has no weights.
+TEST(FeedbackDesignTest, LevelWeightingGivesEveryPartTheRecordsMeanPower) {
+  const LqFeedforward ff = design_lq(accelerometer_model(), {1e-5, 20.0});
+  const std::vector<dsp::Biquad> bp = audio_band();
+  FeedbackDesignOptions o;
+  o.samples = 15000;  // 5000 samples of noise, then 13 steps and a short one
+  o.sine_share = 2.0 / 3.0;
+  o.program_share = 0.5;
+  EXPECT_EQ(control_record(ff, bp, o, 2).weight.size(), 0);
+  o.level_weighting = true;
+  const ControlRecord r = control_record(ff, bp, o, 2);
+  ASSERT_EQ(r.weight.size(), o.samples);
+  const double mean_power = r.y_desired.squaredNorm() / static_cast<double>(o.samples);
+  const auto step = static_cast<Eigen::Index>(o.sine_step_seconds * 3000.0);
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> parts{{0, 5000}};
+  for (Eigen::Index start = 5000; start < o.samples; start += step) parts.emplace_back(start, std::min(step, o.samples - start));
+  double smallest = 1e300, largest = 0.0;
+  for (const auto& [start, length] : parts) {
+    const Eigen::VectorXd w = r.weight.segment(start, length);
+    EXPECT_EQ(w.minCoeff(), w.maxCoeff()) << "one weight per part, at " << start;
+    const Eigen::VectorXd y = r.y_desired.segment(start, length);
+    EXPECT_NEAR(w[0] * y.squaredNorm() / static_cast<double>(length), mean_power, 1e-9 * mean_power) << start;
+    smallest = std::min(smallest, w[0]);
+    largest = std::max(largest, w[0]);
+  }
+  EXPECT_GT(largest / smallest, 10.0) << "program-level steps near the resonance are far quieter than the rest";
+}
+
 // Restarts train from different initial weights on the same records and keep the best validation J_c: the
 // kept controller's J_c, recomputed here from its closed loop on the validation record, is the smallest of
 // the restarts', and restart 0 is the design without restarts.

@@ -106,6 +106,24 @@ TEST(NeuralFeedbackTest, ClosedLoopGradientMatchesFiniteDifferences) {
     fd[i] = (feedback_loss(plus, u, y_des, kLambda, kSkip) - feedback_loss(minus, u, y_des, kLambda, kSkip)) / (2 * h);
   }
   EXPECT_LT((g - fd).norm(), 1e-5 * fd.norm()) << "exact " << g.head(5).transpose() << "\nfd    " << fd.head(5).transpose();
+
+  // Per-sample tracking weights (level weighting): the exact gradient of the weighted loss, checked alike.
+  const Eigen::VectorXd w = uniform(600, 1.0, 9).array().abs() * 3.0;
+  const Eigen::VectorXd gw = feedback_gradient(c, u, y_des, kLambda, kSkip, w);
+  for (Eigen::Index i = 0; i < gw.size(); ++i) {
+    NeuralFeedback plus = c, minus = c;
+    plus.net.parameters()[i] += h;
+    minus.net.parameters()[i] -= h;
+    fd[i] = (feedback_loss(plus, u, y_des, kLambda, kSkip, w) - feedback_loss(minus, u, y_des, kLambda, kSkip, w)) / (2 * h);
+  }
+  EXPECT_LT((gw - fd).norm(), 1e-5 * fd.norm()) << "exact " << gw.head(5).transpose() << "\nfd    " << fd.head(5).transpose();
+  EXPECT_GT((gw - g).norm(), 1e-3 * g.norm()) << "the weights change the gradient";
+  // Weights of 1 are no weights.
+  EXPECT_LT((feedback_gradient(c, u, y_des, kLambda, kSkip, Eigen::VectorXd::Ones(600)) - g).norm(), 1e-12 * g.norm());
+  testing_support::expect_invalid([&] { feedback_loss(c, u, y_des, kLambda, kSkip, Eigen::VectorXd::Ones(599)); }, "599");
+  Eigen::VectorXd negative = Eigen::VectorXd::Ones(600);
+  negative[123] = -1.0;
+  testing_support::expect_invalid([&] { feedback_loss(c, u, y_des, kLambda, kSkip, negative); }, "sample 123");
 }
 
 TEST(NeuralFeedbackTest, TrainingLearnsTheInverseOfTheSaturation) {
@@ -134,6 +152,11 @@ TEST(NeuralFeedbackTest, JcIsTheThesisRatio) {
   y << 1, -1, 2, 1;
   EXPECT_DOUBLE_EQ(jc_percent(y, d), 100.0 * 2.0 / 9.0);
   EXPECT_DOUBLE_EQ(jc_percent(y, d, 2), 100.0 * 1.0 / 4.0);
+  // weighted: Σ w·(d − y)² / Σ w·d² = (0 + 3·1 + 0 + 0.5·1) / (1 + 3·4 + 2·4 + 0)
+  Eigen::VectorXd w(4);
+  w << 1, 3, 2, 0.5;
+  EXPECT_DOUBLE_EQ(jc_percent(y, d, 0, w), 100.0 * 3.5 / 21.0);
+  testing_support::expect_invalid([&] { jc_percent(y, d, 0, Eigen::VectorXd::Ones(3)); }, "3 weights");
   testing_support::expect_invalid([&] { jc_percent(y, Eigen::VectorXd::Zero(4)); }, "zero");
 }
 
