@@ -10,6 +10,7 @@
 #include "cli/data_options.h"
 #include "cli/json_output.h"
 #include "models/distortion_comparison.h"
+#include "models/json_fields.h"
 #include "models/model_file.h"
 #include "models/plant_presets.h"
 
@@ -28,25 +29,23 @@ struct HarmonicsOptions {
   std::size_t measure = 3000;
 };
 
-nlohmann::json number_or_null(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
-
 nlohmann::json rows_json(const std::vector<models::DistortionRow>& rows) {
   nlohmann::json out = nlohmann::json::array();
   for (const auto& r : rows) {
     nlohmann::json levels = nlohmann::json::object(), phases = nlohmann::json::object();
     for (std::size_t h = 0; h < r.harmonic_db.size(); ++h) {
       const std::string name = "H" + std::to_string(h + 2);
-      levels[name + "_db"] = number_or_null(r.harmonic_db[h]);
+      levels[name + "_db"] = models::number_or_null(r.harmonic_db[h]);
       // against a cosine fundamental of phase zero (dsp::HarmonicLevels::relative), degrees
       const double phase = h < r.harmonic_relative.size() ? std::arg(r.harmonic_relative[h]) : std::nan("");
-      phases[name + "_deg"] = number_or_null(phase * 180.0 / std::numbers::pi);
+      phases[name + "_deg"] = models::number_or_null(phase * 180.0 / std::numbers::pi);
     }
     out.push_back({{"frequency_hz", r.frequency},
                    {"amplitude", r.amplitude},
                    {"fundamental", r.fundamental},
                    {"harmonics", levels},
                    {"phases", phases},
-                   {"thd_pct", number_or_null(r.thd_percent)}});
+                   {"thd_pct", models::number_or_null(r.thd_percent)}});
   }
   return out;
 }
@@ -59,14 +58,15 @@ void add_cancellation(nlohmann::json& result, const std::vector<models::Distorti
   double smallest = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < measured.size() && k < model.size(); ++k) {
     const double db = models::cancellable_db(measured[k], model[k]);
+    const double levels_db = models::cancellable_magnitude_db(measured[k], model[k]);
     smallest = std::min(smallest, db);
     rows.push_back({{"frequency_hz", measured[k].frequency},
                     {"amplitude", measured[k].amplitude},
-                    {"cancellable_db", number_or_null(db)},
-                    {"cancellable_magnitude_db", number_or_null(models::cancellable_magnitude_db(measured[k], model[k]))}});
+                    {"cancellable_db", models::number_or_null(db)},
+                    {"cancellable_magnitude_db", models::number_or_null(levels_db)}});
   }
   result["cancellable"] = rows;
-  result["smallest_cancellable_db"] = number_or_null(smallest);
+  result["smallest_cancellable_db"] = models::number_or_null(smallest);
 }
 
 // A recording made with the stepped sine of `spec` (`panelbass simulate --signal stepped`, or played

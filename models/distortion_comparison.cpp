@@ -45,14 +45,14 @@ std::vector<DistortionRow> measure_distortion(const SystemResponse& system, doub
       row.frequency = step.frequency;
       row.amplitude = amplitude;
       row.fundamental = levels.amplitude.at(0);
-      row.harmonic_db.assign(static_cast<std::size_t>(spec.max_order - 1), std::numeric_limits<double>::quiet_NaN());
       const double nan = std::numeric_limits<double>::quiet_NaN();
+      row.harmonic_db.assign(static_cast<std::size_t>(spec.max_order - 1), nan);
       row.harmonic_relative.assign(static_cast<std::size_t>(spec.max_order - 1), {nan, nan});
       for (std::size_t h = 2; h <= levels.amplitude.size(); ++h) {
         row.harmonic_db[h - 2] = levels.relative_db(h);
         row.harmonic_relative[h - 2] = levels.relative(h);
       }
-      row.thd_percent = levels.amplitude.size() >= 2 ? levels.thd_percent() : std::numeric_limits<double>::quiet_NaN();
+      row.thd_percent = levels.amplitude.size() >= 2 ? levels.thd_percent() : nan;
       rows.push_back(std::move(row));
     }
   }
