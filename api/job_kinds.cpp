@@ -549,6 +549,7 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
   options.seed = params.at("seed").get<std::uint64_t>();
   options.training.max_iterations = params.at("max_iterations").get<int>();
   options.training.rail_penalty = params.at("rail_penalty").get<double>();
+  options.training.dc_penalty = params.at("dc_penalty").get<double>();
   const int total = std::max(1, options.training.max_iterations);
   const int restarts = options.restarts;
   progress.span(0.05, 0.9);

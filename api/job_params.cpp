@@ -201,6 +201,7 @@ json design_nn_params(const json& params, const JobEnvironment& env) {
   r.number("program_share", design.program_share, {0.0, 1.0, false, false});
   r.integer("restarts", design.restarts, 1, kMaxRestarts);
   r.number("rail_penalty", design.training.rail_penalty, {0.0, kMaxRailPenalty, false, false});
+  r.number("dc_penalty", design.training.dc_penalty, {0.0, kMaxRailPenalty, false, false});
   r.integer("seed", 1, 0, kMaxSeed);
   return r.finish();
 }

@@ -103,10 +103,21 @@ void add_design_nn(CLI::App& design) {
   cmd->add_flag("--level-weighting", o->design.level_weighting,
                "Weight the noise and every sine step by the inverse of its desired output's power, so small steps "
                "count as much as loud ones (J_c is then weighted too)");
+  cmd->add_option_function<std::string>(
+         "--desired",
+         [o](const std::string& name) { o->design.desired = models::desired_response_from_name(name); },
+         "What the loop output tracks: linear-model (y_lin of [7B], the thesis's) or plant-small-signal (the NARX "
+         "plant model's own small-signal response to the feedforward output, so only its distortion is corrected)")
+      ->check(CLI::IsMember({"linear-model", "plant-small-signal"}))
+      ->default_str("linear-model");
   cmd->add_option("--iterations", o->design.training.max_iterations, "Levenberg-Marquardt iterations")
       ->check(CLI::Range(0, 100000))
       ->capture_default_str();
   cmd->add_option("--rail-penalty", o->design.training.rail_penalty, "Weight of the time-at-the-rails penalty")
+      ->check(CLI::Range(0.0, 1e12))
+      ->capture_default_str();
+  cmd->add_option("--dc-penalty", o->design.training.dc_penalty,
+                  "Weight of the drive-offset penalty (N1's output below 5 Hz, which the plant cannot show; 0: off)")
       ->check(CLI::Range(0.0, 1e12))
       ->capture_default_str();
   cmd->add_option("--seed", o->design.seed, "Seed of the training records and initial weights")->capture_default_str();

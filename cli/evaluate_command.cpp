@@ -40,7 +40,8 @@ nlohmann::json row_json(const engine::EvaluationRow& row) {
                       {"model_thd_pct", models::number_or_null(p.model_thd_pct)}});
   }
   return {{"name", row.name},         {"ripple_db", row.ripple_db},       {"jc_pct", row.jc_pct},
-          {"max_drive", row.max_drive}, {"rail_fraction", row.rail_fraction}, {"faults", row.faults},
+          {"max_drive", row.max_drive}, {"rail_fraction", row.rail_fraction}, {"rest_drive_peak", row.rest_drive_peak},
+          {"faults", row.faults},
           {"probes", probes}};
 }
 
@@ -48,11 +49,11 @@ nlohmann::json row_json(const engine::EvaluationRow& row) {
 void print_table(const engine::ChainEvaluation& e) {
   std::fprintf(stderr, "%-36s %9s %8s", "configuration", "ripple dB", "J_c %");
   for (const engine::ProbeResult& p : e.rows.front().probes) std::fprintf(stderr, "  THD@%-4.0f%%", p.frequency_hz);
-  std::fprintf(stderr, "  max|drive|\n");
+  std::fprintf(stderr, "  max|drive|  rest|drive|\n");
   for (const engine::EvaluationRow& row : e.rows) {
     std::fprintf(stderr, "%-36s %9.2f %8.2f", row.name.c_str(), row.ripple_db, row.jc_pct);
     for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.2f", p.thd_pct);
-    std::fprintf(stderr, "  %10.3f\n", row.max_drive);
+    std::fprintf(stderr, "  %10.3f  %11.4f\n", row.max_drive, row.rest_drive_peak);
     if (!row.probes.empty() && std::isfinite(row.probes.front().model_thd_pct)) {
       std::fprintf(stderr, "%-36s %9s %8s", "  (the design's plant model)", "", "");
       for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.2f", p.model_thd_pct);

@@ -165,6 +165,8 @@ ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantCon
     row.jc_pct = models::jc_percent(y, y_desired, kNoiseSkip);
     measure_response(noise, y, fs, row);
     row.ripple_db = ripple_db(row, o);
+    const Run rest_run = run_variant(config, variant, quiet_plant, Eigen::VectorXd::Zero(n_settle + n_analysis), o.seed);
+    row.rest_drive_peak = rest_run.rendering.drive.tail(n_analysis).cwiseAbs().maxCoeff();
 
     for (double f : o.probe_hz) {
       ProbeResult probe;

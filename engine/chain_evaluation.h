@@ -50,6 +50,8 @@ struct EvaluationRow {
   double jc_pct = 0.0;               ///< [2C] J_c of the measured output against the desired response
   double max_drive = 0.0;            ///< largest |drive| over every run of this row
   double rail_fraction = 0.0;        ///< share of drive samples above the limiter's knee
+  double rest_drive_peak = 0.0;      ///< largest |drive| for a silent program (after settling): what the chain
+                                     ///< drives with no input, an offset a coil turns into displacement
   std::uint64_t faults = 0;          ///< times the chain dropped to its safe bypass
   std::vector<ProbeResult> probes;   ///< one per probe frequency
   Eigen::VectorXd response_hz;       ///< frequencies of the response |program → measured output| (H1, Welch)

@@ -6,14 +6,29 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 #include "dsp/biquad.h"
 #include "models/feedback_training.h"
 #include "models/lq_feedforward.h"
+#include "models/narx_model.h"
 #include "models/neural_feedback.h"
 
 namespace panelbass::models {
+
+/// What the loop output is trained to track.
+enum class DesiredResponse {
+  linear_model,         ///< y_lin of [7B], the linear model behind the feedforward (fig. 7.10, the thesis's)
+  plant_small_signal,   ///< the NARX plant model's own small-signal response to the feedforward output u*
+                        ///< (small_signal_response): the loop's error is then the model's distortion alone,
+                        ///< not the gain gap between the linear and the NARX model
+};
+
+/// "linear-model" or "plant-small-signal".
+const char* desired_response_name(DesiredResponse d);
+/// The DesiredResponse named `name`; std::invalid_argument listing the names otherwise.
+DesiredResponse desired_response_from_name(const std::string& name);
 
 /// How the controller is designed.
 struct FeedbackDesignOptions {
@@ -32,6 +47,7 @@ struct FeedbackDesignOptions {
                                      ///< of its desired output's power, so a small step's relative error counts as
                                      ///< much as a loud one's (otherwise a step at a twelfth of the level counts
                                      ///< 1/144 as much, and the harmonics of small drives are all but invisible)
+  DesiredResponse desired = DesiredResponse::linear_model;  ///< what the loop output tracks
   std::uint64_t seed = 1;            ///< records (estimation: seed, validation: seed + 1) and initial weights
   int restarts = 1;                  ///< trainings from different initial weights on the same records; the one
                                      ///< with the lowest validation J_c (on the plant model) is kept
@@ -42,7 +58,7 @@ struct FeedbackDesignOptions {
 struct ControlRecord {
   Eigen::VectorXd program;    ///< the program input
   Eigen::VectorXd u;          ///< the feedforward output u* (band-pass, then [7B]), raw drive units
-  Eigen::VectorXd y_desired;  ///< the desired output [7B] y_lin of the band-passed program, raw units
+  Eigen::VectorXd y_desired;  ///< the desired output (FeedbackDesignOptions::desired), raw units
   Eigen::VectorXd weight;     ///< tracking weight per sample (level_weighting), else empty (all 1)
 };
 
@@ -53,9 +69,12 @@ struct ControlRecord {
 /// band's loudest frequency reaches o.sine_peak, capped at the drive level — so that where the feedforward
 /// cuts (near the plant's resonance) the steps are as small as a program makes them. Every step fades in and
 /// out over two periods (10 ms at least) and is scaled down where the feedforward's slow transients would
-/// lift its drive above o.sine_peak. Deterministic in `seed`.
+/// lift its drive above o.sine_peak. y_desired as o.desired says (the plant-small-signal target needs `plant`,
+/// std::invalid_argument without it), plus, given `plant`, the plant model's rest output (its free run at
+/// u = 0), so that the loop tracks the change from rest and is not trained to null the model's offset with a
+/// DC drive. Deterministic in `seed`.
 ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
-                             const FeedbackDesignOptions& o, std::uint64_t seed);
+                             const FeedbackDesignOptions& o, std::uint64_t seed, const NarxModel* plant = nullptr);
 
 /// What the design produced.
 struct FeedbackDesign {
@@ -67,7 +86,7 @@ struct FeedbackDesign {
 
 /// The options a design ran with, as a controller file's meta and a design's report list them:
 /// {"samples","max_iterations","hidden","nu","nv","ny","sine_share","sine_peak","program_share","restarts",
-///  "rail_penalty","seed"}.
+///  "rail_penalty","dc_penalty","desired","seed"}.
 nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o);
 
 /// Designs the controller on `plant` (a NARX model at ff's rate) behind `ff` and `band_pass`: o.restarts

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 
@@ -46,10 +47,16 @@ void require_weights(const Eigen::VectorXd& weight, Eigen::Index samples, const 
 
 /// One pass of the loop over a record: the outputs, the loss, and (when asked) the Gauss–Newton normal
 /// equations g = Σ r·∂r/∂θ, H = Σ ∂r/∂θ·∂r/∂θᵀ over the residuals r = e and √λ·p.
+// Corner of the low-pass through which the drive-offset penalty sees N1's output, Hz: below the band-pass's
+// lowest corner (20 Hz), so it weighs offsets and slow drifts, not the corrections in the band.
+constexpr double kDcCornerHz = 5.0;
+
 struct LoopSweep {
   const NeuralFeedback& c;
   Eigen::VectorXd v, v_scaled, y_scaled;
   Eigen::MatrixXd Dv, Dy;  // P×N: dv(k)/dθ and dŷ_s(k)/dθ
+  Eigen::MatrixXd Dq;      // P×N: d/dθ of the drive-offset residuals √μ·low(k) (when μ > 0)
+  Eigen::VectorXd dlow;    // d low(k)/dθ
   Mlp::Workspace ws, plant_ws;
   Eigen::VectorXd r, dr, dtheta, x, dx, plant_dtheta, ds;
 
@@ -62,8 +69,9 @@ struct LoopSweep {
 
   /// Runs the loop on `u`; returns V. With `g`/`H`, also the normal equations (normalised like V). `weight`:
   /// w(k) of each tracking residual (empty = 1).
+  /// `dc`: μ of the drive-offset penalty (see FeedbackTrainingOptions::dc_penalty).
   double run(const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired, const Eigen::VectorXd& weight, double lambda,
-             Eigen::Index skip, Eigen::VectorXd* g, Eigen::MatrixXd* H) {
+             double dc, Eigen::Index skip, Eigen::VectorXd* g, Eigen::MatrixXd* H) {
     const Eigen::Index n = u.size();
     const Eigen::Index P = c.net.parameter_count();
     const FeedbackStructure& s = c.structure;
@@ -73,10 +81,16 @@ struct LoopSweep {
     if (jacobian) {
       Dv.setZero(P, n);
       Dy.setZero(P, n);
+      if (dc > 0.0) Dq.setZero(P, n);
+      dlow.setZero(P);
       g->setZero(P);
       H->setZero(P, P);
     }
     const double sqrt_lambda = std::sqrt(lambda);
+    const double sqrt_dc = std::sqrt(dc);
+    // the one-pole low-pass of N1's output whose every sample the drive-offset penalty weighs
+    const double pole = std::exp(-2.0 * std::numbers::pi * kDcCornerHz / c.fs);
+    double low = 0.0;
     double sum = 0.0;
     for (Eigen::Index k = 0; k < n; ++k) {
       // the controller: s(k) = u(k) + N1(r(k)), v(k) = soft_limit(s(k))
@@ -91,7 +105,9 @@ struct LoopSweep {
         for (Eigen::Index i = 1; i <= s.nv && k - i >= 0; ++i) ds.noalias() += dr[s.nu + i] * Dv.col(k - i);
         for (Eigen::Index i = 1; i <= s.ny && k - i >= 0; ++i) ds.noalias() += dr[s.nu + s.nv + i] * Dy.col(k - i);
         Dv.col(k) = dsp::soft_limit_slope(s_k, c.knee) * ds;
+        if (dc > 0.0) dlow = pole * dlow + (1.0 - pole) * ds;  // ∂s/∂θ1 = ∂N1/∂θ1: u does not depend on θ1
       }
+      low = pole * low + (1.0 - pole) * (s_k - u[k]);
       // the plant model: ŷ(k) = N2(ŷ(k−1..k−na), v(k−nk..k−nk−nb))
       c.plant.regressor(v_scaled, y_scaled, k, x);
       y_scaled[k] = c.plant.net.forward(x, plant_ws);
@@ -109,13 +125,18 @@ struct LoopSweep {
       const double w = weight.size() > 0 ? weight[k] : 1.0;
       const double over = std::abs(s_k) - c.knee;
       const double p = over > 0.0 ? sqrt_lambda * over : 0.0;
-      sum += w * e * e + p * p;
+      const double q = sqrt_dc * low;
+      sum += w * e * e + p * p + q * q;
       if (jacobian) {
         g->noalias() += (w * e) * Dy.col(k);
         if (p > 0.0) {
           const double sign = s_k > 0.0 ? sqrt_lambda : -sqrt_lambda;
           g->noalias() += (p * sign) * ds;
           H->selfadjointView<Eigen::Lower>().rankUpdate(ds, sign * sign);
+        }
+        if (dc > 0.0) {
+          g->noalias() += (q * sqrt_dc) * dlow;
+          Dq.col(k) = sqrt_dc * dlow;
         }
       }
     }
@@ -126,6 +147,7 @@ struct LoopSweep {
       if (weight.size() > 0) Dy.rightCols(n - skip) *= weight.tail(n - skip).cwiseSqrt().asDiagonal();
       const auto psi = Dy.rightCols(n - skip);
       H->selfadjointView<Eigen::Lower>().rankUpdate(psi);
+      if (dc > 0.0) H->selfadjointView<Eigen::Lower>().rankUpdate(Dq.rightCols(n - skip));
       *H = H->selfadjointView<Eigen::Lower>();
       *g /= count;
       *H /= count;
@@ -191,22 +213,22 @@ void initialize_feedback(NeuralFeedback& controller, std::uint64_t seed, double 
 }
 
 double feedback_loss(const NeuralFeedback& controller, const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired,
-                     double rail_penalty, Eigen::Index skip, const Eigen::VectorXd& weight) {
+                     double rail_penalty, Eigen::Index skip, const Eigen::VectorXd& weight, double dc_penalty) {
   require_data(u, y_desired, skip, "");
   require_weights(weight, u.size(), "");
   LoopSweep sweep(controller, u.size());
-  return sweep.run(u, y_desired, weight, rail_penalty, skip, nullptr, nullptr);
+  return sweep.run(u, y_desired, weight, rail_penalty, dc_penalty, skip, nullptr, nullptr);
 }
 
 Eigen::VectorXd feedback_gradient(const NeuralFeedback& controller, const Eigen::VectorXd& u,
                                   const Eigen::VectorXd& y_desired, double rail_penalty, Eigen::Index skip,
-                                  const Eigen::VectorXd& weight) {
+                                  const Eigen::VectorXd& weight, double dc_penalty) {
   require_data(u, y_desired, skip, "");
   require_weights(weight, u.size(), "");
   LoopSweep sweep(controller, u.size());
   Eigen::VectorXd g;
   Eigen::MatrixXd H;
-  sweep.run(u, y_desired, weight, rail_penalty, skip, &g, &H);
+  sweep.run(u, y_desired, weight, rail_penalty, dc_penalty, skip, &g, &H);
   return g;
 }
 
@@ -217,6 +239,9 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
   if (skip < 0) throw std::invalid_argument("train_feedback: transient_skip must be >= 0");
   if (!(o.rail_penalty >= 0.0) || !std::isfinite(o.rail_penalty)) {
     throw std::invalid_argument("train_feedback: rail_penalty must be finite and >= 0");
+  }
+  if (!(o.dc_penalty >= 0.0) || !std::isfinite(o.dc_penalty)) {
+    throw std::invalid_argument("train_feedback: dc_penalty must be finite and >= 0");
   }
   require_data(u_est, y_desired_est, skip, "estimation");
   require_weights(o.weight_est, u_est.size(), "estimation");
@@ -232,12 +257,12 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
   const auto record = [&](int iteration) {
     FeedbackTrainingRecord r;
     r.iteration = iteration;
-    est.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, skip, nullptr, nullptr);
+    est.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr);
     r.jc_est_pct = est.jc(y_desired_est, o.weight_est, skip);
     r.rail_fraction = est.rail_fraction(skip);
     r.jc_val_pct = std::numeric_limits<double>::quiet_NaN();
     if (has_validation) {
-      val.run(u_val, y_desired_val, o.weight_val, o.rail_penalty, skip, nullptr, nullptr);
+      val.run(u_val, y_desired_val, o.weight_val, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr);
       r.jc_val_pct = val.jc(y_desired_val, o.weight_val, skip);
     }
     result.history.push_back(r);
@@ -251,7 +276,7 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
   Eigen::VectorXd g, delta;
   Eigen::MatrixXd H, A;
   for (int it = 1; it <= o.max_iterations; ++it) {
-    const double V = est.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, skip, &g, &H);
+    const double V = est.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, o.dc_penalty, skip, &g, &H);
     if (!std::isfinite(V) || !g.allFinite() || !H.allFinite()) break;
     // Levenberg–Marquardt: (H + μ·diag(H)) δ = g, θ ← θ − δ if V decreases; μ ÷10 on success, ×10 on failure
     const double floor = 1e-9 * std::max(H.diagonal().mean(), 1e-300);
@@ -262,7 +287,7 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
       delta = A.ldlt().solve(g);
       trial.net.parameters() = current.net.parameters() - delta;
       const double V_new = delta.allFinite()
-                               ? trial_sweep.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, skip, nullptr, nullptr)
+                               ? trial_sweep.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr)
                                : std::numeric_limits<double>::infinity();
       if (std::isfinite(V_new) && V_new < V) {
         current.net.parameters() = trial.net.parameters();

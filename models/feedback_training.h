@@ -5,10 +5,11 @@
 // both networks (exact, the closed-loop form of [5L]), Levenberg–Marquardt steps, early stopping on
 // validation data.
 //
-// The loss: V = 1/(2(N − skip))·Σ_{k≥skip} [w(k)·e(k)² + λ·p(k)²] (w = 1 unless weights are given), with
-// the tracking error e(k) = ŷ_s(k) − y_des(k)/y_scale (the plant model's scaled units) and the rail penalty
-// p(k) = max(0, |s(k)| − knee) on the unlimited controller output s (time spent in the soft limit,
-// i.e. near the rails).
+// The loss: V = 1/(2(N − skip))·Σ_{k≥skip} [w(k)·e(k)² + λ·p(k)² + μ·low(k)²] (w = 1 unless weights are
+// given), with the tracking error e(k) = ŷ_s(k) − y_des(k)/y_scale (the plant model's scaled units), the rail
+// penalty p(k) = max(0, |s(k)| − knee) on the unlimited controller output s (time spent in the soft limit,
+// i.e. near the rails) and the drive-offset penalty on low(k) = a·low(k−1) + (1 − a)·N1(k), N1's output
+// through a one-pole low-pass at 5 Hz (a = e^{−2π·5/fs}; not in the thesis, see dc_penalty).
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -32,12 +33,17 @@ struct FeedbackTrainingRecord {
 struct FeedbackTrainingOptions {
   int max_iterations = 40;         ///< LM iterations
   double rail_penalty = 10.0;      ///< λ of the rail penalty
+  /// μ of the drive-offset penalty μ·low(k)², low = N1's output through a one-pole low-pass at 5 Hz: the
+  /// plant's gain near DC is tiny (an accelerometer's is zero), so the tracking error cannot see an offset in
+  /// the drive, and without this a controller settles on one (0.02 of full scale on panel-exciter's model,
+  /// as large as the 160 Hz probe's drive) that a real coil turns into displacement and even harmonics.
+  double dc_penalty = 1.0;
   Eigen::Index transient_skip = 50;  ///< samples left out of the loss at the start
   bool early_stopping = true;      ///< keep the parameters with the best validation J_c
   int patience = 10;               ///< iterations without validation improvement before stopping
   std::function<void(const FeedbackTrainingRecord&)> progress;  ///< called after every iteration
   /// Per-sample weights w(k) >= 0 of the tracking error on the estimation and validation records (empty = 1):
-  /// the loss becomes Σ w(k)·e(k)² + λ·p(k)², and J_c (the records' and early stopping's) is weighted alike.
+  /// the tracking terms become w(k)·e(k)², and J_c (the records' and early stopping's) is weighted alike.
   Eigen::VectorXd weight_est, weight_val;
 };
 
@@ -65,13 +71,14 @@ void initialize_feedback(NeuralFeedback& controller, std::uint64_t seed, double 
 
 /// The loss V above for feedforward output `u` (raw drive units) and desired output `y_desired` (raw).
 double feedback_loss(const NeuralFeedback& controller, const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired,
-                     double rail_penalty, Eigen::Index skip, const Eigen::VectorXd& weight = {});
+                     double rail_penalty, Eigen::Index skip, const Eigen::VectorXd& weight = {},
+                     double dc_penalty = 0.0);
 
 /// dV/dθ1 by dynamic backpropagation through the loop (Appendix 3 [1]/[2]): forward sensitivities of v
 /// and ŷ, each the sum of the direct term and the terms through every fed-back past value.
 Eigen::VectorXd feedback_gradient(const NeuralFeedback& controller, const Eigen::VectorXd& u,
                                   const Eigen::VectorXd& y_desired, double rail_penalty, Eigen::Index skip,
-                                  const Eigen::VectorXd& weight = {});
+                                  const Eigen::VectorXd& weight = {}, double dc_penalty = 0.0);
 
 /// Trains `initial` by Levenberg–Marquardt on the exact closed-loop Jacobian. Throws std::invalid_argument
 /// for mismatched lengths, non-finite data or records not longer than the skip.

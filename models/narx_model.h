@@ -52,6 +52,12 @@ struct NarxModel {
   Eigen::VectorXd predict(const Eigen::VectorXd& u, const Eigen::VectorXd& y) const;
 };
 
+/// The model's small-signal response to the raw input u: its linearisation about its free run at rest (u = 0),
+/// by the central difference (simulate(ε·u) − simulate(−ε·u)) / 2ε with ε·max|u| = 1e-5 raw units, so even
+/// orders cancel and the odd ones leave a relative error of order (1e-5 / u_scale)². Raw output units,
+/// without the rest output; all zeros for u = 0. Throws std::invalid_argument for a non-finite u.
+Eigen::VectorXd small_signal_response(const NarxModel& m, const Eigen::VectorXd& u);
+
 /// {"format":"panelbass.model/1","kind":"narx","fs","scaling","params":{"na","nb","nk","hidden","theta"},"meta"}.
 nlohmann::json narx_model_to_json(const NarxModel& m);
 

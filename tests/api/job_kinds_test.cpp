@@ -277,6 +277,7 @@ TEST_F(JobKindsTest, DesignNnDefaultsComeFromTheDesignOptions) {
   EXPECT_EQ(nn.at("program_share"), design.program_share);
   EXPECT_EQ(nn.at("restarts"), 1);
   EXPECT_EQ(nn.at("rail_penalty"), design.training.rail_penalty);
+  EXPECT_EQ(nn.at("dc_penalty"), design.training.dc_penalty);
   EXPECT_EQ(nn.at("samples"), 3000);
   EXPECT_EQ(nn.at("max_iterations"), 20);
   EXPECT_EQ(nn.at("hidden"), json({6}));
@@ -300,10 +301,11 @@ TEST_F(JobKindsTest, DesignNnRangesAreNamed) {
   EXPECT_EQ(refused({{"restarts", 21}}), "params.restarts: must be an integer in [1, 20], got 21");
   EXPECT_EQ(refused({{"rail_penalty", -1}}), "params.rail_penalty: must be a number in [0, 1e+12], got -1");
   EXPECT_EQ(refused({{"rail_penalty", "high"}}), "params.rail_penalty: must be a number in [0, 1e+12], got \"high\"");
+  EXPECT_EQ(refused({{"dc_penalty", -0.5}}), "params.dc_penalty: must be a number in [0, 1e+12], got -0.5");
   EXPECT_EQ(refused({{"restart", 2}}), "params.restart: unknown field");
   // The ends that belong to the ranges.
   const json ends = with({{"nu", 0}, {"nv", 100}, {"sine_share", 0}, {"sine_peak", 1}, {"program_share", 1}, {"restarts", 20},
-                          {"rail_penalty", 0}});
+                          {"rail_penalty", 0}, {"dc_penalty", 0}});
   EXPECT_NO_THROW(validate_job_params("design-nn", ends, env_));
 }
 
@@ -526,7 +528,8 @@ TEST_F(JobKindsTest, DesignNnTrainsOnANarxPlantBehindTheLqController) {
 TEST_F(JobKindsTest, DesignNnTakesTheControllersLagsAndTheRecordsShape) {
   json params = design_nn_models();
   params.update({{"samples", 1000}, {"max_iterations", 2}, {"hidden", {3}}, {"nu", 1}, {"nv", 3}, {"ny", 2},
-                 {"sine_share", 0.5}, {"sine_peak", 0.4}, {"program_share", 0.25}, {"rail_penalty", 3.0}, {"seed", 5}});
+                 {"sine_share", 0.5}, {"sine_peak", 0.4}, {"program_share", 0.25}, {"rail_penalty", 3.0}, {"dc_penalty", 0.5},
+                 {"seed", 5}});
   FakeControl control("j3");
   const json result = run("design-nn", params, control);
   expect_progress(control);
@@ -542,7 +545,7 @@ TEST_F(JobKindsTest, DesignNnTakesTheControllersLagsAndTheRecordsShape) {
   const json& summary = result.at("summary");
   for (const json* reported : {&summary, &fb.meta}) {
     for (const char* key : {"samples", "max_iterations", "hidden", "nu", "nv", "ny", "sine_share", "sine_peak",
-                            "program_share", "rail_penalty", "seed"}) {
+                            "program_share", "rail_penalty", "dc_penalty", "seed"}) {
       EXPECT_EQ(reported->at(key), params.at(key)) << key;
     }
     EXPECT_EQ(reported->at("restarts"), 1);

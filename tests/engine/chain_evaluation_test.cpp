@@ -81,6 +81,7 @@ TEST(ChainEvaluationTest, OnALinearPlantTheFeedforwardFlattensAndNothingDistorts
       EXPECT_GT(p.amplitude, 0.0);
       EXPECT_LE(p.amplitude, 1.0);
     }
+    EXPECT_EQ(row.rest_drive_peak, 0.0) << row.name << ": linear stages drive nothing without a program";
   }
 }
 
@@ -128,6 +129,11 @@ TEST(ChainEvaluationTest, EachProbeReportsTheThdTheDesignsPlantModelPredicts) {
       EXPECT_NEAR(p.model_thd_pct, expected, 0.01 * expected) << e.rows[r].name << " at " << p.frequency_hz << " Hz";
     }
   }
+  // With no program, the feedback stage drives what its closed loop with the model settles on: N1's offset.
+  const Eigen::VectorXd rest = models::simulate_closed_loop(design, Eigen::VectorXd::Zero(9000)).v;
+  EXPECT_NEAR(e.rows[2].rest_drive_peak, rest.tail(3000).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_GT(e.rows[2].rest_drive_peak, 1e-4) << "the example controller has an offset";
+  EXPECT_EQ(e.rows[1].rest_drive_peak, 0.0);
   // The feedback changes what the model predicts.
   EXPECT_GT(std::abs(e.rows[2].probes[0].model_thd_pct - e.rows[1].probes[0].model_thd_pct),
             0.01 * e.rows[1].probes[0].model_thd_pct);

@@ -182,7 +182,7 @@ TEST(FeedbackDesignTest, RestartsKeepTheLowestValidationJc) {
   ASSERT_EQ(d.restart_jc_val_pct.size(), 3u);
   const auto smallest = std::min_element(d.restart_jc_val_pct.begin(), d.restart_jc_val_pct.end());
   EXPECT_EQ(d.chosen_restart, smallest - d.restart_jc_val_pct.begin());
-  const ControlRecord val = control_record(ff, bp, o, o.seed + 1);
+  const ControlRecord val = control_record(ff, bp, o, o.seed + 1, &plant);
   const double kept = jc_percent(simulate_closed_loop(d.controller, val.u).y, val.y_desired, o.training.transient_skip);
   EXPECT_NEAR(kept, *smallest, 1e-9 * *smallest);
   EXPECT_NE(d.restart_jc_val_pct[0], d.restart_jc_val_pct[1]) << "restarts start from different weights";
@@ -192,6 +192,83 @@ TEST(FeedbackDesignTest, RestartsKeepTheLowestValidationJc) {
   EXPECT_DOUBLE_EQ(single.restart_jc_val_pct[0], d.restart_jc_val_pct[0]);
   o.restarts = 0;
   EXPECT_THROW(design_feedback(plant, ff, bp, o), std::invalid_argument);
+}
+
+// y(k) = tanh(0.5·y(k−1) + 1.5·u(k)) + offset.
+NarxModel tanh_narx_plant(double offset) {
+  NarxStructure s;
+  s.na = 1;
+  s.nb = 0;
+  s.hidden = {1};
+  NarxModel m = NarxModel::with_structure(s, Scaling{}, 3000.0);
+  m.net.parameters() << 0.5, 1.5, 0.0, 1.0, offset;
+  return m;
+}
+
+// Its rest trajectory r(k) = tanh(0.5·r(k−1)) + offset from r(−1) = 0, and the slope along it,
+// s(k) = 1 − tanh²(0.5·r(k−1)).
+std::pair<Eigen::VectorXd, Eigen::VectorXd> tanh_plant_rest_and_slope(double offset, Eigen::Index n) {
+  Eigen::VectorXd rest(n), slope(n);
+  double r = 0.0;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const double t = std::tanh(0.5 * r);
+    slope[k] = 1.0 - t * t;
+    rest[k] = r = t + offset;
+  }
+  return {rest, slope};
+}
+
+TEST(FeedbackDesignTest, PlantSmallSignalTargetIsThePlantModelsLinearisationOfTheDriveFromItsRest) {
+  const LqFeedforward ff = design_lq(resonant_model(), {1e-3, 20.0});
+  const double offset = 0.3;
+  const NarxModel plant = tanh_narx_plant(offset);
+  FeedbackDesignOptions o;
+  o.samples = 6000;
+  o.sine_share = 1.0;  // stepped sines only: the noise part plays at full scale, far into the tanh
+  o.sine_peak = 0.1;
+  o.desired = DesiredResponse::plant_small_signal;
+  const ControlRecord r = control_record(ff, audio_band(), o, 4, &plant);
+  // closed form: the rest trajectory plus the linearisation along it, δy(k) = s(k)·(0.5·δy(k−1) + 1.5·u(k))
+  const auto [rest, slope] = tanh_plant_rest_and_slope(offset, r.u.size());
+  Eigen::VectorXd expected(r.u.size());
+  double dy = 0.0;
+  for (Eigen::Index k = 0; k < r.u.size(); ++k) {
+    dy = slope[k] * (0.5 * dy + 1.5 * r.u[k]);
+    expected[k] = rest[k] + dy;
+  }
+  const double scale = expected.cwiseAbs().maxCoeff();
+  for (Eigen::Index k = 0; k < r.u.size(); ++k) ASSERT_NEAR(r.y_desired[k], expected[k], 1e-8 * scale) << k;
+  // the drive is the thesis's, whatever the target
+  FeedbackDesignOptions thesis = o;
+  thesis.desired = DesiredResponse::linear_model;
+  const ControlRecord t = control_record(ff, audio_band(), thesis, 4, &plant);
+  EXPECT_EQ(t.u, r.u);
+  // the uncorrected loop's error is then the plant model's distortion alone, far below the gap the thesis's
+  // target (the resonant linear model, another system) leaves
+  const Eigen::VectorXd loop = plant.simulate(r.u);
+  EXPECT_LT((loop - r.y_desired).norm(), 0.1 * (loop - t.y_desired).norm());
+  EXPECT_GT((loop - r.y_desired).norm(), 0.0);
+  // without the plant model there is no small-signal target
+  EXPECT_THROW(control_record(ff, audio_band(), o, 4), std::invalid_argument);
+}
+
+TEST(FeedbackDesignTest, GivenThePlantModelTheThesissTargetIsMeasuredFromItsRest) {
+  const LqFeedforward ff = design_lq(resonant_model(), {1e-3, 20.0});
+  const double offset = -0.2;
+  const NarxModel plant = tanh_narx_plant(offset);
+  FeedbackDesignOptions o;
+  o.samples = 3000;
+  const ControlRecord with = control_record(ff, audio_band(), o, 6, &plant);
+  const ControlRecord without = control_record(ff, audio_band(), o, 6);
+  const Eigen::VectorXd rest = tanh_plant_rest_and_slope(offset, with.u.size()).first;
+  EXPECT_LT((with.y_desired - without.y_desired - rest).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(FeedbackDesignTest, DesiredResponseNamesRoundTrip) {
+  for (DesiredResponse d : {DesiredResponse::linear_model, DesiredResponse::plant_small_signal}) {
+    EXPECT_EQ(desired_response_from_name(desired_response_name(d)), d);
+  }
+  EXPECT_THROW(desired_response_from_name("flat"), std::invalid_argument);
 }
 
 TEST(FeedbackDesignTest, RefusesBadOptions) {

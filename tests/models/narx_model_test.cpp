@@ -275,6 +275,51 @@ NarxModel file_model() {
   return m;
 }
 
+// y(k) = w·tanh(a·y(k−1) + b·u(k) + c) + d in scaled units: one node, na = 1, nb = 0, with offsets in the
+// scaling, so the rest trajectory is not zero and the linearisation's slope changes along it.
+NarxModel one_node_model(double a, double b, double c, double w, double d, const Scaling& scaling) {
+  NarxStructure s;
+  s.na = 1;
+  s.nb = 0;
+  s.nk = 0;
+  s.hidden = {1};
+  NarxModel m = NarxModel::with_structure(s, scaling, 1000.0);
+  m.net.parameters() << a, b, c, w, d;  // hidden row [y(k−1), u(k)], its bias, output weight, output bias
+  return m;
+}
+
+TEST(NarxModel, SmallSignalResponseIsTheLinearisationAlongTheRestTrajectory) {
+  const Scaling scaling{0.1, 0.5, -0.2, 2.0};
+  const double a = 0.6, b = 1.3, c = 0.2, w = 0.9, d = 0.05;
+  const NarxModel m = one_node_model(a, b, c, w, d, scaling);
+  Eigen::VectorXd u(300);
+  for (Eigen::Index k = 0; k < u.size(); ++k) u[k] = 0.4 * std::sin(0.07 * k) + 0.2 * std::sin(0.9 * k + 1.0);
+  // closed form: rest r(k) = w·tanh(a·r(k−1) + b·u0 + c) + d from r(−1) = 0 with u0 the scaled zero input,
+  // slope s(k) = w·(1 − tanh²(a·r(k−1) + b·u0 + c)), δy(k) = s(k)·(a·δy(k−1) + b·u(k)/u_scale), raw = y_scale·δy
+  const double u0 = (0.0 - scaling.u_offset) / scaling.u_scale;
+  double rest = 0.0, dy = 0.0, largest = 0.0;
+  Eigen::VectorXd expected(u.size());
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    const double t = std::tanh(a * rest + b * u0 + c);
+    dy = w * (1.0 - t * t) * (a * dy + b * u[k] / scaling.u_scale);
+    rest = w * t + d;
+    expected[k] = scaling.y_scale * dy;
+    largest = std::max(largest, std::abs(expected[k]));
+  }
+  const Eigen::VectorXd got = small_signal_response(m, u);
+  ASSERT_EQ(got.size(), u.size());
+  for (Eigen::Index k = 0; k < u.size(); ++k) ASSERT_NEAR(got[k], expected[k], 1e-7 * largest) << k;
+  // linear in u, unlike the model itself: three times the input, three times the response
+  EXPECT_LT((small_signal_response(m, 3.0 * u) - 3.0 * got).cwiseAbs().maxCoeff(), 1e-7 * largest);
+  const auto swing = [&](const Eigen::VectorXd& x) { return m.simulate(x) - m.simulate(Eigen::VectorXd::Zero(x.size())); };
+  EXPECT_GT((swing(3.0 * u) - 3.0 * swing(u)).cwiseAbs().maxCoeff(), 0.05 * largest);
+  // no input, no response; a non-finite input is named
+  EXPECT_EQ(small_signal_response(m, Eigen::VectorXd::Zero(5)), Eigen::VectorXd::Zero(5));
+  Eigen::VectorXd bad = u;
+  bad[17] = std::nan("");
+  expect_error<std::invalid_argument>([&] { small_signal_response(m, bad); }, "u");
+}
+
 TEST(NarxModelJson, RoundTripIsExact) {
   const NarxModel m = file_model();
   const nlohmann::json j = narx_model_to_json(m);

@@ -3,6 +3,8 @@
 // known, and the model file.
 #include <gtest/gtest.h>
 
+#include <numbers>
+
 #include <cmath>
 
 #include "dsp/random.h"
@@ -124,6 +126,38 @@ TEST(NeuralFeedbackTest, ClosedLoopGradientMatchesFiniteDifferences) {
   Eigen::VectorXd negative = Eigen::VectorXd::Ones(600);
   negative[123] = -1.0;
   testing_support::expect_invalid([&] { feedback_loss(c, u, y_des, kLambda, kSkip, negative); }, "sample 123");
+
+  // The drive-offset penalty: its exact gradient, checked alike (with the weights, so all terms are on).
+  constexpr double kMu = 3.0;
+  const Eigen::VectorXd gd = feedback_gradient(c, u, y_des, kLambda, kSkip, w, kMu);
+  for (Eigen::Index i = 0; i < gd.size(); ++i) {
+    NeuralFeedback plus = c, minus = c;
+    plus.net.parameters()[i] += h;
+    minus.net.parameters()[i] -= h;
+    fd[i] = (feedback_loss(plus, u, y_des, kLambda, kSkip, w, kMu) - feedback_loss(minus, u, y_des, kLambda, kSkip, w, kMu)) / (2 * h);
+  }
+  EXPECT_LT((gd - fd).norm(), 1e-5 * fd.norm()) << "exact " << gd.head(5).transpose() << "\nfd    " << fd.head(5).transpose();
+  EXPECT_GT((gd - gw).norm(), 1e-3 * gw.norm()) << "the penalty changes the gradient";
+}
+
+// N1 = b (only its output bias set): the drive carries the offset b, and the penalty adds
+// μ/(2(N − skip))·Σ_{k≥skip} low(k)² with low(k) = b·(1 − a^{k+1}), a = e^{−2π·5/fs}, to the loss.
+TEST(NeuralFeedbackTest, DriveOffsetPenaltyIsTheLowPassedOffsetSquared) {
+  NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
+  constexpr double b = 0.03, kMu = 2.0;
+  constexpr Eigen::Index kSkip = 40, n = 3000;
+  c.net.parameters()[c.net.parameter_count() - 1] = b;
+  const Eigen::VectorXd u = uniform(n, 0.3, 8);
+  const Eigen::VectorXd y_des = desired_response(u);
+  const double a = std::exp(-2.0 * std::numbers::pi * 5.0 / c.fs);
+  double expected = 0.0;
+  for (Eigen::Index k = kSkip; k < n; ++k) expected += std::pow(b * (1.0 - std::pow(a, k + 1)), 2);
+  expected *= kMu / (2.0 * static_cast<double>(n - kSkip));
+  const double added = feedback_loss(c, u, y_des, 10.0, kSkip, {}, kMu) - feedback_loss(c, u, y_des, 10.0, kSkip);
+  EXPECT_NEAR(added, expected, 1e-10 * expected);
+  // without the bias N1 is zero everywhere, and so is the penalty
+  c.net.parameters()[c.net.parameter_count() - 1] = 0.0;
+  EXPECT_EQ(feedback_loss(c, u, y_des, 10.0, kSkip, {}, kMu), feedback_loss(c, u, y_des, 10.0, kSkip));
 }
 
 TEST(NeuralFeedbackTest, TrainingLearnsTheInverseOfTheSaturation) {
