@@ -90,11 +90,13 @@ table() {  # table EVAL.json TITLE
 import json, math, sys
 e = json.load(open(sys.argv[1]))
 probes = [p["frequency_hz"] for p in e["rows"][0]["probes"]]
-print("| configuration | ripple dB | J_c % | " + " | ".join(f"THD {f:.0f} Hz (H2/H3)" for f in probes) + " | max drive |")
-print("|---|---:|---:|" + "---:|" * len(probes) + "---:|")
+print("| configuration | ripple dB | J_c % | " + " | ".join(f"THD {f:.0f} Hz (H2/H3)" for f in probes) +
+      " | max drive | drive at rest |")
+print("|---|---:|---:|" + "---:|" * len(probes) + "---:|---:|")
 for r in e["rows"]:
     cells = [f'{p["thd_pct"]:.2f} ({p["h2_db"]:.0f}/{p["h3_db"]:.0f})' for p in r["probes"]]
-    print(f'| {r["name"]} | {r["ripple_db"]:.2f} | {r["jc_pct"]:.1f} | ' + " | ".join(cells) + f' | {r["max_drive"]:.3f} |')
+    print(f'| {r["name"]} | {r["ripple_db"]:.2f} | {r["jc_pct"]:.1f} | ' + " | ".join(cells) +
+          f' | {r["max_drive"]:.3f} | {r["rest_drive_peak"]:.4f} |')
 if len(e["rows"]) == 3:
     change = [20 * math.log10(c["thd_pct"] / b["thd_pct"]) for b, c in zip(e["rows"][1]["probes"], e["rows"][2]["probes"])]
     print("THD change by the feedback: " + ", ".join(f"{f:.0f} Hz {d:+.1f} dB" for f, d in zip(probes, change)))

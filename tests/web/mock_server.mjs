@@ -121,7 +121,7 @@ const diagnosisReport = (params) => ({
 // kept, and the design's params with the server's defaults filled in.
 function designNnSummary(params) {
   const design = { samples: 3000, max_iterations: 20, hidden: [6], nu: 2, nv: 2, ny: 4, sine_share: 0.75, sine_peak: 0.6,
-                   program_share: 0, restarts: 1, rail_penalty: 10, seed: 1 };
+                   program_share: 0, restarts: 1, rail_penalty: 10, dc_penalty: 1, seed: 1 };
   for (const k of Object.keys(design)) if (params[k] !== undefined) design[k] = params[k];
   const restartJc = Array.from({ length: design.restarts }, (_, r) => 2.4 - 0.3 * Math.sin(r + design.seed));
   const chosen = restartJc.indexOf(Math.min(...restartJc));

@@ -425,7 +425,8 @@ async function main() {
                      hidden: ['#nn-hidden', '3', [3]], nu: ['#nn-nu', '1', 1], nv: ['#nn-nv', '1', 1], ny: ['#nn-ny', '3', 3],
                      sine_share: ['#nn-sine-share', '0.5', 0.5], sine_peak: ['#nn-sine-peak', '0.45', 0.45],
                      program_share: ['#nn-program-share', '0.25', 0.25], restarts: ['#nn-restarts', '2', 2],
-                     rail_penalty: ['#nn-rail-penalty', '4', 4], seed: ['#nn-seed', '7', 7] };
+                     rail_penalty: ['#nn-rail-penalty', '4', 4], dc_penalty: ['#nn-dc-penalty', '0.5', 0.5],
+                     seed: ['#nn-seed', '7', 7] };
   for (const [selector, text] of Object.values(nnFields)) {
     check(await page.isVisible(selector), `design-nn field ${selector} not shown`);
     await page.fill(selector, text);
@@ -452,7 +453,8 @@ async function main() {
   check(/^\[[^,\]]*\d[^,\]]*, [^,\]]*\d[^,\]]*\]$/.test(summary.restart_jc_val_pct || ''),
         `restart_jc_val_pct not shown as two values: ${JSON.stringify(summary.restart_jc_val_pct)}`);
   const shownDesign = { samples: '1,000', max_iterations: '2', hidden: '[3]', nu: '1', nv: '1', ny: '3', sine_share: '0.5',
-                        sine_peak: '0.45', program_share: '0.25', restarts: '2', rail_penalty: '4', seed: '7' };
+                        sine_peak: '0.45', program_share: '0.25', restarts: '2', rail_penalty: '4', dc_penalty: '0.5',
+                        seed: '7' };
   for (const [k, v] of Object.entries(shownDesign)) {
     check(summary[k] === v, `summary ${k} shown as ${JSON.stringify(summary[k])}, expected "${v}"`);
   }
