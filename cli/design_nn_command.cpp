@@ -1,6 +1,8 @@
 #include <cmath>
 #include <memory>
+#include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "cli/band_pass_option.h"
@@ -95,6 +97,17 @@ void add_design_nn(CLI::App& design) {
   cmd->add_option("--sine-peak", o->design.sine_peak, "Steady peak of the feedforward output in the stepped sines")
       ->check(CLI::Range(1e-6, 1.0))
       ->capture_default_str();
+  cmd->add_option_function<std::string>(
+         "--sine-band",
+         [o](const std::string& text) {
+           try {
+             std::tie(o->design.sine_low_hz, o->design.sine_high_hz) = parse_bandpass(text);
+           } catch (const std::invalid_argument& e) {
+             throw CLI::ValidationError("--sine-band", e.what());
+           }
+         },
+         "LO,HI: the stepped sines' frequencies are drawn log-uniformly from LO to HI Hz")
+      ->default_str("30,400");
   cmd->add_option("--program-share", o->design.program_share,
                   "Share of the stepped sines at a program level (the same amplitudes at every frequency), the rest "
                   "at the drive level")
@@ -103,6 +116,10 @@ void add_design_nn(CLI::App& design) {
   cmd->add_flag("--level-weighting", o->design.level_weighting,
                "Weight the noise and every sine step by the inverse of its desired output's power, so small steps "
                "count as much as loud ones (J_c is then weighted too)");
+  cmd->add_flag("--distortion-weighting", o->design.distortion_weighting,
+               "Weight the noise and every sine step by the inverse of the uncorrected loop's error power there, so "
+               "every part's distortion counts in dB alike (J_c is then weighted too)")
+      ->excludes("--level-weighting");
   cmd->add_option_function<std::string>(
          "--desired",
          [o](const std::string& name) { o->design.desired = models::desired_response_from_name(name); },

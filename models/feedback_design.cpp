@@ -61,6 +61,12 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   if (o.desired == DesiredResponse::plant_small_signal && plant == nullptr) {
     throw std::invalid_argument("design nn: the plant-small-signal desired response needs the NARX plant model");
   }
+  if (o.distortion_weighting && plant == nullptr) {
+    throw std::invalid_argument("design nn: distortion weighting needs the NARX plant model");
+  }
+  if (o.distortion_weighting && o.level_weighting) {
+    throw std::invalid_argument("design nn: level weighting and distortion weighting exclude each other");
+  }
   const double fs = ff.fs;
   const StateSpace controller = ff.controller();
   const dsp::SosFilter shape(band_pass);
@@ -120,10 +126,13 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   // learns a DC drive many times larger to null it (4.6e-4 at a DC gain of 0.0085 asked -0.054 on
   // panel-exciter's model), which the transducer would turn into coil offset and even harmonics.
   if (plant != nullptr) r.y_desired += plant->simulate(Eigen::VectorXd::Zero(r.u.size()));
-  if (o.level_weighting) {
-    // w = (record's mean power / part's mean power) of the desired output, per part (capped at 10⁴)
+  if (o.level_weighting || o.distortion_weighting) {
+    // w = (record's mean power / part's mean power) of the weighed signal, per part (capped at 10⁴): the
+    // desired output (level weighting) or the uncorrected loop's error (distortion weighting)
+    const Eigen::VectorXd weighed =
+        o.level_weighting ? r.y_desired : Eigen::VectorXd(plant->simulate(r.u) - r.y_desired);
     const auto power = [&](Eigen::Index start, Eigen::Index length) {
-      return r.y_desired.segment(start, length).squaredNorm() / static_cast<double>(length);
+      return weighed.segment(start, length).squaredNorm() / static_cast<double>(length);
     };
     const double reference = power(0, o.samples);
     r.weight = Eigen::VectorXd::Ones(o.samples);
@@ -146,8 +155,10 @@ nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o) {
           {"ny", o.structure.ny},
           {"sine_share", o.sine_share},
           {"sine_peak", o.sine_peak},
+          {"sine_band", {o.sine_low_hz, o.sine_high_hz}},
           {"program_share", o.program_share},
           {"level_weighting", o.level_weighting},
+          {"distortion_weighting", o.distortion_weighting},
           {"restarts", o.restarts},
           {"rail_penalty", o.training.rail_penalty},
           {"dc_penalty", o.training.dc_penalty},

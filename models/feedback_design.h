@@ -47,6 +47,11 @@ struct FeedbackDesignOptions {
                                      ///< of its desired output's power, so a small step's relative error counts as
                                      ///< much as a loud one's (otherwise a step at a twelfth of the level counts
                                      ///< 1/144 as much, and the harmonics of small drives are all but invisible)
+  bool distortion_weighting = false;  ///< weight each part of a record by the inverse of the power of the
+                                      ///< uncorrected loop's error there (the plant model driven by u* against
+                                      ///< y_desired; with the plant-small-signal target, the model's distortion),
+                                      ///< so that every part's error counts in dB alike: a step with 0.5 %
+                                      ///< distortion as much as one with 60 % (needs the plant model)
   DesiredResponse desired = DesiredResponse::linear_model;  ///< what the loop output tracks
   std::uint64_t seed = 1;            ///< records (estimation: seed, validation: seed + 1) and initial weights
   int restarts = 1;                  ///< trainings from different initial weights on the same records; the one
@@ -85,8 +90,8 @@ struct FeedbackDesign {
 };
 
 /// The options a design ran with, as a controller file's meta and a design's report list them:
-/// {"samples","max_iterations","hidden","nu","nv","ny","sine_share","sine_peak","program_share","restarts",
-///  "rail_penalty","dc_penalty","desired","seed"}.
+/// {"samples","max_iterations","hidden","nu","nv","ny","sine_share","sine_peak","sine_band","program_share","restarts",
+///  "level_weighting","distortion_weighting","rail_penalty","dc_penalty","desired","seed"}.
 nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o);
 
 /// Designs the controller on `plant` (a NARX model at ff's rate) behind `ff` and `band_pass`: o.restarts

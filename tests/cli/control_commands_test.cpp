@@ -77,6 +77,19 @@ TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates)
   EXPECT_EQ(fb.meta.at("samples"), 2000);
   EXPECT_EQ(fb.meta.at("sine_peak"), models::FeedbackDesignOptions{}.sine_peak);
   EXPECT_EQ(fb.meta.at("restart_jc_val_pct"), nn["restart_jc_val_pct"]);
+  EXPECT_EQ(fb.meta.at("desired"), "linear-model");
+  EXPECT_EQ(fb.meta.at("dc_penalty"), 1.0);
+  // the options beyond the thesis's reach the design and its file
+  const json other = expect_result(run("design nn --plant " + quoted(path("narx.json")) + " --ff " + quoted(path("ff.json")) +
+                                       " --hidden 4 --iterations 1 --samples 2000 --desired plant-small-signal"
+                                       " --distortion-weighting --dc-penalty 0.5 --sine-band 50,300 --out " +
+                                       quoted(path("fb2.json"))));
+  const models::NeuralFeedback fb2 = models::neural_feedback_from_json(json::parse(text_of(path("fb2.json"))));
+  EXPECT_EQ(fb2.meta.at("desired"), "plant-small-signal");
+  EXPECT_EQ(fb2.meta.at("distortion_weighting"), true);
+  EXPECT_EQ(fb2.meta.at("dc_penalty"), 0.5);
+  EXPECT_EQ(fb2.meta.at("sine_band"), json({50.0, 300.0}));
+  EXPECT_NE(other["jc_val_before_pct"], nn["jc_val_before_pct"]) << "another target, another J_c";
 
   const json chain = expect_result(run("chain --bandpass 20,1200 --ff " + quoted(path("ff.json")) + " --fb " +
                                        quoted(path("fb.json")) + " --source sensor --out " + quoted(path("chain.json"))));
@@ -133,6 +146,17 @@ TEST_F(CliControl, BadInputIsNamed) {
   expect_failure(r, "--ff");
   // a bad band-pass is a usage error
   EXPECT_EQ(run("chain --bandpass 1200,20 --out " + quoted(path("c.json"))).status, 2);
+  // and so are a bad sine band, an unknown target and two weightings at once, each named
+  const std::string design = "design nn --plant " + quoted(path("narx.json")) + " --ff " + quoted(path("ff.json")) +
+                             " --out " + quoted(path("fb.json"));
+  for (const auto& [option, named] : std::vector<std::pair<std::string, std::string>>{
+           {" --sine-band 400,30", "--sine-band"},
+           {" --desired flat", "--desired"},
+           {" --level-weighting --distortion-weighting", "--distortion-weighting"}}) {
+    r = run(design + option);
+    EXPECT_EQ(r.status, 2) << option;
+    EXPECT_TRUE(contains(r.err, named)) << option << ": " << r.err;
+  }
 }
 
 }  // namespace

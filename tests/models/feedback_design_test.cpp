@@ -264,6 +264,41 @@ TEST(FeedbackDesignTest, GivenThePlantModelTheThesissTargetIsMeasuredFromItsRest
   EXPECT_LT((with.y_desired - without.y_desired - rest).cwiseAbs().maxCoeff(), 1e-12);
 }
 
+// Distortion weighting: every part's uncorrected error (the plant model driven by u*, against the
+// plant-small-signal target: its distortion alone), times the part's weight, has the record's mean power
+// (unless the weight reaches its cap of 1e4).
+TEST(FeedbackDesignTest, DistortionWeightingGivesEveryPartsErrorTheRecordsMeanPower) {
+  const LqFeedforward ff = design_lq(resonant_model(), {1e-3, 20.0});
+  const NarxModel plant = tanh_narx_plant(0.0);
+  FeedbackDesignOptions o;
+  o.samples = 6000;  // 1500 samples of noise, then 6 steps and a short one
+  o.sine_share = 0.75;
+  o.sine_peak = 0.3;
+  o.desired = DesiredResponse::plant_small_signal;
+  o.distortion_weighting = true;
+  const ControlRecord r = control_record(ff, audio_band(), o, 3, &plant);
+  ASSERT_EQ(r.weight.size(), o.samples);
+  const Eigen::VectorXd error = plant.simulate(r.u) - r.y_desired;
+  const double mean_power = error.squaredNorm() / static_cast<double>(o.samples);
+  const auto step = static_cast<Eigen::Index>(o.sine_step_seconds * 3000.0);
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> parts{{0, 1500}};
+  for (Eigen::Index start = 1500; start < o.samples; start += step) parts.emplace_back(start, std::min(step, o.samples - start));
+  double smallest = 1e300, largest = 0.0;
+  for (const auto& [start, length] : parts) {
+    const Eigen::VectorXd w = r.weight.segment(start, length);
+    EXPECT_EQ(w.minCoeff(), w.maxCoeff()) << "one weight per part, at " << start;
+    const double power = error.segment(start, length).squaredNorm() / static_cast<double>(length);
+    EXPECT_NEAR(w[0], std::min(1e4, mean_power / power), 1e-9 * w[0]) << start << " (weights are capped at 1e4)";
+    smallest = std::min(smallest, w[0]);
+    largest = std::max(largest, w[0]);
+  }
+  EXPECT_GT(largest / smallest, 10.0) << "the loud noise distorts far more than the sines";
+  // it needs the plant model, and it is not level weighting too
+  EXPECT_THROW(control_record(ff, audio_band(), o, 3), std::invalid_argument);
+  o.level_weighting = true;
+  EXPECT_THROW(control_record(ff, audio_band(), o, 3, &plant), std::invalid_argument);
+}
+
 TEST(FeedbackDesignTest, DesiredResponseNamesRoundTrip) {
   for (DesiredResponse d : {DesiredResponse::linear_model, DesiredResponse::plant_small_signal}) {
     EXPECT_EQ(desired_response_from_name(desired_response_name(d)), d);
