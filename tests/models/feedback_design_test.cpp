@@ -131,6 +131,14 @@ TEST(FeedbackDesignTest, ProgramLevelStepsShareOneAmplitudeRangeDriveLevelStepsO
 // Level weighting: the noise part and every step get one weight each, the inverse of their desired output's
 // mean power relative to the record's, so that every part then weighs in with the record's mean power (checked
 // part by part, from the step grid alone); without it the record has no weights.
+// The parts of a record at 3000 Hz (start, length): the noise, then one per sine step.
+std::vector<std::pair<Eigen::Index, Eigen::Index>> record_parts(const FeedbackDesignOptions& o, Eigen::Index noise) {
+  const auto step = static_cast<Eigen::Index>(o.sine_step_seconds * 3000.0);
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> parts{{0, noise}};
+  for (Eigen::Index start = noise; start < o.samples; start += step) parts.emplace_back(start, std::min(step, o.samples - start));
+  return parts;
+}
+
 TEST(FeedbackDesignTest, LevelWeightingGivesEveryPartTheRecordsMeanPower) {
   const LqFeedforward ff = design_lq(accelerometer_model(), {1e-5, 20.0});
   const std::vector<dsp::Biquad> bp = audio_band();
@@ -143,11 +151,8 @@ TEST(FeedbackDesignTest, LevelWeightingGivesEveryPartTheRecordsMeanPower) {
   const ControlRecord r = control_record(ff, bp, o, 2);
   ASSERT_EQ(r.weight.size(), o.samples);
   const double mean_power = r.y_desired.squaredNorm() / static_cast<double>(o.samples);
-  const auto step = static_cast<Eigen::Index>(o.sine_step_seconds * 3000.0);
-  std::vector<std::pair<Eigen::Index, Eigen::Index>> parts{{0, 5000}};
-  for (Eigen::Index start = 5000; start < o.samples; start += step) parts.emplace_back(start, std::min(step, o.samples - start));
   double smallest = 1e300, largest = 0.0;
-  for (const auto& [start, length] : parts) {
+  for (const auto& [start, length] : record_parts(o, 5000)) {
     const Eigen::VectorXd w = r.weight.segment(start, length);
     EXPECT_EQ(w.minCoeff(), w.maxCoeff()) << "one weight per part, at " << start;
     const Eigen::VectorXd y = r.y_desired.segment(start, length);
@@ -280,11 +285,8 @@ TEST(FeedbackDesignTest, DistortionWeightingGivesEveryPartsErrorTheRecordsMeanPo
   ASSERT_EQ(r.weight.size(), o.samples);
   const Eigen::VectorXd error = plant.simulate(r.u) - r.y_desired;
   const double mean_power = error.squaredNorm() / static_cast<double>(o.samples);
-  const auto step = static_cast<Eigen::Index>(o.sine_step_seconds * 3000.0);
-  std::vector<std::pair<Eigen::Index, Eigen::Index>> parts{{0, 1500}};
-  for (Eigen::Index start = 1500; start < o.samples; start += step) parts.emplace_back(start, std::min(step, o.samples - start));
   double smallest = 1e300, largest = 0.0;
-  for (const auto& [start, length] : parts) {
+  for (const auto& [start, length] : record_parts(o, 1500)) {
     const Eigen::VectorXd w = r.weight.segment(start, length);
     EXPECT_EQ(w.minCoeff(), w.maxCoeff()) << "one weight per part, at " << start;
     const double power = error.segment(start, length).squaredNorm() / static_cast<double>(length);
