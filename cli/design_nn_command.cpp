@@ -123,9 +123,11 @@ void add_design_nn(CLI::App& design) {
   cmd->add_option_function<std::string>(
          "--desired",
          [o](const std::string& name) { o->design.desired = models::desired_response_from_name(name); },
-         "What the loop output tracks: linear-model (y_lin of [7B], the thesis's) or plant-small-signal (the NARX "
-         "plant model's own small-signal response to the feedforward output, so only its distortion is corrected)")
-      ->check(CLI::IsMember({"linear-model", "plant-small-signal"}))
+         "What the loop output tracks: linear-model (y_lin of [7B], the thesis's), plant-small-signal (the NARX "
+         "plant model's own small-signal response to the feedforward output, so only its distortion is corrected) "
+         "or plant-fundamental (on each sine step's steady part the fundamental of the uncorrected loop's output, so "
+         "only its harmonics are; the noise as plant-small-signal)")
+      ->check(CLI::IsMember({"linear-model", "plant-small-signal", "plant-fundamental"}))
       ->default_str("linear-model");
   cmd->add_option("--iterations", o->design.training.max_iterations, "Levenberg-Marquardt iterations")
       ->check(CLI::Range(0, 100000))

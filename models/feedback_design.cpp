@@ -1,5 +1,6 @@
 #include "models/feedback_design.h"
 
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -44,22 +45,31 @@ double largest_gain(const dsp::SosFilter& shape, const StateSpace& controller, d
 }  // namespace
 
 const char* desired_response_name(DesiredResponse d) {
-  return d == DesiredResponse::plant_small_signal ? "plant-small-signal" : "linear-model";
+  switch (d) {
+    case DesiredResponse::plant_small_signal:
+      return "plant-small-signal";
+    case DesiredResponse::plant_fundamental:
+      return "plant-fundamental";
+    default:
+      return "linear-model";
+  }
 }
 
 DesiredResponse desired_response_from_name(const std::string& name) {
-  for (DesiredResponse d : {DesiredResponse::linear_model, DesiredResponse::plant_small_signal}) {
+  for (DesiredResponse d :
+       {DesiredResponse::linear_model, DesiredResponse::plant_small_signal, DesiredResponse::plant_fundamental}) {
     if (name == desired_response_name(d)) return d;
   }
   throw std::invalid_argument("design nn: unknown desired response '" + name +
-                              "' (expected linear-model or plant-small-signal)");
+                              "' (expected linear-model, plant-small-signal or plant-fundamental)");
 }
 
 ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
                              const FeedbackDesignOptions& o, std::uint64_t seed, const NarxModel* plant) {
   require_options(o, ff.fs);
-  if (o.desired == DesiredResponse::plant_small_signal && plant == nullptr) {
-    throw std::invalid_argument("design nn: the plant-small-signal desired response needs the NARX plant model");
+  if (o.desired != DesiredResponse::linear_model && plant == nullptr) {
+    throw std::invalid_argument(std::string("design nn: the ") + desired_response_name(o.desired) +
+                                " desired response needs the NARX plant model");
   }
   if (o.distortion_weighting && plant == nullptr) {
     throw std::invalid_argument("design nn: distortion weighting needs the NARX plant model");
@@ -80,6 +90,8 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   const auto step = static_cast<Eigen::Index>(o.sine_step_seconds * fs);
   struct Step {
     Eigen::Index start, length;
+    double f;           // Hz
+    Eigen::Index fade;  // samples of fade at each end
   };
   std::vector<Step> steps;
   const double program_top = o.sine_peak / largest_gain(shape, controller, o.sine_low_hz, o.sine_high_hz, fs);
@@ -100,7 +112,7 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
       const double window = edge < static_cast<double>(fade) ? 0.5 - 0.5 * std::cos(std::numbers::pi * edge / fade) : 1.0;
       r.program[start + k] = window * amplitude * std::sin(2.0 * std::numbers::pi * f * k / fs);
     }
-    steps.push_back({start, length});
+    steps.push_back({start, length, f, fade});
   }
   // The steady-state gain sets each step's level; what the feedforward's slow poles carry over from the
   // fades and the earlier steps can still lift a step's peak. Steps whose drive passes sine_peak are scaled
@@ -119,29 +131,61 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   }
   const Eigen::VectorXd shaped = dsp::SosFilter(band_pass).process(r.program);
   r.u = simulate(controller, shaped);
-  r.y_desired = o.desired == DesiredResponse::plant_small_signal ? small_signal_response(*plant, r.u)
-                                                                  : simulate(ff.desired(), shaped);
+  r.y_desired = o.desired == DesiredResponse::linear_model ? simulate(ff.desired(), shaped)
+                                                           : small_signal_response(*plant, r.u);
   // Measured from the plant model's rest: a NARX model at rest outputs a small offset that no plant has (an
   // accelerometer has none), and its gain at DC is tiny, so a loop that tracks a target without that offset
   // learns a DC drive many times larger to null it (4.6e-4 at a DC gain of 0.0085 asked -0.054 on
   // panel-exciter's model), which the transducer would turn into coil offset and even harmonics.
   if (plant != nullptr) r.y_desired += plant->simulate(Eigen::VectorXd::Zero(r.u.size()));
+  // Where each part of the record is weighed: all of the noise; of a step, with the plant-fundamental
+  // target, its steady part only (from two fades in, so the resonances' transients have settled, to its
+  // fade out), where the target adds to the small-signal response the fundamental (and mean) of what the
+  // uncorrected loop's output departs from it by: the change of gain with the level is then no error, the
+  // harmonics are (and the feedforward's own transients, in the small-signal response, are none either).
+  struct Part {
+    Eigen::Index start, length;
+  };
+  std::vector<Part> parts;
+  if (n_noise > 0) parts.push_back({0, n_noise});
+  if (o.desired == DesiredResponse::plant_fundamental) {
+    const Eigen::VectorXd loop = plant->simulate(r.u);
+    r.weight = Eigen::VectorXd::Zero(o.samples);
+    r.weight.head(n_noise).setOnes();
+    for (const Step& s : steps) {
+      const Eigen::Index start = s.start + 2 * s.fade, length = s.length - 3 * s.fade;
+      if (length < 4) continue;
+      // least squares: departure ≈ a·sin(ωk) + b·cos(ωk) + c over the steady part
+      Eigen::MatrixXd basis(length, 3);
+      for (Eigen::Index k = 0; k < length; ++k) {
+        const double phase = 2.0 * std::numbers::pi * s.f * static_cast<double>(start - s.start + k) / fs;
+        basis.row(k) << std::sin(phase), std::cos(phase), 1.0;
+      }
+      const Eigen::VectorXd departure = loop.segment(start, length) - r.y_desired.segment(start, length);
+      const Eigen::Vector3d coefficients = basis.colPivHouseholderQr().solve(departure);
+      r.y_desired.segment(start, length) += basis * coefficients;
+      r.weight.segment(start, length).setOnes();
+      parts.push_back({start, length});
+    }
+  } else {
+    for (const Step& s : steps) parts.push_back({s.start, s.length});
+  }
   if (o.level_weighting || o.distortion_weighting) {
-    // w = (record's mean power / part's mean power) of the weighed signal, per part (capped at 10⁴): the
-    // desired output (level weighting) or the uncorrected loop's error (distortion weighting)
+    // w = (mean power over the weighed parts / part's mean power) of the weighed signal, per part (capped
+    // at 10⁴): the desired output (level weighting) or the uncorrected loop's error (distortion weighting)
     const Eigen::VectorXd weighed =
         o.level_weighting ? r.y_desired : Eigen::VectorXd(plant->simulate(r.u) - r.y_desired);
-    const auto power = [&](Eigen::Index start, Eigen::Index length) {
-      return weighed.segment(start, length).squaredNorm() / static_cast<double>(length);
-    };
-    const double reference = power(0, o.samples);
-    r.weight = Eigen::VectorXd::Ones(o.samples);
-    const auto weigh = [&](Eigen::Index start, Eigen::Index length) {
-      const double p = power(start, length);
-      r.weight.segment(start, length).setConstant(p > 0.0 ? std::min(1e4, reference / p) : 1.0);
-    };
-    if (n_noise > 0) weigh(0, n_noise);
-    for (const Step& s : steps) weigh(s.start, s.length);
+    double energy = 0.0, samples = 0.0;
+    for (const Part& p : parts) {
+      energy += weighed.segment(p.start, p.length).squaredNorm();
+      samples += static_cast<double>(p.length);
+    }
+    const double reference = energy / samples;
+    if (r.weight.size() == 0) r.weight = Eigen::VectorXd::Ones(o.samples);
+    for (const Part& p : parts) {
+      const double power = weighed.segment(p.start, p.length).squaredNorm() / static_cast<double>(p.length);
+      r.weight.segment(p.start, p.length) *= power > 0.0 ? std::min(1e4, reference / power) : 1.0;
+    }
   }
   return r;
 }

@@ -23,9 +23,14 @@ enum class DesiredResponse {
   plant_small_signal,   ///< the NARX plant model's own small-signal response to the feedforward output u*
                         ///< (small_signal_response): the loop's error is then the model's distortion alone,
                         ///< not the gain gap between the linear and the NARX model
+  plant_fundamental,    ///< plant_small_signal plus, on each sine step's steady part, the fundamental (and
+                        ///< mean) of the uncorrected loop's departure from it (the plant model driven by u*);
+                        ///< the rest of a step weighs 0. The error is then the harmonics alone: neither the
+                        ///< linear gap nor the amplitude-dependent gain of the fundamental (which near
+                        ///< panel-exciter's resonance varies by 3 dB with the drive) is asked of the loop
 };
 
-/// "linear-model" or "plant-small-signal".
+/// "linear-model", "plant-small-signal" or "plant-fundamental".
 const char* desired_response_name(DesiredResponse d);
 /// The DesiredResponse named `name`; std::invalid_argument listing the names otherwise.
 DesiredResponse desired_response_from_name(const std::string& name);
@@ -64,7 +69,8 @@ struct ControlRecord {
   Eigen::VectorXd program;    ///< the program input
   Eigen::VectorXd u;          ///< the feedforward output u* (band-pass, then [7B]), raw drive units
   Eigen::VectorXd y_desired;  ///< the desired output (FeedbackDesignOptions::desired), raw units
-  Eigen::VectorXd weight;     ///< tracking weight per sample (level_weighting), else empty (all 1)
+  Eigen::VectorXd weight;     ///< tracking weight per sample (a weighting, or the plant-fundamental target's
+                              ///< steady parts), else empty (all 1)
 };
 
 /// A record of `o.samples`: uniform white noise at the largest safe amplitude (models::max_input's noise

@@ -2,6 +2,8 @@
 // its levels, and its determinism.
 #include <gtest/gtest.h>
 
+#include <Eigen/QR>
+
 #include <algorithm>
 
 #include "dsp/butterworth.h"
@@ -301,8 +303,97 @@ TEST(FeedbackDesignTest, DistortionWeightingGivesEveryPartsErrorTheRecordsMeanPo
   EXPECT_THROW(control_record(ff, audio_band(), o, 3, &plant), std::invalid_argument);
 }
 
+// The contiguous runs of weight 1 after the first `from` samples: (start, length).
+std::vector<std::pair<Eigen::Index, Eigen::Index>> weighed_runs(const Eigen::VectorXd& weight, Eigen::Index from) {
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> runs;
+  for (Eigen::Index k = from; k < weight.size();) {
+    if (weight[k] == 0.0) {
+      ++k;
+      continue;
+    }
+    Eigen::Index end = k;
+    while (end < weight.size() && weight[end] == 1.0) ++end;
+    runs.emplace_back(k, end - k);
+    k = end;
+  }
+  return runs;
+}
+
+// The least-squares fit of x by a·sin(ωk) + b·cos(ωk) + c at f Hz (3000 Hz sampling): its residual.
+Eigen::VectorXd residual_of_sine_fit(const Eigen::VectorXd& x, double f) {
+  Eigen::MatrixXd basis(x.size(), 3);
+  for (Eigen::Index k = 0; k < x.size(); ++k) {
+    basis.row(k) << std::sin(2.0 * std::numbers::pi * f * k / 3000.0), std::cos(2.0 * std::numbers::pi * f * k / 3000.0), 1.0;
+  }
+  return x - basis * basis.colPivHouseholderQr().solve(x);
+}
+
+// The frequency of a pure sine, by the least-squares fit with the smallest residual (0.5 Hz grid, then 1 mHz).
+double sine_frequency(const Eigen::VectorXd& x) {
+  double best = 30.0, smallest = 1e300;
+  const auto search = [&](double lo, double hi, double step) {
+    for (double f = lo; f <= hi; f += step) {
+      const double r = residual_of_sine_fit(x, f).squaredNorm();
+      if (r < smallest) {
+        smallest = r;
+        best = f;
+      }
+    }
+  };
+  search(29.0, 401.0, 0.5);
+  search(best - 0.5, best + 0.5, 0.001);
+  return best;
+}
+
+TEST(FeedbackDesignTest, PlantFundamentalTargetLeavesOnlyTheHarmonicsOfEachSteadyStep) {
+  const LqFeedforward ff = design_lq(resonant_model(), {1e-3, 20.0});
+  FeedbackDesignOptions o;
+  o.samples = 4500;  // 1500 samples of noise, then 4 steps
+  o.sine_share = 2.0 / 3.0;
+  o.sine_peak = 0.6;
+  o.desired = DesiredResponse::plant_fundamental;
+  // y = 1000·tanh(0.0005·y(k−1) + 0.0015·u(k)): linear to 1e-6, so nothing is left to correct
+  NarxModel linear = tanh_narx_plant(0.0);
+  linear.net.parameters() << 0.0005, 0.0015, 0.0, 1000.0, 0.0;
+  const ControlRecord quiet = control_record(ff, audio_band(), o, 8, &linear);
+  const Eigen::VectorXd quiet_error = (linear.simulate(quiet.u) - quiet.y_desired).cwiseProduct(quiet.weight);
+  EXPECT_LT(quiet_error.norm(), 1e-5 * quiet.y_desired.norm());
+
+  const NarxModel plant = tanh_narx_plant(0.0);
+  const ControlRecord r = control_record(ff, audio_band(), o, 8, &plant);
+  FeedbackDesignOptions small_signal = o;
+  small_signal.desired = DesiredResponse::plant_small_signal;
+  const ControlRecord s = control_record(ff, audio_band(), small_signal, 8, &plant);
+  EXPECT_EQ(r.u, s.u);
+  const Eigen::VectorXd loop = plant.simulate(r.u);
+  // the noise: weighed, and tracked as with the small-signal target
+  EXPECT_EQ(r.weight.head(1500), Eigen::VectorXd::Ones(1500));
+  EXPECT_EQ(r.y_desired.head(1500), s.y_desired.head(1500));
+  // the steps: weight 0 or 1, 0 at each step's ends, and one steady run per step
+  EXPECT_TRUE(((r.weight.array() == 0.0) || (r.weight.array() == 1.0)).all());
+  for (Eigen::Index start = 1500; start < o.samples; start += 750) {
+    EXPECT_EQ(r.weight[start], 0.0) << start;
+    EXPECT_EQ(r.weight[start + 749], 0.0) << start;
+  }
+  const auto runs = weighed_runs(r.weight, 1500);
+  ASSERT_EQ(runs.size(), 4u);
+  for (const auto& [start, length] : runs) {
+    ASSERT_GT(length, 300) << start;
+    // on it, the error has nothing at the step's frequency (found from the program) and less than the
+    // small-signal target leaves (the level's change of the fundamental is gone), but it is not zero
+    const double f = sine_frequency(r.program.segment(start, length));
+    const Eigen::VectorXd error = loop.segment(start, length) - r.y_desired.segment(start, length);
+    const Eigen::VectorXd departure = loop.segment(start, length) - s.y_desired.segment(start, length);
+    const double fundamental_before = (departure - residual_of_sine_fit(departure, f)).norm();
+    EXPECT_LT((error - residual_of_sine_fit(error, f)).norm(), 1e-4 * fundamental_before) << f << " Hz";
+    EXPECT_LT(error.norm(), 0.5 * departure.norm()) << f << " Hz";
+    EXPECT_GT(error.norm(), 1e-4 * loop.segment(start, length).norm()) << f << " Hz: the harmonics";
+  }
+}
+
 TEST(FeedbackDesignTest, DesiredResponseNamesRoundTrip) {
-  for (DesiredResponse d : {DesiredResponse::linear_model, DesiredResponse::plant_small_signal}) {
+  for (DesiredResponse d :
+       {DesiredResponse::linear_model, DesiredResponse::plant_small_signal, DesiredResponse::plant_fundamental}) {
     EXPECT_EQ(desired_response_from_name(desired_response_name(d)), d);
   }
   EXPECT_THROW(desired_response_from_name("flat"), std::invalid_argument);
