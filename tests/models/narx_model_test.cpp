@@ -311,7 +311,9 @@ TEST(NarxModel, SmallSignalResponseIsTheLinearisationAlongTheRestTrajectory) {
   for (Eigen::Index k = 0; k < u.size(); ++k) ASSERT_NEAR(got[k], expected[k], 1e-7 * largest) << k;
   // linear in u, unlike the model itself: three times the input, three times the response
   EXPECT_LT((small_signal_response(m, 3.0 * u) - 3.0 * got).cwiseAbs().maxCoeff(), 1e-7 * largest);
-  const auto swing = [&](const Eigen::VectorXd& x) { return m.simulate(x) - m.simulate(Eigen::VectorXd::Zero(x.size())); };
+  const auto swing = [&](const Eigen::VectorXd& x) -> Eigen::VectorXd {
+    return m.simulate(x) - m.simulate(Eigen::VectorXd::Zero(x.size()));
+  };
   EXPECT_GT((swing(3.0 * u) - 3.0 * swing(u)).cwiseAbs().maxCoeff(), 0.05 * largest);
   // no input, no response; a non-finite input is named
   EXPECT_EQ(small_signal_response(m, Eigen::VectorXd::Zero(5)), Eigen::VectorXd::Zero(5));
