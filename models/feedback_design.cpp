@@ -148,8 +148,11 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   };
   std::vector<Part> parts;
   if (n_noise > 0) parts.push_back({0, n_noise});
+  // the uncorrected loop's output (the plant model driven by u*), for the plant-fundamental target and
+  // distortion weighting
+  const bool needs_loop = o.desired == DesiredResponse::plant_fundamental || o.distortion_weighting;
+  const Eigen::VectorXd loop = needs_loop ? plant->simulate(r.u) : Eigen::VectorXd();
   if (o.desired == DesiredResponse::plant_fundamental) {
-    const Eigen::VectorXd loop = plant->simulate(r.u);
     r.weight = Eigen::VectorXd::Zero(o.samples);
     r.weight.head(n_noise).setOnes();
     for (const Step& s : steps) {
@@ -174,7 +177,7 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
     // w = (mean power over the weighed parts / part's mean power) of the weighed signal, per part (capped
     // at 10⁴): the desired output (level weighting) or the uncorrected loop's error (distortion weighting)
     const Eigen::VectorXd weighed =
-        o.level_weighting ? r.y_desired : Eigen::VectorXd(plant->simulate(r.u) - r.y_desired);
+        o.level_weighting ? r.y_desired : Eigen::VectorXd(loop - r.y_desired);
     double energy = 0.0, samples = 0.0;
     for (const Part& p : parts) {
       energy += weighed.segment(p.start, p.length).squaredNorm();

@@ -11,6 +11,7 @@
 #include "models/narx_model.h"
 #include "models/state_space.h"
 #include "tests/support/linear_systems.h"
+#include "tests/support/narx_models.h"
 
 namespace panelbass::models {
 namespace {
@@ -203,13 +204,7 @@ TEST(FeedbackDesignTest, RestartsKeepTheLowestValidationJc) {
 
 // y(k) = tanh(0.5·y(k−1) + 1.5·u(k)) + offset.
 NarxModel tanh_narx_plant(double offset) {
-  NarxStructure s;
-  s.na = 1;
-  s.nb = 0;
-  s.hidden = {1};
-  NarxModel m = NarxModel::with_structure(s, Scaling{}, 3000.0);
-  m.net.parameters() << 0.5, 1.5, 0.0, 1.0, offset;
-  return m;
+  return testing_support::one_node_narx(0.5, 1.5, 0.0, 1.0, offset, Scaling{}, 3000.0);
 }
 
 // Its rest trajectory r(k) = tanh(0.5·r(k−1)) + offset from r(−1) = 0, and the slope along it,

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "models/config_error.h"
+#include "tests/support/narx_models.h"
 #include "tests/support/vectors.h"
 
 namespace panelbass::models {
@@ -275,23 +276,12 @@ NarxModel file_model() {
   return m;
 }
 
-// y(k) = w·tanh(a·y(k−1) + b·u(k) + c) + d in scaled units: one node, na = 1, nb = 0, with offsets in the
-// scaling, so the rest trajectory is not zero and the linearisation's slope changes along it.
-NarxModel one_node_model(double a, double b, double c, double w, double d, const Scaling& scaling) {
-  NarxStructure s;
-  s.na = 1;
-  s.nb = 0;
-  s.nk = 0;
-  s.hidden = {1};
-  NarxModel m = NarxModel::with_structure(s, scaling, 1000.0);
-  m.net.parameters() << a, b, c, w, d;  // hidden row [y(k−1), u(k)], its bias, output weight, output bias
-  return m;
-}
-
 TEST(NarxModel, SmallSignalResponseIsTheLinearisationAlongTheRestTrajectory) {
   const Scaling scaling{0.1, 0.5, -0.2, 2.0};
   const double a = 0.6, b = 1.3, c = 0.2, w = 0.9, d = 0.05;
-  const NarxModel m = one_node_model(a, b, c, w, d, scaling);
+  // one node, y(k) = w·tanh(a·y(k−1) + b·u(k) + c) + d, with offsets in the scaling, so the rest trajectory
+  // is not zero and the linearisation's slope changes along it
+  const NarxModel m = testing_support::one_node_narx(a, b, c, w, d, scaling, 1000.0);
   Eigen::VectorXd u(300);
   for (Eigen::Index k = 0; k < u.size(); ++k) u[k] = 0.4 * std::sin(0.07 * k) + 0.2 * std::sin(0.9 * k + 1.0);
   // closed form: rest r(k) = w·tanh(a·r(k−1) + b·u0 + c) + d from r(−1) = 0 with u0 the scaled zero input,
