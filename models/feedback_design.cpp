@@ -99,9 +99,10 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
     const double f = o.sine_low_hz * std::pow(o.sine_high_hz / o.sine_low_hz, rng.uniform(0.0, 1.0));
     const double gain = chain_gain(shape, controller, f, fs);
     const bool program_level = rng.uniform(0.0, 1.0) < o.program_share;
-    const double drive_level = o.sine_peak / gain;
-    const double amplitude =
-        std::min(1.0, program_level ? std::min(drive_level, program_top * rng.uniform(0.25, 2.0)) : drive_level);
+    // the drive reaches sine_peak, or the program does where the chain's gain is below 1 (near the plant's
+    // resonance): the rule `evaluate` sets its probes by, so a step there plays at the probe's drive
+    const double drive_level = std::min(o.sine_peak, o.sine_peak / gain);
+    const double amplitude = program_level ? std::min(drive_level, program_top * rng.uniform(0.25, 2.0)) : drive_level;
     const Eigen::Index length = std::min(step, o.samples - start);
     // two periods of fade (at least 10 ms, at most a quarter step): a short fade splatters into the band
     // below the pass band's corner, where the feedforward's gain can be far above its gain at f

@@ -47,7 +47,8 @@ struct FeedbackDesignOptions {
                                      ///< soft limit's knee (0.8), so the controller has headroom to correct
   double program_share = 0.0;        ///< share of the stepped sines played at a program level (the same program
                                      ///< amplitude range at every frequency, as music would), the rest at a drive
-                                     ///< level (steady drive peak sine_peak at each step's own frequency)
+                                     ///< level (steady drive peak sine_peak at each step's own frequency, or
+                                     ///< program peak sine_peak where the chain's gain is below 1)
   bool level_weighting = false;      ///< weight each part of a record (the noise, every sine step) by the inverse
                                      ///< of its desired output's power, so a small step's relative error counts as
                                      ///< much as a loud one's (otherwise a step at a twelfth of the level counts
@@ -75,7 +76,8 @@ struct ControlRecord {
 
 /// A record of `o.samples`: uniform white noise at the largest safe amplitude (models::max_input's noise
 /// case), then stepped sines at log-uniform random frequencies. A drive-level step plays at the amplitude
-/// where band-pass + feedforward reach a steady peak of o.sine_peak at its frequency; a program-level step
+/// where band-pass + feedforward reach a steady peak of o.sine_peak at its frequency, or at o.sine_peak where
+/// the chain's gain is below 1 (the rule `evaluate` sets its probes by); a program-level step
 /// (share o.program_share) at a program amplitude drawn uniformly from a quarter to twice the one at which the
 /// band's loudest frequency reaches o.sine_peak, capped at the drive level — so that where the feedforward
 /// cuts (near the plant's resonance) the steps are as small as a program makes them. Every step fades in and

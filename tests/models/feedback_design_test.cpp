@@ -49,11 +49,13 @@ TEST(FeedbackDesignTest, ControlRecordIsTheProgramThroughBandPassAndFeedforward)
     ASSERT_NEAR(r.y_desired[k], s.C.dot(x) + s.D * p[k], 1e-10) << k;
     x = (s.A - s.B * ff.L) * x + s.B * p[k];
   }
-  // the noise half stays within the safe range; the sine half's drive, transients included, stays within
-  // sine_peak, and the steps are not scaled further down than they need to be
+  // the noise half stays within the safe range; the sine half's drive, transients included, and its program
+  // stay within sine_peak, and the steps are not scaled further down than they need to be (the drive or,
+  // where the chain's gain is below 1, the program reaches it)
   EXPECT_LE(r.u.head(3000).cwiseAbs().maxCoeff(), 1.0 + 1e-9);
   EXPECT_LE(r.u.tail(3000).cwiseAbs().maxCoeff(), 0.3 * 1.005);
-  EXPECT_GE(r.u.tail(3000).cwiseAbs().maxCoeff(), 0.3 * 0.95);
+  EXPECT_LE(r.program.tail(3000).cwiseAbs().maxCoeff(), 0.3 * 1.005);
+  EXPECT_GE(std::max(r.u.tail(3000).cwiseAbs().maxCoeff(), r.program.tail(3000).cwiseAbs().maxCoeff()), 0.3 * 0.95);
   // deterministic in the seed, different for another
   EXPECT_EQ(control_record(ff, bp, o, 3).program, r.program);
   EXPECT_NE(control_record(ff, bp, o, 4).program, r.program);
@@ -98,7 +100,7 @@ std::vector<double> step_peaks(const Eigen::VectorXd& signal, const FeedbackDesi
   return peaks;
 }
 
-// Drive-level steps reach the drive peak, whatever the feedforward's gain at their frequency, so their
+// Drive-level steps reach the drive peak, or the program does where the chain's gain is below 1, so their
 // program amplitudes spread as that gain does (the accelerometer-like model's LQ boosts 30 Hz and cuts near
 // its 150 Hz resonance); program-level steps play program amplitudes within a factor 8 of each other
 // (a quarter to twice one level), so near the resonance their drive stays far below the peak.
@@ -111,13 +113,19 @@ TEST(FeedbackDesignTest, ProgramLevelStepsShareOneAmplitudeRangeDriveLevelStepsO
   o.sine_peak = 0.6;
   o.program_share = 0.0;
   const ControlRecord drive_level = control_record(ff, bp, o, 5);
-  // most steps reach it (some are scaled down where the previous step's transient lifts their drive)
+  // most steps reach it, or their program does where the chain's gain is below 1 (some are scaled down
+  // where the previous step's transient lifts their drive)
   const std::vector<double> drive_peaks = step_peaks(drive_level.u, o);
-  const auto reaching = std::count_if(drive_peaks.begin(), drive_peaks.end(), [](double p) { return p >= 0.6 * 0.9; });
-  EXPECT_GE(reaching, 3 * static_cast<long>(drive_peaks.size()) / 4);
   const std::vector<double> drive_programs = step_peaks(drive_level.program, o);
+  long reaching = 0;
+  for (std::size_t i = 0; i < drive_peaks.size(); ++i) reaching += drive_peaks[i] >= 0.6 * 0.9 || drive_programs[i] >= 0.6 * 0.99;
+  EXPECT_GE(reaching, 3 * static_cast<long>(drive_peaks.size()) / 4);
   const auto [dmin, dmax] = std::minmax_element(drive_programs.begin(), drive_programs.end());
-  EXPECT_GT(*dmax / *dmin, 20.0) << "the feedforward's gain spreads the drive-level steps' program amplitudes";
+  EXPECT_GT(*dmax / *dmin, 10.0) << "the feedforward's gain spreads the drive-level steps' program amplitudes";
+  // where the chain's gain is below 1 (near the resonance) the program, not the drive, reaches the peak: the
+  // rule evaluate's probes follow (program amplitude = peak / max(1, |gain|))
+  EXPECT_LE(*dmax, 0.6 * 1.001);
+  EXPECT_GE(*dmax, 0.6 * 0.99) << "no step landed where the chain's gain is below 1";
 
   o.program_share = 1.0;
   const ControlRecord program_level = control_record(ff, bp, o, 5);
