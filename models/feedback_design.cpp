@@ -42,6 +42,109 @@ double largest_gain(const dsp::SosFilter& shape, const StateSpace& controller, d
   return largest;
 }
 
+// One stepped sine of a record.
+struct SineStep {
+  Eigen::Index start, length;
+  double f;           // Hz
+  Eigen::Index fade;  // samples of fade at each end
+};
+
+// A stretch of a record that is weighed as one.
+struct RecordPart {
+  Eigen::Index start, length;
+};
+
+// Stepped sines at log-uniform random frequencies from sample `from` to the end of `program`, each at its
+// drive or program level (FeedbackDesignOptions, control_record's comment), faded in and out.
+std::vector<SineStep> add_stepped_sines(Eigen::VectorXd& program, Eigen::Index from, const StateSpace& controller,
+                                        const std::vector<dsp::Biquad>& band_pass, const FeedbackDesignOptions& o,
+                                        double fs, dsp::Rng& rng) {
+  const dsp::SosFilter shape(band_pass);
+  const auto step = static_cast<Eigen::Index>(o.sine_step_seconds * fs);
+  const double program_top = o.sine_peak / largest_gain(shape, controller, o.sine_low_hz, o.sine_high_hz, fs);
+  std::vector<SineStep> steps;
+  for (Eigen::Index start = from; start < program.size(); start += step) {
+    const double f = o.sine_low_hz * std::pow(o.sine_high_hz / o.sine_low_hz, rng.uniform(0.0, 1.0));
+    const double gain = chain_gain(shape, controller, f, fs);
+    const bool program_level = rng.uniform(0.0, 1.0) < o.program_share;
+    // the drive reaches sine_peak, or the program does where the chain's gain is below 1 (near the plant's
+    // resonance): the rule `evaluate` sets its probes by, so a step there plays at the probe's drive
+    const double drive_level = std::min(o.sine_peak, o.sine_peak / gain);
+    const double amplitude = program_level ? std::min(drive_level, program_top * rng.uniform(0.25, 2.0)) : drive_level;
+    const Eigen::Index length = std::min(step, program.size() - start);
+    // two periods of fade (at least 10 ms, at most a quarter step): a short fade splatters into the band
+    // below the pass band's corner, where the feedforward's gain can be far above its gain at f
+    const auto fade = std::min<Eigen::Index>(
+        static_cast<Eigen::Index>(std::max(0.01 * fs, 2.0 * fs / f)), std::max<Eigen::Index>(1, length / 4));
+    for (Eigen::Index k = 0; k < length; ++k) {
+      const double edge = static_cast<double>(std::min(k, length - 1 - k));
+      const double window = edge < static_cast<double>(fade) ? 0.5 - 0.5 * std::cos(std::numbers::pi * edge / fade) : 1.0;
+      program[start + k] = window * amplitude * std::sin(2.0 * std::numbers::pi * f * k / fs);
+    }
+    steps.push_back({start, length, f, fade});
+  }
+  return steps;
+}
+
+// The steady-state gain sets each step's level; what the feedforward's slow poles carry over from the fades
+// and the earlier steps can still lift a step's peak. Steps whose drive passes `peak` are scaled down until
+// none does (the chain is linear, so a few passes settle it).
+void keep_steps_within_peak(Eigen::VectorXd& program, const std::vector<SineStep>& steps,
+                            const StateSpace& controller, const std::vector<dsp::Biquad>& band_pass, double peak) {
+  for (int pass = 0; pass < 20; ++pass) {
+    const Eigen::VectorXd u = simulate(controller, dsp::SosFilter(band_pass).process(program));
+    bool within = true;
+    for (const SineStep& s : steps) {
+      const double step_peak = u.segment(s.start, s.length).cwiseAbs().maxCoeff();
+      if (step_peak <= peak) continue;
+      within = false;
+      program.segment(s.start, s.length) *= 0.999 * peak / step_peak;
+    }
+    if (within) return;
+  }
+}
+
+// The plant-fundamental target: on each step's steady part (from two fades in, so the resonances' transients
+// have settled, to its fade out) adds to `y_desired` (the small-signal response) the fundamental and mean of
+// what the uncorrected `loop` output departs from it by, so that the change of gain with the level is no
+// error and the harmonics are (the feedforward's own transients, in the small-signal response, are none
+// either). Returns the steady parts.
+std::vector<RecordPart> add_loop_fundamentals(Eigen::VectorXd& y_desired, const Eigen::VectorXd& loop,
+                                              const std::vector<SineStep>& steps, double fs) {
+  std::vector<RecordPart> steady;
+  for (const SineStep& s : steps) {
+    const Eigen::Index start = s.start + 2 * s.fade, length = s.length - 3 * s.fade;
+    if (length < 4) continue;
+    // least squares: departure ≈ a·sin(ωk) + b·cos(ωk) + c over the steady part
+    Eigen::MatrixXd basis(length, 3);
+    for (Eigen::Index k = 0; k < length; ++k) {
+      const double phase = 2.0 * std::numbers::pi * s.f * static_cast<double>(start - s.start + k) / fs;
+      basis.row(k) << std::sin(phase), std::cos(phase), 1.0;
+    }
+    const Eigen::VectorXd departure = loop.segment(start, length) - y_desired.segment(start, length);
+    const Eigen::Vector3d coefficients = basis.colPivHouseholderQr().solve(departure);
+    y_desired.segment(start, length) += basis * coefficients;
+    steady.push_back({start, length});
+  }
+  return steady;
+}
+
+// Scales `weight` on each part by (mean power of `weighed` over all parts / its power on that part), capped
+// at 10⁴, so that every part weighs in with the record's mean power.
+void weigh_parts_by_inverse_power(Eigen::VectorXd& weight, const Eigen::VectorXd& weighed,
+                                  const std::vector<RecordPart>& parts) {
+  double energy = 0.0, samples = 0.0;
+  for (const RecordPart& p : parts) {
+    energy += weighed.segment(p.start, p.length).squaredNorm();
+    samples += static_cast<double>(p.length);
+  }
+  const double reference = energy / samples;
+  for (const RecordPart& p : parts) {
+    const double power = weighed.segment(p.start, p.length).squaredNorm() / static_cast<double>(p.length);
+    weight.segment(p.start, p.length) *= power > 0.0 ? std::min(1e4, reference / power) : 1.0;
+  }
+}
+
 }  // namespace
 
 const char* desired_response_name(DesiredResponse d) {
@@ -77,9 +180,7 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   if (o.distortion_weighting && o.level_weighting) {
     throw std::invalid_argument("design nn: level weighting and distortion weighting exclude each other");
   }
-  const double fs = ff.fs;
   const StateSpace controller = ff.controller();
-  const dsp::SosFilter shape(band_pass);
   dsp::Rng rng(seed);
   ControlRecord r;
   r.program = Eigen::VectorXd::Zero(o.samples);
@@ -87,49 +188,8 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   const Eigen::Index n_noise = o.samples - n_sines;
   const double noise_amplitude = max_input(ff, band_pass, 100000, seed).noise;
   for (Eigen::Index k = 0; k < n_noise; ++k) r.program[k] = rng.uniform(-noise_amplitude, noise_amplitude);
-  const auto step = static_cast<Eigen::Index>(o.sine_step_seconds * fs);
-  struct Step {
-    Eigen::Index start, length;
-    double f;           // Hz
-    Eigen::Index fade;  // samples of fade at each end
-  };
-  std::vector<Step> steps;
-  const double program_top = o.sine_peak / largest_gain(shape, controller, o.sine_low_hz, o.sine_high_hz, fs);
-  for (Eigen::Index start = n_noise; start < o.samples; start += step) {
-    const double f = o.sine_low_hz * std::pow(o.sine_high_hz / o.sine_low_hz, rng.uniform(0.0, 1.0));
-    const double gain = chain_gain(shape, controller, f, fs);
-    const bool program_level = rng.uniform(0.0, 1.0) < o.program_share;
-    // the drive reaches sine_peak, or the program does where the chain's gain is below 1 (near the plant's
-    // resonance): the rule `evaluate` sets its probes by, so a step there plays at the probe's drive
-    const double drive_level = std::min(o.sine_peak, o.sine_peak / gain);
-    const double amplitude = program_level ? std::min(drive_level, program_top * rng.uniform(0.25, 2.0)) : drive_level;
-    const Eigen::Index length = std::min(step, o.samples - start);
-    // two periods of fade (at least 10 ms, at most a quarter step): a short fade splatters into the band
-    // below the pass band's corner, where the feedforward's gain can be far above its gain at f
-    const auto fade = std::min<Eigen::Index>(
-        static_cast<Eigen::Index>(std::max(0.01 * fs, 2.0 * fs / f)), std::max<Eigen::Index>(1, length / 4));
-    for (Eigen::Index k = 0; k < length; ++k) {
-      const double edge = static_cast<double>(std::min(k, length - 1 - k));
-      const double window = edge < static_cast<double>(fade) ? 0.5 - 0.5 * std::cos(std::numbers::pi * edge / fade) : 1.0;
-      r.program[start + k] = window * amplitude * std::sin(2.0 * std::numbers::pi * f * k / fs);
-    }
-    steps.push_back({start, length, f, fade});
-  }
-  // The steady-state gain sets each step's level; what the feedforward's slow poles carry over from the
-  // fades and the earlier steps can still lift a step's peak. Steps whose drive passes sine_peak are scaled
-  // down until none does (the chain is linear, so a few passes settle it).
-  const auto drive = [&] { return simulate(controller, dsp::SosFilter(band_pass).process(r.program)); };
-  for (int pass = 0; pass < 20; ++pass) {
-    const Eigen::VectorXd u = drive();
-    bool within = true;
-    for (const Step& s : steps) {
-      const double peak = u.segment(s.start, s.length).cwiseAbs().maxCoeff();
-      if (peak <= o.sine_peak) continue;
-      within = false;
-      r.program.segment(s.start, s.length) *= 0.999 * o.sine_peak / peak;
-    }
-    if (within) break;
-  }
+  const std::vector<SineStep> steps = add_stepped_sines(r.program, n_noise, controller, band_pass, o, ff.fs, rng);
+  keep_steps_within_peak(r.program, steps, controller, band_pass, o.sine_peak);
   const Eigen::VectorXd shaped = dsp::SosFilter(band_pass).process(r.program);
   r.u = simulate(controller, shaped);
   r.y_desired = o.desired == DesiredResponse::linear_model ? simulate(ff.desired(), shaped)
@@ -139,57 +199,29 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   // learns a DC drive many times larger to null it (4.6e-4 at a DC gain of 0.0085 asked -0.054 on
   // panel-exciter's model), which the transducer would turn into coil offset and even harmonics.
   if (plant != nullptr) r.y_desired += plant->simulate(Eigen::VectorXd::Zero(r.u.size()));
-  // Where each part of the record is weighed: all of the noise; of a step, with the plant-fundamental
-  // target, its steady part only (from two fades in, so the resonances' transients have settled, to its
-  // fade out), where the target adds to the small-signal response the fundamental (and mean) of what the
-  // uncorrected loop's output departs from it by: the change of gain with the level is then no error, the
-  // harmonics are (and the feedforward's own transients, in the small-signal response, are none either).
-  struct Part {
-    Eigen::Index start, length;
-  };
-  std::vector<Part> parts;
-  if (n_noise > 0) parts.push_back({0, n_noise});
   // the uncorrected loop's output (the plant model driven by u*), for the plant-fundamental target and
   // distortion weighting
   const bool needs_loop = o.desired == DesiredResponse::plant_fundamental || o.distortion_weighting;
   const Eigen::VectorXd loop = needs_loop ? plant->simulate(r.u) : Eigen::VectorXd();
+  // Where each part of the record is weighed: all of the noise, and every step (with the plant-fundamental
+  // target, only each step's steady part)
+  std::vector<RecordPart> parts;
+  if (n_noise > 0) parts.push_back({0, n_noise});
   if (o.desired == DesiredResponse::plant_fundamental) {
     r.weight = Eigen::VectorXd::Zero(o.samples);
     r.weight.head(n_noise).setOnes();
-    for (const Step& s : steps) {
-      const Eigen::Index start = s.start + 2 * s.fade, length = s.length - 3 * s.fade;
-      if (length < 4) continue;
-      // least squares: departure ≈ a·sin(ωk) + b·cos(ωk) + c over the steady part
-      Eigen::MatrixXd basis(length, 3);
-      for (Eigen::Index k = 0; k < length; ++k) {
-        const double phase = 2.0 * std::numbers::pi * s.f * static_cast<double>(start - s.start + k) / fs;
-        basis.row(k) << std::sin(phase), std::cos(phase), 1.0;
-      }
-      const Eigen::VectorXd departure = loop.segment(start, length) - r.y_desired.segment(start, length);
-      const Eigen::Vector3d coefficients = basis.colPivHouseholderQr().solve(departure);
-      r.y_desired.segment(start, length) += basis * coefficients;
-      r.weight.segment(start, length).setOnes();
-      parts.push_back({start, length});
+    for (const RecordPart& p : add_loop_fundamentals(r.y_desired, loop, steps, ff.fs)) {
+      r.weight.segment(p.start, p.length).setOnes();
+      parts.push_back(p);
     }
   } else {
-    for (const Step& s : steps) parts.push_back({s.start, s.length});
+    for (const SineStep& s : steps) parts.push_back({s.start, s.length});
   }
   if (o.level_weighting || o.distortion_weighting) {
-    // w = (mean power over the weighed parts / part's mean power) of the weighed signal, per part (capped
-    // at 10⁴): the desired output (level weighting) or the uncorrected loop's error (distortion weighting)
-    const Eigen::VectorXd weighed =
-        o.level_weighting ? r.y_desired : Eigen::VectorXd(loop - r.y_desired);
-    double energy = 0.0, samples = 0.0;
-    for (const Part& p : parts) {
-      energy += weighed.segment(p.start, p.length).squaredNorm();
-      samples += static_cast<double>(p.length);
-    }
-    const double reference = energy / samples;
+    // the desired output (level weighting) or the uncorrected loop's error (distortion weighting)
+    const Eigen::VectorXd weighed = o.level_weighting ? r.y_desired : Eigen::VectorXd(loop - r.y_desired);
     if (r.weight.size() == 0) r.weight = Eigen::VectorXd::Ones(o.samples);
-    for (const Part& p : parts) {
-      const double power = weighed.segment(p.start, p.length).squaredNorm() / static_cast<double>(p.length);
-      r.weight.segment(p.start, p.length) *= power > 0.0 ? std::min(1e4, reference / power) : 1.0;
-    }
+    weigh_parts_by_inverse_power(r.weight, weighed, parts);
   }
   return r;
 }
