@@ -94,7 +94,7 @@ void add_design_nn(CLI::App& design) {
   cmd->add_option("--sine-share", o->design.sine_share, "Share of each record made of stepped sines")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
-  cmd->add_option("--sine-peak", o->design.sine_peak, "Steady peak of the feedforward output in the stepped sines")
+  cmd->add_option("--sine-peak", o->design.sine_peak, "Steady peak of the feedforward output in the stepped sines (of the program where the chain's gain is below 1)")
       ->check(CLI::Range(1e-6, 1.0))
       ->capture_default_str();
   cmd->add_option_function<std::string>(

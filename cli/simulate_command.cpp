@@ -137,7 +137,7 @@ void register_simulate(CLI::App& app) {
   cmd->add_option("--seed", o->seed, "Seed of the excitation")->capture_default_str();
   cmd->add_option("--ff", o->ff, "--signal control: the LQ feedforward controller whose output drives the plant");
   add_bandpass_option(cmd, o->bandpass, "--signal control: band-pass corners LO,HI in front of it, Hz");
-  cmd->add_option("--sine-peak", o->sine_peak, "--signal control: steady feedforward peak of the stepped sines")
+  cmd->add_option("--sine-peak", o->sine_peak, "--signal control: steady feedforward peak of the stepped sines (program peak where the chain's gain is below 1)")
       ->check(CLI::Range(1e-6, 1.0))
       ->capture_default_str();
   cmd->add_option("--program-share", o->program_share,
