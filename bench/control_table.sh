@@ -16,16 +16,18 @@
 # table at the limiter's knee (0.8, the evaluate default) follows for comparison.
 # Usage: [RECORDS=24] [MODELS=1] bash bench/control_table.sh [SEED] [SINE_SHARE]   (about 15 min per model)
 # PANELBASS_BIN overrides the binary; PLOTS=DIR keeps the evaluation figures of the model-mode chain at the
-# 0.6 probe peak (the response, and the harmonics per probe).
+# 0.6 probe peak (the response, and the harmonics per probe); KEEP=DIR keeps every file the run made (models,
+# controllers, chains, records, evaluations) for a closer look.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 here=$(pwd)
 bin=$(realpath "${PANELBASS_BIN:-build/bin/panelbass}")
 if [ -n "${PLOTS:-}" ]; then PLOTS=$(realpath -m "$PLOTS"); fi
+if [ -n "${KEEP:-}" ]; then KEEP=$(realpath -m "$KEEP"); fi
 seed=${1:-1}
 share=${2:-0.75}
 work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+trap 'if [ -n "${KEEP:-}" ]; then mkdir -p "$KEEP" && cp -r "$work"/. "$KEEP"/; fi; rm -rf "$work"' EXIT
 cd "$work"
 field() { sed -n "s/^  \"$1\": \([-0-9.e+]*\).*/\1/p" | head -n 1; }
 
