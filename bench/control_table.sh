@@ -4,7 +4,8 @@
 #   2. LQ feedforward, R = 1e-5, R0 = 20, band-pass 20-1200 Hz              design lq
 #   3. the plant driven in its operating regime: the feedforward's output
 #      for noise + stepped sines, RECORDS records of 22 500 samples at steady
-#      drive peaks 0.35-0.85 (default 24 = 540 000 samples: the harmonics
+#      drive peaks 0.35-0.85 (program peaks where the chain's gain is below 1;
+#      default 24 = 540 000 samples: the harmonics
 #      at small drives, 40 dB under the fundamental, need them) → NARX      simulate --signal control, identify narx
 #   4. the NARX model's harmonics checked against a 100 s stepped-sine
 #      recording at each probe's drive, level and phase (MODELS candidates:
