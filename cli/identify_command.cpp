@@ -7,6 +7,7 @@
 #include "cli/data_options.h"
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
+#include "dsp/data_file.h"
 #include "models/json_fields.h"
 #include "models/linear_identification.h"
 #include "models/model_file.h"
@@ -109,6 +110,7 @@ struct IdentifyNarxOptions {
   long init = 50;
   int grow = 0;
   bool prune = false;
+  std::string weight_col;
 };
 
 std::vector<models::TrainingMode> parse_modes(const std::string& list) {
@@ -123,15 +125,23 @@ std::vector<models::TrainingMode> parse_modes(const std::string& list) {
   return modes;
 }
 
+/// The weight column `name` of `path`, read at rate fs (empty name: none).
+Eigen::VectorXd read_weights(const std::string& path, const std::string& name, double fs) {
+  if (name.empty()) return {};
+  return dsp::read_data_file(path, {name}, fs, 10).columns[0];
+}
+
 void run_identify_narx(const IdentifyNarxOptions& o) {
   const dsp::Record est = o.columns.read(o.data);
-  Eigen::VectorXd u_val, y_val;
+  Eigen::VectorXd u_val, y_val, w_val;
   if (!o.val.empty()) {
     const dsp::Record val = o.columns.read(o.val);
     if (val.fs != est.fs) throw std::invalid_argument(o.val + ": sample rate differs from the estimation data");
     u_val = val.columns[0];
     y_val = val.columns[1];
+    w_val = read_weights(o.val, o.weight_col, est.fs);
   }
+  const Eigen::VectorXd w_est = read_weights(o.data, o.weight_col, est.fs);
   const models::Scaling scaling = models::scaling_from_data(est.columns[0], est.columns[1]);
   models::NarxStructure structure{o.na, o.nb, o.nk, o.hidden};
   models::NarxModel model = models::NarxModel::with_structure(structure, scaling, est.fs);
@@ -147,6 +157,8 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   options.batch = o.batch;
   options.transient_skip = o.skip;
   options.patience = o.patience;
+  options.weights = w_est;
+  options.validation_weights = w_val;
   if (o.gradient_check) {
     const Eigen::Index skip = o.skip >= 0 ? o.skip : 2 * (o.na + o.nb);
     if (o.parameter < 0 || o.parameter >= model.net.parameter_count()) {
@@ -289,6 +301,9 @@ void register_identify(CLI::App& app) {
   narx->add_flag("--gradient-check", n->gradient_check,
                  "Print the static, dynamic and finite-difference gradients of one parameter (fig. 5.16)");
   narx->add_option("--parameter", n->parameter, "Parameter index for --gradient-check")->capture_default_str();
+  narx->add_option("--weight-col", n->weight_col,
+                   "Column of per-sample weights of the loss, in --data and --val (e.g. w of simulate --signal control); "
+                   "J figures stay unweighted, early stopping watches the weighted J_val");
   narx->add_option("--out", n->out, "Model file to write (JSON)");
   narx->footer(
       "Example:\n  panelbass identify narx --data est.csv --val val.csv --fs 3000 --na 8 --nb 8 --hidden 17 "

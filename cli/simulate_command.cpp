@@ -40,6 +40,20 @@ struct SimulateOptions {
   std::string out;
 };
 
+/// --signal control's record: the drive the feedforward chain produces for the controller design's program
+/// (noise + stepped sines), with its steps and linear response for the harmonic weights.
+models::ControlRecord make_control_record(const SimulateOptions& o, double fs) {
+  if (o.ff.empty()) throw std::invalid_argument("--signal control needs --ff FF.json");
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(models::read_json_file(o.ff));
+  if (std::abs(ff.fs - fs) > 1e-9 * fs) throw std::invalid_argument("--ff " + o.ff + ": designed at another rate than the plant's");
+  models::FeedbackDesignOptions design;
+  design.samples = static_cast<Eigen::Index>(o.samples);
+  design.sine_peak = o.sine_peak;
+  design.program_share = o.program_share;
+  return models::control_record(ff, band_pass_sections(o.bandpass, 2, fs), design, o.seed);
+}
+
+/// The excitation of every signal but control.
 Eigen::VectorXd make_excitation(const SimulateOptions& o, double fs) {
   if (o.signal == "stepped") {
     // The same layout `panelbass harmonics --data` expects: settle, then measure, per frequency.
@@ -51,17 +65,6 @@ Eigen::VectorXd make_excitation(const SimulateOptions& o, double fs) {
     spec.settle = o.settle;
     spec.measure = o.measure;
     return dsp::stepped_sine(spec).signal;
-  }
-  if (o.signal == "control") {
-    // The drive the feedforward chain produces for the controller design's program (noise + stepped sines)
-    if (o.ff.empty()) throw std::invalid_argument("--signal control needs --ff FF.json");
-    const models::LqFeedforward ff = models::lq_feedforward_from_json(models::read_json_file(o.ff));
-    if (std::abs(ff.fs - fs) > 1e-9 * fs) throw std::invalid_argument("--ff " + o.ff + ": designed at another rate than the plant's");
-    models::FeedbackDesignOptions design;
-    design.samples = static_cast<Eigen::Index>(o.samples);
-    design.sine_peak = o.sine_peak;
-    design.program_share = o.program_share;
-    return models::control_record(ff, band_pass_sections(o.bandpass, 2, fs), design, o.seed).u;
   }
   if (o.signal == "noise") return dsp::uniform_noise(o.samples, o.amplitude, o.seed);
   if (o.signal == "gauss") return dsp::gaussian_noise(o.samples, o.amplitude, o.seed);
@@ -96,7 +99,9 @@ void run_simulate(const SimulateOptions& o) {
   if (o.samples == 0 && o.signal != "stepped") throw CLI::RequiredError("--samples");
   const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
   dsp::check_writable_data_file(o.out);
-  const Eigen::VectorXd u = make_excitation(o, plant.fs);
+  const bool control = o.signal == "control";
+  const models::ControlRecord control_record = control ? make_control_record(o, plant.fs) : models::ControlRecord{};
+  const Eigen::VectorXd u = control ? control_record.u : make_excitation(o, plant.fs);
   const auto samples = static_cast<std::size_t>(u.size());
   ProgressBar bar("simulate");
   const std::uint64_t noise_seed = o.noise_seed_given ? o.noise_seed : o.seed + 1;
@@ -108,6 +113,8 @@ void run_simulate(const SimulateOptions& o) {
   record.add("y", r.y);
   record.add("i", r.i);
   record.add("x", r.x);
+  // for identify narx --weight-col w: every step's harmonics count alike (models::harmonic_weights)
+  if (control) record.add("w", models::harmonic_weights(control_record, r.y, plant.fs));
   dsp::write_data_file(o.out, record);
 
   print_result({{"samples", samples},
@@ -156,7 +163,7 @@ void register_simulate(CLI::App& app) {
   cmd->add_option("--freqs", o->freqs, "Fundamentals of --signal stepped, Hz")->delimiter(',')->check(CLI::PositiveNumber);
   cmd->add_option("--settle", o->settle, "Stepped sine: samples before each measured part")->capture_default_str();
   cmd->add_option("--measure", o->measure, "Stepped sine: measured samples per frequency")->capture_default_str();
-  cmd->add_option("--out", o->out, "Output file, .csv or .wav (columns u,y,i,x)")->required();
+  cmd->add_option("--out", o->out, "Output file, .csv or .wav (columns u,y,i,x; --signal control adds w, the harmonic weights for identify narx --weight-col w)")->required();
   cmd->footer(
       "Example:\n  panelbass simulate --plant panel-exciter --signal noise --amplitude 1 --samples 12000 "
       "--seed 1 --out run.csv");

@@ -42,18 +42,6 @@ double largest_gain(const dsp::SosFilter& shape, const StateSpace& controller, d
   return largest;
 }
 
-// One stepped sine of a record.
-struct SineStep {
-  Eigen::Index start, length;
-  double f;           // Hz
-  Eigen::Index fade;  // samples of fade at each end
-};
-
-// A stretch of a record that is weighed as one.
-struct RecordPart {
-  Eigen::Index start, length;
-};
-
 // Stepped sines at log-uniform random frequencies from sample `from` to the end of `program`, each at its
 // drive or program level (FeedbackDesignOptions, control_record's comment), faded in and out.
 std::vector<SineStep> add_stepped_sines(Eigen::VectorXd& program, Eigen::Index from, const StateSpace& controller,
@@ -188,7 +176,9 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   const Eigen::Index n_noise = o.samples - n_sines;
   const double noise_amplitude = max_input(ff, band_pass, 100000, seed).noise;
   for (Eigen::Index k = 0; k < n_noise; ++k) r.program[k] = rng.uniform(-noise_amplitude, noise_amplitude);
-  const std::vector<SineStep> steps = add_stepped_sines(r.program, n_noise, controller, band_pass, o, ff.fs, rng);
+  r.noise_samples = n_noise;
+  r.steps = add_stepped_sines(r.program, n_noise, controller, band_pass, o, ff.fs, rng);
+  const std::vector<SineStep>& steps = r.steps;
   keep_steps_within_peak(r.program, steps, controller, band_pass, o.sine_peak);
   const Eigen::VectorXd shaped = dsp::SosFilter(band_pass).process(r.program);
   r.u = simulate(controller, shaped);
@@ -224,6 +214,57 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
     weigh_parts_by_inverse_power(r.weight, weighed, parts);
   }
   return r;
+}
+
+Eigen::VectorXd harmonic_weights(const ControlRecord& record, const Eigen::VectorXd& y, double fs) {
+  if (y.size() != record.y_desired.size()) {
+    throw std::invalid_argument("harmonic weights: the output has " + std::to_string(y.size()) +
+                                " samples, the control record " + std::to_string(record.y_desired.size()));
+  }
+  if (!y.allFinite()) throw std::invalid_argument("harmonic weights: the output is not finite");
+  // the departure from the linear response, less each step's fundamental and mean on its steady part; on
+  // it, the harmonics 2..5 below fs/2 fitted by least squares (what sensor noise adds to them shrinks with
+  // the part's length)
+  Eigen::VectorXd fitted = record.y_desired;
+  const std::vector<RecordPart> steady = add_loop_fundamentals(fitted, y, record.steps, fs);
+  Eigen::VectorXd residual = y - fitted;
+  for (const SineStep& s : record.steps) {
+    const Eigen::Index start = s.start + 2 * s.fade, length = s.length - 3 * s.fade;
+    int harmonics = 0;
+    while (harmonics < 4 && (harmonics + 2) * s.f < fs / 2.0) ++harmonics;
+    if (length < 4 || harmonics == 0 || length <= 2 * harmonics) continue;
+    Eigen::MatrixXd basis(length, 2 * harmonics);
+    for (Eigen::Index k = 0; k < length; ++k) {
+      const double phase = 2.0 * std::numbers::pi * s.f * static_cast<double>(start - s.start + k) / fs;
+      for (int h = 0; h < harmonics; ++h) {
+        basis(k, 2 * h) = std::sin((h + 2) * phase);
+        basis(k, 2 * h + 1) = std::cos((h + 2) * phase);
+      }
+    }
+    const Eigen::VectorXd part = residual.segment(start, length);
+    residual.segment(start, length) = basis * basis.colPivHouseholderQr().solve(part);
+  }
+  // every step weighs as its steady part, the noise as itself
+  std::vector<RecordPart> measured, spans;
+  if (record.noise_samples > 0) {
+    measured.push_back({0, record.noise_samples});
+    spans.push_back(measured.back());
+  }
+  std::size_t next = 0;
+  for (const SineStep& s : record.steps) {
+    const Eigen::Index start = s.start + 2 * s.fade;
+    if (next < steady.size() && steady[next].start == start) {
+      measured.push_back(steady[next++]);
+      spans.push_back({s.start, s.length});
+    }
+  }
+  Eigen::VectorXd weight = Eigen::VectorXd::Ones(y.size());
+  Eigen::VectorXd per_part = Eigen::VectorXd::Ones(y.size());
+  weigh_parts_by_inverse_power(per_part, residual, measured);
+  for (std::size_t i = 0; i < spans.size(); ++i) {
+    weight.segment(spans[i].start, spans[i].length).setConstant(per_part[measured[i].start]);
+  }
+  return weight;
 }
 
 nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o) {

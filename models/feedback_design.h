@@ -65,6 +65,18 @@ struct FeedbackDesignOptions {
   FeedbackTrainingOptions training{};  ///< the training itself
 };
 
+/// One stepped sine of a control record.
+struct SineStep {
+  Eigen::Index start = 0, length = 0;  ///< its samples
+  double f = 0.0;                      ///< frequency, Hz
+  Eigen::Index fade = 0;               ///< samples of fade at each end
+};
+
+/// A stretch of a record that is weighed as one.
+struct RecordPart {
+  Eigen::Index start = 0, length = 0;  ///< its samples
+};
+
 /// One training record.
 struct ControlRecord {
   Eigen::VectorXd program;    ///< the program input
@@ -72,6 +84,8 @@ struct ControlRecord {
   Eigen::VectorXd y_desired;  ///< the desired output (FeedbackDesignOptions::desired), raw units
   Eigen::VectorXd weight;     ///< tracking weight per sample (a weighting, or the plant-fundamental target's
                               ///< steady parts), else empty (all 1)
+  Eigen::Index noise_samples = 0;  ///< the noise at the start
+  std::vector<SineStep> steps;     ///< the stepped sines after it
 };
 
 /// A record of `o.samples`: uniform white noise at the largest safe amplitude (models::max_input's noise
@@ -88,6 +102,15 @@ struct ControlRecord {
 /// DC drive. Deterministic in `seed`.
 ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
                              const FeedbackDesignOptions& o, std::uint64_t seed, const NarxModel* plant = nullptr);
+
+/// Per-sample weights for identifying a plant model on `record`'s drive u and the plant's measured output
+/// `y` (same length, rate fs): every step weighs by the inverse power of its harmonics — the 2nd to 5th
+/// (those below fs/2) fitted by least squares to what y departs from the linear response y_desired by on the
+/// step's steady part, so that sensor noise hardly counts — and the noise part by the inverse power of its departure, scaled to the record's mean and capped at 10⁴
+/// (weigh as control_record's parts do); a whole step (fades included) takes its steady part's weight. So a
+/// step whose harmonics sit 40 dB under its fundamental counts as much as one with 60 % distortion. Throws
+/// std::invalid_argument for a length mismatch or a non-finite y.
+Eigen::VectorXd harmonic_weights(const ControlRecord& record, const Eigen::VectorXd& y, double fs);
 
 /// What the design produced.
 struct FeedbackDesign {

@@ -55,6 +55,17 @@ struct Buffers {
   Eigen::MatrixXd ring;    ///< P×na: dŷ(j)/dθ of the last na samples, ψ(j) in column j mod na
   Eigen::MatrixXd block;   ///< P×B: ψ(k) waiting for H += Ψ·Ψᵀ
   Eigen::VectorXd grad;    ///< accumulator for a batch gradient (sd)
+  Eigen::VectorXd weight;  ///< w(k) of the loss, as given (empty = 1 everywhere)
+  double weight_total = 0; ///< Σ_{k≥skip} w(k): the loss's normaliser (N − skip without weights)
+
+  /// The weight of sample k's squared error.
+  double w(Eigen::Index k) const { return weight.size() == 0 ? 1.0 : weight[k]; }
+
+  /// Sets the weights (empty = 1) and their total over k ≥ skip for `samples` samples.
+  void set_weights(const Eigen::VectorXd& weights, Eigen::Index samples, Eigen::Index skip) {
+    weight = weights;
+    weight_total = weights.size() == 0 ? static_cast<double>(samples - skip) : weights.tail(samples - skip).sum();
+  }
 
   Buffers(const NarxModel& model, Eigen::Index samples) {
     const Eigen::Index P = model.net.parameter_count();
@@ -111,9 +122,37 @@ void require_data(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Ind
   require_finite(y, which + " output");
 }
 
+/// Weights are empty, or one finite w(k) ≥ 0 per sample with a positive total over k ≥ skip.
+void require_weights(const Eigen::VectorXd& w, Eigen::Index samples, Eigen::Index skip, const std::string& which) {
+  if (w.size() == 0) return;
+  if (w.size() != samples) {
+    throw std::invalid_argument("NARX training: " + which + " weights have " + std::to_string(w.size()) +
+                                " entries, the data " + std::to_string(samples) + " samples");
+  }
+  for (Eigen::Index k = 0; k < w.size(); ++k) {
+    if (!std::isfinite(w[k]) || w[k] < 0.0) {
+      throw std::invalid_argument("NARX training: " + which + " weight at sample " + std::to_string(k) + " is " +
+                                  std::to_string(w[k]) + " (expected a finite number ≥ 0)");
+    }
+  }
+  if (!(w.tail(samples - skip).sum() > 0.0)) {
+    throw std::invalid_argument("NARX training: " + which + " weights are all 0 after the transient skip");
+  }
+}
+
+/// A Buffers for `u` with `weights` set (checked).
+Buffers weighted_buffers(const NarxModel& model, const Eigen::VectorXd& u, Eigen::Index skip,
+                         const Eigen::VectorXd& weights, const std::string& which) {
+  require_weights(weights, u.size(), skip, which);
+  Buffers b(model, u.size());
+  b.set_weights(weights, u.size(), skip);
+  return b;
+}
+
 // ----- sweeps over the data ----------------------------------------------------------------------
 
-/// V = 1/(2(N−skip))·Σ_{k≥skip} e(k)², with the outputs left in b.yhat ([5N]; [5H] for the feedback).
+/// V = 1/(2·Σw)·Σ_{k≥skip} w(k)·e(k)² (w = 1: 1/(2(N−skip))·Σ e(k)²), with the outputs left in b.yhat
+/// ([5N]; [5H] for the feedback).
 double output_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Feedback feedback,
                    Eigen::Index skip, Buffers& b) {
   const Eigen::Index N = u.size();
@@ -126,10 +165,10 @@ double output_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eigen
     b.yhat[k] = yk;
     if (k >= skip) {
       const double e = yk - y[k];
-      sum += e * e;
+      sum += b.w(k) * e * e;
     }
   }
-  return 0.5 * sum / static_cast<double>(N - skip);
+  return 0.5 * sum / b.weight_total;
 }
 
 /// Computes ψ(k) = dŷ(k)/dθ into b.psi after forward()/backward() at sample k, for `mode`, and returns
@@ -143,8 +182,8 @@ const Eigen::VectorXd& sensitivity(TrainingMode mode, int na, Eigen::Index k, Bu
   return b.psi;
 }
 
-/// One sweep: V, g = dV/dθ = 1/(N−skip)·Σ_{k≥skip} e(k)·ψ(k) ([5M]) and, if H is given, the
-/// Gauss–Newton matrix H = 1/(N−skip)·Σ ψ(k)ψ(k)ᵀ (P×P, accumulated in blocks of ψ columns).
+/// One sweep: V, g = dV/dθ = 1/Σw·Σ_{k≥skip} w(k)·e(k)·ψ(k) ([5M], w = 1: Σw = N − skip) and, if H is
+/// given, the Gauss–Newton matrix H = 1/Σw·Σ w(k)·ψ(k)ψ(k)ᵀ (P×P, accumulated in blocks of √w·ψ columns).
 double gradient_sweep(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y, TrainingMode mode,
                       Eigen::Index skip, Buffers& b, Eigen::VectorXd& g, Eigen::MatrixXd* H) {
   const Eigen::Index N = u.size();
@@ -164,18 +203,18 @@ double gradient_sweep(const NarxModel& model, const Eigen::VectorXd& u, const Ei
     model.net.backward(b.ws, b.dtheta, dynamic ? b.dx : b.none);
     const Eigen::VectorXd& psi = sensitivity(mode, na, k, b);
     if (k < skip) continue;  // [5M] the sum starts at skip
-    const double e = yk - y[k];
-    sum += e * e;
-    g.noalias() += e * psi;
+    const double e = yk - y[k], wk = b.w(k);
+    sum += wk * e * e;
+    g.noalias() += (wk * e) * psi;
     if (H != nullptr) {
-      b.block.col(in_block++) = psi;
+      b.block.col(in_block++) = std::sqrt(wk) * psi;
       if (in_block == b.block.cols()) {
         H->selfadjointView<Eigen::Lower>().rankUpdate(b.block);
         in_block = 0;
       }
     }
   }
-  const double M = static_cast<double>(N - skip);
+  const double M = b.weight_total;
   if (H != nullptr) {
     if (in_block > 0) H->selfadjointView<Eigen::Lower>().rankUpdate(b.block.leftCols(in_block));
     H->triangularView<Eigen::StrictlyUpper>() = H->transpose();
@@ -207,7 +246,9 @@ double numerical_normal_equations(const NarxModel& model, const Eigen::VectorXd&
                                   Eigen::Index skip, double h, Buffers& b, Eigen::VectorXd& g, Eigen::MatrixXd& H) {
   const Eigen::Index N = u.size(), M = N - skip;
   const double V = output_loss(model, u, y, Feedback::simulated, skip, b);
-  const Eigen::VectorXd e = b.yhat.tail(M) - y.tail(M);
+  const Eigen::VectorXd sqrt_w =
+      b.weight.size() == 0 ? Eigen::VectorXd::Ones(M) : Eigen::VectorXd(b.weight.tail(M).cwiseSqrt());
+  const Eigen::VectorXd e = (b.yhat.tail(M) - y.tail(M)).cwiseProduct(sqrt_w);
   NarxModel probe = model;
   Eigen::VectorXd& theta = probe.net.parameters();
   Eigen::MatrixXd jac(M, theta.size());
@@ -219,12 +260,12 @@ double numerical_normal_equations(const NarxModel& model, const Eigen::VectorXd&
     theta[p] = keep - h;
     output_loss(probe, u, y, Feedback::simulated, skip, b);
     jac.col(p) -= b.yhat.tail(M);
-    jac.col(p) /= 2.0 * h;
+    jac.col(p) = jac.col(p).cwiseProduct(sqrt_w) / (2.0 * h);  // √w(k)·dŷ(k)/dθ_p
     theta[p] = keep;
   }
-  g.noalias() = jac.transpose() * e / static_cast<double>(M);
+  g.noalias() = jac.transpose() * e / b.weight_total;
   H.setZero();
-  H.selfadjointView<Eigen::Lower>().rankUpdate(jac.transpose(), 1.0 / static_cast<double>(M));
+  H.selfadjointView<Eigen::Lower>().rankUpdate(jac.transpose(), 1.0 / b.weight_total);
   H.triangularView<Eigen::StrictlyUpper>() = H.transpose();
   return V;
 }
@@ -275,7 +316,10 @@ struct Trainer {
   Trainer(const NarxModel& model, const Eigen::VectorXd& ue, const Eigen::VectorXd& ye, const Eigen::VectorXd& uv,
           const Eigen::VectorXd& yv, Eigen::Index skip_, const TrainingOptions& opt)
       : u_est(ue), y_est(ye), u_val(uv), y_val(yv), skip(skip_), has_validation(uv.size() > 0), options(opt),
-        est(model, ue.size()), val(model, uv.size()), trial(model),
+        est(weighted_buffers(model, ue, skip_, opt.weights, "estimation")),
+        val(weighted_buffers(model, uv, has_validation ? skip_ : 0, has_validation ? opt.validation_weights : Eigen::VectorXd(),
+                             "validation")),
+        trial(model),
         // Sized in place: copy-assigning a fresh LDLT would copy its not-yet-set ComputationInfo.
         ldlt(opt.optimizer == Optimizer::lm ? model.net.parameter_count() : 0) {
     const Eigen::Index P = model.net.parameter_count();
@@ -291,11 +335,16 @@ struct Trainer {
     return output_loss(m, u_est, y_est, feedback_of(mode), skip, est);
   }
 
-  /// [2A] simulation J in percent over k ≥ skip; +∞ for a non-finite simulation.
-  double j_sim(const NarxModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Buffers& b) {
-    output_loss(m, u, y, Feedback::simulated, skip, b);
+  /// [2A] simulation J in percent over k ≥ skip; +∞ for a non-finite simulation. With `weighted` and
+  /// weights in b: Σ w·e² / Σ w·y² instead (the figure the weighted loss minimises).
+  double j_sim(const NarxModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Buffers& b,
+               bool weighted = false) {
+    const double V = output_loss(m, u, y, Feedback::simulated, skip, b);
     if (!b.yhat.allFinite()) return std::numeric_limits<double>::infinity();
-    return j_percent(b.yhat, y, skip);
+    if (!weighted || b.weight.size() == 0) return j_percent(b.yhat, y, skip);
+    const Eigen::Index M = y.size() - skip;
+    const double energy = b.weight.tail(M).dot(y.tail(M).cwiseAbs2());
+    return energy > 0.0 ? 100.0 * 2.0 * V * b.weight_total / energy : std::numeric_limits<double>::infinity();
   }
 
   TrainingRecord record(const NarxModel& m, int iteration, TrainingMode mode) {
@@ -304,6 +353,7 @@ struct Trainer {
     r.mode = mode;
     r.j_est_pct = j_sim(m, u_est, y_est, est);
     r.j_val_pct = has_validation ? j_sim(m, u_val, y_val, val) : std::numeric_limits<double>::quiet_NaN();
+    r.j_val_weighted_pct = val.weight.size() == 0 ? r.j_val_pct : j_sim(m, u_val, y_val, val, true);
     return r;
   }
 
@@ -380,6 +430,7 @@ struct Trainer {
     if (dynamic) b.ring.setZero();
     b.grad.setZero();
     Eigen::Index in_batch = 0;
+    double batch_weight = 0.0;
     for (Eigen::Index k = 0; k < N; ++k) {
       m.regressor(u_est, past, k, b.x);
       const double yk = m.net.forward(b.x, b.ws);
@@ -387,17 +438,19 @@ struct Trainer {
       m.net.backward(b.ws, b.dtheta, dynamic ? b.dx : b.none);
       const Eigen::VectorXd& psi = sensitivity(mode, na, k, b);
       if (k < skip) continue;
-      // [5M] dV/dθ = Σ_{batch} e(k)·dŷ(k)/dθ, averaged over the batch
-      b.grad.noalias() += (yk - y_est[k]) * psi;
+      // [5M] dV/dθ = Σ_{batch} w(k)·e(k)·dŷ(k)/dθ, averaged over the batch's weight
+      b.grad.noalias() += (b.w(k) * (yk - y_est[k])) * psi;
+      batch_weight += b.w(k);
       if (++in_batch == L) {
         apply_mask(options.mask, b.grad, nullptr);
-        theta.noalias() -= (alpha / static_cast<double>(in_batch)) * b.grad;  // [5C]
+        if (batch_weight > 0.0) theta.noalias() -= (alpha / batch_weight) * b.grad;  // [5C]
         b.grad.setZero();
         in_batch = 0;
+        batch_weight = 0.0;
       }
     }
     apply_mask(options.mask, b.grad, nullptr);
-    if (in_batch > 0) theta.noalias() -= (alpha / static_cast<double>(in_batch)) * b.grad;
+    if (in_batch > 0 && batch_weight > 0.0) theta.noalias() -= (alpha / batch_weight) * b.grad;
     return theta.allFinite();
   }
 };
@@ -458,31 +511,31 @@ std::string to_string(Optimizer optimizer) {
 }
 
 double training_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y, TrainingMode mode,
-                     Eigen::Index skip) {
+                     Eigen::Index skip, const Eigen::VectorXd& weights) {
   require_model(model);
   require_data(u, y, skip, "estimation");
-  Buffers b(model, u.size());
+  Buffers b = weighted_buffers(model, u, skip, weights, "estimation");
   return output_loss(model, u, y, feedback_of(mode), skip, b);
 }
 
 Eigen::VectorXd loss_gradient(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                              TrainingMode mode, Eigen::Index skip, double h) {
+                              TrainingMode mode, Eigen::Index skip, double h, const Eigen::VectorXd& weights) {
   require_model(model);
   require_data(u, y, skip, "estimation");
   if (mode == TrainingMode::oem_n && !(h > 0.0 && std::isfinite(h))) {
     throw std::invalid_argument("NARX training: finite-difference step h must be > 0, got " + std::to_string(h));
   }
-  Buffers b(model, u.size());
+  Buffers b = weighted_buffers(model, u, skip, weights, "estimation");
   Eigen::VectorXd g(model.net.parameter_count());
   mode_gradient(model, u, y, mode, skip, h, b, g);
   return g;
 }
 
 Eigen::MatrixXd gauss_newton_hessian(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                                     TrainingMode mode, Eigen::Index skip) {
+                                     TrainingMode mode, Eigen::Index skip, const Eigen::VectorXd& weights) {
   require_model(model);
   require_data(u, y, skip, "estimation");
-  Buffers b(model, u.size());
+  Buffers b = weighted_buffers(model, u, skip, weights, "estimation");
   const Eigen::Index P = model.net.parameter_count();
   Eigen::VectorXd g(P);
   Eigen::MatrixXd H(P, P);
@@ -520,6 +573,9 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
     }
   }
 
+  if (options.validation_weights.size() != 0 && !has_validation) {
+    throw std::invalid_argument("NARX training: validation weights given without validation data");
+  }
   if (options.mask.size() != 0) {
     if (options.mask.size() != P) {
       throw std::invalid_argument("NARX training: mask has " + std::to_string(options.mask.size()) +
@@ -544,7 +600,7 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
     if (options.progress) options.progress(r);
   };
   report(trainer.record(current, 0, options.modes.front()));
-  double best_val = result.history.front().j_val_pct;
+  double best_val = result.history.front().j_val_weighted_pct;
   Eigen::VectorXd best_theta = current.net.parameters();
 
   int iteration = 0;
@@ -573,8 +629,8 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
       report(r);
       if (!keep_best) continue;
       // fig. 6.4: stop when the validation J has not improved for `patience` iterations
-      if (r.j_val_pct < best_val) {
-        best_val = r.j_val_pct;
+      if (r.j_val_weighted_pct < best_val) {
+        best_val = r.j_val_weighted_pct;
         best_theta = current.net.parameters();
         without_improvement = 0;
       } else if (++without_improvement >= options.patience) {

@@ -42,6 +42,8 @@ struct TrainingRecord {
   TrainingMode mode = TrainingMode::pem;
   double j_est_pct = 0.0;   ///< simulation J on the estimation data
   double j_val_pct = 0.0;   ///< simulation J on the validation data (NaN without)
+  double j_val_weighted_pct = 0.0;  ///< Σw·e²/Σw·y² on the validation data with its weights (= j_val_pct
+                                    ///< without): what early stopping watches
 };
 
 /// How training runs.
@@ -59,6 +61,12 @@ struct TrainingOptions {
   /// pruned rows and columns of H and entries of g are zeroed), sd and the line search step along the
   /// masked gradient. Entries other than 0 and 1 throw std::invalid_argument.
   Eigen::VectorXd mask;
+  /// Per-sample weights w(k) of the estimation loss (size N; finite, ≥ 0, a positive total after the
+  /// skip); empty = 1. V = Σ w·e² / (2·Σ w), so scaling all weights changes nothing. The J figures
+  /// reported stay the thesis's unweighted [2A]; std::invalid_argument for bad weights.
+  Eigen::VectorXd weights;
+  /// The same for the validation data; early stopping then watches Σw·e²/Σw·y² there. Empty = 1.
+  Eigen::VectorXd validation_weights;
   std::function<void(const TrainingRecord&)> progress;
 };
 
@@ -76,18 +84,21 @@ struct TrainingResult {
 TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est,
                           const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const TrainingOptions& options);
 
-/// dV/dθ of V = 1/(2(N−skip))·Σ_{k≥skip} e(k)² for `mode` (scaled data). For oem_n: central differences
-/// with step h.
+/// dV/dθ of V = 1/(2(N−skip))·Σ_{k≥skip} e(k)² for `mode` (scaled data), or with `weights` of
+/// V = Σ w(k)·e(k)² / (2·Σ w(k)). For oem_n: central differences with step h.
 Eigen::VectorXd loss_gradient(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                              TrainingMode mode, Eigen::Index skip, double h = 1e-6);
+                              TrainingMode mode, Eigen::Index skip, double h = 1e-6,
+                              const Eigen::VectorXd& weights = Eigen::VectorXd());
 
 /// The Gauss–Newton matrix H = 1/(N−skip)·Σ_{k≥skip} ψ(k)·ψ(k)ᵀ, ψ = dŷ/dθ for `mode` (the matrix LM uses;
 /// for oem_d the exact [5L] sensitivities of the simulation, for oem_n central differences). Scaled data.
+/// With `weights`: 1/Σw·Σ w(k)·ψ(k)·ψ(k)ᵀ.
 Eigen::MatrixXd gauss_newton_hessian(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                                     TrainingMode mode, Eigen::Index skip);
+                                     TrainingMode mode, Eigen::Index skip,
+                                     const Eigen::VectorXd& weights = Eigen::VectorXd());
 
-/// The loss V for `mode` (pem: prediction error; oem_*: simulation error).
+/// The loss V for `mode` (pem: prediction error; oem_*: simulation error), weighted as loss_gradient says.
 double training_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                     TrainingMode mode, Eigen::Index skip);
+                     TrainingMode mode, Eigen::Index skip, const Eigen::VectorXd& weights = Eigen::VectorXd());
 
 }  // namespace panelbass::models

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "dsp/csv_table.h"
+#include "dsp/record.h"
 #include "tests/support/cli_runner.h"
 
 namespace panelbass {
@@ -67,6 +68,43 @@ TEST_F(CliIdentifyData, NarxTrainsAndValidateReadsItsModel) {
   const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
   EXPECT_EQ(v["kind"], "narx");
   EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
+}
+
+TEST_F(CliIdentifyData, NarxWeightColumnWeighsTheLoss) {
+  // the estimation data with a weight column w: constant (no change: the loss divides by Σ w), zero on the
+  // second half (another model), negative at one sample (an error naming it)
+  const dsp::Record est_data = dsp::read_csv(dir_ / "est.csv", {"u", "y"});
+  const auto with_weights = [&](const std::string& name, const Eigen::VectorXd& w) {
+    dsp::Record r = est_data;
+    r.add("w", w);
+    dsp::write_csv(dir_ / name, r);
+    return quoted(dir_ / name);
+  };
+  const Eigen::Index n = static_cast<Eigen::Index>(est_data.samples());
+  Eigen::VectorXd half = Eigen::VectorXd::Ones(n);
+  half.tail(n / 2).setZero();
+  Eigen::VectorXd negative = Eigen::VectorXd::Ones(n);
+  negative[100] = -1.0;
+  const std::string train = " --fs 3000 --na 3 --nb 3 --hidden 4 --train pem,oem-d --max-iter 3 --seed 2 --out ";
+  const json plain = expect_result(run("identify narx --data " + est() + train + quoted(dir_ / "a.json")));
+  const json constant = expect_result(run("identify narx --data " + with_weights("c.csv", Eigen::VectorXd::Constant(n, 2.5)) +
+                                          " --weight-col w" + train + quoted(dir_ / "b.json")));
+  const json halved = expect_result(run("identify narx --data " + with_weights("h.csv", half) + " --weight-col w" + train +
+                                        quoted(dir_ / "c.json")));
+  EXPECT_NEAR(constant["J_est_pct"].get<double>(), plain["J_est_pct"].get<double>(), 1e-9 * plain["J_est_pct"].get<double>());
+  EXPECT_GT(std::abs(halved["J_est_pct"].get<double>() - plain["J_est_pct"].get<double>()), 1e-6);
+  RunResult r = run("identify narx --data " + with_weights("n.csv", negative) + " --weight-col w" + train +
+                    quoted(dir_ / "d.json"));
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "weight at sample 100")) << r.err;
+  r = run("identify narx --data " + est() + " --weight-col nope" + train + quoted(dir_ / "e.json"));
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "nope") && contains(r.err, "est.csv")) << r.err;
+  // the validation file needs the column too
+  r = run("identify narx --data " + with_weights("v.csv", half) + " --val " + val() + " --weight-col w" + train +
+          quoted(dir_ / "f.json"));
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "val.csv")) << r.err;
 }
 
 TEST_F(CliIdentifyData, GradientCheckShowsDynamicMatchesFiniteDifference) {

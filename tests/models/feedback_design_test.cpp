@@ -5,8 +5,12 @@
 #include <Eigen/QR>
 
 #include <algorithm>
+#include <array>
+#include <limits>
+#include <numbers>
 
 #include "dsp/butterworth.h"
+#include "dsp/excitation.h"
 #include "models/feedback_design.h"
 #include "models/narx_model.h"
 #include "models/state_space.h"
@@ -392,6 +396,56 @@ TEST(FeedbackDesignTest, PlantFundamentalTargetLeavesOnlyTheHarmonicsOfEachStead
     EXPECT_LT(error.norm(), 0.5 * departure.norm()) << f << " Hz";
     EXPECT_GT(error.norm(), 1e-4 * loop.segment(start, length).norm()) << f << " Hz: the harmonics";
   }
+}
+
+TEST(FeedbackDesignTest, HarmonicWeightsGiveEveryStepsHarmonicsTheRecordsMeanPower) {
+  const LqFeedforward ff = design_lq(resonant_model(), {1e-3, 20.0});
+  FeedbackDesignOptions o;
+  o.samples = 4500;  // 1500 samples of noise, then 4 steps
+  o.sine_share = 2.0 / 3.0;
+  o.sine_peak = 0.6;
+  o.sine_high_hz = 400.0;  // third harmonics below fs/2
+  const ControlRecord r = control_record(ff, audio_band(), o, 8);
+  ASSERT_EQ(r.noise_samples, 1500);
+  ASSERT_EQ(r.steps.size(), 4u);
+  // A measured output: the linear response plus, on step i, a third harmonic of amplitude a_i, and on the
+  // noise a white departure of power b²/3; sensor noise on the steps as strong as the weakest harmonic
+  const double fs = ff.fs, b = 0.02;
+  const std::array<double, 4> a{0.1, 0.01, 0.03, 0.003};
+  Eigen::VectorXd y = r.y_desired;
+  y.head(1500) += dsp::uniform_noise(1500, b, 9);
+  y.tail(3000) += dsp::uniform_noise(3000, 0.003 * std::sqrt(1.5), 10);
+  for (std::size_t i = 0; i < 4; ++i) {
+    const SineStep& st = r.steps[i];
+    for (Eigen::Index k = 0; k < st.length; ++k) {
+      y[st.start + k] += a[i] * std::sin(3.0 * 2.0 * std::numbers::pi * st.f * static_cast<double>(k) / fs + 0.4);
+    }
+  }
+  const Eigen::VectorXd w = harmonic_weights(r, y, fs);
+  ASSERT_EQ(w.size(), y.size());
+  // one weight per part, inversely proportional to its harmonics' power (a_i²/2) or the noise's (b²/3)
+  EXPECT_EQ(w.head(1500), Eigen::VectorXd::Constant(1500, w[0]));
+  for (std::size_t i = 0; i < 4; ++i) {
+    const SineStep& st = r.steps[i];
+    EXPECT_EQ(w.segment(st.start, st.length), Eigen::VectorXd::Constant(st.length, w[st.start])) << i;
+    const double expected = (a[0] * a[0]) / (a[i] * a[i]);
+    EXPECT_NEAR(w[st.start] / w[r.steps[0].start], expected, 0.15 * expected) << i;
+  }
+  const double noise_expected = (a[0] * a[0] / 2.0) / (b * b / 3.0);
+  EXPECT_NEAR(w[0] / w[r.steps[0].start], noise_expected, 0.1 * noise_expected);
+  // a change of each step's fundamental and mean (a level-dependent gain, an offset) weighs nothing
+  Eigen::VectorXd shifted = y;
+  for (const SineStep& st : r.steps) {
+    for (Eigen::Index k = 0; k < st.length; ++k) {
+      shifted[st.start + k] += 0.3 * std::sin(2.0 * std::numbers::pi * st.f * static_cast<double>(k) / fs + 1.0) + 0.05;
+    }
+  }
+  EXPECT_LT((harmonic_weights(r, shifted, fs) - w).cwiseAbs().maxCoeff(), 1e-6 * w.maxCoeff());
+  // bad output
+  EXPECT_THROW(harmonic_weights(r, y.head(100), fs), std::invalid_argument);
+  Eigen::VectorXd broken = y;
+  broken[2000] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(harmonic_weights(r, broken, fs), std::invalid_argument);
 }
 
 TEST(FeedbackDesignTest, DesiredResponseNamesRoundTrip) {

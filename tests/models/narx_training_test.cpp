@@ -57,17 +57,19 @@ TrainingOptions options_for(std::vector<TrainingMode> modes, Optimizer optimizer
   return o;
 }
 
-/// Central differences of training_loss: (V(θ + h·e_p) − V(θ − h·e_p)) / 2h, for every p.
+/// Central differences of training_loss (weighted by `weights`, empty = 1): (V(θ + h·e_p) − V(θ − h·e_p)) / 2h,
+/// for every p.
 Eigen::VectorXd central_differences(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                                    TrainingMode mode, Eigen::Index skip, double h) {
+                                    TrainingMode mode, Eigen::Index skip, double h,
+                                    const Eigen::VectorXd& weights = Eigen::VectorXd()) {
   NarxModel probe = model;
   Eigen::VectorXd g(model.net.parameter_count());
   for (Eigen::Index p = 0; p < g.size(); ++p) {
     const double keep = probe.net.parameters()[p];
     probe.net.parameters()[p] = keep + h;
-    const double plus = training_loss(probe, u, y, mode, skip);
+    const double plus = training_loss(probe, u, y, mode, skip, weights);
     probe.net.parameters()[p] = keep - h;
-    const double minus = training_loss(probe, u, y, mode, skip);
+    const double minus = training_loss(probe, u, y, mode, skip, weights);
     probe.net.parameters()[p] = keep;
     g[p] = (plus - minus) / (2.0 * h);
   }
@@ -399,6 +401,125 @@ TEST(NarxTrainingOptimizers, EveryOptimizerLowersTheLossOfEveryMode) {
           << to_string(optimizer) << " " << to_string(mode);
     }
   }
+}
+
+// ----- sample weights ------------------------------------------------------------------------------
+
+/// Weights in [0, 2], a quarter of them exactly 0 (seeded).
+Eigen::VectorXd some_weights(Eigen::Index n, std::uint64_t seed) {
+  Eigen::VectorXd w = (dsp::uniform_noise(n, 1.0, seed).array() + 1.0).matrix();
+  for (Eigen::Index k = 0; k < n; k += 4) w[k] = 0.0;
+  return w;
+}
+
+TEST(NarxTrainingWeights, WeightedLossIsTheWeightedMeanOfTheModelsOwnErrors) {
+  DampedCase c;
+  const Eigen::Index skip = 10, M = c.u.size() - skip;
+  const Eigen::VectorXd w = some_weights(c.u.size(), 201);
+  const Eigen::VectorXd sim = c.model.simulate_scaled(c.u), pred = c.model.predict_scaled(c.u, c.y);
+  // V = Σ_{k≥skip} w(k)·e(k)² / (2·Σ_{k≥skip} w(k))
+  const double v_oem = 0.5 * w.tail(M).dot((sim - c.y).tail(M).cwiseAbs2()) / w.tail(M).sum();
+  const double v_pem = 0.5 * w.tail(M).dot((pred - c.y).tail(M).cwiseAbs2()) / w.tail(M).sum();
+  EXPECT_NEAR(training_loss(c.model, c.u, c.y, TrainingMode::oem_d, skip, w), v_oem, 1e-14);
+  EXPECT_NEAR(training_loss(c.model, c.u, c.y, TrainingMode::pem, skip, w), v_pem, 1e-14);
+  EXPECT_GT(std::abs(v_oem - training_loss(c.model, c.u, c.y, TrainingMode::oem_d, skip)), 1e-6 * v_oem);
+}
+
+TEST(NarxTrainingWeights, WeightedGradientsMatchCentralDifferencesOfTheWeightedLoss) {
+  DampedCase c;
+  const Eigen::VectorXd w = some_weights(c.u.size(), 202);
+  for (const TrainingMode mode : {TrainingMode::pem, TrainingMode::oem_d}) {
+    const Eigen::VectorXd exact = loss_gradient(c.model, c.u, c.y, mode, 8, 1e-6, w);
+    const Eigen::VectorXd fd = central_differences(c.model, c.u, c.y, mode, 8, 1e-5, w);
+    EXPECT_LT(worst_relative_error(exact, fd), 1e-6) << to_string(mode);
+  }
+  // the numerical mode differences the same weighted loss
+  const Eigen::VectorXd numeric = loss_gradient(c.model, c.u, c.y, TrainingMode::oem_n, 8, 1e-5, w);
+  EXPECT_LT(worst_relative_error(numeric, loss_gradient(c.model, c.u, c.y, TrainingMode::oem_d, 8, 1e-6, w)), 1e-6);
+}
+
+TEST(NarxTrainingWeights, GaussNewtonMatrixIsTheWeightedMeanOfSensitivityProducts) {
+  // H_w = Σ w·ψψᵀ / Σ w; with w = 0/1 on two halves it is the unweighted H of the first half (the
+  // simulation of the first half does not depend on later inputs), for the numerical Jacobian as well.
+  DampedCase c;
+  const Eigen::Index half = 250;
+  Eigen::VectorXd w = Eigen::VectorXd::Zero(c.u.size());
+  w.head(half).setOnes();
+  for (const TrainingMode mode : {TrainingMode::oem_d, TrainingMode::oem_n}) {
+    const Eigen::MatrixXd weighted = gauss_newton_hessian(c.model, c.u, c.y, mode, 4, w);
+    const Eigen::MatrixXd head = gauss_newton_hessian(c.model, c.u.head(half), c.y.head(half), mode, 4);
+    EXPECT_LT((weighted - head).cwiseAbs().maxCoeff(), 1e-12 * head.cwiseAbs().maxCoeff()) << to_string(mode);
+  }
+}
+
+TEST(NarxTrainingWeights, ZeroWeightsOnTheTailTrainLikeTheHeadAloneAndScaleDoesNotMatter) {
+  DampedCase c;
+  const Eigen::Index half = 300;
+  Eigen::VectorXd w = Eigen::VectorXd::Zero(c.u.size());
+  w.head(half).setConstant(3.0);  // any constant: V divides by Σ w
+  for (const Optimizer optimizer : {Optimizer::lm, Optimizer::sd}) {
+    TrainingOptions o = options_for({TrainingMode::oem_d}, optimizer, 4);
+    o.transient_skip = 6;
+    o.step = 0.05;
+    const TrainingResult head = train_narx(c.model, c.u.head(half), c.y.head(half), {}, {}, o);
+    o.weights = w;
+    const TrainingResult weighted = train_narx(c.model, c.u, c.y, {}, {}, o);
+    EXPECT_GT((head.model.net.parameters() - c.model.net.parameters()).norm(), 1e-6) << to_string(optimizer);
+    EXPECT_LT((weighted.model.net.parameters() - head.model.net.parameters()).cwiseAbs().maxCoeff(), 1e-10)
+        << to_string(optimizer);
+  }
+}
+
+TEST(NarxTrainingWeights, EarlyStoppingWatchesTheWeightedValidationJ) {
+  DampedCase c;
+  const Eigen::VectorXd uv = dsp::uniform_noise(300, 1.0, 203), yv = second_order(uv, 0.9);
+  const Eigen::VectorXd wv = some_weights(uv.size(), 204);
+  TrainingOptions o = options_for({TrainingMode::oem_d}, Optimizer::lm, 3);
+  o.transient_skip = 6;
+  o.early_stopping = true;
+  o.validation_weights = wv;
+  const TrainingResult r = train_narx(c.model, c.u, c.y, uv, yv, o);
+  // record 0 is the start: its figures from the model's own simulation of the validation record
+  const Eigen::Index M = uv.size() - 6;
+  const Eigen::VectorXd e = (c.model.simulate_scaled(uv) - yv).tail(M);
+  const double j = 100.0 * e.squaredNorm() / yv.tail(M).squaredNorm();
+  const double j_weighted = 100.0 * wv.tail(M).dot(e.cwiseAbs2()) / wv.tail(M).dot(yv.tail(M).cwiseAbs2());
+  ASSERT_FALSE(r.history.empty());
+  EXPECT_NEAR(r.history.front().j_val_pct, j, 1e-9 * j);
+  EXPECT_NEAR(r.history.front().j_val_weighted_pct, j_weighted, 1e-9 * j_weighted);
+  EXPECT_GT(std::abs(j_weighted - j), 1e-6 * j);
+  // without weights the two figures are one
+  o.validation_weights.resize(0);
+  const TrainingResult plain = train_narx(c.model, c.u, c.y, uv, yv, o);
+  EXPECT_EQ(plain.history.front().j_val_weighted_pct, plain.history.front().j_val_pct);
+}
+
+TEST(NarxTrainingWeights, BadWeightsAreRejectedWithAReason) {
+  DampedCase c;
+  TrainingOptions o = options_for({TrainingMode::pem}, Optimizer::lm, 2);
+  auto message = [&](const TrainingOptions& options, const Eigen::VectorXd& uv, const Eigen::VectorXd& yv) {
+    try {
+      train_narx(c.model, c.u, c.y, uv, yv, options);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const Eigen::VectorXd none;
+  o.weights = Eigen::VectorXd::Ones(c.u.size() - 1);
+  EXPECT_NE(message(o, none, none).find("estimation weights have 499 entries"), std::string::npos);
+  o.weights = Eigen::VectorXd::Ones(c.u.size());
+  o.weights[77] = -1.0;
+  EXPECT_NE(message(o, none, none).find("weight at sample 77"), std::string::npos);
+  o.weights[77] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(message(o, none, none).find("weight at sample 77"), std::string::npos);
+  o.weights.setZero();
+  o.weights.head(4).setOnes();  // only inside the transient skip of 2·(na + nb) = 4
+  EXPECT_NE(message(o, none, none).find("all 0 after the transient skip"), std::string::npos);
+  o.weights.resize(0);
+  o.validation_weights = Eigen::VectorXd::Ones(10);
+  EXPECT_NE(message(o, none, none).find("without validation data"), std::string::npos);
+  EXPECT_NE(message(o, c.u.head(100), c.y.head(100)).find("validation weights have 10 entries"), std::string::npos);
 }
 
 // ----- names and errors ----------------------------------------------------------------------------
