@@ -204,7 +204,9 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
     if (uv.size() == 0) throw std::invalid_argument("--prune needs validation data (--val)");
     // Optimal Brain Surgeon with retraining, while validation J stays within 5 % (thesis: remove the
     // redundant parameters).
-    const models::PruningResult pruned = models::prune_obs(result.model, us, ys, uv, yv, models::PruningOptions{});
+    models::PruningOptions pruning;
+    pruning.weights = w_est;
+    const models::PruningResult pruned = models::prune_obs(result.model, us, ys, uv, yv, pruning);
     result.model = pruned.model;
     structure_report["pruning"] = {{"removed", pruned.removed},
                                    {"params_before", pruned.mask.size()},

@@ -225,6 +225,7 @@ PruningResult prune_obs(const NarxModel& trained, const Eigen::VectorXd& u_est, 
   retrain.max_iterations = options.retrain_iterations;
   retrain.transient_skip = skip;
   retrain.early_stopping = false;
+  retrain.weights = options.weights;
 
   PruningResult result;
   result.model = trained;
@@ -253,7 +254,7 @@ PruningResult prune_obs(const NarxModel& trained, const Eigen::VectorXd& u_est, 
     const Eigen::Index count =
         std::min<Eigen::Index>({batch, max_removed - result.removed, free - options.min_free});
     if (H_inv.size() == 0) {
-      const Eigen::MatrixXd H = gauss_newton_hessian(result.model, u_est, y_est, options.mode, skip);
+      const Eigen::MatrixXd H = gauss_newton_hessian(result.model, u_est, y_est, options.mode, skip, options.weights);
       H_inv = free_inverse(H, result.mask, options.hessian_damping);
     }
 

@@ -275,6 +275,28 @@ TEST(NarxStructurePruning, RemovesRedundantWeightsOfAStudentWhileValidationJStay
   }
 }
 
+TEST(NarxStructurePruning, WeightsZeroOnTheTailPruneAsTheHeadAlone) {
+  // saliencies and retraining use the weighted loss: with w = 0 after sample 400 pruning is that of the
+  // first 400 samples alone (the simulation of the head does not depend on later inputs)
+  const NarxModel teacher = teacher_3_2_1();
+  const TeacherData d = teacher_data(teacher, 800, 1.0, 0.03);
+  NarxModel student = narx_2_0(3, Eigen::VectorXd::Zero(16));
+  student.net.initialize(1.0, 4);
+  const NarxModel trained = train_narx(student, d.u_est, d.y_est, d.u_val, d.y_val, lm_options(40)).model;
+  PruningOptions o;
+  const PruningResult head = prune_obs(trained, d.u_est.head(400), d.y_est.head(400), d.u_val, d.y_val, o);
+  o.weights = Eigen::VectorXd::Zero(d.u_est.size());
+  o.weights.head(400).setConstant(0.5);
+  const PruningResult weighted = prune_obs(trained, d.u_est, d.y_est, d.u_val, d.y_val, o);
+  ASSERT_GT(head.removed, 0);
+  EXPECT_EQ(weighted.removed, head.removed);
+  EXPECT_EQ(weighted.mask, head.mask);
+  EXPECT_LT((weighted.model.net.parameters() - head.model.net.parameters()).cwiseAbs().maxCoeff(), 1e-8);
+  // and differently from the whole record's
+  const PruningResult whole = prune_obs(trained, d.u_est, d.y_est, d.u_val, d.y_val, PruningOptions{});
+  EXPECT_GT((whole.model.net.parameters() - weighted.model.net.parameters()).cwiseAbs().maxCoeff(), 1e-6);
+}
+
 TEST(NarxStructurePruning, AZeroToleranceAndALimitOfRemovalsAreHonoured) {
   const NarxModel teacher = teacher_3_2_1();
   const TeacherData d = teacher_data(teacher, 800, 1.0, 0.03);
