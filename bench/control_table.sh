@@ -17,7 +17,8 @@
 # table at the limiter's knee (0.8, the evaluate default) follows for comparison.
 # Usage: [RECORDS=24] [MODELS=1] bash bench/control_table.sh [SEED] [SINE_SHARE]   (about 15 min per model)
 # WEIGHTED=1 trains the NARX model with the records' harmonic weights (identify narx --weight-col w: every
-# step's harmonics count alike). PANELBASS_BIN overrides the binary; PLOTS=DIR keeps the evaluation figures of the model-mode chain at the
+# step's harmonics count alike). NARX_FLAGS adds flags to identify narx (e.g. NARX_FLAGS="--friction-units 3,10":
+# hidden nodes seeded as the exciter's Coulomb friction). PANELBASS_BIN overrides the binary; PLOTS=DIR keeps the evaluation figures of the model-mode chain at the
 # 0.6 probe peak (the response, and the harmonics per probe); KEEP=DIR keeps every file the run made (models,
 # controllers, chains, records, evaluations) for a closer look.
 set -euo pipefail
@@ -71,7 +72,7 @@ checks=""
 kept=0
 for m in $(seq 0 $((models - 1))); do
   out=$("$bin" identify narx --data reg_est.csv --val reg_val.csv --fs 3000 --na 10 --nb 10 --hidden 20 --train pem,oem-d \
-          ${WEIGHTED:+--weight-col w} \
+          ${WEIGHTED:+--weight-col w} ${NARX_FLAGS:-} \
           --max-iter 60 --seed $((seed + 100 * m)) --out "narx-$m.json" 2> /dev/null)
   check=$(harmonics_check "narx-$m.json")
   score=$(echo "$check" | tail -n 1)

@@ -8,6 +8,7 @@
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
 #include "dsp/data_file.h"
+#include "models/friction_seed.h"
 #include "models/json_fields.h"
 #include "models/linear_identification.h"
 #include "models/model_file.h"
@@ -111,6 +112,8 @@ struct IdentifyNarxOptions {
   int grow = 0;
   bool prune = false;
   std::string weight_col;
+  std::vector<double> friction_gains;
+  int friction_lags = 1;
 };
 
 std::vector<models::TrainingMode> parse_modes(const std::string& list) {
@@ -147,6 +150,12 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   models::NarxModel model = models::NarxModel::with_structure(structure, scaling, est.fs);
   model.net.initialize(1.0, o.seed);
   const Eigen::VectorXd us = scaling.scale_u(est.columns[0]), ys = scaling.scale_y(est.columns[1]);
+  nlohmann::json friction_report = nullptr;
+  if (!o.friction_gains.empty()) {
+    if (o.grow > 0) throw std::invalid_argument("--friction-units cannot be combined with --grow (growth starts afresh)");
+    const models::FrictionSeed seed = models::seed_friction_units(model, us, ys, o.friction_gains, o.friction_lags);
+    friction_report = {{"gains", seed.gains}, {"lags", seed.lags}, {"velocity_fit_r2", seed.r_squared}};
+  }
   const Eigen::VectorXd uv = u_val.size() ? scaling.scale_u(u_val) : Eigen::VectorXd(),
                         yv = y_val.size() ? scaling.scale_y(y_val) : Eigen::VectorXd();
   models::TrainingOptions options;
@@ -231,6 +240,10 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   const double j_val = u_val.size() ? judged(u_val, y_val) : std::numeric_limits<double>::quiet_NaN();
   result.model.meta = {{"data", o.data}, {"val", o.val}, {"train", o.train}, {"optimizer", o.optimizer},
                        {"J_est_pct", j_est}, {"J_val_pct", models::number_or_null(j_val)}, {"seed", o.seed}};
+  if (!friction_report.is_null()) {
+    result.model.meta["friction_units"] = friction_report;
+    structure_report["friction_units"] = friction_report;
+  }
   models::save_narx_model(o.out, result.model);
   print_result({{"J_est_pct", j_est},
                 {"J_val_pct", models::number_or_null(j_val)},
@@ -306,6 +319,15 @@ void register_identify(CLI::App& app) {
   narx->add_option("--weight-col", n->weight_col,
                    "Column of per-sample weights of the loss, in --data and --val (e.g. w of simulate --signal control); "
                    "J figures stay unweighted, early stopping watches the weighted J_val");
+  narx->add_option("--friction-units", n->friction_gains,
+                   "Seed the first hidden nodes as Coulomb friction tanh(g*v), v the velocity estimated from the "
+                   "regressor, one node per sharpness g (e.g. 3,10); training then adjusts them")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
+  narx->add_option("--friction-lags", n->friction_lags,
+                   "With --friction-units: seed the nodes for the velocities v(k)..v(k-L+1) too (L x gains nodes)")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
   narx->add_option("--out", n->out, "Model file to write (JSON)");
   narx->footer(
       "Example:\n  panelbass identify narx --data est.csv --val val.csv --fs 3000 --na 8 --nb 8 --hidden 17 "

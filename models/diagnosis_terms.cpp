@@ -2,9 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <stdexcept>
 #include <utility>
+
+#include "dsp/leaky_integral.h"
 
 namespace panelbass::models {
 namespace {
@@ -24,15 +25,6 @@ Eigen::VectorXd normalised(Eigen::VectorXd x, int slot, StateSignals& s, const S
     s.rms[slot] = r > 0.0 ? r : 1.0;
   }
   return (x.array() - s.mean[slot]) / s.rms[slot];
-}
-
-// x_int(k) = λ·x_int(k−1) + x(k)/fs, λ = exp(−2π·f_c/fs): an integrator above f_c.
-Eigen::VectorXd leaky_integral(const Eigen::VectorXd& x, double fs) {
-  const double lambda = std::exp(-2.0 * std::numbers::pi / 500.0);
-  Eigen::VectorXd out(x.size());
-  double s = 0.0;
-  for (Eigen::Index k = 0; k < x.size(); ++k) out[k] = s = lambda * s + x[k] / fs;
-  return out;
 }
 
 // T(k) = λ·T(k−1) + (1 − λ)·u(k)², λ = exp(−1/τ) (τ in samples): a first-order thermal state driven by
@@ -126,8 +118,8 @@ StateSignals state_signals(const Eigen::VectorXd& u, const Eigen::VectorXd& y_si
   s.output = normalised(y_sim, 0, s, reference);
   // The integrals of the output without its own mean: a DC part, integrated, would grow without bound.
   const Eigen::VectorXd centred = s.output.array() - s.output.mean();
-  s.integral = normalised(leaky_integral(centred, fs), 1, s, reference, true);
-  s.double_integral = normalised(leaky_integral(s.integral, fs), 2, s, reference, true);
+  s.integral = normalised(dsp::leaky_integral(centred, fs), 1, s, reference, true);
+  s.double_integral = normalised(dsp::leaky_integral(s.integral, fs), 2, s, reference, true);
   return s;
 }
 

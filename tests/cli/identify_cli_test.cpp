@@ -107,6 +107,29 @@ TEST_F(CliIdentifyData, NarxWeightColumnWeighsTheLoss) {
   EXPECT_TRUE(contains(r.err, "val.csv")) << r.err;
 }
 
+TEST_F(CliIdentifyData, NarxFrictionUnitsAreSeededAndReported) {
+  const std::string train = " --fs 3000 --na 3 --nb 3 --hidden 4 --train pem --max-iter 0 --seed 2 --out ";
+  const json plain = expect_result(run("identify narx --data " + est() + train + quoted(dir_ / "a.json")));
+  const json seeded = expect_result(run("identify narx --data " + est() + " --friction-units 2,6" + train + quoted(dir_ / "b.json")));
+  // with no training the seeded nodes are the whole difference: nodes 0 and 1 in ratio 1 : 3, the rest as seeded by --seed
+  const json a = json::parse(text_of(dir_ / "a.json")), b = json::parse(text_of(dir_ / "b.json"));
+  const auto& ta = a["params"]["theta"];
+  const auto& tb = b["params"]["theta"];
+  const int inputs = 3 + 3 + 1;
+  for (int i = 0; i < inputs; ++i) EXPECT_NEAR(tb[inputs + i].get<double>(), 3.0 * tb[i].get<double>(), 1e-12);
+  for (std::size_t i = 2 * inputs; i < 4 * inputs; ++i) EXPECT_EQ(ta[i], tb[i]);
+  EXPECT_EQ(seeded["structure"]["friction_units"]["gains"], json::array({2.0, 6.0}));
+  EXPECT_GT(seeded["structure"]["friction_units"]["velocity_fit_r2"].get<double>(), 0.5);
+  EXPECT_EQ(b["meta"]["friction_units"], seeded["structure"]["friction_units"]);
+  EXPECT_FALSE(plain["structure"].contains("friction_units"));
+  RunResult r = run("identify narx --data " + est() + " --friction-units 1,2,3,4,5" + train + quoted(dir_ / "c.json"));
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "5 friction units") && contains(r.err, "4 nodes")) << r.err;
+  r = run("identify narx --data " + est() + " --friction-units 2 --grow 3" + train + quoted(dir_ / "d.json"));
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "--grow")) << r.err;
+}
+
 TEST_F(CliIdentifyData, GradientCheckShowsDynamicMatchesFiniteDifference) {
   const json r = expect_result(run("identify narx --data " + est() + " --fs 3000 --na 2 --nb 2 --hidden 3 "
                                    "--max-iter 5 --gradient-check --parameter 1"));
