@@ -20,6 +20,7 @@
 #include "models/diagnosis.h"
 #include "models/diagnosis_baselines.h"
 #include "models/distortion_comparison.h"
+#include "models/friction_seed.h"
 #include "models/feedback_design.h"
 #include "models/linear_identification.h"
 #include "models/linear_model.h"
@@ -366,6 +367,12 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
   const Eigen::VectorXd us = scaling.scale_u(r.u_est), ys = scaling.scale_y(r.y_est);
   const Eigen::VectorXd uv = r.u_val.size() ? scaling.scale_u(r.u_val) : Eigen::VectorXd(),
                         yv = r.y_val.size() ? scaling.scale_y(r.y_val) : Eigen::VectorXd();
+  json friction = nullptr;
+  if (const auto gains = params.value("friction_units", std::vector<double>{}); !gains.empty()) {
+    const models::FrictionSeed seeded =
+        models::seed_friction_units(model, us, ys, gains, params.value("friction_lags", 1));
+    friction = {{"gains", seeded.gains}, {"lags", seeded.lags}, {"velocity_fit_r2", seeded.r_squared}};
+  }
 
   models::TrainingOptions options;
   options.modes.clear();
@@ -405,6 +412,7 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
                         {"J_val_pct", finite_or_null(j_val)},
                         {"seed", seed},
                         {"history", meta_history}};
+  if (!friction.is_null()) trained.model.meta["friction_units"] = friction;
   progress.at(0.2, "storing the model");
   const std::string name = "narx " + std::to_string(structure.na) + "/" + std::to_string(structure.nb) + "/" +
                            std::to_string(structure.nk) + " " + hidden_text(structure.hidden) + " (" + control.job_id() + ")";
@@ -429,6 +437,7 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
             {"params", trained.model.net.parameter_count()},
             {"iterations", trained.iterations},
             {"seconds", trained.seconds},
+            {"friction_units", friction},
             {"data", data.source}}},
           {"plots", plots}};
 }

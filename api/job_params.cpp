@@ -135,7 +135,9 @@ void stored_model(ParamReader& r, const std::string& key, bool required, const s
 }
 
 // Hidden layer widths of a network.
-void hidden_layers(ParamReader& r, const std::vector<long long>& fallback) { r.integers("hidden", fallback, 1, 4, 1, 256); }
+std::vector<long long> hidden_layers(ParamReader& r, const std::vector<long long>& fallback) {
+  return r.integers("hidden", fallback, 1, 4, 1, 256);
+}
 
 // ----- the kinds ------------------------------------------------------------------------------------
 
@@ -165,10 +167,17 @@ json identify_narx_params(const json& params, const JobEnvironment& env) {
   r.integer("na", 2, 0, kMaxOrder);
   r.integer("nb", 3, 0, kMaxOrder);
   r.integer("nk", -1, -1, 1000);
-  hidden_layers(r, {8});
+  const std::vector<long long> hidden = hidden_layers(r, {8});
   r.choices("modes", {"pem", "oem-d"}, {"pem", "oem-s", "oem-d", "oem-n"});
   r.integer("max_iterations", 30, 0, kMaxIterations);
   r.integer("seed", 1, 0, kMaxSeed);
+  // Hidden nodes seeded as Coulomb friction (models::seed_friction_units): one per gain and lag.
+  const std::vector<double> gains = r.numbers("friction_units", {}, 0, 16, {0.0, 1000.0, true, false});
+  const long long lags = r.integer("friction_lags", 1, 1, 20);
+  if (static_cast<long long>(gains.size()) * lags > hidden[0]) {
+    fail(r.path_of("friction_units"), std::to_string(gains.size()) + " gains x " + std::to_string(lags) +
+                                          " lags need as many first-layer nodes, hidden[0] is " + std::to_string(hidden[0]));
+  }
   return r.finish();
 }
 
@@ -329,6 +338,28 @@ std::vector<long long> ParamReader::integers(const std::string& key, const std::
                                                                 std::to_string(hi) + "], got " + shown((*v)[k]));
       }
       values.push_back(*i);
+    }
+  }
+  filled_[key] = values;
+  return values;
+}
+
+std::vector<double> ParamReader::numbers(const std::string& key, const std::vector<double>& fallback,
+                                         std::size_t min_count, std::size_t max_count, const Interval& range) {
+  const json* v = find(key);
+  std::vector<double> values = fallback;
+  if (v != nullptr) {
+    if (!v->is_array() || v->size() < min_count || v->size() > max_count) {
+      fail(path_of(key), "must be a list of " + std::to_string(min_count) + " to " + std::to_string(max_count) +
+                             " numbers in " + range.text() + ", got " + shown(*v));
+    }
+    values.clear();
+    for (std::size_t k = 0; k < v->size(); ++k) {
+      const json& e = (*v)[k];
+      if (!e.is_number() || !std::isfinite(e.get<double>()) || !range.contains(e.get<double>())) {
+        fail(path_of(key) + "[" + std::to_string(k) + "]", "must be a number in " + range.text() + ", got " + shown(e));
+      }
+      values.push_back(e.get<double>());
     }
   }
   filled_[key] = values;

@@ -43,6 +43,9 @@ class ParamReader {
   /// A list of `min_count`..`max_count` integers, each within [lo, hi]; `fallback` when absent.
   std::vector<long long> integers(const std::string& key, const std::vector<long long>& fallback, std::size_t min_count,
                                   std::size_t max_count, long long lo, long long hi);
+  /// A list of `min_count`..`max_count` finite numbers, each within `range`; `fallback` when absent.
+  std::vector<double> numbers(const std::string& key, const std::vector<double>& fallback, std::size_t min_count,
+                              std::size_t max_count, const Interval& range);
   /// A non-empty list of entries of `choices`; `fallback` when absent.
   std::vector<std::string> choices(const std::string& key, const std::vector<std::string>& fallback,
                                    const std::vector<std::string>& choices);

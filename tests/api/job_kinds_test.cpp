@@ -235,6 +235,10 @@ TEST_F(JobKindsTest, WrongTypesAndRangesAreNamed) {
   EXPECT_NE(refusal("identify-narx", {{"hidden", json::array()}}).find("params.hidden"), std::string::npos);
   EXPECT_NE(refusal("identify-narx", {{"hidden", {8, 0}}}).find("params.hidden[1]"), std::string::npos);
   EXPECT_NE(refusal("identify-narx", {{"modes", {"pem", "gradient"}}}).find("params.modes[1]"), std::string::npos);
+  EXPECT_NE(refusal("identify-narx", {{"friction_units", {3.0, -1.0}}}).find("params.friction_units[1]"), std::string::npos);
+  EXPECT_NE(refusal("identify-narx", {{"friction_units", {3.0, 10.0}}, {"friction_lags", 5}, {"hidden", {8}}})
+                .find("params.friction_units: 2 gains x 5 lags"),
+            std::string::npos);
   EXPECT_EQ(refusal("excite", json::array()), "params: expected an object, got array");
   EXPECT_NE(refusal("diagnose", {{"excite", {{"validation_samples", 0}}}}).find("params.excite.validation_samples"), std::string::npos);
 }
@@ -259,6 +263,8 @@ TEST_F(JobKindsTest, DefaultsAreFilledIn) {
   EXPECT_EQ(narx.at("modes"), json({"pem", "oem-d"}));
   EXPECT_EQ(narx.at("na"), 2);
   EXPECT_EQ(narx.at("nb"), 3);
+  EXPECT_EQ(narx.at("friction_units"), json::array());
+  EXPECT_EQ(narx.at("friction_lags"), 1);
 
   const json lq = validate_job_params("design-lq", {{"plant_model", store_reference_model()}}, env_);
   EXPECT_EQ(lq.at("r"), 1e-5);
@@ -480,6 +486,34 @@ TEST_F(JobKindsTest, IdentifyNarxOnTheVirtualTransducer) {
   EXPECT_EQ(plots.at("harmonics").at("f").size(), 4u);
   // The history is in the model file too, where analyze finds it.
   EXPECT_EQ(store_->model(id)->at("meta").at("history").size(), plots.at("history").at("iteration").size());
+}
+
+TEST_F(JobKindsTest, IdentifyNarxSeedsFrictionNodesWhenAsked) {
+  use_plant("panel-exciter");
+  run("excite", {{"samples", 3000}, {"validation_samples", 1000}, {"amplitude", 0.8}}, "j1");
+  // no training: the seeded nodes are the whole difference between the two models
+  const json common = {{"record", "j1"}, {"na", 4}, {"nb", 4}, {"hidden", {5}}, {"max_iterations", 0}};
+  json seeded_params = common;
+  seeded_params["friction_units"] = {2.0, 6.0};
+  const json plain = run("identify-narx", common, "j2");
+  const json seeded = run("identify-narx", seeded_params, "j3");
+  EXPECT_TRUE(plain.at("summary").at("friction_units").is_null());
+  const json& report = seeded.at("summary").at("friction_units");
+  EXPECT_EQ(report.at("gains"), json({2.0, 6.0}));
+  EXPECT_EQ(report.at("lags"), 1);
+  EXPECT_GT(report.at("velocity_fit_r2").get<double>(), 0.5);
+  const json a = *store_->model(plain.at("model_id").get<std::string>());
+  const json b = *store_->model(seeded.at("model_id").get<std::string>());
+  EXPECT_EQ(b.at("meta").at("friction_units"), report);
+  const json& ta = a.at("params").at("theta");
+  const json& tb = b.at("params").at("theta");
+  const std::size_t inputs = 4 + 4 + 1;
+  for (std::size_t i = 0; i < inputs; ++i) EXPECT_NEAR(tb[inputs + i].get<double>(), 3.0 * tb[i].get<double>(), 1e-12);
+  for (std::size_t i = 2 * inputs; i < ta.size(); ++i) {
+    if (i != 5 * inputs && i != 5 * inputs + 1) {
+      EXPECT_EQ(ta[i], tb[i]) << "parameter " << i;
+    }
+  }
 }
 
 TEST_F(JobKindsTest, DesignLqMakesAStableControllerThatLoads) {
