@@ -425,21 +425,22 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
   const json harmonics = harmonics_if_known(env, any, r, progress);
   if (!harmonics.is_null()) plots["harmonics"] = harmonics;
   progress.at(1.0, "done");
-  return {{"model_id", model_id},
-          {"j_est_pct", j_est},
-          {"j_val_pct", finite_or_null(j_val)},
-          {"summary",
-           {{"na", structure.na},
-            {"nb", structure.nb},
-            {"nk", structure.nk},
-            {"hidden", structure.hidden},
-            {"modes", params.at("modes")},
-            {"params", trained.model.net.parameter_count()},
-            {"iterations", trained.iterations},
-            {"seconds", trained.seconds},
-            {"friction_units", friction},
-            {"data", data.source}}},
-          {"plots", plots}};
+  json result = {{"model_id", model_id},
+                 {"j_est_pct", j_est},
+                 {"j_val_pct", finite_or_null(j_val)},
+                 {"summary",
+                  {{"na", structure.na},
+                   {"nb", structure.nb},
+                   {"nk", structure.nk},
+                   {"hidden", structure.hidden},
+                   {"modes", params.at("modes")},
+                   {"params", trained.model.net.parameter_count()},
+                   {"iterations", trained.iterations},
+                   {"seconds", trained.seconds},
+                   {"data", data.source}}},
+                 {"plots", plots}};
+  if (!friction.is_null()) result["summary"]["friction_units"] = friction;
+  return result;
 }
 
 // `count` frequencies spaced logarithmically from `lo` to `hi` Hz.

@@ -461,6 +461,11 @@ function readParam(input) {
       return v;
     }
     case 'intlist': return ints(raw);
+    case 'floatlist': return raw.split(/[\s,;]+/).filter(Boolean).map((x) => {
+      const v = Number(x);
+      if (!Number.isFinite(v)) throw new Error(`${name}: "${x}" is not a number`);
+      return v;
+    });
     case 'strlist': return raw.split(/[\s,]+/).filter(Boolean);
     case 'range': {
       const v = ints(raw);

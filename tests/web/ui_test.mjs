@@ -411,8 +411,16 @@ async function main() {
   await page.fill(narx('hidden'), '3');
   await page.fill(narx('modes'), 'pem');
   await page.fill(narx('max_iterations'), '5');
+  await page.fill(narx('friction_units'), '2.5');
+  const narxPosted = page.waitForRequest((r) => r.method() === 'POST' && new URL(r.url()).pathname === '/api/jobs', { timeout: 10_000 });
   const narxJob = await runFormJob('identify-narx', lqJob);
   const narxModel = await resultModel('identify-narx');
+  const narxBody = (await narxPosted).postDataJSON();
+  check(JSON.stringify(narxBody.params?.friction_units) === '[2.5]',
+        `params.friction_units in the identify-narx request is ${JSON.stringify(narxBody.params?.friction_units)}, expected [2.5]`);
+  const narxSummary = await page.$$eval('#result-summary dt', (dts) => dts.map((dt) => dt.textContent.trim()));
+  check(narxSummary.includes('friction_units.gains') && narxSummary.includes('friction_units.velocity_fit_r2'),
+        `the identify-narx summary shows no friction_units: ${narxSummary.join(', ')}`);
 
   // Every design-nn field off its default, so that each one is seen to reach the request body.
   step = 'starting a design-nn job';
