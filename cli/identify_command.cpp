@@ -186,7 +186,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
     return;
   }
   ProgressBar bar("identify narx");
-  const int total = o.max_iterations * static_cast<int>(options.modes.size());
+  const int total = std::max(1, o.max_iterations * static_cast<int>(options.modes.size()));  // --max-iter 0: no 0/0
   int done = 0;
   options.progress = [&](const models::TrainingRecord& r) {
     if (r.iteration > 0) ++done;

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 namespace panelbass::cli {
@@ -14,7 +15,7 @@ ProgressBar::~ProgressBar() {
 }
 
 void ProgressBar::update(double fraction) {
-  const double f = std::clamp(fraction, 0.0, 1.0);
+  const double f = std::isnan(fraction) ? 0.0 : std::clamp(fraction, 0.0, 1.0);  // NaN (0/0 of no work): nothing done
   const int percent = static_cast<int>(f * 100.0);
   if (terminal_) {
     if (percent == shown_) return;
