@@ -369,9 +369,8 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
                         yv = r.y_val.size() ? scaling.scale_y(r.y_val) : Eigen::VectorXd();
   json friction = nullptr;
   if (const auto gains = params.value("friction_units", std::vector<double>{}); !gains.empty()) {
-    const models::FrictionSeed seeded =
-        models::seed_friction_units(model, us, ys, gains, params.value("friction_lags", 1));
-    friction = {{"gains", seeded.gains}, {"lags", seeded.lags}, {"velocity_fit_r2", seeded.r_squared}};
+    friction = models::friction_seed_report(
+        models::seed_friction_units(model, us, ys, gains, params.value("friction_lags", 1)));
   }
 
   models::TrainingOptions options;

@@ -153,8 +153,8 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   nlohmann::json friction_report = nullptr;
   if (!o.friction_gains.empty()) {
     if (o.grow > 0) throw std::invalid_argument("--friction-units cannot be combined with --grow (growth starts afresh)");
-    const models::FrictionSeed seed = models::seed_friction_units(model, us, ys, o.friction_gains, o.friction_lags);
-    friction_report = {{"gains", seed.gains}, {"lags", seed.lags}, {"velocity_fit_r2", seed.r_squared}};
+    friction_report =
+        models::friction_seed_report(models::seed_friction_units(model, us, ys, o.friction_gains, o.friction_lags));
   }
   const Eigen::VectorXd uv = u_val.size() ? scaling.scale_u(u_val) : Eigen::VectorXd(),
                         yv = y_val.size() ? scaling.scale_y(y_val) : Eigen::VectorXd();

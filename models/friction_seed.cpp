@@ -58,8 +58,7 @@ FrictionSeed seed_friction_units(NarxModel& model, const Eigen::VectorXd& u, con
     throw std::invalid_argument("seed_friction_units: the output is constant: no velocity to fit");
   }
   Eigen::VectorXd velocity = dsp::leaky_integral(centred, model.fs > 0.0 ? model.fs : 1.0);
-  const Eigen::VectorXd tail = velocity.tail(n - first);
-  velocity.array() -= tail.mean();
+  velocity.array() -= velocity.tail(n - first).mean();
   const double rms = std::sqrt(velocity.tail(n - first).squaredNorm() / static_cast<double>(n - first));
   if (!(rms > 0.0)) throw std::invalid_argument("seed_friction_units: the output does not move after the regressor's start");
   velocity /= rms;
@@ -106,6 +105,10 @@ FrictionSeed seed_friction_units(NarxModel& model, const Eigen::VectorXd& u, con
     }
   }
   return seed;
+}
+
+nlohmann::json friction_seed_report(const FrictionSeed& seed) {
+  return {{"gains", seed.gains}, {"lags", seed.lags}, {"velocity_fit_r2", seed.r_squared}};
 }
 
 }  // namespace panelbass::models

@@ -3,6 +3,7 @@
 // tanh(g·v̂(k)) of an exciter, v̂ the velocity estimated from the regressor (PHYSICS.md, friction).
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "models/narx_model.h"
@@ -30,5 +31,8 @@ struct FrictionSeed {
 /// layer has, a gain that is not finite and > 0, lags < 1, or data too short for the structure.
 FrictionSeed seed_friction_units(NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
                                  const std::vector<double>& gains, int lags = 1);
+
+/// {"gains", "lags", "velocity_fit_r2"}: what a model's meta and an identification's report say of the seed.
+nlohmann::json friction_seed_report(const FrictionSeed& seed);
 
 }  // namespace panelbass::models
