@@ -25,6 +25,7 @@
 #include "models/linear_identification.h"
 #include "models/linear_model.h"
 #include "models/lq_feedforward.h"
+#include "models/lq_weight_search.h"
 #include "models/model_analysis.h"
 #include "models/model_file.h"
 #include "models/narx_model.h"
@@ -458,7 +459,6 @@ json design_lq_work(const json& params, const JobEnvironment& env, JobControl& c
   const std::string plant_id = params.at("plant_model").get<std::string>();
   progress.at(0.0, "reading " + plant_id);
   const models::LinearModel model = models::linear_model_from_json(stored_model_file(env, plant_id));
-  const double r_weight = params.at("r").get<double>();
   const json& band = params.at("band_pass");
   const double lo = band.at("low_hz").get<double>(), hi = band.at("high_hz").get<double>();
   const int band_order = band.at("order").get<int>();
@@ -468,11 +468,24 @@ json design_lq_work(const json& params, const JobEnvironment& env, JobControl& c
   }
   const std::vector<dsp::Biquad> band_pass = dsp::butterworth_band(band_order, lo, hi, model.fs);
 
-  progress.at(0.1, "LQ design, R = " + number_text(r_weight));
-  models::LqFeedforward ff = models::design_lq(model, {r_weight, kLqR0});
-  progress.at(0.4, "largest safe program amplitude");
   const std::uint64_t seed = 1;
-  const models::InputLimits limits = models::max_input(ff, band_pass, kLqNoiseSamples, seed);
+  models::LqFeedforward ff;
+  models::InputLimits limits;
+  json search = nullptr;
+  if (params.contains("max_input")) {
+    const double target = params.at("max_input").get<double>();
+    progress.at(0.1, "searching R for a safe program amplitude of " + number_text(target));
+    models::LqWeightSearch found = models::design_lq_for_input(model, kLqR0, target, band_pass, kLqNoiseSamples, seed);
+    ff = std::move(found.ff);
+    limits = found.limits;
+    search = {{"target_noise_amplitude", target}, {"designs", found.designs}, {"at_lower_bound", found.at_lower_bound}};
+  } else {
+    progress.at(0.1, "LQ design, R = " + number_text(params.at("r").get<double>()));
+    ff = models::design_lq(model, {params.at("r").get<double>(), kLqR0});
+    progress.at(0.4, "largest safe program amplitude");
+    limits = models::max_input(ff, band_pass, kLqNoiseSamples, seed);
+  }
+  const double r_weight = ff.weights.R;
   ff.meta = {{"model", plant_id},
              {"model_method", model.method},
              {"order", ff.plant.order()},
@@ -480,6 +493,7 @@ json design_lq_work(const json& params, const JobEnvironment& env, JobControl& c
              {"bandpass", {lo, hi}},
              {"bandpass_order", band_order},
              {"max_input", {{"worst", limits.worst}, {"noise", limits.noise}, {"samples", kLqNoiseSamples}, {"seed", seed}}}};
+  if (!search.is_null()) ff.meta["R_search"] = search;
   progress.at(0.8, "storing the controller");
   const std::string name = "lq R=" + number_text(r_weight) + " on " + plant_id + " (" + control.job_id() + ")";
   const std::string model_id = store_model(env, models::lq_feedforward_to_json(ff), name, control);
@@ -493,6 +507,7 @@ json design_lq_work(const json& params, const JobEnvironment& env, JobControl& c
                   {{"plant_model", plant_id},
                    {"order", ff.plant.order()},
                    {"R", r_weight},
+                   {"R_search", search},
                    {"R0", kLqR0},
                    {"L", row_json(ff.L)},
                    {"poles", roots_json(poles)},

@@ -184,7 +184,14 @@ json identify_narx_params(const json& params, const JobEnvironment& env) {
 json design_lq_params(const json& params, const JobEnvironment& env) {
   ParamReader r(params, "params");
   stored_model(r, "plant_model", true, {"linear"}, env);
+  const json* weight = r.member("r");
+  const bool weight_given = weight != nullptr && !weight->is_null();
   r.number("r", 1e-5, {0.0, std::numeric_limits<double>::infinity(), true, true});
+  // The weight chosen by its safe program amplitude instead (models::design_lq_for_input).
+  if (const json* target = r.member("max_input"); target != nullptr && !target->is_null()) {
+    if (weight_given) fail(r.path_of("max_input"), "choose the weight by r or by max_input, not both");
+    r.number("max_input", 0.0, {0.0, 1.0, true, false});
+  }
   const json* band = r.member("band_pass");
   ParamReader b(band != nullptr ? *band : json::object(), r.path_of("band_pass"));
   const double low = b.number("low_hz", 20.0, {0.0, std::numeric_limits<double>::infinity(), false, true});

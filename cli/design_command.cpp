@@ -23,6 +23,7 @@
 #include "models/json_file.h"
 #include "models/linear_model.h"
 #include "models/lq_feedforward.h"
+#include "models/lq_weight_search.h"
 
 namespace panelbass::cli {
 namespace {
@@ -37,6 +38,7 @@ constexpr double kLowestAudibleHz = 20.0;
 struct DesignLqOptions {
   std::string model, out, plots;
   double R = 3.0;
+  double max_input = 0.0;  // > 0: search R for this safe noise amplitude instead
   double R0 = 20.0;
   std::string bandpass = "20,1200";
   int order = 2;
@@ -164,6 +166,25 @@ fs::path plot_lq_magnitude(const models::LqFeedforward& ff, double lo, double hi
   return fig.render(dir, format);
 }
 
+// Where the drive u* = (controller · band-pass)(program) is loudest for a sine: its gain's peak.
+struct ControllerPeak {
+  double frequency_hz = 0.0;
+  double gain_db = 0.0;
+};
+
+// The peak of |band-pass · controller| on a fine logarithmic grid from 1 Hz to just below Nyquist.
+ControllerPeak controller_peak(const models::LqFeedforward& ff, const std::vector<dsp::Biquad>& band) {
+  const dsp::SosFilter filter(band);
+  const models::StateSpace controller = ff.controller();
+  const Eigen::VectorXd f = log_grid(1.0, 0.999 * ff.fs / 2.0, 2000);
+  ControllerPeak peak{f[0], -std::numeric_limits<double>::infinity()};
+  for (Eigen::Index k = 0; k < f.size(); ++k) {
+    const double db = 20.0 * std::log10(std::abs(filter.response(f[k], ff.fs) * models::response(controller, f[k], ff.fs)));
+    if (db > peak.gain_db) peak = {f[k], db};
+  }
+  return peak;
+}
+
 void run_design_lq(const DesignLqOptions& o) {
   const auto [lo, hi] = parse_bandpass(o.bandpass);
   const models::LinearModel model = models::load_linear_model(o.model);
@@ -175,18 +196,42 @@ void run_design_lq(const DesignLqOptions& o) {
     fs::create_directories(o.plots);
   }
 
-  models::LqFeedforward ff = models::design_lq(model, {o.R, o.R0});
-  const models::InputLimits limits = models::max_input(ff, band, o.samples, o.seed);
+  models::LqFeedforward ff;
+  models::InputLimits limits;
+  nlohmann::json search = nullptr;
+  if (o.max_input > 0.0) {
+    models::LqWeightSearch found = models::design_lq_for_input(model, o.R0, o.max_input, band, o.samples, o.seed);
+    ff = std::move(found.ff);
+    limits = found.limits;
+    search = {{"target_noise_amplitude", o.max_input}, {"designs", found.designs}, {"at_lower_bound", found.at_lower_bound}};
+    if (found.at_lower_bound) {
+      std::fprintf(stderr, "design lq: the target %g is met even at R = %g, the cheapest control searched\n",
+                   o.max_input, models::kMinSearchR);
+    }
+  } else {
+    ff = models::design_lq(model, {o.R, o.R0});
+    limits = models::max_input(ff, band, o.samples, o.seed);
+  }
+  const double R = ff.weights.R;
+  const ControllerPeak peak = controller_peak(ff, band);
+  if (lo > 0.0 && peak.frequency_hz < lo) {
+    std::fprintf(stderr,
+                 "design lq: the drive's gain peaks at %.1f Hz (%+.1f dB), below the band-pass corner %g Hz: the controller "
+                 "boosts what the band-pass is there to remove, and max_input falls with it; raise the corner or --order, "
+                 "or the weight (--R, --max-input)\n",
+                 peak.frequency_hz, peak.gain_db, lo);
+  }
   const double ripple_lo = std::max(lo, kLowestAudibleHz);
   const double ripple_model = ripple_db(ff.plant, ripple_lo, hi, ff.fs);
   const double ripple_controlled = ripple_db(ff.desired(), ripple_lo, hi, ff.fs);
   ff.meta = {{"model", o.model},
              {"model_method", model.method},
              {"order", ff.plant.order()},
-             {"weights", {{"R", o.R}, {"R0", o.R0}}},
+             {"weights", {{"R", R}, {"R0", o.R0}}},
              {"bandpass", {lo, hi}},
              {"bandpass_order", o.order},
              {"max_input", {{"worst", limits.worst}, {"noise", limits.noise}, {"samples", o.samples}, {"seed", o.seed}}}};
+  if (!search.is_null()) ff.meta["R_search"] = search;
   models::write_json_file(o.out, models::lq_feedforward_to_json(ff));
 
   const Eigen::VectorXcd poles = ff.poles();
@@ -194,7 +239,8 @@ void run_design_lq(const DesignLqOptions& o) {
                            {"out", o.out},
                            {"fs", ff.fs},
                            {"order", ff.plant.order()},
-                           {"R", o.R},
+                           {"R", R},
+                           {"R_search", search},
                            {"R0", o.R0},
                            {"L", vector_json(ff.L)},
                            {"poles", roots_json(poles)},
@@ -205,6 +251,7 @@ void run_design_lq(const DesignLqOptions& o) {
                            {"max_input_worst", limits.worst},
                            {"max_input_noise", limits.noise},
                            {"noise_samples", o.samples},
+                           {"drive_peak", {{"frequency_hz", peak.frequency_hz}, {"gain_db", peak.gain_db}}},
                            {"seed", o.seed},
                            {"ripple_db", {{"band", {ripple_lo, hi}}, {"model", ripple_model}, {"controlled", ripple_controlled}}},
                            {"plots", nullptr}};
@@ -222,9 +269,15 @@ void add_design_lq(CLI::App* design) {
   CLI::App* lq = design->add_subcommand(
       "lq", "LQ feedforward controller [7A]/[7B] on a linear model, and the largest safe program amplitude");
   lq->add_option("--model", o->model, "Linear model file (JSON, from identify linear)")->required();
-  lq->add_option("--R", o->R, "Weight on the controller output u* (> 0); small R: flatter response, larger u*")
-      ->check(at_least(0.0, false))
-      ->capture_default_str();
+  CLI::Option* r_option =
+      lq->add_option("--R", o->R, "Weight on the controller output u* (> 0); small R: flatter response, larger u*")
+          ->check(at_least(0.0, false))
+          ->capture_default_str();
+  lq->add_option("--max-input", o->max_input,
+                 "Instead of --R: the program peak (0 < A <= 1) that must keep u* within [-1, 1] for band-limited white "
+                 "noise; R is searched (the smallest that allows it: the flattest response at that level)")
+      ->check(CLI::Range(1e-6, 1.0))
+      ->excludes(r_option);
   lq->add_option("--R0", o->R0, "Weight on the model output y (>= 0)")->check(at_least(0.0, true))->capture_default_str();
   add_bandpass_option(lq, o->bandpass, "Band-pass corners LO,HI in Hz before the controller (LO = 0: low-pass only)");
   lq->add_option("--order", o->order, "Butterworth order of the high-pass and of the low-pass")
@@ -242,7 +295,9 @@ void add_design_lq(CLI::App* design) {
       "  panelbass simulate --plant panel-exciter --signal noise --samples 12000 --seed 1 --out run.csv\n"
       "  panelbass identify linear --data run.csv --fs 3000 --method oe --scan 1:12 --val run.csv --out lin.json\n"
       "  panelbass design lq --model lin.json --R 3 --R0 20 --bandpass 20,1200 --out ff.json --plot plots/\n"
-      "  panelbass design lq --model lin.json --R 1e-5 --R0 20 --bandpass 0,1200 --out ff-cheap.json");
+      "  panelbass design lq --model lin.json --R 1e-5 --R0 20 --bandpass 0,1200 --out ff-cheap.json\n"
+      "The flattest design that still takes a program peak of 1/3 (R searched):\n"
+      "  panelbass design lq --model lin.json --max-input 0.33 --R0 20 --bandpass 20,1200 --out ff-third.json");
   lq->callback([o] { run_design_lq(*o); });
 }
 

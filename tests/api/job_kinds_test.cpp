@@ -268,6 +268,7 @@ TEST_F(JobKindsTest, DefaultsAreFilledIn) {
 
   const json lq = validate_job_params("design-lq", {{"plant_model", store_reference_model()}}, env_);
   EXPECT_EQ(lq.at("r"), 1e-5);
+  EXPECT_FALSE(lq.contains("max_input"));  // the weight is r unless a safe amplitude is asked for
   EXPECT_EQ(lq.at("band_pass"), (json{{"low_hz", 20.0}, {"high_hz", 1200.0}, {"order", 2}}));
 }
 
@@ -317,6 +318,13 @@ TEST_F(JobKindsTest, DesignNnRangesAreNamed) {
 
 TEST_F(JobKindsTest, ReferencedModelsMustExistWithTheRightKind) {
   EXPECT_EQ(refusal("design-lq", json::object()), "params.plant_model: required");
+  EXPECT_EQ(refusal("design-lq", {{"plant_model", store_reference_model()}, {"r", 1.0}, {"max_input", 0.3}}),
+            "params.max_input: choose the weight by r or by max_input, not both");
+  for (const double bad : {0.0, 1.5}) {
+    EXPECT_NE(refusal("design-lq", {{"plant_model", store_reference_model()}, {"max_input", bad}}).find("params.max_input"),
+              std::string::npos)
+        << bad;
+  }
   EXPECT_EQ(refusal("design-lq", {{"plant_model", "m000000000000"}}), "params.plant_model: no stored model \"m000000000000\"");
   EXPECT_NE(refusal("design-lq", {{"plant_model", "../etc"}}).find("params.plant_model: must be an id"), std::string::npos);
   const std::string linear = store_reference_model();
@@ -538,6 +546,30 @@ TEST_F(JobKindsTest, DesignLqMakesAStableControllerThatLoads) {
     if (s.at("plant_db")[k].get<double>() > s.at("plant_db")[top].get<double>()) top = k;
   }
   EXPECT_NEAR(s.at("f")[top].get<double>(), kResonanceHz, 30.0);
+}
+
+TEST_F(JobKindsTest, DesignLqByMaxInputSearchesTheFlattestWeightThatAllowsIt) {
+  const std::string plant = store_reference_model();
+  const auto safe_amplitude = [&](double r, const std::string& job) {
+    return run("design-lq", {{"plant_model", plant}, {"r", r}}, job).at("summary").at("max_input_noise").get<double>();
+  };
+  const double cheap = safe_amplitude(1e-8, "j1"), expensive = safe_amplitude(3.0, "j2");
+  ASSERT_LT(cheap, expensive);
+  const double target = 0.5 * (cheap + expensive);
+  FakeControl control("j3");
+  const json result = run("design-lq", {{"plant_model", plant}, {"max_input", target}}, control);
+  expect_progress(control);
+  const json& summary = result.at("summary");
+  const double R = summary.at("R").get<double>();
+  EXPECT_GT(R, 1e-8);
+  EXPECT_LT(R, 3.0);
+  EXPECT_GE(summary.at("max_input_noise").get<double>(), target);
+  EXPECT_EQ(summary.at("R_search").at("target_noise_amplitude"), target);
+  // A design 2 % cheaper misses the target: R is the smallest that meets it.
+  EXPECT_LT(safe_amplitude(R / 1.02, "j4"), target);
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(*store_->model(result.at("model_id").get<std::string>()));
+  EXPECT_EQ(ff.weights.R, R);
+  EXPECT_EQ(ff.meta.at("R_search"), summary.at("R_search"));
 }
 
 TEST_F(JobKindsTest, DesignNnTrainsOnANarxPlantBehindTheLqController) {

@@ -8,7 +8,9 @@
 #include <fstream>
 
 #include "dsp/butterworth.h"
+#include "models/linear_model.h"
 #include "models/lq_feedforward.h"
+#include "models/state_space.h"
 #include "tests/support/cli_runner.h"
 
 namespace panelbass {
@@ -79,6 +81,50 @@ TEST_F(CliDesignModel, CheapControlFlattensTheResponseAndNeedsASmallerInput) {
   const json band = expect_result(run("design lq --model " + quoted(model()) +
                                       " --R 1e-5 --R0 20 --bandpass 50,1200 --samples 20000 --out " + quoted(dir_ / "c.json")));
   EXPECT_GT(band["max_input_worst"].get<double>(), cheap["max_input_worst"].get<double>());
+}
+
+TEST_F(CliDesignModel, MaxInputSearchesTheFlattestWeightThatAllowsIt) {
+  // The target lies between what cheap (R = 1e-8, the search's lower end) and expensive control allow.
+  const std::string base = "design lq --model " + quoted(model()) + " --R0 20 --bandpass 20,1200 --samples 20000 ";
+  const double cheap = expect_result(run(base + "--R 1e-8 --out " + quoted(dir_ / "a.json")))["max_input_noise"];
+  const double expensive = expect_result(run(base + "--R 3 --out " + quoted(dir_ / "b.json")))["max_input_noise"];
+  ASSERT_LT(cheap, expensive);
+  const double target = 0.5 * (cheap + expensive);
+  const fs::path out = dir_ / "ff.json";
+  const json r = expect_result(run(base + "--max-input " + std::to_string(target) + " --out " + quoted(out)));
+  const double sent = r["R_search"]["target_noise_amplitude"];  // the target as printed on the command line
+  EXPECT_NEAR(sent, target, 1e-6);
+  EXPECT_FALSE(r["R_search"]["at_lower_bound"].get<bool>());
+  const double R = r["R"];
+  EXPECT_GT(R, 1e-8);
+  EXPECT_LT(R, 3.0);
+  EXPECT_GE(r["max_input_noise"].get<double>(), sent);
+  // Checked with the library directly: the file's controller allows the target, a design 2 % cheaper does not.
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(json::parse(text_of(out)));
+  EXPECT_EQ(ff.weights.R, R);
+  EXPECT_EQ(ff.meta["R_search"], r["R_search"]);
+  const std::vector<dsp::Biquad> band = dsp::butterworth_bandpass(2, 20.0, 1200.0, 3000.0);
+  EXPECT_GE(models::max_input(ff, band, 20000, 1).noise, sent);
+  const models::LqFeedforward cheaper = models::design_lq(models::load_linear_model(model()), {R / 1.02, 20.0});
+  EXPECT_LT(models::max_input(cheaper, band, 20000, 1).noise, sent);
+  // The drive's peak gain: at least the gain at any other frequency, and at most ‖h‖₁ = 1/max_input_worst.
+  const double peak_db = r["drive_peak"]["gain_db"];
+  const dsp::SosFilter filter(band);
+  for (const double f : {10.0, 20.0, 40.0, 150.0, 600.0, 1200.0}) {
+    const double db = 20.0 * std::log10(std::abs(filter.response(f, 3000.0) * models::response(ff.controller(), f, 3000.0)));
+    EXPECT_LE(db, peak_db + 1e-9) << f << " Hz";
+  }
+  EXPECT_LE(peak_db, -20.0 * std::log10(r["max_input_worst"].get<double>()) + 1e-9);
+  // --R and --max-input choose the weight two ways: one at a time; the target lies in (0, 1].
+  RunResult both = run("design lq --model " + quoted(model()) + " --R 1 --max-input 0.3 --out " + quoted(dir_ / "x.json"));
+  expect_usage_error(both);
+  EXPECT_TRUE(contains(both.err, "--max-input")) << both.err;
+  for (const char* bad : {"0", "1.5"}) {
+    both = run("design lq --model " + quoted(model()) + " --max-input " + bad + " --out " + quoted(dir_ / "x.json"));
+    expect_usage_error(both);
+    EXPECT_TRUE(contains(both.err, "--max-input")) << both.err;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "x.json"));
 }
 
 TEST_F(CliDesignModel, PlotsWritesThePoleZeroAndMagnitudeFigures) {

@@ -398,8 +398,16 @@ async function main() {
   step = 'designing an LQ feedforward';
   await page.selectOption('#job-kind', 'design-lq');
   await page.selectOption('#lq-plant', modelId);
+  await page.fill('fieldset[data-kinds="design-lq"] [data-param="max_input"]', '0.3');
+  const lqPosted = page.waitForRequest((r) => r.method() === 'POST' && new URL(r.url()).pathname === '/api/jobs', { timeout: 10_000 });
   const lqJob = await runFormJob('design-lq', diagnoseId);
   const lqModel = await resultModel('design-lq');
+  const lqBody = (await lqPosted).postDataJSON();
+  check(lqBody.params?.max_input === 0.3 && !('r' in lqBody.params),
+        `the design-lq request chooses its weight by ${JSON.stringify(lqBody.params)}, expected max_input 0.3 and no r`);
+  const lqSummary = await page.$$eval('#result-summary dt', (dts) => dts.map((dt) => dt.textContent.trim()));
+  check(lqSummary.includes('R_search.target_noise_amplitude'),
+        `the design-lq summary shows no R_search: ${lqSummary.join(', ')}`);
 
   step = 'identifying a NARX plant';
   await page.selectOption('#job-kind', 'identify-narx');
