@@ -163,6 +163,28 @@ Eigen::VectorXd play(const JobEnvironment& env, const Eigen::VectorXd& drive) {
   return response;
 }
 
+// The band-pass an LQ controller was designed behind (its meta, as `design lq` writes it), else 20–1200 Hz
+// of order 2 (the low-pass corner kept below Nyquist).
+std::vector<dsp::Biquad> band_pass_of(const models::LqFeedforward& ff, double& lo, double& hi, int& order) {
+  lo = 20.0;
+  hi = std::min(1200.0, 0.45 * ff.fs);
+  order = 2;
+  const json& meta = ff.meta;
+  if (meta.is_object() && meta.contains("bandpass") && meta["bandpass"].is_array() && meta["bandpass"].size() == 2 &&
+      meta["bandpass"][0].is_number() && meta["bandpass"][1].is_number()) {
+    const double l = meta["bandpass"][0].get<double>(), h = meta["bandpass"][1].get<double>();
+    if (l >= 0.0 && h > l && h < ff.fs / 2.0) {
+      lo = l;
+      hi = h;
+    }
+  }
+  if (meta.is_object() && meta.contains("bandpass_order") && meta["bandpass_order"].is_number_integer()) {
+    const int o = meta["bandpass_order"].get<int>();
+    if (o >= 1 && o <= 16) order = o;
+  }
+  return dsp::butterworth_band(order, lo, hi, ff.fs);
+}
+
 // Runs the excitation of filled-in excite params: estimation part (seed), then validation part (seed + 1).
 ExcitationRecord run_excitation(const json& excite, const JobEnvironment& env, Progress& progress) {
   const std::string signal = excite.at("signal").get<std::string>();
@@ -173,6 +195,33 @@ ExcitationRecord run_excitation(const json& excite, const JobEnvironment& env, P
   const double total = static_cast<double>(samples + validation);
   ExcitationRecord record;
   progress.at(0.0, "excitation: " + std::to_string(samples) + " samples of " + signal);
+  if (signal == "control") {
+    const models::LqFeedforward ff =
+        models::lq_feedforward_from_json(stored_model_file(env, excite.at("feedforward_model").get<std::string>()));
+    double lo = 0.0, hi = 0.0;
+    int order = 0;
+    const std::vector<dsp::Biquad> band_pass = band_pass_of(ff, lo, hi, order);
+    models::FeedbackDesignOptions design;
+    design.sine_peak = excite.at("sine_peak").get<double>();
+    design.program_share = excite.at("program_share").get<double>();
+    // One part: the chain's drive for the design's program, played, and its steps' harmonic weights.
+    const auto control_part = [&](Eigen::Index n, std::uint64_t part_seed, Eigen::VectorXd& u, Eigen::VectorXd& y,
+                                  Eigen::VectorXd& w) {
+      design.samples = n;
+      const models::ControlRecord part = models::control_record(ff, band_pass, design, part_seed);
+      if (!part.u.allFinite()) throw std::runtime_error("the control excitation has a non-finite sample");
+      u = part.u.cwiseMax(-1.0).cwiseMin(1.0);
+      y = play(env, u);
+      w = models::harmonic_weights(part, y, env.fs);
+    };
+    control_part(samples, seed, record.u_est, record.y_est, record.w_est);
+    if (validation > 0) {
+      progress.at(samples / total, "excitation: " + std::to_string(validation) + " validation samples");
+      control_part(validation, seed + 1, record.u_val, record.y_val, record.w_val);
+    }
+    progress.at(1.0, "excitation recorded");
+    return record;
+  }
   record.u_est = excitation_signal(signal, samples, amplitude, seed, env.fs);
   record.y_est = play(env, record.u_est);
   if (validation > 0) {
@@ -383,6 +432,12 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
   }
   options.optimizer = models::Optimizer::lm;
   options.max_iterations = params.at("max_iterations").get<int>();
+  const bool weighted = params.value("weighted", false);
+  if (weighted) {
+    if (r.w_est.size() == 0) throw std::invalid_argument("params.weighted: the record has no harmonic weights");
+    options.weights = r.w_est;
+    options.validation_weights = r.w_val;
+  }
   const int total = std::max(1, options.max_iterations * static_cast<int>(options.modes.size()));
   progress.span(kExcitationShare, 0.85);
   options.progress = [&](const models::TrainingRecord& rec) {
@@ -411,6 +466,7 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
                         {"J_est_pct", j_est},
                         {"J_val_pct", finite_or_null(j_val)},
                         {"seed", seed},
+                        {"weighted", weighted},
                         {"history", meta_history}};
   if (!friction.is_null()) trained.model.meta["friction_units"] = friction;
   progress.at(0.2, "storing the model");
@@ -437,6 +493,7 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
                    {"params", trained.model.net.parameter_count()},
                    {"iterations", trained.iterations},
                    {"seconds", trained.seconds},
+                   {"weighted", weighted},
                    {"data", data.source}}},
                  {"plots", plots}};
   if (!friction.is_null()) result["summary"]["friction_units"] = friction;
@@ -525,28 +582,6 @@ json design_lq_work(const json& params, const JobEnvironment& env, JobControl& c
                      {"controller_db", column(magnitude_db(frequency_response(ff.controller(), f, ff.fs)))}}}}}};
   progress.at(1.0, "done");
   return result;
-}
-
-// The band-pass an LQ controller was designed behind (its meta, as `design lq` writes it), else 20–1200 Hz
-// of order 2 (the low-pass corner kept below Nyquist).
-std::vector<dsp::Biquad> band_pass_of(const models::LqFeedforward& ff, double& lo, double& hi, int& order) {
-  lo = 20.0;
-  hi = std::min(1200.0, 0.45 * ff.fs);
-  order = 2;
-  const json& meta = ff.meta;
-  if (meta.is_object() && meta.contains("bandpass") && meta["bandpass"].is_array() && meta["bandpass"].size() == 2 &&
-      meta["bandpass"][0].is_number() && meta["bandpass"][1].is_number()) {
-    const double l = meta["bandpass"][0].get<double>(), h = meta["bandpass"][1].get<double>();
-    if (l >= 0.0 && h > l && h < ff.fs / 2.0) {
-      lo = l;
-      hi = h;
-    }
-  }
-  if (meta.is_object() && meta.contains("bandpass_order") && meta["bandpass_order"].is_number_integer()) {
-    const int o = meta["bandpass_order"].get<int>();
-    if (o >= 1 && o <= 16) order = o;
-  }
-  return dsp::butterworth_band(order, lo, hi, ff.fs);
 }
 
 json design_nn_work(const json& params, const JobEnvironment& env, JobControl& control) {

@@ -68,6 +68,25 @@ std::string list_text(const std::vector<std::string>& names) {
 
 // ----- the parts several kinds share -------------------------------------------------------------
 
+// A stored model named by `key`, of one of `kinds`, at the engine's rate.
+void stored_model(ParamReader& r, const std::string& key, bool required, const std::vector<std::string>& kinds,
+                  const JobEnvironment& env) {
+  const std::optional<std::string> id = r.id(key, required);
+  if (!id) return;
+  const std::string where = r.path_of(key);
+  if (env.store == nullptr) fail(where, "no model store to read \"" + *id + "\" from");
+  const std::optional<StoredModel> stored = env.store->find(*id);
+  if (!stored) fail(where, "no stored model \"" + *id + "\"");
+  if (std::find(kinds.begin(), kinds.end(), stored->kind) == kinds.end()) {
+    std::string expected;
+    for (std::size_t k = 0; k < kinds.size(); ++k) expected += (k ? " or " : "") + kinds[k];
+    fail(where, "model " + *id + " is of kind \"" + stored->kind + "\", expected " + expected);
+  }
+  if (std::abs(stored->fs - env.fs) > 1e-9 * env.fs) {
+    fail(where, "model " + *id + " runs at " + number_text(stored->fs) + " Hz, the engine at " + number_text(env.fs) + " Hz");
+  }
+}
+
 // The excite params at `path` (the excite kind's own params, or the "excite" field of another kind); refused
 // when the backend cannot be excited (a sound card).
 json excite_params(const json& params, const std::string& path, const JobEnvironment& env) {
@@ -76,8 +95,8 @@ json excite_params(const json& params, const std::string& path, const JobEnviron
                "recording of the transducer (panelbass identify linear --data rec.wav) and upload the model");
   }
   ParamReader r(params, path);
-  r.choice("signal", "noise", {"noise", "multisine"});
-  r.integer("samples", 10000, kMinSamples, kMaxSamples);
+  const std::string signal = r.choice("signal", "noise", {"noise", "multisine", "control"});
+  const long long samples = r.integer("samples", 10000, kMinSamples, kMaxSamples);
   const long long validation = r.integer("validation_samples", 5000, 0, kMaxSamples);
   if (validation > 0 && validation < kMinSamples) {
     fail(r.path_of("validation_samples"), "must be 0 (none) or at least " + std::to_string(kMinSamples) + ", got " +
@@ -85,6 +104,22 @@ json excite_params(const json& params, const std::string& path, const JobEnviron
   }
   r.number("amplitude", 0.3, {0.0, 1.0, true, false});
   r.integer("seed", 1, 0, kMaxSeed);
+  // The plant in its operating regime (panelbass simulate --signal control): the LQ feedforward's output
+  // for the controller design's program, noise then stepped sines, with per-sample harmonic weights.
+  if (signal == "control") {
+    if (samples < models::kMinControlSamples) {
+      fail(r.path_of("samples"), "a control excitation needs at least " + std::to_string(models::kMinControlSamples) +
+                                     " samples, got " + std::to_string(samples));
+    }
+    if (validation > 0 && validation < models::kMinControlSamples) {
+      fail(r.path_of("validation_samples"), "must be 0 (none) or at least " + std::to_string(models::kMinControlSamples) +
+                                                " for a control excitation, got " + std::to_string(validation));
+    }
+    stored_model(r, "feedforward_model", true, {"lq_feedforward"}, env);
+    const models::FeedbackDesignOptions design;
+    r.number("sine_peak", design.sine_peak, {0.0, 1.0, true, false});
+    r.number("program_share", design.program_share, {0.0, 1.0, false, false});
+  }
   return r.finish();
 }
 
@@ -115,25 +150,6 @@ long long record_source(ParamReader& r, const JobEnvironment& env, std::string& 
   return filled.at("validation_samples").get<long long>();
 }
 
-// A stored model named by `key`, of one of `kinds`, at the engine's rate.
-void stored_model(ParamReader& r, const std::string& key, bool required, const std::vector<std::string>& kinds,
-                  const JobEnvironment& env) {
-  const std::optional<std::string> id = r.id(key, required);
-  if (!id) return;
-  const std::string where = r.path_of(key);
-  if (env.store == nullptr) fail(where, "no model store to read \"" + *id + "\" from");
-  const std::optional<StoredModel> stored = env.store->find(*id);
-  if (!stored) fail(where, "no stored model \"" + *id + "\"");
-  if (std::find(kinds.begin(), kinds.end(), stored->kind) == kinds.end()) {
-    std::string expected;
-    for (std::size_t k = 0; k < kinds.size(); ++k) expected += (k ? " or " : "") + kinds[k];
-    fail(where, "model " + *id + " is of kind \"" + stored->kind + "\", expected " + expected);
-  }
-  if (std::abs(stored->fs - env.fs) > 1e-9 * env.fs) {
-    fail(where, "model " + *id + " runs at " + number_text(stored->fs) + " Hz, the engine at " + number_text(env.fs) + " Hz");
-  }
-}
-
 // Hidden layer widths of a network.
 std::vector<long long> hidden_layers(ParamReader& r, const std::vector<long long>& fallback) {
   return r.integers("hidden", fallback, 1, 4, 1, 256);
@@ -160,6 +176,12 @@ json identify_linear_params(const json& params, const JobEnvironment& env) {
   return r.finish();
 }
 
+// True when the succeeded excite job `id` recorded harmonic weights (a control excitation).
+bool record_has_weights(const JobEnvironment& env, const std::string& id) {
+  const std::optional<json> result = env.job_result ? env.job_result(id) : std::nullopt;
+  return result && result->contains("record") && result->at("record").contains("w_est");
+}
+
 json identify_narx_params(const json& params, const JobEnvironment& env) {
   ParamReader r(params, "params");
   std::string validation_path;
@@ -171,6 +193,22 @@ json identify_narx_params(const json& params, const JobEnvironment& env) {
   r.choices("modes", {"pem", "oem-d"}, {"pem", "oem-s", "oem-d", "oem-n"});
   r.integer("max_iterations", 30, 0, kMaxIterations);
   r.integer("seed", 1, 0, kMaxSeed);
+  // The control excitation's harmonic weights in the loss (identify narx --weight-col w).
+  if (const json* weighted = r.member("weighted"); weighted != nullptr) {
+    if (!weighted->is_boolean()) fail(r.path_of("weighted"), "expected true or false, got " + shown(*weighted));
+    const json* excite = r.member("excite");
+    const json* record = r.member("record");
+    const bool has_weights = record != nullptr ? record_has_weights(env, record->get<std::string>())
+                                               : excite != nullptr && excite->value("signal", "") == "control";
+    if (weighted->get<bool>() && !has_weights) {
+      fail(r.path_of("weighted"), "the weights come with a control excitation (excite.signal \"control\"), and " +
+                                      (record != nullptr ? "job " + record->get<std::string>() + "'s record has none"
+                                                         : std::string("this job's excitation is not one")));
+    }
+    r.set("weighted", *weighted);
+  } else {
+    r.set("weighted", false);
+  }
   // Hidden nodes seeded as Coulomb friction (models::seed_friction_units): one per gain and lag.
   const std::vector<double> gains = r.numbers("friction_units", {}, 0, 16, {0.0, 1000.0, true, false});
   const long long lags = r.integer("friction_lags", 1, 1, 20);
@@ -423,10 +461,15 @@ json ParamReader::finish() const {
 // ----- records and kinds -----------------------------------------------------------------------------
 
 json excitation_record_to_json(const ExcitationRecord& record) {
-  return {{"u_est", vector_json(record.u_est)},
-          {"y_est", vector_json(record.y_est)},
-          {"u_val", vector_json(record.u_val)},
-          {"y_val", vector_json(record.y_val)}};
+  json out = {{"u_est", vector_json(record.u_est)},
+              {"y_est", vector_json(record.y_est)},
+              {"u_val", vector_json(record.u_val)},
+              {"y_val", vector_json(record.y_val)}};
+  if (record.w_est.size() > 0) {
+    out["w_est"] = vector_json(record.w_est);
+    out["w_val"] = vector_json(record.w_val);
+  }
+  return out;
 }
 
 ExcitationRecord excitation_record_from_result(const json& result, double fs, const std::string& where) {
@@ -441,6 +484,16 @@ ExcitationRecord excitation_record_from_result(const json& result, double fs, co
   out.y_val = numbers_of(record, "y_val", where);
   if (out.u_est.size() != out.y_est.size() || out.u_val.size() != out.y_val.size()) {
     fail_after(where, "has a record whose drive and response differ in length");
+  }
+  if (record.contains("w_est")) {
+    out.w_est = numbers_of(record, "w_est", where);
+    out.w_val = numbers_of(record, "w_val", where);
+    if (out.w_est.size() != out.u_est.size() || out.w_val.size() != out.u_val.size()) {
+      fail_after(where, "has a record whose weights and drive differ in length");
+    }
+    if ((out.w_est.array() < 0.0).any() || (out.w_val.array() < 0.0).any()) {
+      fail_after(where, "has a record with a negative weight");
+    }
   }
   if (out.u_est.size() < kMinSamples) {
     fail_after(where, "has a record of " + std::to_string(out.u_est.size()) + " estimation samples, fewer than " +

@@ -74,9 +74,10 @@ class ParamReader {
 /// The estimation and validation parts of a recording: raw drive u and response y.
 struct ExcitationRecord {
   Eigen::VectorXd u_est, y_est, u_val, y_val;
+  Eigen::VectorXd w_est, w_val;  ///< per-sample harmonic weights of a control excitation; empty otherwise
 };
 
-/// {"u_est":[…],"y_est":[…],"u_val":[…],"y_val":[…]}.
+/// {"u_est":[…],"y_est":[…],"u_val":[…],"y_val":[…]}, and "w_est", "w_val" when the record has weights.
 nlohmann::json excitation_record_to_json(const ExcitationRecord& record);
 
 /// The record in an excite job's result ({"fs", "record":{…}}), checked: four arrays of finite numbers,

@@ -17,7 +17,8 @@
 # table at the limiter's knee (0.8, the evaluate default) follows for comparison.
 # Usage: [RECORDS=24] [MODELS=1] bash bench/control_table.sh [SEED] [SINE_SHARE]   (about 15 min per model)
 # WEIGHTED=1 trains the NARX model with the records' harmonic weights (identify narx --weight-col w: every
-# step's harmonics count alike). NARX_FLAGS adds flags to identify narx (e.g. NARX_FLAGS="--friction-units 3,10":
+# step's harmonics count alike). LQ_WEIGHT chooses the feedforward's weight (default "--R 1e-5", the thesis's;
+# LQ_WEIGHT="--max-input 0.33": R searched so that the chain takes a third of full scale). NARX_FLAGS adds flags to identify narx (e.g. NARX_FLAGS="--friction-units 3,10":
 # hidden nodes seeded as the exciter's Coulomb friction). PANELBASS_BIN overrides the binary; PLOTS=DIR keeps the evaluation figures of the model-mode chain at the
 # 0.6 probe peak (the response, and the harmonics per probe); KEEP=DIR keeps every file the run made (models,
 # controllers, chains, records, evaluations) for a closer look.
@@ -38,7 +39,8 @@ field() { sed -n "s/^  \"$1\": \([-0-9.e+]*\).*/\1/p" | head -n 1; }
 head -n 12001 all.csv > est.csv
 { head -n 1 all.csv; tail -n +12002 all.csv; } > val.csv
 lin=$("$bin" identify linear --data est.csv --val val.csv --fs 3000 --method oe --scan 1:16 --out lin.json 2> /dev/null)
-lq=$("$bin" design lq --model lin.json --R 1e-5 --R0 20 --bandpass 20,1200 --out ff.json)
+lq_weight=${LQ_WEIGHT:---R 1e-5}
+lq=$("$bin" design lq --model lin.json $lq_weight --R0 20 --bandpass 20,1200 --out ff.json 2> /dev/null)
 : > reg_est.csv
 records=${RECORDS:-24}
 for i in $(seq 0 $((records - 1))); do
@@ -83,7 +85,7 @@ fb=$("$bin" design nn --plant narx.json --ff ff.json --bandpass 20,1200 --hidden
        --samples 48000 --sine-peak 0.6 --sine-share "$share" --seed "$seed" --out fb.json 2> /dev/null)
 echo "## Control on panel-exciter (seed $seed)"
 echo "- linear model: OE order $(echo "$lin" | field order), J_val $(echo "$lin" | field J_val_pct | awk '{printf "%.2f", $1}') %;" \
-     "LQ (R 1e-5, R0 20, 20-1200 Hz): max in $(echo "$lq" | field max_input_worst | awk '{printf "%.3f", $1}') worst," \
+     "LQ ($lq_weight → R $(echo "$lq" | field R), R0 20, 20-1200 Hz): max in $(echo "$lq" | field max_input_worst | awk '{printf "%.3f", $1}') worst," \
      "$(echo "$lq" | field max_input_noise | awk '{printf "%.3f", $1}') noise"
 echo -n "$checks"
 echo "- NARX plant model kept: candidate $kept (regime data $((records * 22500)) samples, 10/10/20): J_val $(echo "$nn" | field J_val_pct | awk '{printf "%.2f", $1}') %;" \

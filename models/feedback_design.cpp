@@ -16,7 +16,10 @@ namespace panelbass::models {
 namespace {
 
 void require_options(const FeedbackDesignOptions& o, double fs) {
-  if (o.samples < 1000) throw std::invalid_argument("design nn: samples must be >= 1000, got " + std::to_string(o.samples));
+  if (o.samples < kMinControlSamples) {
+    throw std::invalid_argument("design nn: samples must be >= " + std::to_string(kMinControlSamples) + ", got " +
+                                std::to_string(o.samples));
+  }
   if (!(o.sine_share >= 0.0 && o.sine_share <= 1.0)) throw std::invalid_argument("design nn: sine_share must be within [0, 1]");
   if (!(o.sine_low_hz > 0.0 && o.sine_low_hz < o.sine_high_hz && o.sine_high_hz < fs / 2.0)) {
     throw std::invalid_argument("design nn: stepped sines need 0 < low < high < fs/2");

@@ -35,6 +35,9 @@ const char* desired_response_name(DesiredResponse d);
 /// The DesiredResponse named `name`; std::invalid_argument listing the names otherwise.
 DesiredResponse desired_response_from_name(const std::string& name);
 
+/// The fewest samples a training record (control_record) may have.
+inline constexpr Eigen::Index kMinControlSamples = 1000;
+
 /// How the controller is designed.
 struct FeedbackDesignOptions {
   FeedbackStructure structure{};     ///< N1's inputs and hidden layers

@@ -441,6 +441,7 @@ const usesSource = (kind) => kindsOf($('#job-source').closest('[data-kinds]')).i
 
 /** One form field's value for the params, or undefined when it is left empty (the server's default). */
 function readParam(input) {
+  if (input.dataset.type === 'bool') return input.checked ? true : undefined;
   const raw = input.value.trim();
   if (raw === '') return undefined;
   const name = input.dataset.param;

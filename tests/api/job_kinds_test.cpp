@@ -15,11 +15,14 @@
 #include <vector>
 
 #include "api/model_store.h"
+#include "api/job_params.h"
 #include "api/model_validation.h"
 #include "models/linear_model.h"
 #include "models/feedback_design.h"
 #include "models/lq_feedforward.h"
 #include "models/model_file.h"
+#include "models/narx_training.h"
+#include "dsp/butterworth.h"
 #include "models/neural_feedback.h"
 #include "models/plant_presets.h"
 #include "models/virtual_transducer.h"
@@ -265,6 +268,7 @@ TEST_F(JobKindsTest, DefaultsAreFilledIn) {
   EXPECT_EQ(narx.at("nb"), 3);
   EXPECT_EQ(narx.at("friction_units"), json::array());
   EXPECT_EQ(narx.at("friction_lags"), 1);
+  EXPECT_EQ(narx.at("weighted"), false);
 
   const json lq = validate_job_params("design-lq", {{"plant_model", store_reference_model()}}, env_);
   EXPECT_EQ(lq.at("r"), 1e-5);
@@ -546,6 +550,90 @@ TEST_F(JobKindsTest, DesignLqMakesAStableControllerThatLoads) {
     if (s.at("plant_db")[k].get<double>() > s.at("plant_db")[top].get<double>()) top = k;
   }
   EXPECT_NEAR(s.at("f")[top].get<double>(), kResonanceHz, 30.0);
+}
+
+TEST_F(JobKindsTest, ControlExcitationPlaysTheFeedforwardsDriveAndWeighsItsHarmonics) {
+  const std::string lq = run("design-lq", {{"plant_model", store_reference_model()}, {"r", 3.0}}, "j1").at("model_id");
+  FakeControl control("j2");
+  const json result = run("excite",
+                          {{"signal", "control"}, {"feedforward_model", lq}, {"samples", 3000}, {"validation_samples", 1000},
+                           {"sine_peak", 0.5}, {"seed", 4}},
+                          control);
+  expect_progress(control);
+  const ExcitationRecord r = excitation_record_from_result(result, kFs, "j2");
+  ASSERT_EQ(r.u_est.size(), 3000);
+  ASSERT_EQ(r.u_val.size(), 1000);
+  // The drive is the chain's output for the design's program, as panelbass simulate --signal control makes
+  // it (models::control_record behind the controller's 20-1200 Hz band-pass), seed 4 then 5.
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(*store_->model(lq));
+  const std::vector<dsp::Biquad> band = dsp::butterworth_band(2, 20.0, 1200.0, kFs);
+  models::FeedbackDesignOptions design;
+  design.sine_peak = 0.5;
+  design.samples = 3000;
+  const models::ControlRecord est = models::control_record(ff, band, design, 4);
+  design.samples = 1000;
+  const models::ControlRecord val = models::control_record(ff, band, design, 5);
+  EXPECT_EQ(r.u_est, est.u);
+  EXPECT_EQ(r.u_val, val.u);
+  EXPECT_LE(std::max(r.u_est.cwiseAbs().maxCoeff(), r.u_val.cwiseAbs().maxCoeff()), 1.0);
+  // The weights are those of the recorded response.
+  EXPECT_EQ(r.w_est, models::harmonic_weights(est, r.y_est, kFs));
+  EXPECT_EQ(r.w_val, models::harmonic_weights(val, r.y_val, kFs));
+  EXPECT_GE(r.w_est.minCoeff(), 0.0);
+  EXPECT_GT(r.w_est.maxCoeff(), 0.0);
+  EXPECT_EQ(result.at("signal"), "control");
+}
+
+TEST_F(JobKindsTest, IdentifyNarxWeightedTrainsWithTheRecordsHarmonicWeights) {
+  const std::string lq = run("design-lq", {{"plant_model", store_reference_model()}, {"r", 3.0}}, "j1").at("model_id");
+  run("excite", {{"signal", "control"}, {"feedforward_model", lq}, {"samples", 2000}, {"validation_samples", 1000}, {"seed", 4}},
+      "j2");
+  const json narx = {{"record", "j2"}, {"na", 2}, {"nb", 2}, {"nk", 2}, {"hidden", {3}}, {"max_iterations", 3}};
+  json weighted_params = narx;
+  weighted_params["weighted"] = true;
+  const json weighted = run("identify-narx", weighted_params, "j3");
+  const json plain = run("identify-narx", narx, "j4");
+  EXPECT_EQ(weighted.at("summary").at("weighted"), true);
+  EXPECT_EQ(plain.at("summary").at("weighted"), false);
+  const models::NarxModel w = models::narx_model_from_json(*store_->model(weighted.at("model_id").get<std::string>()));
+  const models::NarxModel p = models::narx_model_from_json(*store_->model(plain.at("model_id").get<std::string>()));
+  EXPECT_EQ(w.meta.at("weighted"), true);
+  // The same training written out with the library and the record's weights gives the job's model.
+  const ExcitationRecord r = excitation_record_from_result(results_.at("j2"), kFs, "j2");
+  const models::Scaling scaling = models::scaling_from_data(r.u_est, r.y_est);
+  models::NarxModel start = models::NarxModel::with_structure({2, 2, 2, {3}}, scaling, kFs);
+  start.net.initialize(1.0, 1);
+  models::TrainingOptions options;
+  options.modes = {models::TrainingMode::pem, models::TrainingMode::oem_d};
+  options.optimizer = models::Optimizer::lm;
+  options.max_iterations = 3;
+  options.weights = r.w_est;
+  options.validation_weights = r.w_val;
+  const models::TrainingResult direct = models::train_narx(start, scaling.scale_u(r.u_est), scaling.scale_y(r.y_est),
+                                                           scaling.scale_u(r.u_val), scaling.scale_y(r.y_val), options);
+  EXPECT_EQ(w.net.parameters(), direct.model.net.parameters());
+  EXPECT_NE(w.net.parameters(), p.net.parameters());
+}
+
+TEST_F(JobKindsTest, ControlExcitationAndWeightsAreRefusedWhereTheyCannotApply) {
+  const std::string linear = store_reference_model();
+  EXPECT_EQ(refusal("excite", {{"signal", "control"}}), "params.feedforward_model: required");
+  EXPECT_NE(refusal("excite", {{"signal", "control"}, {"feedforward_model", linear}}).find("expected lq_feedforward"),
+            std::string::npos);
+  EXPECT_EQ(refusal("excite", {{"signal", "noise"}, {"feedforward_model", linear}}), "params.feedforward_model: unknown field");
+  const std::string lq = run("design-lq", {{"plant_model", linear}, {"r", 3.0}}, "j1").at("model_id");
+  EXPECT_EQ(refusal("excite", {{"signal", "control"}, {"feedforward_model", lq}, {"samples", 500}}),
+            "params.samples: a control excitation needs at least 1000 samples, got 500");
+  EXPECT_NE(refusal("excite", {{"signal", "control"}, {"feedforward_model", lq}, {"validation_samples", 500}})
+                .find("params.validation_samples: must be 0 (none) or at least 1000"),
+            std::string::npos);
+  EXPECT_NE(refusal("identify-narx", {{"weighted", true}}).find("params.weighted: the weights come with a control excitation"),
+            std::string::npos);
+  run("excite", {{"samples", 1000}, {"validation_samples", 0}}, "j5");
+  EXPECT_NE(refusal("identify-narx", {{"record", "j5"}, {"weighted", true}}).find("job j5's record has none"), std::string::npos);
+  EXPECT_EQ(refusal("identify-narx", {{"weighted", "yes"}}), "params.weighted: expected true or false, got \"yes\"");
+  // A plain record is fine unweighted.
+  EXPECT_EQ(validate_job_params("identify-narx", {{"record", "j5"}}, env_).at("weighted"), false);
 }
 
 TEST_F(JobKindsTest, DesignLqByMaxInputSearchesTheFlattestWeightThatAllowsIt) {

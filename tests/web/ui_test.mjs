@@ -409,21 +409,43 @@ async function main() {
   check(lqSummary.includes('R_search.target_noise_amplitude'),
         `the design-lq summary shows no R_search: ${lqSummary.join(', ')}`);
 
-  step = 'identifying a NARX plant';
-  await page.selectOption('#job-kind', 'identify-narx');
-  await page.selectOption('#job-source', '');
+  // The plant in its operating regime: the LQ's output for noise and stepped sines, with harmonic weights.
+  step = 'recording a control excitation';
+  await page.selectOption('#job-kind', 'excite');
+  await page.selectOption('[data-kinds="excite"] [data-param="signal"]', 'control');
+  await until(async () => (await page.$$eval('#excite-ff option', (os) => os.map((o) => o.value))).includes(lqModel),
+              8000, `the LQ model ${lqModel} is never offered as the feedforward of a control excitation`);
+  await page.selectOption('#excite-ff', lqModel);
   await page.fill('#excite-samples', '3000');
   await page.fill('#excite-validation', '2000');
-  await page.fill('#excite-amplitude', '0.3');
+  await page.fill('[data-kinds="excite"] [data-param="sine_peak"]', '0.5');
+  const excitePosted = page.waitForRequest((r) => r.method() === 'POST' && new URL(r.url()).pathname === '/api/jobs', { timeout: 10_000 });
+  const controlJob = await runFormJob('control excite', lqJob);
+  const exciteBody = (await excitePosted).postDataJSON();
+  check(exciteBody.params?.signal === 'control' && exciteBody.params?.feedforward_model === lqModel && exciteBody.params?.sine_peak === 0.5,
+        `the control excite request was ${JSON.stringify(exciteBody.params)}`);
+  const record = await (await fetch(`${base}api/jobs/${controlJob}`)).json();
+  log(`control record: ${Object.keys(record.result?.record ?? {}).join(", ")}`);
+  check(Array.isArray(record.result?.record?.w_est) && record.result.record.w_est.length === 3000,
+        `the control excitation's record has no harmonic weights w_est of 3000 samples`);
+
+  step = 'identifying a NARX plant';
+  await page.selectOption('#job-kind', 'identify-narx');
+  await until(async () => (await page.$$eval('#job-source option', (os) => os.map((o) => o.value))).includes(controlJob),
+              8000, `the control excitation ${controlJob} is never offered as data`);
+  await page.selectOption('#job-source', controlJob);
+  await page.check('#narx-weighted');
   const narx = (param) => `fieldset[data-kinds="identify-narx"] [data-param="${param}"]`;
   await page.fill(narx('hidden'), '3');
   await page.fill(narx('modes'), 'pem');
   await page.fill(narx('max_iterations'), '5');
   await page.fill(narx('friction_units'), '2.5');
   const narxPosted = page.waitForRequest((r) => r.method() === 'POST' && new URL(r.url()).pathname === '/api/jobs', { timeout: 10_000 });
-  const narxJob = await runFormJob('identify-narx', lqJob);
+  const narxJob = await runFormJob('identify-narx', controlJob);
   const narxModel = await resultModel('identify-narx');
   const narxBody = (await narxPosted).postDataJSON();
+  check(narxBody.params?.record === controlJob && narxBody.params?.weighted === true && !('excite' in narxBody.params),
+        `the identify-narx request should train weighted on ${controlJob}: ${JSON.stringify(narxBody.params)}`);
   check(JSON.stringify(narxBody.params?.friction_units) === '[2.5]',
         `params.friction_units in the identify-narx request is ${JSON.stringify(narxBody.params?.friction_units)}, expected [2.5]`);
   const narxSummary = await page.$$eval('#result-summary dt', (dts) => dts.map((dt) => dt.textContent.trim()));
