@@ -389,6 +389,7 @@ json identify_linear_work(const json& params, const JobEnvironment& env, JobCont
     for (const auto& e : id.scan) scan.push_back({{"order", e.order}, {"J_est_pct", e.j_est_pct}, {"J_val_pct", e.j_val_pct}});
     summary["scan"] = scan;
     summary["order_rule"] = id.order_rule;
+    summary["scan_skipped"] = id.scan_skipped;
   }
   const models::AnyModel any{id.model};
   json plots = model_plots(any, r, env.fs);

@@ -89,6 +89,8 @@ void run_identify_linear(const IdentifyLinearOptions& o) {
   if (!id.scan.empty()) {
     result["scan"] = scan;
     result["order_rule"] = id.order_rule;
+    result["scan_skipped"] = id.scan_skipped;
+    for (const std::string& why : id.scan_skipped) std::fprintf(stderr, "identify linear: scan skipped %s\n", why.c_str());
   }
   print_result(result);
 }

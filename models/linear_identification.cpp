@@ -124,7 +124,15 @@ LinearIdentification identify_linear(const Eigen::VectorXd& u_est, const Eigen::
   if (scanning) {
     for (int n = spec.scan_from; n <= spec.scan_to; ++n) {
       if (spec.progress) spec.progress("scan", static_cast<double>(n - spec.scan_from) / (spec.scan_to - spec.scan_from + 1));
-      const LinearModel m = make_model(n);
+      LinearModel m;
+      try {
+        m = make_model(n);
+      } catch (const EstimationError& e) {
+        // An order the data cannot support: skipped, unless none can be fitted at all.
+        if (out.scan.empty() && n == spec.scan_to) throw;
+        out.scan_skipped.push_back("order " + std::to_string(n) + ": " + e.what());
+        continue;
+      }
       out.scan.push_back({n, simulation_j_percent(m, u_est, y_est, std::min<Eigen::Index>(spec.init, u_est.size() / 10)),
                           simulation_j_percent(m, u_val, y_val, spec.init)});
     }

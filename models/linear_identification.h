@@ -52,11 +52,15 @@ struct LinearIdentification {
   double j_pred_est_pct = 0.0;        ///< one-step prediction J on the estimation data
   std::vector<OrderScanEntry> scan;   ///< empty without a scan
   std::string order_rule;             ///< how the order was chosen
+  std::vector<std::string> scan_skipped;  ///< the orders the data could not support, each with why ("order 14:
+                                          ///< ARX(...): the input does not excite ..."); not in `scan`
 };
 
 /// Identifies a linear model from raw estimation data (and validation data, may be empty). The scaling,
 /// delay and survey come from the estimation data only. With a scan, the order kept is the smallest
-/// whose validation J is within 5 % of the best (validation data required). Throws EstimationError or
+/// whose validation J is within 5 % of the best (validation data required); an order the data cannot
+/// support (an EstimationError: noise-free data of a lower order, too few samples) is skipped and listed
+/// in scan_skipped (an error only when every order fails). Throws EstimationError or
 /// std::invalid_argument with the reason.
 LinearIdentification identify_linear(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est,
                                      const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val,

@@ -54,6 +54,29 @@ TEST_F(CliIdentifyData, LinearScanReportsEveryOrderAndTheRule) {
   EXPECT_LE(r["J_val_pct"].get<double>(), 1.05 * best + 1e-9);
 }
 
+TEST_F(CliIdentifyData, LinearScanSkipsOrdersNoiseFreeDataCannotSupport) {
+  // The linear preset without sensor noise: its response has fewer degrees of freedom than ARX(12, 12)
+  // has parameters, so the top of a 1:12 scan cannot be fitted; the scan reports those orders and goes on.
+  json plant = expect_result(run("plant show linear"));
+  plant["sensor"]["noise_rms_V"] = 0.0;
+  const fs::path quiet = file("quiet.json", plant.dump());
+  expect_result(run("simulate --plant " + quoted(quiet) + " --samples 6000 --seed 5 --out " + quoted(dir_ / "all.csv")));
+  split_csv(dir_ / "all.csv", 4000);
+  const RunResult out = run("identify linear --data " + est() + " --val " + val() +
+                            " --fs 3000 --method arx --scan 1:16 --out " + quoted(dir_ / "m.json"));
+  const json r = expect_result(out);
+  ASSERT_FALSE(r["scan_skipped"].empty());
+  EXPECT_EQ(r["scan"].size() + r["scan_skipped"].size(), 16u);
+  for (const auto& why : r["scan_skipped"]) {
+    EXPECT_TRUE(contains(out.err, "scan skipped " + why.get<std::string>())) << out.err;
+  }
+  // Each skipped order is above every fitted one (they fail for having too many parameters).
+  const std::string first = r["scan_skipped"][0];
+  const int first_skipped = std::stoi(first.substr(first.find(' ') + 1));
+  EXPECT_EQ(first_skipped, r["scan"].back()["order"].get<int>() + 1) << first;
+  EXPECT_LT(r["J_val_pct"].get<double>(), 0.1);  // noise-free: far below the ~5 % of the noisy preset
+}
+
 TEST_F(CliIdentifyData, NarxTrainsAndValidateReadsItsModel) {
   const fs::path model = dir_ / "nn.json";
   const json r = expect_result(run("identify narx --data " + est() + " --val " + val() +

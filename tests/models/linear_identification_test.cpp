@@ -15,6 +15,8 @@
 #include "models/plant_presets.h"
 #include "models/virtual_transducer.h"
 #include "tests/support/expect_error.h"
+#include "tests/support/linear_systems.h"
+#include "tests/support/vectors.h"
 
 namespace panelbass::models {
 namespace {
@@ -154,6 +156,43 @@ TEST(LinearIdentification, BadInputGivesClearErrors) {
               identify_linear(d.u_est.head(400), d.y_est.head(400), none, none, spec_for(LinearMethod::zhu, 30));
             }),
             "(no error)");
+}
+
+TEST(LinearIdentification, OrderScanSkipsOrdersNoiseFreeDataCannotSupport) {
+  // Noise-free data of a second-order system: from order 3 on, ARX's regressors are linearly dependent
+  // (a common factor cancels), so those orders cannot be fitted; the scan goes on without them.
+  TransferFunction truth;
+  truth.a = testing_support::vec({-1.6, 0.8});
+  truth.b = testing_support::vec({0.5, 0.3});
+  truth.nk = 1;
+  const Eigen::VectorXd u = dsp::uniform_noise(6000, 1.0, 9);
+  const Eigen::VectorXd y = testing_support::simulate(truth, u);
+  LinearIdentificationSpec scan = spec_for(LinearMethod::arx, 0);
+  scan.delay = 1;
+  scan.scan_from = 1;
+  scan.scan_to = 6;
+  const LinearIdentification id = identify_linear(u.head(4000), y.head(4000), u.tail(2000), y.tail(2000), scan);
+  ASSERT_EQ(id.scan.size(), 2u);
+  EXPECT_EQ(id.scan[0].order, 1);
+  EXPECT_EQ(id.scan[1].order, 2);
+  ASSERT_EQ(id.scan_skipped.size(), 4u);
+  for (std::size_t i = 0; i < id.scan_skipped.size(); ++i) {
+    EXPECT_EQ(id.scan_skipped[i].rfind("order " + std::to_string(3 + i) + ": ", 0), 0u) << id.scan_skipped[i];
+    // rank-deficient, or a near-cancelling pole-zero pair that the fit leaves unstable
+    EXPECT_TRUE(id.scan_skipped[i].find("does not excite") != std::string::npos ||
+                id.scan_skipped[i].find("unstable") != std::string::npos)
+        << id.scan_skipped[i];
+  }
+  // The order kept is the true one, with the true poles (the denominator does not depend on the scaling).
+  ASSERT_EQ(id.model.tf.a.size(), 2);
+  EXPECT_NEAR(id.model.tf.a[0], -1.6, 1e-5);
+  EXPECT_NEAR(id.model.tf.a[1], 0.8, 1e-5);
+  EXPECT_LT(id.j_val_pct, 1e-3);
+  // When no order of the scan can be fitted, the last one's reason is the error.
+  scan.scan_from = 3;
+  const std::string last = error_of<EstimationError>(
+      [&] { identify_linear(u.head(4000), y.head(4000), u.tail(2000), y.tail(2000), scan); });
+  EXPECT_TRUE(last.find("does not excite") != std::string::npos || last.find("unstable") != std::string::npos) << last;
 }
 
 TEST(LinearIdentification, UnstableArxResultIsAnErrorNotAModel) {
