@@ -544,6 +544,7 @@ json design_lq_work(const json& params, const JobEnvironment& env, JobControl& c
     limits = models::max_input(ff, band_pass, kLqNoiseSamples, seed);
   }
   const double r_weight = ff.weights.R;
+  const models::DrivePeak peak = models::drive_peak(ff, band_pass);
   ff.meta = {{"model", plant_id},
              {"model_method", model.method},
              {"order", ff.plant.order()},
@@ -574,7 +575,8 @@ json design_lq_work(const json& params, const JobEnvironment& env, JobControl& c
                    {"bandpass", {lo, hi}},
                    {"bandpass_order", band_order},
                    {"max_input_worst", limits.worst},
-                   {"max_input_noise", limits.noise}}},
+                   {"max_input_noise", limits.noise},
+                   {"drive_peak", {{"frequency_hz", peak.frequency_hz}, {"gain_db", peak.gain_db}}}}},
                  {"plots",
                   {{"spectrum",
                     {{"f", column(f)},

@@ -166,25 +166,6 @@ fs::path plot_lq_magnitude(const models::LqFeedforward& ff, double lo, double hi
   return fig.render(dir, format);
 }
 
-// Where the drive u* = (controller · band-pass)(program) is loudest for a sine: its gain's peak.
-struct ControllerPeak {
-  double frequency_hz = 0.0;
-  double gain_db = 0.0;
-};
-
-// The peak of |band-pass · controller| on a fine logarithmic grid from 1 Hz to just below Nyquist.
-ControllerPeak controller_peak(const models::LqFeedforward& ff, const std::vector<dsp::Biquad>& band) {
-  const dsp::SosFilter filter(band);
-  const models::StateSpace controller = ff.controller();
-  const Eigen::VectorXd f = log_grid(1.0, 0.999 * ff.fs / 2.0, 2000);
-  ControllerPeak peak{f[0], -std::numeric_limits<double>::infinity()};
-  for (Eigen::Index k = 0; k < f.size(); ++k) {
-    const double db = 20.0 * std::log10(std::abs(filter.response(f[k], ff.fs) * models::response(controller, f[k], ff.fs)));
-    if (db > peak.gain_db) peak = {f[k], db};
-  }
-  return peak;
-}
-
 void run_design_lq(const DesignLqOptions& o) {
   const auto [lo, hi] = parse_bandpass(o.bandpass);
   const models::LinearModel model = models::load_linear_model(o.model);
@@ -213,7 +194,7 @@ void run_design_lq(const DesignLqOptions& o) {
     limits = models::max_input(ff, band, o.samples, o.seed);
   }
   const double R = ff.weights.R;
-  const ControllerPeak peak = controller_peak(ff, band);
+  const models::DrivePeak peak = models::drive_peak(ff, band);
   if (lo > 0.0 && peak.frequency_hz < lo) {
     std::fprintf(stderr,
                  "design lq: the drive's gain peaks at %.1f Hz (%+.1f dB), below the band-pass corner %g Hz: the controller "

@@ -445,6 +445,19 @@ InputLimits max_input(const LqFeedforward& ff, const std::vector<dsp::Biquad>& b
   return limits;
 }
 
+DrivePeak drive_peak(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass) {
+  const dsp::SosFilter filter(band_pass);
+  const StateSpace controller = ff.controller();
+  const Eigen::VectorXd f =
+      Eigen::VectorXd::LinSpaced(2000, std::log(1.0), std::log(0.999 * ff.fs / 2.0)).array().exp();
+  DrivePeak peak{f[0], -std::numeric_limits<double>::infinity()};
+  for (Eigen::Index k = 0; k < f.size(); ++k) {
+    const double db = 20.0 * std::log10(std::abs(filter.response(f[k], ff.fs) * response(controller, f[k], ff.fs)));
+    if (db > peak.gain_db) peak = {f[k], db};
+  }
+  return peak;
+}
+
 nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff) {
   return {
       {"format", kModelFormat},

@@ -72,6 +72,16 @@ struct InputLimits {
 InputLimits max_input(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
                       Eigen::Index samples = 100000, std::uint64_t seed = 1);
 
+/// Where the drive u* = (controller · band-pass)(program) is loudest for a sine: its gain's peak.
+struct DrivePeak {
+  double frequency_hz = 0.0;  ///< where |band-pass · controller| is largest
+  double gain_db = 0.0;       ///< that gain, dB (≤ 20·log10 ‖h‖₁ = −20·log10 InputLimits::worst)
+};
+
+/// The peak of |band-pass · controller| on a logarithmic grid of 2000 frequencies from 1 Hz to just below
+/// Nyquist. Below the band-pass's low corner it means the controller boosts what the band-pass removes.
+DrivePeak drive_peak(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass);
+
 /// {"format":"panelbass.model/1","kind":"lq_feedforward","fs",
 ///  "params":{"A":[[…]],"B":[…],"C":[…],"D","L":[…],"R","R0"},"meta"}.
 nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff);

@@ -25,6 +25,7 @@
 #include "dsp/butterworth.h"
 #include "models/neural_feedback.h"
 #include "models/plant_presets.h"
+#include "models/state_space.h"
 #include "models/virtual_transducer.h"
 #include "tests/support/expect_error.h"
 #include "tests/support/linear_systems.h"
@@ -542,6 +543,14 @@ TEST_F(JobKindsTest, DesignLqMakesAStableControllerThatLoads) {
   EXPECT_EQ(ff.meta.at("model"), plant);
   EXPECT_EQ(ff.meta.at("bandpass"), json({0.0, 1000.0}));
   EXPECT_GT(result.at("summary").at("max_input_noise").get<double>(), 0.0);
+  // The drive's peak gain: at least the gain anywhere else, at most ‖h‖₁ = 1/max_input_worst.
+  const double peak_db = result.at("summary").at("drive_peak").at("gain_db").get<double>();
+  const dsp::SosFilter band(dsp::butterworth_band(2, 0.0, 1000.0, kFs));
+  for (const double f : {5.0, 50.0, 150.0, 400.0, 900.0}) {
+    EXPECT_LE(20.0 * std::log10(std::abs(band.response(f, kFs) * models::response(ff.controller(), f, kFs))), peak_db + 1e-9)
+        << f << " Hz";
+  }
+  EXPECT_LE(peak_db, -20.0 * std::log10(result.at("summary").at("max_input_worst").get<double>()) + 1e-9);
   expect_plot(result.at("plots").at("spectrum"), {"f", "plant_db", "controlled_db", "controller_db"});
   // The plant's magnitude peaks at its resonance.
   const json& s = result.at("plots").at("spectrum");
