@@ -536,7 +536,7 @@ json design_lq_work(const json& params, const JobEnvironment& env, JobControl& c
     models::LqWeightSearch found = models::design_lq_for_input(model, kLqR0, target, band_pass, kLqNoiseSamples, seed);
     ff = std::move(found.ff);
     limits = found.limits;
-    search = {{"target_noise_amplitude", target}, {"designs", found.designs}, {"at_lower_bound", found.at_lower_bound}};
+    search = models::lq_weight_search_report(found);
   } else {
     progress.at(0.1, "LQ design, R = " + number_text(params.at("r").get<double>()));
     ff = models::design_lq(model, {params.at("r").get<double>(), kLqR0});

@@ -7,7 +7,6 @@
 #include <cstdint>
 #include <numbers>
 #include <optional>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -23,6 +22,7 @@
 #include "models/network_fields.h"
 #include "models/neural_feedback.h"
 #include "models/scaling.h"
+#include "models/number_text.h"
 
 namespace panelbass::api {
 namespace {
@@ -39,11 +39,7 @@ constexpr Eigen::Index kFreeRunSamples = 2000;
 constexpr std::uint64_t kFreeRunSeed = 20240501;
 constexpr double kFreeRunBound = 100.0;
 
-std::string show(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+std::string show(double v) { return models::number_text(v); }
 
 // The kind of `model`, or ModelRejected("bad_request") naming "model.kind".
 std::string read_kind(const json& model) {

@@ -184,7 +184,7 @@ void run_design_lq(const DesignLqOptions& o) {
     models::LqWeightSearch found = models::design_lq_for_input(model, o.R0, o.max_input, band, o.samples, o.seed);
     ff = std::move(found.ff);
     limits = found.limits;
-    search = {{"target_noise_amplitude", o.max_input}, {"designs", found.designs}, {"at_lower_bound", found.at_lower_bound}};
+    search = models::lq_weight_search_report(found);
     if (found.at_lower_bound) {
       std::fprintf(stderr, "design lq: the target %g is met even at R = %g, the cheapest control searched\n",
                    o.max_input, models::kMinSearchR);

@@ -1,7 +1,6 @@
 #include "engine/chain_file.h"
 
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 #include <utility>
 
@@ -9,6 +8,7 @@
 #include "models/config_error.h"
 #include "models/json_fields.h"
 #include "models/json_file.h"
+#include "models/number_text.h"
 
 namespace panelbass::engine {
 namespace {
@@ -16,11 +16,7 @@ namespace {
 using models::ConfigError;
 using models::JsonFields;
 
-std::string show(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+std::string show(double v) { return models::number_text(v); }
 
 // Milliseconds to whole samples at `fs`.
 int to_samples(double ms, double fs) { return static_cast<int>(std::lround(ms * fs / 1000.0)); }

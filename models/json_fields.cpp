@@ -1,18 +1,14 @@
 #include "models/json_fields.h"
 
 #include <cmath>
-#include <sstream>
 
 #include "models/config_error.h"
+#include "models/number_text.h"
 
 namespace panelbass::models {
 namespace {
 
-std::string show(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+std::string show(double v) { return number_text(v); }
 
 }  // namespace
 

@@ -7,12 +7,12 @@
 #include <complex>
 #include <fstream>
 #include <numbers>
-#include <sstream>
 #include <stdexcept>
 
 #include "models/config_error.h"
 #include "models/json_fields.h"
 #include "models/model_header.h"
+#include "models/number_text.h"
 
 namespace panelbass::models {
 namespace {
@@ -21,11 +21,7 @@ constexpr const char* kKind = "linear";
 // An input delay beyond a minute at 384 kHz is a corrupt file, not a model.
 constexpr long kMaxDelay = 384000L * 60L;
 
-std::string show(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+std::string show(double v) { return number_text(v); }
 
 void require_finite(const Eigen::VectorXd& x, const char* where, const char* name) {
   for (Eigen::Index k = 0; k < x.size(); ++k) {

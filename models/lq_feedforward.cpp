@@ -17,6 +17,7 @@
 #include "models/config_error.h"
 #include "models/json_fields.h"
 #include "models/model_header.h"
+#include "models/number_text.h"
 
 namespace panelbass::models {
 namespace {
@@ -49,12 +50,7 @@ constexpr double kTailFraction = 1e-12;
 constexpr Eigen::Index kMaxImpulseSamples = 1000000;
 constexpr Eigen::Index kMinBlock = 256;
 
-std::string show(double v) {
-  std::ostringstream out;
-  out.precision(6);
-  out << v;
-  return out.str();
-}
+std::string show(double v) { return number_text(v); }
 
 std::string show(std::complex<double> z) {
   std::ostringstream out;

@@ -1,7 +1,7 @@
 #include "models/lq_weight_search.h"
+#include "models/number_text.h"
 
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -11,12 +11,7 @@ namespace {
 // The bisection stops when the bracket [R_lo, R_hi] is this narrow (R_hi / R_lo).
 constexpr double kRatioTolerance = 1.01;
 
-std::string show(double v) {
-  std::ostringstream s;
-  s.precision(4);
-  s << v;
-  return s.str();
-}
+std::string show(double v) { return number_text(v, 4); }
 
 }  // namespace
 
@@ -27,6 +22,7 @@ LqWeightSearch design_lq_for_input(const LinearModel& model, double R0, double t
     throw std::invalid_argument("the target input amplitude must be in (0, 1], got " + show(target_noise_amplitude));
   }
   LqWeightSearch search;
+  search.target_noise_amplitude = target_noise_amplitude;
   const auto try_weight = [&](double R) {
     ++search.designs;
     LqFeedforward ff = design_lq(model, {R, R0});
@@ -66,6 +62,12 @@ LqWeightSearch design_lq_for_input(const LinearModel& model, double R0, double t
   search.ff = std::move(ff_hi);
   search.limits = limits_hi;
   return search;
+}
+
+nlohmann::json lq_weight_search_report(const LqWeightSearch& search) {
+  return {{"target_noise_amplitude", search.target_noise_amplitude},
+          {"designs", search.designs},
+          {"at_lower_bound", search.at_lower_bound}};
 }
 
 }  // namespace panelbass::models

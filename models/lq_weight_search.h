@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "dsp/biquad.h"
@@ -22,6 +23,7 @@ inline constexpr double kMaxSearchR = 1e6;
 /// The design found by design_lq_for_input().
 struct LqWeightSearch {
   LqFeedforward ff;       ///< the controller at the R found (ff.weights.R)
+  double target_noise_amplitude = 0.0;  ///< the safe amplitude asked for
   InputLimits limits;     ///< its safe amplitudes; limits.noise ≥ the target
   int designs = 0;        ///< LQ designs tried
   bool at_lower_bound = false;  ///< the target is met already at kMinSearchR (R not pushed lower)
@@ -35,5 +37,9 @@ struct LqWeightSearch {
 LqWeightSearch design_lq_for_input(const LinearModel& model, double R0, double target_noise_amplitude,
                                    const std::vector<dsp::Biquad>& band_pass, Eigen::Index samples = 100000,
                                    std::uint64_t seed = 1);
+
+/// The search as the controller's meta and the design's result carry it ("R_search"):
+/// {"target_noise_amplitude", "designs", "at_lower_bound"}.
+nlohmann::json lq_weight_search_report(const LqWeightSearch& search);
 
 }  // namespace panelbass::models

@@ -1,6 +1,7 @@
 #include "models/state_space.h"
 
 #include "models/extended_precision.h"
+#include "models/number_text.h"
 
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
@@ -8,7 +9,6 @@
 #include <cmath>
 #include <complex>
 #include <numbers>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -32,11 +32,7 @@ constexpr Real kMinimalTolerance = 1e-16L;
 // to its peak); a well-conditioned 30th-order model lands near 1e-10.
 constexpr double kFaithfulResponse = 1e-8;
 
-std::string show(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+std::string show(double v) { return number_text(v); }
 
 void check_shape(const StateSpace& ss, const char* where) {
   const Eigen::Index n = ss.A.rows();

@@ -63,6 +63,12 @@ TEST(LqWeightSearch, FindsTheSmallestWeightThatMeetsTheTarget) {
   for (Eigen::Index i = 0; i < direct.L.size(); ++i) EXPECT_EQ(found.ff.L[i], direct.L[i]) << i;
   EXPECT_GE(found.designs, 3);
   EXPECT_LE(found.designs, 20);
+  // The report the CLI and the HTTP job both write as "R_search" carries the target asked for.
+  const nlohmann::json report = lq_weight_search_report(found);
+  EXPECT_EQ(report.at("target_noise_amplitude").get<double>(), target);
+  EXPECT_EQ(report.at("designs").get<int>(), found.designs);
+  EXPECT_FALSE(report.at("at_lower_bound").get<bool>());
+  EXPECT_EQ(report.size(), 3u);
 }
 
 TEST(LqWeightSearch, AModestTargetIsMetByTheCheapestControlSearched) {

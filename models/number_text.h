@@ -1,0 +1,11 @@
+#pragma once
+// The one way a number is written into an error message or a report line.
+
+#include <string>
+
+namespace panelbass::models {
+
+/// `v` as text with `significant` significant digits (std::ostream's general format: 0.0365, 1e-05).
+std::string number_text(double v, int significant = 6);
+
+}  // namespace panelbass::models
