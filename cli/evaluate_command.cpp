@@ -10,8 +10,10 @@
 #include "cli/evaluation_plots.h"
 #include "cli/gnuplot.h"
 #include "cli/json_output.h"
+#include "cli/progress_bar.h"
 #include "engine/chain_evaluation.h"
 #include "engine/chain_file.h"
+#include "engine/distortion_attribution.h"
 #include "models/json_fields.h"
 #include "models/json_file.h"
 #include "models/plant_presets.h"
@@ -22,6 +24,7 @@ namespace {
 struct EvaluateOptions {
   std::string plant = "panel-exciter", chain, out, plots;
   std::string plot_format = "png";
+  bool attribute = false;
   engine::EvaluationOptions evaluation;
 };
 
@@ -62,6 +65,22 @@ void print_table(const engine::ChainEvaluation& e) {
   }
 }
 
+// Each nonlinear term's THD per probe behind band-pass + feedforward (what a feedback stage is there to
+// remove), on stderr, with the whole plant's first.
+void print_attribution(const engine::ChainEvaluation& whole, const std::vector<engine::TermDistortion>& terms) {
+  const engine::EvaluationRow& row = whole.rows.at(1);
+  std::fprintf(stderr, "which term makes the distortion (%s, THD %% with that term alone on):\n", row.name.c_str());
+  std::fprintf(stderr, "%-14s", "term");
+  for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  THD@%-4.0f%%", p.frequency_hz);
+  std::fprintf(stderr, "\n%-14s", "(all)");
+  for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.3f", p.thd_pct);
+  for (const engine::TermDistortion& t : terms) {
+    std::fprintf(stderr, "\n%-14s", t.term.c_str());
+    for (const engine::ProbeResult& p : t.rows.back().probes) std::fprintf(stderr, "  %9.3f", p.thd_pct);
+  }
+  std::fprintf(stderr, "\n");
+}
+
 void run_evaluate(const EvaluateOptions& o) {
   const PlotFormat format = parse_plot_format(o.plot_format);
   if (!o.plots.empty()) find_gnuplot();  // before the work, not after it
@@ -80,6 +99,25 @@ void run_evaluate(const EvaluateOptions& o) {
                                  {"ripple_band_hz", {o.evaluation.ripple_low_hz, o.evaluation.ripple_high_hz}},
                                  {"rows", rows},
                                  {"plots", nullptr}};
+  if (o.attribute) {
+    std::vector<engine::TermDistortion> terms;
+    {
+      ProgressBar bar("evaluate: each nonlinear term alone");
+      terms = engine::attribute_distortion(config, plant, o.evaluation,
+                                           [&](std::size_t done, std::size_t total, const std::string&) {
+                                             bar.update(static_cast<double>(done) / static_cast<double>(total));
+                                           });
+      bar.update(1.0);
+    }
+    print_attribution(e, terms);
+    nlohmann::json attribution = nlohmann::json::array();
+    for (const engine::TermDistortion& t : terms) {
+      nlohmann::json term_rows = nlohmann::json::array();
+      for (const engine::EvaluationRow& row : t.rows) term_rows.push_back(row_json(row));
+      attribution.push_back({{"term", t.term}, {"rows", term_rows}});
+    }
+    result["attribution"] = attribution;
+  }
   if (!o.plots.empty()) {
     const std::filesystem::path dir(o.plots);
     std::filesystem::create_directories(dir);
@@ -109,11 +147,15 @@ void register_evaluate(CLI::App& app) {
   cmd->add_option("--noise-samples", o->evaluation.noise_samples, "Length of the white-noise record")
       ->check(CLI::Range(4096L, 100000000L))
       ->capture_default_str();
+  cmd->add_flag("--attribute", o->attribute,
+               "Also evaluate on copies of the plant with one nonlinear term on at a time (every other off): "
+               "which physics makes each probe's distortion (\"attribution\" in the result)");
   cmd->add_option("--out", o->out, "Also write the result here (JSON)");
   cmd->add_option("--plot", o->plots, "Directory for the response and harmonics figures (created)");
   cmd->add_option("--plot-format", o->plot_format, "png or svg")->check(CLI::IsMember({"png", "svg"}))->capture_default_str();
   cmd->footer(
-      "Example:\n  panelbass evaluate --plant panel-exciter --chain chain.json --probe-peak 0.6 --out eval.json --plot plots/");
+      "Examples:\n  panelbass evaluate --plant panel-exciter --chain chain.json --probe-peak 0.6 --out eval.json --plot plots/\n"
+      "  panelbass evaluate --plant panel-exciter --chain chain.json --probe-peak 0.6 --attribute   # which term distorts where");
   cmd->callback([o] { run_evaluate(*o); });
 }
 

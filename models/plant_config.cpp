@@ -1,8 +1,10 @@
 #include "models/plant_config.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
+#include <utility>
 
 #include "models/config_error.h"
 #include "models/json_fields.h"
@@ -12,6 +14,16 @@ namespace panelbass::models {
 namespace {
 
 constexpr const char* kFormat = "panelbass.plant/1";
+
+// Every nonlinear term's switch, with its name in the plant file, in NonlinearTerms' order.
+std::array<std::pair<const char*, NonlinearSwitch*>, 6> nonlinear_switches(NonlinearTerms& n) {
+  return {{{"stiffness", &n.stiffness},
+           {"force_factor", &n.force_factor},
+           {"inductance", &n.inductance},
+           {"friction", &n.friction},
+           {"clipping", &n.clipping},
+           {"thermal", &n.thermal}}};
+}
 // RK4 is stable up to |λh| ≈ 2.8; keeping |λh| below this leaves margin for accuracy too.
 constexpr double kMaxRateTimesStep = 1.5;
 
@@ -243,9 +255,28 @@ PlantConfig load_plant_file(const std::filesystem::path& path) {
 }
 
 PlantConfig linearized(PlantConfig c) {
-  NonlinearTerms& n = c.nonlinear;
-  n.stiffness.enabled = n.force_factor.enabled = n.inductance.enabled = false;
-  n.friction.enabled = n.clipping.enabled = n.thermal.enabled = false;
+  for (const auto& [name, term] : nonlinear_switches(c.nonlinear)) term->enabled = false;
+  return c;
+}
+
+std::vector<std::string> enabled_nonlinear_terms(const PlantConfig& config) {
+  PlantConfig copy = config;
+  std::vector<std::string> names;
+  for (const auto& [name, term] : nonlinear_switches(copy.nonlinear)) {
+    if (term->enabled) names.push_back(name);
+  }
+  return names;
+}
+
+PlantConfig with_only_term(PlantConfig c, const std::string& name) {
+  std::string known;
+  bool found = false;
+  for (const auto& [term_name, term] : nonlinear_switches(c.nonlinear)) {
+    known += std::string(known.empty() ? "" : ", ") + term_name;
+    if (term_name == name) found = true;
+    else term->enabled = false;
+  }
+  if (!found) throw ConfigError("unknown nonlinear term \"" + name + "\" (terms: " + known + ")");
   return c;
 }
 

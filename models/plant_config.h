@@ -127,4 +127,12 @@ PlantConfig load_plant_file(const std::filesystem::path& path);
 /// The same plant with every nonlinear term switched off.
 PlantConfig linearized(PlantConfig config);
 
+/// The names (as in the plant file: "stiffness", "force_factor", …) of the nonlinear terms switched on, in
+/// NonlinearTerms' order.
+std::vector<std::string> enabled_nonlinear_terms(const PlantConfig& config);
+
+/// The same plant with only the nonlinear term `name` left as it is and every other one off; ConfigError
+/// naming the known terms for an unknown name.
+PlantConfig with_only_term(PlantConfig config, const std::string& name);
+
 }  // namespace panelbass::models

@@ -103,6 +103,7 @@ TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates)
                                    " --plot " + quoted(path("plots"))));
   ASSERT_EQ(e["rows"].size(), 3u);
   EXPECT_EQ(json::parse(text_of(path("eval.json"))), e);
+  EXPECT_FALSE(e.contains("attribution")) << "only on request";
   for (const char* name : {"response", "harmonics"}) {
     const fs::path image = e["plots"][name].get<std::string>();
     EXPECT_GT(fs::file_size(image), 1000u) << image;
@@ -127,6 +128,31 @@ TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates)
       EXPECT_NEAR(100.0 * std::sqrt(power), probe["thd_pct"].get<double>(), 1e-9 * (1.0 + probe["thd_pct"].get<double>()));
     }
   }
+}
+
+TEST_F(CliControl, AttributeEvaluatesEachNonlinearTermAlone) {
+  expect_result(run("chain --bandpass 20,1200 --ff " + quoted(path("ff.json")) + " --out " + quoted(path("chain.json"))));
+  const RunResult r = run("evaluate --plant panel-exciter --chain " + quoted(path("chain.json")) +
+                          " --noise-samples 4096 --probes 160 --probe-peak 0.6 --attribute");
+  const json e = expect_result(r);
+  // panel-exciter's terms that are on (its thermal compression is off), each with the chain's rows but the feedback
+  const json& terms = e.at("attribution");
+  const std::vector<std::string> expected{"stiffness", "force_factor", "inductance", "friction", "clipping"};
+  ASSERT_EQ(terms.size(), expected.size());
+  for (std::size_t t = 0; t < expected.size(); ++t) {
+    EXPECT_EQ(terms[t]["term"], expected[t]);
+    ASSERT_EQ(terms[t]["rows"].size(), 2u);
+    EXPECT_EQ(terms[t]["rows"][1]["name"], e["rows"][1]["name"]);
+    EXPECT_EQ(terms[t]["rows"][1]["probes"][0]["amplitude"], e["rows"][1]["probes"][0]["amplitude"]);
+  }
+  // behind band-pass + LQ at 160 Hz the friction makes most of the distortion (its odd force, and no even harmonic)
+  const json& friction = terms[3]["rows"][1]["probes"][0];
+  for (std::size_t t = 0; t < expected.size(); ++t) {
+    if (t == 3) continue;
+    EXPECT_LT(terms[t]["rows"][1]["probes"][0]["thd_pct"].get<double>(), friction["thd_pct"].get<double>()) << expected[t];
+  }
+  EXPECT_TRUE(contains(r.err, "which term makes the distortion")) << r.err;
+  EXPECT_TRUE(contains(r.err, "friction")) << r.err;
 }
 
 TEST_F(CliControl, BadInputIsNamed) {

@@ -9,6 +9,7 @@
 #include "dsp/butterworth.h"
 #include "dsp/random.h"
 #include "engine/chain_evaluation.h"
+#include "engine/distortion_attribution.h"
 #include "models/linear_identification.h"
 #include "models/feedback_training.h"
 #include "models/lq_feedforward.h"
@@ -137,6 +138,62 @@ TEST(ChainEvaluationTest, EachProbeReportsTheThdTheDesignsPlantModelPredicts) {
   // The feedback changes what the model predicts.
   EXPECT_GT(std::abs(e.rows[2].probes[0].model_thd_pct - e.rows[1].probes[0].model_thd_pct),
             0.01 * e.rows[1].probes[0].model_thd_pct);
+}
+
+// Which term makes which harmonic, checked by physics rather than against the code: the Coulomb friction
+// Fc·tanh(v/v0) is odd in v, so alone it makes no even harmonics; the amplifier's clipping does nothing
+// below its knee; and where the distortion is small the terms' harmonics are first-order perturbations that
+// do not interact, so their powers add up to the whole plant's (within what coherent H3s of two terms can
+// make: 15 %).
+TEST(ChainEvaluationTest, AttributionTracesEachProbesDistortionToTheTermsThatMakeIt) {
+  const models::PlantConfig plant = models::plant_preset("panel-exciter");
+  ChainConfig config = lq_chain(models::plant_preset("linear"));
+  models::FeedbackStructure structure;  // a feedback stage, which the attribution leaves out
+  structure.hidden = {4};
+  models::NeuralFeedback fb = models::NeuralFeedback::with_structure(structure, testing::example_narx(3));
+  models::initialize_feedback(fb, 7, 0.05);
+  config.feedback = SlotConfig{};
+  config.feedback->model = models::neural_feedback_to_json(fb);
+  EvaluationOptions o;
+  o.noise_samples = 4096;
+  o.probe_hz = {160.0, 320.0};
+  o.probe_peak = 0.6;
+  const ChainEvaluation whole = evaluate_chain(config, plant, o);
+  std::vector<std::string> seen;
+  const std::vector<TermDistortion> terms =
+      attribute_distortion(config, plant, o, [&](std::size_t done, std::size_t total, const std::string& term) {
+        EXPECT_EQ(done, seen.size());
+        EXPECT_EQ(total, 5u);
+        seen.push_back(term);
+      });
+  const std::vector<std::string> expected{"stiffness", "force_factor", "inductance", "friction", "clipping"};
+  EXPECT_EQ(seen, expected);
+  ASSERT_EQ(terms.size(), expected.size());
+  std::vector<double> power_sum(o.probe_hz.size(), 0.0);
+  for (std::size_t t = 0; t < terms.size(); ++t) {
+    EXPECT_EQ(terms[t].term, expected[t]);
+    ASSERT_EQ(terms[t].rows.size(), 2u) << "plant and band-pass + feedforward, no feedback";
+    const EvaluationRow& row = terms[t].rows[1];
+    EXPECT_EQ(row.name, whole.rows[1].name);
+    for (std::size_t p = 0; p < o.probe_hz.size(); ++p) {
+      EXPECT_EQ(row.probes[p].amplitude, whole.rows[1].probes[p].amplitude) << "the same program at every probe";
+      power_sum[p] += row.probes[p].thd_pct * row.probes[p].thd_pct;
+      if (terms[t].term == "friction") {
+        EXPECT_LT(row.probes[p].h2_db, -120.0) << o.probe_hz[p] << " Hz: an odd force has no even harmonics";
+        EXPECT_LT(row.probes[p].harmonics_db[2], -120.0) << o.probe_hz[p] << " Hz (H4)";
+        EXPECT_GT(row.probes[p].h3_db, -60.0) << o.probe_hz[p] << " Hz: but a strong third";
+      }
+      if (terms[t].term == "clipping") {
+        EXPECT_LT(row.probes[p].drive_peak, plant.nonlinear.clipping.level - plant.nonlinear.clipping.knee);
+        EXPECT_LT(row.probes[p].thd_pct, 1e-6) << o.probe_hz[p] << " Hz: below the knee nothing clips";
+      }
+    }
+  }
+  for (std::size_t p = 0; p < o.probe_hz.size(); ++p) {
+    const double all = whole.rows[1].probes[p].thd_pct;
+    ASSERT_LT(all, 2.0) << o.probe_hz[p] << " Hz: the small-distortion regime this check needs";
+    EXPECT_NEAR(power_sum[p] / (all * all), 1.0, 0.15) << o.probe_hz[p] << " Hz";
+  }
 }
 
 TEST(ChainEvaluationTest, RefusesAChainWithoutAnLqFeedforward) {

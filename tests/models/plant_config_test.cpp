@@ -292,6 +292,34 @@ TEST(PlantConfigPresets, LinearizedTurnsOffOnlyTheSwitches) {
   expect_same_plant(original, unusual_plant());  // taken by value: the argument is untouched
 }
 
+TEST(PlantConfigPresets, EnabledTermsAreTheSwitchesThatAreOn) {
+  // unusual_plant() has every term on but the force factor.
+  EXPECT_EQ(enabled_nonlinear_terms(unusual_plant()),
+            (std::vector<std::string>{"stiffness", "inductance", "friction", "clipping", "thermal"}));
+  EXPECT_TRUE(enabled_nonlinear_terms(plant_preset("linear")).empty());
+}
+
+TEST(PlantConfigPresets, WithOnlyTermKeepsThatTermAndSwitchesOffTheRest) {
+  const PlantConfig only = with_only_term(unusual_plant(), "friction");
+  PlantConfig expected = unusual_plant();
+  expected.nonlinear.stiffness.enabled = false;
+  expected.nonlinear.inductance.enabled = false;
+  expected.nonlinear.clipping.enabled = false;
+  expected.nonlinear.thermal.enabled = false;
+  expect_same_plant(only, expected);
+  EXPECT_EQ(enabled_nonlinear_terms(only), std::vector<std::string>{"friction"});
+  // A term that is off stays off: the plant is then linear.
+  EXPECT_TRUE(enabled_nonlinear_terms(with_only_term(unusual_plant(), "force_factor")).empty());
+  try {
+    with_only_term(unusual_plant(), "hysteresis");
+    ADD_FAILURE() << "an unknown term was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_STREQ(e.what(),
+                 "unknown nonlinear term \"hysteresis\" (terms: stiffness, force_factor, inductance, friction, "
+                 "clipping, thermal)");
+  }
+}
+
 TEST(PlantConfigPresets, NamesAreTheTwoPresets) {
   EXPECT_EQ(plant_preset_names(), (std::vector<std::string>{"panel-exciter", "linear"}));
   for (const std::string& name : plant_preset_names()) EXPECT_EQ(plant_preset(name).name, name);
