@@ -45,6 +45,20 @@ ChainConfig lq_chain(const models::PlantConfig& plant) {
   return config;
 }
 
+// A small neural feedback controller with random weights (seed 7) on an example NARX plant model, as the
+// chain's feedback stage.
+void add_example_feedback(ChainConfig& config) {
+  models::FeedbackStructure structure;
+  structure.nu = 2;
+  structure.nv = 1;
+  structure.ny = 2;
+  structure.hidden = {4};
+  models::NeuralFeedback fb = models::NeuralFeedback::with_structure(structure, testing::example_narx(3));
+  models::initialize_feedback(fb, 7, 0.05);
+  config.feedback = SlotConfig{};
+  config.feedback->model = models::neural_feedback_to_json(fb);
+}
+
 TEST(ChainEvaluationTest, OnALinearPlantTheFeedforwardFlattensAndNothingDistorts) {
   const models::PlantConfig plant = models::plant_preset("linear");
   ChainConfig config = lq_chain(plant);
@@ -93,15 +107,7 @@ TEST(ChainEvaluationTest, OnALinearPlantTheFeedforwardFlattensAndNothingDistorts
 TEST(ChainEvaluationTest, EachProbeReportsTheThdTheDesignsPlantModelPredicts) {
   const models::PlantConfig plant = models::plant_preset("linear");
   ChainConfig config = lq_chain(plant);
-  models::FeedbackStructure structure;
-  structure.nu = 2;
-  structure.nv = 1;
-  structure.ny = 2;
-  structure.hidden = {4};
-  models::NeuralFeedback fb = models::NeuralFeedback::with_structure(structure, testing::example_narx(3));
-  models::initialize_feedback(fb, 7, 0.05);
-  config.feedback = SlotConfig{};
-  config.feedback->model = models::neural_feedback_to_json(fb);
+  add_example_feedback(config);
   EvaluationOptions o;
   o.noise_samples = 4096;
   o.probe_hz = {40.0, 160.0};
@@ -148,12 +154,7 @@ TEST(ChainEvaluationTest, EachProbeReportsTheThdTheDesignsPlantModelPredicts) {
 TEST(ChainEvaluationTest, AttributionTracesEachProbesDistortionToTheTermsThatMakeIt) {
   const models::PlantConfig plant = models::plant_preset("panel-exciter");
   ChainConfig config = lq_chain(models::plant_preset("linear"));
-  models::FeedbackStructure structure;  // a feedback stage, which the attribution leaves out
-  structure.hidden = {4};
-  models::NeuralFeedback fb = models::NeuralFeedback::with_structure(structure, testing::example_narx(3));
-  models::initialize_feedback(fb, 7, 0.05);
-  config.feedback = SlotConfig{};
-  config.feedback->model = models::neural_feedback_to_json(fb);
+  add_example_feedback(config);  // a feedback stage, which the attribution leaves out
   EvaluationOptions o;
   o.noise_samples = 4096;
   o.probe_hz = {160.0, 320.0};
