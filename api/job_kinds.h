@@ -1,6 +1,6 @@
 #pragma once
 // The kinds of job the API runs (ROUTES.md "Jobs"): excite, identify-linear, identify-narx, design-lq,
-// design-nn, analyze, diagnose. Each validates its params before it is queued and returns a result with
+// design-nn, evaluate, analyze, diagnose. Each validates its params before it is queued and returns a result with
 // plot-ready columns.
 
 #include <Eigen/Core>

@@ -7,7 +7,9 @@
 #include <stdexcept>
 
 #include "api/model_store.h"
+#include "engine/chain_evaluation.h"
 #include "models/feedback_design.h"
+#include "models/plant_presets.h"
 
 namespace panelbass::api {
 namespace {
@@ -194,20 +196,16 @@ json identify_narx_params(const json& params, const JobEnvironment& env) {
   r.integer("max_iterations", 30, 0, kMaxIterations);
   r.integer("seed", 1, 0, kMaxSeed);
   // The control excitation's harmonic weights in the loss (identify narx --weight-col w).
-  if (const json* weighted = r.member("weighted"); weighted != nullptr) {
-    if (!weighted->is_boolean()) fail(r.path_of("weighted"), "expected true or false, got " + shown(*weighted));
+  if (r.boolean("weighted", false)) {
     const json* excite = r.member("excite");
     const json* record = r.member("record");
     const bool has_weights = record != nullptr ? record_has_weights(env, record->get<std::string>())
                                                : excite != nullptr && excite->value("signal", "") == "control";
-    if (weighted->get<bool>() && !has_weights) {
+    if (!has_weights) {
       fail(r.path_of("weighted"), "the weights come with a control excitation (excite.signal \"control\"), and " +
                                       (record != nullptr ? "job " + record->get<std::string>() + "'s record has none"
                                                          : std::string("this job's excitation is not one")));
     }
-    r.set("weighted", *weighted);
-  } else {
-    r.set("weighted", false);
   }
   // Hidden nodes seeded as Coulomb friction (models::seed_friction_units): one per gain and lag.
   const std::vector<double> gains = r.numbers("friction_units", {}, 0, 16, {0.0, 1000.0, true, false});
@@ -257,6 +255,29 @@ json design_nn_params(const json& params, const JobEnvironment& env) {
   r.number("rail_penalty", design.training.rail_penalty, {0.0, kMaxRailPenalty, false, false});
   r.number("dc_penalty", design.training.dc_penalty, {0.0, kMaxRailPenalty, false, false});
   r.integer("seed", 1, 0, kMaxSeed);
+  return r.finish();
+}
+
+// A chain of stored controllers evaluated on a virtual transducer (panelbass evaluate).
+json evaluate_params(const json& params, const JobEnvironment& env) {
+  ParamReader r(params, "params");
+  stored_model(r, "feedforward_model", true, {"lq_feedforward"}, env);
+  stored_model(r, "feedback_model", false, {"neural_feedback"}, env);
+  const std::string source = r.choice("source", "model", {"model", "sensor"});
+  const json* feedback = r.member("feedback_model");
+  if (source == "sensor" && (feedback == nullptr || feedback->is_null())) {
+    fail(r.path_of("source"), "\"sensor\" is where a feedback stage takes its past outputs from, and there is no feedback_model");
+  }
+  // The server's own virtual transducer when it runs one, or a preset.
+  std::vector<std::string> plants = models::plant_preset_names();
+  if (env.plant) plants.insert(plants.begin(), "server");
+  r.choice("plant", plants.front(), plants);
+  const engine::EvaluationOptions defaults;
+  r.numbers("probes_hz", defaults.probe_hz, 1, 16, {0.0, env.fs / 2.0, true, true});
+  r.number("probe_peak", defaults.probe_peak, {0.0, 1.0, false, false});
+  r.integer("noise_samples", defaults.noise_samples, 4096, kMaxSamples);
+  r.integer("seed", 1, 0, kMaxSeed);
+  r.boolean("attribute", false);
   return r.finish();
 }
 
@@ -347,6 +368,14 @@ double ParamReader::number(const std::string& key, double fallback, const Interv
     value = v->get<double>();
     if (!range.contains(value)) fail(path_of(key), "must be a number in " + range.text() + ", got " + shown(*v));
   }
+  filled_[key] = value;
+  return value;
+}
+
+bool ParamReader::boolean(const std::string& key, bool fallback) {
+  const json* v = find(key);
+  if (v != nullptr && !v->is_boolean()) fail(path_of(key), "expected true or false, got " + shown(*v));
+  const bool value = v != nullptr ? v->get<bool>() : fallback;
   filled_[key] = value;
   return value;
 }
@@ -512,6 +541,7 @@ json validate_kind_params(const std::string& kind, const json& params, const Job
   if (kind == "identify-narx") return identify_narx_params(params, env);
   if (kind == "design-lq") return design_lq_params(params, env);
   if (kind == "design-nn") return design_nn_params(params, env);
+  if (kind == "evaluate") return evaluate_params(params, env);
   if (kind == "analyze") return analyze_params(params, env);
   if (kind == "diagnose") return diagnose_params(params, env);
   std::string expected;

@@ -38,6 +38,8 @@ class ParamReader {
   long long integer(const std::string& key, long long fallback, long long lo, long long hi);
   /// A finite number within `range`; `fallback` when absent.
   double number(const std::string& key, double fallback, const Interval& range);
+  /// true or false; `fallback` when absent.
+  bool boolean(const std::string& key, bool fallback);
   /// One of `choices`; `fallback` when absent.
   std::string choice(const std::string& key, const std::string& fallback, const std::vector<std::string>& choices);
   /// A list of `min_count`..`max_count` integers, each within [lo, hi]; `fallback` when absent.

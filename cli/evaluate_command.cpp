@@ -14,7 +14,7 @@
 #include "engine/chain_evaluation.h"
 #include "engine/chain_file.h"
 #include "engine/distortion_attribution.h"
-#include "models/json_fields.h"
+#include "engine/evaluation_json.h"
 #include "models/json_file.h"
 #include "models/plant_presets.h"
 
@@ -27,26 +27,6 @@ struct EvaluateOptions {
   bool attribute = false;
   engine::EvaluationOptions evaluation;
 };
-
-nlohmann::json row_json(const engine::EvaluationRow& row) {
-  nlohmann::json probes = nlohmann::json::array();
-  for (const engine::ProbeResult& p : row.probes) {
-    nlohmann::json harmonics = nlohmann::json::array();  // H2..Hn; null for a harmonic that is exactly zero
-    for (double db : p.harmonics_db) harmonics.push_back(models::number_or_null(db));
-    probes.push_back({{"frequency_hz", p.frequency_hz},
-                      {"amplitude", p.amplitude},
-                      {"drive_peak", p.drive_peak},
-                      {"h2_db", p.h2_db},
-                      {"h3_db", p.h3_db},
-                      {"thd_pct", p.thd_pct},
-                      {"harmonics_db", harmonics},
-                      {"model_thd_pct", models::number_or_null(p.model_thd_pct)}});
-  }
-  return {{"name", row.name},         {"ripple_db", row.ripple_db},       {"jc_pct", row.jc_pct},
-          {"max_drive", row.max_drive}, {"rail_fraction", row.rail_fraction}, {"rest_drive_peak", row.rest_drive_peak},
-          {"faults", row.faults},
-          {"probes", probes}};
-}
 
 // The table a person reads, on stderr.
 void print_table(const engine::ChainEvaluation& e) {
@@ -90,7 +70,7 @@ void run_evaluate(const EvaluateOptions& o) {
   print_table(e);
   std::fprintf(stderr, "(J_c noise floor of the sensor: %.2f %%)\n", e.jc_noise_floor_pct);
   nlohmann::json rows = nlohmann::json::array();
-  for (const engine::EvaluationRow& row : e.rows) rows.push_back(row_json(row));
+  for (const engine::EvaluationRow& row : e.rows) rows.push_back(engine::evaluation_row_to_json(row));
   nlohmann::json result = {{"plant", plant.name},
                                  {"chain", o.chain},
                                  {"noise_amplitude", e.noise_amplitude},
@@ -110,13 +90,7 @@ void run_evaluate(const EvaluateOptions& o) {
       bar.update(1.0);
     }
     print_attribution(e, terms);
-    nlohmann::json attribution = nlohmann::json::array();
-    for (const engine::TermDistortion& t : terms) {
-      nlohmann::json term_rows = nlohmann::json::array();
-      for (const engine::EvaluationRow& row : t.rows) term_rows.push_back(row_json(row));
-      attribution.push_back({{"term", t.term}, {"rows", term_rows}});
-    }
-    result["attribution"] = attribution;
+    result["attribution"] = engine::attribution_to_json(terms);
   }
   if (!o.plots.empty()) {
     const std::filesystem::path dir(o.plots);

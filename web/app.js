@@ -867,6 +867,9 @@ function renderResult(job) {
   if (diagnosis) renderDiagnosis(r);
   setText('#result-j-est', fmtPct(r.j_est_pct));
   setText('#result-j-val', fmtPct(r.j_val_pct));
+  // A result without J figures (a recording, an evaluation: its J_c per row is in the summary) shows none.
+  const noJ = r.j_est_pct == null && r.j_val_pct == null;
+  for (const id of ['#result-j-est', '#result-j-val']) $(id).closest('.figure').hidden = noJ;
   const box = $('#result-model-box');
   box.hidden = !r.model_id;
   setText('#result-model', r.model_id ? modelLabel(r.model_id) : '—');

@@ -10,6 +10,15 @@ const H3 = '#5fd38d';
 const BEFORE = '#ff5c6a';
 const EXTRA = ['#c792ea', '#f7c948', '#ff5c8a', '#7fdbca', '#a3be8c'];
 
+/** The series of an evaluate job's plot: one column per configuration, `<row>_<quantity>`. */
+function evaluationRows(quantity) {
+  return {
+    [`plant_${quantity}`]: { label: 'plant alone', stroke: BEFORE },
+    [`feedforward_${quantity}`]: { label: 'band-pass + feedforward', stroke: MEASURED },
+    [`feedback_${quantity}`]: { label: '+ feedback', stroke: H3 },
+  };
+}
+
 /** How each known plot is drawn; columns it does not name are drawn too, in extra colours. */
 const SPECS = {
   fit: {
@@ -47,6 +56,16 @@ const SPECS = {
       model_h3_db: { label: 'H3 model', stroke: H3, dash: [6, 4] },
     },
   },
+  response: {
+    title: 'Response of the chain on the transducer (program → measured output)',
+    x: 'f', xLabel: 'frequency (Hz)', yLabel: 'dB', logX: true,
+    series: evaluationRows('db'),
+  },
+  thd: {
+    title: 'THD at each probe (%)',
+    x: 'f', xLabel: 'probe (Hz)', yLabel: 'THD (%)', logX: true, logY: 'auto',
+    series: evaluationRows('thd_pct'),
+  },
   history: {
     title: 'Performance J per iteration (simulation error, %)',
     x: 'iteration', xLabel: 'iteration', yLabel: 'J (%)', logY: 'auto',
@@ -58,7 +77,7 @@ const SPECS = {
 };
 
 /** The order in which a result's plots are shown; unknown plot names follow. */
-export const PLOT_ORDER = ['fit', 'spectrum', 'residual_spectrum', 'harmonics', 'history'];
+export const PLOT_ORDER = ['fit', 'spectrum', 'residual_spectrum', 'harmonics', 'response', 'thd', 'history'];
 
 const AXIS = { stroke: '#aab4c0', grid: { stroke: 'rgba(160,175,190,0.14)', width: 1 },
                ticks: { stroke: 'rgba(160,175,190,0.3)', width: 1 } };

@@ -17,6 +17,11 @@
 #include "api/model_store.h"
 #include "api/job_params.h"
 #include "api/model_validation.h"
+#include "api/job_plots.h"
+#include "engine/chain_evaluation.h"
+#include "engine/chain_file.h"
+#include "engine/distortion_attribution.h"
+#include "engine/evaluation_json.h"
 #include "models/linear_model.h"
 #include "models/feedback_design.h"
 #include "models/lq_feedforward.h"
@@ -208,7 +213,7 @@ class JobKindsTest : public testing_support::ScratchDirectoryTest {
 
 TEST(JobKinds, ListsTheKindsInTheOrderOfRoutes) {
   EXPECT_EQ(job_kinds(), (std::vector<std::string>{"excite", "identify-linear", "identify-narx", "design-lq", "design-nn",
-                                                   "analyze", "diagnose"}));
+                                                   "evaluate", "analyze", "diagnose"}));
 }
 
 TEST_F(JobKindsTest, UnknownKindIsRefusedWithTheKindsThereAre) {
@@ -721,6 +726,87 @@ TEST_F(JobKindsTest, DesignNnTakesTheControllersLagsAndTheRecordsShape) {
   params.update({{"sine_share", 0.0}, {"max_iterations", 0}});
   const json noise_only = run("design-nn", params, "j4");
   EXPECT_NE(noise_only.at("summary").at("jc_val_before_pct"), summary.at("jc_val_before_pct"));
+}
+
+// The evaluate job is `panelbass chain` + `evaluate`: its rows are engine::evaluate_chain's on a chain built
+// here from the same stored models (the feedforward's band-pass from its design), and its attribution is
+// engine::attribute_distortion's.
+TEST_F(JobKindsTest, EvaluateIsTheChainsEvaluationOnTheVirtualTransducer) {
+  use_plant("panel-exciter");
+  json models = design_nn_models();
+  const json design = run("design-nn", {{"plant_model", models.at("plant_model")}, {"feedforward_model", models.at("feedforward_model")},
+                                        {"samples", 1000}, {"max_iterations", 2}, {"hidden", {3}}},
+                          "j3");
+  const std::string ff = models.at("feedforward_model"), fb = design.at("model_id");
+  const json params = {{"feedforward_model", ff}, {"feedback_model", fb}, {"probes_hz", {80.0, 160.0}},
+                       {"probe_peak", 0.6}, {"noise_samples", 4096}, {"attribute", true}};
+  FakeControl control("j4");
+  const json result = run("evaluate", params, control);
+  expect_progress(control);
+
+  engine::ChainConfig config;
+  config.fs = kFs;
+  config.band_pass.design = {engine::Hertz{20.0}, engine::Hertz{1200.0}, 2};
+  config.feedforward = engine::SlotConfig{};
+  config.feedforward->model = *store_->model(ff);
+  config.feedback = engine::SlotConfig{};
+  config.feedback->model = *store_->model(fb);
+  engine::EvaluationOptions options;
+  options.probe_hz = {80.0, 160.0};
+  options.probe_peak = 0.6;
+  options.noise_samples = 4096;
+  const engine::ChainEvaluation expected = engine::evaluate_chain(config, *env_.plant, options);
+  ASSERT_EQ(result.at("rows").size(), 3u);
+  for (std::size_t r = 0; r < 3; ++r) {
+    EXPECT_EQ(result.at("rows")[r], without_non_finite(engine::evaluation_row_to_json(expected.rows[r]))) << r;
+  }
+  const json& summary = result.at("summary");
+  EXPECT_EQ(summary.at("plant"), env_.plant->name) << "the server's own transducer by default";
+  EXPECT_EQ(summary.at("feedback_model"), fb);
+  EXPECT_EQ(summary.at("source"), "model");
+  EXPECT_EQ(summary.at("table").at("band-pass + feedforward + feedback").at("thd_pct")[1],
+            expected.rows[2].probes[1].thd_pct);
+  expect_plot(result.at("plots").at("response"), {"f", "plant_db", "feedforward_db", "feedback_db"});
+  expect_plot(result.at("plots").at("thd"), {"f", "plant_thd_pct", "feedforward_thd_pct", "feedback_thd_pct"});
+
+  const std::vector<engine::TermDistortion> terms = engine::attribute_distortion(config, *env_.plant, options);
+  ASSERT_EQ(result.at("attribution").size(), terms.size());
+  for (std::size_t t = 0; t < terms.size(); ++t) {
+    EXPECT_EQ(result.at("attribution")[t].at("term"), terms[t].term);
+    EXPECT_EQ(summary.at("attribution_thd_pct").at(terms[t].term)[1], terms[t].rows[1].probes[1].thd_pct) << terms[t].term;
+  }
+
+  // A preset instead, and band-pass + feedforward alone: two rows, no attribution unless asked for.
+  const json alone = run("evaluate", {{"feedforward_model", ff}, {"plant", "linear"}, {"probes_hz", {160.0}},
+                                      {"noise_samples", 4096}}, "j5");
+  EXPECT_EQ(alone.at("rows").size(), 2u);
+  EXPECT_EQ(alone.at("summary").at("plant"), "linear");
+  EXPECT_EQ(alone.at("summary").at("feedback_model"), nullptr);
+  EXPECT_FALSE(alone.contains("attribution"));
+}
+
+TEST_F(JobKindsTest, EvaluateRefusalsNameTheField) {
+  const json models = design_nn_models();
+  const std::string ff = models.at("feedforward_model"), narx = models.at("plant_model");
+  const auto refused = [&](const json& extra) {
+    json params = {{"feedforward_model", ff}};
+    params.update(extra);
+    return refusal("evaluate", params);
+  };
+  EXPECT_NE(refusal("evaluate", json::object()).find("params.feedforward_model"), std::string::npos);
+  EXPECT_EQ(refused({{"feedback_model", narx}}),
+            "params.feedback_model: model " + narx + " is of kind \"narx\", expected neural_feedback");
+  EXPECT_EQ(refused({{"source", "sensor"}}),
+            "params.source: \"sensor\" is where a feedback stage takes its past outputs from, and there is no feedback_model");
+  // No virtual transducer behind this server: the presets only.
+  EXPECT_EQ(refused({{"plant", "server"}}), "params.plant: must be one of \"panel-exciter\", \"linear\", got \"server\"");
+  EXPECT_EQ(refused({{"probes_hz", {40.0, 1500.0}}}).substr(0, 19), "params.probes_hz[1]");
+  EXPECT_EQ(refused({{"noise_samples", 100}}), "params.noise_samples: must be an integer in [4096, 10000000], got 100");
+  EXPECT_EQ(refused({{"probe_peak", 1.5}}), "params.probe_peak: must be a number in [0, 1], got 1.5");
+  EXPECT_EQ(refused({{"attribute", "yes"}}), "params.attribute: expected true or false, got \"yes\"");
+  EXPECT_EQ(refused({{"speed", 1}}), "params.speed: unknown field");
+  use_plant("linear");
+  EXPECT_NO_THROW(validate_job_params("evaluate", {{"feedforward_model", ff}, {"plant", "server"}}, env_));
 }
 
 TEST_F(JobKindsTest, DesignNnKeepsTheBestOfItsRestarts) {

@@ -16,6 +16,7 @@
 #include <set>
 #include <thread>
 
+#include "api/job_kinds.h"
 #include "models/linear_model.h"
 #include "models/plant_presets.h"
 #include "tests/engine/engine_test_models.h"
@@ -153,6 +154,8 @@ TEST_F(ServerTest, TheOpenApiDocumentNamesExactlyTheRoutesTheServerHas) {
   }
   for (const Route& r : api_routes()) served.insert({r.method, r.path});
   EXPECT_EQ(documented, served);
+  // and exactly the job kinds the server runs
+  EXPECT_EQ(doc.body["components"]["schemas"]["JobRequest"]["properties"]["kind"]["enum"], nlohmann::json(job_kinds()));
   // Every served route answers something other than "no such route" (path ids filled in).
   for (const Route& r : api_routes()) {
     const std::string path = std::regex_replace(r.path, std::regex(R"(\{id\})"), "unknown-id");

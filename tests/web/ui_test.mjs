@@ -497,6 +497,40 @@ async function main() {
     check(summary[k] === v, `summary ${k} shown as ${JSON.stringify(summary[k])}, expected "${v}"`);
   }
 
+  // The chain just designed, evaluated on the server's virtual transducer, with the per-term attribution.
+  step = 'starting an evaluate job';
+  const nnModel = await resultModel('design-nn');
+  await page.selectOption('#job-kind', 'evaluate');
+  await until(async () => (await page.$$eval('#ev-feedback option', (os) => os.map((o) => o.value))).includes(nnModel),
+              8000, `the NN controller ${nnModel} is never offered as the feedback of an evaluate job`);
+  await page.selectOption('#ev-feedforward', lqModel);
+  await page.selectOption('#ev-feedback', nnModel);
+  await page.fill('#ev-probes', '80, 160');
+  await page.fill('#ev-probe-peak', '0.5');
+  await page.fill('#ev-noise-samples', '4096');
+  await page.check('#ev-attribute');
+  const evPosted = page.waitForRequest((r) => r.method() === 'POST' && new URL(r.url()).pathname === '/api/jobs', { timeout: 10_000 });
+  const evJob = await runFormJob('evaluate', nnJob);
+  const evBody = (await evPosted).postDataJSON();
+  log(`evaluate request: ${JSON.stringify(evBody)}`);
+  const evWanted = { feedforward_model: lqModel, feedback_model: nnModel, probes_hz: [80, 160], probe_peak: 0.5,
+                     noise_samples: 4096, attribute: true };
+  check(evBody.kind === 'evaluate', `request kind "${evBody.kind}", expected evaluate`);
+  for (const [k, v] of Object.entries(evWanted)) {
+    check(JSON.stringify(evBody.params?.[k]) === JSON.stringify(v),
+          `params.${k} in the request is ${JSON.stringify(evBody.params?.[k])}, expected ${JSON.stringify(v)}`);
+  }
+  step = 'evaluate result shown';
+  const evSummary = await page.$$eval('#result-summary dt', (dts) => dts.map((dt) => dt.textContent.trim()));
+  log(`evaluate ${evJob} summary keys: ${evSummary.join(', ')}`);
+  for (const key of ['table.band-pass + feedforward + feedback.ripple_db', 'attribution_thd_pct.friction']) {
+    check(evSummary.includes(key), `the evaluate summary shows no ${key}: ${evSummary.join(', ')}`);
+  }
+  for (const plot of ['response', 'thd']) {
+    await until(async () => (await page.$$eval('#plots [data-plot]', (els) => els.map((e) => e.dataset.plot))).includes(plot),
+                8000, `the evaluate result shows no "${plot}" figure`);
+  }
+
   step = 'no page errors';
   check(pageErrors.length === 0, `${pageErrors.length} error(s) in the page`);
 

@@ -1,0 +1,21 @@
+#pragma once
+// The JSON form of a chain evaluation's rows and of its per-term attribution, as `panelbass evaluate` and the
+// HTTP evaluate job both report them.
+
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "engine/chain_evaluation.h"
+#include "engine/distortion_attribution.h"
+
+namespace panelbass::engine {
+
+/// {"name","ripple_db","jc_pct","max_drive","rail_fraction","rest_drive_peak","faults","probes":[{"frequency_hz",
+/// "amplitude","drive_peak","h2_db","h3_db","thd_pct","harmonics_db":[H2…] (null for an absent harmonic),
+/// "model_thd_pct" (null without a neural feedback stage)}]}.
+nlohmann::json evaluation_row_to_json(const EvaluationRow& row);
+
+/// [{"term","rows":[evaluation_row_to_json…]}], one entry per term of attribute_distortion().
+nlohmann::json attribution_to_json(const std::vector<TermDistortion>& terms);
+
+}  // namespace panelbass::engine
