@@ -729,7 +729,12 @@ json evaluate_work(const json& params, const JobEnvironment& env, JobControl& co
     const engine::EvaluationRow& row = e.rows[k];
     json row_thd = json::array();
     for (const engine::ProbeResult& p : row.probes) row_thd.push_back(p.thd_pct);
-    table[row.name] = {{"ripple_db", row.ripple_db}, {"jc_pct", row.jc_pct}, {"thd_pct", row_thd}, {"max_drive", row.max_drive}};
+    table[row.name] = {{"ripple_db", row.ripple_db},
+                       {"jc_pct", row.jc_pct},
+                       {"measured_ripple_db", row.measured_ripple_db},
+                       {"measured_jc_pct", row.measured_jc_pct},
+                       {"thd_pct", row_thd},
+                       {"max_drive", row.max_drive}};
     response[std::string(evaluation_row_key(k)) + "_db"] = column(row.response_db);
     thd[std::string(evaluation_row_key(k)) + "_thd_pct"] = row_thd;
   }

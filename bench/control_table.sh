@@ -21,13 +21,20 @@
 # LQ_WEIGHT="--max-input 0.33": R searched so that the chain takes a third of full scale). NARX_FLAGS adds flags to identify narx (e.g. NARX_FLAGS="--friction-units 3,10":
 # hidden nodes seeded as the exciter's Coulomb friction). PANELBASS_BIN overrides the binary; PLOTS=DIR keeps the evaluation figures of the model-mode chain at the
 # 0.6 probe peak (the response, and the harmonics per probe); KEEP=DIR keeps every file the run made (models,
-# controllers, chains, records, evaluations) for a closer look.
+# controllers, chains, records, evaluations) for a closer look. HIDDEN sets the NARX plant model's hidden
+# nodes (default 20). PLANT runs it on another transducer: a preset or a plant file (e.g. panel-exciter with
+# all but one nonlinear term switched off).
 set -euo pipefail
+# paths the user gave, resolved where they were given
+if [ -n "${PANELBASS_BIN:-}" ]; then PANELBASS_BIN=$(realpath "$PANELBASS_BIN"); fi
+if [ -n "${PLOTS:-}" ]; then PLOTS=$(realpath -m "$PLOTS"); fi
+if [ -n "${KEEP:-}" ]; then KEEP=$(realpath -m "$KEEP"); fi
+plant=${PLANT:-panel-exciter}
+if [ -f "$plant" ]; then plant=$(realpath "$plant"); fi
+hidden=${HIDDEN:-20}
 cd "$(dirname "$0")/.."
 here=$(pwd)
 bin=$(realpath "${PANELBASS_BIN:-build/bin/panelbass}")
-if [ -n "${PLOTS:-}" ]; then PLOTS=$(realpath -m "$PLOTS"); fi
-if [ -n "${KEEP:-}" ]; then KEEP=$(realpath -m "$KEEP"); fi
 seed=${1:-1}
 share=${2:-0.75}
 work=$(mktemp -d)
@@ -35,7 +42,7 @@ trap 'if [ -n "${KEEP:-}" ]; then mkdir -p "$KEEP" && cp -r "$work"/. "$KEEP"/; 
 cd "$work"
 field() { sed -n "s/^  \"$1\": \([-0-9.e+]*\).*/\1/p" | head -n 1; }
 
-"$bin" simulate --signal noise --samples 18000 --seed "$seed" --out all.csv > /dev/null 2>&1
+"$bin" simulate --plant "$plant" --signal noise --samples 18000 --seed "$seed" --out all.csv > /dev/null 2>&1
 head -n 12001 all.csv > est.csv
 { head -n 1 all.csv; tail -n +12002 all.csv; } > val.csv
 lin=$("$bin" identify linear --data est.csv --val val.csv --fs 3000 --method oe --scan 1:16 --out lin.json 2> /dev/null)
@@ -45,18 +52,18 @@ lq=$("$bin" design lq --model lin.json $lq_weight --R0 20 --bandpass 20,1200 --o
 records=${RECORDS:-24}
 for i in $(seq 0 $((records - 1))); do
   peak=$(awk -v i="$i" 'BEGIN { printf "%.2f", 0.35 + 0.1 * (i % 6) }')
-  "$bin" simulate --signal control --ff ff.json --samples 22500 --seed $((seed * 1000 + 10 + i)) --sine-peak "$peak" --out reg.csv > /dev/null 2>&1
+  "$bin" simulate --plant "$plant" --signal control --ff ff.json --samples 22500 --seed $((seed * 1000 + 10 + i)) --sine-peak "$peak" --out reg.csv > /dev/null 2>&1
   if [ "$i" = 0 ]; then cat reg.csv > reg_est.csv; else tail -n +2 reg.csv >> reg_est.csv; fi
 done
-"$bin" simulate --signal control --ff ff.json --samples 10000 --seed $((seed * 1000 + 999)) --sine-peak 0.65 --out reg_val.csv > /dev/null 2>&1
+"$bin" simulate --plant "$plant" --signal control --ff ff.json --samples 10000 --seed $((seed * 1000 + 999)) --sine-peak 0.65 --out reg_val.csv > /dev/null 2>&1
 # Each probe's steady drive behind band-pass + feedforward, and a 100 s stepped-sine recording there (the
 # sensor noise on: a measurement, as a user would make one; 100 s puts its floor under the -50 dB harmonics).
 "$bin" chain --bandpass 20,1200 --ff ff.json --out chain-ff.json > /dev/null
-"$bin" evaluate --plant panel-exciter --chain chain-ff.json --probe-peak 0.6 --out eval-ff.json > /dev/null 2>&1
+"$bin" evaluate --plant "$plant" --chain chain-ff.json --probe-peak 0.6 --out eval-ff.json > /dev/null 2>&1
 probes=$(python3 -c 'import json; e = json.load(open("eval-ff.json"))
 print(" ".join("%g:%.4f" % (p["frequency_hz"], p["drive_peak"]) for p in e["rows"][1]["probes"]))')
 for probe in $probes; do
-  "$bin" simulate --signal stepped --freqs "${probe%%:*}" --amplitude "${probe#*:}" --measure 300000 --seed "$seed" \
+  "$bin" simulate --plant "$plant" --signal stepped --freqs "${probe%%:*}" --amplitude "${probe#*:}" --measure 300000 --seed "$seed" \
     --out "stepped-${probe%%:*}.csv" > /dev/null 2>&1
 done
 # harmonics_check MODEL: the recording's and the model's harmonics (level and phase) at every probe and how
@@ -73,7 +80,7 @@ best=-1000
 checks=""
 kept=0
 for m in $(seq 0 $((models - 1))); do
-  out=$("$bin" identify narx --data reg_est.csv --val reg_val.csv --fs 3000 --na 10 --nb 10 --hidden 20 --train pem,oem-d \
+  out=$("$bin" identify narx --data reg_est.csv --val reg_val.csv --fs 3000 --na 10 --nb 10 --hidden "$hidden" --train pem,oem-d \
           ${WEIGHTED:+--weight-col w} ${NARX_FLAGS:-} \
           --max-iter 60 --seed $((seed + 100 * m)) --out "narx-$m.json" 2> /dev/null)
   check=$(harmonics_check "narx-$m.json")
@@ -83,12 +90,12 @@ for m in $(seq 0 $((models - 1))); do
 done
 fb=$("$bin" design nn --plant narx.json --ff ff.json --bandpass 20,1200 --hidden 8 --nu 6 --nv 2 --ny 4 --iterations 150 \
        --samples 48000 --sine-peak 0.6 --sine-share "$share" --seed "$seed" --out fb.json 2> /dev/null)
-echo "## Control on panel-exciter (seed $seed)"
+echo "## Control on $plant (seed $seed)"
 echo "- linear model: OE order $(echo "$lin" | field order), J_val $(echo "$lin" | field J_val_pct | awk '{printf "%.2f", $1}') %;" \
      "LQ ($lq_weight → R $(echo "$lq" | field R), R0 20, 20-1200 Hz): max in $(echo "$lq" | field max_input_worst | awk '{printf "%.3f", $1}') worst," \
      "$(echo "$lq" | field max_input_noise | awk '{printf "%.3f", $1}') noise"
 echo -n "$checks"
-echo "- NARX plant model kept: candidate $kept (regime data $((records * 22500)) samples, 10/10/20): J_val $(echo "$nn" | field J_val_pct | awk '{printf "%.2f", $1}') %;" \
+echo "- NARX plant model kept: candidate $kept (regime data $((records * 22500)) samples, 10/10/$hidden): J_val $(echo "$nn" | field J_val_pct | awk '{printf "%.2f", $1}') %;" \
      "neural feedback: J_c on the plant model $(echo "$fb" | field jc_val_before_pct | awk '{printf "%.2f", $1}') %" \
      "→ $(echo "$fb" | field jc_val_after_pct | awk '{printf "%.2f", $1}') % (validation, sine share $share)"
 table() {  # table EVAL.json TITLE
@@ -98,12 +105,13 @@ table() {  # table EVAL.json TITLE
 import json, math, sys
 e = json.load(open(sys.argv[1]))
 probes = [p["frequency_hz"] for p in e["rows"][0]["probes"]]
-print("| configuration | ripple dB | J_c % | " + " | ".join(f"THD {f:.0f} Hz (H2/H3)" for f in probes) +
-      " | max drive | drive at rest |")
-print("|---|---:|---:|" + "---:|" * len(probes) + "---:|---:|")
+print("| configuration | ripple dB | J_c % | ripple dB / J_c % through the noisy sensor | " +
+      " | ".join(f"THD {f:.0f} Hz (H2/H3)" for f in probes) + " | max drive | drive at rest |")
+print("|---|---:|---:|---:|" + "---:|" * len(probes) + "---:|---:|")
 for r in e["rows"]:
     cells = [f'{p["thd_pct"]:.2f} ({p["h2_db"]:.0f}/{p["h3_db"]:.0f})' for p in r["probes"]]
-    print(f'| {r["name"]} | {r["ripple_db"]:.2f} | {r["jc_pct"]:.1f} | ' + " | ".join(cells) +
+    print(f'| {r["name"]} | {r["ripple_db"]:.2f} | {r["jc_pct"]:.2f} | '
+          f'{r["measured_ripple_db"]:.2f} / {r["measured_jc_pct"]:.1f} | ' + " | ".join(cells) +
           f' | {r["max_drive"]:.3f} | {r["rest_drive_peak"]:.4f} |')
 if len(e["rows"]) == 3:
     change = [20 * math.log10(c["thd_pct"] / b["thd_pct"]) for b, c in zip(e["rows"][1]["probes"], e["rows"][2]["probes"])]
@@ -119,8 +127,8 @@ for source in model sensor; do
   "$bin" chain --bandpass 20,1200 --ff ff.json --fb fb.json --source "$source" --out "chain-$source.json" > /dev/null
   plots=()
   if [ -n "${PLOTS:-}" ] && [ "$source" = model ]; then plots=(--plot "$PLOTS"); fi
-  "$bin" evaluate --plant panel-exciter --chain "chain-$source.json" --probe-peak 0.6 --out "eval-$source.json" "${plots[@]}" > /dev/null 2>&1
+  "$bin" evaluate --plant "$plant" --chain "chain-$source.json" --probe-peak 0.6 --out "eval-$source.json" "${plots[@]}" > /dev/null 2>&1
   table "eval-$source.json" "feedback in $source mode, probes at a drive peak of 0.6"
 done
-"$bin" evaluate --plant panel-exciter --chain chain-model.json --out eval-knee.json > /dev/null 2>&1
+"$bin" evaluate --plant "$plant" --chain chain-model.json --out eval-knee.json > /dev/null 2>&1
 table eval-knee.json "feedback in model mode, probes at the limiter's knee (0.8)"

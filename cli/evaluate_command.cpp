@@ -1,8 +1,10 @@
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -28,7 +30,8 @@ struct EvaluateOptions {
   engine::EvaluationOptions evaluation;
 };
 
-// The table a person reads, on stderr.
+// The table a person reads, on stderr: ripple and J_c of the transducer's output, and (on a plant whose
+// sensor is noisy) as the sensor measures them.
 void print_table(const engine::ChainEvaluation& e) {
   std::fprintf(stderr, "%-36s %9s %8s", "configuration", "ripple dB", "J_c %");
   for (const engine::ProbeResult& p : e.rows.front().probes) std::fprintf(stderr, "  THD@%-4.0f%%", p.frequency_hz);
@@ -37,6 +40,10 @@ void print_table(const engine::ChainEvaluation& e) {
     std::fprintf(stderr, "%-36s %9.2f %8.2f", row.name.c_str(), row.ripple_db, row.jc_pct);
     for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.2f", p.thd_pct);
     std::fprintf(stderr, "  %10.3f  %11.4f\n", row.max_drive, row.rest_drive_peak);
+    if (e.jc_noise_floor_pct > 0.0) {
+      std::fprintf(stderr, "%-36s %9.2f %8.2f\n", "  (through the noisy sensor)", row.measured_ripple_db,
+                   row.measured_jc_pct);
+    }
     if (!row.probes.empty() && std::isfinite(row.probes.front().model_thd_pct)) {
       std::fprintf(stderr, "%-36s %9s %8s", "  (the design's plant model)", "", "");
       for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.2f", p.model_thd_pct);
@@ -46,9 +53,17 @@ void print_table(const engine::ChainEvaluation& e) {
 }
 
 // Each nonlinear term's THD per probe behind band-pass + feedforward (what a feedback stage is there to
-// remove), on stderr, with the whole plant's first.
+// remove), on stderr, with the whole plant's first: its row of the same name as the terms' last.
 void print_attribution(const engine::ChainEvaluation& whole, const std::vector<engine::TermDistortion>& terms) {
-  const engine::EvaluationRow& row = whole.rows.at(1);
+  if (terms.empty()) {
+    std::fprintf(stderr, "which term makes the distortion: the plant has no nonlinear term switched on\n");
+    return;
+  }
+  const std::string& compared = terms.front().rows.back().name;
+  const auto same_name = [&](const engine::EvaluationRow& r) { return r.name == compared; };
+  const auto found = std::find_if(whole.rows.begin(), whole.rows.end(), same_name);
+  if (found == whole.rows.end()) throw std::logic_error("the evaluation has no \"" + compared + "\" row");
+  const engine::EvaluationRow& row = *found;
   std::fprintf(stderr, "which term makes the distortion (%s, THD %% with that term alone on):\n", row.name.c_str());
   std::fprintf(stderr, "%-14s", "term");
   for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  THD@%-4.0f%%", p.frequency_hz);

@@ -62,24 +62,30 @@ Run run_variant(const ChainConfig& config, const Variant& variant, const models:
   return run;
 }
 
-/// |program → y| by H1 (Welch), in dB.
-void measure_response(const Eigen::VectorXd& program, const Eigen::VectorXd& y, double fs, EvaluationRow& row) {
+/// A response |program → y| by H1 (Welch), in dB.
+struct Response {
+  Eigen::VectorXd hz, db;
+};
+
+Response measure_response(const Eigen::VectorXd& program, const Eigen::VectorXd& y, double fs) {
   const dsp::FrequencyResponse frf = dsp::h1_frf(program, y, fs, dsp::WelchSpec{1024, 0.5});
-  row.response_hz = frf.frequency;
-  row.response_db = frf.h.cwiseAbs().array().log10() * 20.0;
+  return {frf.frequency, frf.h.cwiseAbs().array().log10() * 20.0};
 }
 
-/// max − min of the response over the ripple band, dB.
-double ripple_db(const EvaluationRow& row, const EvaluationOptions& o) {
+/// max − min of `r` over the ripple band, dB.
+double ripple_db(const Response& r, const EvaluationOptions& o) {
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (Eigen::Index i = 0; i < row.response_hz.size(); ++i) {
-    const double f = row.response_hz[i];
+  for (Eigen::Index i = 0; i < r.hz.size(); ++i) {
+    const double f = r.hz[i];
     if (f < o.ripple_low_hz || f > o.ripple_high_hz) continue;
-    lo = std::min(lo, row.response_db[i]);
-    hi = std::max(hi, row.response_db[i]);
+    lo = std::min(lo, r.db[i]);
+    hi = std::max(hi, r.db[i]);
   }
   return hi - lo;
 }
+
+/// `y` with its mean removed (an accelerometer is AC-coupled).
+Eigen::VectorXd ac_coupled(const Eigen::VectorXd& y) { return y.array() - y.mean(); }
 
 /// The THD of the design's NARX plant model (fb.plant) driven as `variant` drives the transducer: `sine`
 /// through the band-pass and the [7B] feedforward, then the neural feedback in closed loop with the model
@@ -161,10 +167,15 @@ ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantCon
     };
     const Run noise_run = run_variant(config, variant, plant, noise, o.seed);
     account(noise_run);
-    const Eigen::VectorXd y = noise_run.rendering.measured.array() - noise_run.rendering.measured.mean();
+    const Eigen::VectorXd y = ac_coupled(noise_run.rendering.clean);
+    const Eigen::VectorXd y_measured = ac_coupled(noise_run.rendering.measured);
     row.jc_pct = models::jc_percent(y, y_desired, kNoiseSkip);
-    measure_response(noise, y, fs, row);
-    row.ripple_db = ripple_db(row, o);
+    row.measured_jc_pct = models::jc_percent(y_measured, y_desired, kNoiseSkip);
+    Response response = measure_response(noise, y, fs);
+    row.ripple_db = ripple_db(response, o);
+    row.measured_ripple_db = ripple_db(measure_response(noise, y_measured, fs), o);
+    row.response_hz = std::move(response.hz);
+    row.response_db = std::move(response.db);
     const Run rest_run = run_variant(config, variant, quiet_plant, Eigen::VectorXd::Zero(n_settle + n_analysis), o.seed);
     row.rest_drive_peak = rest_run.rendering.drive.tail(n_analysis).cwiseAbs().maxCoeff();
 

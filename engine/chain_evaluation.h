@@ -46,16 +46,19 @@ struct ProbeResult {
 /// One configuration's row of the table.
 struct EvaluationRow {
   std::string name;                  ///< "plant", "band-pass + feedforward", "band-pass + feedforward + feedback"
-  double ripple_db = 0.0;            ///< max − min of |program → measured output| over the band, dB
-  double jc_pct = 0.0;               ///< [2C] J_c of the measured output against the desired response
+  double ripple_db = 0.0;            ///< max − min of |program → transducer output| over the band, dB: the
+                                     ///< output without the sensor's noise, what the chain and transducer do
+  double jc_pct = 0.0;               ///< [2C] J_c of that output against the desired response
+  double measured_ripple_db = 0.0;   ///< the ripple as the noisy sensor measures it (what a recording shows)
+  double measured_jc_pct = 0.0;      ///< J_c of the sensor's noisy output: about jc_pct + the noise floor
   double max_drive = 0.0;            ///< largest |drive| over every run of this row
   double rail_fraction = 0.0;        ///< share of drive samples above the limiter's knee
   double rest_drive_peak = 0.0;      ///< largest |drive| for a silent program (after settling): what the chain
                                      ///< drives with no input, an offset a coil turns into displacement
   std::uint64_t faults = 0;          ///< times the chain dropped to its safe bypass
   std::vector<ProbeResult> probes;   ///< one per probe frequency
-  Eigen::VectorXd response_hz;       ///< frequencies of the response |program → measured output| (H1, Welch)
-  Eigen::VectorXd response_db;       ///< its magnitude, dB
+  Eigen::VectorXd response_hz;       ///< frequencies of the response |program → transducer output| (H1, Welch)
+  Eigen::VectorXd response_db;       ///< its magnitude, dB (the output without the sensor's noise)
 };
 
 /// The whole evaluation.
@@ -71,8 +74,10 @@ struct ChainEvaluation {
 /// probe sine, the amplitude at which band-pass + feedforward reach a steady peak of probe_peak, by default
 /// the safety limiter's knee: the largest peak the chain passes undistorted). Distortion is a property of
 /// the transducer and the chain: the probes run with the plant's sensor noise switched off, so that it
-/// does not set a floor under the harmonics. The measured output's
-/// mean is removed before J_c (an accelerometer is AC-coupled). Throws std::invalid_argument (naming what)
+/// does not set a floor under the harmonics. The response and J_c are taken from the transducer's output
+/// without the sensor's noise (the chain itself still sees the noisy sensor), and again from the noisy
+/// output as a recording would show them. The output's mean is removed before J_c (an accelerometer is
+/// AC-coupled). Throws std::invalid_argument (naming what)
 /// for a chain without an LQ feedforward stage, a plant at another rate, or bad options.
 ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantConfig& plant,
                                const EvaluationOptions& options = {});

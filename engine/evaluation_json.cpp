@@ -18,8 +18,14 @@ nlohmann::json evaluation_row_to_json(const EvaluationRow& row) {
                       {"harmonics_db", harmonics},
                       {"model_thd_pct", models::number_or_null(p.model_thd_pct)}});
   }
-  return {{"name", row.name},         {"ripple_db", row.ripple_db},       {"jc_pct", row.jc_pct},
-          {"max_drive", row.max_drive}, {"rail_fraction", row.rail_fraction}, {"rest_drive_peak", row.rest_drive_peak},
+  return {{"name", row.name},
+          {"ripple_db", row.ripple_db},
+          {"jc_pct", row.jc_pct},
+          {"measured_ripple_db", row.measured_ripple_db},
+          {"measured_jc_pct", row.measured_jc_pct},
+          {"max_drive", row.max_drive},
+          {"rail_fraction", row.rail_fraction},
+          {"rest_drive_peak", row.rest_drive_peak},
           {"faults", row.faults},
           {"probes", probes}};
 }

@@ -10,7 +10,8 @@
 
 namespace panelbass::engine {
 
-/// {"name","ripple_db","jc_pct","max_drive","rail_fraction","rest_drive_peak","faults","probes":[{"frequency_hz",
+/// {"name","ripple_db","jc_pct" (the transducer's output without sensor noise),"measured_ripple_db",
+/// "measured_jc_pct" (through the noisy sensor),"max_drive","rail_fraction","rest_drive_peak","faults","probes":[{"frequency_hz",
 /// "amplitude","drive_peak","h2_db","h3_db","thd_pct","harmonics_db":[H2…] (null for an absent harmonic),
 /// "model_thd_pct" (null without a neural feedback stage)}]}.
 nlohmann::json evaluation_row_to_json(const EvaluationRow& row);

@@ -28,14 +28,18 @@ Rendering render(Chain& chain, const Eigen::VectorXd& program, const RenderOptio
   }
   Rendering r;
   r.drive = Eigen::VectorXd::Zero(program.size());
-  if (plant) r.measured = Eigen::VectorXd::Zero(program.size());
+  if (plant) {
+    r.measured = Eigen::VectorXd::Zero(program.size());
+    r.clean = Eigen::VectorXd::Zero(program.size());
+  }
   const auto total = static_cast<std::size_t>(program.size());
   for (std::size_t pos = 0; pos < total; pos += static_cast<std::size_t>(options.block.value)) {
     const std::size_t n = std::min(total - pos, static_cast<std::size_t>(options.block.value));
     const std::span<const double> in(program.data() + pos, n);
     const std::span<double> drive(r.drive.data() + pos, n);
     if (plant) {
-      process_closed_loop(chain, *plant, in, drive, std::span<double>(r.measured.data() + pos, n));
+      process_closed_loop(chain, *plant, in, drive, std::span<double>(r.measured.data() + pos, n),
+                          std::span<double>(r.clean.data() + pos, n));
     } else {
       chain.process_block(in, drive);
     }

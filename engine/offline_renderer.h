@@ -24,6 +24,7 @@ struct RenderOptions {
 struct Rendering {
   Eigen::VectorXd drive;     ///< the chain's output, within [−1, 1]
   Eigen::VectorXd measured;  ///< the plant's measured output (empty without a plant)
+  Eigen::VectorXd clean;     ///< the same without the sensor's noise: what the transducer did (empty without a plant)
 };
 
 /// Runs `program` through `chain` from its current state; throws std::invalid_argument for a block

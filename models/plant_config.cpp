@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <type_traits>
 #include <utility>
 
 #include "models/config_error.h"
@@ -15,8 +16,11 @@ namespace {
 
 constexpr const char* kFormat = "panelbass.plant/1";
 
-// Every nonlinear term's switch, with its name in the plant file, in NonlinearTerms' order.
-std::array<std::pair<const char*, NonlinearSwitch*>, 6> nonlinear_switches(NonlinearTerms& n) {
+// Every nonlinear term's switch, with its name in the plant file, in NonlinearTerms' order (Terms is
+// NonlinearTerms, or const NonlinearTerms to read the switches only).
+template <class Terms,
+          class Switch = std::conditional_t<std::is_const_v<Terms>, const NonlinearSwitch, NonlinearSwitch>>
+std::array<std::pair<const char*, Switch*>, 6> nonlinear_switches(Terms& n) {
   return {{{"stiffness", &n.stiffness},
            {"force_factor", &n.force_factor},
            {"inductance", &n.inductance},
@@ -24,6 +28,7 @@ std::array<std::pair<const char*, NonlinearSwitch*>, 6> nonlinear_switches(Nonli
            {"clipping", &n.clipping},
            {"thermal", &n.thermal}}};
 }
+
 // RK4 is stable up to |λh| ≈ 2.8; keeping |λh| below this leaves margin for accuracy too.
 constexpr double kMaxRateTimesStep = 1.5;
 
@@ -260,9 +265,8 @@ PlantConfig linearized(PlantConfig c) {
 }
 
 std::vector<std::string> enabled_nonlinear_terms(const PlantConfig& config) {
-  PlantConfig copy = config;
   std::vector<std::string> names;
-  for (const auto& [name, term] : nonlinear_switches(copy.nonlinear)) {
+  for (const auto& [name, term] : nonlinear_switches(config.nonlinear)) {
     if (term->enabled) names.push_back(name);
   }
   return names;

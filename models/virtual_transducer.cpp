@@ -144,8 +144,8 @@ PlantSample VirtualTransducer::step(double drive) noexcept {
   }
   const Sensor& sensor = config_.sensor;
   PlantSample out;
-  out.y = sensor.sensitivity_V_per_mps2 * measured + sensor.offset_V +
-          (sensor.noise_rms_V > 0.0 ? sensor.noise_rms_V * noise_.gaussian() : 0.0);
+  out.y_clean = sensor.sensitivity_V_per_mps2 * measured + sensor.offset_V;
+  out.y = out.y_clean + (sensor.noise_rms_V > 0.0 ? sensor.noise_rms_V * noise_.gaussian() : 0.0);
   out.i = state_[kCurrent];
   out.x = state_[kDisplacement];
   out.v = state_[kVelocity];

@@ -16,6 +16,7 @@ namespace panelbass::models {
 /// One sample of the plant's outputs.
 struct PlantSample {
   double y = 0.0;  ///< measured acceleration, sensor volts (filtered, delayed, noisy)
+  double y_clean = 0.0;  ///< y without the sensor's noise: what the panel does, as a noise-free sensor reads it
   double i = 0.0;  ///< coil current, A
   double x = 0.0;  ///< displacement, m
   double v = 0.0;  ///< velocity, m/s

@@ -112,9 +112,13 @@ TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates)
   const json& bare = e["rows"][0];
   const json& ff = e["rows"][1];
   EXPECT_LT(ff["ripple_db"].get<double>(), bare["ripple_db"].get<double>());
+  const double noise_floor = e["jc_noise_floor_pct"].get<double>();
   for (const json& row : e["rows"]) {
     EXPECT_LE(row["max_drive"].get<double>(), 1.0);
     EXPECT_EQ(row["faults"], 0);
+    // through the noisy sensor, the sensor's independent noise power adds to the transducer's own error
+    const double clean = row["jc_pct"].get<double>();
+    EXPECT_NEAR(row["measured_jc_pct"].get<double>(), clean + noise_floor, 0.1 * (clean + noise_floor)) << row["name"];
     ASSERT_EQ(row["probes"].size(), 2u);
     EXPECT_TRUE(std::isfinite(row["probes"][1]["thd_pct"].get<double>()));
     // the harmonics listed are those of the THD and of H2/H3: THD = sqrt(Σ 10^(dB/10)) · 100 %

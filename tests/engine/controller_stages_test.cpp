@@ -30,15 +30,14 @@ Eigen::VectorXd run(Stage& stage, const Eigen::VectorXd& u) {
   return y;
 }
 
+// A neural feedback controller (nu 2, nv 2, ny 3, 5 nodes) with weights large enough to matter.
 models::NeuralFeedback example_feedback() {
   models::FeedbackStructure s;
   s.nu = 2;
   s.nv = 2;
   s.ny = 3;
   s.hidden = {5};
-  models::NeuralFeedback c = models::NeuralFeedback::with_structure(s, testing::example_narx(4));
-  models::initialize_feedback(c, 9, 1.0);
-  return c;
+  return testing::example_feedback(s, 4, 9, 1.0);
 }
 
 TEST(ControllerStagesTest, LqFeedforwardStageIsTheStateSpaceOf7B) {

@@ -11,7 +11,9 @@
 
 #include "dsp/random.h"
 #include "models/linear_model.h"
+#include "models/feedback_training.h"
 #include "models/narx_model.h"
+#include "models/neural_feedback.h"
 #include "models/transfer_function.h"
 
 namespace panelbass::engine::testing {
@@ -57,6 +59,15 @@ inline models::NarxModel example_narx(std::uint64_t seed, double y_scale = 0.7) 
   models::NarxModel m = models::NarxModel::with_structure(st, {0.0, 1.2, 0.01, y_scale}, kFs);
   m.net.initialize(1.0, seed);
   return m;
+}
+
+/// A neural feedback controller of `structure` on example_narx(plant_seed), its weights drawn from
+/// `seed` with output scale `output_scale`.
+inline models::NeuralFeedback example_feedback(const models::FeedbackStructure& structure, std::uint64_t plant_seed,
+                                               std::uint64_t seed, double output_scale) {
+  models::NeuralFeedback c = models::NeuralFeedback::with_structure(structure, example_narx(plant_seed));
+  models::initialize_feedback(c, seed, output_scale);
+  return c;
 }
 
 /// `n` samples uniform in ±amplitude from dsp::Rng(seed).

@@ -161,6 +161,22 @@ TEST(VirtualTransducer, SensorNoiseHasTheConfiguredLevel) {
   EXPECT_NEAR(y.mean(), 0.0, 5 * plant.sensor.noise_rms_V / std::sqrt(20000.0));
 }
 
+TEST(VirtualTransducer, TheCleanOutputIsTheSameTransducerReadByANoiseFreeSensor) {
+  const PlantConfig plant = plant_preset("panel-exciter");
+  const Eigen::VectorXd u = dsp::uniform_noise(20000, 0.8, 4);
+  VirtualTransducer noisy(plant, 7), silent(quiet(plant), 7);
+  Eigen::VectorXd noise(u.size());
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    const PlantSample s = noisy.step(u[k]);
+    const double reference = silent.step(u[k]).y;
+    ASSERT_EQ(s.y_clean, reference) << "sample " << k << ": the noise must not reach the panel";
+    noise[k] = s.y - s.y_clean;
+  }
+  // what separates the two is the sensor's noise: zero-mean, at its configured level (standard error 0.5 %)
+  EXPECT_NEAR(std::sqrt(noise.squaredNorm() / noise.size()), plant.sensor.noise_rms_V, 0.03 * plant.sensor.noise_rms_V);
+  EXPECT_NEAR(noise.mean(), 0.0, 5 * plant.sensor.noise_rms_V / std::sqrt(20000.0));
+}
+
 TEST(VirtualTransducer, ThermalCompressionLowersTheOutputOverTime) {
   PlantConfig plant = quiet(plant_preset("linear"));
   plant.nonlinear.thermal.enabled = true;
