@@ -41,13 +41,18 @@ work=$(mktemp -d)
 trap 'if [ -n "${KEEP:-}" ]; then mkdir -p "$KEEP" && cp -r "$work"/. "$KEEP"/; fi; rm -rf "$work"' EXIT
 cd "$work"
 field() { sed -n "s/^  \"$1\": \([-0-9.e+]*\).*/\1/p" | head -n 1; }
+# stage WHAT: where the run is, on stderr (the table is stdout); the NARX training and the controller design,
+# the long steps, show their own progress there too
+stage() { echo "control_table: $(date +%H:%M:%S) $*" >&2; }
 
+stage "seed $seed on $plant: linear model and LQ feedforward"
 "$bin" simulate --plant "$plant" --signal noise --samples 18000 --seed "$seed" --out all.csv > /dev/null 2>&1
 head -n 12001 all.csv > est.csv
 { head -n 1 all.csv; tail -n +12002 all.csv; } > val.csv
 lin=$("$bin" identify linear --data est.csv --val val.csv --fs 3000 --method oe --scan 1:16 --out lin.json 2> /dev/null)
 lq_weight=${LQ_WEIGHT:---R 1e-5}
 lq=$("$bin" design lq --model lin.json $lq_weight --R0 20 --bandpass 20,1200 --out ff.json 2> /dev/null)
+stage "$records regime records and the probes' stepped-sine recordings"
 : > reg_est.csv
 records=${RECORDS:-24}
 for i in $(seq 0 $((records - 1))); do
@@ -80,16 +85,18 @@ best=-1000
 checks=""
 kept=0
 for m in $(seq 0 $((models - 1))); do
+  stage "NARX candidate $m of $models (10/10/$hidden; about 50 min at 40 hidden nodes)"
   out=$("$bin" identify narx --data reg_est.csv --val reg_val.csv --fs 3000 --na 10 --nb 10 --hidden "$hidden" --train pem,oem-d \
           ${WEIGHTED:+--weight-col w} ${NARX_FLAGS:-} \
-          --max-iter 60 --seed $((seed + 100 * m)) --out "narx-$m.json" 2> /dev/null)
+          --max-iter 60 --seed $((seed + 100 * m)) --out "narx-$m.json")
   check=$(harmonics_check "narx-$m.json")
   score=$(echo "$check" | tail -n 1)
   checks+="- NARX candidate $m (seed $((seed + 100 * m)), J_val $(echo "$out" | field J_val_pct | awk '{printf "%.2f", $1}') %):"$'\n'"$(echo "$check" | head -n -1)"$'\n'
   if awk -v a="$score" -v b="$best" 'BEGIN { exit !(a > b) }'; then best=$score; nn=$out; cp "narx-$m.json" narx.json; kept=$m; fi
 done
+stage "neural feedback controller"
 fb=$("$bin" design nn --plant narx.json --ff ff.json --bandpass 20,1200 --hidden 8 --nu 6 --nv 2 --ny 4 --iterations 150 \
-       --samples 48000 --sine-peak 0.6 --sine-share "$share" --seed "$seed" --out fb.json 2> /dev/null)
+       --samples 48000 --sine-peak 0.6 --sine-share "$share" --seed "$seed" --out fb.json)
 echo "## Control on $plant (seed $seed)"
 echo "- linear model: OE order $(echo "$lin" | field order), J_val $(echo "$lin" | field J_val_pct | awk '{printf "%.2f", $1}') %;" \
      "LQ ($lq_weight → R $(echo "$lq" | field R), R0 20, 20-1200 Hz): max in $(echo "$lq" | field max_input_worst | awk '{printf "%.3f", $1}') worst," \
@@ -123,6 +130,7 @@ if len(e["rows"]) == 3:
 print(f'J_c noise floor of the sensor: {e["jc_noise_floor_pct"]:.1f} %; noise program amplitude {e["noise_amplitude"]:.3f}')
 PY
 }
+stage "evaluation on the transducer"
 for source in model sensor; do
   "$bin" chain --bandpass 20,1200 --ff ff.json --fb fb.json --source "$source" --out "chain-$source.json" > /dev/null
   plots=()
