@@ -85,7 +85,7 @@ best=-1000
 checks=""
 kept=0
 for m in $(seq 0 $((models - 1))); do
-  stage "NARX candidate $m of $models (10/10/$hidden; about 50 min at 40 hidden nodes)"
+  stage "NARX candidate $m of $models (10/10/$hidden: the longest step, its progress follows)"
   out=$("$bin" identify narx --data reg_est.csv --val reg_val.csv --fs 3000 --na 10 --nb 10 --hidden "$hidden" --train pem,oem-d \
           ${WEIGHTED:+--weight-col w} ${NARX_FLAGS:-} \
           --max-iter 60 --seed $((seed + 100 * m)) --out "narx-$m.json")
