@@ -15,7 +15,9 @@
 # The probes run where band-pass + feedforward reach a steady drive peak of 0.6: below the amplifier's
 # clipping (0.7) and the controller's soft limit (0.8), so that the feedback has headroom to correct; the
 # table at the limiter's knee (0.8, the evaluate default) follows for comparison.
-# Usage: [RECORDS=24] [MODELS=1] bash bench/control_table.sh [SEED] [SINE_SHARE]   (about 15 min per model)
+# Usage: [RECORDS=24] [MODELS=1] bash bench/control_table.sh [SEED] [SINE_SHARE]   (the table on stdout, each stage
+# and the training's progress on stderr; about 15 min per model at 20 hidden nodes;
+# at 40 the training alone took 100 min of CPU a seed)
 # WEIGHTED=1 trains the NARX model with the records' harmonic weights (identify narx --weight-col w: every
 # step's harmonics count alike). LQ_WEIGHT chooses the feedforward's weight (default "--R 1e-5", the thesis's;
 # LQ_WEIGHT="--max-input 0.33": R searched so that the chain takes a third of full scale). NARX_FLAGS adds flags to identify narx (e.g. NARX_FLAGS="--friction-units 3,10":
@@ -52,9 +54,9 @@ head -n 12001 all.csv > est.csv
 lin=$("$bin" identify linear --data est.csv --val val.csv --fs 3000 --method oe --scan 1:16 --out lin.json 2> /dev/null)
 lq_weight=${LQ_WEIGHT:---R 1e-5}
 lq=$("$bin" design lq --model lin.json $lq_weight --R0 20 --bandpass 20,1200 --out ff.json 2> /dev/null)
+records=${RECORDS:-24}
 stage "$records regime records and the probes' stepped-sine recordings"
 : > reg_est.csv
-records=${RECORDS:-24}
 for i in $(seq 0 $((records - 1))); do
   peak=$(awk -v i="$i" 'BEGIN { printf "%.2f", 0.35 + 0.1 * (i % 6) }')
   "$bin" simulate --plant "$plant" --signal control --ff ff.json --samples 22500 --seed $((seed * 1000 + 10 + i)) --sine-peak "$peak" --out reg.csv > /dev/null 2>&1
