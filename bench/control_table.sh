@@ -97,8 +97,9 @@ for m in $(seq 0 $((models - 1))); do
   if awk -v a="$score" -v b="$best" 'BEGIN { exit !(a > b) }'; then best=$score; nn=$out; cp "narx-$m.json" narx.json; kept=$m; fi
 done
 stage "neural feedback controller"
-fb=$("$bin" design nn --plant narx.json --ff ff.json --bandpass 20,1200 --hidden 8 --nu 6 --nv 2 --ny 4 --iterations 150 \
-       --samples 48000 --sine-peak 0.6 --sine-share "$share" --seed "$seed" --out fb.json)
+source "$here/bench/design_nn_flags.sh"
+fb=$("$bin" design nn --plant narx.json --ff ff.json "${design_nn_flags[@]}" --hidden "$design_nn_hidden" \
+       --iterations "$design_nn_iterations" --sine-share "$share" --seed "$seed" --out fb.json)
 echo "## Control on $plant (seed $seed)"
 echo "- linear model: OE order $(echo "$lin" | field order), J_val $(echo "$lin" | field J_val_pct | awk '{printf "%.2f", $1}') %;" \
      "LQ ($lq_weight → R $(echo "$lq" | field R), R0 20, 20-1200 Hz): max in $(echo "$lq" | field max_input_worst | awk '{printf "%.3f", $1}') worst," \

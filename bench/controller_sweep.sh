@@ -6,12 +6,13 @@
 # the same on the design's own plant model (what the design expected), and the worst probe of each.
 # Usage: bash bench/controller_sweep.sh KEEP_DIR SEED VARIANT...   (the table on stdout, progress on stderr)
 # Example: bash bench/controller_sweep.sh /tmp/k2 2 "" "--hidden 16 --iterations 300 --distortion-weighting"
-# A variant sets any `design nn` flag; unset ones take control_table.sh's (--hidden 8 --iterations 150 --seed
-# SEED, --nu 6 --nv 2 --ny 4, 48 000 samples, sine peak 0.6, sine share 0.75). About 1-3 min a variant.
+# A variant sets any `design nn` flag; unset ones take control_table.sh's (bench/design_nn_flags.sh: --hidden 8
+# --iterations 150, --nu 6 --nv 2 --ny 4, 48 000 samples, sine peak 0.6; and --seed SEED, sine share 0.75).
+# About 1-3 min a variant.
 # PANELBASS_BIN overrides the binary; PLANT the transducer (default panel-exciter).
 set -euo pipefail
 if [ $# -lt 3 ]; then
-  sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//' >&2
+  sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//' >&2
   exit 2
 fi
 keep=$(realpath "$1")
@@ -23,6 +24,7 @@ done
 plant=${PLANT:-panel-exciter}
 if [ -f "$plant" ]; then plant=$(realpath "$plant"); fi
 cd "$(dirname "$0")/.."
+source bench/design_nn_flags.sh
 bin=$(realpath "${PANELBASS_BIN:-build/bin/panelbass}")
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -33,10 +35,11 @@ echo "| design nn flags (control_table.sh's where unset) | THD change on the tra
 echo "|---|---|---|---|"
 for variant in "$@"; do
   echo "controller_sweep: $(date +%H:%M:%S) design nn $variant" >&2
-  defaults="$(with_default "$variant" --hidden 8) $(with_default "$variant" --iterations 150) $(with_default "$variant" --seed "$seed")"
+  defaults="$(with_default "$variant" --hidden "$design_nn_hidden") $(with_default "$variant" --iterations "$design_nn_iterations")"
+  defaults+=" $(with_default "$variant" --seed "$seed") $(with_default "$variant" --sine-share 0.75)"
   # shellcheck disable=SC2086  # the flags are words
-  "$bin" design nn --plant "$keep/narx.json" --ff "$keep/ff.json" --bandpass 20,1200 --nu 6 --nv 2 --ny 4 --samples 48000 \
-    --sine-peak 0.6 --sine-share 0.75 $defaults $variant --out fb.json > /dev/null 2> design.err ||
+  "$bin" design nn --plant "$keep/narx.json" --ff "$keep/ff.json" "${design_nn_flags[@]}" $defaults $variant --out fb.json \
+    > /dev/null 2> design.err ||
     { echo "controller_sweep: design nn $variant failed:" >&2; tail -n 3 design.err >&2; exit 1; }
   "$bin" chain --bandpass 20,1200 --ff "$keep/ff.json" --fb fb.json --source model --out chain.json > /dev/null
   "$bin" evaluate --plant "$plant" --chain chain.json --probe-peak 0.6 --out eval.json > /dev/null 2>&1
