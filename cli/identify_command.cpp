@@ -1,7 +1,9 @@
+#include <cmath>
 #include <limits>
 #include <vector>
 #include <memory>
 #include <string>
+#include <variant>
 
 #include "cli/commands.h"
 #include "cli/data_options.h"
@@ -116,6 +118,8 @@ struct IdentifyNarxOptions {
   std::string weight_col;
   std::vector<double> friction_gains;
   int friction_lags = 1;
+  std::string start_from;
+  bool structure_given = false;  ///< --na, --nb, --nk or --hidden on the command line
 };
 
 std::vector<models::TrainingMode> parse_modes(const std::string& list) {
@@ -136,6 +140,33 @@ Eigen::VectorXd read_weights(const std::string& path, const std::string& name, d
   return dsp::read_data_file(path, {name}, fs, 10).columns[0];
 }
 
+/// A model of the options' structure scaled to the estimation record, its weights drawn from --seed ([5F]).
+models::NarxModel fresh_narx_model(const IdentifyNarxOptions& o, const dsp::Record& est) {
+  const models::Scaling scaling = models::scaling_from_data(est.columns[0], est.columns[1]);
+  models::NarxModel model = models::NarxModel::with_structure({o.na, o.nb, o.nk, o.hidden}, scaling, est.fs);
+  model.net.initialize(1.0, o.seed);
+  return model;
+}
+
+/// --start-from: the given model, structure, scaling and weights, to train on from where it is (say on new
+/// records); refused for another rate, or with what only a fresh start uses.
+models::NarxModel start_narx_model(const IdentifyNarxOptions& o, double fs) {
+  const models::AnyModel any = models::load_model(o.start_from);
+  const auto* start = std::get_if<models::NarxModel>(&any.model);
+  if (start == nullptr) throw std::invalid_argument("--start-from " + o.start_from + ": expected a NARX model, got " + any.kind());
+  if (std::abs(start->fs - fs) > 1e-9 * fs) {
+    throw std::invalid_argument("--start-from " + o.start_from + ": identified at " + std::to_string(start->fs) +
+                                " Hz, the data is at " + std::to_string(fs) + " Hz");
+  }
+  if (o.structure_given) throw std::invalid_argument("--start-from takes the model's structure: leave out --na, --nb, --nk and --hidden");
+  if (o.grow > 0 || !o.friction_gains.empty()) {
+    throw std::invalid_argument("--start-from cannot be combined with --grow or --friction-units (they start afresh)");
+  }
+  models::NarxModel model = *start;
+  model.meta = nlohmann::json::object();
+  return model;
+}
+
 void run_identify_narx(const IdentifyNarxOptions& o) {
   const dsp::Record est = o.columns.read(o.data);
   Eigen::VectorXd u_val, y_val, w_val;
@@ -147,10 +178,9 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
     w_val = read_weights(o.val, o.weight_col, est.fs);
   }
   const Eigen::VectorXd w_est = read_weights(o.data, o.weight_col, est.fs);
-  const models::Scaling scaling = models::scaling_from_data(est.columns[0], est.columns[1]);
-  models::NarxStructure structure{o.na, o.nb, o.nk, o.hidden};
-  models::NarxModel model = models::NarxModel::with_structure(structure, scaling, est.fs);
-  model.net.initialize(1.0, o.seed);
+  models::NarxModel model = o.start_from.empty() ? fresh_narx_model(o, est) : start_narx_model(o, est.fs);
+  const models::Scaling& scaling = model.scaling;
+  const models::NarxStructure& structure = model.structure;
   const Eigen::VectorXd us = scaling.scale_u(est.columns[0]), ys = scaling.scale_y(est.columns[1]);
   nlohmann::json friction_report = nullptr;
   if (!o.friction_gains.empty()) {
@@ -171,7 +201,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   options.weights = w_est;
   options.validation_weights = w_val;
   if (o.gradient_check) {
-    const Eigen::Index skip = o.skip >= 0 ? o.skip : 2 * (o.na + o.nb);
+    const Eigen::Index skip = o.skip >= 0 ? o.skip : 2 * (structure.na + structure.nb);
     if (o.parameter < 0 || o.parameter >= model.net.parameter_count()) {
       throw std::invalid_argument("--parameter must be within [0, " + std::to_string(model.net.parameter_count()) + ")");
     }
@@ -242,6 +272,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   const double j_val = u_val.size() ? judged(u_val, y_val) : std::numeric_limits<double>::quiet_NaN();
   result.model.meta = {{"data", o.data}, {"val", o.val}, {"train", o.train}, {"optimizer", o.optimizer},
                        {"J_est_pct", j_est}, {"J_val_pct", models::number_or_null(j_val)}, {"seed", o.seed}};
+  if (!o.start_from.empty()) result.model.meta["start_from"] = o.start_from;
   if (!friction_report.is_null()) {
     result.model.meta["friction_units"] = friction_report;
     structure_report["friction_units"] = friction_report;
@@ -330,11 +361,17 @@ void register_identify(CLI::App& app) {
                    "With --friction-units: seed the nodes for the velocities v(k)..v(k-L+1) too (L x gains nodes)")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
+  narx->add_option("--start-from", n->start_from,
+                   "Train on from this NARX model (its structure, scaling and weights), e.g. on new records; --seed then "
+                   "plays no part");
   narx->add_option("--out", n->out, "Model file to write (JSON)");
   narx->footer(
       "Example:\n  panelbass identify narx --data est.csv --val val.csv --fs 3000 --na 8 --nb 8 --hidden 17 "
-      "--train pem,oem-d --optimizer lm --max-iter 50 --seed 1 --out nn.json");
-  narx->callback([n] {
+      "--train pem,oem-d --optimizer lm --max-iter 50 --seed 1 --out nn.json\n"
+      "  panelbass identify narx --data more.csv --val val.csv --fs 3000 --start-from nn.json --train oem-d "
+      "--max-iter 20 --out nn2.json");
+  narx->callback([n, narx] {
+    for (const char* name : {"--na", "--nb", "--nk", "--hidden"}) n->structure_given |= narx->count(name) > 0;
     if (!n->gradient_check && n->out.empty()) throw CLI::RequiredError("--out");
     run_identify_narx(*n);
   });

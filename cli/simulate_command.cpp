@@ -11,6 +11,7 @@
 #include "dsp/excitation.h"
 #include "models/feedback_design.h"
 #include "models/json_file.h"
+#include "models/neural_feedback.h"
 #include "models/plant_presets.h"
 #include "models/virtual_transducer.h"
 
@@ -34,6 +35,7 @@ struct SimulateOptions {
   std::size_t settle = 600;
   std::size_t measure = 3000;
   std::string ff;
+  std::string fb;
   std::string bandpass = "20,1200";
   double sine_peak = 1.0;
   double program_share = models::FeedbackDesignOptions{}.program_share;
@@ -41,7 +43,10 @@ struct SimulateOptions {
 };
 
 /// --signal control's record: the drive the feedforward chain produces for the controller design's program
-/// (noise + stepped sines), with its steps and linear response for the harmonic weights.
+/// (noise + stepped sines), with its steps and linear response for the harmonic weights. With --fb, the drive
+/// is the neural feedback controller's behind the feedforward, run in model mode (fig. 7.10 with its own plant
+/// model, as `chain --source model` runs it): a closed-loop record, to refine the plant model where the
+/// controller drives it.
 models::ControlRecord make_control_record(const SimulateOptions& o, double fs) {
   if (o.ff.empty()) throw std::invalid_argument("--signal control needs --ff FF.json");
   const models::LqFeedforward ff = models::lq_feedforward_from_json(models::read_json_file(o.ff));
@@ -50,7 +55,13 @@ models::ControlRecord make_control_record(const SimulateOptions& o, double fs) {
   design.samples = static_cast<Eigen::Index>(o.samples);
   design.sine_peak = o.sine_peak;
   design.program_share = o.program_share;
-  return models::control_record(ff, band_pass_sections(o.bandpass, 2, fs), design, o.seed);
+  models::ControlRecord record = models::control_record(ff, band_pass_sections(o.bandpass, 2, fs), design, o.seed);
+  if (!o.fb.empty()) {
+    const models::NeuralFeedback fb = models::neural_feedback_from_json(models::read_json_file(o.fb));
+    if (std::abs(fb.fs - fs) > 1e-9 * fs) throw std::invalid_argument("--fb " + o.fb + ": designed at another rate than the plant's");
+    record.u = models::simulate_closed_loop(fb, record.u).v;
+  }
+  return record;
 }
 
 /// The excitation of every signal but control.
@@ -97,6 +108,7 @@ double rms(const Eigen::VectorXd& x) { return std::sqrt(x.squaredNorm() / static
 
 void run_simulate(const SimulateOptions& o) {
   if (o.samples == 0 && o.signal != "stepped") throw CLI::RequiredError("--samples");
+  if (!o.fb.empty() && o.signal != "control") throw std::invalid_argument("--fb needs --signal control");
   const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
   dsp::check_writable_data_file(o.out);
   const bool control = o.signal == "control";
@@ -143,6 +155,9 @@ void register_simulate(CLI::App& app) {
       ->check(CLI::Range(1, 100000000));
   cmd->add_option("--seed", o->seed, "Seed of the excitation")->capture_default_str();
   cmd->add_option("--ff", o->ff, "--signal control: the LQ feedforward controller whose output drives the plant");
+  cmd->add_option("--fb", o->fb,
+                  "--signal control: a neural feedback controller (design nn) behind the feedforward, run with its own plant "
+                  "model (model mode): the drive is the loop's, for refining the plant model where the controller drives it");
   add_bandpass_option(cmd, o->bandpass, "--signal control: band-pass corners LO,HI in front of it, Hz");
   cmd->add_option("--sine-peak", o->sine_peak, "--signal control: steady feedforward peak of the stepped sines (program peak where the chain's gain is below 1)")
       ->check(CLI::Range(1e-6, 1.0))
@@ -166,7 +181,8 @@ void register_simulate(CLI::App& app) {
   cmd->add_option("--out", o->out, "Output file, .csv or .wav (columns u,y,i,x; --signal control adds w, the harmonic weights for identify narx --weight-col w)")->required();
   cmd->footer(
       "Example:\n  panelbass simulate --plant panel-exciter --signal noise --amplitude 1 --samples 12000 "
-      "--seed 1 --out run.csv");
+      "--seed 1 --out run.csv\n"
+      "  panelbass simulate --signal control --ff ff.json --fb fb.json --samples 22500 --sine-peak 0.6 --seed 7 --out loop.csv");
   cmd->callback([o] { run_simulate(*o); });
 }
 

@@ -134,6 +134,64 @@ TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates)
   }
 }
 
+// Identification for control: `simulate --signal control --fb` drives the plant as the feedback controller does in
+// model mode (the engine's sample-by-sample runner, computed here, gives the same drive), and `identify narx
+// --start-from` trains on from the plant model (no iteration: the same weights and scaling; more: J_val no worse).
+TEST_F(CliControl, ClosedLoopRecordsRefineThePlantModelFromWhereItIs) {
+  expect_result(run("simulate --plant linear --signal control --ff " + quoted(path("ff.json")) +
+                    " --samples 3000 --seed 5 --sine-peak 0.6 --out " + quoted(path("reg.csv"))));
+  split_csv(path("reg.csv"), 2000);
+  expect_result(run("identify narx --data " + quoted(path("est.csv")) + " --val " + quoted(path("val.csv")) +
+                    " --fs 3000 --na 3 --nb 3 --hidden 4 --max-iter 5 --seed 1 --out " + quoted(path("narx.json"))));
+  expect_result(run("design nn --plant " + quoted(path("narx.json")) + " --ff " + quoted(path("ff.json")) +
+                    " --hidden 4 --iterations 3 --samples 2000 --out " + quoted(path("fb.json"))));
+  const json loop = expect_result(run("simulate --plant linear --signal control --ff " + quoted(path("ff.json")) +
+                                      " --fb " + quoted(path("fb.json")) + " --samples 3000 --seed 7 --sine-peak 0.6 --out " +
+                                      quoted(path("loop.csv"))));
+  EXPECT_EQ(loop["signal"], "control");
+  const Eigen::VectorXd drive = dsp::read_csv(path("loop.csv"), {"u"}).column("u");
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(models::read_json_file(path("ff.json")));
+  models::FeedbackDesignOptions o;
+  o.samples = 3000;
+  o.sine_peak = 0.6;
+  const Eigen::VectorXd u_ff = models::control_record(ff, dsp::butterworth_band(2, 20.0, 1200.0, 3000.0), o, 7).u;
+  const models::NeuralFeedback fb = models::neural_feedback_from_json(models::read_json_file(path("fb.json")));
+  models::FeedbackRunner runner(fb);
+  ASSERT_EQ(drive.size(), u_ff.size());
+  double largest_change = 0.0;
+  for (Eigen::Index k = 0; k < u_ff.size(); ++k) {
+    const double v = runner.control(u_ff[k]);
+    runner.push_output(runner.plant_model_output());
+    ASSERT_NEAR(drive[k], v, 1e-9) << "sample " << k;
+    largest_change = std::max(largest_change, std::abs(v - u_ff[k]));
+  }
+  EXPECT_GT(largest_change, 1e-4) << "the trained controller changes the feedforward's drive";
+  EXPECT_LE(drive.cwiseAbs().maxCoeff(), 1.0);
+
+  split_csv(path("loop.csv"), 2000);
+  const std::string refine = "identify narx --data " + quoted(path("est.csv")) + " --val " + quoted(path("val.csv")) +
+                             " --fs 3000 --train oem-d --start-from " + quoted(path("narx.json"));
+  const json kept = expect_result(run(refine + " --max-iter 0 --out " + quoted(path("same.json"))));
+  const json start = json::parse(text_of(path("narx.json"))), same = json::parse(text_of(path("same.json")));
+  EXPECT_EQ(same["params"], start["params"]) << "structure and weights kept";
+  EXPECT_EQ(same["scaling"], start["scaling"]) << "the start's scaling, not the new record's";
+  EXPECT_EQ(same["meta"]["start_from"], path("narx.json").string());
+  const json refined = expect_result(run(refine + " --max-iter 4 --out " + quoted(path("refined.json"))));
+  ASSERT_GE(refined["history"].size(), 2u);
+  EXPECT_LT(refined["J_val_pct"].get<double>(), 1.01 * kept["J_val_pct"].get<double>())
+      << "early stopping keeps the start unless training improves on it";
+
+  // what a refinement cannot take, named
+  expect_failure(run(refine + " --hidden 6 --out " + quoted(path("x.json"))), "--start-from");
+  expect_failure(run(refine + " --friction-units 3 --out " + quoted(path("x.json"))), "--friction-units");
+  expect_failure(run("identify narx --data " + quoted(path("est.csv")) + " --fs 3000 --start-from " +
+                     quoted(dir_ / "lin.json") + " --out " + quoted(path("x.json"))),
+                 "expected a NARX model");
+  expect_failure(run("simulate --plant linear --signal noise --fb " + quoted(path("fb.json")) + " --samples 100 --out " +
+                     quoted(path("x.csv"))),
+                 "--fb needs --signal control");
+}
+
 TEST_F(CliControl, AttributeEvaluatesEachNonlinearTermAlone) {
   expect_result(run("chain --bandpass 20,1200 --ff " + quoted(path("ff.json")) + " --out " + quoted(path("chain.json"))));
   const RunResult r = run("evaluate --plant panel-exciter --chain " + quoted(path("chain.json")) +
