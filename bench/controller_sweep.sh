@@ -3,7 +3,7 @@
 # list of `design nn` flags) a controller is designed on the NARX model and feedforward that a
 # control_table.sh run kept (KEEP=DIR), chained in model mode and evaluated on the transducer at the 0.6
 # drive-peak probes. One table row a variant: the THD change by the feedback at each probe on the transducer,
-# the same on the design's own plant model (what the design expected), and the worst probe of each.
+# the same on the design's own plant model (what the design expected), the worst probe of each and the largest drive.
 # Usage: bash bench/controller_sweep.sh KEEP_DIR SEED VARIANT...   (the table on stdout, progress on stderr)
 # Example: bash bench/controller_sweep.sh /tmp/k2 2 "" "--hidden 16 --iterations 300 --distortion-weighting"
 # A variant sets any `design nn` flag; unset ones take control_table.sh's (bench/design_nn_flags.sh: --hidden 8
@@ -24,32 +24,22 @@ done
 plant=${PLANT:-panel-exciter}
 if [ -f "$plant" ]; then plant=$(realpath "$plant"); fi
 cd "$(dirname "$0")/.."
+here=$(pwd)
 source bench/design_nn_flags.sh
 bin=$(realpath "${PANELBASS_BIN:-build/bin/panelbass}")
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cd "$work"
-# with_default FLAGS FLAG VALUE: FLAG VALUE unless FLAGS set FLAG already
-with_default() { case " $1 " in *" $2 "*) ;; *) echo "$2 $3" ;; esac; }
-echo "| design nn flags (control_table.sh's where unset) | THD change on the transducer, 40/80/160/320 Hz, dB | on the design's plant model | worst, transducer / model |"
-echo "|---|---|---|---|"
+echo "| design nn flags (control_table.sh's where unset) | THD change on the transducer, 40/80/160/320 Hz, dB | on the design's plant model | worst, transducer / model | max drive |"
+echo "|---|---|---|---|---|"
 for variant in "$@"; do
   echo "controller_sweep: $(date +%H:%M:%S) design nn $variant" >&2
-  defaults="$(with_default "$variant" --hidden "$design_nn_hidden") $(with_default "$variant" --iterations "$design_nn_iterations")"
-  defaults+=" $(with_default "$variant" --seed "$seed") $(with_default "$variant" --sine-share 0.75)"
+  defaults=$(design_nn_defaults "$variant" "$seed")
   # shellcheck disable=SC2086  # the flags are words
   "$bin" design nn --plant "$keep/narx.json" --ff "$keep/ff.json" "${design_nn_flags[@]}" $defaults $variant --out fb.json \
     > /dev/null 2> design.err ||
     { echo "controller_sweep: design nn $variant failed:" >&2; tail -n 3 design.err >&2; exit 1; }
   "$bin" chain --bandpass 20,1200 --ff "$keep/ff.json" --fb fb.json --source model --out chain.json > /dev/null
   "$bin" evaluate --plant "$plant" --chain chain.json --probe-peak 0.6 --out eval.json > /dev/null 2>&1
-  python3 - eval.json "${variant:-(none)}" <<'PY'
-import json, math, sys
-rows = json.load(open(sys.argv[1]))["rows"]
-def change(key):
-    return [20 * math.log10(c[key] / b[key]) for b, c in zip(rows[1]["probes"], rows[2]["probes"])]
-real, model = change("thd_pct"), change("model_thd_pct")
-cells = lambda d: " / ".join(f"{x:+.1f}" for x in d)
-print(f"| {sys.argv[2]} | {cells(real)} | {cells(model)} | {max(real):+.1f} / {max(model):+.1f} |")
-PY
+  echo "| ${variant:-(none)} |$(python3 "$here/bench/thd_change_cells.py" eval.json)"
 done
