@@ -30,6 +30,14 @@ long_repeats='^CliDiagnose\.APlantBaselineIsDiagnosedThroughItsLinearisation$|^C
 long_repeats+='|^Diagnosis\.VisibleAsymmetricStiffnessIsNamedFirst$|^Diagnosis\.VisibleClippingIsNamedSaturationFirst$'
 long_repeats+='|^Diagnosis\.GivenBaselineMissingASensorOffsetGetsADcOffset$|^Diagnosis\.GivenBaselineWithTooShortADelayGetsADelay$'
 long_repeats+='|^LinearIdentification\.OeZhuAndBackxRecoverTheLinearPlant$'
+# Six more long numeric runs (30-110 s each under ASan, 7 min of the stage's CPU) whose paths shorter tests
+# walk under the sanitizer too: the dX/N growth loop (NarxStructureGrowth.MaxHiddenOne...), NARX training on
+# the transducer (JobKindsTest.IdentifyNarxOnTheVirtualTransducer), the chain's evaluation on the transducer
+# (CliControl.ControlSignal..., ChainEvaluationTest.OnALinearPlant...), the term-by-term attribution
+# (ChainEvaluationTest.Attribution...) and the transducer's simulation (VirtualTransducer.*). All run in the main stage.
+long_repeats+='|^NarxStructureGrowth\.TheDxOverNRule|^NarxTransducer\.NeuralModelBeatsTheBestLinearModel'
+long_repeats+='|^JobKindsTest\.EvaluateIsTheChainsEvaluationOnTheVirtualTransducer$|^CliControl\.AttributeEvaluatesEachNonlinearTermAlone$'
+long_repeats+='|^PlantSurvey\.PanelExciter'
 started=$(date +%s)
 CC=clang CXX=clang++ cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" \
   -DPANELBASS_SANITIZE=ON -DPANELBASS_FUZZ=ON >/dev/null
