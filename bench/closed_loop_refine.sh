@@ -33,6 +33,7 @@ if [ -n "${KEEP_REFINED:-}" ]; then KEEP_REFINED=$(realpath -m "$KEEP_REFINED");
 cd "$(dirname "$0")/.."
 here=$(pwd)
 source bench/design_nn_flags.sh
+source bench/regime_records.sh
 bin=$(realpath "${PANELBASS_BIN:-build/bin/panelbass}")
 records=${RECORDS:-24}
 refine_iter=${REFINE_ITER:-15}
@@ -58,13 +59,7 @@ row() {
 stage "seed $seed: the controller the records run (design nn $first)"
 design "$keep/narx.json" "$first" fb-first.json
 stage "$records closed-loop records"
-: > loop_est.csv
-for i in $(seq 0 $((records - 1))); do
-  peak=$(awk -v i="$i" 'BEGIN { printf "%.2f", 0.35 + 0.1 * (i % 6) }')
-  "$bin" simulate --signal control --ff "$keep/ff.json" --fb fb-first.json --samples 22500 --seed $((seed * 1000 + 500 + i)) \
-    --sine-peak "$peak" --out reg.csv > /dev/null 2>&1
-  if [ "$i" = 0 ]; then cat reg.csv > loop_est.csv; else tail -n +2 reg.csv >> loop_est.csv; fi
-done
+regime_records "$bin" loop_est.csv "$records" $((seed * 1000 + 500)) --ff "$keep/ff.json" --fb fb-first.json
 "$bin" simulate --signal control --ff "$keep/ff.json" --fb fb-first.json --samples 10000 --seed $((seed * 1000 + 998)) \
   --sine-peak 0.65 --out loop_val.csv > /dev/null 2>&1
 { cat "$keep/reg_est.csv"; tail -n +2 loop_est.csv; } > refine_est.csv

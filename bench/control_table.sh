@@ -56,12 +56,8 @@ lq_weight=${LQ_WEIGHT:---R 1e-5}
 lq=$("$bin" design lq --model lin.json $lq_weight --R0 20 --bandpass 20,1200 --out ff.json 2> /dev/null)
 records=${RECORDS:-24}
 stage "$records regime records and the probes' stepped-sine recordings"
-: > reg_est.csv
-for i in $(seq 0 $((records - 1))); do
-  peak=$(awk -v i="$i" 'BEGIN { printf "%.2f", 0.35 + 0.1 * (i % 6) }')
-  "$bin" simulate --plant "$plant" --signal control --ff ff.json --samples 22500 --seed $((seed * 1000 + 10 + i)) --sine-peak "$peak" --out reg.csv > /dev/null 2>&1
-  if [ "$i" = 0 ]; then cat reg.csv > reg_est.csv; else tail -n +2 reg.csv >> reg_est.csv; fi
-done
+source "$here/bench/regime_records.sh"
+regime_records "$bin" reg_est.csv "$records" $((seed * 1000 + 10)) --plant "$plant" --ff ff.json
 "$bin" simulate --plant "$plant" --signal control --ff ff.json --samples 10000 --seed $((seed * 1000 + 999)) --sine-peak 0.65 --out reg_val.csv > /dev/null 2>&1
 # Each probe's steady drive behind band-pass + feedforward, and a 100 s stepped-sine recording there (the
 # sensor noise on: a measurement, as a user would make one; 100 s puts its floor under the -50 dB harmonics).

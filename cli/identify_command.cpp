@@ -162,9 +162,7 @@ models::NarxModel start_narx_model(const IdentifyNarxOptions& o, double fs) {
   if (o.grow > 0 || !o.friction_gains.empty()) {
     throw std::invalid_argument("--start-from cannot be combined with --grow or --friction-units (they start afresh)");
   }
-  models::NarxModel model = *start;
-  model.meta = nlohmann::json::object();
-  return model;
+  return *start;  // its meta is replaced by this run's when the model is written
 }
 
 void run_identify_narx(const IdentifyNarxOptions& o) {
