@@ -612,7 +612,13 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
   options.sine_share = params.at("sine_share").get<double>();
   options.sine_peak = params.at("sine_peak").get<double>();
   options.program_share = params.at("program_share").get<double>();
+  options.desired = models::desired_response_from_name(params.at("desired").get<std::string>());
+  const std::string weighting = params.at("weighting").get<std::string>();
+  options.level_weighting = weighting == "level";
+  options.distortion_weighting = weighting == "distortion";
   options.restarts = params.at("restarts").get<int>();
+  options.keep = models::restart_choice_from_name(params.at("keep").get<std::string>());
+  options.probe_hz = params.at("probes_hz").get<std::vector<double>>();
   options.seed = params.at("seed").get<std::uint64_t>();
   options.training.max_iterations = params.at("max_iterations").get<int>();
   options.training.rail_penalty = params.at("rail_penalty").get<double>();
@@ -639,6 +645,11 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
   }
   json restart_jc_val = json::array();
   for (const double jc : d.restart_jc_val_pct) restart_jc_val.push_back(finite_or_null(jc));
+  json restart_probes = json::array();
+  for (const std::vector<double>& changes : d.restart_probe_change_db) {
+    restart_probes.push_back(json::array());
+    for (const double db : changes) restart_probes.back().push_back(finite_or_null(db));
+  }
   const json design = models::feedback_design_options_json(options);
   d.controller.meta = {{"plant", plant_id},
                        {"feedforward", ff_id},
@@ -646,6 +657,7 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
                        {"order", band_order},
                        {"restart", d.chosen_restart},
                        {"restart_jc_val_pct", restart_jc_val},
+                       {"restart_probe_change_db", restart_probes},
                        {"training", training}};
   d.controller.meta.update(design);
   progress.span(0.9, 1.0);
@@ -669,6 +681,7 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
                   {"rail_fraction", best.rail_fraction},
                   {"chosen_restart", d.chosen_restart},
                   {"restart_jc_val_pct", restart_jc_val},
+                  {"restart_probe_change_db", restart_probes},
                   {"bandpass", {lo, hi}},
                   {"bandpass_order", band_order}};
   summary.update(design);

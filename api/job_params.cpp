@@ -9,6 +9,7 @@
 #include "api/model_store.h"
 #include "engine/chain_evaluation.h"
 #include "models/feedback_design.h"
+#include "models/model_probes.h"
 #include "models/plant_presets.h"
 
 namespace panelbass::api {
@@ -251,7 +252,12 @@ json design_nn_params(const json& params, const JobEnvironment& env) {
   r.number("sine_share", design.sine_share, {0.0, 1.0, false, false});
   r.number("sine_peak", design.sine_peak, {0.0, 1.0, true, false});
   r.number("program_share", design.program_share, {0.0, 1.0, false, false});
+  r.choice("desired", models::desired_response_name(design.desired),
+           {"linear-model", "plant-small-signal", "plant-fundamental"});
+  r.choice("weighting", "none", {"none", "level", "distortion"});
   r.integer("restarts", design.restarts, 1, kMaxRestarts);
+  r.choice("keep", models::restart_choice_name(design.keep), {"validation-jc", "worst-probe"});
+  r.numbers("probes_hz", models::evaluation_probe_hz(), 1, 16, {0.0, env.fs / 4.0, true, true});
   r.number("rail_penalty", design.training.rail_penalty, {0.0, kMaxRailPenalty, false, false});
   r.number("dc_penalty", design.training.dc_penalty, {0.0, kMaxRailPenalty, false, false});
   r.integer("seed", 1, 0, kMaxSeed);

@@ -51,6 +51,7 @@ void run_design_nn(DesignNnOptions o) {
                        {"order", o.order},
                        {"restart", d.chosen_restart},
                        {"restart_jc_val_pct", d.restart_jc_val_pct},
+                       {"restart_probe_change_db", d.restart_probe_change_db},
                        {"training", history_json(d.training.history)}};
   d.controller.meta.update(models::feedback_design_options_json(o.design));
   models::write_json_file(o.out, models::neural_feedback_to_json(d.controller));
@@ -61,6 +62,7 @@ void run_design_nn(DesignNnOptions o) {
                 {"jc_val_before_pct", first.jc_val_pct},
                 {"jc_val_after_pct", models::best_validation_jc_pct(d.training)},
                 {"restart_jc_val_pct", d.restart_jc_val_pct},
+                {"restart_probe_change_db", d.restart_probe_change_db},
                 {"chosen_restart", d.chosen_restart},
                 {"history", history_json(d.training.history)}});
 }
@@ -141,11 +143,23 @@ void add_design_nn(CLI::App& design) {
       ->capture_default_str();
   cmd->add_option("--seed", o->design.seed, "Seed of the training records and initial weights")->capture_default_str();
   cmd->add_option("--restarts", o->design.restarts,
-                 "Trainings from different initial weights (seed, seed+1, ...); the lowest validation J_c is kept")
+                 "Trainings from different initial weights (seed, seed+1, ...); --keep says which is kept")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
+  cmd->add_option_function<std::string>(
+         "--keep", [o](const std::string& name) { o->design.keep = models::restart_choice_from_name(name); },
+         "Which restart is kept: validation-jc (the lowest validation J_c on the plant model) or worst-probe (the "
+         "largest THD cut at its worst --probes frequency on the plant model, at the --sine-peak drive)")
+      ->check(CLI::IsMember({"validation-jc", "worst-probe"}))
+      ->default_str("validation-jc");
+  cmd->add_option("--probes", o->design.probe_hz, "Probe frequencies in Hz that --keep worst-probe scores by (evaluate's)")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber)
+      ->default_str("40,80,160,320");
   cmd->add_option("--out", o->out, "Controller file to write (JSON)")->required();
-  cmd->footer("Example:\n  panelbass design nn --plant nn.json --ff ff.json --bandpass 20,1200 --hidden 8 --out fb.json");
+  cmd->footer(
+      "Example:\n  panelbass design nn --plant nn.json --ff ff.json --bandpass 20,1200 --hidden 8 --out fb.json\n"
+      "  panelbass design nn --plant nn.json --ff ff.json --restarts 4 --keep worst-probe --out fb.json");
   cmd->callback([o] { run_design_nn(*o); });
 }
 

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -14,6 +13,7 @@
 #include "engine/offline_renderer.h"
 #include "models/feedback_training.h"
 #include "models/lq_feedforward.h"
+#include "models/model_probes.h"
 #include "models/neural_feedback.h"
 #include "models/state_space.h"
 
@@ -22,11 +22,8 @@ namespace {
 
 // Samples at the start of a noise run left out of J_c (the chain and the plant start at rest).
 constexpr Eigen::Index kNoiseSkip = 1000;
-// A probe sine fades in over this long, settles, and is analysed over a whole second (whole periods for
-// integer-Hz probes).
-constexpr double kFadeSeconds = 0.2;
-constexpr double kSettleSeconds = 1.0;
-constexpr double kAnalysisSeconds = 1.0;
+// A probe sine fades in, settles, and is analysed over a whole second (models::ProbeTiming's defaults).
+constexpr models::ProbeTiming kProbeTiming{};
 
 std::vector<dsp::Biquad> band_pass_sections(const BandPassConfig& bp, double fs) {
   if (bp.bypass) return {};
@@ -96,8 +93,7 @@ double model_thd_pct(const models::NeuralFeedback& fb, const Variant& variant, c
   Eigen::VectorXd u = sine;
   if (variant.band_pass) u = dsp::SosFilter(sections).process(u);
   if (variant.feedforward) u = models::simulate(controller, u);
-  const Eigen::VectorXd y = variant.feedback ? models::simulate_closed_loop(fb, u).y : fb.plant.simulate(u);
-  return dsp::harmonic_levels(y.tail(n_analysis), fb.fs, f, harmonics).thd_percent();
+  return models::model_probe_thd_pct(fb, u, variant.feedback, n_analysis, f, harmonics);
 }
 
 void require_options(const EvaluationOptions& o, double fs) {
@@ -151,9 +147,8 @@ ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantCon
   std::vector<Variant> variants{{"plant", false, false, false}, {"band-pass + feedforward", true, true, false}};
   if (config.feedback) variants.push_back({"band-pass + feedforward + feedback", true, true, true});
 
-  const auto n_fade = static_cast<Eigen::Index>(kFadeSeconds * fs);
-  const auto n_settle = static_cast<Eigen::Index>(kSettleSeconds * fs);
-  const auto n_analysis = static_cast<Eigen::Index>(kAnalysisSeconds * fs);
+  const auto n_settle = static_cast<Eigen::Index>(kProbeTiming.settle_seconds * fs);
+  const auto n_analysis = static_cast<Eigen::Index>(kProbeTiming.analysis_seconds * fs);
   for (const Variant& variant : variants) {
     EvaluationRow row;
     row.name = variant.name;
@@ -182,15 +177,11 @@ ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantCon
     for (double f : o.probe_hz) {
       ProbeResult probe;
       probe.frequency_hz = f;
-      // the largest amplitude at which band-pass + feedforward reach a steady peak of 1
-      const std::complex<double> gain = dsp::SosFilter(sections).response(f, fs) * models::response(controller, f, fs);
+      // the amplitude at which band-pass + feedforward reach the steady peak (the bare plant row sees no
+      // more than the peak either)
       const double peak = o.probe_peak > 0.0 ? o.probe_peak : config.limiter.knee;
-      probe.amplitude = peak / std::max(1.0, std::abs(gain));  // the bare plant row sees no more than the peak either
-      Eigen::VectorXd sine(n_settle + n_analysis);
-      for (Eigen::Index k = 0; k < sine.size(); ++k) {
-        const double fade = k < n_fade ? 0.5 - 0.5 * std::cos(std::numbers::pi * static_cast<double>(k) / n_fade) : 1.0;
-        sine[k] = fade * probe.amplitude * std::sin(2.0 * std::numbers::pi * f * static_cast<double>(k) / fs);
-      }
+      probe.amplitude = models::probe_amplitude(sections, controller, f, fs, peak);
+      const Eigen::VectorXd sine = models::probe_sine(f, probe.amplitude, fs, kProbeTiming);
       const Run sine_run = run_variant(config, variant, quiet_plant, sine, o.seed);
       account(sine_run);
       const dsp::HarmonicLevels levels =

@@ -12,13 +12,14 @@
 
 #include "dsp/harmonics.h"
 #include "engine/chain_file.h"
+#include "models/model_probes.h"
 #include "models/plant_config.h"
 
 namespace panelbass::engine {
 
 /// What the evaluation measures.
 struct EvaluationOptions {
-  std::vector<double> probe_hz{40.0, 80.0, 160.0, 320.0};  ///< sine frequencies of the distortion probe
+  std::vector<double> probe_hz = models::evaluation_probe_hz();  ///< sine frequencies of the distortion probe
   double ripple_low_hz = 20.0;     ///< the band whose response ripple is measured
   double ripple_high_hz = 1200.0;  ///< (upper edge)
   Eigen::Index noise_samples = 60000;  ///< white-noise record for the response and J_c

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "dsp/random.h"
+#include "models/model_probes.h"
 #include "models/state_space.h"
 
 namespace panelbass::models {
@@ -158,6 +159,17 @@ DesiredResponse desired_response_from_name(const std::string& name) {
                               "' (expected linear-model, plant-small-signal or plant-fundamental)");
 }
 
+const char* restart_choice_name(RestartChoice c) {
+  return c == RestartChoice::worst_probe ? "worst-probe" : "validation-jc";
+}
+
+RestartChoice restart_choice_from_name(const std::string& name) {
+  for (RestartChoice c : {RestartChoice::validation_jc, RestartChoice::worst_probe}) {
+    if (name == restart_choice_name(c)) return c;
+  }
+  throw std::invalid_argument("design nn: unknown restart choice '" + name + "' (expected validation-jc or worst-probe)");
+}
+
 ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
                              const FeedbackDesignOptions& o, std::uint64_t seed, const NarxModel* plant) {
   require_options(o, ff.fs);
@@ -284,6 +296,8 @@ nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o) {
           {"level_weighting", o.level_weighting},
           {"distortion_weighting", o.distortion_weighting},
           {"restarts", o.restarts},
+          {"keep", restart_choice_name(o.keep)},
+          {"probe_hz", o.probe_hz.empty() ? evaluation_probe_hz() : o.probe_hz},
           {"rail_penalty", o.training.rail_penalty},
           {"dc_penalty", o.training.dc_penalty},
           {"desired", desired_response_name(o.desired)},
@@ -297,11 +311,21 @@ FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
                                 " Hz, the feedforward controller at " + std::to_string(ff.fs) + " Hz");
   }
   if (o.restarts < 1) throw std::invalid_argument("design nn: restarts must be >= 1, got " + std::to_string(o.restarts));
+  const std::vector<double> probe_hz = o.probe_hz.empty() ? evaluation_probe_hz() : o.probe_hz;
+  if (o.keep == RestartChoice::worst_probe) {
+    for (double f : probe_hz) {
+      if (!(f > 0.0 && 4.0 * f < ff.fs)) {
+        throw std::invalid_argument("design nn: probe " + std::to_string(f) + " Hz must be within (0, fs/4) = (0, " +
+                                    std::to_string(ff.fs / 4.0) + ")");
+      }
+    }
+  }
   const ControlRecord est = control_record(ff, band_pass, o, o.seed, &plant);
   const ControlRecord val = control_record(ff, band_pass, o, o.seed + 1, &plant);
   std::optional<FeedbackDesign> best;
   double best_score = std::numeric_limits<double>::infinity();
   std::vector<double> scores;
+  std::vector<std::vector<double>> probe_changes;
   for (int restart = 0; restart < o.restarts; ++restart) {
     NeuralFeedback initial = NeuralFeedback::with_structure(o.structure, plant);
     initialize_feedback(initial, o.seed + static_cast<std::uint64_t>(restart));
@@ -314,16 +338,21 @@ FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
         o.training.progress(r);
       };
     }
-    FeedbackDesign d{initial, train_feedback(initial, est.u, est.y_desired, val.u, val.y_desired, training), {}, restart};
+    FeedbackDesign d{initial, train_feedback(initial, est.u, est.y_desired, val.u, val.y_desired, training), {}, {}, restart};
     d.controller = d.training.controller;
-    const double score = best_validation_jc_pct(d.training);
-    scores.push_back(score);
+    scores.push_back(best_validation_jc_pct(d.training));
+    double score = scores.back();
+    if (o.keep == RestartChoice::worst_probe) {
+      probe_changes.push_back(model_thd_change_db(d.controller, ff, band_pass, probe_hz, o.sine_peak));
+      score = *std::max_element(probe_changes.back().begin(), probe_changes.back().end());
+    }
     if (!best || score < best_score) {
       best = std::move(d);
       best_score = score;
     }
   }
   best->restart_jc_val_pct = scores;
+  best->restart_probe_change_db = probe_changes;
   return *best;
 }
 

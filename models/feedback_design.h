@@ -35,6 +35,18 @@ const char* desired_response_name(DesiredResponse d);
 /// The DesiredResponse named `name`; std::invalid_argument listing the names otherwise.
 DesiredResponse desired_response_from_name(const std::string& name);
 
+/// Which of several restarts a design keeps.
+enum class RestartChoice {
+  validation_jc,  ///< the lowest validation J_c on the plant model (what the training minimises)
+  worst_probe,    ///< the largest THD cut at its worst probe on the plant model (model_thd_change_db at the
+                  ///< records' sine peak): what the controller is judged by, where J_c may hide one probe's miss
+};
+
+/// "validation-jc" or "worst-probe".
+const char* restart_choice_name(RestartChoice c);
+/// The RestartChoice named `name`; std::invalid_argument listing the names otherwise.
+RestartChoice restart_choice_from_name(const std::string& name);
+
 /// The fewest samples a training record (control_record) may have.
 inline constexpr Eigen::Index kMinControlSamples = 1000;
 
@@ -63,8 +75,10 @@ struct FeedbackDesignOptions {
                                       ///< distortion as much as one with 60 % (needs the plant model)
   DesiredResponse desired = DesiredResponse::linear_model;  ///< what the loop output tracks
   std::uint64_t seed = 1;            ///< records (estimation: seed, validation: seed + 1) and initial weights
-  int restarts = 1;                  ///< trainings from different initial weights on the same records; the one
-                                     ///< with the lowest validation J_c (on the plant model) is kept
+  int restarts = 1;                  ///< trainings from different initial weights on the same records
+  RestartChoice keep = RestartChoice::validation_jc;  ///< which restart is kept
+  std::vector<double> probe_hz;      ///< the probes RestartChoice::worst_probe scores by, Hz; empty: evaluate's
+                                     ///< (evaluation_probe_hz)
   FeedbackTrainingOptions training{};  ///< the training itself
 };
 
@@ -120,17 +134,19 @@ struct FeedbackDesign {
   NeuralFeedback controller;              ///< the trained controller
   FeedbackTrainingResult training;        ///< its training history
   std::vector<double> restart_jc_val_pct;  ///< every restart's best validation J_c, percent
+  std::vector<std::vector<double>> restart_probe_change_db;  ///< with RestartChoice::worst_probe, every restart's
+                                                             ///< THD change per probe on the plant model, dB
   int chosen_restart = 0;                 ///< the restart kept
 };
 
 /// The options a design ran with, as a controller file's meta and a design's report list them:
 /// {"samples","max_iterations","hidden","nu","nv","ny","sine_share","sine_peak","sine_band","program_share","restarts",
-///  "level_weighting","distortion_weighting","rail_penalty","dc_penalty","desired","seed"}.
+///  "keep","probe_hz","level_weighting","distortion_weighting","rail_penalty","dc_penalty","desired","seed"}.
 nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o);
 
 /// Designs the controller on `plant` (a NARX model at ff's rate) behind `ff` and `band_pass`: o.restarts
-/// trainings from initial weights seeded seed, seed + 1, … on the same records, the best by validation J_c
-/// kept. Throws std::invalid_argument for a rate mismatch or bad options.
+/// trainings from initial weights seeded seed, seed + 1, … on the same records, the best by o.keep kept
+/// (ties to the earlier). Throws std::invalid_argument for a rate mismatch or bad options.
 FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
                                const std::vector<dsp::Biquad>& band_pass, const FeedbackDesignOptions& o);
 

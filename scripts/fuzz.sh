@@ -40,7 +40,7 @@ done
 echo "== configure and build ($build)" >&2
 if [[ ${FUZZ_CONFIGURE:-1} != 0 ]]; then
   bash "$root/scripts/install_packages.sh" clang libclang-rt-14-dev
-  CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DPANELBASS_FUZZ=ON -DBUILD_TESTING=OFF \
+  CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DPANELBASS_FUZZ=ON -DPANELBASS_FUZZ_COVERAGE=ON -DBUILD_TESTING=OFF \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 fi
 cmake --build "$build" -j "$jobs" --target "${targets[@]/%/_fuzz}" >&2

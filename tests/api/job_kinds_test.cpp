@@ -293,6 +293,10 @@ TEST_F(JobKindsTest, DesignNnDefaultsComeFromTheDesignOptions) {
   EXPECT_EQ(nn.at("sine_peak"), design.sine_peak);
   EXPECT_EQ(nn.at("program_share"), design.program_share);
   EXPECT_EQ(nn.at("restarts"), 1);
+  EXPECT_EQ(nn.at("desired"), "linear-model");
+  EXPECT_EQ(nn.at("weighting"), "none");
+  EXPECT_EQ(nn.at("keep"), "validation-jc");
+  EXPECT_EQ(nn.at("probes_hz"), json({40.0, 80.0, 160.0, 320.0}));
   EXPECT_EQ(nn.at("rail_penalty"), design.training.rail_penalty);
   EXPECT_EQ(nn.at("dc_penalty"), design.training.dc_penalty);
   EXPECT_EQ(nn.at("samples"), 3000);
@@ -320,6 +324,10 @@ TEST_F(JobKindsTest, DesignNnRangesAreNamed) {
   EXPECT_EQ(refused({{"rail_penalty", "high"}}), "params.rail_penalty: must be a number in [0, 1e+12], got \"high\"");
   EXPECT_EQ(refused({{"dc_penalty", -0.5}}), "params.dc_penalty: must be a number in [0, 1e+12], got -0.5");
   EXPECT_EQ(refused({{"restart", 2}}), "params.restart: unknown field");
+  EXPECT_EQ(refused({{"keep", "best"}}).rfind("params.keep: ", 0), 0u);
+  EXPECT_EQ(refused({{"desired", "flat"}}).rfind("params.desired: ", 0), 0u);
+  EXPECT_EQ(refused({{"weighting", "both"}}).rfind("params.weighting: ", 0), 0u);
+  EXPECT_EQ(refused({{"probes_hz", json::array()}}).rfind("params.probes_hz: ", 0), 0u);
   // The ends that belong to the ranges.
   const json ends = with({{"nu", 0}, {"nv", 100}, {"sine_share", 0}, {"sine_peak", 1}, {"program_share", 1}, {"restarts", 20},
                           {"rail_penalty", 0}, {"dc_penalty", 0}});
@@ -831,6 +839,32 @@ TEST_F(JobKindsTest, DesignNnKeepsTheBestOfItsRestarts) {
   const json meta = store_->model(result.at("model_id").get<std::string>())->at("meta");
   EXPECT_EQ(meta.at("restart"), chosen);
   EXPECT_EQ(meta.at("restart_jc_val_pct"), summary.at("restart_jc_val_pct"));
+}
+
+// The job passes the target, the weighting and the restart choice on as `design nn` takes them: kept by the
+// worst probe, the restart kept is the one whose largest THD change over the probes is the most negative.
+TEST_F(JobKindsTest, DesignNnCanKeepTheRestartThatCutsItsWorstProbeMost) {
+  json params = design_nn_models();
+  params.update({{"samples", 1000}, {"max_iterations", 2}, {"hidden", {3}}, {"restarts", 2}, {"desired", "plant-fundamental"},
+                 {"weighting", "distortion"}, {"keep", "worst-probe"}, {"probes_hz", {80.0, 200.0}}});
+  FakeControl control("j3");
+  const json result = run("design-nn", params, control);
+  const json& summary = result.at("summary");
+  EXPECT_EQ(summary.at("desired"), "plant-fundamental");
+  EXPECT_EQ(summary.at("distortion_weighting"), true);
+  EXPECT_EQ(summary.at("level_weighting"), false);
+  EXPECT_EQ(summary.at("keep"), "worst-probe");
+  EXPECT_EQ(summary.at("probe_hz"), json({80.0, 200.0}));
+  const json changes = summary.at("restart_probe_change_db");
+  ASSERT_EQ(changes.size(), 2u);
+  std::vector<double> worst;
+  for (const json& c : changes) {
+    ASSERT_EQ(c.size(), 2u);
+    worst.push_back(std::max(c[0].get<double>(), c[1].get<double>()));
+  }
+  EXPECT_EQ(summary.at("chosen_restart"), worst[1] < worst[0] ? 1 : 0);
+  const json meta = store_->model(result.at("model_id").get<std::string>())->at("meta");
+  EXPECT_EQ(meta.at("restart_probe_change_db"), changes);
 }
 
 TEST_F(JobKindsTest, AnalyzeJudgesAModelOnARecord) {

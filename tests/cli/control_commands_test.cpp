@@ -82,7 +82,8 @@ TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates)
   // the options beyond the thesis's reach the design and its file
   const json other = expect_result(run("design nn --plant " + quoted(path("narx.json")) + " --ff " + quoted(path("ff.json")) +
                                        " --hidden 4 --iterations 1 --samples 2000 --desired plant-small-signal"
-                                       " --distortion-weighting --dc-penalty 0.5 --sine-band 50,300 --out " +
+                                       " --distortion-weighting --dc-penalty 0.5 --sine-band 50,300"
+                                       " --restarts 2 --keep worst-probe --probes 80,160 --out " +
                                        quoted(path("fb2.json"))));
   const models::NeuralFeedback fb2 = models::neural_feedback_from_json(json::parse(text_of(path("fb2.json"))));
   EXPECT_EQ(fb2.meta.at("desired"), "plant-small-signal");
@@ -90,6 +91,26 @@ TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates)
   EXPECT_EQ(fb2.meta.at("dc_penalty"), 0.5);
   EXPECT_EQ(fb2.meta.at("sine_band"), json({50.0, 300.0}));
   EXPECT_NE(other["jc_val_before_pct"], nn["jc_val_before_pct"]) << "another target, another J_c";
+  EXPECT_EQ(fb2.meta.at("keep"), "worst-probe");
+  EXPECT_EQ(fb2.meta.at("probe_hz"), json({80.0, 160.0}));
+  EXPECT_EQ(fb2.meta.at("restart_probe_change_db"), other["restart_probe_change_db"]);
+  // the restart kept by its worst probe: its THD changes on the plant model are those `evaluate` reports for
+  // the model-mode chain (the model's THD with the feedback against without), at the same probes and peak
+  const int kept = other["chosen_restart"].get<int>();
+  const json kept_changes = other["restart_probe_change_db"].at(static_cast<std::size_t>(kept));
+  expect_result(run("chain --bandpass 20,1200 --ff " + quoted(path("ff.json")) + " --fb " + quoted(path("fb2.json")) +
+                    " --source model --out " + quoted(path("chain2.json"))));
+  const json e2 = expect_result(run("evaluate --plant linear --chain " + quoted(path("chain2.json")) +
+                                    " --noise-samples 8000 --probes 80,160 --probe-peak 0.6"));
+  for (std::size_t p = 0; p < 2; ++p) {
+    const double without = e2["rows"][1]["probes"][p]["model_thd_pct"].get<double>();
+    const double with = e2["rows"][2]["probes"][p]["model_thd_pct"].get<double>();
+    EXPECT_NEAR(20.0 * std::log10(with / without), kept_changes[p].get<double>(), 1e-6) << p;
+  }
+  const double worst_kept = std::max(kept_changes[0].get<double>(), kept_changes[1].get<double>());
+  for (const json& changes : other["restart_probe_change_db"]) {
+    EXPECT_LE(worst_kept, std::max(changes[0].get<double>(), changes[1].get<double>()));
+  }
 
   const json chain = expect_result(run("chain --bandpass 20,1200 --ff " + quoted(path("ff.json")) + " --fb " +
                                        quoted(path("fb.json")) + " --source sensor --out " + quoted(path("chain.json"))));
@@ -234,13 +255,16 @@ TEST_F(CliControl, BadInputIsNamed) {
   expect_failure(r, "--ff");
   // a bad band-pass is a usage error
   EXPECT_EQ(run("chain --bandpass 1200,20 --out " + quoted(path("c.json"))).status, 2);
-  // and so are a bad sine band, an unknown target and two weightings at once, each named
+  // and so are a bad sine band, an unknown target, two weightings at once, an unknown restart choice and a
+  // negative probe, each named
   const std::string design = "design nn --plant " + quoted(path("narx.json")) + " --ff " + quoted(path("ff.json")) +
                              " --out " + quoted(path("fb.json"));
   for (const auto& [option, named] : std::vector<std::pair<std::string, std::string>>{
            {" --sine-band 400,30", "--sine-band"},
            {" --desired flat", "--desired"},
-           {" --level-weighting --distortion-weighting", "--distortion-weighting"}}) {
+           {" --level-weighting --distortion-weighting", "--distortion-weighting"},
+           {" --keep best", "--keep"},
+           {" --probes 40,-80", "--probes"}}) {
     r = run(design + option);
     EXPECT_EQ(r.status, 2) << option;
     EXPECT_TRUE(contains(r.err, named)) << option << ": " << r.err;

@@ -12,6 +12,7 @@
 #include "dsp/butterworth.h"
 #include "dsp/excitation.h"
 #include "models/feedback_design.h"
+#include "models/model_probes.h"
 #include "models/narx_model.h"
 #include "models/state_space.h"
 #include "tests/support/linear_systems.h"
@@ -178,26 +179,37 @@ TEST(FeedbackDesignTest, LevelWeightingGivesEveryPartTheRecordsMeanPower) {
   EXPECT_GT(largest / smallest, 10.0) << "program-level steps near the resonance are far quieter than the rest";
 }
 
-// Restarts train from different initial weights on the same records and keep the best validation J_c: the
-// kept controller's J_c, recomputed here from its closed loop on the validation record, is the smallest of
-// the restarts', and restart 0 is the design without restarts.
-TEST(FeedbackDesignTest, RestartsKeepTheLowestValidationJc) {
-  const LqFeedforward ff = design_lq(resonant_model(), {1e-3, 20.0});
-  const std::vector<dsp::Biquad> bp = audio_band();
+// A small design with restarts: a random 3-node NARX plant behind the resonant model's LQ feedforward, three
+// restarts of four iterations each.
+struct RestartsCase {
+  LqFeedforward ff;
+  std::vector<dsp::Biquad> bp;
+  NarxModel plant;
+  FeedbackDesignOptions options;
+};
+
+RestartsCase restarts_case() {
   NarxStructure ps;
   ps.na = 2;
   ps.nb = 1;
   ps.hidden = {3};
-  NarxModel plant = NarxModel::with_structure(ps, Scaling{}, 3000.0);
-  plant.net.initialize(0.5, 7);
-  FeedbackDesignOptions o;
-  o.structure.nu = 1;
-  o.structure.nv = 1;
-  o.structure.ny = 1;
-  o.structure.hidden = {3};
-  o.samples = 2000;
-  o.training.max_iterations = 4;
-  o.restarts = 3;
+  RestartsCase c{design_lq(resonant_model(), {1e-3, 20.0}), audio_band(), NarxModel::with_structure(ps, Scaling{}, 3000.0), {}};
+  c.plant.net.initialize(0.5, 7);
+  c.options.structure.nu = 1;
+  c.options.structure.nv = 1;
+  c.options.structure.ny = 1;
+  c.options.structure.hidden = {3};
+  c.options.samples = 2000;
+  c.options.training.max_iterations = 4;
+  c.options.restarts = 3;
+  return c;
+}
+
+// Restarts train from different initial weights on the same records and keep the best validation J_c: the
+// kept controller's J_c, recomputed here from its closed loop on the validation record, is the smallest of
+// the restarts', and restart 0 is the design without restarts.
+TEST(FeedbackDesignTest, RestartsKeepTheLowestValidationJc) {
+  auto [ff, bp, plant, o] = restarts_case();
   const FeedbackDesign d = design_feedback(plant, ff, bp, o);
   ASSERT_EQ(d.restart_jc_val_pct.size(), 3u);
   const auto smallest = std::min_element(d.restart_jc_val_pct.begin(), d.restart_jc_val_pct.end());
@@ -211,6 +223,34 @@ TEST(FeedbackDesignTest, RestartsKeepTheLowestValidationJc) {
   ASSERT_EQ(single.restart_jc_val_pct.size(), 1u);
   EXPECT_DOUBLE_EQ(single.restart_jc_val_pct[0], d.restart_jc_val_pct[0]);
   o.restarts = 0;
+  EXPECT_THROW(design_feedback(plant, ff, bp, o), std::invalid_argument);
+}
+
+// Kept by the worst probe, a design keeps the restart whose largest THD change over the probes on its plant
+// model is the most negative: every restart's changes are reported, the kept controller's are recomputed here,
+// and probes the model cannot analyse are refused before any training.
+TEST(FeedbackDesignTest, RestartsCanKeepTheLargestCutAtTheWorstProbe) {
+  auto [ff, bp, plant, o] = restarts_case();
+  o.keep = RestartChoice::worst_probe;
+  o.probe_hz = {60.0, 200.0};
+  const FeedbackDesign d = design_feedback(plant, ff, bp, o);
+  ASSERT_EQ(d.restart_probe_change_db.size(), 3u);
+  std::vector<double> worst;
+  for (const std::vector<double>& changes : d.restart_probe_change_db) {
+    ASSERT_EQ(changes.size(), 2u);
+    worst.push_back(std::max(changes[0], changes[1]));
+  }
+  EXPECT_EQ(d.chosen_restart, std::min_element(worst.begin(), worst.end()) - worst.begin());
+  EXPECT_NE(worst[0], worst[1]) << "restarts start from different weights";
+  const std::vector<double> kept = model_thd_change_db(d.controller, ff, bp, o.probe_hz, o.sine_peak);
+  EXPECT_EQ(kept, d.restart_probe_change_db[static_cast<std::size_t>(d.chosen_restart)]);
+  // the validation J_c of every restart is still reported, and keeping by it needs no probe
+  EXPECT_EQ(d.restart_jc_val_pct.size(), 3u);
+  o.keep = RestartChoice::validation_jc;
+  EXPECT_TRUE(design_feedback(plant, ff, bp, o).restart_probe_change_db.empty());
+  o.keep = RestartChoice::worst_probe;
+  o.probe_hz = {60.0, 900.0};
+  o.training.max_iterations = 100000;  // refused before the first iteration, or this would take hours
   EXPECT_THROW(design_feedback(plant, ff, bp, o), std::invalid_argument);
 }
 
@@ -454,19 +494,23 @@ TEST(FeedbackDesignTest, DesiredResponseNamesRoundTrip) {
     EXPECT_EQ(desired_response_from_name(desired_response_name(d)), d);
   }
   EXPECT_THROW(desired_response_from_name("flat"), std::invalid_argument);
+  for (RestartChoice c : {RestartChoice::validation_jc, RestartChoice::worst_probe}) {
+    EXPECT_EQ(restart_choice_from_name(restart_choice_name(c)), c);
+  }
+  EXPECT_THROW(restart_choice_from_name("best"), std::invalid_argument);
 }
 
 TEST(FeedbackDesignTest, RefusesBadOptions) {
   const LqFeedforward ff = design_lq(resonant_model(), {1e-3, 20.0});
-  FeedbackDesignOptions o;
-  o.sine_peak = 1.5;
-  EXPECT_THROW(control_record(ff, {}, o, 1), std::invalid_argument);
-  o = {};
-  o.sine_high_hz = 2000.0;
-  EXPECT_THROW(control_record(ff, {}, o, 1), std::invalid_argument);
-  o = {};
-  o.samples = 10;
-  EXPECT_THROW(control_record(ff, {}, o, 1), std::invalid_argument);
+  FeedbackDesignOptions peak;
+  peak.sine_peak = 1.5;
+  EXPECT_THROW(control_record(ff, {}, peak, 1), std::invalid_argument);
+  FeedbackDesignOptions band;
+  band.sine_high_hz = 2000.0;
+  EXPECT_THROW(control_record(ff, {}, band, 1), std::invalid_argument);
+  FeedbackDesignOptions samples;
+  samples.samples = 10;
+  EXPECT_THROW(control_record(ff, {}, samples, 1), std::invalid_argument);
 }
 
 }  // namespace
