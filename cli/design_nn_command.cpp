@@ -1,5 +1,6 @@
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -12,12 +13,15 @@
 #include "models/feedback_design.h"
 #include "models/json_file.h"
 #include "models/model_file.h"
+#include "models/plant_presets.h"
 
 namespace panelbass::cli {
 namespace {
 
 struct DesignNnOptions {
   std::string plant, ff, out;
+  std::string tune_on;     // a device to tune on: a plant preset or file (empty: the plant model alone)
+  std::string start_from;  // a controller to train on from (empty: fresh initial weights)
   std::string bandpass = "20,1200";
   int order = 2;
   models::FeedbackDesignOptions design;
@@ -44,11 +48,24 @@ void run_design_nn(DesignNnOptions o) {
   o.design.training.progress = [&](const models::FeedbackTrainingRecord& r) {
     bar.update((r.restart + static_cast<double>(r.iteration) / o.design.training.max_iterations) / o.design.restarts);
   };
-  models::FeedbackDesign d = models::design_feedback(*plant, ff, band_pass, o.design);
+  std::optional<models::PlantConfig> device;
+  if (!o.tune_on.empty()) device = models::plant_from_name_or_file(o.tune_on);
+  std::optional<models::NeuralFeedback> start;
+  if (!o.start_from.empty()) {
+    start = models::neural_feedback_from_json(models::read_json_file(o.start_from));
+    if (std::abs(start->fs - ff.fs) > 1e-9 * ff.fs) {
+      throw std::invalid_argument("--start-from " + o.start_from + ": designed at another rate than the feedforward's");
+    }
+    o.design.structure = start->structure;  // the meta says what the controller is
+  }
+  models::FeedbackDesign d =
+      models::design_feedback(*plant, ff, band_pass, o.design, device ? &*device : nullptr, start ? &*start : nullptr);
   d.controller.meta = {{"plant", o.plant},
                        {"feedforward", o.ff},
                        {"bandpass", o.bandpass},
                        {"order", o.order},
+                       {"tuned_on", o.tune_on.empty() ? nlohmann::json() : nlohmann::json(o.tune_on)},
+                       {"start_from", o.start_from.empty() ? nlohmann::json() : nlohmann::json(o.start_from)},
                        {"restart", d.chosen_restart},
                        {"restart_jc_val_pct", d.restart_jc_val_pct},
                        {"restart_probe_change_db", d.restart_probe_change_db},
@@ -156,10 +173,18 @@ void add_design_nn(CLI::App& design) {
       ->delimiter(',')
       ->check(CLI::PositiveNumber)
       ->default_str("40,80,160,320");
+  cmd->add_option("--tune-on", o->tune_on,
+                  "Tune on a device: a virtual transducer (preset or plant JSON file) standing in for the real one. "
+                  "The records' drives are played into it and its harmonics are what the loop is trained to remove, "
+                  "the gradients still the plant model's (needs --desired plant-fundamental)");
+  auto* start_from = cmd->add_option("--start-from", o->start_from,
+                                     "Train on from a controller file (its structure, weights and knee; one training)");
+  for (const char* fresh : {"--hidden", "--nu", "--nv", "--ny", "--restarts"}) start_from->excludes(fresh);
   cmd->add_option("--out", o->out, "Controller file to write (JSON)")->required();
   cmd->footer(
       "Example:\n  panelbass design nn --plant nn.json --ff ff.json --bandpass 20,1200 --hidden 8 --out fb.json\n"
-      "  panelbass design nn --plant nn.json --ff ff.json --restarts 4 --keep worst-probe --out fb.json");
+      "  panelbass design nn --plant nn.json --ff ff.json --restarts 4 --keep worst-probe --out fb.json\n"
+      "  panelbass design nn --plant nn.json --ff ff.json --desired plant-fundamental --tune-on panel-exciter --out fb.json");
   cmd->callback([o] { run_design_nn(*o); });
 }
 

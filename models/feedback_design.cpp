@@ -12,6 +12,7 @@
 #include "dsp/random.h"
 #include "models/model_probes.h"
 #include "models/state_space.h"
+#include "models/virtual_transducer.h"
 
 namespace panelbass::models {
 namespace {
@@ -135,6 +136,23 @@ void weigh_parts_by_inverse_power(Eigen::VectorXd& weight, const Eigen::VectorXd
     const double power = weighed.segment(p.start, p.length).squaredNorm() / static_cast<double>(p.length);
     weight.segment(p.start, p.length) *= power > 0.0 ? std::min(1e4, reference / power) : 1.0;
   }
+}
+
+/// Re-aims record `r` at the device (tuning on the device): the uncorrected loop is played into the device,
+/// and the target becomes, on each sine step's steady part, the fundamental and mean of the device's own
+/// output there (so only its harmonics are asked of the loop), weighing 0 elsewhere; with distortion
+/// weighting every steady part weighs by the inverse power of the device's departure from it. Returns the
+/// device's output for a drive (its sensor noise the same realisation, seeded `noise_seed`, each time).
+DeviceOutput aim_at_device(ControlRecord& r, const PlantConfig& device, std::uint64_t noise_seed,
+                           const FeedbackDesignOptions& o, double fs) {
+  DeviceOutput measure = [device, noise_seed](const Eigen::VectorXd& v) { return simulate(device, v, noise_seed).y; };
+  const Eigen::VectorXd uncorrected = measure(r.u);
+  r.y_desired = Eigen::VectorXd::Zero(r.u.size());
+  const std::vector<RecordPart> steady = add_loop_fundamentals(r.y_desired, uncorrected, r.steps, fs);
+  r.weight = Eigen::VectorXd::Zero(r.u.size());
+  for (const RecordPart& p : steady) r.weight.segment(p.start, p.length).setOnes();
+  if (o.distortion_weighting) weigh_parts_by_inverse_power(r.weight, uncorrected - r.y_desired, steady);
+  return measure;
 }
 
 }  // namespace
@@ -305,12 +323,17 @@ nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o) {
 }
 
 FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
-                               const std::vector<dsp::Biquad>& band_pass, const FeedbackDesignOptions& o) {
+                               const std::vector<dsp::Biquad>& band_pass, const FeedbackDesignOptions& o,
+                               const PlantConfig* device, const NeuralFeedback* start) {
   if (std::abs(plant.fs - ff.fs) > 1e-9 * ff.fs) {
     throw std::invalid_argument("design nn: the plant model runs at " + std::to_string(plant.fs) +
                                 " Hz, the feedforward controller at " + std::to_string(ff.fs) + " Hz");
   }
   if (o.restarts < 1) throw std::invalid_argument("design nn: restarts must be >= 1, got " + std::to_string(o.restarts));
+  if (start != nullptr && o.restarts != 1) {
+    throw std::invalid_argument("design nn: training on from a controller is one training, not " +
+                                std::to_string(o.restarts) + " restarts");
+  }
   const std::vector<double> probe_hz = o.probe_hz.empty() ? evaluation_probe_hz() : o.probe_hz;
   if (o.keep == RestartChoice::worst_probe) {
     for (double f : probe_hz) {
@@ -320,18 +343,39 @@ FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
       }
     }
   }
-  const ControlRecord est = control_record(ff, band_pass, o, o.seed, &plant);
-  const ControlRecord val = control_record(ff, band_pass, o, o.seed + 1, &plant);
+  if (device != nullptr && std::abs(device->fs - ff.fs) > 1e-9 * ff.fs) {
+    throw std::invalid_argument("design nn: the device runs at " + std::to_string(device->fs) +
+                                " Hz, the feedforward controller at " + std::to_string(ff.fs) + " Hz");
+  }
+  if (device != nullptr && (o.desired != DesiredResponse::plant_fundamental || o.level_weighting)) {
+    throw std::invalid_argument(
+        "design nn: tuning on the device asks only each sine step's harmonics of it: it needs the plant-fundamental "
+        "target, and no level weighting");
+  }
+  ControlRecord est = control_record(ff, band_pass, o, o.seed, &plant);
+  ControlRecord val = control_record(ff, band_pass, o, o.seed + 1, &plant);
+  DeviceOutput measure_est, measure_val;
+  if (device != nullptr) {
+    measure_est = aim_at_device(est, *device, o.seed + kDeviceNoiseSeedOffset, o, ff.fs);
+    measure_val = aim_at_device(val, *device, o.seed + kDeviceNoiseSeedOffset + 1, o, ff.fs);
+  }
   std::optional<FeedbackDesign> best;
   double best_score = std::numeric_limits<double>::infinity();
   std::vector<double> scores;
   std::vector<std::vector<double>> probe_changes;
   for (int restart = 0; restart < o.restarts; ++restart) {
-    NeuralFeedback initial = NeuralFeedback::with_structure(o.structure, plant);
-    initialize_feedback(initial, o.seed + static_cast<std::uint64_t>(restart));
+    NeuralFeedback initial = NeuralFeedback::with_structure(start ? start->structure : o.structure, plant);
+    if (start != nullptr) {
+      initial.net = start->net;
+      initial.knee = start->knee;
+    } else {
+      initialize_feedback(initial, o.seed + static_cast<std::uint64_t>(restart));
+    }
     FeedbackTrainingOptions training = o.training;
     training.weight_est = est.weight;
     training.weight_val = val.weight;
+    training.measure_est = measure_est;
+    training.measure_val = measure_val;
     if (o.training.progress) {
       training.progress = [&o, restart](FeedbackTrainingRecord r) {
         r.restart = restart;

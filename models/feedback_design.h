@@ -14,6 +14,7 @@
 #include "models/lq_feedforward.h"
 #include "models/narx_model.h"
 #include "models/neural_feedback.h"
+#include "models/plant_config.h"
 
 namespace panelbass::models {
 
@@ -144,10 +145,21 @@ struct FeedbackDesign {
 ///  "keep","probe_hz","level_weighting","distortion_weighting","rail_penalty","dc_penalty","desired","seed"}.
 nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o);
 
+/// The device's sensor noise in tuning (design_feedback's `device`) is seeded seed + this (estimation record)
+/// and seed + this + 1 (validation).
+inline constexpr std::uint64_t kDeviceNoiseSeedOffset = 1000;
+
 /// Designs the controller on `plant` (a NARX model at ff's rate) behind `ff` and `band_pass`: o.restarts
 /// trainings from initial weights seeded seed, seed + 1, … on the same records, the best by o.keep kept
-/// (ties to the earlier). Throws std::invalid_argument for a rate mismatch or bad options.
+/// (ties to the earlier). Given a `device` (a virtual transducer standing in for the real one), the controller
+/// is tuned on it: the records' drives are played into it and the tracking error is its measured output's,
+/// on each sine step's steady part against the fundamental of its own uncorrected output there (the harmonics
+/// alone), while the gradients stay the plant model's (FeedbackTrainingOptions::measure_est); this needs
+/// o.desired = plant_fundamental. Given `start`, one training goes on from its structure, weights and knee
+/// (on `plant`, in place of start's own plant model) instead of fresh initial weights. Throws
+/// std::invalid_argument for a rate mismatch or bad options.
 FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
-                               const std::vector<dsp::Biquad>& band_pass, const FeedbackDesignOptions& o);
+                               const std::vector<dsp::Biquad>& band_pass, const FeedbackDesignOptions& o,
+                               const PlantConfig* device = nullptr, const NeuralFeedback* start = nullptr);
 
 }  // namespace panelbass::models

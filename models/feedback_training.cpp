@@ -54,6 +54,7 @@ constexpr double kDcCornerHz = 5.0;
 struct LoopSweep {
   const NeuralFeedback& c;
   Eigen::VectorXd v, v_scaled, y_scaled;
+  Eigen::VectorXd tracked;  // the output the tracking error is taken of, scaled: ŷ_s, or the device's measured output
   Eigen::MatrixXd Dv, Dy;  // P×N: dv(k)/dθ and dŷ_s(k)/dθ
   Eigen::MatrixXd Dq;      // P×N: d/dθ of the drive-offset residuals √μ·low(k) (when μ > 0)
   Eigen::VectorXd dlow;    // d low(k)/dθ
@@ -69,9 +70,10 @@ struct LoopSweep {
 
   /// Runs the loop on `u`; returns V. With `g`/`H`, also the normal equations (normalised like V). `weight`:
   /// w(k) of each tracking residual (empty = 1).
-  /// `dc`: μ of the drive-offset penalty (see FeedbackTrainingOptions::dc_penalty).
+  /// `dc`: μ of the drive-offset penalty (see FeedbackTrainingOptions::dc_penalty). `measure`: if set, the
+  /// tracking error is the device's output for the loop's drive (FeedbackTrainingOptions::measure_est).
   double run(const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired, const Eigen::VectorXd& weight, double lambda,
-             double dc, Eigen::Index skip, Eigen::VectorXd* g, Eigen::MatrixXd* H) {
+             double dc, Eigen::Index skip, Eigen::VectorXd* g, Eigen::MatrixXd* H, const DeviceOutput& measure = {}) {
     const Eigen::Index n = u.size();
     const Eigen::Index P = c.net.parameter_count();
     const FeedbackStructure& s = c.structure;
@@ -121,14 +123,11 @@ struct LoopSweep {
         }
       }
       if (k < skip) continue;
-      const double e = y_scaled[k] - y_desired[k] / sc.y_scale;
-      const double w = weight.size() > 0 ? weight[k] : 1.0;
       const double over = std::abs(s_k) - c.knee;
       const double p = over > 0.0 ? sqrt_lambda * over : 0.0;
       const double q = sqrt_dc * low;
-      sum += w * e * e + p * p + q * q;
+      sum += p * p + q * q;
       if (jacobian) {
-        g->noalias() += (w * e) * Dy.col(k);
         if (p > 0.0) {
           const double sign = s_k > 0.0 ? sqrt_lambda : -sqrt_lambda;
           g->noalias() += (p * sign) * ds;
@@ -140,8 +139,24 @@ struct LoopSweep {
         }
       }
     }
+    // the tracking residuals e(k) = y_s(k) − y_des(k)/y_scale, of the plant model's output or the device's (whose
+    // sensitivities are taken as the model's: the drive does not depend on the device's output)
+    if (measure) {
+      const Eigen::VectorXd measured = measure(v);
+      if (measured.size() != n || !measured.allFinite()) {
+        throw std::invalid_argument("train_feedback: the device returned " + std::to_string(measured.size()) +
+                                    " samples for " + std::to_string(n) + (measured.allFinite() ? "" : ", not all finite"));
+      }
+      tracked = measured / sc.y_scale;
+    } else {
+      tracked = y_scaled;
+    }
+    Eigen::VectorXd we = (tracked - y_desired / sc.y_scale).tail(n - skip);
+    sum += weight.size() > 0 ? (weight.tail(n - skip).array() * we.array().square()).sum() : we.squaredNorm();
     const double count = static_cast<double>(n - skip);
     if (jacobian) {
+      if (weight.size() > 0) we.array() *= weight.tail(n - skip).array();
+      g->noalias() += Dy.rightCols(n - skip) * we;
       // H += Σ w·ψψᵀ over the tracking residuals, as one product of the stored sensitivities (each scaled by
       // √w: they are not needed after this pass)
       if (weight.size() > 0) Dy.rightCols(n - skip) *= weight.tail(n - skip).cwiseSqrt().asDiagonal();
@@ -157,7 +172,7 @@ struct LoopSweep {
 
   /// [2C] J_c of the last run (weighted by `weight` unless it is empty), percent.
   double jc(const Eigen::VectorXd& y_desired, const Eigen::VectorXd& weight, Eigen::Index skip) const {
-    return jc_percent(y_scaled, y_desired / c.plant.scaling.y_scale, skip, weight);
+    return jc_percent(tracked, y_desired / c.plant.scaling.y_scale, skip, weight);
   }
 
   /// Share of samples k ≥ skip whose unlimited output was above the knee in the last run.
@@ -257,12 +272,12 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
   const auto record = [&](int iteration) {
     FeedbackTrainingRecord r;
     r.iteration = iteration;
-    est.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr);
+    est.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr, o.measure_est);
     r.jc_est_pct = est.jc(y_desired_est, o.weight_est, skip);
     r.rail_fraction = est.rail_fraction(skip);
     r.jc_val_pct = std::numeric_limits<double>::quiet_NaN();
     if (has_validation) {
-      val.run(u_val, y_desired_val, o.weight_val, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr);
+      val.run(u_val, y_desired_val, o.weight_val, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr, o.measure_val);
       r.jc_val_pct = val.jc(y_desired_val, o.weight_val, skip);
     }
     result.history.push_back(r);
@@ -276,7 +291,7 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
   Eigen::VectorXd g, delta;
   Eigen::MatrixXd H, A;
   for (int it = 1; it <= o.max_iterations; ++it) {
-    const double V = est.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, o.dc_penalty, skip, &g, &H);
+    const double V = est.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, o.dc_penalty, skip, &g, &H, o.measure_est);
     if (!std::isfinite(V) || !g.allFinite() || !H.allFinite()) break;
     // Levenberg–Marquardt: (H + μ·diag(H)) δ = g, θ ← θ − δ if V decreases; μ ÷10 on success, ×10 on failure
     const double floor = 1e-9 * std::max(H.diagonal().mean(), 1e-300);
@@ -287,7 +302,8 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
       delta = A.ldlt().solve(g);
       trial.net.parameters() = current.net.parameters() - delta;
       const double V_new = delta.allFinite()
-                               ? trial_sweep.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr)
+                               ? trial_sweep.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, o.dc_penalty, skip,
+                                                 nullptr, nullptr, o.measure_est)
                                : std::numeric_limits<double>::infinity();
       if (std::isfinite(V_new) && V_new < V) {
         current.net.parameters() = trial.net.parameters();

@@ -6,7 +6,8 @@
 // validation data.
 //
 // The loss: V = 1/(2(N − skip))·Σ_{k≥skip} [w(k)·e(k)² + λ·p(k)² + μ·low(k)²] (w = 1 unless weights are
-// given), with the tracking error e(k) = ŷ_s(k) − y_des(k)/y_scale (the plant model's scaled units), the rail
+// given), with the tracking error e(k) = ŷ_s(k) − y_des(k)/y_scale (the plant model's scaled units; or the
+// device's measured output in place of ŷ, FeedbackTrainingOptions::measure_est), the rail
 // penalty p(k) = max(0, |s(k)| − knee) on the unlimited controller output s (time spent in the soft limit,
 // i.e. near the rails) and the drive-offset penalty on low(k) = a·low(k−1) + (1 − a)·N1(k), N1's output
 // through a one-pole low-pass at 5 Hz (a = e^{−2π·5/fs}; not in the thesis, see dc_penalty).
@@ -19,6 +20,9 @@
 #include "models/neural_feedback.h"
 
 namespace panelbass::models {
+
+/// A device's output (raw units) for a drive `v` (raw units), as FeedbackTrainingOptions::measure_est plays it.
+using DeviceOutput = std::function<Eigen::VectorXd(const Eigen::VectorXd& v)>;
 
 /// One iteration's figures.
 struct FeedbackTrainingRecord {
@@ -45,6 +49,13 @@ struct FeedbackTrainingOptions {
   /// Per-sample weights w(k) >= 0 of the tracking error on the estimation and validation records (empty = 1):
   /// the tracking terms become w(k)·e(k)², and J_c (the records' and early stopping's) is weighted alike.
   Eigen::VectorXd weight_est, weight_val;
+  /// Tuning on the device: if set, each record's drive v is played into the device and the tracking error is
+  /// its output against y_desired (J_c and early stopping are then the device's), while the Jacobian stays the
+  /// plant model's along the same drive: in model mode the drive does not depend on the device's output, so
+  /// the model's sensitivities are those of the loop as run, and the model only has to be right about how a
+  /// change of drive moves the output, not about the distortion itself. Unset: the plant model's output
+  /// (the thesis's). For the estimation and the validation record.
+  DeviceOutput measure_est, measure_val;
 };
 
 /// What training produced.

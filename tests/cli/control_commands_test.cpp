@@ -107,6 +107,19 @@ TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates)
     const double with = e2["rows"][2]["probes"][p]["model_thd_pct"].get<double>();
     EXPECT_NEAR(20.0 * std::log10(with / without), kept_changes[p].get<double>(), 1e-6) << p;
   }
+  // trained on from a controller file with no iteration: its weights; tuned on a device: named in the meta,
+  // and refused for a target that is not each step's fundamental
+  expect_result(run("design nn --plant " + quoted(path("narx.json")) + " --ff " + quoted(path("ff.json")) +
+                    " --iterations 0 --samples 2000 --start-from " + quoted(path("fb2.json")) + " --out " +
+                    quoted(path("fb3.json"))));
+  const models::NeuralFeedback fb3 = models::neural_feedback_from_json(json::parse(text_of(path("fb3.json"))));
+  EXPECT_EQ(fb3.net.parameters(), fb2.net.parameters());
+  EXPECT_EQ(fb3.meta.at("start_from"), path("fb2.json").string());
+  const std::string tuned = "design nn --plant " + quoted(path("narx.json")) + " --ff " + quoted(path("ff.json")) +
+                            " --hidden 3 --iterations 1 --samples 2000 --tune-on linear --out " + quoted(path("fb4.json"));
+  expect_failure(run(tuned), "plant-fundamental");
+  expect_result(run(tuned + " --desired plant-fundamental"));
+  EXPECT_EQ(json::parse(text_of(path("fb4.json"))).at("meta").at("tuned_on"), "linear");
   const double worst_kept = std::max(kept_changes[0].get<double>(), kept_changes[1].get<double>());
   for (const json& changes : other["restart_probe_change_db"]) {
     EXPECT_LE(worst_kept, std::max(changes[0].get<double>(), changes[1].get<double>()));
@@ -264,7 +277,8 @@ TEST_F(CliControl, BadInputIsNamed) {
            {" --desired flat", "--desired"},
            {" --level-weighting --distortion-weighting", "--distortion-weighting"},
            {" --keep best", "--keep"},
-           {" --probes 40,-80", "--probes"}}) {
+           {" --probes 40,-80", "--probes"},
+           {" --start-from fb.json --hidden 4", "--start-from"}}) {
     r = run(design + option);
     EXPECT_EQ(r.status, 2) << option;
     EXPECT_TRUE(contains(r.err, named)) << option << ": " << r.err;

@@ -13,6 +13,8 @@
 #include "dsp/excitation.h"
 #include "models/feedback_design.h"
 #include "models/model_probes.h"
+#include "models/plant_presets.h"
+#include "models/virtual_transducer.h"
 #include "models/narx_model.h"
 #include "models/state_space.h"
 #include "tests/support/linear_systems.h"
@@ -254,6 +256,27 @@ TEST(FeedbackDesignTest, RestartsCanKeepTheLargestCutAtTheWorstProbe) {
   EXPECT_THROW(design_feedback(plant, ff, bp, o), std::invalid_argument);
 }
 
+// Trained on from a controller, a design starts where it is: with no iteration the weights are its own, with
+// some the validation J_c starts at its figure and does not rise; several restarts from one start are refused.
+TEST(FeedbackDesignTest, TrainingOnFromAControllerStartsWhereItIs) {
+  auto [ff, bp, plant, o] = restarts_case();
+  o.restarts = 1;
+  const FeedbackDesign first = design_feedback(plant, ff, bp, o);
+  FeedbackDesignOptions on = o;
+  on.structure.hidden = {7};  // the start's structure wins
+  on.training.max_iterations = 0;
+  const FeedbackDesign kept = design_feedback(plant, ff, bp, on, nullptr, &first.controller);
+  EXPECT_EQ(kept.controller.net.parameters(), first.controller.net.parameters());
+  EXPECT_EQ(kept.controller.structure.hidden, first.controller.structure.hidden);
+  on.training.max_iterations = 3;
+  const FeedbackDesign further = design_feedback(plant, ff, bp, on, nullptr, &first.controller);
+  EXPECT_NEAR(further.training.history.front().jc_val_pct, best_validation_jc_pct(first.training),
+              1e-9 * best_validation_jc_pct(first.training));
+  EXPECT_LE(best_validation_jc_pct(further.training), best_validation_jc_pct(first.training));
+  on.restarts = 2;
+  EXPECT_THROW(design_feedback(plant, ff, bp, on, nullptr, &first.controller), std::invalid_argument);
+}
+
 // y(k) = tanh(0.5·y(k−1) + 1.5·u(k)) + offset.
 NarxModel tanh_narx_plant(double offset) {
   return testing_support::one_node_narx(0.5, 1.5, 0.0, 1.0, offset, Scaling{}, 3000.0);
@@ -436,6 +459,49 @@ TEST(FeedbackDesignTest, PlantFundamentalTargetLeavesOnlyTheHarmonicsOfEachStead
     EXPECT_LT(error.norm(), 0.5 * departure.norm()) << f << " Hz";
     EXPECT_GT(error.norm(), 1e-4 * loop.segment(start, length).norm()) << f << " Hz: the harmonics";
   }
+}
+
+// Tuned on a device, the loop is asked only the device's harmonics: the first J_c of the training, worked out
+// here from the device's own outputs (each steady step's fundamental fitted to its uncorrected output, the
+// rest weighing nothing), is the design's; and what the device tuning cannot take is refused, named.
+TEST(FeedbackDesignTest, TunedOnADeviceTheLoopIsAskedOnlyTheDevicesHarmonics) {
+  const LqFeedforward ff = design_lq(resonant_model(), {1e-3, 20.0});
+  FeedbackDesignOptions o;
+  o.samples = 4500;  // 1500 samples of noise, then 4 steps
+  o.sine_share = 2.0 / 3.0;
+  o.desired = DesiredResponse::plant_fundamental;
+  o.structure.hidden = {3};
+  o.training.max_iterations = 0;
+  const NarxModel plant = tanh_narx_plant(0.0);
+  const PlantConfig device = plant_preset("panel-exciter");
+  const FeedbackDesign d = design_feedback(plant, ff, audio_band(), o, &device);
+  const ControlRecord val = control_record(ff, audio_band(), o, o.seed + 1, &plant);
+  const auto device_output = [&](const Eigen::VectorXd& v) {
+    return simulate(device, v, o.seed + kDeviceNoiseSeedOffset + 1).y;
+  };
+  const Eigen::VectorXd uncorrected = device_output(val.u);
+  const Eigen::VectorXd y = device_output(simulate_closed_loop(d.controller, val.u).v);
+  double error = 0.0, energy = 0.0;
+  for (const SineStep& step : val.steps) {
+    const Eigen::Index start = step.start + 2 * step.fade, length = step.length - 3 * step.fade;
+    const Eigen::VectorXd part = uncorrected.segment(start, length);
+    const Eigen::VectorXd target = part - residual_of_sine_fit(part, step.f);
+    error += (y.segment(start, length) - target).squaredNorm();
+    energy += target.squaredNorm();
+  }
+  ASSERT_EQ(val.steps.size(), 4u);
+  ASSERT_EQ(d.training.history.size(), 1u);
+  EXPECT_NEAR(d.training.history[0].jc_val_pct, 100.0 * error / energy, 1e-6 * d.training.history[0].jc_val_pct);
+  // the device at another rate, another target, or level weighting: refused
+  PlantConfig fast = device;
+  fast.fs = 6000.0;
+  EXPECT_THROW(design_feedback(plant, ff, audio_band(), o, &fast), std::invalid_argument);
+  FeedbackDesignOptions linear_target = o;
+  linear_target.desired = DesiredResponse::linear_model;
+  EXPECT_THROW(design_feedback(plant, ff, audio_band(), linear_target, &device), std::invalid_argument);
+  FeedbackDesignOptions level = o;
+  level.level_weighting = true;
+  EXPECT_THROW(design_feedback(plant, ff, audio_band(), level, &device), std::invalid_argument);
 }
 
 TEST(FeedbackDesignTest, HarmonicWeightsGiveEveryStepsHarmonicsTheRecordsMeanPower) {

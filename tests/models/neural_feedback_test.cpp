@@ -160,24 +160,91 @@ TEST(NeuralFeedbackTest, DriveOffsetPenaltyIsTheLowPassedOffsetSquared) {
   EXPECT_EQ(feedback_loss(c, u, y_des, 10.0, kSkip, {}, kMu), feedback_loss(c, u, y_des, 10.0, kSkip));
 }
 
-TEST(NeuralFeedbackTest, TrainingLearnsTheInverseOfTheSaturation) {
-  NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
+// A controller of small_structure() on `plant` with the initial weights of seed 1.
+NeuralFeedback initialized_controller(const NarxModel& plant) {
+  NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), plant);
   initialize_feedback(c, 1);
-  const Eigen::VectorXd u_est = uniform(3000, 0.4, 21), u_val = uniform(2000, 0.4, 22);
+  return c;
+}
+
+// The validation record of the trainings below (uniform noise of peak 0.4), and the training on it and its
+// estimation record.
+Eigen::VectorXd validation_noise() { return uniform(2000, 0.4, 22); }
+
+FeedbackTrainingResult train_on_noise(const NeuralFeedback& c, const FeedbackTrainingOptions& o) {
+  const Eigen::VectorXd u_est = uniform(3000, 0.4, 21), u_val = validation_noise();
+  return train_feedback(c, u_est, desired_response(u_est), u_val, desired_response(u_val), o);
+}
+
+// The largest departure of a run's drive from the saturation's exact inverse atanh(1.5·u)/1.5, after 50 samples.
+double departure_from_inverse(const ClosedLoopRun& run, const Eigen::VectorXd& u) {
+  double worst = 0.0;
+  for (Eigen::Index k = 50; k < u.size(); ++k) worst = std::max(worst, std::abs(run.v[k] - std::atanh(kGain * u[k]) / kGain));
+  return worst;
+}
+
+TEST(NeuralFeedbackTest, TrainingLearnsTheInverseOfTheSaturation) {
+  const NeuralFeedback c = initialized_controller(saturating_plant());
   FeedbackTrainingOptions o;
   o.max_iterations = 30;
-  const FeedbackTrainingResult r = train_feedback(c, u_est, desired_response(u_est), u_val, desired_response(u_val), o);
+  const FeedbackTrainingResult r = train_on_noise(c, o);
+  const Eigen::VectorXd u_val = validation_noise();
   const double before = r.history.front().jc_val_pct;
   const double after = jc_percent(simulate_closed_loop(r.controller, u_val).y, desired_response(u_val), o.transient_skip);
   EXPECT_GT(before, 0.5) << "the saturation must matter at this level";
   EXPECT_LT(after, before / 20.0) << "before " << before << " %, after " << after << " %";
   // the learnt map is the plant's inverse: v ≈ atanh(1.5·u)/1.5 on the validation record
-  const ClosedLoopRun run = simulate_closed_loop(r.controller, u_val);
-  double worst = 0.0;
-  for (Eigen::Index k = 50; k < u_val.size(); ++k) {
-    worst = std::max(worst, std::abs(run.v[k] - std::atanh(kGain * u_val[k]) / kGain));
+  EXPECT_LT(departure_from_inverse(simulate_closed_loop(r.controller, u_val), u_val), 0.02);
+}
+
+// The saturating plant without its saturation: y(k) = 0.5·y(k−1) + v(k−1) through nodes of input gain ε, a
+// plant model that knows the dynamics and nothing of the distortion.
+NarxModel linear_plant_model() {
+  NarxModel m = saturating_plant();
+  m.net.parameters() << kEpsilon, 0.0, 0.0, kEpsilon, 0.0, 0.0, 0.5 / kEpsilon, 1.0 / kEpsilon, 0.0;
+  return m;
+}
+
+// A device whose output is the plant model's own: tuning on it is training on the model, step for step.
+TEST(NeuralFeedbackTest, TuningOnADeviceThatIsThePlantModelIsTrainingOnTheModel) {
+  const NeuralFeedback c = initialized_controller(saturating_plant());
+  FeedbackTrainingOptions o;
+  o.max_iterations = 5;
+  const FeedbackTrainingResult on_model = train_on_noise(c, o);
+  const NarxModel device = saturating_plant();
+  o.measure_est = o.measure_val = [&device](const Eigen::VectorXd& v) { return device.simulate(v); };
+  const FeedbackTrainingResult on_device = train_on_noise(c, o);
+  ASSERT_EQ(on_device.history.size(), on_model.history.size());
+  for (std::size_t i = 0; i < on_model.history.size(); ++i) {
+    EXPECT_NEAR(on_device.history[i].jc_est_pct, on_model.history[i].jc_est_pct, 1e-9 * on_model.history[i].jc_est_pct) << i;
+    EXPECT_NEAR(on_device.history[i].jc_val_pct, on_model.history[i].jc_val_pct, 1e-9 * on_model.history[i].jc_val_pct) << i;
   }
-  EXPECT_LT(worst, 0.02);
+  EXPECT_TRUE(on_device.controller.net.parameters().isApprox(on_model.controller.net.parameters(), 1e-9));
+  // a device that answers with the wrong length is named
+  o.measure_est = [](const Eigen::VectorXd& v) { return Eigen::VectorXd(v.head(10)); };
+  EXPECT_THROW(train_on_noise(c, o), std::invalid_argument);
+}
+
+// Tuned on the saturating device with the gradients of a plant model that has no saturation at all, the
+// controller still learns the device's inverse: the model only has to know how a change of drive moves the
+// output, the error is measured.
+TEST(NeuralFeedbackTest, TuningOnTheDeviceLearnsADistortionThePlantModelLacks) {
+  const NeuralFeedback c = initialized_controller(linear_plant_model());
+  const Eigen::VectorXd u_val = validation_noise();
+  const NarxModel device = saturating_plant();
+  FeedbackTrainingOptions o;
+  o.max_iterations = 30;
+  // on the model alone there is next to nothing to correct: the linear model already tracks the desired
+  // response (to the ε nodes' curvature and the initial weights', a tenth of the device's error below)
+  EXPECT_LT(train_on_noise(c, o).history.front().jc_val_pct, 0.05);
+  o.measure_est = o.measure_val = [&device](const Eigen::VectorXd& v) { return device.simulate(v); };
+  const FeedbackTrainingResult r = train_on_noise(c, o);
+  const double before = r.history.front().jc_val_pct;
+  const ClosedLoopRun run = simulate_closed_loop(r.controller, u_val);  // model mode: the drive the device gets
+  const double after = jc_percent(device.simulate(run.v), desired_response(u_val), o.transient_skip);
+  EXPECT_GT(before, 0.5) << "the device's saturation must matter at this level";
+  EXPECT_LT(after, before / 10.0) << "before " << before << " %, after " << after << " %";
+  EXPECT_LT(departure_from_inverse(run, u_val), 0.05);
 }
 
 TEST(NeuralFeedbackTest, JcIsTheThesisRatio) {
