@@ -26,9 +26,8 @@ keep=$(realpath "$1")
 seed=$2
 first=$3
 shift 3
-for f in narx.json ff.json reg_est.csv eval-ff.json stepped-40.csv stepped-80.csv stepped-160.csv stepped-320.csv; do
-  if [ ! -f "$keep/$f" ]; then echo "closed_loop_refine: $keep/$f is missing (run control_table.sh with KEEP=$keep)" >&2; exit 2; fi
-done
+source "$(dirname "$0")/kept_run.sh"
+require_kept closed_loop_refine "$keep" narx.json ff.json reg_est.csv eval-ff.json stepped-40.csv stepped-80.csv stepped-160.csv stepped-320.csv
 if [ -n "${KEEP_REFINED:-}" ]; then KEEP_REFINED=$(realpath -m "$KEEP_REFINED"); fi
 cd "$(dirname "$0")/.."
 here=$(pwd)

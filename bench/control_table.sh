@@ -95,7 +95,7 @@ done
 stage "neural feedback controller"
 source "$here/bench/design_nn_flags.sh"
 fb=$("$bin" design nn --plant narx.json --ff ff.json "${design_nn_flags[@]}" --hidden "$design_nn_hidden" \
-       --iterations "$design_nn_iterations" --sine-share "$share" --seed "$seed" --out fb.json)
+       --iterations "$design_nn_iterations" --samples "$design_nn_samples" --sine-share "$share" --seed "$seed" --out fb.json)
 echo "## Control on $plant (seed $seed)"
 echo "- linear model: OE order $(echo "$lin" | field order), J_val $(echo "$lin" | field J_val_pct | awk '{printf "%.2f", $1}') %;" \
      "LQ ($lq_weight → R $(echo "$lq" | field R), R0 20, 20-1200 Hz): max in $(echo "$lq" | field max_input_worst | awk '{printf "%.3f", $1}') worst," \

@@ -18,11 +18,9 @@ fi
 keep=$(realpath "$1")
 seed=$2
 shift 2
-for f in narx.json ff.json; do
-  if [ ! -f "$keep/$f" ]; then echo "controller_sweep: $keep/$f is missing (run control_table.sh with KEEP=$keep)" >&2; exit 2; fi
-done
-plant=${PLANT:-panel-exciter}
-if [ -f "$plant" ]; then plant=$(realpath "$plant"); fi
+source "$(dirname "$0")/kept_run.sh"
+require_kept controller_sweep "$keep" narx.json ff.json
+plant=$(transducer_plant)
 cd "$(dirname "$0")/.."
 here=$(pwd)
 source bench/design_nn_flags.sh
