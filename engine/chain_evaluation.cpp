@@ -103,11 +103,7 @@ void require_options(const EvaluationOptions& o, double fs) {
   if (o.noise_samples < 4096) throw std::invalid_argument("evaluate: noise_samples must be >= 4096");
   if (!(o.probe_peak >= 0.0 && o.probe_peak <= 1.0)) throw std::invalid_argument("evaluate: probe_peak must be within [0, 1]");
   if (o.harmonics < 3) throw std::invalid_argument("evaluate: at least 3 harmonics are needed for H2 and H3");
-  for (double f : o.probe_hz) {
-    if (!(f > 0.0 && 2.0 * f < fs / 2.0)) {
-      throw std::invalid_argument("evaluate: probe " + std::to_string(f) + " Hz must be within (0, fs/4)");
-    }
-  }
+  models::require_probe_hz(o.probe_hz, fs, "evaluate");
 }
 
 }  // namespace

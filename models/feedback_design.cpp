@@ -335,14 +335,7 @@ FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
                                 std::to_string(o.restarts) + " restarts");
   }
   const std::vector<double> probe_hz = o.probe_hz.empty() ? evaluation_probe_hz() : o.probe_hz;
-  if (o.keep == RestartChoice::worst_probe) {
-    for (double f : probe_hz) {
-      if (!(f > 0.0 && 4.0 * f < ff.fs)) {
-        throw std::invalid_argument("design nn: probe " + std::to_string(f) + " Hz must be within (0, fs/4) = (0, " +
-                                    std::to_string(ff.fs / 4.0) + ")");
-      }
-    }
-  }
+  if (o.keep == RestartChoice::worst_probe) require_probe_hz(probe_hz, ff.fs, "design nn");
   if (device != nullptr && std::abs(device->fs - ff.fs) > 1e-9 * ff.fs) {
     throw std::invalid_argument("design nn: the device runs at " + std::to_string(device->fs) +
                                 " Hz, the feedforward controller at " + std::to_string(ff.fs) + " Hz");

@@ -12,6 +12,15 @@ namespace panelbass::models {
 
 std::vector<double> evaluation_probe_hz() { return {40.0, 80.0, 160.0, 320.0}; }
 
+void require_probe_hz(const std::vector<double>& probe_hz, double fs, const std::string& where) {
+  for (double f : probe_hz) {
+    if (!(f > 0.0 && 4.0 * f < fs)) {
+      throw std::invalid_argument(where + ": probe " + std::to_string(f) + " Hz must be within (0, fs/4) = (0, " +
+                                  std::to_string(fs / 4.0) + ")");
+    }
+  }
+}
+
 double probe_amplitude(const std::vector<dsp::Biquad>& band_pass, const StateSpace& controller, double f, double fs,
                        double peak) {
   const std::complex<double> gain = dsp::SosFilter(band_pass).response(f, fs) * response(controller, f, fs);
@@ -42,12 +51,10 @@ std::vector<double> model_thd_change_db(const NeuralFeedback& fb, const LqFeedfo
     throw std::invalid_argument("model probes: the peak must be within (0, 1], got " + std::to_string(peak));
   }
   const StateSpace controller = ff.controller();
+  require_probe_hz(probe_hz, fb.fs, "model probes");
   const auto n_analysis = static_cast<Eigen::Index>(timing.analysis_seconds * fb.fs);
   std::vector<double> change;
   for (double f : probe_hz) {
-    if (!(f > 0.0 && 4.0 * f < fb.fs)) {
-      throw std::invalid_argument("model probes: probe " + std::to_string(f) + " Hz must be within (0, fs/4)");
-    }
     const Eigen::VectorXd sine = probe_sine(f, probe_amplitude(band_pass, controller, f, fb.fs, peak), fb.fs, timing);
     const Eigen::VectorXd u = simulate(controller, dsp::SosFilter(band_pass).process(sine));
     const double without = model_probe_thd_pct(fb, u, false, n_analysis, f, harmonics);

@@ -5,6 +5,7 @@
 // keep the restart whose worst probe the controller cuts most on its own model.
 
 #include <Eigen/Core>
+#include <string>
 #include <vector>
 
 #include "dsp/biquad.h"
@@ -24,6 +25,10 @@ struct ProbeTiming {
 
 /// The probe frequencies `evaluate` runs by default: 40, 80, 160 and 320 Hz (the thesis's).
 std::vector<double> evaluation_probe_hz();
+
+/// Throws std::invalid_argument, prefixed by `where`, for a probe frequency outside (0, fs/4): a probe's
+/// second harmonic must lie below fs/2.
+void require_probe_hz(const std::vector<double>& probe_hz, double fs, const std::string& where);
 
 /// The program amplitude at which band-pass + feedforward `controller` reach a steady peak of `peak` at
 /// `f` Hz, or `peak` itself where their gain is below 1 (evaluate's probe rule).
