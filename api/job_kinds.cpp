@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <variant>
@@ -623,6 +624,17 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
   options.training.max_iterations = params.at("max_iterations").get<int>();
   options.training.rail_penalty = params.at("rail_penalty").get<double>();
   options.training.dc_penalty = params.at("dc_penalty").get<double>();
+  options.device_playbacks = params.at("tune_playbacks").get<int>();
+  // the device tuned on (the server's own virtual transducer or a preset), and the controller trained on from
+  const std::string tune_on = params.at("tune_on").get<std::string>();
+  std::optional<models::PlantConfig> device;
+  if (tune_on != "none") device = tune_on == "server" ? *env.plant : models::plant_preset(tune_on);
+  const json start_param = params.value("start_from", json(nullptr));
+  std::optional<models::NeuralFeedback> start;
+  if (start_param.is_string()) {
+    start = models::neural_feedback_from_json(stored_model_file(env, start_param.get<std::string>()));
+    options.structure = start->structure;
+  }
   const int total = std::max(1, options.training.max_iterations);
   const int restarts = options.restarts;
   progress.span(0.05, 0.9);
@@ -634,7 +646,8 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
     progress.at((rec.restart + static_cast<double>(rec.iteration) / total) / restarts,
                 restart + "closed-loop iteration " + std::to_string(rec.iteration));
   };
-  models::FeedbackDesign d = models::design_feedback(plant, ff, band_pass, options);
+  models::FeedbackDesign d = models::design_feedback(plant, ff, band_pass, options, device ? &*device : nullptr,
+                                                     start ? &*start : nullptr);
 
   json training = json::array();
   std::vector<HistoryPoint> history;
@@ -655,6 +668,8 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
                        {"feedforward", ff_id},
                        {"bandpass", number_text(lo) + "," + number_text(hi)},
                        {"order", band_order},
+                       {"tuned_on", device ? json(device->name) : json(nullptr)},
+                       {"start_from", start_param},
                        {"restart", d.chosen_restart},
                        {"restart_jc_val_pct", restart_jc_val},
                        {"restart_probe_change_db", restart_probes},

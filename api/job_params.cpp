@@ -29,6 +29,8 @@ constexpr long long kMaxControllerLag = 100;
 constexpr double kMaxRailPenalty = 1e12;
 // Trainings from fresh initial weights in one design-nn job (each costs as much as the whole training).
 constexpr long long kMaxRestarts = 20;
+// Playbacks of each drive into the device a design-nn job tunes on (each costs a simulation of the record).
+constexpr long long kMaxPlaybacks = 64;
 
 // A short rendering of a value for a message: `"x"`, `12.5`, `[1,2]` (long ones cut).
 std::string shown(const json& value) {
@@ -252,15 +254,35 @@ json design_nn_params(const json& params, const JobEnvironment& env) {
   r.number("sine_share", design.sine_share, {0.0, 1.0, false, false});
   r.number("sine_peak", design.sine_peak, {0.0, 1.0, true, false});
   r.number("program_share", design.program_share, {0.0, 1.0, false, false});
-  r.choice("desired", models::desired_response_name(design.desired),
-           {"linear-model", "plant-small-signal", "plant-fundamental"});
-  r.choice("weighting", "none", {"none", "level", "distortion"});
-  r.integer("restarts", design.restarts, 1, kMaxRestarts);
+  const std::string desired = r.choice("desired", models::desired_response_name(design.desired),
+                                      {"linear-model", "plant-small-signal", "plant-fundamental"});
+  const std::string weighting = r.choice("weighting", "none", {"none", "level", "distortion"});
+  const long long restarts = r.integer("restarts", design.restarts, 1, kMaxRestarts);
   r.choice("keep", models::restart_choice_name(design.keep), {"validation-jc", "worst-probe"});
   r.numbers("probes_hz", models::evaluation_probe_hz(), 1, 16, {0.0, env.fs / 4.0, true, true});
   r.number("rail_penalty", design.training.rail_penalty, {0.0, kMaxRailPenalty, false, false});
   r.number("dc_penalty", design.training.dc_penalty, {0.0, kMaxRailPenalty, false, false});
   r.integer("seed", 1, 0, kMaxSeed);
+  // Tuning on a device (panelbass design nn --tune-on): the server's own virtual transducer when it runs one,
+  // or a preset; "none": the plant model alone. Training on from a stored controller (--start-from).
+  std::vector<std::string> devices = models::plant_preset_names();
+  if (env.plant) devices.insert(devices.begin(), "server");
+  devices.insert(devices.begin(), "none");
+  const std::string tune_on = r.choice("tune_on", "none", devices);
+  const long long playbacks = r.integer("tune_playbacks", design.device_playbacks, 1, kMaxPlaybacks);
+  stored_model(r, "start_from", false, {"neural_feedback"}, env);
+  const json* start_from = r.member("start_from");
+  if (tune_on == "none" && playbacks != 1) {
+    fail(r.path_of("tune_playbacks"), "plays each drive into the device of tune_on, and tune_on is \"none\"");
+  }
+  if (tune_on != "none" && (desired != "plant-fundamental" || weighting == "level")) {
+    fail(r.path_of("tune_on"), "tuning on the device asks only each sine step's harmonics of it: it needs desired "
+                               "\"plant-fundamental\" and no level weighting");
+  }
+  if (start_from != nullptr && !start_from->is_null() && restarts != 1) {
+    fail(r.path_of("start_from"), "training on from a controller is one training, and restarts is " +
+                                      std::to_string(restarts));
+  }
   return r.finish();
 }
 

@@ -10,8 +10,9 @@
 # KEEP_DIR holds a control_table.sh run's narx.json and ff.json (KEEP=DIR). Unset design flags take
 # control_table.sh's (bench/design_nn_flags.sh). The tuning trains on from the design with --desired
 # plant-fundamental --distortion-weighting, the design's seed, and the TUNING FLAGS (default --iterations 100).
-# KEEP_TUNED=DIR keeps the controllers and evaluations. PANELBASS_BIN overrides the binary; PLANT the
-# transducer (default panel-exciter). About 5-15 min a design, as long again for the tuning.
+# KEEP_TUNED=DIR keeps the controllers and evaluations; DESIGNED=FB.json takes that controller as the design on
+# the model (one this bench kept, say) instead of designing it again. PANELBASS_BIN overrides the binary; PLANT
+# the transducer (default panel-exciter). About 5-15 min a design, as long again for the tuning.
 set -euo pipefail
 if [ $# -lt 3 ]; then
   sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//' >&2
@@ -50,12 +51,17 @@ evaluate_row() {
 
 echo "| controller | THD change on the transducer, 40/80/160/320 Hz, dB | on the design's plant model | worst, transducer / model | max drive |"
 echo "|---|---|---|---|---|"
-echo "device_tuning: $(date +%H:%M:%S) design nn $design_flags" >&2
 defaults=$(design_nn_defaults "$design_flags" "$seed")
-# shellcheck disable=SC2086  # the flags are words
-"$bin" design nn --plant "$keep/narx.json" --ff "$keep/ff.json" "${design_nn_flags[@]}" $defaults $design_flags \
-  --out fb-model.json > design-model.json 2> design-model.err ||
-  { echo "device_tuning: design nn failed:" >&2; tail -n 3 design-model.err >&2; exit 1; }
+if [ -n "${DESIGNED:-}" ]; then
+  echo "device_tuning: the design on the model is $DESIGNED" >&2
+  cp "$DESIGNED" fb-model.json
+else
+  echo "device_tuning: $(date +%H:%M:%S) design nn $design_flags" >&2
+  # shellcheck disable=SC2086  # the flags are words
+  "$bin" design nn --plant "$keep/narx.json" --ff "$keep/ff.json" "${design_nn_flags[@]}" $defaults $design_flags \
+    --out fb-model.json > design-model.json 2> design-model.err ||
+    { echo "device_tuning: design nn failed:" >&2; tail -n 3 design-model.err >&2; exit 1; }
+fi
 evaluate_row "designed on the model" fb-model.json
 
 echo "device_tuning: $(date +%H:%M:%S) tuning on the device: $tuning_flags" >&2

@@ -173,10 +173,18 @@ void add_design_nn(CLI::App& design) {
       ->delimiter(',')
       ->check(CLI::PositiveNumber)
       ->default_str("40,80,160,320");
-  cmd->add_option("--tune-on", o->tune_on,
+  auto* tune_on = cmd->add_option("--tune-on", o->tune_on,
                   "Tune on a device: a virtual transducer (preset or plant JSON file) standing in for the real one. "
-                  "The records' drives are played into it and its harmonics are what the loop is trained to remove, "
-                  "the gradients still the plant model's (needs --desired plant-fundamental)");
+                  "The records' drives are played into it; on each sine step its harmonics (fitted, so the sensor noise "
+                  "between them is left out) are what the loop is trained to remove, on the noise its departure from "
+                  "the plant model's target; the gradients are still the plant model's (needs --desired "
+                  "plant-fundamental)");
+  cmd->add_option("--tune-playbacks", o->design.device_playbacks,
+                  "With --tune-on: play each drive this many times and average the device's outputs (its sensor "
+                  "noise's power falls by that factor)")
+      ->check(CLI::Range(1, 10000))
+      ->needs(tune_on)
+      ->capture_default_str();
   auto* start_from = cmd->add_option("--start-from", o->start_from,
                                      "Train on from a controller file (its structure, weights and knee; one training)");
   for (const char* fresh : {"--hidden", "--nu", "--nv", "--ny", "--restarts"}) start_from->excludes(fresh);
@@ -184,7 +192,8 @@ void add_design_nn(CLI::App& design) {
   cmd->footer(
       "Example:\n  panelbass design nn --plant nn.json --ff ff.json --bandpass 20,1200 --hidden 8 --out fb.json\n"
       "  panelbass design nn --plant nn.json --ff ff.json --restarts 4 --keep worst-probe --out fb.json\n"
-      "  panelbass design nn --plant nn.json --ff ff.json --desired plant-fundamental --tune-on panel-exciter --out fb.json");
+      "  panelbass design nn --plant nn.json --ff ff.json --desired plant-fundamental --tune-on panel-exciter \\\n"
+      "      --tune-playbacks 8 --out fb.json");
   cmd->callback([o] { run_design_nn(*o); });
 }
 

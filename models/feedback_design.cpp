@@ -106,7 +106,7 @@ std::vector<RecordPart> add_loop_fundamentals(Eigen::VectorXd& y_desired, const 
                                               const std::vector<SineStep>& steps, double fs) {
   std::vector<RecordPart> steady;
   for (const SineStep& s : steps) {
-    const Eigen::Index start = s.start + 2 * s.fade, length = s.length - 3 * s.fade;
+    const auto [start, length] = steady_part(s);
     if (length < 4) continue;
     // least squares: departure ≈ a·sin(ωk) + b·cos(ωk) + c over the steady part
     Eigen::MatrixXd basis(length, 3);
@@ -138,24 +138,52 @@ void weigh_parts_by_inverse_power(Eigen::VectorXd& weight, const Eigen::VectorXd
   }
 }
 
-/// Re-aims record `r` at the device (tuning on the device): the uncorrected loop is played into the device,
-/// and the target becomes, on each sine step's steady part, the fundamental and mean of the device's own
-/// output there (so only its harmonics are asked of the loop), weighing 0 elsewhere; with distortion
-/// weighting every steady part weighs by the inverse power of the device's departure from it. Returns the
-/// device's output for a drive (its sensor noise the same realisation, seeded `noise_seed`, each time).
-DeviceOutput aim_at_device(ControlRecord& r, const PlantConfig& device, std::uint64_t noise_seed,
-                           const FeedbackDesignOptions& o, double fs) {
-  DeviceOutput measure = [device, noise_seed](const Eigen::VectorXd& v) { return simulate(device, v, noise_seed).y; };
+/// Re-aims record `r` at the device (tuning on the device, design_feedback): the uncorrected loop is played
+/// into it; on each sine step's steady part long enough for its harmonics the target becomes the fundamental
+/// and mean of the device's own output there, counted through its harmonic series alone (returned in
+/// `stretches`); the noise part keeps the plant model's target; the rest weighs 0. With distortion weighting
+/// every part weighs by the inverse power of the device's departure from its target (on the steps, of its
+/// harmonics). Returns the device's output for a drive: the mean of o.device_playbacks playbacks, each with
+/// its own sensor noise (seeded noise_seed + i·kPlaybackSeedStride, the same at every call).
+DeviceOutput aim_at_device(ControlRecord& r, std::vector<HarmonicStretch>& stretches, const PlantConfig& device,
+                           std::uint64_t noise_seed, const FeedbackDesignOptions& o, double fs) {
+  const int playbacks = o.device_playbacks;
+  DeviceOutput measure = [device, noise_seed, playbacks](const Eigen::VectorXd& v) {
+    Eigen::VectorXd sum = Eigen::VectorXd::Zero(v.size());
+    for (int i = 0; i < playbacks; ++i) sum += simulate(device, v, noise_seed + kPlaybackSeedStride * i).y;
+    return Eigen::VectorXd(sum / playbacks);
+  };
   const Eigen::VectorXd uncorrected = measure(r.u);
-  r.y_desired = Eigen::VectorXd::Zero(r.u.size());
-  const std::vector<RecordPart> steady = add_loop_fundamentals(r.y_desired, uncorrected, r.steps, fs);
+  std::vector<RecordPart> parts;
   r.weight = Eigen::VectorXd::Zero(r.u.size());
-  for (const RecordPart& p : steady) r.weight.segment(p.start, p.length).setOnes();
-  if (o.distortion_weighting) weigh_parts_by_inverse_power(r.weight, uncorrected - r.y_desired, steady);
+  if (r.noise_samples > 0) {
+    parts.push_back({0, r.noise_samples});
+    r.weight.head(r.noise_samples).setOnes();
+  }
+  const HarmonicStretch fitted{};
+  stretches.clear();
+  for (const SineStep& step : r.steps) {
+    const auto [start, length] = steady_part(step);
+    if (length <= 2 * fitted.harmonics + 1) continue;
+    stretches.push_back({start, length, step.f, fitted.harmonics});
+    parts.push_back({start, length});
+    r.weight.segment(start, length).setOnes();
+  }
+  // the target on the stretches: the fundamental and mean of the device's uncorrected output
+  Eigen::VectorXd steps_target = Eigen::VectorXd::Zero(r.u.size());
+  add_loop_fundamentals(steps_target, uncorrected, r.steps, fs);
+  for (const HarmonicStretch& h : stretches) r.y_desired.segment(h.start, h.length) = steps_target.segment(h.start, h.length);
+  if (o.distortion_weighting) {
+    weigh_parts_by_inverse_power(r.weight, harmonic_series(uncorrected - r.y_desired, stretches, fs), parts);
+  }
   return measure;
 }
 
 }  // namespace
+
+RecordPart steady_part(const SineStep& step) {
+  return {step.start + 2 * step.fade, step.length - 3 * step.fade};
+}
 
 const char* desired_response_name(DesiredResponse d) {
   switch (d) {
@@ -262,7 +290,7 @@ Eigen::VectorXd harmonic_weights(const ControlRecord& record, const Eigen::Vecto
   const std::vector<RecordPart> steady = add_loop_fundamentals(fitted, y, record.steps, fs);
   Eigen::VectorXd residual = y - fitted;
   for (const SineStep& s : record.steps) {
-    const Eigen::Index start = s.start + 2 * s.fade, length = s.length - 3 * s.fade;
+    const auto [start, length] = steady_part(s);
     int harmonics = 0;
     while (harmonics < 4 && (harmonics + 2) * s.f < fs / 2.0) ++harmonics;
     if (length < 4 || harmonics == 0 || length <= 2 * harmonics) continue;
@@ -285,7 +313,7 @@ Eigen::VectorXd harmonic_weights(const ControlRecord& record, const Eigen::Vecto
   }
   std::size_t next = 0;
   for (const SineStep& s : record.steps) {
-    const Eigen::Index start = s.start + 2 * s.fade;
+    const Eigen::Index start = steady_part(s).start;
     if (next < steady.size() && steady[next].start == start) {
       measured.push_back(steady[next++]);
       spans.push_back({s.start, s.length});
@@ -313,6 +341,7 @@ nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o) {
           {"program_share", o.program_share},
           {"level_weighting", o.level_weighting},
           {"distortion_weighting", o.distortion_weighting},
+          {"device_playbacks", o.device_playbacks},
           {"restarts", o.restarts},
           {"keep", restart_choice_name(o.keep)},
           {"probe_hz", o.probe_hz.empty() ? evaluation_probe_hz() : o.probe_hz},
@@ -340,6 +369,9 @@ FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
     throw std::invalid_argument("design nn: the device runs at " + std::to_string(device->fs) +
                                 " Hz, the feedforward controller at " + std::to_string(ff.fs) + " Hz");
   }
+  if (o.device_playbacks < 1) {
+    throw std::invalid_argument("design nn: device playbacks must be >= 1, got " + std::to_string(o.device_playbacks));
+  }
   if (device != nullptr && (o.desired != DesiredResponse::plant_fundamental || o.level_weighting)) {
     throw std::invalid_argument(
         "design nn: tuning on the device asks only each sine step's harmonics of it: it needs the plant-fundamental "
@@ -348,9 +380,10 @@ FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
   ControlRecord est = control_record(ff, band_pass, o, o.seed, &plant);
   ControlRecord val = control_record(ff, band_pass, o, o.seed + 1, &plant);
   DeviceOutput measure_est, measure_val;
+  std::vector<HarmonicStretch> harmonic_est, harmonic_val;
   if (device != nullptr) {
-    measure_est = aim_at_device(est, *device, o.seed + kDeviceNoiseSeedOffset, o, ff.fs);
-    measure_val = aim_at_device(val, *device, o.seed + kDeviceNoiseSeedOffset + 1, o, ff.fs);
+    measure_est = aim_at_device(est, harmonic_est, *device, o.seed + kDeviceNoiseSeedOffset, o, ff.fs);
+    measure_val = aim_at_device(val, harmonic_val, *device, o.seed + kDeviceNoiseSeedOffset + 1, o, ff.fs);
   }
   std::optional<FeedbackDesign> best;
   double best_score = std::numeric_limits<double>::infinity();
@@ -369,6 +402,8 @@ FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
     training.weight_val = val.weight;
     training.measure_est = measure_est;
     training.measure_val = measure_val;
+    training.harmonic_est = harmonic_est;
+    training.harmonic_val = harmonic_val;
     if (o.training.progress) {
       training.progress = [&o, restart](FeedbackTrainingRecord r) {
         r.restart = restart;

@@ -80,6 +80,8 @@ struct FeedbackDesignOptions {
   RestartChoice keep = RestartChoice::validation_jc;  ///< which restart is kept
   std::vector<double> probe_hz;      ///< the probes RestartChoice::worst_probe scores by, Hz; empty: evaluate's
                                      ///< (evaluation_probe_hz)
+  int device_playbacks = 1;          ///< tuning on the device: each drive is played this many times and the
+                                     ///< outputs averaged (the sensor noise's power falls by that factor)
   FeedbackTrainingOptions training{};  ///< the training itself
 };
 
@@ -142,19 +144,29 @@ struct FeedbackDesign {
 
 /// The options a design ran with, as a controller file's meta and a design's report list them:
 /// {"samples","max_iterations","hidden","nu","nv","ny","sine_share","sine_peak","sine_band","program_share","restarts",
-///  "keep","probe_hz","level_weighting","distortion_weighting","rail_penalty","dc_penalty","desired","seed"}.
+///  "keep","probe_hz","level_weighting","distortion_weighting","device_playbacks","rail_penalty","dc_penalty",
+///  "desired","seed"}.
 nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o);
 
 /// The device's sensor noise in tuning (design_feedback's `device`) is seeded seed + this (estimation record)
-/// and seed + this + 1 (validation).
+/// and seed + this + 1 (validation), plus kPlaybackSeedStride·i for playback i.
 inline constexpr std::uint64_t kDeviceNoiseSeedOffset = 1000;
+/// See kDeviceNoiseSeedOffset.
+inline constexpr std::uint64_t kPlaybackSeedStride = 1000000;
+
+/// The steady part of a sine step: from two fades in (the resonances' transients settled) to its fade out;
+/// a length below 4 when the step is too short to have one.
+RecordPart steady_part(const SineStep& step);
 
 /// Designs the controller on `plant` (a NARX model at ff's rate) behind `ff` and `band_pass`: o.restarts
 /// trainings from initial weights seeded seed, seed + 1, … on the same records, the best by o.keep kept
 /// (ties to the earlier). Given a `device` (a virtual transducer standing in for the real one), the controller
-/// is tuned on it: the records' drives are played into it and the tracking error is its measured output's,
-/// on each sine step's steady part against the fundamental of its own uncorrected output there (the harmonics
-/// alone), while the gradients stay the plant model's (FeedbackTrainingOptions::measure_est); this needs
+/// is tuned on it: the records' drives are played into it (o.device_playbacks times, averaged) and the
+/// tracking error is its measured output's, while the gradients stay the plant model's
+/// (FeedbackTrainingOptions::measure_est). On each sine step's steady part the target is the fundamental and
+/// mean of the device's own uncorrected output there and the error counts through its harmonic series alone
+/// (HarmonicStretch: the device's harmonics, without the sensor noise between them); the noise at the
+/// record's start keeps the plant model's target (the broadband J_c); the fades weigh 0. This needs
 /// o.desired = plant_fundamental. Given `start`, one training goes on from its structure, weights and knee
 /// (on `plant`, in place of start's own plant model) instead of fresh initial weights. Throws
 /// std::invalid_argument for a rate mismatch or bad options.

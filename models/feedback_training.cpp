@@ -1,6 +1,7 @@
 #include "models/feedback_training.h"
 
 #include <Eigen/Cholesky>
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -45,6 +46,59 @@ void require_weights(const Eigen::VectorXd& weight, Eigen::Index samples, const 
   }
 }
 
+// A harmonic stretch as the sweeps use it: an orthonormal basis of its mean and harmonic series.
+struct StretchBasis {
+  Eigen::Index start = 0, length = 0;
+  Eigen::MatrixXd q;  // length × (2K + 1): the mean, then sin and cos of each harmonic h·f < fs/2, h = 1..K
+};
+
+// The bases of `stretches` on a record of `samples` at rate fs; std::invalid_argument (`who` first) naming the
+// stretch if one does not fit the record, has no harmonic below fs/2 or is not longer than its components.
+std::vector<StretchBasis> stretch_bases(const std::vector<HarmonicStretch>& stretches, Eigen::Index samples, double fs,
+                                        const std::string& who) {
+  std::vector<StretchBasis> bases;
+  for (std::size_t i = 0; i < stretches.size(); ++i) {
+    const HarmonicStretch& h = stretches[i];
+    const std::string where = who + " harmonic stretch " + std::to_string(i) +
+                              " (samples " + std::to_string(h.start) + " + " + std::to_string(h.length) + ")";
+    if (h.start < 0 || h.length <= 0 || h.start + h.length > samples) {
+      throw std::invalid_argument(where + " does not fit the record's " + std::to_string(samples) + " samples");
+    }
+    if (!(h.f > 0.0 && h.f < fs / 2.0)) {
+      throw std::invalid_argument(where + ": f must be within (0, fs/2), got " + std::to_string(h.f) + " Hz");
+    }
+    if (h.harmonics < 1) throw std::invalid_argument(where + ": harmonics must be >= 1");
+    int kept = 0;
+    while (kept < h.harmonics && (kept + 1) * h.f < fs / 2.0) ++kept;
+    const Eigen::Index components = 2 * kept + 1;
+    if (h.length <= components) {
+      throw std::invalid_argument(where + " is not longer than its " + std::to_string(components) + " components");
+    }
+    Eigen::MatrixXd basis(h.length, components);
+    for (Eigen::Index k = 0; k < h.length; ++k) {
+      const double phase = 2.0 * std::numbers::pi * h.f * static_cast<double>(k) / fs;
+      basis(k, 0) = 1.0;
+      for (int j = 1; j <= kept; ++j) {
+        basis(k, 2 * j - 1) = std::sin(j * phase);
+        basis(k, 2 * j) = std::cos(j * phase);
+      }
+    }
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(basis);
+    bases.push_back({h.start, h.length, qr.householderQ() * Eigen::MatrixXd::Identity(h.length, components)});
+  }
+  return bases;
+}
+
+// One record as a sweep runs it: the feedforward output u (raw), the desired output (raw), the tracking weights
+// (empty = 1), the device whose output is tracked (unset: the plant model's) and the harmonic stretches' bases.
+struct SweepRecord {
+  const Eigen::VectorXd& u;
+  const Eigen::VectorXd& y_desired;
+  const Eigen::VectorXd& weight;
+  const DeviceOutput& measure;
+  std::vector<StretchBasis> bases;
+};
+
 /// One pass of the loop over a record: the outputs, the loss, and (when asked) the Gauss–Newton normal
 /// equations g = Σ r·∂r/∂θ, H = Σ ∂r/∂θ·∂r/∂θᵀ over the residuals r = e and √λ·p.
 // Corner of the low-pass through which the drive-offset penalty sees N1's output, Hz: below the band-pass's
@@ -68,12 +122,11 @@ struct LoopSweep {
         x(controller.plant.structure.inputs()), dx(controller.plant.structure.inputs()),
         plant_dtheta(controller.plant.net.parameter_count()), ds(controller.net.parameter_count()) {}
 
-  /// Runs the loop on `u`; returns V. With `g`/`H`, also the normal equations (normalised like V). `weight`:
-  /// w(k) of each tracking residual (empty = 1).
-  /// `dc`: μ of the drive-offset penalty (see FeedbackTrainingOptions::dc_penalty). `measure`: if set, the
-  /// tracking error is the device's output for the loop's drive (FeedbackTrainingOptions::measure_est).
-  double run(const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired, const Eigen::VectorXd& weight, double lambda,
-             double dc, Eigen::Index skip, Eigen::VectorXd* g, Eigen::MatrixXd* H, const DeviceOutput& measure = {}) {
+  /// Runs the loop on record `d`; returns V. With `g`/`H`, also the normal equations (normalised like V).
+  /// `lambda`: λ of the rail penalty; `dc`: μ of the drive-offset penalty (FeedbackTrainingOptions::dc_penalty).
+  double run(const SweepRecord& d, double lambda, double dc, Eigen::Index skip, Eigen::VectorXd* g, Eigen::MatrixXd* H) {
+    const Eigen::VectorXd& u = d.u;
+    const Eigen::VectorXd& weight = d.weight;
     const Eigen::Index n = u.size();
     const Eigen::Index P = c.net.parameter_count();
     const FeedbackStructure& s = c.structure;
@@ -141,8 +194,8 @@ struct LoopSweep {
     }
     // the tracking residuals e(k) = y_s(k) − y_des(k)/y_scale, of the plant model's output or the device's (whose
     // sensitivities are taken as the model's: the drive does not depend on the device's output)
-    if (measure) {
-      const Eigen::VectorXd measured = measure(v);
+    if (d.measure) {
+      const Eigen::VectorXd measured = d.measure(v);
       if (measured.size() != n || !measured.allFinite()) {
         throw std::invalid_argument("train_feedback: the device returned " + std::to_string(measured.size()) +
                                     " samples for " + std::to_string(n) + (measured.allFinite() ? "" : ", not all finite"));
@@ -151,7 +204,18 @@ struct LoopSweep {
     } else {
       tracked = y_scaled;
     }
-    Eigen::VectorXd we = (tracked - y_desired / sc.y_scale).tail(n - skip);
+    // on the harmonic stretches, the error's harmonic series alone, and the sensitivities' likewise (the
+    // projection is linear, so the sensitivity of the projected error is the projected sensitivity)
+    for (const StretchBasis& b : d.bases) {
+      const Eigen::VectorXd target = d.y_desired.segment(b.start, b.length) / sc.y_scale;
+      const Eigen::VectorXd coefficients = b.q.transpose() * (tracked.segment(b.start, b.length) - target);
+      tracked.segment(b.start, b.length) = target + b.q * coefficients;
+      if (jacobian) {
+        const Eigen::MatrixXd projected = (Dy.middleCols(b.start, b.length) * b.q) * b.q.transpose();
+        Dy.middleCols(b.start, b.length) = projected;
+      }
+    }
+    Eigen::VectorXd we = (tracked - d.y_desired / sc.y_scale).tail(n - skip);
     sum += weight.size() > 0 ? (weight.tail(n - skip).array() * we.array().square()).sum() : we.squaredNorm();
     const double count = static_cast<double>(n - skip);
     if (jacobian) {
@@ -170,9 +234,9 @@ struct LoopSweep {
     return sum / (2.0 * count);
   }
 
-  /// [2C] J_c of the last run (weighted by `weight` unless it is empty), percent.
-  double jc(const Eigen::VectorXd& y_desired, const Eigen::VectorXd& weight, Eigen::Index skip) const {
-    return jc_percent(tracked, y_desired / c.plant.scaling.y_scale, skip, weight);
+  /// [2C] J_c of the last run on record `d` (weighted by its weights unless they are empty), percent.
+  double jc(const SweepRecord& d, Eigen::Index skip) const {
+    return jc_percent(tracked, d.y_desired / c.plant.scaling.y_scale, skip, d.weight);
   }
 
   /// Share of samples k ≥ skip whose unlimited output was above the knee in the last run.
@@ -221,6 +285,15 @@ double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Ei
   return 100.0 * (w * (y_desired.tail(n) - y.tail(n)).array().square()).sum() / energy;
 }
 
+Eigen::VectorXd harmonic_series(const Eigen::VectorXd& x, const std::vector<HarmonicStretch>& stretches, double fs) {
+  Eigen::VectorXd fitted = x;
+  for (const StretchBasis& b : stretch_bases(stretches, x.size(), fs, "harmonic_series:")) {
+    const Eigen::VectorXd coefficients = b.q.transpose() * x.segment(b.start, b.length);
+    fitted.segment(b.start, b.length) = b.q * coefficients;
+  }
+  return fitted;
+}
+
 void initialize_feedback(NeuralFeedback& controller, std::uint64_t seed, double output_scale) {
   controller.net.initialize(1.0, seed);
   const int last = controller.structure.hidden.back();
@@ -228,22 +301,26 @@ void initialize_feedback(NeuralFeedback& controller, std::uint64_t seed, double 
 }
 
 double feedback_loss(const NeuralFeedback& controller, const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired,
-                     double rail_penalty, Eigen::Index skip, const Eigen::VectorXd& weight, double dc_penalty) {
+                     double rail_penalty, Eigen::Index skip, const Eigen::VectorXd& weight, double dc_penalty,
+                     const std::vector<HarmonicStretch>& harmonic) {
   require_data(u, y_desired, skip, "");
   require_weights(weight, u.size(), "");
+  const SweepRecord d{u, y_desired, weight, {}, stretch_bases(harmonic, u.size(), controller.fs, "train_feedback:")};
   LoopSweep sweep(controller, u.size());
-  return sweep.run(u, y_desired, weight, rail_penalty, dc_penalty, skip, nullptr, nullptr);
+  return sweep.run(d, rail_penalty, dc_penalty, skip, nullptr, nullptr);
 }
 
 Eigen::VectorXd feedback_gradient(const NeuralFeedback& controller, const Eigen::VectorXd& u,
                                   const Eigen::VectorXd& y_desired, double rail_penalty, Eigen::Index skip,
-                                  const Eigen::VectorXd& weight, double dc_penalty) {
+                                  const Eigen::VectorXd& weight, double dc_penalty,
+                                  const std::vector<HarmonicStretch>& harmonic) {
   require_data(u, y_desired, skip, "");
   require_weights(weight, u.size(), "");
+  const SweepRecord d{u, y_desired, weight, {}, stretch_bases(harmonic, u.size(), controller.fs, "train_feedback:")};
   LoopSweep sweep(controller, u.size());
   Eigen::VectorXd g;
   Eigen::MatrixXd H;
-  sweep.run(u, y_desired, weight, rail_penalty, dc_penalty, skip, &g, &H);
+  sweep.run(d, rail_penalty, dc_penalty, skip, &g, &H);
   return g;
 }
 
@@ -263,6 +340,13 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
   const bool has_validation = u_val.size() > 0;
   if (has_validation) require_data(u_val, y_desired_val, skip, "validation");
   if (has_validation) require_weights(o.weight_val, u_val.size(), "validation");
+  if (!has_validation && !o.harmonic_val.empty()) {
+    throw std::invalid_argument("train_feedback: harmonic stretches of the validation record, but no validation record");
+  }
+  const SweepRecord est_record{u_est, y_desired_est, o.weight_est, o.measure_est,
+                               stretch_bases(o.harmonic_est, u_est.size(), initial.fs, "train_feedback: estimation")};
+  const SweepRecord val_record{u_val, y_desired_val, o.weight_val, o.measure_val,
+                               stretch_bases(o.harmonic_val, u_val.size(), initial.fs, "train_feedback: validation")};
 
   FeedbackTrainingResult result{initial, {}, 0};
   NeuralFeedback current = initial;
@@ -272,13 +356,13 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
   const auto record = [&](int iteration) {
     FeedbackTrainingRecord r;
     r.iteration = iteration;
-    est.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr, o.measure_est);
-    r.jc_est_pct = est.jc(y_desired_est, o.weight_est, skip);
+    est.run(est_record, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr);
+    r.jc_est_pct = est.jc(est_record, skip);
     r.rail_fraction = est.rail_fraction(skip);
     r.jc_val_pct = std::numeric_limits<double>::quiet_NaN();
     if (has_validation) {
-      val.run(u_val, y_desired_val, o.weight_val, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr, o.measure_val);
-      r.jc_val_pct = val.jc(y_desired_val, o.weight_val, skip);
+      val.run(val_record, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr);
+      r.jc_val_pct = val.jc(val_record, skip);
     }
     result.history.push_back(r);
     if (o.progress) o.progress(r);
@@ -291,7 +375,7 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
   Eigen::VectorXd g, delta;
   Eigen::MatrixXd H, A;
   for (int it = 1; it <= o.max_iterations; ++it) {
-    const double V = est.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, o.dc_penalty, skip, &g, &H, o.measure_est);
+    const double V = est.run(est_record, o.rail_penalty, o.dc_penalty, skip, &g, &H);
     if (!std::isfinite(V) || !g.allFinite() || !H.allFinite()) break;
     // Levenberg–Marquardt: (H + μ·diag(H)) δ = g, θ ← θ − δ if V decreases; μ ÷10 on success, ×10 on failure
     const double floor = 1e-9 * std::max(H.diagonal().mean(), 1e-300);
@@ -302,8 +386,7 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
       delta = A.ldlt().solve(g);
       trial.net.parameters() = current.net.parameters() - delta;
       const double V_new = delta.allFinite()
-                               ? trial_sweep.run(u_est, y_desired_est, o.weight_est, o.rail_penalty, o.dc_penalty, skip,
-                                                 nullptr, nullptr, o.measure_est)
+                               ? trial_sweep.run(est_record, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr)
                                : std::numeric_limits<double>::infinity();
       if (std::isfinite(V_new) && V_new < V) {
         current.net.parameters() = trial.net.parameters();

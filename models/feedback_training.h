@@ -24,6 +24,16 @@ namespace panelbass::models {
 /// A device's output (raw units) for a drive `v` (raw units), as FeedbackTrainingOptions::measure_est plays it.
 using DeviceOutput = std::function<Eigen::VectorXd(const Eigen::VectorXd& v)>;
 
+/// A stretch of a record whose tracking error counts only through its harmonic series: the error there is
+/// replaced by its least-squares fit with a mean and the sines and cosines of f, 2f, …, harmonics·f (those
+/// below fs/2), so that what lies between the harmonics — a sensor's broadband noise — is left out. On a
+/// stretch of L samples, white noise keeps (2·harmonics + 1)/L of its power.
+struct HarmonicStretch {
+  Eigen::Index start = 0, length = 0;  ///< its samples
+  double f = 0.0;                      ///< fundamental, Hz
+  int harmonics = 5;                   ///< the highest harmonic kept (evaluate analyses five)
+};
+
 /// One iteration's figures.
 struct FeedbackTrainingRecord {
   int iteration = 0;
@@ -56,6 +66,9 @@ struct FeedbackTrainingOptions {
   /// change of drive moves the output, not about the distortion itself. Unset: the plant model's output
   /// (the thesis's). For the estimation and the validation record.
   DeviceOutput measure_est, measure_val;
+  /// Stretches of the estimation and validation records whose error counts only through its harmonic series
+  /// (HarmonicStretch; the loss, the Jacobian and J_c alike); elsewhere every sample's error counts as it is.
+  std::vector<HarmonicStretch> harmonic_est, harmonic_val;
 };
 
 /// What training produced.
@@ -76,23 +89,31 @@ double best_validation_jc_pct(const FeedbackTrainingResult& result);
 double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Eigen::Index skip = 0,
                   const Eigen::VectorXd& weight = {});
 
+/// `x` with each of `stretches` replaced by its least-squares fit with a mean and the stretch's harmonic
+/// series (HarmonicStretch), at rate fs: what the tracking error counts there. Throws std::invalid_argument
+/// naming a stretch that does not fit `x` (or is too short for its harmonics, or its f not within (0, fs/2)).
+Eigen::VectorXd harmonic_series(const Eigen::VectorXd& x, const std::vector<HarmonicStretch>& stretches, double fs);
+
 /// Small random weights for N1 (Mlp::initialize with `seed`) with the output layer scaled down by
 /// `output_scale`, so the controller starts close to the identity but not at a symmetric saddle.
 void initialize_feedback(NeuralFeedback& controller, std::uint64_t seed, double output_scale = 0.01);
 
-/// The loss V above for feedforward output `u` (raw drive units) and desired output `y_desired` (raw).
+/// The loss V above for feedforward output `u` (raw drive units) and desired output `y_desired` (raw); on
+/// the `harmonic` stretches, the error's harmonic series only.
 double feedback_loss(const NeuralFeedback& controller, const Eigen::VectorXd& u, const Eigen::VectorXd& y_desired,
                      double rail_penalty, Eigen::Index skip, const Eigen::VectorXd& weight = {},
-                     double dc_penalty = 0.0);
+                     double dc_penalty = 0.0, const std::vector<HarmonicStretch>& harmonic = {});
 
 /// dV/dθ1 by dynamic backpropagation through the loop (Appendix 3 [1]/[2]): forward sensitivities of v
 /// and ŷ, each the sum of the direct term and the terms through every fed-back past value.
 Eigen::VectorXd feedback_gradient(const NeuralFeedback& controller, const Eigen::VectorXd& u,
                                   const Eigen::VectorXd& y_desired, double rail_penalty, Eigen::Index skip,
-                                  const Eigen::VectorXd& weight = {}, double dc_penalty = 0.0);
+                                  const Eigen::VectorXd& weight = {}, double dc_penalty = 0.0,
+                                  const std::vector<HarmonicStretch>& harmonic = {});
 
 /// Trains `initial` by Levenberg–Marquardt on the exact closed-loop Jacobian. Throws std::invalid_argument
-/// for mismatched lengths, non-finite data or records not longer than the skip.
+/// for mismatched lengths, non-finite data, records not longer than the skip or a harmonic stretch that does
+/// not fit its record (or is too short for its harmonics, or its f not within (0, fs/2)).
 FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen::VectorXd& u_est,
                                       const Eigen::VectorXd& y_desired_est, const Eigen::VectorXd& u_val,
                                       const Eigen::VectorXd& y_desired_val, const FeedbackTrainingOptions& options);

@@ -302,6 +302,9 @@ TEST_F(JobKindsTest, DesignNnDefaultsComeFromTheDesignOptions) {
   EXPECT_EQ(nn.at("samples"), 3000);
   EXPECT_EQ(nn.at("max_iterations"), 20);
   EXPECT_EQ(nn.at("hidden"), json({6}));
+  EXPECT_EQ(nn.at("tune_on"), "none");
+  EXPECT_EQ(nn.at("tune_playbacks"), design.device_playbacks);
+  EXPECT_EQ(nn.at("start_from"), nullptr);
 }
 
 TEST_F(JobKindsTest, DesignNnRangesAreNamed) {
@@ -328,6 +331,17 @@ TEST_F(JobKindsTest, DesignNnRangesAreNamed) {
   EXPECT_EQ(refused({{"desired", "flat"}}).rfind("params.desired: ", 0), 0u);
   EXPECT_EQ(refused({{"weighting", "both"}}).rfind("params.weighting: ", 0), 0u);
   EXPECT_EQ(refused({{"probes_hz", json::array()}}).rfind("params.probes_hz: ", 0), 0u);
+  EXPECT_EQ(refused({{"tune_on", "table"}}).rfind("params.tune_on: ", 0), 0u);
+  EXPECT_EQ(refused({{"tune_playbacks", 2}}),
+            "params.tune_playbacks: plays each drive into the device of tune_on, and tune_on is \"none\"");
+  EXPECT_EQ(refused({{"tune_playbacks", 65}}), "params.tune_playbacks: must be an integer in [1, 64], got 65");
+  EXPECT_EQ(refused({{"tune_on", "linear"}}).rfind("params.tune_on: tuning on the device", 0), 0u) << "the target";
+  EXPECT_EQ(refused({{"tune_on", "linear"}, {"desired", "plant-fundamental"}, {"weighting", "level"}})
+                .rfind("params.tune_on: tuning on the device", 0),
+            0u);
+  const std::string narx = models.at("plant_model");
+  EXPECT_EQ(refused({{"start_from", narx}}),
+            "params.start_from: model " + narx + " is of kind \"narx\", expected neural_feedback");
   // The ends that belong to the ranges.
   const json ends = with({{"nu", 0}, {"nv", 100}, {"sine_share", 0}, {"sine_peak", 1}, {"program_share", 1}, {"restarts", 20},
                           {"rail_penalty", 0}, {"dc_penalty", 0}});
@@ -734,6 +748,46 @@ TEST_F(JobKindsTest, DesignNnTakesTheControllersLagsAndTheRecordsShape) {
   params.update({{"sine_share", 0.0}, {"max_iterations", 0}});
   const json noise_only = run("design-nn", params, "j4");
   EXPECT_NE(noise_only.at("summary").at("jc_val_before_pct"), summary.at("jc_val_before_pct"));
+}
+
+// Tuned on a device (a preset, two playbacks) from a stored controller, with no iteration: the design is
+// models::design_feedback's with that device and start (the same first J_c), the weights are the start's, and
+// the meta names both; a start with restarts is refused.
+TEST_F(JobKindsTest, DesignNnTunesOnADeviceFromAStoredController) {
+  json params = design_nn_models();
+  params.update({{"samples", 1000}, {"max_iterations", 1}, {"hidden", {3}}, {"desired", "plant-fundamental"}});
+  const std::string start_id = run("design-nn", params, "j3").at("model_id");
+  params.update({{"max_iterations", 0}, {"tune_on", "linear"}, {"tune_playbacks", 2}, {"start_from", start_id}});
+  FakeControl control("j4");
+  const json result = run("design-nn", params, control);
+  expect_progress(control);
+  const models::NeuralFeedback start = models::neural_feedback_from_json(*store_->model(start_id));
+  const models::NeuralFeedback tuned =
+      models::neural_feedback_from_json(*store_->model(result.at("model_id").get<std::string>()));
+  EXPECT_EQ(tuned.net.parameters(), start.net.parameters());
+  EXPECT_EQ(tuned.meta.at("tuned_on"), "linear");
+  EXPECT_EQ(tuned.meta.at("start_from"), start_id);
+  EXPECT_EQ(tuned.meta.at("device_playbacks"), 2);
+  EXPECT_EQ(result.at("summary").at("device_playbacks"), 2);
+  // the same design by the library: the first validation J_c is the device's, not the plant model's
+  models::FeedbackDesignOptions o;
+  o.samples = 1000;
+  o.structure = start.structure;
+  o.desired = models::DesiredResponse::plant_fundamental;
+  o.training.max_iterations = 0;
+  o.device_playbacks = 2;
+  const models::PlantConfig device = models::plant_preset("linear");
+  const models::NarxModel plant = models::narx_model_from_json(*store_->model(params.at("plant_model")));
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(*store_->model(params.at("feedforward_model")));
+  const models::FeedbackDesign expected =
+      models::design_feedback(plant, ff, dsp::butterworth_bandpass(2, 20.0, 1200.0, kFs), o, &device, &start);
+  EXPECT_DOUBLE_EQ(result.at("summary").at("jc_val_before_pct").get<double>(),
+                   expected.training.history.front().jc_val_pct);
+  const models::FeedbackDesign on_model =
+      models::design_feedback(plant, ff, dsp::butterworth_bandpass(2, 20.0, 1200.0, kFs), o, nullptr, &start);
+  EXPECT_NE(result.at("summary").at("jc_val_before_pct").get<double>(), on_model.training.history.front().jc_val_pct);
+  params.update({{"restarts", 2}});
+  EXPECT_EQ(refusal("design-nn", params), "params.start_from: training on from a controller is one training, and restarts is 2");
 }
 
 // The evaluate job is `panelbass chain` + `evaluate`: its rows are engine::evaluate_chain's on a chain built

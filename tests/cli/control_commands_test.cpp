@@ -118,8 +118,14 @@ TEST_F(CliControl, ControlSignalIsTheFeedforwardOutputAndTheWholeChainEvaluates)
   const std::string tuned = "design nn --plant " + quoted(path("narx.json")) + " --ff " + quoted(path("ff.json")) +
                             " --hidden 3 --iterations 1 --samples 2000 --tune-on linear --out " + quoted(path("fb4.json"));
   expect_failure(run(tuned), "plant-fundamental");
-  expect_result(run(tuned + " --desired plant-fundamental"));
+  expect_result(run(tuned + " --desired plant-fundamental --tune-playbacks 2"));
   EXPECT_EQ(json::parse(text_of(path("fb4.json"))).at("meta").at("tuned_on"), "linear");
+  EXPECT_EQ(json::parse(text_of(path("fb4.json"))).at("meta").at("device_playbacks"), 2);
+  // playbacks without a device to play them on: refused as bad usage, named
+  const RunResult playbacks_alone = run("design nn --plant " + quoted(path("narx.json")) + " --ff " +
+                                        quoted(path("ff.json")) + " --tune-playbacks 2 --out " + quoted(path("fb5.json")));
+  expect_usage_error(playbacks_alone);
+  EXPECT_TRUE(contains(playbacks_alone.err, "--tune-on")) << playbacks_alone.err;
   const double worst_kept = std::max(kept_changes[0].get<double>(), kept_changes[1].get<double>());
   for (const json& changes : other["restart_probe_change_db"]) {
     EXPECT_LE(worst_kept, std::max(changes[0].get<double>(), changes[1].get<double>()));

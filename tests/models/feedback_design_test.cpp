@@ -17,6 +17,7 @@
 #include "models/virtual_transducer.h"
 #include "models/narx_model.h"
 #include "models/state_space.h"
+#include "tests/support/expect_error.h"
 #include "tests/support/linear_systems.h"
 #include "tests/support/narx_models.h"
 
@@ -389,11 +390,17 @@ std::vector<std::pair<Eigen::Index, Eigen::Index>> weighed_runs(const Eigen::Vec
   return runs;
 }
 
-// The least-squares fit of x by a·sin(ωk) + b·cos(ωk) + c at f Hz (3000 Hz sampling): its residual.
-Eigen::VectorXd residual_of_sine_fit(const Eigen::VectorXd& x, double f) {
-  Eigen::MatrixXd basis(x.size(), 3);
+// The least-squares fit of x by c + Σ a_h·sin(hωk) + b_h·cos(hωk) over the harmonics h = 1..`harmonics` of
+// f Hz below fs/2 (3000 Hz sampling): its residual.
+Eigen::VectorXd residual_of_sine_fit(const Eigen::VectorXd& x, double f, int harmonics = 1) {
+  while (harmonics * f >= 1500.0) --harmonics;
+  Eigen::MatrixXd basis(x.size(), 2 * harmonics + 1);
   for (Eigen::Index k = 0; k < x.size(); ++k) {
-    basis.row(k) << std::sin(2.0 * std::numbers::pi * f * k / 3000.0), std::cos(2.0 * std::numbers::pi * f * k / 3000.0), 1.0;
+    basis(k, 0) = 1.0;
+    for (int h = 1; h <= harmonics; ++h) {
+      basis(k, 2 * h - 1) = std::sin(2.0 * std::numbers::pi * h * f * k / 3000.0);
+      basis(k, 2 * h) = std::cos(2.0 * std::numbers::pi * h * f * k / 3000.0);
+    }
   }
   return x - basis * basis.colPivHouseholderQr().solve(x);
 }
@@ -461,10 +468,12 @@ TEST(FeedbackDesignTest, PlantFundamentalTargetLeavesOnlyTheHarmonicsOfEachStead
   }
 }
 
-// Tuned on a device, the loop is asked only the device's harmonics: the first J_c of the training, worked out
-// here from the device's own outputs (each steady step's fundamental fitted to its uncorrected output, the
-// rest weighing nothing), is the design's; and what the device tuning cannot take is refused, named.
-TEST(FeedbackDesignTest, TunedOnADeviceTheLoopIsAskedOnlyTheDevicesHarmonics) {
+// Tuned on a device, the loop is asked the device's harmonics on the steps and its departure from the plant
+// model's target on the noise: the first J_c of the training, worked out here from the device's own outputs
+// (two playbacks averaged; on each steady step the fundamental and mean fitted to its uncorrected output are
+// the target and the output counts through its fit by the five harmonics; the fades weigh nothing), is the
+// design's; and what the device tuning cannot take is refused, named.
+TEST(FeedbackDesignTest, TunedOnADeviceTheLoopIsAskedTheDevicesHarmonicsAndTheNoisesTarget) {
   const LqFeedforward ff = design_lq(resonant_model(), {1e-3, 20.0});
   FeedbackDesignOptions o;
   o.samples = 4500;  // 1500 samples of noise, then 4 steps
@@ -472,26 +481,35 @@ TEST(FeedbackDesignTest, TunedOnADeviceTheLoopIsAskedOnlyTheDevicesHarmonics) {
   o.desired = DesiredResponse::plant_fundamental;
   o.structure.hidden = {3};
   o.training.max_iterations = 0;
+  o.device_playbacks = 2;
   const NarxModel plant = tanh_narx_plant(0.0);
   const PlantConfig device = plant_preset("panel-exciter");
   const FeedbackDesign d = design_feedback(plant, ff, audio_band(), o, &device);
   const ControlRecord val = control_record(ff, audio_band(), o, o.seed + 1, &plant);
   const auto device_output = [&](const Eigen::VectorXd& v) {
-    return simulate(device, v, o.seed + kDeviceNoiseSeedOffset + 1).y;
+    const std::uint64_t seed = o.seed + kDeviceNoiseSeedOffset + 1;
+    return Eigen::VectorXd(0.5 * (simulate(device, v, seed).y + simulate(device, v, seed + kPlaybackSeedStride).y));
   };
   const Eigen::VectorXd uncorrected = device_output(val.u);
   const Eigen::VectorXd y = device_output(simulate_closed_loop(d.controller, val.u).v);
-  double error = 0.0, energy = 0.0;
+  const Eigen::Index skip = o.training.transient_skip;
+  double error = (y - val.y_desired).segment(skip, 1500 - skip).squaredNorm();
+  double energy = val.y_desired.segment(skip, 1500 - skip).squaredNorm();
   for (const SineStep& step : val.steps) {
     const Eigen::Index start = step.start + 2 * step.fade, length = step.length - 3 * step.fade;
     const Eigen::VectorXd part = uncorrected.segment(start, length);
     const Eigen::VectorXd target = part - residual_of_sine_fit(part, step.f);
-    error += (y.segment(start, length) - target).squaredNorm();
+    const Eigen::VectorXd departure = y.segment(start, length) - target;
+    error += (departure - residual_of_sine_fit(departure, step.f, 5)).squaredNorm();
     energy += target.squaredNorm();
   }
+  ASSERT_EQ(val.noise_samples, 1500);
   ASSERT_EQ(val.steps.size(), 4u);
   ASSERT_EQ(d.training.history.size(), 1u);
   EXPECT_NEAR(d.training.history[0].jc_val_pct, 100.0 * error / energy, 1e-6 * d.training.history[0].jc_val_pct);
+  FeedbackDesignOptions no_playback = o;
+  no_playback.device_playbacks = 0;
+  testing_support::expect_invalid([&] { design_feedback(plant, ff, audio_band(), no_playback, &device); }, "playbacks");
   // the device at another rate, another target, or level weighting: refused
   PlantConfig fast = device;
   fast.fs = 6000.0;

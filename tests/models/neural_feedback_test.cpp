@@ -3,9 +3,11 @@
 // known, and the model file.
 #include <gtest/gtest.h>
 
-#include <numbers>
-
+#include <array>
 #include <cmath>
+#include <functional>
+#include <numbers>
+#include <vector>
 
 #include "dsp/random.h"
 #include "dsp/soft_limit.h"
@@ -89,6 +91,19 @@ TEST(NeuralFeedbackTest, RunnerMatchesTheClosedLoopSimulation) {
   }
 }
 
+// The central finite difference (step 1e-6) of `loss` in each of c's parameters.
+Eigen::VectorXd finite_difference(const NeuralFeedback& c, const std::function<double(const NeuralFeedback&)>& loss) {
+  constexpr double h = 1e-6;
+  Eigen::VectorXd fd(c.net.parameter_count());
+  for (Eigen::Index i = 0; i < fd.size(); ++i) {
+    NeuralFeedback plus = c, minus = c;
+    plus.net.parameters()[i] += h;
+    minus.net.parameters()[i] -= h;
+    fd[i] = (loss(plus) - loss(minus)) / (2 * h);
+  }
+  return fd;
+}
+
 TEST(NeuralFeedbackTest, ClosedLoopGradientMatchesFiniteDifferences) {
   NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
   initialize_feedback(c, 11, 1.0);
@@ -99,25 +114,13 @@ TEST(NeuralFeedbackTest, ClosedLoopGradientMatchesFiniteDifferences) {
   const ClosedLoopRun run = simulate_closed_loop(c, u);
   ASSERT_GT((run.s.array().abs() > c.knee).count(), 10) << "the penalty must be exercised";
   const Eigen::VectorXd g = feedback_gradient(c, u, y_des, kLambda, kSkip);
-  Eigen::VectorXd fd(g.size());
-  constexpr double h = 1e-6;
-  for (Eigen::Index i = 0; i < g.size(); ++i) {
-    NeuralFeedback plus = c, minus = c;
-    plus.net.parameters()[i] += h;
-    minus.net.parameters()[i] -= h;
-    fd[i] = (feedback_loss(plus, u, y_des, kLambda, kSkip) - feedback_loss(minus, u, y_des, kLambda, kSkip)) / (2 * h);
-  }
+  Eigen::VectorXd fd = finite_difference(c, [&](const NeuralFeedback& x) { return feedback_loss(x, u, y_des, kLambda, kSkip); });
   EXPECT_LT((g - fd).norm(), 1e-5 * fd.norm()) << "exact " << g.head(5).transpose() << "\nfd    " << fd.head(5).transpose();
 
   // Per-sample tracking weights (level weighting): the exact gradient of the weighted loss, checked alike.
   const Eigen::VectorXd w = uniform(600, 1.0, 9).array().abs() * 3.0;
   const Eigen::VectorXd gw = feedback_gradient(c, u, y_des, kLambda, kSkip, w);
-  for (Eigen::Index i = 0; i < gw.size(); ++i) {
-    NeuralFeedback plus = c, minus = c;
-    plus.net.parameters()[i] += h;
-    minus.net.parameters()[i] -= h;
-    fd[i] = (feedback_loss(plus, u, y_des, kLambda, kSkip, w) - feedback_loss(minus, u, y_des, kLambda, kSkip, w)) / (2 * h);
-  }
+  fd = finite_difference(c, [&](const NeuralFeedback& x) { return feedback_loss(x, u, y_des, kLambda, kSkip, w); });
   EXPECT_LT((gw - fd).norm(), 1e-5 * fd.norm()) << "exact " << gw.head(5).transpose() << "\nfd    " << fd.head(5).transpose();
   EXPECT_GT((gw - g).norm(), 1e-3 * g.norm()) << "the weights change the gradient";
   // Weights of 1 are no weights.
@@ -130,12 +133,7 @@ TEST(NeuralFeedbackTest, ClosedLoopGradientMatchesFiniteDifferences) {
   // The drive-offset penalty: its exact gradient, checked alike (with the weights, so all terms are on).
   constexpr double kMu = 3.0;
   const Eigen::VectorXd gd = feedback_gradient(c, u, y_des, kLambda, kSkip, w, kMu);
-  for (Eigen::Index i = 0; i < gd.size(); ++i) {
-    NeuralFeedback plus = c, minus = c;
-    plus.net.parameters()[i] += h;
-    minus.net.parameters()[i] -= h;
-    fd[i] = (feedback_loss(plus, u, y_des, kLambda, kSkip, w, kMu) - feedback_loss(minus, u, y_des, kLambda, kSkip, w, kMu)) / (2 * h);
-  }
+  fd = finite_difference(c, [&](const NeuralFeedback& x) { return feedback_loss(x, u, y_des, kLambda, kSkip, w, kMu); });
   EXPECT_LT((gd - fd).norm(), 1e-5 * fd.norm()) << "exact " << gd.head(5).transpose() << "\nfd    " << fd.head(5).transpose();
   EXPECT_GT((gd - gw).norm(), 1e-3 * gw.norm()) << "the penalty changes the gradient";
 }
@@ -245,6 +243,137 @@ TEST(NeuralFeedbackTest, TuningOnTheDeviceLearnsADistortionThePlantModelLacks) {
   EXPECT_GT(before, 0.5) << "the device's saturation must matter at this level";
   EXPECT_LT(after, before / 10.0) << "before " << before << " %, after " << after << " %";
   EXPECT_LT(departure_from_inverse(run, u_val), 0.05);
+}
+
+// x(k) = Σ amplitude·sin(2π·f·k/fs + phase) over `tones` ({amplitude, f, phase}), plus `mean`.
+Eigen::VectorXd tones(Eigen::Index n, double fs, double mean, const std::vector<std::array<double, 3>>& parts) {
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(n, mean);
+  for (const auto& [amplitude, f, phase] : parts) {
+    for (Eigen::Index k = 0; k < n; ++k) x[k] += amplitude * std::sin(2.0 * std::numbers::pi * f * k / fs + phase);
+  }
+  return x;
+}
+
+// A stretch's harmonic series against closed forms: a mean and harmonics 1..5 of f pass unchanged; a tone
+// between two harmonics is removed (every tone here is a multiple of fs/L on the stretch, so the sums are
+// exactly orthogonal); samples outside the stretches are untouched; of white noise about (2K+1)/L of the
+// power is kept; harmonics at or above fs/2 are not fitted; and a stretch that cannot be is named.
+TEST(NeuralFeedbackTest, HarmonicSeriesKeepsTheHarmonicsAndDropsWhatLiesBetween) {
+  constexpr double fs = 3000.0, f = 50.0;
+  constexpr Eigen::Index n = 2000, start = 100, length = 1200;  // fs/L = 2.5 Hz
+  const Eigen::VectorXd harmonic = tones(n, fs, 0.2, {{0.5, f, 0.3}, {0.1, 3 * f, 1.5}, {0.05, 5 * f, 1.0}});
+  const Eigen::VectorXd between = tones(n, fs, 0.0, {{0.3, 2.5 * f, 0.7}, {0.2, 7.5 * f, 0.1}});
+  const std::vector<HarmonicStretch> stretch{{start, length, f, 5}};
+  const Eigen::VectorXd fitted = harmonic_series(harmonic + between, stretch, fs);
+  EXPECT_LT((fitted.segment(start, length) - harmonic.segment(start, length)).cwiseAbs().maxCoeff(), 1e-10);
+  EXPECT_EQ(fitted.head(start), (harmonic + between).head(start));
+  EXPECT_EQ(fitted.tail(n - start - length), (harmonic + between).tail(n - start - length));
+  // the sixth harmonic is not among the five kept
+  const Eigen::VectorXd sixth = tones(n, fs, 0.0, {{0.3, 6 * f, 0.0}});
+  EXPECT_LT(harmonic_series(sixth, stretch, fs).segment(start, length).norm(), 1e-10);
+  // white noise: 11 components of 1200 samples keep 11/1200 of its power (within a factor of 2 for this draw)
+  const Eigen::VectorXd noise = uniform(n, 1.0, 31);
+  const double kept = harmonic_series(noise, stretch, fs).segment(start, length).squaredNorm() /
+                      noise.segment(start, length).squaredNorm();
+  EXPECT_GT(kept, 0.5 * 11.0 / length);
+  EXPECT_LT(kept, 2.0 * 11.0 / length);
+  // f = 600 Hz at fs = 3000: only 600 and 1200 Hz are below fs/2 (5 components), and 1200 Hz is fitted
+  const std::vector<HarmonicStretch> high{{start, length, 600.0, 5}};
+  const Eigen::VectorXd second = tones(n, fs, 0.0, {{0.3, 1200.0, 0.4}});
+  EXPECT_LT((harmonic_series(second, high, fs) - second).norm(), 1e-10);
+  testing_support::expect_invalid([&] { harmonic_series(noise, {{start, 5, 600.0, 5}}, fs); }, "5 components");
+  // stretches that cannot be fitted are named
+  const HarmonicStretch fine{start, length, f, 5};
+  testing_support::expect_invalid([&] { harmonic_series(noise, {fine, {1900, 200, f, 5}}, fs); }, "stretch 1");
+  testing_support::expect_invalid([&] { harmonic_series(noise, {{start, length, 1500.0, 5}}, fs); }, "fs/2");
+  testing_support::expect_invalid([&] { harmonic_series(noise, {{start, 11, f, 5}}, fs); }, "11 components");
+  testing_support::expect_invalid([&] { harmonic_series(noise, {{start, length, f, 0}}, fs); }, "harmonics");
+}
+
+// With harmonic stretches the loss counts their error's harmonic series alone: its exact gradient, checked
+// against finite differences, with per-sample weights on.
+TEST(NeuralFeedbackTest, ClosedLoopGradientOnHarmonicStretchesMatchesFiniteDifferences) {
+  NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
+  initialize_feedback(c, 11, 1.0);
+  const Eigen::VectorXd u = uniform(600, 0.9, 5);
+  const Eigen::VectorXd y_des = desired_response(u);
+  const Eigen::VectorXd w = uniform(600, 1.0, 9).array().abs() * 3.0;
+  constexpr double kLambda = 10.0;
+  constexpr Eigen::Index kSkip = 20;
+  const std::vector<HarmonicStretch> stretches{{100, 200, 75.0, 5}, {350, 240, 120.0, 3}};
+  const Eigen::VectorXd g = feedback_gradient(c, u, y_des, kLambda, kSkip, w, 0.0, stretches);
+  const Eigen::VectorXd fd = finite_difference(
+      c, [&](const NeuralFeedback& x) { return feedback_loss(x, u, y_des, kLambda, kSkip, w, 0.0, stretches); });
+  EXPECT_LT((g - fd).norm(), 1e-5 * fd.norm()) << "exact " << g.head(5).transpose() << "\nfd    " << fd.head(5).transpose();
+  EXPECT_GT((g - feedback_gradient(c, u, y_des, kLambda, kSkip, w)).norm(), 1e-3 * g.norm())
+      << "the stretches change the gradient";
+}
+
+// Stepped sines on the saturating plant: four steps of 600 samples at 50, 75, 100 and 150 Hz (fs = 3000),
+// each counted from its 100th sample on through its harmonic series.
+struct SteppedSines {
+  Eigen::VectorXd u;
+  Eigen::VectorXd weight;
+  std::vector<HarmonicStretch> stretches;
+};
+
+SteppedSines stepped_sines(double amplitude) {
+  SteppedSines r{Eigen::VectorXd::Zero(2400), Eigen::VectorXd::Zero(2400), {}};
+  const std::array<double, 4> f{50.0, 75.0, 100.0, 150.0};
+  for (int i = 0; i < 4; ++i) {
+    r.u.segment(600 * i, 600) = tones(600, 3000.0, 0.0, {{amplitude, f[i], 0.0}});
+    r.stretches.push_back({600 * i + 100, 500, f[i], 5});
+    r.weight.segment(600 * i + 100, 500).setOnes();
+  }
+  return r;
+}
+
+// A sensor's noise, many times the power of the saturation's error here, is mostly left out by the harmonic
+// stretches: its share of the first J_c falls to about 11/500 of its share sample by sample; and tuned on the
+// noisy device the controller still learns most of the saturation's inverse (judged on the quiet device),
+// more than tuned on the raw error, though less than tuned on the quiet device (what is left of the noise in
+// the 11 components of each stretch is fitted too: playbacks averaged are the cure, design_feedback's).
+TEST(NeuralFeedbackTest, HarmonicStretchesLeaveASensorsNoiseOut) {
+  const NeuralFeedback c = initialized_controller(linear_plant_model());
+  const SteppedSines r = stepped_sines(0.4);
+  const Eigen::VectorXd y_des = desired_response(r.u);
+  const NarxModel device = saturating_plant();
+  const Eigen::VectorXd sensor = uniform(r.u.size(), 0.3, 41);
+  const DeviceOutput quiet = [&device](const Eigen::VectorXd& v) { return device.simulate(v); };
+  const DeviceOutput noisy = [&](const Eigen::VectorXd& v) { return Eigen::VectorXd(device.simulate(v) + sensor); };
+  FeedbackTrainingOptions o;
+  o.weight_est = o.weight_val = r.weight;
+  o.max_iterations = 0;
+  const auto first_jc = [&](const DeviceOutput& measure, bool stretches) {
+    FeedbackTrainingOptions first = o;
+    first.measure_est = first.measure_val = measure;
+    if (stretches) first.harmonic_est = first.harmonic_val = r.stretches;
+    return train_feedback(c, r.u, y_des, r.u, y_des, first).history.front().jc_val_pct;
+  };
+  const double quiet_jc = first_jc(quiet, true);
+  EXPECT_GT(quiet_jc, 0.3) << "the saturation must matter";
+  // 11 components of 500 samples: the noise's share of J_c falls to about 2 % of what it is sample by sample
+  const double raw_share = first_jc(noisy, false) - first_jc(quiet, false);
+  const double kept_share = first_jc(noisy, true) - quiet_jc;
+  EXPECT_GT(raw_share, 10.0 * quiet_jc) << "the noise must dominate the raw error";
+  EXPECT_LT(std::abs(kept_share), 0.06 * raw_share) << kept_share << " of " << raw_share;
+  // tuned for 20 iterations, each judged on the quiet device
+  o.max_iterations = 20;
+  o.harmonic_est = o.harmonic_val = r.stretches;
+  const auto tuned_jc = [&](const DeviceOutput& measure) {
+    FeedbackTrainingOptions tuning = o;
+    tuning.measure_est = tuning.measure_val = measure;
+    const NeuralFeedback tuned = train_feedback(c, r.u, y_des, r.u, y_des, tuning).controller;
+    return jc_percent(harmonic_series(device.simulate(simulate_closed_loop(tuned, r.u).v), r.stretches, 3000.0),
+                      harmonic_series(y_des, r.stretches, 3000.0), 0, r.weight);
+  };
+  const double on_quiet = tuned_jc(quiet), on_noisy = tuned_jc(noisy);
+  o.harmonic_est.clear();
+  o.harmonic_val.clear();
+  const double on_noisy_raw = tuned_jc(noisy);
+  EXPECT_LT(on_quiet, quiet_jc / 10.0);
+  EXPECT_LT(on_noisy, quiet_jc / 5.0) << "on the quiet device " << on_quiet << " %";
+  EXPECT_LT(on_noisy, 0.8 * on_noisy_raw) << "the noise fitted sample by sample";
 }
 
 TEST(NeuralFeedbackTest, JcIsTheThesisRatio) {
