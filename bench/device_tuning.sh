@@ -1,21 +1,22 @@
 #!/usr/bin/env bash
 # A neural feedback design on the plant model, then the same controller tuned on the device (design nn
 # --start-from … --tune-on …), each chained in model mode and evaluated on the transducer at the 0.6
-# drive-peak probes. The device is the transducer itself with its sensor noise switched off (a measurement
-# averaged over many playbacks), or with it on (NOISY=1). One table row each: the THD change by the feedback at
-# each probe on the transducer, the same on the design's plant model, the worst of each and the largest drive.
+# drive-peak probes. The device is the transducer itself with its sensor noise switched off, or with it on
+# (NOISY=1; then pass --tune-playbacks R in the tuning flags, 16 in the Control issue's runs). One table row
+# each: the THD change by the feedback at each probe on the transducer, the same on the design's plant model,
+# the worst of each and the largest drive.
 # Usage: bash bench/device_tuning.sh KEEP_DIR SEED "DESIGN FLAGS" ["TUNING FLAGS"]   (table on stdout)
-# Example: bash bench/device_tuning.sh /tmp/k2 12 "--hidden 16 --iterations 300 --desired plant-fundamental
-#          --distortion-weighting --restarts 4 --keep worst-probe" "--iterations 100"
+# Example: NOISY=1 bash bench/device_tuning.sh /tmp/k2 12 "--hidden 16 --iterations 300 --desired
+#          plant-fundamental --distortion-weighting --samples 144000" "--iterations 100 --tune-playbacks 16"
 # KEEP_DIR holds a control_table.sh run's narx.json and ff.json (KEEP=DIR). Unset design flags take
 # control_table.sh's (bench/design_nn_flags.sh). The tuning trains on from the design with --desired
 # plant-fundamental --distortion-weighting, the design's seed, and the TUNING FLAGS (default --iterations 100).
 # KEEP_TUNED=DIR keeps the controllers and evaluations; DESIGNED=FB.json takes that controller as the design on
 # the model (one this bench kept, say) instead of designing it again. PANELBASS_BIN overrides the binary; PLANT
-# the transducer (default panel-exciter). About 5-15 min a design, as long again for the tuning.
+# the transducer (default panel-exciter). About 5-15 min a design; the tuning as long, 30-45 min with 16 playbacks.
 set -euo pipefail
 if [ $# -lt 3 ]; then
-  sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//' >&2
+  sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//' >&2
   exit 2
 fi
 keep=$(realpath "$1")
