@@ -50,6 +50,9 @@ void require_weights(const Eigen::VectorXd& weight, Eigen::Index samples, const 
 struct StretchBasis {
   Eigen::Index start = 0, length = 0;
   Eigen::MatrixXd q;  // length × (2K + 1): the mean, then sin and cos of each harmonic h·f < fs/2, h = 1..K
+
+  // The least-squares fit of `x` (this stretch's samples) by the mean and the harmonics.
+  Eigen::VectorXd fit(const Eigen::VectorXd& x) const { return q * (q.transpose() * x); }
 };
 
 // The bases of `stretches` on a record of `samples` at rate fs; std::invalid_argument (`who` first) naming the
@@ -208,8 +211,7 @@ struct LoopSweep {
     // projection is linear, so the sensitivity of the projected error is the projected sensitivity)
     for (const StretchBasis& b : d.bases) {
       const Eigen::VectorXd target = d.y_desired.segment(b.start, b.length) / sc.y_scale;
-      const Eigen::VectorXd coefficients = b.q.transpose() * (tracked.segment(b.start, b.length) - target);
-      tracked.segment(b.start, b.length) = target + b.q * coefficients;
+      tracked.segment(b.start, b.length) = target + b.fit(tracked.segment(b.start, b.length) - target);
       if (jacobian) {
         const Eigen::MatrixXd projected = (Dy.middleCols(b.start, b.length) * b.q) * b.q.transpose();
         Dy.middleCols(b.start, b.length) = projected;
@@ -288,8 +290,7 @@ double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Ei
 Eigen::VectorXd harmonic_series(const Eigen::VectorXd& x, const std::vector<HarmonicStretch>& stretches, double fs) {
   Eigen::VectorXd fitted = x;
   for (const StretchBasis& b : stretch_bases(stretches, x.size(), fs, "harmonic_series:")) {
-    const Eigen::VectorXd coefficients = b.q.transpose() * x.segment(b.start, b.length);
-    fitted.segment(b.start, b.length) = b.q * coefficients;
+    fitted.segment(b.start, b.length) = b.fit(x.segment(b.start, b.length));
   }
   return fitted;
 }
