@@ -5,7 +5,8 @@
 #      so a parser regression fails CI. The libraries are built without the fuzzer's coverage hooks
 #      (PANELBASS_FUZZ_COVERAGE=OFF: a tenth of their compile time, and a few seconds of mutation gain little
 #      from the guidance); scripts/fuzz.sh's long runs build with them;
-#   2. ThreadSanitizer, gcc (build-tsan): the engine tests (audio thread, control thread, lock-free handover).
+#   2. ThreadSanitizer, clang (build-tsan): the engine tests (audio thread, control thread, lock-free
+#      handover). clang, like the ASan build, so the precompiled headers (PANELBASS_PCH) serve it too.
 # Both at -O1 without debug info, to keep the instrumented Eigen code quick to compile. Any sanitizer
 # report fails the test that caused it.
 #
@@ -53,7 +54,7 @@ asan_done=$(date +%s)
 FUZZ_BUILD=build-asan FUZZ_CONFIGURE=0 FUZZ_PARALLEL=2 bash scripts/fuzz.sh "$fuzz_seconds"
 fuzz_done=$(date +%s)
 
-cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" -DPANELBASS_TSAN=ON >/dev/null
+CC=clang CXX=clang++ cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" -DPANELBASS_TSAN=ON >/dev/null
 cmake --build build-tsan -j"$jobs" --target engine_tests
 tsan_built=$(date +%s)
 # The JACK loopback tests are left out here: libjack is not instrumented, so TSan cannot see its
