@@ -233,6 +233,7 @@ void run_design_lq(const DesignLqOptions& o) {
                            {"max_input_noise", limits.noise},
                            {"noise_samples", o.samples},
                            {"drive_peak", {{"frequency_hz", peak.frequency_hz}, {"gain_db", peak.gain_db}}},
+                           {"unity_gain_hz", models::unity_gain_hz(ff)},
                            {"seed", o.seed},
                            {"ripple_db", {{"band", {ripple_lo, hi}}, {"model", ripple_model}, {"controlled", ripple_controlled}}},
                            {"plots", nullptr}};

@@ -441,17 +441,46 @@ InputLimits max_input(const LqFeedforward& ff, const std::vector<dsp::Biquad>& b
   return limits;
 }
 
+namespace {
+// drive_peak's and unity_gain_hz's grid: 2000 frequencies, logarithmic from 1 Hz to just below Nyquist.
+Eigen::VectorXd response_grid(double fs) {
+  return Eigen::VectorXd::LinSpaced(2000, std::log(1.0), std::log(0.999 * fs / 2.0)).array().exp();
+}
+}  // namespace
+
 DrivePeak drive_peak(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass) {
   const dsp::SosFilter filter(band_pass);
   const StateSpace controller = ff.controller();
-  const Eigen::VectorXd f =
-      Eigen::VectorXd::LinSpaced(2000, std::log(1.0), std::log(0.999 * ff.fs / 2.0)).array().exp();
+  const Eigen::VectorXd f = response_grid(ff.fs);
   DrivePeak peak{f[0], -std::numeric_limits<double>::infinity()};
   for (Eigen::Index k = 0; k < f.size(); ++k) {
     const double db = 20.0 * std::log10(std::abs(filter.response(f[k], ff.fs) * response(controller, f[k], ff.fs)));
     if (db > peak.gain_db) peak = {f[k], db};
   }
   return peak;
+}
+
+std::vector<double> unity_gain_hz(const LqFeedforward& ff) {
+  const StateSpace controller = ff.controller();
+  // log |u*/u| at f: its zeros are the crossings.
+  const auto log_gain = [&](double f) { return std::log(std::abs(response(controller, f, ff.fs))); };
+  const Eigen::VectorXd f = response_grid(ff.fs);
+  std::vector<double> crossings;
+  double previous = log_gain(f[0]);
+  for (Eigen::Index k = 1; k < f.size(); ++k) {
+    const double current = log_gain(f[k]);
+    if ((previous > 0.0) != (current > 0.0)) {
+      double lo = f[k - 1], hi = f[k];  // the gain is above 1 at one end and not above it at the other
+      const bool rising = current > 0.0;
+      while (hi - lo > 1e-9 * hi) {
+        const double mid = std::sqrt(lo * hi);
+        ((log_gain(mid) > 0.0) == rising ? hi : lo) = mid;
+      }
+      crossings.push_back(std::sqrt(lo * hi));
+    }
+    previous = current;
+  }
+  return crossings;
 }
 
 nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff) {

@@ -82,6 +82,12 @@ struct DrivePeak {
 /// Nyquist. Below the band-pass's low corner it means the controller boosts what the band-pass removes.
 DrivePeak drive_peak(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass);
 
+/// Where the controller's gain |u*/u| passes through 1 (0 dB), ascending, from 1 Hz to just below Nyquist:
+/// the bands it boosts and those it cuts, as the thesis reads fig. 7.7 ("all the frequencies below 70 Hz
+/// will be amplified, while input frequencies between 70-600 Hz will be quenched"). Found on drive_peak's
+/// grid, each refined by bisection to 1e-9 relative; empty when the gain never crosses 1 there.
+std::vector<double> unity_gain_hz(const LqFeedforward& ff);
+
 /// {"format":"panelbass.model/1","kind":"lq_feedforward","fs",
 ///  "params":{"A":[[…]],"B":[…],"C":[…],"D","L":[…],"R","R0"},"meta"}.
 nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff);

@@ -578,6 +578,7 @@ TEST_F(JobKindsTest, DesignLqMakesAStableControllerThatLoads) {
         << f << " Hz";
   }
   EXPECT_LE(peak_db, -20.0 * std::log10(result.at("summary").at("max_input_worst").get<double>()) + 1e-9);
+  EXPECT_EQ(result.at("summary").at("unity_gain_hz"), json(models::unity_gain_hz(ff)));
   expect_plot(result.at("plots").at("spectrum"), {"f", "plant_db", "controlled_db", "controller_db"});
   // The plant's magnitude peaks at its resonance.
   const json& s = result.at("plots").at("spectrum");

@@ -115,6 +115,11 @@ TEST_F(CliDesignModel, MaxInputSearchesTheFlattestWeightThatAllowsIt) {
     EXPECT_LE(db, peak_db + 1e-9) << f << " Hz";
   }
   EXPECT_LE(peak_db, -20.0 * std::log10(r["max_input_worst"].get<double>()) + 1e-9);
+  // Where the controller's gain passes through 1: the file's controller has unit gain there.
+  ASSERT_FALSE(r["unity_gain_hz"].empty());
+  for (const double f : r["unity_gain_hz"]) {
+    EXPECT_NEAR(std::abs(models::response(ff.controller(), f, 3000.0)), 1.0, 1e-6) << f << " Hz";
+  }
   // --R and --max-input choose the weight two ways: one at a time; the target lies in (0, 1].
   RunResult both = run("design lq --model " + quoted(model()) + " --R 1 --max-input 0.3 --out " + quoted(dir_ / "x.json"));
   expect_usage_error(both);

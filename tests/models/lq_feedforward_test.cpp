@@ -377,6 +377,51 @@ TEST(LqFeedforward, MaxInputIsTheInverseL1NormAndNoiseAllowsMore) {
   }
 }
 
+TEST(LqFeedforward, UnityGainOfAFirstOrderControllerIsWhereItsZeroAndPoleAreEquallyFar) {
+  // u*/u = 1 − L(zI − A + BL)⁻¹B is (z − z0)/(z − p0) for one state (its zero the model's pole, its pole
+  // the loop's), so |u*/u| = 1 where |e^jω − z0| = |e^jω − p0|: cos ω = (z0 + p0)/2.
+  LinearModel m;
+  m.tf.a = vec({-0.9});
+  m.tf.b = vec({0.1});
+  m.tf.nk = 1;
+  m.fs = 3000.0;
+  m.scaling = Scaling{0.1, 0.5, -0.2, 3.0};
+  for (const double R : {1e-2, 1.0}) {
+    const LqFeedforward ff = design_lq(m, {R, 20.0});
+    const double z0 = ff.zeros()[0].real(), p0 = ff.poles()[0].real();
+    ASSERT_LT(p0, z0) << "R = " << R << ": the loop should pull the pole in";
+    const double expected = std::acos((z0 + p0) / 2.0) * m.fs / (2.0 * std::numbers::pi);
+    const std::vector<double> crossings = unity_gain_hz(ff);
+    ASSERT_EQ(crossings.size(), 1u) << "R = " << R;
+    EXPECT_NEAR(crossings[0], expected, 1e-8 * expected) << "R = " << R;
+  }
+}
+
+TEST(LqFeedforward, UnityGainCrossingsAreEveryPlaceTheGainPassesThroughOne) {
+  const LinearModel m = transducer_model();
+  for (const double R : {3.0, 1e-5}) {
+    const LqFeedforward ff = design_lq(m, {R, 20.0});
+    const StateSpace controller = ff.controller();
+    const auto above_one = [&](double f) { return std::abs(response(controller, f, m.fs)) > 1.0; };
+    // Counted on a linear grid of its own, 20 times finer than the search's near Nyquist.
+    int sign_changes = 0;
+    const int n = 40000;
+    for (int k = 1; k < n; ++k) {
+      const double f0 = 1.0 + (0.999 * m.fs / 2.0 - 1.0) * (k - 1) / (n - 1);
+      const double f1 = 1.0 + (0.999 * m.fs / 2.0 - 1.0) * k / (n - 1);
+      sign_changes += above_one(f0) != above_one(f1);
+    }
+    const std::vector<double> crossings = unity_gain_hz(ff);
+    ASSERT_EQ(static_cast<int>(crossings.size()), sign_changes) << "R = " << R;
+    ASSERT_GE(sign_changes, 1) << "R = " << R;
+    EXPECT_TRUE(std::is_sorted(crossings.begin(), crossings.end()));
+    for (const double f : crossings) {
+      EXPECT_NEAR(std::abs(response(controller, f, m.fs)), 1.0, 1e-7) << "R = " << R << ", " << f << " Hz";
+      EXPECT_NE(above_one(f * (1.0 - 1e-6)), above_one(f * (1.0 + 1e-6))) << "R = " << R << ", " << f << " Hz";
+    }
+  }
+}
+
 TEST(LqFeedforward, JsonRoundTripIsExact) {
   LqFeedforward ff = design_lq(transducer_model(), {3.0, 20.0});
   ff.meta = {{"model", "lin.json"}, {"bandpass", {20.0, 1200.0}}};
