@@ -462,19 +462,17 @@ DrivePeak drive_peak(const LqFeedforward& ff, const std::vector<dsp::Biquad>& ba
 
 std::vector<double> unity_gain_hz(const LqFeedforward& ff) {
   const StateSpace controller = ff.controller();
-  // log |u*/u| at f: its zeros are the crossings.
-  const auto log_gain = [&](double f) { return std::log(std::abs(response(controller, f, ff.fs))); };
+  const auto boosts = [&](double f) { return std::abs(response(controller, f, ff.fs)) > 1.0; };
   const Eigen::VectorXd f = response_grid(ff.fs);
   std::vector<double> crossings;
-  double previous = log_gain(f[0]);
+  bool previous = boosts(f[0]);
   for (Eigen::Index k = 1; k < f.size(); ++k) {
-    const double current = log_gain(f[k]);
-    if ((previous > 0.0) != (current > 0.0)) {
-      double lo = f[k - 1], hi = f[k];  // the gain is above 1 at one end and not above it at the other
-      const bool rising = current > 0.0;
+    const bool current = boosts(f[k]);
+    if (current != previous) {
+      double lo = f[k - 1], hi = f[k];  // the gain is above 1 at one end only
       while (hi - lo > 1e-9 * hi) {
         const double mid = std::sqrt(lo * hi);
-        ((log_gain(mid) > 0.0) == rising ? hi : lo) = mid;
+        (boosts(mid) == current ? hi : lo) = mid;
       }
       crossings.push_back(std::sqrt(lo * hi));
     }

@@ -1,8 +1,9 @@
 // The real-time rule, proven mechanically (NeuralAmpModelerCore's way): global operator new/delete and
 // the malloc family are replaced for the whole engine_tests executable (under ASan and TSan, their
-// allocator hooks stand in) and count while this thread has set `counting`. The chain — band-pass, linear feedforward, NARX feedback in sensor mode, limiter, the
-// virtual plant in the loop — then processes blocks, takes over two new stages (warm-up, crossfade,
-// retirement), falls into and out of its safe bypass, and must neither allocate nor free.
+// allocator hooks stand in) and count while this thread has set `counting`. The chain — band-pass, linear
+// feedforward, NARX feedback in sensor mode, limiter, the virtual plant in the loop — then processes
+// blocks, takes over two new stages (warm-up, crossfade, retirement), falls into and out of its safe
+// bypass, and must neither allocate nor free.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -100,29 +101,25 @@ extern "C" void free(void* p) noexcept {
   __libc_free(p);
 }
 
-// operator new/delete in every form, counted once each (the raw allocators below do not count).
+// operator new/delete in every form, counted once each (glibc's own allocators do not count again).
 namespace {
-void* raw_malloc(std::size_t n) { return __libc_malloc(n); }
-void* raw_aligned(std::size_t align, std::size_t n) { return __libc_memalign(align, n); }
-void raw_free(void* p) { __libc_free(p); }
-
 void* counted_new(std::size_t n) {
   count_allocation();
-  if (void* p = raw_malloc(n == 0 ? 1 : n)) return p;
+  if (void* p = __libc_malloc(n == 0 ? 1 : n)) return p;
   throw std::bad_alloc();
 }
 void* counted_new(std::size_t n, std::align_val_t align) {
   count_allocation();
-  if (void* p = raw_aligned(static_cast<std::size_t>(align), n == 0 ? 1 : n)) return p;
+  if (void* p = __libc_memalign(static_cast<std::size_t>(align), n == 0 ? 1 : n)) return p;
   throw std::bad_alloc();
 }
 void* counted_new_nothrow(std::size_t n) noexcept {
   count_allocation();
-  return raw_malloc(n == 0 ? 1 : n);
+  return __libc_malloc(n == 0 ? 1 : n);
 }
 void counted_delete(void* p) noexcept {
   count_free(p);
-  raw_free(p);
+  __libc_free(p);
 }
 }  // namespace
 
