@@ -4,8 +4,8 @@
 #include <stdexcept>
 
 #include "engine/alsa_status_json.h"
-#include "models/config_error.h"
-#include "models/virtual_transducer.h"
+#include "models/io/config_error.h"
+#include "models/plant/virtual_transducer.h"
 
 namespace panelbass::api {
 namespace {

@@ -18,7 +18,7 @@
 #include "engine/chain.h"
 #include "engine/chain_file.h"
 #include "engine/virtual_backend.h"
-#include "models/plant_config.h"
+#include "models/plant/plant_config.h"
 
 namespace panelbass::api {
 

@@ -12,7 +12,7 @@
 
 #include "api/job_queue.h"
 #include "api/model_store.h"
-#include "models/plant_config.h"
+#include "models/plant/plant_config.h"
 
 namespace panelbass::api {
 

@@ -8,9 +8,9 @@
 
 #include "api/model_store.h"
 #include "engine/chain_evaluation.h"
-#include "models/feedback_design.h"
-#include "models/model_probes.h"
-#include "models/plant_presets.h"
+#include "models/control/feedback_design.h"
+#include "models/control/model_probes.h"
+#include "models/plant/plant_presets.h"
 
 namespace panelbass::api {
 namespace {

@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "models/distortion_comparison.h"
+#include "models/analysis/distortion_comparison.h"
 
 namespace panelbass::api {
 

@@ -14,15 +14,15 @@
 
 #include "dsp/random.h"
 #include "engine/stage.h"
-#include "models/config_error.h"
-#include "models/extended_precision.h"
-#include "models/linear_model.h"
-#include "models/lq_feedforward.h"
-#include "models/narx_model.h"
-#include "models/network_fields.h"
-#include "models/neural_feedback.h"
-#include "models/scaling.h"
-#include "models/number_text.h"
+#include "models/io/config_error.h"
+#include "models/linear/extended_precision.h"
+#include "models/linear/linear_model.h"
+#include "models/control/lq_feedforward.h"
+#include "models/narx/narx_model.h"
+#include "models/io/network_fields.h"
+#include "models/control/neural_feedback.h"
+#include "models/preprocess/scaling.h"
+#include "models/io/number_text.h"
 
 namespace panelbass::api {
 namespace {

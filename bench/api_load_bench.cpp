@@ -18,9 +18,9 @@
 #include "api/server.h"
 #include "dsp/excitation.h"
 #include "dsp/random.h"
-#include "models/linear_model.h"
-#include "models/plant_presets.h"
-#include "models/transfer_function.h"
+#include "models/linear/linear_model.h"
+#include "models/plant/plant_presets.h"
+#include "models/linear/transfer_function.h"
 
 // After Eigen: glibc's <resolv.h>, which cpp-httplib includes, defines the macro _res that Eigen uses as a name.
 #include <httplib.h>

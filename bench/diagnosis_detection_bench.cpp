@@ -1,5 +1,5 @@
 // Detection rate of `diagnose` over many seeds and effect sizes (issue #9): for every effect of the
-// vocabulary, its concealed scenario (models/diagnosis_scenarios.h) at each size, diagnosed per seed;
+// vocabulary, its concealed scenario (tests/support/diagnosis_scenarios.h) at each size, diagnosed per seed;
 // a detection is the right id as the first finding. The false-positive rate comes from the scenario
 // with no effect. Prints a markdown table; every run is also one line on stderr.
 //
@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "models/diagnosis.h"
-#include "models/diagnosis_scenarios.h"
+#include "models/diagnosis/diagnosis.h"
+#include "tests/support/diagnosis_scenarios.h"
 
 namespace {
 

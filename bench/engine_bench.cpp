@@ -24,11 +24,11 @@
 #include "engine/chain.h"
 #include "engine/closed_loop.h"
 #include "engine/rate_bridge.h"
-#include "models/linear_model.h"
-#include "models/narx_model.h"
-#include "models/plant_presets.h"
-#include "models/transfer_function.h"
-#include "models/virtual_transducer.h"
+#include "models/linear/linear_model.h"
+#include "models/narx/narx_model.h"
+#include "models/plant/plant_presets.h"
+#include "models/linear/transfer_function.h"
+#include "models/plant/virtual_transducer.h"
 
 namespace {
 

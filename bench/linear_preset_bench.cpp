@@ -10,10 +10,10 @@
 
 #include "dsp/excitation.h"
 #include "dsp/spectrum.h"
-#include "models/linear_identification.h"
-#include "models/performance.h"
-#include "models/plant_presets.h"
-#include "models/virtual_transducer.h"
+#include "models/linear/linear_identification.h"
+#include "models/validation/performance.h"
+#include "models/plant/plant_presets.h"
+#include "models/plant/virtual_transducer.h"
 
 using namespace panelbass;
 

@@ -15,8 +15,8 @@
 #include <string>
 
 #include "dsp/excitation.h"
-#include "models/narx_training.h"
-#include "models/performance.h"
+#include "models/narx/narx_training.h"
+#include "models/validation/performance.h"
 
 namespace {
 

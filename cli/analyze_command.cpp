@@ -16,10 +16,10 @@
 #include "cli/progress_bar.h"
 #include "cli/report_output.h"
 #include "cli/report_plots.h"
-#include "models/json_file.h"
-#include "models/model_analysis.h"
-#include "models/model_file.h"
-#include "models/plant_presets.h"
+#include "models/io/json_file.h"
+#include "models/analysis/model_analysis.h"
+#include "models/kinds/model_file.h"
+#include "models/plant/plant_presets.h"
 
 namespace panelbass::cli {
 namespace {

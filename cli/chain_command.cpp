@@ -7,7 +7,7 @@
 #include "cli/commands.h"
 #include "cli/json_output.h"
 #include "engine/chain_file.h"
-#include "models/json_file.h"
+#include "models/io/json_file.h"
 
 namespace panelbass::cli {
 namespace {

@@ -20,10 +20,10 @@
 #include "cli/gnuplot.h"
 #include "cli/json_output.h"
 #include "dsp/butterworth.h"
-#include "models/json_file.h"
-#include "models/linear_model.h"
-#include "models/lq_feedforward.h"
-#include "models/lq_weight_search.h"
+#include "models/io/json_file.h"
+#include "models/linear/linear_model.h"
+#include "models/control/lq_feedforward.h"
+#include "models/control/lq_weight_search.h"
 
 namespace panelbass::cli {
 namespace {

@@ -10,10 +10,10 @@
 #include "cli/commands.h"
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
-#include "models/feedback_design.h"
-#include "models/json_file.h"
-#include "models/model_file.h"
-#include "models/plant_presets.h"
+#include "models/control/feedback_design.h"
+#include "models/io/json_file.h"
+#include "models/kinds/model_file.h"
+#include "models/plant/plant_presets.h"
 
 namespace panelbass::cli {
 namespace {

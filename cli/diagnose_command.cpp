@@ -1,5 +1,5 @@
 // `panelbass diagnose`: where a linear simulation and a recording disagree, the physics left out, that
-// physics modelled, and validation J before and after (models/diagnosis.h does the work).
+// physics modelled, and validation J before and after (models/diagnosis/diagnosis.h does the work).
 
 #include <cmath>
 #include <filesystem>
@@ -17,12 +17,12 @@
 #include "cli/gnuplot.h"
 #include "cli/json_output.h"
 #include "cli/report_output.h"
-#include "models/diagnosis.h"
-#include "models/diagnosis_baselines.h"
-#include "models/json_file.h"
-#include "models/linear_model.h"
-#include "models/model_file.h"
-#include "models/plant_config.h"
+#include "models/diagnosis/diagnosis.h"
+#include "models/diagnosis/diagnosis_baselines.h"
+#include "models/io/json_file.h"
+#include "models/linear/linear_model.h"
+#include "models/kinds/model_file.h"
+#include "models/plant/plant_config.h"
 
 namespace panelbass::cli {
 namespace {

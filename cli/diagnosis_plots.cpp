@@ -9,7 +9,7 @@
 #include <string>
 
 #include "dsp/spectrum.h"
-#include "models/diagnosis_terms.h"
+#include "models/diagnosis/diagnosis_terms.h"
 
 namespace panelbass::cli {
 namespace {
@@ -27,7 +27,7 @@ struct JudgedSimulations {
   Eigen::VectorXd final_full;  ///< the augmented model's simulation of the whole record (its states need the start)
 };
 
-// The Welch segment locate_residual uses for `n` samples (models/diagnosis_locate.cpp), so that the noise
+// The Welch segment locate_residual uses for `n` samples (models/diagnosis/diagnosis_locate.cpp), so that the noise
 // level it found is read off the same resolution.
 std::size_t residual_segment(Eigen::Index n) {
   std::size_t segment = 256;

@@ -9,7 +9,7 @@
 
 #include "cli/gnuplot.h"
 #include "cli/report_plots.h"
-#include "models/diagnosis.h"
+#include "models/diagnosis/diagnosis.h"
 
 namespace panelbass::cli {
 

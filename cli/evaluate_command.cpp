@@ -17,8 +17,8 @@
 #include "engine/chain_file.h"
 #include "engine/distortion_attribution.h"
 #include "engine/evaluation_json.h"
-#include "models/json_file.h"
-#include "models/plant_presets.h"
+#include "models/io/json_file.h"
+#include "models/plant/plant_presets.h"
 
 namespace panelbass::cli {
 namespace {

@@ -9,10 +9,10 @@
 #include "cli/commands.h"
 #include "cli/data_options.h"
 #include "cli/json_output.h"
-#include "models/distortion_comparison.h"
-#include "models/json_fields.h"
-#include "models/model_file.h"
-#include "models/plant_presets.h"
+#include "models/analysis/distortion_comparison.h"
+#include "models/io/json_fields.h"
+#include "models/kinds/model_file.h"
+#include "models/plant/plant_presets.h"
 
 namespace panelbass::cli {
 namespace {

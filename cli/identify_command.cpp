@@ -10,13 +10,13 @@
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
 #include "dsp/data_file.h"
-#include "models/friction_seed.h"
-#include "models/json_fields.h"
-#include "models/linear_identification.h"
-#include "models/model_file.h"
-#include "models/narx_structure.h"
-#include "models/narx_training.h"
-#include "models/performance.h"
+#include "models/narx/friction_seed.h"
+#include "models/io/json_fields.h"
+#include "models/linear/linear_identification.h"
+#include "models/kinds/model_file.h"
+#include "models/narx/narx_structure.h"
+#include "models/narx/narx_training.h"
+#include "models/validation/performance.h"
 
 namespace panelbass::cli {
 namespace {

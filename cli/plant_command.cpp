@@ -3,8 +3,8 @@
 
 #include "cli/commands.h"
 #include "cli/json_output.h"
-#include "models/plant_presets.h"
-#include "models/plant_survey.h"
+#include "models/plant/plant_presets.h"
+#include "models/plant/plant_survey.h"
 
 namespace panelbass::cli {
 

@@ -22,10 +22,10 @@
 #include "dsp/wav_file.h"
 #include "engine/chain_file.h"
 #include "engine/offline_renderer.h"
-#include "models/lq_feedforward.h"
-#include "models/plant_presets.h"
-#include "models/state_space.h"
-#include "models/virtual_transducer.h"
+#include "models/control/lq_feedforward.h"
+#include "models/plant/plant_presets.h"
+#include "models/linear/state_space.h"
+#include "models/plant/virtual_transducer.h"
 
 namespace panelbass::cli {
 namespace {

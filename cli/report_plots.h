@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "cli/gnuplot.h"
-#include "models/model_analysis.h"
+#include "models/analysis/model_analysis.h"
 
 namespace panelbass::cli {
 

@@ -24,7 +24,7 @@
 #include "engine/chain_file.h"
 #include "engine/metrics_json.h"
 #include "engine/virtual_backend.h"
-#include "models/plant_presets.h"
+#include "models/plant/plant_presets.h"
 
 namespace panelbass::cli {
 namespace {

@@ -15,7 +15,7 @@
 #include "cli/commands.h"
 #include "cli/looped_program.h"
 #include "cli/stop_signals.h"
-#include "models/plant_presets.h"
+#include "models/plant/plant_presets.h"
 
 namespace panelbass::cli {
 namespace {

@@ -9,11 +9,11 @@
 #include "dsp/data_file.h"
 #include "cli/band_pass_option.h"
 #include "dsp/excitation.h"
-#include "models/feedback_design.h"
-#include "models/json_file.h"
-#include "models/neural_feedback.h"
-#include "models/plant_presets.h"
-#include "models/virtual_transducer.h"
+#include "models/control/feedback_design.h"
+#include "models/io/json_file.h"
+#include "models/control/neural_feedback.h"
+#include "models/plant/plant_presets.h"
+#include "models/plant/virtual_transducer.h"
 
 namespace panelbass::cli {
 namespace {

@@ -5,8 +5,8 @@
 #include "cli/commands.h"
 #include "cli/data_options.h"
 #include "cli/json_output.h"
-#include "models/model_file.h"
-#include "models/performance.h"
+#include "models/kinds/model_file.h"
+#include "models/validation/performance.h"
 
 namespace panelbass::cli {
 namespace {

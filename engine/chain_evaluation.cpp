@@ -11,11 +11,11 @@
 #include "dsp/random.h"
 #include "dsp/spectrum.h"
 #include "engine/offline_renderer.h"
-#include "models/feedback_training.h"
-#include "models/lq_feedforward.h"
-#include "models/model_probes.h"
-#include "models/neural_feedback.h"
-#include "models/state_space.h"
+#include "models/control/feedback_training.h"
+#include "models/control/lq_feedforward.h"
+#include "models/control/model_probes.h"
+#include "models/control/neural_feedback.h"
+#include "models/linear/state_space.h"
 
 namespace panelbass::engine {
 namespace {

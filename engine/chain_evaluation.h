@@ -12,8 +12,8 @@
 
 #include "dsp/harmonics.h"
 #include "engine/chain_file.h"
-#include "models/model_probes.h"
-#include "models/plant_config.h"
+#include "models/control/model_probes.h"
+#include "models/plant/plant_config.h"
 
 namespace panelbass::engine {
 

@@ -5,10 +5,10 @@
 #include <utility>
 
 #include "engine/stage_factory.h"
-#include "models/config_error.h"
-#include "models/json_fields.h"
-#include "models/json_file.h"
-#include "models/number_text.h"
+#include "models/io/config_error.h"
+#include "models/io/json_fields.h"
+#include "models/io/json_file.h"
+#include "models/io/number_text.h"
 
 namespace panelbass::engine {
 namespace {

@@ -6,7 +6,7 @@
 #include <span>
 
 #include "engine/chain.h"
-#include "models/virtual_transducer.h"
+#include "models/plant/virtual_transducer.h"
 
 namespace panelbass::engine {
 

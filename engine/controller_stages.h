@@ -8,8 +8,8 @@
 
 #include "engine/sensor_watch.h"
 #include "engine/stage.h"
-#include "models/neural_feedback.h"
-#include "models/state_space.h"
+#include "models/control/neural_feedback.h"
+#include "models/linear/state_space.h"
 
 namespace panelbass::engine {
 

@@ -11,7 +11,7 @@
 
 #include "engine/chain_evaluation.h"
 #include "engine/chain_file.h"
-#include "models/plant_config.h"
+#include "models/plant/plant_config.h"
 
 namespace panelbass::engine {
 

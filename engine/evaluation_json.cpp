@@ -1,6 +1,6 @@
 #include "engine/evaluation_json.h"
 
-#include "models/json_fields.h"
+#include "models/io/json_fields.h"
 
 namespace panelbass::engine {
 

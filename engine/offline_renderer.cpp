@@ -8,7 +8,7 @@
 
 #include "dsp/wav_file.h"
 #include "engine/closed_loop.h"
-#include "models/virtual_transducer.h"
+#include "models/plant/virtual_transducer.h"
 
 namespace panelbass::engine {
 

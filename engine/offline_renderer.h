@@ -9,7 +9,7 @@
 #include <string>
 
 #include "engine/chain.h"
-#include "models/plant_config.h"
+#include "models/plant/plant_config.h"
 
 namespace panelbass::engine {
 

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "dsp/butterworth.h"
-#include "models/config_error.h"
+#include "models/io/config_error.h"
 
 namespace panelbass::engine {
 namespace {

@@ -11,10 +11,10 @@
 
 #include "dsp/biquad.h"
 #include "engine/metrics.h"
-#include "models/linear_model.h"
-#include "models/mlp.h"
-#include "models/narx_model.h"
-#include "models/state_space.h"
+#include "models/linear/linear_model.h"
+#include "models/narx/mlp.h"
+#include "models/narx/narx_model.h"
+#include "models/linear/state_space.h"
 
 namespace panelbass::engine {
 

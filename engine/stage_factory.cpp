@@ -3,11 +3,11 @@
 #include <stdexcept>
 
 #include "engine/controller_stages.h"
-#include "models/config_error.h"
-#include "models/linear_model.h"
-#include "models/lq_feedforward.h"
-#include "models/narx_model.h"
-#include "models/neural_feedback.h"
+#include "models/io/config_error.h"
+#include "models/linear/linear_model.h"
+#include "models/control/lq_feedforward.h"
+#include "models/narx/narx_model.h"
+#include "models/control/neural_feedback.h"
 
 namespace panelbass::engine {
 

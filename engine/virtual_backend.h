@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "engine/chain.h"
-#include "models/plant_config.h"
-#include "models/virtual_transducer.h"
+#include "models/plant/plant_config.h"
+#include "models/plant/virtual_transducer.h"
 
 namespace panelbass::engine {
 

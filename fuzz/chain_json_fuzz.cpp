@@ -14,7 +14,7 @@
 
 #include "fuzz/scratch_file.h"
 #include "engine/chain_file.h"
-#include "models/config_error.h"
+#include "models/io/config_error.h"
 
 namespace {
 

@@ -22,7 +22,7 @@
 
 #include "fuzz/scratch_file.h"
 #include "api/server.h"
-#include "models/plant_presets.h"
+#include "models/plant/plant_presets.h"
 
 // After the project's (Eigen) headers: glibc's resolv.h, which httplib pulls in, defines a macro `_res`.
 #include <httplib.h>

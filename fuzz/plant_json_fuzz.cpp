@@ -1,4 +1,4 @@
-// libFuzzer target: plant files (models/plant_config.h plant_from_json). The input bytes are parsed as
+// libFuzzer target: plant files (models/plant/plant_config.h plant_from_json). The input bytes are parsed as
 // JSON first; a bad plant must be a ConfigError naming the key path, never a crash or any other exception.
 // A plant that passes must survive its own JSON form unchanged (plant_to_json → plant_from_json).
 #include <cstddef>
@@ -6,8 +6,8 @@
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 
-#include "models/config_error.h"
-#include "models/plant_config.h"
+#include "models/io/config_error.h"
+#include "models/plant/plant_config.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace panelbass::models;

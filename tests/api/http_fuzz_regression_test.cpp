@@ -9,7 +9,7 @@
 #include <string>
 
 #include "api/server.h"
-#include "models/plant_presets.h"
+#include "models/plant/plant_presets.h"
 #include "tests/support/scratch_directory.h"
 
 // After the project's (Eigen) headers: glibc's resolv.h, which httplib pulls in, defines a macro `_res`.

@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "api/job_queue.h"
-#include "models/linear_model.h"
-#include "models/transfer_function.h"
+#include "models/linear/linear_model.h"
+#include "models/linear/transfer_function.h"
 #include "tests/support/scratch_directory.h"
 
 namespace panelbass::api {

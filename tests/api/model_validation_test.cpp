@@ -9,11 +9,11 @@
 #include <string>
 #include <utility>
 
-#include "models/linear_model.h"
-#include "models/lq_feedforward.h"
-#include "models/narx_model.h"
-#include "models/neural_feedback.h"
-#include "models/transfer_function.h"
+#include "models/linear/linear_model.h"
+#include "models/control/lq_feedforward.h"
+#include "models/narx/narx_model.h"
+#include "models/control/neural_feedback.h"
+#include "models/linear/transfer_function.h"
 
 namespace panelbass::api {
 namespace {

@@ -23,7 +23,7 @@
 
 #include <httplib.h>
 
-#include "models/plant_presets.h"
+#include "models/plant/plant_presets.h"
 #include "tests/support/jack_server.h"
 #include "tests/support/scratch_directory.h"
 

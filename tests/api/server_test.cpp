@@ -17,8 +17,8 @@
 #include <thread>
 
 #include "api/job_kinds.h"
-#include "models/linear_model.h"
-#include "models/plant_presets.h"
+#include "models/linear/linear_model.h"
+#include "models/plant/plant_presets.h"
 #include "tests/engine/engine_test_models.h"
 #include "tests/support/scratch_directory.h"
 

@@ -16,8 +16,8 @@
 #include "dsp/csv_table.h"
 #include "dsp/record.h"
 #include "dsp/wav_file.h"
-#include "models/plant_config.h"
-#include "models/plant_presets.h"
+#include "models/plant/plant_config.h"
+#include "models/plant/plant_presets.h"
 #include "tests/support/cli_runner.h"
 
 namespace panelbass {

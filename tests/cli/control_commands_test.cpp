@@ -8,10 +8,10 @@
 #include "dsp/butterworth.h"
 #include "dsp/csv_table.h"
 #include "engine/chain_file.h"
-#include "models/feedback_design.h"
-#include "models/lq_feedforward.h"
-#include "models/json_file.h"
-#include "models/neural_feedback.h"
+#include "models/control/feedback_design.h"
+#include "models/control/lq_feedforward.h"
+#include "models/io/json_file.h"
+#include "models/control/neural_feedback.h"
 #include "tests/support/cli_runner.h"
 
 namespace panelbass {

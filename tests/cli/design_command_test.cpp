@@ -8,9 +8,9 @@
 #include <fstream>
 
 #include "dsp/butterworth.h"
-#include "models/linear_model.h"
-#include "models/lq_feedforward.h"
-#include "models/state_space.h"
+#include "models/linear/linear_model.h"
+#include "models/control/lq_feedforward.h"
+#include "models/linear/state_space.h"
 #include "tests/support/cli_runner.h"
 
 namespace panelbass {

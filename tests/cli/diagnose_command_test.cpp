@@ -7,8 +7,8 @@
 #include <set>
 #include <string>
 
-#include "models/plant_config.h"
-#include "models/plant_presets.h"
+#include "models/plant/plant_config.h"
+#include "models/plant/plant_presets.h"
 #include "tests/support/cli_runner.h"
 
 namespace panelbass {

@@ -12,12 +12,12 @@
 #include "dsp/butterworth.h"
 #include "dsp/excitation.h"
 #include "dsp/wav_file.h"
-#include "models/json_file.h"
-#include "models/lq_feedforward.h"
-#include "models/plant_presets.h"
-#include "models/state_space.h"
-#include "models/transfer_function.h"
-#include "models/virtual_transducer.h"
+#include "models/io/json_file.h"
+#include "models/control/lq_feedforward.h"
+#include "models/plant/plant_presets.h"
+#include "models/linear/state_space.h"
+#include "models/linear/transfer_function.h"
+#include "models/plant/virtual_transducer.h"
 #include "tests/support/cli_runner.h"
 
 namespace panelbass {

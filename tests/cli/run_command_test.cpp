@@ -5,8 +5,8 @@
 
 #include <cstdlib>
 
-#include "models/json_file.h"
-#include "models/linear_model.h"
+#include "models/io/json_file.h"
+#include "models/linear/linear_model.h"
 #include "tests/support/cli_runner.h"
 
 namespace panelbass {

@@ -18,10 +18,10 @@
 #include "engine/closed_loop.h"
 #include "engine/controller_stages.h"
 #include "engine/rate_bridge.h"
-#include "models/feedback_training.h"
-#include "models/lq_feedforward.h"
-#include "models/plant_presets.h"
-#include "models/virtual_transducer.h"
+#include "models/control/feedback_training.h"
+#include "models/control/lq_feedforward.h"
+#include "models/plant/plant_presets.h"
+#include "models/plant/virtual_transducer.h"
 #include "tests/engine/engine_test_models.h"
 
 namespace {

@@ -16,8 +16,8 @@
 
 #include "engine/chain_file.h"
 #include "engine/stage.h"
-#include "models/linear_model.h"
-#include "models/config_error.h"
+#include "models/linear/linear_model.h"
+#include "models/io/config_error.h"
 #include "tests/support/expect_error.h"
 
 namespace panelbass::engine {

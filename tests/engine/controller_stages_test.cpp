@@ -5,10 +5,10 @@
 #include "engine/chain.h"
 #include "engine/controller_stages.h"
 #include "engine/stage_factory.h"
-#include "models/config_error.h"
-#include "models/feedback_training.h"
-#include "models/lq_feedforward.h"
-#include "models/neural_feedback.h"
+#include "models/io/config_error.h"
+#include "models/control/feedback_training.h"
+#include "models/control/lq_feedforward.h"
+#include "models/control/neural_feedback.h"
 #include "tests/engine/engine_test_models.h"
 
 namespace panelbass::engine {

@@ -10,11 +10,11 @@
 #include <vector>
 
 #include "dsp/random.h"
-#include "models/linear_model.h"
-#include "models/feedback_training.h"
-#include "models/narx_model.h"
-#include "models/neural_feedback.h"
-#include "models/transfer_function.h"
+#include "models/linear/linear_model.h"
+#include "models/control/feedback_training.h"
+#include "models/narx/narx_model.h"
+#include "models/control/neural_feedback.h"
+#include "models/linear/transfer_function.h"
 
 namespace panelbass::engine::testing {
 

@@ -18,7 +18,7 @@
 #include "engine/chain.h"
 #include "engine/offline_renderer.h"
 #include "engine/virtual_backend.h"
-#include "models/plant_presets.h"
+#include "models/plant/plant_presets.h"
 #include "tests/engine/engine_test_models.h"
 
 namespace panelbass::engine {

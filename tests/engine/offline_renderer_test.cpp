@@ -12,8 +12,8 @@
 #include "dsp/butterworth.h"
 #include "dsp/wav_file.h"
 #include "engine/virtual_backend.h"
-#include "models/plant_presets.h"
-#include "models/virtual_transducer.h"
+#include "models/plant/plant_presets.h"
+#include "models/plant/virtual_transducer.h"
 #include "tests/engine/engine_test_models.h"
 #include "tests/support/scratch_directory.h"
 

@@ -6,7 +6,7 @@
 #include <cstdint>
 
 #include "dsp/random.h"
-#include "models/transfer_function.h"
+#include "models/linear/transfer_function.h"
 
 namespace panelbass::testing_support {
 

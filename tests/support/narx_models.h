@@ -1,7 +1,7 @@
 #pragma once
 // Small NARX models written by hand, whose behaviour the tests can work out in closed form.
 
-#include "models/narx_model.h"
+#include "models/narx/narx_model.h"
 
 namespace panelbass::testing_support {
 

@@ -1,0 +1,98 @@
+#pragma once
+// The thesis's linear controller (ch. 7): LQ state feedback on the linear model ([7A]) used as a
+// feedforward controller ([7B], fig. 7.2), with the largest program amplitude that keeps its output
+// within the model's valid range [−1, 1] behind a band-pass (fig. 7.8 and its table).
+//
+// Units: the design is done on the linear model's realisation in its scaled units (the thesis's units,
+// ch. 3); the controller's input u and output u* are in raw drive units (the model's input scale is
+// folded into B and L; offsets are left out, the controller acts on a zero-mean program).
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "dsp/biquad.h"
+#include "models/linear/linear_model.h"
+#include "models/linear/state_space.h"
+
+namespace panelbass::models {
+
+/// The weights of [7A]: V_c = Σ y(k)·R0·y(k) + u(k)·R·u(k), i.e. Q = Cᵀ·R0·C.
+struct LqWeights {
+  double R = 3.0;    ///< weight on the controller output u* (R > 0)
+  double R0 = 20.0;  ///< weight on the model output y (R0 ≥ 0)
+};
+
+/// The stabilising solution P of the discrete algebraic Riccati equation
+///   P = AᵀPA − AᵀPB·(R + BᵀPB)⁻¹·BᵀPA + Q
+/// (Q symmetric ≥ 0, R > 0), by structured doubling refined by Newton's method (started from L = 0 when
+/// doubling fails on a stiff problem and A is stable), computed in long double; the relative residual is
+/// checked. Throws std::invalid_argument for mismatched sizes, non-finite entries or a pair (A, B) that
+/// has no stabilising solution (naming which: an unreachable mode outside the unit circle, or a mode on
+/// it that Q does not see).
+Eigen::MatrixXd solve_dare(const Eigen::MatrixXd& A, const Eigen::VectorXd& B, const Eigen::MatrixXd& Q, double R);
+
+/// The optimal state feedback of [7A]: L = (R + BᵀPB)⁻¹·BᵀPA for the P of solve_dare().
+Eigen::RowVectorXd lq_gain(const Eigen::MatrixXd& A, const Eigen::VectorXd& B, const Eigen::MatrixXd& P, double R);
+
+/// An LQ feedforward controller designed on a linear model.
+struct LqFeedforward {
+  StateSpace plant;        ///< the linear model realised in raw units: u (drive) → y (raw output)
+  Eigen::RowVectorXd L;    ///< state feedback, raw drive units per state
+  LqWeights weights;       ///< the weights it was designed with
+  double fs = 0.0;         ///< sample rate, Hz
+  nlohmann::json meta = nlohmann::json::object();  ///< provenance (model file, band-pass, …)
+
+  /// [7B] u → u*:  x(k+1) = (A − BL)·x(k) + B·u(k),  u*(k) = −L·x(k) + u(k).
+  StateSpace controller() const;
+  /// [7B] u → y_lin: x(k+1) = (A − BL)·x(k) + B·u(k),  y_lin(k) = (C − D·L)·x(k) + D·u(k): the desired
+  /// response (the model driven by u*; the thesis's D = 0 makes it C·x(k)).
+  StateSpace desired() const;
+  /// Poles of the controlled system: eigenvalues of A − BL.
+  Eigen::VectorXcd poles() const;
+  /// Finite zeros of the controller u*/u (the poles of the plant model, which it cancels).
+  Eigen::VectorXcd zeros() const;
+};
+
+/// Designs the controller of [7A]/[7B] on `model` (balanced realisation in scaled units, Q = Cᵀ·R0·C);
+/// throws std::invalid_argument for R ≤ 0, R0 < 0, non-finite weights or an unstable model.
+LqFeedforward design_lq(const LinearModel& model, const LqWeights& weights);
+
+/// The largest program amplitudes that keep u* within [−1, 1] behind `band_pass` (empty: none).
+struct InputLimits {
+  double worst = 0.0;  ///< for any input: 1 / ‖h‖₁, h the impulse response program → u*
+  double noise = 0.0;  ///< for uniform white noise: 1 / max|u*| over the record of unit-amplitude noise
+};
+
+/// The table after fig. 7.8: the worst case from the impulse response of band-pass · controller (summed
+/// until its tail is below 1e-12 of the sum, at most 10⁶ samples), and the band-limited white-noise case
+/// from `samples` samples of uniform noise in [−1, 1] drawn with `seed` (dsp::Rng), both chains from
+/// rest. Throws std::invalid_argument for samples < 1, an unstable controller or band-pass section.
+InputLimits max_input(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
+                      Eigen::Index samples = 100000, std::uint64_t seed = 1);
+
+/// Where the drive u* = (controller · band-pass)(program) is loudest for a sine: its gain's peak.
+struct DrivePeak {
+  double frequency_hz = 0.0;  ///< where |band-pass · controller| is largest
+  double gain_db = 0.0;       ///< that gain, dB (≤ 20·log10 ‖h‖₁ = −20·log10 InputLimits::worst)
+};
+
+/// The peak of |band-pass · controller| on a logarithmic grid of 2000 frequencies from 1 Hz to just below
+/// Nyquist. Below the band-pass's low corner it means the controller boosts what the band-pass removes.
+DrivePeak drive_peak(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass);
+
+/// Where the controller's gain |u*/u| passes through 1 (0 dB), ascending, from 1 Hz to just below Nyquist:
+/// the bands it boosts and those it cuts, as the thesis reads fig. 7.7 ("all the frequencies below 70 Hz
+/// will be amplified, while input frequencies between 70-600 Hz will be quenched"). Found on drive_peak's
+/// grid, each refined by bisection to 1e-9 relative; empty when the gain never crosses 1 there.
+std::vector<double> unity_gain_hz(const LqFeedforward& ff);
+
+/// {"format":"panelbass.model/1","kind":"lq_feedforward","fs",
+///  "params":{"A":[[…]],"B":[…],"C":[…],"D","L":[…],"R","R0"},"meta"}.
+nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff);
+/// Reads and validates an LQ feedforward object: shapes, finite entries, fs > 0 and a stable A − BL;
+/// ConfigError names the key ("model.params.L: 7 entries, A has 8 states").
+LqFeedforward lq_feedforward_from_json(const nlohmann::json& j);
+
+}  // namespace panelbass::models

@@ -1,0 +1,105 @@
+#pragma once
+// Diagnosis, the augmentations: gray-box terms added to a linear simulation. A term is a static
+// function g of an estimated state (or of the input), orthogonalised against the state itself so that
+// it adds only what the linear model cannot, and passed through the baseline's own dynamics with a few
+// lags: y_aug = y_lin + Σ_l c_l · q^(−l)·G(q)·g. Its coefficients are fitted by least squares.
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "models/linear/transfer_function.h"
+
+namespace panelbass::models {
+
+/// The fixed vocabulary of physics a model can leave out (../shared/PHYSICS.md).
+enum class Effect {
+  resonance,
+  antiresonance,
+  delay,
+  cubic_stiffness,
+  asymmetric_stiffness,
+  force_factor,
+  inductance,
+  hysteresis,
+  saturation,
+  thermal_compression,
+  dc_offset,
+};
+
+/// The effect's id ("cubic_stiffness", …).
+std::string to_string(Effect effect);
+
+/// Every effect of the vocabulary, in the order of ../shared/PHYSICS.md.
+std::vector<Effect> all_effects();
+
+/// The ids of all_effects() joined by ", ".
+std::string vocabulary_text();
+
+/// Which signal a term's function acts on.
+enum class StateProxy {
+  output = 0,       ///< the simulated output ŷ itself (a displacement sensor: Silverbox)
+  integral = 1,     ///< ∫ŷ, leaky (velocity from an accelerometer)
+  double_integral = 2,  ///< ∫∫ŷ, leaky (displacement from an accelerometer)
+  input = 3,        ///< the input u (a drive stage: saturation)
+};
+
+/// The proxy's name ("output", "integral", "double_integral", "input").
+std::string to_string(StateProxy proxy);
+
+/// One augmentation term and its fitted coefficients.
+struct DiagnosisTerm {
+  Effect effect = Effect::dc_offset;
+  StateProxy proxy = StateProxy::output;
+  double threshold = 0.0;   ///< saturation: the knee, in units of the normalised input
+  double time_constant_s = 0.0;  ///< thermal_compression: the time constant of the power-driven state
+  bool one_sided = false;   ///< saturation: each side of the knee fitted on its own (a diode), not alike
+  Eigen::VectorXd coefficients;  ///< one per lag (dc_offset: one, the offset in scaled output units)
+};
+
+/// The signals a term is built from, in the baseline's scaled units, each of zero mean and unit rms
+/// on the record they were normalised on.
+struct StateSignals {
+  Eigen::VectorXd input, output, integral, double_integral;
+  Eigen::Vector4d mean = Eigen::Vector4d::Zero();  ///< subtracted from each, in proxy order
+  Eigen::Vector4d rms = Eigen::Vector4d::Ones();   ///< divided into each, in proxy order
+  double fs = 1.0;                                 ///< sample rate, Hz
+  /// The signal of `proxy`.
+  const Eigen::VectorXd& of(StateProxy proxy) const;
+};
+
+/// The state proxies from the scaled input `u` and the scaled simulated output `y_sim` at rate `fs`:
+/// leaky integrators with their corner at fs/500 keep ∫ and ∫∫ bounded. With `reference`, its means and
+/// rms are used (so that a validation record is normalised exactly as the estimation record was).
+StateSignals state_signals(const Eigen::VectorXd& u, const Eigen::VectorXd& y_sim, double fs,
+                           const StateSignals* reference = nullptr);
+
+/// y = B(q)/A(q)·x from rest.
+Eigen::VectorXd filter_through(const TransferFunction& tf, const Eigen::VectorXd& x);
+
+/// The static feature g of `term` (before filtering): z³ (cubic stiffness), z² (asymmetric stiffness),
+/// z²·u (force factor), z·Δu (inductance), tanh of the motion's direction (hysteresis), the drive beyond a
+/// knee (saturation), u times a slow power-driven state (thermal compression), or a constant; orthogonalised
+/// against z and u where they carry a linear part.
+Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& states);
+
+/// Features of a term: 2 for force_factor (x²·u, x²·v), inductance (z·Δu, u²) and a one-sided saturation
+/// (each side of the knee with its own coefficients), else 1.
+int feature_count(const DiagnosisTerm& term);
+
+/// Every static feature of `term` (feature_count columns; the first is term_feature).
+Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& states);
+
+/// Samples by which a term may lead the baseline's dynamics: the baseline's path from the drive includes
+/// converter latency and filters that a force acting on the mechanics does not pass.
+inline constexpr int kTermLead = 5;
+
+/// The regressors of `term`: each of its features through `dynamics`, shifted by −kTermLead..lags−1
+/// samples (term_columns columns; dc_offset: one column of ones).
+Eigen::MatrixXd term_regressors(const DiagnosisTerm& term, const StateSignals& states,
+                                const TransferFunction& dynamics, int lags);
+
+/// Columns (coefficients) of `term` with `lags` lags: feature_count·(lags + kTermLead), dc_offset 1.
+int term_columns(const DiagnosisTerm& term, int lags);
+
+}  // namespace panelbass::models

@@ -1,0 +1,98 @@
+#include "models/io/json_fields.h"
+
+#include <cmath>
+
+#include "models/io/config_error.h"
+#include "models/io/number_text.h"
+
+namespace panelbass::models {
+namespace {
+
+std::string show(double v) { return number_text(v); }
+
+}  // namespace
+
+JsonFields::JsonFields(const nlohmann::json& value, std::string path) : value_(value), path_(std::move(path)) {
+  if (!value_.is_object()) {
+    throw ConfigError(path_ + ": expected an object, got " + std::string(value_.type_name()));
+  }
+}
+
+std::string JsonFields::path_of(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+
+const nlohmann::json* JsonFields::member(const std::string& key) {
+  known_.insert(key);
+  auto it = value_.find(key);
+  return it == value_.end() ? nullptr : &*it;
+}
+
+double JsonFields::number(const std::string& key) {
+  const nlohmann::json* v = member(key);
+  if (v == nullptr) throw ConfigError(path_of(key) + ": missing");
+  if (!v->is_number()) {
+    throw ConfigError(path_of(key) + ": expected a number, got " + std::string(v->type_name()));
+  }
+  const double d = v->get<double>();
+  if (!std::isfinite(d)) throw ConfigError(path_of(key) + ": not finite");
+  return d;
+}
+
+double JsonFields::number(const std::string& key, double fallback) {
+  return value_.contains(key) ? number(key) : (known_.insert(key), fallback);
+}
+
+long JsonFields::integer(const std::string& key, long fallback, long lo, long hi) {
+  const nlohmann::json* v = member(key);
+  if (v == nullptr) return fallback;
+  if (!v->is_number_integer()) {
+    throw ConfigError(path_of(key) + ": expected an integer, got " + std::string(v->type_name()));
+  }
+  const long n = v->get<long>();
+  if (n < lo || n > hi) {
+    throw ConfigError(path_of(key) + ": must be within [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                      "], got " + std::to_string(n));
+  }
+  return n;
+}
+
+bool JsonFields::boolean(const std::string& key, bool fallback) {
+  const nlohmann::json* v = member(key);
+  if (v == nullptr) return fallback;
+  if (!v->is_boolean()) {
+    throw ConfigError(path_of(key) + ": expected true or false, got " + std::string(v->type_name()));
+  }
+  return v->get<bool>();
+}
+
+std::string JsonFields::string(const std::string& key, const std::string& fallback) {
+  const nlohmann::json* v = member(key);
+  if (v == nullptr) return fallback;
+  if (!v->is_string()) {
+    throw ConfigError(path_of(key) + ": expected a string, got " + std::string(v->type_name()));
+  }
+  return v->get<std::string>();
+}
+
+void JsonFields::finish() const {
+  for (auto it = value_.begin(); it != value_.end(); ++it) {
+    if (!known_.contains(it.key())) throw ConfigError(path_of(it.key()) + ": unknown key");
+  }
+}
+
+void require_positive(double v, const std::string& path) {
+  if (!(v > 0.0)) throw ConfigError(path + ": must be > 0, got " + show(v));
+}
+
+void require_non_negative(double v, const std::string& path) {
+  if (!(v >= 0.0)) throw ConfigError(path + ": must be >= 0, got " + show(v));
+}
+
+void require_within(double v, double lo, double hi, const std::string& path) {
+  if (!(v >= lo && v <= hi)) {
+    throw ConfigError(path + ": must be within [" + show(lo) + ", " + show(hi) + "], got " + show(v));
+  }
+}
+
+nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+
+}  // namespace panelbass::models

@@ -1,0 +1,44 @@
+#include "models/kinds/model_file.h"
+
+#include "models/io/config_error.h"
+#include "models/io/json_file.h"
+
+namespace panelbass::models {
+
+std::string AnyModel::kind() const { return std::holds_alternative<LinearModel>(model) ? "linear" : "narx"; }
+
+double AnyModel::fs() const {
+  return std::visit([](const auto& m) { return m.fs; }, model);
+}
+
+Eigen::VectorXd AnyModel::simulate(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) const {
+  return std::visit([&](const auto& m) { return m.simulate(u, y, init); }, model);
+}
+
+Eigen::VectorXd AnyModel::predict(const Eigen::VectorXd& u, const Eigen::VectorXd& y) const {
+  return std::visit([&](const auto& m) { return m.predict(u, y); }, model);
+}
+
+AnyModel model_from_json(const nlohmann::json& j) {
+  if (!j.is_object()) throw ConfigError("model: expected an object");
+  const auto kind = j.find("kind");
+  if (kind == j.end() || !kind->is_string()) throw ConfigError("model.kind: missing (linear or narx)");
+  if (*kind == "linear") return AnyModel{linear_model_from_json(j)};
+  if (*kind == "narx") return AnyModel{narx_model_from_json(j)};
+  throw ConfigError("model.kind: unknown kind \"" + kind->get<std::string>() + "\" (linear or narx)");
+}
+
+AnyModel load_model(const std::filesystem::path& path) {
+  const nlohmann::json json = read_json_file(path);
+  try {
+    return model_from_json(json);
+  } catch (const ConfigError& e) {
+    throw ConfigError(path.string() + ": " + e.what());
+  }
+}
+
+void save_narx_model(const std::filesystem::path& path, const NarxModel& m) {
+  write_json_file(path, narx_model_to_json(m));
+}
+
+}  // namespace panelbass::models

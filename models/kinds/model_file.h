@@ -1,0 +1,38 @@
+#pragma once
+// Model files of every kind behind one loader (the shared contract: {"format":"panelbass.model/1",
+// "kind": …}): what `validate`, the engine and the API read.
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <variant>
+
+#include "models/linear/linear_model.h"
+#include "models/narx/narx_model.h"
+
+namespace panelbass::models {
+
+/// A dynamic model of any kind, used through what all kinds can do.
+struct AnyModel {
+  std::variant<LinearModel, NarxModel> model;
+
+  /// "linear" or "narx".
+  std::string kind() const;
+  /// Sample rate the model was identified at, Hz.
+  double fs() const;
+  /// Free-run simulation on raw data; the first `init` measured outputs set the state.
+  Eigen::VectorXd simulate(const Eigen::VectorXd& u, const Eigen::VectorXd& y = {}, Eigen::Index init = 0) const;
+  /// One-step (series-parallel) prediction on raw data.
+  Eigen::VectorXd predict(const Eigen::VectorXd& u, const Eigen::VectorXd& y) const;
+};
+
+/// Validates a model file object of any kind (dispatching on "kind"); ConfigError names what is wrong.
+AnyModel model_from_json(const nlohmann::json& j);
+
+/// Reads a model file of any kind; errors start with the file name.
+AnyModel load_model(const std::filesystem::path& path);
+
+/// Writes a NARX model file atomically; ConfigError naming the path if it cannot.
+void save_narx_model(const std::filesystem::path& path, const NarxModel& m);
+
+}  // namespace panelbass::models

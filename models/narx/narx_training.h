@@ -1,0 +1,104 @@
+#pragma once
+// Training the NARX model (thesis ch. 5–6): PEM, OEM with the static gradient, OEM with dynamic
+// backpropagation ([5L]/[5O]), OEM with a numerical gradient; steepest descent, a line search, or
+// Levenberg–Marquardt; early stopping on validation data (fig. 6.4).
+
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "models/narx/narx_model.h"
+
+namespace panelbass::models {
+
+/// The thesis's four ways to compute the output and its gradient ([5N]/[5O]).
+enum class TrainingMode {
+  pem,    ///< series-parallel: measured past outputs; dŷ/dθ = ∂F/∂θ ([5K])
+  oem_s,  ///< parallel, static gradient: ∂F/∂θ only (the approximation that fails, table 5.1)
+  oem_d,  ///< parallel, dynamic backpropagation: ∂F/∂θ + Σ ∂F/∂ŷ(k−t)·dŷ(k−t)/dθ ([5L])
+  oem_n,  ///< parallel, central finite differences of the simulation
+};
+
+/// How parameters are updated.
+enum class Optimizer {
+  sd,          ///< steepest descent θ ← θ − α·dV/dθ, updated every `batch` samples ([5C])
+  linesearch,  ///< steepest descent with a backtracking/golden line search along −dV/dθ
+  lm,          ///< Levenberg–Marquardt on the (exact, for oem_d) Jacobian of the simulation
+};
+
+/// "pem" → pem, "oem-s" → oem_s, "oem-d" → oem_d, "oem-n" → oem_n; throws std::invalid_argument.
+TrainingMode parse_training_mode(const std::string& name);
+/// "pem", "oem-s", "oem-d", "oem-n".
+std::string to_string(TrainingMode mode);
+/// "sd", "linesearch", "lm"; throws std::invalid_argument.
+Optimizer parse_optimizer(const std::string& name);
+/// "sd", "linesearch", "lm".
+std::string to_string(Optimizer optimizer);
+
+/// One iteration's figures.
+struct TrainingRecord {
+  int iteration = 0;
+  TrainingMode mode = TrainingMode::pem;
+  double j_est_pct = 0.0;   ///< simulation J on the estimation data
+  double j_val_pct = 0.0;   ///< simulation J on the validation data (NaN without)
+  double j_val_weighted_pct = 0.0;  ///< Σw·e²/Σw·y² on the validation data with its weights (= j_val_pct
+                                    ///< without): what early stopping watches
+};
+
+/// How training runs.
+struct TrainingOptions {
+  std::vector<TrainingMode> modes{TrainingMode::pem, TrainingMode::oem_d};  ///< run one after the other
+  Optimizer optimizer = Optimizer::lm;
+  int max_iterations = 100;          ///< per mode
+  double step = 0.1;                 ///< α for sd
+  Eigen::Index batch = 0;            ///< L for sd: samples per update (0 = all, L = N)
+  Eigen::Index transient_skip = -1;  ///< [5M] samples left out of the OEM loss; −1 = 2·(na + nb)
+  bool early_stopping = true;        ///< keep the parameters with the best validation J (fig. 6.4)
+  int patience = 20;                 ///< iterations without validation improvement before stopping
+  /// Which parameters train (size P; 1 = free, 0 = pruned); empty = all free. Pruned parameters are set to
+  /// exactly 0 at the start and stay there: LM solves the reduced system over the free parameters (the
+  /// pruned rows and columns of H and entries of g are zeroed), sd and the line search step along the
+  /// masked gradient. Entries other than 0 and 1 throw std::invalid_argument.
+  Eigen::VectorXd mask;
+  /// Per-sample weights w(k) of the estimation loss (size N; finite, ≥ 0, a positive total after the
+  /// skip); empty = 1. V = Σ w·e² / (2·Σ w), so scaling all weights changes nothing. The J figures
+  /// reported stay the thesis's unweighted [2A]; std::invalid_argument for bad weights.
+  Eigen::VectorXd weights;
+  /// The same for the validation data; early stopping then watches Σw·e²/Σw·y² there. Empty = 1.
+  Eigen::VectorXd validation_weights;
+  std::function<void(const TrainingRecord&)> progress;
+};
+
+/// What training produced.
+struct TrainingResult {
+  NarxModel model;                       ///< the kept parameters
+  std::vector<TrainingRecord> history;   ///< record 0 = the start
+  int iterations = 0;
+  double seconds = 0.0;
+};
+
+/// Trains `initial` (scaled data: u, y already through model.scaling) with each mode in turn. Cost per
+/// iteration is linear in N; LM accumulates JᵀJ (P×P) sample by sample, never storing N×P×P.
+/// Throws std::invalid_argument for bad data (lengths, non-finite, too short for the structure).
+TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est,
+                          const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const TrainingOptions& options);
+
+/// dV/dθ of V = 1/(2(N−skip))·Σ_{k≥skip} e(k)² for `mode` (scaled data), or with `weights` of
+/// V = Σ w(k)·e(k)² / (2·Σ w(k)). For oem_n: central differences with step h.
+Eigen::VectorXd loss_gradient(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                              TrainingMode mode, Eigen::Index skip, double h = 1e-6,
+                              const Eigen::VectorXd& weights = Eigen::VectorXd());
+
+/// The Gauss–Newton matrix H = 1/(N−skip)·Σ_{k≥skip} ψ(k)·ψ(k)ᵀ, ψ = dŷ/dθ for `mode` (the matrix LM uses;
+/// for oem_d the exact [5L] sensitivities of the simulation, for oem_n central differences). Scaled data.
+/// With `weights`: 1/Σw·Σ w(k)·ψ(k)·ψ(k)ᵀ.
+Eigen::MatrixXd gauss_newton_hessian(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                                     TrainingMode mode, Eigen::Index skip,
+                                     const Eigen::VectorXd& weights = Eigen::VectorXd());
+
+/// The loss V for `mode` (pem: prediction error; oem_*: simulation error), weighted as loss_gradient says.
+double training_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                     TrainingMode mode, Eigen::Index skip, const Eigen::VectorXd& weights = Eigen::VectorXd());
+
+}  // namespace panelbass::models

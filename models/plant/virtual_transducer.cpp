@@ -1,0 +1,175 @@
+#include "models/plant/virtual_transducer.h"
+
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include "dsp/butterworth.h"
+
+namespace panelbass::models {
+namespace {
+
+// State layout: coil current, displacement, velocity, voice-coil temperature rise, then two states per
+// panel mode, then the analog filters' states.
+constexpr int kCurrent = 0;
+constexpr int kDisplacement = 1;
+constexpr int kVelocity = 2;
+constexpr int kTemperature = 3;
+constexpr double kMmPerM = 1000.0;
+// Keeps a strongly nonlinear inductance (user-configured) from reaching zero and blowing up di/dt.
+constexpr double kMinInductanceFraction = 0.05;
+
+// Soft clipper: identity up to `level`, then a tanh knee of width `knee` (continuous slope).
+double soft_clip(double u, double level, double knee) noexcept {
+  const double a = std::abs(u);
+  if (a <= level) return u;
+  return std::copysign(level + knee * std::tanh((a - level) / knee), u);
+}
+
+}  // namespace
+
+VirtualTransducer::VirtualTransducer(PlantConfig config, std::uint64_t noise_seed)
+    : config_(std::move(config)), noise_seed_(noise_seed), noise_(noise_seed) {
+  int next = mode_state_ + 2 * static_cast<int>(config_.panel_modes.size());
+  auto layout = [&next](const AnalogFilter& f, std::vector<Section>& out) {
+    if (f.order == 0) return;
+    for (const dsp::AnalogSection& s : dsp::analog_butterworth_lowpass(f.order, f.cutoff_hz)) {
+      out.push_back(Section{s.omega, s.q, s.first_order, next});
+      next += s.first_order ? 1 : 2;
+    }
+  };
+  layout(config_.converters.da_filter, da_sections_);
+  layout(config_.converters.ad_filter, ad_sections_);
+  for (Eigen::VectorXd* v : {&state_, &k1_, &k2_, &k3_, &k4_, &trial_}) v->setZero(next);
+  delay_line_.assign(static_cast<std::size_t>(config_.converters.delay_samples), 0.0);
+}
+
+void VirtualTransducer::reset() noexcept {
+  state_.setZero();
+  std::fill(delay_line_.begin(), delay_line_.end(), 0.0);
+  delay_pos_ = 0;
+  noise_ = dsp::Rng(noise_seed_);
+}
+
+// A cascade of analog Butterworth sections: ω/(s+ω) or ω²/(s² + (ω/q)s + ω²). Returns its output.
+double VirtualTransducer::filter_derivatives(const std::vector<Section>& sections, const Eigen::VectorXd& s,
+                                             double in, Eigen::VectorXd& ds) const noexcept {
+  double signal = in;
+  for (const Section& sec : sections) {
+    const int p = sec.state;
+    if (sec.first_order) {
+      ds[p] = sec.omega * (signal - s[p]);
+    } else {
+      ds[p] = s[p + 1];
+      ds[p + 1] = sec.omega * sec.omega * (signal - s[p]) - sec.omega / sec.q * s[p + 1];
+    }
+    signal = s[p];
+  }
+  return signal;
+}
+
+void VirtualTransducer::derivatives(const Eigen::VectorXd& s, double drive, Eigen::VectorXd& ds,
+                                    double& accel) const noexcept {
+  const PlantConfig& c = config_;
+  const NonlinearTerms& n = c.nonlinear;
+
+  double u = filter_derivatives(da_sections_, s, drive, ds);
+  if (const double g = n.clipping.gain(); g != 0.0) u += g * (soft_clip(u, n.clipping.level, n.clipping.knee) - u);
+  const double volts = c.amplifier_gain_V * u + c.amplifier_offset_V;
+
+  const double i = s[kCurrent], x = s[kDisplacement], v = s[kVelocity], temperature = s[kTemperature];
+  const double xm = x * kMmPerM;
+
+  // Large-signal element values (PHYSICS.md): polynomials in displacement (mm) and current.
+  const double bl = c.Bl_Tm * (1.0 + n.force_factor.gain() * (n.force_factor.b1_per_mm * xm +
+                                                               n.force_factor.b2_per_mm2 * xm * xm));
+  const double spring = c.stiffness_N_per_m * x *
+                        (1.0 + n.stiffness.gain() * (n.stiffness.k1_per_mm * xm + n.stiffness.k2_per_mm2 * xm * xm));
+  const double gl = n.inductance.gain();
+  const double le = c.Le_H * std::max(kMinInductanceFraction,
+                                      1.0 + gl * (n.inductance.l1_per_mm * xm + n.inductance.l2_per_mm2 * xm * xm +
+                                                  n.inductance.li2_per_A2 * i * i));
+  const double dle_dx = c.Le_H * gl * (n.inductance.l1_per_mm + 2.0 * n.inductance.l2_per_mm2 * xm) * kMmPerM;
+  const double gt = n.thermal.gain();
+  const double re = c.Re_ohm * (1.0 + gt * n.thermal.alpha_per_K * temperature);
+  const double friction =
+      n.friction.gain() * n.friction.coulomb_N * std::tanh(v / n.friction.velocity_scale_m_per_s);
+
+  // Le·di/dt = u − Re·i − Bl·v − i·v·dLe/dx;  m·dv/dt = Bl·i + ½i²·dLe/dx − Rm·v − K(x)·x − F_friction
+  const double force = bl * i + 0.5 * i * i * dle_dx;
+  ds[kCurrent] = (volts - re * i - bl * v - i * v * dle_dx) / le;
+  ds[kDisplacement] = v;
+  ds[kVelocity] = (force - c.damping_Ns_per_m * v - spring - friction) / c.mass_kg;
+  ds[kTemperature] =
+      gt != 0.0 ? (re * i * i * n.thermal.resistance_K_per_W - temperature) / n.thermal.time_constant_s : 0.0;
+
+  // Panel modes: q̈ + 2ζω·q̇ + ω²·q = g·F/m; each adds q̈ to the measured acceleration.
+  accel = ds[kVelocity];
+  int p = mode_state_;
+  for (const PanelMode& m : c.panel_modes) {
+    const double w = 2.0 * std::numbers::pi * m.frequency_hz;
+    ds[p] = s[p + 1];
+    ds[p + 1] = m.gain * force / c.mass_kg - 2.0 * m.damping_ratio * w * s[p + 1] - w * w * s[p];
+    accel += ds[p + 1];
+    p += 2;
+  }
+  filter_derivatives(ad_sections_, s, accel, ds);
+}
+
+PlantSample VirtualTransducer::step(double drive) noexcept {
+  if (!delay_line_.empty()) {
+    std::swap(drive, delay_line_[delay_pos_]);
+    delay_pos_ = (delay_pos_ + 1) % delay_line_.size();
+  }
+  const double h = 1.0 / (config_.fs * config_.oversample);
+  double accel = 0.0;
+  for (int sub = 0; sub < config_.oversample; ++sub) {
+    // Classic RK4 with the drive held constant over the step (zero-order hold is exact).
+    derivatives(state_, drive, k1_, accel);
+    trial_.noalias() = state_ + 0.5 * h * k1_;
+    derivatives(trial_, drive, k2_, accel);
+    trial_.noalias() = state_ + 0.5 * h * k2_;
+    derivatives(trial_, drive, k3_, accel);
+    trial_.noalias() = state_ + h * k3_;
+    derivatives(trial_, drive, k4_, accel);
+    state_.noalias() += (h / 6.0) * (k1_ + 2.0 * k2_ + 2.0 * k3_ + k4_);
+  }
+  double measured;
+  if (ad_sections_.empty()) {
+    derivatives(state_, drive, k1_, accel);  // the acceleration at the sampling instant
+    measured = accel;
+  } else {
+    measured = state_[ad_sections_.back().state];
+  }
+  const Sensor& sensor = config_.sensor;
+  PlantSample out;
+  out.y_clean = sensor.sensitivity_V_per_mps2 * measured + sensor.offset_V;
+  out.y = out.y_clean + (sensor.noise_rms_V > 0.0 ? sensor.noise_rms_V * noise_.gaussian() : 0.0);
+  out.i = state_[kCurrent];
+  out.x = state_[kDisplacement];
+  out.v = state_[kVelocity];
+  return out;
+}
+
+PlantRecord simulate(const PlantConfig& config, const Eigen::VectorXd& drive, std::uint64_t noise_seed,
+                     const ProgressCallback& progress) {
+  VirtualTransducer plant(config, noise_seed);
+  const Eigen::Index n = drive.size();
+  PlantRecord r{Eigen::VectorXd(n), Eigen::VectorXd(n), Eigen::VectorXd(n), Eigen::VectorXd(n)};
+  for (Eigen::Index k = 0; k < n; ++k) {
+    if (!std::isfinite(drive[k])) {
+      throw std::invalid_argument("drive sample " + std::to_string(k) + " is not finite");
+    }
+    const PlantSample s = plant.step(drive[k]);
+    r.y[k] = s.y;
+    r.i[k] = s.i;
+    r.x[k] = s.x;
+    r.v[k] = s.v;
+    if (progress && (k + 1) % 8192 == 0) progress(static_cast<double>(k + 1) / static_cast<double>(n));
+  }
+  if (progress) progress(1.0);
+  return r;
+}
+
+}  // namespace panelbass::models

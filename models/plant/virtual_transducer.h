@@ -1,0 +1,78 @@
+#pragma once
+// The virtual transducer: the plant of PlantConfig simulated sample by sample, the embedded stand-in
+// for hardware. Drive (dimensionless, normally within [-1, 1]) in; sensor voltage, coil current,
+// displacement and velocity out.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "dsp/random.h"
+#include "models/plant/plant_config.h"
+
+namespace panelbass::models {
+
+/// One sample of the plant's outputs.
+struct PlantSample {
+  double y = 0.0;  ///< measured acceleration, sensor volts (filtered, delayed, noisy)
+  double y_clean = 0.0;  ///< y without the sensor's noise: what the panel does, as a noise-free sensor reads it
+  double i = 0.0;  ///< coil current, A
+  double x = 0.0;  ///< displacement, m
+  double v = 0.0;  ///< velocity, m/s
+};
+
+/// A simulated record: one column per output.
+struct PlantRecord {
+  Eigen::VectorXd y, i, x, v;
+};
+
+/// The lumped exciter-on-panel model of ../shared/PHYSICS.md, integrated with fixed-step RK4 at
+/// `oversample` steps per sample. The drive is held over each sample (DA zero-order hold), passes the
+/// converter delay, the analog DA filter and the amplifier; the acceleration passes the analog AD
+/// filter and is sampled at the end of the sample period, then sensor noise is added.
+/// step() is noexcept and allocation-free, so the engine can run it on the audio thread.
+class VirtualTransducer {
+ public:
+  /// A plant at rest; `noise_seed` seeds the sensor noise.
+  VirtualTransducer(PlantConfig config, std::uint64_t noise_seed);
+
+  /// Advances one sample with `drive` held, and returns the outputs at the end of that sample.
+  PlantSample step(double drive) noexcept;
+
+  /// Back to rest, noise sequence restarted.
+  void reset() noexcept;
+
+  /// The configuration simulated.
+  const PlantConfig& config() const { return config_; }
+
+ private:
+  struct Section {
+    double omega;
+    double q;
+    bool first_order;
+    int state;  // index of the section's first state
+  };
+
+  void derivatives(const Eigen::VectorXd& s, double drive, Eigen::VectorXd& ds, double& accel) const noexcept;
+  double filter_derivatives(const std::vector<Section>& sections, const Eigen::VectorXd& s, double in,
+                            Eigen::VectorXd& ds) const noexcept;
+
+  PlantConfig config_;
+  std::uint64_t noise_seed_;
+  dsp::Rng noise_;
+  std::vector<Section> da_sections_, ad_sections_;
+  int mode_state_ = 4;
+  Eigen::VectorXd state_, k1_, k2_, k3_, k4_, trial_;
+  std::vector<double> delay_line_;
+  std::size_t delay_pos_ = 0;
+};
+
+/// Reports the fraction done, 0..1, now and then during a long computation.
+using ProgressCallback = std::function<void(double)>;
+
+/// Simulates `drive` from rest; throws std::invalid_argument if a drive sample is not finite.
+PlantRecord simulate(const PlantConfig& config, const Eigen::VectorXd& drive, std::uint64_t noise_seed,
+                     const ProgressCallback& progress = {});
+
+}  // namespace panelbass::models

@@ -1,0 +1,207 @@
+// The virtual transducer against independent expectations: the closed-form frequency response of the
+// lumped model, RK4 convergence as the step halves, superposition, causality and determinism.
+
+#include "models/plant/virtual_transducer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <complex>
+#include <numbers>
+
+#include "dsp/excitation.h"
+#include "models/plant/plant_presets.h"
+
+namespace panelbass::models {
+namespace {
+
+using cd = std::complex<double>;
+constexpr double kPi = std::numbers::pi;
+
+PlantConfig quiet(PlantConfig c) {
+  c.sensor.noise_rms_V = 0.0;
+  return c;
+}
+
+// Analog Butterworth low-pass from its poles p_k = ωc·e^{jπ(2k+n−1)/(2n)}: H(s) = Π (−p_k)/(s − p_k).
+cd butterworth(int order, double cutoff_hz, cd s) {
+  cd h = 1.0;
+  const double wc = 2.0 * kPi * cutoff_hz;
+  for (int k = 1; k <= order; ++k) {
+    const cd p = std::polar(wc, kPi * (2.0 * k + order - 1.0) / (2.0 * order));
+    h *= -p / (s - p);
+  }
+  return h;
+}
+
+// Drive (dimensionless) to sensor volts of the linear lumped model of PHYSICS.md, in continuous time:
+// i = V/(Ze + Bl²/Zm), v = Bl·i/Zm, a = s·v + Σ g_k·s²/(s² + 2ζω_k s + ω_k²)·Bl·i/m.
+cd continuous_response(const PlantConfig& c, double f) {
+  const cd s(0.0, 2.0 * kPi * f);
+  const cd ze = c.Re_ohm + s * c.Le_H;
+  const cd zm = s * c.mass_kg + c.damping_Ns_per_m + c.stiffness_N_per_m / s;
+  const cd i = c.amplifier_gain_V / (ze + c.Bl_Tm * c.Bl_Tm / zm);
+  cd a = s * c.Bl_Tm * i / zm;
+  for (const PanelMode& m : c.panel_modes) {
+    const double w = 2.0 * kPi * m.frequency_hz;
+    a += m.gain * s * s / (s * s + 2.0 * m.damping_ratio * w * s + w * w) * c.Bl_Tm * i / c.mass_kg;
+  }
+  return butterworth(c.converters.da_filter.order, c.converters.da_filter.cutoff_hz, s) * a *
+         butterworth(c.converters.ad_filter.order, c.converters.ad_filter.cutoff_hz, s) *
+         c.sensor.sensitivity_V_per_mps2;
+}
+
+// What the sampled plant should show at f: the zero-order hold's e^{−jωT/2}·sinc(ωT/2), the continuous
+// response, sampling at the end of each period (e^{+jωT}) and the converter delay (e^{−jωdT}).
+cd expected_discrete_response(const PlantConfig& c, double f) {
+  const double wt = 2.0 * kPi * f / c.fs;
+  const cd hold = std::polar(std::sin(wt / 2.0) / (wt / 2.0), -wt / 2.0);
+  return hold * continuous_response(c, f) * std::polar(1.0, wt * (1.0 - c.converters.delay_samples));
+}
+
+cd single_bin(const Eigen::VectorXd& x, double f, double fs) {
+  cd sum = 0.0;
+  for (Eigen::Index k = 0; k < x.size(); ++k) sum += x[k] * std::polar(1.0, -2.0 * kPi * f * k / fs);
+  return sum;
+}
+
+TEST(VirtualTransducer, LinearPlantMatchesClosedFormFrequencyResponse) {
+  const PlantConfig plant = quiet(plant_preset("linear"));
+  dsp::SteppedSineSpec spec;
+  spec.frequencies = {30, 80, 150, 160, 300, 500, 800, 900, 1000, 1100};
+  spec.fs = plant.fs;
+  spec.amplitude = 0.5;
+  spec.settle = 3000;  // the main resonance has decayed by > 100 dB
+  spec.measure = 3000;
+  const dsp::SteppedSine sine = dsp::stepped_sine(spec);
+  const PlantRecord r = simulate(plant, sine.signal, 1);
+  for (const dsp::SineStep& step : sine.steps) {
+    const auto start = static_cast<Eigen::Index>(step.measure_start);
+    const auto n = static_cast<Eigen::Index>(step.measure_length);
+    const cd measured = single_bin(r.y.segment(start, n), step.frequency, plant.fs) /
+                        single_bin(sine.signal.segment(start, n), step.frequency, plant.fs);
+    const cd expected = expected_discrete_response(plant, step.frequency);
+    // Up to 800 Hz the converter images folded back by sampling are below −60 dB; near 1000 Hz the
+    // image at fs − f passes both 4th-order filters at about −40 dB.
+    const double tolerance_db = step.frequency <= 800 ? 0.02 : 0.15;
+    EXPECT_NEAR(20 * std::log10(std::abs(measured)), 20 * std::log10(std::abs(expected)), tolerance_db)
+        << "at " << step.frequency << " Hz";
+    EXPECT_NEAR(std::arg(measured / expected), 0.0, tolerance_db / 8.7 * 2) << "at " << step.frequency << " Hz";
+  }
+}
+
+TEST(VirtualTransducer, Rk4ConvergesAtFourthOrderAsTheStepHalves) {
+  PlantConfig plant = quiet(plant_preset("panel-exciter"));
+  const Eigen::VectorXd u = dsp::uniform_noise(600, 1.0, 7);
+  plant.oversample = 256;
+  const Eigen::VectorXd reference = simulate(plant, u, 1).y;
+  double previous_error = 0.0;
+  for (int oversample : {8, 16, 32, 64}) {
+    plant.oversample = oversample;
+    const double error = (simulate(plant, u, 1).y - reference).cwiseAbs().maxCoeff() / reference.cwiseAbs().maxCoeff();
+    if (previous_error > 0.0) {
+      // Fourth order: 16× smaller per halving; allow a little for rounding.
+      EXPECT_GT(previous_error / error, 12.0) << "oversample " << oversample;
+    }
+    previous_error = error;
+    if (oversample == 16) {
+      EXPECT_LT(error, 1e-4) << "the presets' oversample";
+    }
+  }
+}
+
+TEST(VirtualTransducer, LinearPresetObeysSuperpositionAndPanelExciterDoesNot) {
+  const Eigen::VectorXd u1 = dsp::uniform_noise(3000, 0.6, 1);
+  const Eigen::VectorXd u2 = dsp::uniform_noise(3000, 0.4, 2);
+  for (const char* name : {"linear", "panel-exciter"}) {
+    const PlantConfig plant = quiet(plant_preset(name));
+    const Eigen::VectorXd y_sum = simulate(plant, u1 + u2, 1).y;
+    const Eigen::VectorXd y_parts = simulate(plant, u1, 1).y + simulate(plant, u2, 1).y;
+    const double mismatch = (y_sum - y_parts).norm() / y_sum.norm();
+    if (std::string(name) == "linear") {
+      EXPECT_LT(mismatch, 1e-10);
+    } else {
+      EXPECT_GT(mismatch, 0.05);
+    }
+  }
+}
+
+TEST(VirtualTransducer, OutputIsCausalBehindTheConverterDelay) {
+  PlantConfig plant = quiet(plant_preset("panel-exciter"));
+  plant.converters.delay_samples = 3;
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(50);
+  u[10] = 1.0;
+  const PlantRecord r = simulate(plant, u, 1);
+  // The drive of sample 10 reaches the coil 3 samples later and is first seen at the end of that sample.
+  for (int k = 0; k < 13; ++k) EXPECT_EQ(r.y[k], 0.0) << k;
+  EXPECT_NE(r.y[13], 0.0);
+  EXPECT_NE(r.i[13], 0.0);
+}
+
+TEST(VirtualTransducer, SameSeedSameNoiseAndResetRestarts) {
+  const PlantConfig plant = plant_preset("panel-exciter");
+  const Eigen::VectorXd u = dsp::uniform_noise(500, 1.0, 3);
+  EXPECT_EQ(simulate(plant, u, 5).y, simulate(plant, u, 5).y);
+  EXPECT_NE(simulate(plant, u, 5).y, simulate(plant, u, 6).y);
+  VirtualTransducer vt(plant, 5);
+  Eigen::VectorXd first(500), second(500);
+  for (int k = 0; k < 500; ++k) first[k] = vt.step(u[k]).y;
+  vt.reset();
+  for (int k = 0; k < 500; ++k) second[k] = vt.step(u[k]).y;
+  EXPECT_EQ(first, second);
+}
+
+TEST(VirtualTransducer, SensorNoiseHasTheConfiguredLevel) {
+  PlantConfig plant = plant_preset("linear");
+  const Eigen::VectorXd u = Eigen::VectorXd::Zero(20000);
+  const Eigen::VectorXd y = simulate(plant, u, 9).y;
+  const double rms = std::sqrt(y.squaredNorm() / y.size());
+  // RMS of 20000 Gaussian samples: relative standard error 1/√(2N) = 0.5 %.
+  EXPECT_NEAR(rms, plant.sensor.noise_rms_V, 0.03 * plant.sensor.noise_rms_V);
+  EXPECT_NEAR(y.mean(), 0.0, 5 * plant.sensor.noise_rms_V / std::sqrt(20000.0));
+}
+
+TEST(VirtualTransducer, TheCleanOutputIsTheSameTransducerReadByANoiseFreeSensor) {
+  const PlantConfig plant = plant_preset("panel-exciter");
+  const Eigen::VectorXd u = dsp::uniform_noise(20000, 0.8, 4);
+  VirtualTransducer noisy(plant, 7), silent(quiet(plant), 7);
+  Eigen::VectorXd noise(u.size());
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    const PlantSample s = noisy.step(u[k]);
+    const double reference = silent.step(u[k]).y;
+    ASSERT_EQ(s.y_clean, reference) << "sample " << k << ": the noise must not reach the panel";
+    noise[k] = s.y - s.y_clean;
+  }
+  // what separates the two is the sensor's noise: zero-mean, at its configured level (standard error 0.5 %)
+  EXPECT_NEAR(std::sqrt(noise.squaredNorm() / noise.size()), plant.sensor.noise_rms_V, 0.03 * plant.sensor.noise_rms_V);
+  EXPECT_NEAR(noise.mean(), 0.0, 5 * plant.sensor.noise_rms_V / std::sqrt(20000.0));
+}
+
+TEST(VirtualTransducer, ThermalCompressionLowersTheOutputOverTime) {
+  PlantConfig plant = quiet(plant_preset("linear"));
+  plant.nonlinear.thermal.enabled = true;
+  plant.nonlinear.thermal.time_constant_s = 0.5;
+  plant.nonlinear.thermal.resistance_K_per_W = 20.0;
+  const Eigen::VectorXd u = dsp::sine(3000 * 4, plant.fs, 300.0, 0.8);
+  const PlantRecord r = simulate(plant, u, 1);
+  const auto rms_of = [&](Eigen::Index start) { return std::sqrt(r.i.segment(start, 3000).squaredNorm() / 3000); };
+  // The coil heats with a 0.5 s time constant; the current, set by Re(T), falls as it does.
+  EXPECT_LT(rms_of(9000), 0.97 * rms_of(300));
+  plant.nonlinear.thermal.enabled = false;
+  const PlantRecord cold = simulate(plant, u, 1);
+  EXPECT_NEAR(std::sqrt(cold.i.segment(9000, 3000).squaredNorm() / 3000), std::sqrt(cold.i.segment(300, 3000).squaredNorm() / 3000), 1e-3);
+}
+
+TEST(VirtualTransducer, RejectsNonFiniteDrive) {
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(10);
+  u[4] = std::nan("");
+  try {
+    simulate(plant_preset("linear"), u, 1);
+    FAIL() << "expected an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "drive sample 4 is not finite");
+  }
+}
+
+}  // namespace
+}  // namespace panelbass::models

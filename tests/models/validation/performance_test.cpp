@@ -1,0 +1,100 @@
+// j_percent ([2A] J = Σ (y_model − y)² / Σ y², in percent) against hand computations and its
+// boundary cases: a perfect model, a zero model, a skipped prefix, and every documented error.
+#include "models/validation/performance.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "dsp/excitation.h"
+#include "tests/support/vectors.h"
+
+namespace panelbass::models {
+namespace {
+
+using testing_support::vec;
+
+TEST(PerformanceTest, MatchesHandComputation) {
+  // errors 0.5, 0, −1, 2 → Σe² = 0.25 + 0 + 1 + 4 = 5.25; Σy² = 1 + 4 + 9 + 16 = 30.
+  const Eigen::VectorXd y = vec({1.0, 2.0, 3.0, 4.0});
+  const Eigen::VectorXd ym = vec({1.5, 2.0, 2.0, 6.0});
+  EXPECT_NEAR(j_percent(ym, y), 100.0 * 5.25 / 30.0, 1e-12);
+}
+
+TEST(PerformanceTest, MatchesPlainLoopOnRandomData) {
+  const Eigen::VectorXd y = dsp::uniform_noise(500, 1.0, 11);
+  const Eigen::VectorXd ym = y + 0.3 * dsp::uniform_noise(500, 1.0, 12);
+  double num = 0.0, den = 0.0;
+  for (Eigen::Index k = 0; k < y.size(); ++k) {
+    num += (ym[k] - y[k]) * (ym[k] - y[k]);
+    den += y[k] * y[k];
+  }
+  EXPECT_NEAR(j_percent(ym, y), 100.0 * num / den, 1e-10);
+}
+
+TEST(PerformanceTest, PerfectModelGivesZero) {
+  const Eigen::VectorXd y = dsp::uniform_noise(200, 0.7, 3);
+  EXPECT_EQ(j_percent(y, y), 0.0);
+}
+
+TEST(PerformanceTest, ZeroModelGives100) {
+  const Eigen::VectorXd y = dsp::uniform_noise(200, 0.7, 4);
+  EXPECT_NEAR(j_percent(Eigen::VectorXd::Zero(200), y), 100.0, 1e-12);
+}
+
+TEST(PerformanceTest, ScaledModelGivesClosedForm) {
+  // y_model = c·y → J = (c − 1)² · 100, whatever y is.
+  const Eigen::VectorXd y = dsp::uniform_noise(300, 1.0, 5);
+  EXPECT_NEAR(j_percent(0.8 * y, y), 100.0 * 0.04, 1e-10);
+  EXPECT_NEAR(j_percent(1.5 * y, y), 100.0 * 0.25, 1e-10);
+}
+
+TEST(PerformanceTest, StartSkipsSamples) {
+  // From start = 2: errors −1, 2 → Σe² = 5; Σy² = 9 + 16 = 25 → 20 %.
+  const Eigen::VectorXd y = vec({1.0, 2.0, 3.0, 4.0});
+  const Eigen::VectorXd ym = vec({1.5, 2.0, 2.0, 6.0});
+  EXPECT_NEAR(j_percent(ym, y, 2), 20.0, 1e-12);
+  // The skipped samples do not matter at all, however large their error.
+  Eigen::VectorXd ym2 = ym;
+  ym2[0] = 1e6;
+  ym2[1] = -1e6;
+  EXPECT_EQ(j_percent(ym2, y, 2), j_percent(ym, y, 2));
+  // The last sample alone: error 2, y = 4 → 25 %.
+  EXPECT_NEAR(j_percent(ym, y, 3), 25.0, 1e-12);
+}
+
+TEST(PerformanceTest, ThrowsOnUnequalLengths) {
+  EXPECT_THROW(j_percent(Eigen::VectorXd::Ones(4), Eigen::VectorXd::Ones(5)), std::invalid_argument);
+  EXPECT_THROW(j_percent(Eigen::VectorXd::Ones(5), Eigen::VectorXd::Ones(4)), std::invalid_argument);
+}
+
+TEST(PerformanceTest, ThrowsOnZeroEnergyOutput) {
+  EXPECT_THROW(j_percent(Eigen::VectorXd::Ones(4), Eigen::VectorXd::Zero(4)), std::invalid_argument);
+  // Energy only before `start` is no energy in the range.
+  const Eigen::VectorXd y = vec({1.0, 2.0, 0.0, 0.0});
+  EXPECT_THROW(j_percent(Eigen::VectorXd::Ones(4), y, 2), std::invalid_argument);
+}
+
+TEST(PerformanceTest, ThrowsOnNonFiniteModelOutput) {
+  const Eigen::VectorXd y = vec({1.0, 2.0, 3.0, 4.0});
+  Eigen::VectorXd ym = y;
+  ym[2] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(j_percent(ym, y), std::invalid_argument);
+  ym[2] = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(j_percent(ym, y), std::invalid_argument);
+  ym[2] = -std::numeric_limits<double>::infinity();
+  EXPECT_THROW(j_percent(ym, y), std::invalid_argument);
+}
+
+TEST(PerformanceTest, ThrowsOnEmptyRange) {
+  const Eigen::VectorXd y = vec({1.0, 2.0, 3.0});
+  EXPECT_THROW(j_percent(y, y, 3), std::invalid_argument);
+  EXPECT_THROW(j_percent(y, y, 10), std::invalid_argument);
+  EXPECT_THROW(j_percent(y, y, -1), std::invalid_argument);
+  EXPECT_THROW(j_percent(Eigen::VectorXd(), Eigen::VectorXd()), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace panelbass::models
