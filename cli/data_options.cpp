@@ -5,6 +5,7 @@
 
 #include "dsp/data_error.h"
 #include "dsp/data_file.h"
+#include "dsp/sample_rate.h"
 
 namespace panelbass::cli {
 
@@ -24,7 +25,7 @@ dsp::Record DataOptions::read_at_model_rate(const std::string& path, double mode
   DataOptions at_rate = *this;
   if (!(at_rate.fs > 0.0)) at_rate.fs = model_fs;  // a CSV recorded at the model's rate needs no --fs
   dsp::Record data = at_rate.read(path);
-  if (std::abs(data.fs - model_fs) > 1e-9 * model_fs) {
+  if (!dsp::same_rate(data.fs, model_fs)) {
     throw dsp::DataError(path + ": sample rate " + std::to_string(data.fs) + " Hz differs from the model's " +
                          std::to_string(model_fs) + " Hz");
   }

@@ -20,6 +20,7 @@
 #include "cli/gnuplot.h"
 #include "cli/json_output.h"
 #include "dsp/butterworth.h"
+#include "dsp/frequency_grid.h"
 #include "models/io/json_file.h"
 #include "models/linear/linear_model.h"
 #include "models/control/lq_feedforward.h"
@@ -82,10 +83,6 @@ void check_output_file(const std::string& option, const std::string& path) {
   if (fs::is_directory(path)) throw std::invalid_argument(option + " " + path + ": is a directory");
 }
 
-// `count` frequencies spaced logarithmically from `lo` to `hi` Hz.
-Eigen::VectorXd log_grid(double lo, double hi, Eigen::Index count) {
-  return Eigen::VectorXd::LinSpaced(count, std::log(lo), std::log(hi)).array().exp();
-}
 
 Eigen::VectorXd magnitude_db(const models::StateSpace& ss, const Eigen::VectorXd& f, double fs) {
   Eigen::VectorXd db(f.size());
@@ -98,7 +95,7 @@ Eigen::VectorXd magnitude_db(const models::StateSpace& ss, const Eigen::VectorXd
 
 // Largest minus smallest magnitude (dB) of `ss` over [lo, hi] Hz.
 double ripple_db(const models::StateSpace& ss, double lo, double hi, double fs) {
-  const Eigen::VectorXd db = magnitude_db(ss, log_grid(lo, hi, 400), fs);
+  const Eigen::VectorXd db = magnitude_db(ss, dsp::log_spaced(lo, hi, 400), fs);
   return db.maxCoeff() - db.minCoeff();
 }
 
@@ -147,7 +144,7 @@ fs::path plot_lq_pole_zero(const models::LqFeedforward& ff, const fs::path& dir,
 // controller u*/u and the band-pass corners.
 fs::path plot_lq_magnitude(const models::LqFeedforward& ff, double lo, double hi, const fs::path& dir,
                            PlotFormat format) {
-  const Eigen::VectorXd f = log_grid(1.0, 0.999 * ff.fs / 2.0, 800);
+  const Eigen::VectorXd f = dsp::log_spaced(1.0, 0.999 * ff.fs / 2.0, 800);
   GnuplotFigure fig("magnitude");
   fig.add_block({f, magnitude_db(ff.plant, f, ff.fs), magnitude_db(ff.desired(), f, ff.fs),
                  magnitude_db(ff.controller(), f, ff.fs)});

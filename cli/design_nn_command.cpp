@@ -10,6 +10,7 @@
 #include "cli/commands.h"
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
+#include "dsp/sample_rate.h"
 #include "models/control/feedback_design.h"
 #include "models/io/json_file.h"
 #include "models/kinds/model_file.h"
@@ -53,7 +54,7 @@ void run_design_nn(DesignNnOptions o) {
   std::optional<models::NeuralFeedback> start;
   if (!o.start_from.empty()) {
     start = models::neural_feedback_from_json(models::read_json_file(o.start_from));
-    if (std::abs(start->fs - ff.fs) > 1e-9 * ff.fs) {
+    if (!dsp::same_rate(start->fs, ff.fs)) {
       throw std::invalid_argument("--start-from " + o.start_from + ": designed at another rate than the feedforward's");
     }
     o.design.structure = start->structure;  // the meta says what the controller is

@@ -17,6 +17,7 @@
 #include "cli/gnuplot.h"
 #include "cli/json_output.h"
 #include "cli/report_output.h"
+#include "dsp/sample_rate.h"
 #include "models/diagnosis/diagnosis.h"
 #include "models/diagnosis/diagnosis_baselines.h"
 #include "models/io/json_file.h"
@@ -73,7 +74,7 @@ void run_diagnose(const DiagnoseOptions& o) {
   }
   const dsp::Record est = baseline ? columns.read_at_model_rate(o.data, baseline->fs()) : columns.read(o.data);
   const dsp::Record val = baseline ? columns.read_at_model_rate(o.val, baseline->fs()) : columns.read(o.val);
-  if (std::abs(val.fs - est.fs) > 1e-9 * est.fs)
+  if (!dsp::same_rate(val.fs, est.fs))
     throw std::invalid_argument(o.val + ": sample rate " + std::to_string(val.fs) + " Hz differs from " + o.data + "'s " +
                                 std::to_string(est.fs) + " Hz");
   // Everything that can be refused is refused before the work starts.

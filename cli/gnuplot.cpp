@@ -14,6 +14,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "models/io/number_text.h"
+
 extern char** environ;
 
 namespace panelbass::cli {
@@ -66,11 +68,7 @@ fs::path find_gnuplot() {
   throw std::runtime_error(kMissing);
 }
 
-std::string gnuplot_number(double v, int digits) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.*g", digits, v);
-  return text;
-}
+std::string gnuplot_number(double v, int digits) { return models::number_text(v, digits); }
 
 std::string gnuplot_quoted(const std::string& text) {
   std::string out = "'";

@@ -9,6 +9,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "models/io/number_text.h"
+
 namespace panelbass::cli {
 namespace {
 
@@ -103,11 +105,7 @@ std::string html_cell(const json& v, int digits) {
   if (v.is_null()) return "–";
   if (v.is_boolean()) return v.get<bool>() ? "yes" : "no";
   if (v.is_number_integer() || v.is_number_unsigned()) return v.dump();
-  if (v.is_number()) {
-    char text[64];
-    std::snprintf(text, sizeof text, "%.*g", digits, v.get<double>());
-    return text;
-  }
+  if (v.is_number()) return models::number_text(v.get<double>(), digits);
   if (v.is_string()) return html_escaped(v.get<std::string>());
   return html_escaped(v.dump());
 }

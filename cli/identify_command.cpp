@@ -10,6 +10,7 @@
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
 #include "dsp/data_file.h"
+#include "dsp/sample_rate.h"
 #include "models/narx/friction_seed.h"
 #include "models/io/json_fields.h"
 #include "models/linear/linear_identification.h"
@@ -154,7 +155,7 @@ models::NarxModel start_narx_model(const IdentifyNarxOptions& o, double fs) {
   const models::AnyModel any = models::load_model(o.start_from);
   const auto* start = std::get_if<models::NarxModel>(&any.model);
   if (start == nullptr) throw std::invalid_argument("--start-from " + o.start_from + ": expected a NARX model, got " + any.kind());
-  if (std::abs(start->fs - fs) > 1e-9 * fs) {
+  if (!dsp::same_rate(start->fs, fs)) {
     throw std::invalid_argument("--start-from " + o.start_from + ": identified at " + std::to_string(start->fs) +
                                 " Hz, the data is at " + std::to_string(fs) + " Hz");
   }

@@ -5,6 +5,8 @@
 #include <stdexcept>
 
 #include "dsp/excitation.h"
+#include "dsp/period.h"
+#include "dsp/sample_rate.h"
 #include "dsp/resample.h"
 #include "dsp/wav_file.h"
 
@@ -15,15 +17,7 @@ namespace {
 LoopedProgram looped_sine(double frequency, double amplitude, double fs) {
   const double period = fs / frequency;
   const long most = std::max(1L, static_cast<long>(std::floor(fs / period)));
-  long periods = most;
-  double best_miss = 1.0;
-  for (long m = most; m >= std::max(1L, most / 2); --m) {
-    const double miss = std::abs(static_cast<double>(m) * period - std::round(static_cast<double>(m) * period));
-    if (miss < best_miss - 1e-12) {
-      best_miss = miss;
-      periods = m;
-    }
-  }
+  const long periods = dsp::closest_whole_periods(period, most, std::max(1L, most / 2));
   const auto length = static_cast<std::size_t>(std::max(1.0, std::round(static_cast<double>(periods) * period)));
   const double exact = static_cast<double>(periods) * fs / static_cast<double>(length);
   const Eigen::VectorXd x = dsp::sine(length, fs, exact, amplitude);
@@ -38,7 +32,7 @@ LoopedProgram looped_program(const std::string& wav, const std::string& channel,
   if (!wav.empty()) {
     const dsp::Record r = dsp::read_wav(wav, {channel});
     Eigen::VectorXd x = r.columns.front();
-    if (!(std::abs(r.fs - fs) <= 1e-9 * fs)) x = dsp::resample(x, r.fs, fs);
+    if (!dsp::same_rate(r.fs, fs)) x = dsp::resample(x, r.fs, fs);
     return {{x.data(), x.data() + x.size()},
             {{"file", wav}, {"channel", channel}, {"fs_file", r.fs}, {"loop_samples", x.size()}}};
   }

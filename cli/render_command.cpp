@@ -1,17 +1,13 @@
 // `panelbass render`: a WAV file through a chain file, offline, exactly as the engine runs it; with a
 // plant, the transducer simulated for the chained drive and for the bare program, and the two compared.
 #include <Eigen/Core>
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
-#include <complex>
 #include <cstdint>
 #include <iostream>
 #include <memory>
-#include <numbers>
 #include <optional>
 #include <string>
-#include <unsupported/Eigen/FFT>
 #include <vector>
 
 #include "cli/commands.h"
@@ -19,6 +15,8 @@
 #include "dsp/data_file.h"
 #include "dsp/harmonics.h"
 #include "dsp/resample.h"
+#include "dsp/sample_rate.h"
+#include "dsp/sine_fit.h"
 #include "dsp/wav_file.h"
 #include "engine/chain_file.h"
 #include "engine/offline_renderer.h"
@@ -26,6 +24,7 @@
 #include "models/plant/plant_presets.h"
 #include "models/linear/state_space.h"
 #include "models/plant/virtual_transducer.h"
+#include "models/validation/performance.h"
 
 namespace panelbass::cli {
 namespace {
@@ -39,110 +38,17 @@ struct RenderOptions {
   std::uint64_t seed = 1;
 };
 
-constexpr double kPi = std::numbers::pi;
-
-// The least-squares fit of a·cos(2πfk/fs) + b·sin(2πfk/fs) + c to `x`: its coefficients and the
-// energy it leaves unexplained.
-struct SineFit {
-  Eigen::Vector3d coefficients;
-  double residual = 0.0;
-};
-
-SineFit fit_sine(const Eigen::VectorXd& x, double fs, double f) {
-  // Normal equations BᵀB·θ = Bᵀx with B = [cos, sin, 1], accumulated without forming B.
-  Eigen::Matrix3d btb = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d btx = Eigen::Vector3d::Zero();
-  const double w = 2.0 * kPi * f / fs;
-  for (Eigen::Index k = 0; k < x.size(); ++k) {
-    const Eigen::Vector3d b(std::cos(w * static_cast<double>(k)), std::sin(w * static_cast<double>(k)), 1.0);
-    btb.noalias() += b * b.transpose();
-    btx += b * x[k];
-  }
-  SineFit fit;
-  fit.coefficients = btb.ldlt().solve(btx);
-  // ‖x − Bθ‖² = xᵀx − θᵀBᵀx at the least-squares θ
-  fit.residual = std::max(0.0, x.squaredNorm() - fit.coefficients.dot(btx));
-  return fit;
-}
-
-// The frequency of `x` if it is a sine (with an offset): the strongest FFT bin, refined by a golden-section
-// search for the least-squares sinusoid over the neighbouring bins (the maximum-likelihood frequency), and
-// accepted when that sinusoid leaves less than 0.1 % of the signal's energy about its mean.
-std::optional<double> sine_frequency(const Eigen::VectorXd& x, double fs) {
-  const Eigen::Index n = x.size();
-  if (n < 64) return std::nullopt;
-  const Eigen::VectorXd centred = x.array() - x.mean();
-  const double energy = centred.squaredNorm();
-  if (!(energy > 0.0)) return std::nullopt;
-  Eigen::Index size = 1;
-  while (size < 2 * n) size *= 2;
-  Eigen::VectorXd padded = Eigen::VectorXd::Zero(size);
-  padded.head(n) = centred;
-  Eigen::FFT<double> fft;
-  Eigen::VectorXcd spectrum;
-  fft.fwd(spectrum, padded);
-  Eigen::Index peak = 1;
-  for (Eigen::Index k = 1; k < size / 2; ++k) {
-    if (std::abs(spectrum[k]) > std::abs(spectrum[peak])) peak = k;
-  }
-  const double bin = fs / static_cast<double>(size);
-  double lo = std::max(bin * (static_cast<double>(peak) - 1.0), 1e-9);
-  double hi = std::min(bin * (static_cast<double>(peak) + 1.0), fs / 2.0 - 1e-9);
-  const double golden = (std::sqrt(5.0) - 1.0) / 2.0;
-  double a = hi - golden * (hi - lo), b = lo + golden * (hi - lo);
-  double ra = fit_sine(x, fs, a).residual, rb = fit_sine(x, fs, b).residual;
-  while (hi - lo > 1e-10 * fs) {
-    if (ra > rb) {
-      lo = a;
-      a = b;
-      ra = rb;
-      b = lo + golden * (hi - lo);
-      rb = fit_sine(x, fs, b).residual;
-    } else {
-      hi = b;
-      b = a;
-      rb = ra;
-      a = hi - golden * (hi - lo);
-      ra = fit_sine(x, fs, a).residual;
-    }
-  }
-  const double f = (lo + hi) / 2.0;
-  if (fit_sine(x, fs, f).residual > 1e-3 * energy) return std::nullopt;
-  return f;
-}
-
-// THD (percent) of the steady state of `y` at `frequency`: its last three quarters, cut to the whole
-// number of periods whose length in samples is closest to an integer (the single-bin DFT of
-// dsp::harmonic_levels is exact for whole periods). Null when fewer than 4 periods are left.
-nlohmann::json steady_thd(const Eigen::VectorXd& y, double fs, double frequency) {
-  const Eigen::Index start = y.size() / 4;
-  const double period = fs / frequency;
-  const auto most = static_cast<long>(std::floor(static_cast<double>(y.size() - start) / period));
-  if (most < 4) return nullptr;
-  long best = most;
-  double best_miss = 1.0;
-  for (long m = most; m >= std::max(4L, most / 2); --m) {
-    const double len = static_cast<double>(m) * period;
-    const double miss = std::abs(len - std::round(len));
-    if (miss < best_miss - 1e-12) {
-      best = m;
-      best_miss = miss;
-    }
-  }
-  const auto len = std::min<Eigen::Index>(static_cast<Eigen::Index>(std::llround(static_cast<double>(best) * period)),
-                                          y.size() - start);
-  const Eigen::VectorXd steady = y.segment(y.size() - len, len);
-  const double thd = dsp::harmonic_levels(steady, fs, frequency, 5).thd_percent();
-  return std::isfinite(thd) ? nlohmann::json(thd) : nlohmann::json(nullptr);
-}
-
-// [2C] J_c = Σ(y_desired − y)² / Σ y_desired², in percent, each signal's mean removed first (an
-// accelerometer is AC-coupled; a sensor offset is not distortion); null when y_desired is constant.
+// J_c of [2C] (percent) of `y` against `desired`: models::jc_percent on the signals as they are (the
+// transducer's simulated output needs no offset correction); null when the desired response is silent.
 nlohmann::json j_c_percent(const Eigen::VectorXd& desired, const Eigen::VectorXd& y) {
-  const Eigen::VectorXd d = desired.array() - desired.mean();
-  const double norm = d.squaredNorm();
-  if (!(norm > 0.0)) return nullptr;
-  return 100.0 * (d - (y.array() - y.mean()).matrix()).squaredNorm() / norm;
+  if (!(desired.squaredNorm() > 0.0)) return nullptr;
+  return models::jc_percent(y, desired);
+}
+
+// THD (percent) of a steady sine response, or null.
+nlohmann::json steady_thd(const Eigen::VectorXd& y, double fs, double frequency) {
+  const std::optional<double> thd = dsp::steady_thd_percent(y, fs, frequency);
+  return thd ? nlohmann::json(*thd) : nlohmann::json(nullptr);
 }
 
 // The program through the chain's band-pass alone, as configured (a bypassed band-pass passes it as is).
@@ -196,7 +102,7 @@ void run_render(const RenderOptions& o) {
   std::optional<models::PlantConfig> plant;
   if (!o.plant.empty()) {
     plant = models::plant_from_name_or_file(o.plant);
-    if (!(std::abs(plant->fs - config.fs) <= 1e-9 * config.fs)) {
+    if (!dsp::same_rate(plant->fs, config.fs)) {
       throw std::invalid_argument("--plant " + o.plant + ": the plant runs at " + std::to_string(plant->fs) +
                                   " Hz, the chain (" + o.chain + ") at " + std::to_string(config.fs) + " Hz");
     }
@@ -208,7 +114,7 @@ void run_render(const RenderOptions& o) {
 
   const double file_fs = input.fs;
   const Eigen::VectorXd& wav = input.columns.front();
-  const bool resampled = !(std::abs(file_fs - config.fs) <= 1e-9 * config.fs);
+  const bool resampled = !dsp::same_rate(file_fs, config.fs);
   if (resampled) std::cerr << "render: resampling " << file_fs << " Hz -> " << config.fs << " Hz (libsamplerate)\n";
   const Eigen::VectorXd program = resampled ? dsp::resample(wav, file_fs, config.fs) : wav;
 
@@ -250,7 +156,7 @@ void run_render(const RenderOptions& o) {
     result["seed"] = o.seed;
     result["desired_response"] = desired.name;
     result["j_c_pct"] = {{"chained", j_c_percent(desired.y, r.measured)}, {"bare", j_c_percent(desired.y, y_bare)}};
-    if (const std::optional<double> f = sine_frequency(program, config.fs)) {
+    if (const std::optional<double> f = dsp::sine_frequency(program, config.fs)) {
       result["sine"] = {{"frequency_hz", *f},
                         {"thd_pct", {{"chained", steady_thd(r.measured, config.fs, *f)},
                                      {"bare", steady_thd(y_bare, config.fs, *f)}}}};

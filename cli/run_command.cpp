@@ -18,6 +18,7 @@
 #include "cli/stop_signals.h"
 #include "dsp/excitation.h"
 #include "dsp/resample.h"
+#include "dsp/sample_rate.h"
 #include "dsp/wav_file.h"
 #include "engine/alsa_backend.h"
 #include "engine/alsa_status_json.h"
@@ -58,7 +59,7 @@ double wait_for_stop(double seconds, engine::Chain& chain) {
 
 void run_virtual(const RunOptions& o, const engine::ChainConfig& config, nlohmann::json& result) {
   const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
-  if (!(std::abs(plant.fs - config.fs) <= 1e-9 * config.fs)) {
+  if (!dsp::same_rate(plant.fs, config.fs)) {
     throw std::invalid_argument("--plant " + o.plant + ": the plant runs at " + std::to_string(plant.fs) +
                                 " Hz, the chain (" + o.chain + ") at " + std::to_string(config.fs) + " Hz");
   }

@@ -9,6 +9,7 @@
 #include "dsp/data_file.h"
 #include "cli/band_pass_option.h"
 #include "dsp/excitation.h"
+#include "dsp/sample_rate.h"
 #include "models/control/feedback_design.h"
 #include "models/io/json_file.h"
 #include "models/control/neural_feedback.h"
@@ -50,7 +51,7 @@ struct SimulateOptions {
 models::ControlRecord make_control_record(const SimulateOptions& o, double fs) {
   if (o.ff.empty()) throw std::invalid_argument("--signal control needs --ff FF.json");
   const models::LqFeedforward ff = models::lq_feedforward_from_json(models::read_json_file(o.ff));
-  if (std::abs(ff.fs - fs) > 1e-9 * fs) throw std::invalid_argument("--ff " + o.ff + ": designed at another rate than the plant's");
+  if (!dsp::same_rate(ff.fs, fs)) throw std::invalid_argument("--ff " + o.ff + ": designed at another rate than the plant's");
   models::FeedbackDesignOptions design;
   design.samples = static_cast<Eigen::Index>(o.samples);
   design.sine_peak = o.sine_peak;
@@ -58,7 +59,7 @@ models::ControlRecord make_control_record(const SimulateOptions& o, double fs) {
   models::ControlRecord record = models::control_record(ff, band_pass_sections(o.bandpass, 2, fs), design, o.seed);
   if (!o.fb.empty()) {
     const models::NeuralFeedback fb = models::neural_feedback_from_json(models::read_json_file(o.fb));
-    if (std::abs(fb.fs - fs) > 1e-9 * fs) throw std::invalid_argument("--fb " + o.fb + ": designed at another rate than the plant's");
+    if (!dsp::same_rate(fb.fs, fs)) throw std::invalid_argument("--fb " + o.fb + ": designed at another rate than the plant's");
     record.u = models::simulate_closed_loop(fb, record.u).v;
   }
   return record;

@@ -1,11 +1,15 @@
 #include "dsp/harmonics.h"
 
+#include <algorithm>
+
 #include <cmath>
 #include <complex>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
+
+#include "dsp/period.h"
 
 namespace panelbass::dsp {
 
@@ -45,6 +49,19 @@ HarmonicLevels harmonic_levels(const Eigen::VectorXd& x, double fs, double frequ
     out.phase.push_back(std::arg(sum));
   }
   return out;
+}
+
+std::optional<double> steady_thd_percent(const Eigen::VectorXd& y, double fs, double frequency, int max_order) {
+  const Eigen::Index start = y.size() / 4;
+  const double period = fs / frequency;
+  const auto most = static_cast<long>(std::floor(static_cast<double>(y.size() - start) / period));
+  if (most < 4) return std::nullopt;
+  const long periods = closest_whole_periods(period, most, std::max(4L, most / 2));
+  const auto length = std::min<Eigen::Index>(
+      static_cast<Eigen::Index>(std::llround(static_cast<double>(periods) * period)), y.size() - start);
+  const double thd = harmonic_levels(y.tail(length), fs, frequency, max_order).thd_percent();
+  if (!std::isfinite(thd)) return std::nullopt;
+  return thd;
 }
 
 }  // namespace panelbass::dsp

@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 #include <complex>
+#include <optional>
 #include <vector>
 
 namespace panelbass::dsp {
@@ -25,5 +26,11 @@ struct HarmonicLevels {
 /// Amplitudes and phases of harmonics 1..max_order (those below fs/2) of `x` at `frequency`, by the DFT at each
 /// harmonic's frequency. For exact results x holds a whole number of periods (stepped_sine ensures it).
 HarmonicLevels harmonic_levels(const Eigen::VectorXd& x, double fs, double frequency, int max_order = 5);
+
+/// THD (percent) of the steady state of a sine response `y` at `frequency`: its last three quarters, cut to
+/// the whole number of periods whose length is closest to a whole number of samples (closest_whole_periods,
+/// at least half of those that fit), so the single-bin DFT of harmonic_levels is exact. Empty when fewer
+/// than 4 periods are left or the THD is not finite.
+std::optional<double> steady_thd_percent(const Eigen::VectorXd& y, double fs, double frequency, int max_order = 5);
 
 }  // namespace panelbass::dsp

@@ -57,4 +57,18 @@ Eigen::Index find_period(const Eigen::VectorXd& x, const PeriodSearch& search) {
   return 0;
 }
 
+long closest_whole_periods(double period, long most, long least) {
+  long best = std::max(most, least);
+  double best_miss = 1.0;
+  for (long m = most; m >= least; --m) {
+    const double length = static_cast<double>(m) * period;
+    const double miss = std::abs(length - std::round(length));
+    if (miss < best_miss - 1e-12) {
+      best = m;
+      best_miss = miss;
+    }
+  }
+  return best;
+}
+
 }  // namespace panelbass::dsp

@@ -19,4 +19,9 @@ struct PeriodSearch {
 /// constant, or is too short for min_repeats periods. Cost O(N log N) (one FFT autocorrelation).
 Eigen::Index find_period(const Eigen::VectorXd& x, const PeriodSearch& search = {});
 
+/// The whole number of periods m in [least, most] whose length m·period (samples, not necessarily whole) is
+/// closest to a whole number of samples, the largest m on a tie: the stretch a single-bin DFT, or a loop
+/// without a click, wants. `least` when most < least.
+long closest_whole_periods(double period, long most, long least);
+
 }  // namespace panelbass::dsp

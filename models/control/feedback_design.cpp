@@ -1,3 +1,4 @@
+#include "dsp/sample_rate.h"
 #include "models/control/feedback_design.h"
 
 #include <Eigen/QR>
@@ -354,7 +355,7 @@ nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o) {
 FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
                                const std::vector<dsp::Biquad>& band_pass, const FeedbackDesignOptions& o,
                                const PlantConfig* device, const NeuralFeedback* start) {
-  if (std::abs(plant.fs - ff.fs) > 1e-9 * ff.fs) {
+  if (!dsp::same_rate(plant.fs, ff.fs)) {
     throw std::invalid_argument("design nn: the plant model runs at " + std::to_string(plant.fs) +
                                 " Hz, the feedforward controller at " + std::to_string(ff.fs) + " Hz");
   }
@@ -365,7 +366,7 @@ FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
   }
   const std::vector<double> probe_hz = o.probe_hz.empty() ? evaluation_probe_hz() : o.probe_hz;
   if (o.keep == RestartChoice::worst_probe) require_probe_hz(probe_hz, ff.fs, "design nn");
-  if (device != nullptr && std::abs(device->fs - ff.fs) > 1e-9 * ff.fs) {
+  if (device != nullptr && !dsp::same_rate(device->fs, ff.fs)) {
     throw std::invalid_argument("design nn: the device runs at " + std::to_string(device->fs) +
                                 " Hz, the feedforward controller at " + std::to_string(ff.fs) + " Hz");
   }

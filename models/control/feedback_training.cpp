@@ -268,25 +268,6 @@ double best_validation_jc_pct(const FeedbackTrainingResult& result) {
   return best ? best->jc_val_pct : std::numeric_limits<double>::infinity();
 }
 
-double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Eigen::Index skip,
-                  const Eigen::VectorXd& weight) {
-  if (y.size() != y_desired.size()) {
-    throw std::invalid_argument("jc_percent: y has " + std::to_string(y.size()) + " samples, y_desired " +
-                                std::to_string(y_desired.size()));
-  }
-  if (weight.size() > 0 && weight.size() != y.size()) {
-    throw std::invalid_argument("jc_percent: " + std::to_string(weight.size()) + " weights for " +
-                                std::to_string(y.size()) + " samples");
-  }
-  const Eigen::Index n = y.size() - skip;
-  if (n <= 0) throw std::invalid_argument("jc_percent: nothing left after the skip of " + std::to_string(skip));
-  const Eigen::ArrayXd w = weight.size() > 0 ? Eigen::ArrayXd(weight.tail(n).array()) : Eigen::ArrayXd::Ones(n);
-  const double energy = (w * y_desired.tail(n).array().square()).sum();
-  if (!(energy > 0.0)) throw std::invalid_argument("jc_percent: the desired output is zero");
-  // [2C] J_c = Σ (y_desired − y_system)² / Σ y_desired² (each term times w(k) when weighted)
-  return 100.0 * (w * (y_desired.tail(n) - y.tail(n)).array().square()).sum() / energy;
-}
-
 Eigen::VectorXd harmonic_series(const Eigen::VectorXd& x, const std::vector<HarmonicStretch>& stretches, double fs) {
   Eigen::VectorXd fitted = x;
   for (const StretchBasis& b : stretch_bases(stretches, x.size(), fs, "harmonic_series:")) {

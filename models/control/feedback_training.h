@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "models/control/neural_feedback.h"
+#include "models/validation/performance.h"
 
 namespace panelbass::models {
 
@@ -84,10 +85,6 @@ const FeedbackTrainingRecord* best_validation_record(const FeedbackTrainingResul
 
 /// The lowest validation J_c of a training's history, percent (infinity when none is finite).
 double best_validation_jc_pct(const FeedbackTrainingResult& result);
-
-/// [2C] J_c = Σ (y_des − y)² / Σ y_des² in percent, over k ≥ skip; with `weight`, each term times w(k).
-double jc_percent(const Eigen::VectorXd& y, const Eigen::VectorXd& y_desired, Eigen::Index skip = 0,
-                  const Eigen::VectorXd& weight = {});
 
 /// `x` with each of `stretches` replaced by its least-squares fit with a mean and the stretch's harmonic
 /// series (HarmonicStretch), at rate fs: what the tracking error counts there. Throws std::invalid_argument

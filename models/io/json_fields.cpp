@@ -95,4 +95,23 @@ void require_within(double v, double lo, double hi, const std::string& path) {
 
 nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
+Eigen::VectorXd read_vector(const nlohmann::json& v, const std::string& path) {
+  if (!v.is_array()) throw ConfigError(path + ": expected an array of numbers, got " + std::string(v.type_name()));
+  Eigen::VectorXd x(static_cast<Eigen::Index>(v.size()));
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const std::string where = path + "[" + std::to_string(i) + "]";
+    if (!v[i].is_number()) throw ConfigError(where + ": expected a number, got " + std::string(v[i].type_name()));
+    const double d = v[i].get<double>();
+    if (!std::isfinite(d)) throw ConfigError(where + ": not finite");
+    x[static_cast<Eigen::Index>(i)] = d;
+  }
+  return x;
+}
+
+nlohmann::json to_array(const Eigen::VectorXd& x) {
+  nlohmann::json a = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < x.size(); ++i) a.push_back(x[i]);
+  return a;
+}
+
 }  // namespace panelbass::models

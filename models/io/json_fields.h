@@ -2,6 +2,7 @@
 // Validated reading of one JSON object: typed fields, defaults, key paths in every error, and no
 // unknown keys let through; and the one rule for writing a number that may not be finite.
 
+#include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
@@ -49,5 +50,11 @@ void require_within(double v, double lo, double hi, const std::string& path);
 
 /// `v` as a JSON number, or null where it is not finite (NaN, ±inf: JSON has no such numbers).
 nlohmann::json number_or_null(double v);
+
+/// A JSON array of finite numbers as a vector; ConfigError names the element ("model.params.a[3]: not finite").
+Eigen::VectorXd read_vector(const nlohmann::json& v, const std::string& path);
+
+/// The entries of `x` as a JSON array of numbers.
+nlohmann::json to_array(const Eigen::VectorXd& x);
 
 }  // namespace panelbass::models

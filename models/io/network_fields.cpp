@@ -14,12 +14,6 @@ constexpr std::size_t kMaxLayers = 100;
 
 }  // namespace
 
-nlohmann::json to_array(const Eigen::VectorXd& x) {
-  nlohmann::json a = nlohmann::json::array();
-  for (Eigen::Index i = 0; i < x.size(); ++i) a.push_back(x[i]);
-  return a;
-}
-
 std::vector<int> read_hidden(const nlohmann::json* v, const std::string& path) {
   if (v == nullptr) throw ConfigError(path + ": missing");
   if (!v->is_array()) throw ConfigError(path + ": expected an array of layer widths, got " + std::string(v->type_name()));
@@ -59,16 +53,7 @@ Eigen::VectorXd read_theta(const nlohmann::json* v, const std::string& path, std
     throw ConfigError(path + ": expected " + std::to_string(expected) + " weights for this structure, got " +
                       std::to_string(v->size()));
   }
-  Eigen::VectorXd theta(static_cast<Eigen::Index>(expected));
-  for (std::size_t i = 0; i < v->size(); ++i) {
-    const nlohmann::json& e = (*v)[i];
-    const std::string where = path + "[" + std::to_string(i) + "]";
-    if (!e.is_number()) throw ConfigError(where + ": expected a number, got " + std::string(e.type_name()));
-    const double d = e.get<double>();
-    if (!std::isfinite(d)) throw ConfigError(where + ": not finite");
-    theta[static_cast<Eigen::Index>(i)] = d;
-  }
-  return theta;
+  return read_vector(*v, path);
 }
 
 }  // namespace panelbass::models

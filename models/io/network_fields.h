@@ -8,10 +8,9 @@
 #include <string>
 #include <vector>
 
-namespace panelbass::models {
+#include "models/io/json_fields.h"
 
-/// `x` as a JSON array of numbers.
-nlohmann::json to_array(const Eigen::VectorXd& x);
+namespace panelbass::models {
 
 /// "hidden": a non-empty array of positive integer widths (bounded in count and size); ConfigError names
 /// `path` (and the entry) when `v` is missing or wrong.

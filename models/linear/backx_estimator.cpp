@@ -7,9 +7,12 @@
 #include <stdexcept>
 #include <string>
 
+#include "dsp/decimate.h"
 #include "models/linear/estimation_error.h"
 #include "models/linear/fir_estimator.h"
+#include "models/linear/hankel_reduction.h"
 #include "models/linear/impulse_estimate.h"
+#include "models/linear/rate_conversion.h"
 
 namespace panelbass::models {
 namespace {
@@ -147,8 +150,8 @@ BackxResult estimate_backx(const Eigen::VectorXd& u, const Eigen::VectorXd& y, c
   try {
     // Behind the anti-alias filter and at fs/factor the impulse response is factor times shorter, and
     // so is the FIR (the thesis: 3000 → 1000 Hz shortened it to 60 samples).
-    const Eigen::VectorXd ud = decimate(u, factor);
-    const Eigen::VectorXd yd = decimate(y, factor);
+    const Eigen::VectorXd ud = dsp::decimate(u, factor);
+    const Eigen::VectorXd yd = dsp::decimate(y, factor);
     taps = options.fir_taps > 0 ? options.fir_taps : default_taps(ud, yd, orders.na, name);
     result.fir = estimate_fir(ud, yd, taps);
     const StateSpace reduced = hankel_reduction(result.fir, orders.na, &result.hankel_singular_values);

@@ -1,11 +1,10 @@
-// Kung's realisation: a state-space model from the SVD of a Hankel matrix of Markov parameters.
+#include "models/linear/hankel_reduction.h"
+
 #include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <stdexcept>
 #include <string>
-
-#include "models/linear/backx_estimator.h"
 
 namespace panelbass::models {
 

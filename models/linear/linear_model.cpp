@@ -32,26 +32,6 @@ void require_finite(const Eigen::VectorXd& x, const char* where, const char* nam
   }
 }
 
-// A JSON array of finite numbers; errors name the element ("model.params.a[3]: not finite").
-Eigen::VectorXd read_coefficients(const nlohmann::json& v, const std::string& path) {
-  if (!v.is_array()) throw ConfigError(path + ": expected an array of numbers, got " + std::string(v.type_name()));
-  Eigen::VectorXd c(static_cast<Eigen::Index>(v.size()));
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    const std::string where = path + "[" + std::to_string(i) + "]";
-    if (!v[i].is_number()) throw ConfigError(where + ": expected a number, got " + std::string(v[i].type_name()));
-    const double d = v[i].get<double>();
-    if (!std::isfinite(d)) throw ConfigError(where + ": not finite");
-    c[static_cast<Eigen::Index>(i)] = d;
-  }
-  return c;
-}
-
-nlohmann::json to_array(const Eigen::VectorXd& x) {
-  nlohmann::json a = nlohmann::json::array();
-  for (Eigen::Index i = 0; i < x.size(); ++i) a.push_back(x[i]);
-  return a;
-}
-
 // The pole farthest from the origin, reported with its frequency so the message points at the mode.
 void require_stable(const TransferFunction& tf, double fs) {
   const Eigen::VectorXcd poles = tf.poles();
@@ -143,10 +123,10 @@ LinearModel linear_model_from_json(const nlohmann::json& j) {
   JsonFields p(*params, "model.params");
   const nlohmann::json* a = p.member("a");
   if (a == nullptr) throw ConfigError("model.params.a: missing");
-  m.tf.a = read_coefficients(*a, "model.params.a");
+  m.tf.a = read_vector(*a, "model.params.a");
   const nlohmann::json* b = p.member("b");
   if (b == nullptr) throw ConfigError("model.params.b: missing");
-  m.tf.b = read_coefficients(*b, "model.params.b");
+  m.tf.b = read_vector(*b, "model.params.b");
   if (m.tf.b.size() == 0) throw ConfigError("model.params.b: must not be empty");
   m.tf.nk = static_cast<int>(p.integer("nk", 0, 0, kMaxDelay));
   p.finish();

@@ -1,16 +1,13 @@
-// Models and signals moved between sample rates: pole mapping (thesis appendix 2) and zero-phase
-// decimation.
+#include "models/linear/rate_conversion.h"
+
 #include <algorithm>
 #include <cmath>
 #include <complex>
 #include <map>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
-#include "dsp/biquad.h"
-#include "dsp/butterworth.h"
-#include "models/linear/backx_estimator.h"
+#include "models/io/number_text.h"
 
 namespace panelbass::models {
 namespace {
@@ -32,12 +29,6 @@ Eigen::VectorXcd product_in_x(const Eigen::VectorXcd& roots) {
     for (Eigen::Index j = k + 1; j >= 1; --j) p[j] -= roots[k] * p[j - 1];
   }
   return p;
-}
-
-std::string describe(Complex p) {
-  std::ostringstream s;
-  s << p.real() << (p.imag() < 0 ? " - " : " + ") << std::abs(p.imag()) << "i";
-  return s.str();
 }
 
 }  // namespace
@@ -79,12 +70,12 @@ TransferFunction convert_rate(const TransferFunction& tf, double fs_from, double
   for (Eigen::Index i = 0; i < na; ++i) {
     if (std::abs(lambda[i].imag()) <= kRealPoleTolerance * std::abs(lambda[i])) lambda[i].imag(0.0);
     if (lambda[i].imag() == 0.0 && lambda[i].real() < 0.0) {
-      throw std::invalid_argument("convert rate: pole " + describe(lambda[i]) +
+      throw std::invalid_argument("convert rate: pole " + number_text(lambda[i]) +
                                   " lies on the negative real axis (no continuous-time equivalent)");
     }
     for (Eigen::Index j = 0; j < i; ++j) {
       if (std::abs(lambda[i] - lambda[j]) <= kRepeatedPoleTolerance * std::max(1.0, std::abs(lambda[i]))) {
-        throw std::invalid_argument("convert rate: repeated pole " + describe(lambda[i]) +
+        throw std::invalid_argument("convert rate: repeated pole " + number_text(lambda[i]) +
                                     " (partial fractions need distinct poles)");
       }
     }
@@ -151,23 +142,6 @@ TransferFunction convert_rate(const TransferFunction& tf, double fs_from, double
   out.a = a_new.tail(na).real();
   out.b = b_new.real();
   out.nk = static_cast<int>(nk_new);
-  return out;
-}
-
-Eigen::VectorXd decimate(const Eigen::VectorXd& x, int factor) {
-  if (factor < 1) throw std::invalid_argument("decimate: factor must be >= 1, got " + std::to_string(factor));
-  if (factor == 1) return x;
-  // Cutoff 0.8 of the new Nyquist frequency: 0.8·fs/(2·factor) = 0.4·fs/factor, with fs = 1.
-  dsp::SosFilter filter(dsp::butterworth_lowpass(8, 0.4 / factor, 1.0));
-  // Forward, then backward over the reversed signal: |H|² and no phase. Both passes start at rest, so
-  // the first and last few filter lengths carry its transients.
-  Eigen::VectorXd forward = filter.process(x);
-  filter.reset();
-  const Eigen::VectorXd reversed = forward.reverse();
-  const Eigen::VectorXd both = filter.process(reversed).reverse();
-  const Eigen::Index n = (x.size() + factor - 1) / factor;
-  Eigen::VectorXd out(n);
-  for (Eigen::Index k = 0; k < n; ++k) out[k] = both[k * factor];
   return out;
 }
 

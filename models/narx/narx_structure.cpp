@@ -16,30 +16,20 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
 
+#include "models/io/number_text.h"
 #include "models/validation/performance.h"
 
 namespace panelbass::models {
 namespace {
 
-/// printf-style formatting for the messages (no std::format in the toolchain).
-template <class... Args>
-std::string formatted(const char* format, Args... args) {
-  char buffer[512];
-  std::snprintf(buffer, sizeof buffer, format, args...);
-  return buffer;
-}
-
 void require_sizes(const Eigen::MatrixXd& H_inv, const Eigen::VectorXd& theta, const char* where) {
   if (H_inv.rows() != theta.size() || H_inv.cols() != theta.size()) {
-    throw std::invalid_argument(formatted("%s: H⁻¹ is %ldx%ld but θ has %ld entries", where,
-                                          static_cast<long>(H_inv.rows()), static_cast<long>(H_inv.cols()),
-                                          static_cast<long>(theta.size())));
+    throw std::invalid_argument(std::string(where) + ": H⁻¹ is " + std::to_string(H_inv.rows()) + "x" + std::to_string(H_inv.cols()) + " but θ has " + std::to_string(theta.size()) + " entries");
   }
 }
 
@@ -53,36 +43,31 @@ double j_sim(const NarxModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd
 void require_data(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index skip, const char* where,
                   const char* which) {
   if (u.size() != y.size()) {
-    throw std::invalid_argument(formatted("%s: %s input has %ld samples, output %ld", where, which,
-                                          static_cast<long>(u.size()), static_cast<long>(y.size())));
+    throw std::invalid_argument(std::string(where) + ": " + which + " input has " + std::to_string(u.size()) + " samples, output " + std::to_string(y.size()));
   }
   if (u.size() <= skip) {
-    throw std::invalid_argument(formatted("%s: %s data has %ld samples, no more than the transient skip of %ld",
-                                          where, which, static_cast<long>(u.size()), static_cast<long>(skip)));
+    throw std::invalid_argument(std::string(where) + ": " + which + " data has " + std::to_string(u.size()) + " samples, no more than the transient skip of " + std::to_string(skip));
   }
 }
 
 void require_pruning_options(const PruningOptions& o) {
   constexpr const char* where = "OBS pruning";
   if (!(o.relative_tolerance >= 0.0) || !std::isfinite(o.relative_tolerance)) {
-    throw std::invalid_argument(formatted("%s: relative_tolerance must be a finite number ≥ 0, got %g", where,
-                                          o.relative_tolerance));
+    throw std::invalid_argument(std::string(where) + ": relative_tolerance must be a finite number ≥ 0, got " + number_text(o.relative_tolerance));
   }
   if (!(o.absolute_tolerance_pct >= 0.0) || !std::isfinite(o.absolute_tolerance_pct)) {
-    throw std::invalid_argument(formatted("%s: absolute_tolerance_pct must be a finite number ≥ 0, got %g", where,
-                                          o.absolute_tolerance_pct));
+    throw std::invalid_argument(std::string(where) + ": absolute_tolerance_pct must be a finite number ≥ 0, got " + number_text(o.absolute_tolerance_pct));
   }
-  if (o.batch < 1) throw std::invalid_argument(formatted("%s: batch must be ≥ 1, got %d", where, o.batch));
+  if (o.batch < 1) throw std::invalid_argument(std::string(where) + ": batch must be ≥ 1, got " + std::to_string(o.batch));
   if (o.retrain_iterations < 0) {
-    throw std::invalid_argument(formatted("%s: retrain_iterations must be ≥ 0, got %d", where, o.retrain_iterations));
+    throw std::invalid_argument(std::string(where) + ": retrain_iterations must be ≥ 0, got " + std::to_string(o.retrain_iterations));
   }
   if (o.max_removed < -1) {
-    throw std::invalid_argument(formatted("%s: max_removed must be ≥ 0 or −1 (no limit), got %d", where, o.max_removed));
+    throw std::invalid_argument(std::string(where) + ": max_removed must be ≥ 0 or −1 (no limit), got " + std::to_string(o.max_removed));
   }
-  if (o.min_free < 1) throw std::invalid_argument(formatted("%s: min_free must be ≥ 1, got %d", where, o.min_free));
+  if (o.min_free < 1) throw std::invalid_argument(std::string(where) + ": min_free must be ≥ 1, got " + std::to_string(o.min_free));
   if (!(o.hessian_damping > 0.0) || !std::isfinite(o.hessian_damping)) {
-    throw std::invalid_argument(formatted("%s: hessian_damping must be a finite number > 0, got %g", where,
-                                          o.hessian_damping));
+    throw std::invalid_argument(std::string(where) + ": hessian_damping must be a finite number > 0, got " + number_text(o.hessian_damping));
   }
   if (o.mode == TrainingMode::oem_s) {
     throw std::invalid_argument(std::string(where) +
@@ -149,12 +134,11 @@ NarxModel with_added_node(const NarxModel& model, std::uint64_t seed) {
 ObsRemoval obs_removal(const Eigen::MatrixXd& H_inv, const Eigen::VectorXd& theta, Eigen::Index q) {
   require_sizes(H_inv, theta, "obs_removal");
   if (q < 0 || q >= theta.size()) {
-    throw std::invalid_argument(formatted("obs_removal: weight %ld is out of range [0, %ld)", static_cast<long>(q),
-                                          static_cast<long>(theta.size())));
+    throw std::invalid_argument(std::string("obs_removal: weight ") + std::to_string(q) + " is out of range [0, " + std::to_string(theta.size()) + ")");
   }
   const double hqq = H_inv(q, q);
   if (!(hqq > 0.0) || !std::isfinite(hqq)) {
-    throw std::invalid_argument(formatted("obs_removal: [H⁻¹]_qq of weight %ld is %g, not > 0", static_cast<long>(q), hqq));
+    throw std::invalid_argument(std::string("obs_removal: [H⁻¹]_qq of weight ") + std::to_string(q) + " is " + number_text(hqq) + ", not > 0");
   }
   ObsRemoval r;
   r.index = q;
@@ -168,8 +152,7 @@ ObsRemoval obs_removal(const Eigen::MatrixXd& H_inv, const Eigen::VectorXd& thet
 ObsRemoval obs_best_removal(const Eigen::MatrixXd& H_inv, const Eigen::VectorXd& theta, const Eigen::VectorXd& mask) {
   require_sizes(H_inv, theta, "obs_best_removal");
   if (mask.size() != 0 && mask.size() != theta.size()) {
-    throw std::invalid_argument(formatted("obs_best_removal: mask has %ld entries, θ %ld", static_cast<long>(mask.size()),
-                                          static_cast<long>(theta.size())));
+    throw std::invalid_argument(std::string("obs_best_removal: mask has ") + std::to_string(mask.size()) + " entries, θ " + std::to_string(theta.size()));
   }
   Eigen::Index best = -1;
   double best_saliency = std::numeric_limits<double>::infinity();
@@ -190,14 +173,11 @@ ObsRemoval obs_best_removal(const Eigen::MatrixXd& H_inv, const Eigen::VectorXd&
 
 void obs_downdate_inverse(Eigen::MatrixXd& H_inv, Eigen::Index q) {
   if (H_inv.rows() != H_inv.cols() || q < 0 || q >= H_inv.rows()) {
-    throw std::invalid_argument(formatted("obs_downdate_inverse: weight %ld is out of range for a %ldx%ld H⁻¹",
-                                          static_cast<long>(q), static_cast<long>(H_inv.rows()),
-                                          static_cast<long>(H_inv.cols())));
+    throw std::invalid_argument(std::string("obs_downdate_inverse: weight ") + std::to_string(q) + " is out of range for a " + std::to_string(H_inv.rows()) + "x" + std::to_string(H_inv.cols()) + " H⁻¹");
   }
   const double hqq = H_inv(q, q);
   if (!(hqq > 0.0) || !std::isfinite(hqq)) {
-    throw std::invalid_argument(formatted("obs_downdate_inverse: [H⁻¹]_qq of weight %ld is %g, not > 0",
-                                          static_cast<long>(q), hqq));
+    throw std::invalid_argument(std::string("obs_downdate_inverse: [H⁻¹]_qq of weight ") + std::to_string(q) + " is " + number_text(hqq) + ", not > 0");
   }
   // (H with row/column q removed)⁻¹ = H⁻¹ − H⁻¹e_q e_qᵀH⁻¹ / [H⁻¹]_qq  (Schur complement)
   const Eigen::VectorXd column = H_inv.col(q);
@@ -244,11 +224,11 @@ PruningResult prune_obs(const NarxModel& trained, const Eigen::VectorXd& u_est, 
   while (true) {
     const auto free = static_cast<Eigen::Index>(result.mask.sum());
     if (result.removed >= max_removed) {
-      result.stop_reason = formatted("max_removed = %ld weights removed", static_cast<long>(max_removed));
+      result.stop_reason = std::string("max_removed = ") + std::to_string(max_removed) + " weights removed";
       break;
     }
     if (free <= options.min_free) {
-      result.stop_reason = formatted("min_free = %d free weights left", options.min_free);
+      result.stop_reason = std::string("min_free = ") + std::to_string(options.min_free) + " free weights left";
       break;
     }
     const Eigen::Index count =
@@ -295,10 +275,7 @@ PruningResult prune_obs(const NarxModel& trained, const Eigen::VectorXd& u_est, 
       batch = static_cast<int>(count / 2);  // undo the round, retry with fewer removals
     } else {
       result.stop_reason =
-          formatted("removing weight %ld raised the validation J to %.4g %%, above the limit %.4g %% "
-                    "(%.4g %% unpruned, relative tolerance %g, absolute %g)",
-                    static_cast<long>(step.removed.front()), step.j_val_pct, result.j_val_limit_pct,
-                    result.j_val_before_pct, options.relative_tolerance, options.absolute_tolerance_pct);
+          std::string("removing weight ") + std::to_string(step.removed.front()) + " raised the validation J to " + number_text(step.j_val_pct, 4) + " %, above the limit " + number_text(result.j_val_limit_pct, 4) + " % (" + number_text(result.j_val_before_pct, 4) + " % unpruned, relative tolerance " + number_text(options.relative_tolerance) + ", absolute " + number_text(options.absolute_tolerance_pct) + ")";
       break;
     }
   }
@@ -314,13 +291,12 @@ GrowthResult grow_hidden_nodes(const NarxStructure& base, const Scaling& scaling
                                const TrainingOptions& options, int max_hidden, std::uint64_t seed,
                                const GrowthOptions& growth) {
   constexpr const char* where = "hidden-node growth";
-  if (max_hidden < 1) throw std::invalid_argument(formatted("%s: max_hidden must be ≥ 1, got %d", where, max_hidden));
+  if (max_hidden < 1) throw std::invalid_argument(std::string(where) + ": max_hidden must be ≥ 1, got " + std::to_string(max_hidden));
   if (!(growth.threshold_factor > 0.0) || !std::isfinite(growth.threshold_factor)) {
-    throw std::invalid_argument(formatted("%s: threshold_factor must be a finite number > 0, got %g", where,
-                                          growth.threshold_factor));
+    throw std::invalid_argument(std::string(where) + ": threshold_factor must be a finite number > 0, got " + number_text(growth.threshold_factor));
   }
   if (growth.restarts < 0) {
-    throw std::invalid_argument(formatted("%s: restarts must be ≥ 0, got %d", where, growth.restarts));
+    throw std::invalid_argument(std::string(where) + ": restarts must be ≥ 0, got " + std::to_string(growth.restarts));
   }
   if (options.mask.size() != 0) {
     throw std::invalid_argument(std::string(where) + ": a training mask cannot be used (P changes with every node)");
@@ -338,9 +314,8 @@ GrowthResult grow_hidden_nodes(const NarxStructure& base, const Scaling& scaling
   const int dX = s.inputs() + 2;  // the new node's input weights, its bias and its output weight
   const double threshold = growth.threshold_factor * dX / N;
   const std::string threshold_text =
-      growth.threshold_factor == 1.0 ? formatted("dX/N = %d/%.0f", dX, N)
-                                     : formatted("%g·dX/N = %g·%d/%.0f", growth.threshold_factor,
-                                                 growth.threshold_factor, dX, N);
+      growth.threshold_factor == 1.0 ? std::string("dX/N = ") + std::to_string(dX) + "/" + std::to_string(std::llround(N))
+                                     : number_text(growth.threshold_factor) + "·dX/N = " + number_text(growth.threshold_factor) + "·" + std::to_string(dX) + "/" + std::to_string(std::llround(N));
 
   // The trained net of `hidden` nodes with the least estimation J among the warm start (if given) and
   // the fresh random starts; seeds differ per size and start.
@@ -390,7 +365,7 @@ GrowthResult grow_hidden_nodes(const NarxStructure& base, const Scaling& scaling
   for (int h = 2; h <= max_hidden; ++h) {
     const double j_before = result.steps.back().j_est_pct;
     if (!(j_before > 0.0)) {
-      result.rule = formatted("%d hidden nodes fit the estimation data exactly (J_est = 0); no node is added", h - 1);
+      result.rule = std::to_string(h - 1) + " hidden nodes fit the estimation data exactly (J_est = 0); no node is added";
       break;
     }
     NarxModel trained = train_size(h, &result.model);
@@ -400,19 +375,14 @@ GrowthResult grow_hidden_nodes(const NarxStructure& base, const Scaling& scaling
     step.threshold = threshold;
     result.steps.push_back(step);
     if (!(step.improvement > threshold)) {
-      result.rule = formatted(
-          "%d hidden nodes: adding node %d improved J_est by %.4g %% (relative, %.4g %% -> %.4g %%), not more "
-          "than %s = %.4g %%",
-          h - 1, h, 100.0 * step.improvement, j_before, step.j_est_pct, threshold_text.c_str(), 100.0 * threshold);
+      result.rule = std::to_string(h - 1) + " hidden nodes: adding node " + std::to_string(h) + " improved J_est by " + number_text(100.0 * step.improvement, 4) + " % (relative, " + number_text(j_before, 4) + " % -> " + number_text(step.j_est_pct, 4) + " %), not more than " + threshold_text.c_str() + " = " + number_text(100.0 * threshold, 4) + " %";
       break;
     }
     result.model = std::move(trained);
     result.chosen_hidden = h;
   }
   if (result.rule.empty()) {
-    result.rule = formatted("%d hidden nodes: max_hidden reached, every node added improved J_est by more than "
-                            "%s = %.4g %%",
-                            result.chosen_hidden, threshold_text.c_str(), 100.0 * threshold);
+    result.rule = std::to_string(result.chosen_hidden) + " hidden nodes: max_hidden reached, every node added improved J_est by more than " + threshold_text.c_str() + " = " + number_text(100.0 * threshold, 4) + " %";
   }
   result.model.meta["growth"] = {{"rule", "dX/N"},
                                  {"threshold_factor", growth.threshold_factor},

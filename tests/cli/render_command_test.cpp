@@ -118,10 +118,10 @@ TEST_F(CliRender, WithAPlantItWritesBothTransducerOutputsAndTheirThdAndJc) {
   const Eigen::VectorXd chained = models::simulate(plant, w.columns[0], 5).y;
   EXPECT_LE((w.columns[1] - chained).cwiseAbs().maxCoeff(), 1e-4 * chained.cwiseAbs().maxCoeff());
 
-  // [2C] recomputed from the columns, each with its mean removed (an AC-coupled sensor).
-  const auto ac = [](const Eigen::VectorXd& x) -> Eigen::VectorXd { return x.array() - x.mean(); };
+  // [2C] recomputed from the columns as they are, J_c = Σ (y_desired − y)² / Σ y_desired² (the one J_c that
+  // evaluate reports too: no offset is removed inside the figure).
   const auto j_c = [&](const Eigen::VectorXd& y) {
-    return 100.0 * (ac(w.columns[3]) - ac(y)).squaredNorm() / ac(w.columns[3]).squaredNorm();
+    return 100.0 * (w.columns[3] - y).squaredNorm() / w.columns[3].squaredNorm();
   };
   EXPECT_NEAR(r["j_c_pct"]["chained"].get<double>(), j_c(w.columns[1]), 1e-3 * j_c(w.columns[1]));
   EXPECT_NEAR(r["j_c_pct"]["bare"].get<double>(), j_c(w.columns[2]), 1e-3 * j_c(w.columns[2]));

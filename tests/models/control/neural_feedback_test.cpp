@@ -376,20 +376,6 @@ TEST(NeuralFeedbackTest, HarmonicStretchesLeaveASensorsNoiseOut) {
   EXPECT_LT(on_noisy, 0.8 * on_noisy_raw) << "the noise fitted sample by sample";
 }
 
-TEST(NeuralFeedbackTest, JcIsTheThesisRatio) {
-  Eigen::VectorXd d(4), y(4);
-  d << 1, -2, 2, 0;
-  y << 1, -1, 2, 1;
-  EXPECT_DOUBLE_EQ(jc_percent(y, d), 100.0 * 2.0 / 9.0);
-  EXPECT_DOUBLE_EQ(jc_percent(y, d, 2), 100.0 * 1.0 / 4.0);
-  // weighted: Σ w·(d − y)² / Σ w·d² = (0 + 3·1 + 0 + 0.5·1) / (1 + 3·4 + 2·4 + 0)
-  Eigen::VectorXd w(4);
-  w << 1, 3, 2, 0.5;
-  EXPECT_DOUBLE_EQ(jc_percent(y, d, 0, w), 100.0 * 3.5 / 21.0);
-  testing_support::expect_invalid([&] { jc_percent(y, d, 0, Eigen::VectorXd::Ones(3)); }, "3 weights");
-  testing_support::expect_invalid([&] { jc_percent(y, Eigen::VectorXd::Zero(4)); }, "zero");
-}
-
 TEST(NeuralFeedbackTest, ModelFileRoundTripsAndNamesWhatIsWrong) {
   NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
   initialize_feedback(c, 3, 1.0);

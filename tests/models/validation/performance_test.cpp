@@ -1,4 +1,4 @@
-// j_percent ([2A] J = Σ (y_model − y)² / Σ y², in percent) against hand computations and its
+// j_percent ([2A] J = Σ (y_model − y)² / Σ y², in percent) and jc_percent ([2C]) against hand computations and their
 // boundary cases: a perfect model, a zero model, a skipped prefix, and every documented error.
 #include "models/validation/performance.h"
 
@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "dsp/excitation.h"
+#include "tests/support/expect_error.h"
 #include "tests/support/vectors.h"
 
 namespace panelbass::models {
@@ -94,6 +95,20 @@ TEST(PerformanceTest, ThrowsOnEmptyRange) {
   EXPECT_THROW(j_percent(y, y, 10), std::invalid_argument);
   EXPECT_THROW(j_percent(y, y, -1), std::invalid_argument);
   EXPECT_THROW(j_percent(Eigen::VectorXd(), Eigen::VectorXd()), std::invalid_argument);
+}
+
+TEST(PerformanceTest, JcIsTheThesisRatio) {
+  Eigen::VectorXd d(4), y(4);
+  d << 1, -2, 2, 0;
+  y << 1, -1, 2, 1;
+  EXPECT_DOUBLE_EQ(jc_percent(y, d), 100.0 * 2.0 / 9.0);
+  EXPECT_DOUBLE_EQ(jc_percent(y, d, 2), 100.0 * 1.0 / 4.0);
+  // weighted: Σ w·(d − y)² / Σ w·d² = (0 + 3·1 + 0 + 0.5·1) / (1 + 3·4 + 2·4 + 0)
+  Eigen::VectorXd w(4);
+  w << 1, 3, 2, 0.5;
+  EXPECT_DOUBLE_EQ(jc_percent(y, d, 0, w), 100.0 * 3.5 / 21.0);
+  testing_support::expect_invalid([&] { jc_percent(y, d, 0, Eigen::VectorXd::Ones(3)); }, "3 weights");
+  testing_support::expect_invalid([&] { jc_percent(y, Eigen::VectorXd::Zero(4)); }, "zero");
 }
 
 }  // namespace
