@@ -83,7 +83,6 @@ void check_output_file(const std::string& option, const std::string& path) {
   if (fs::is_directory(path)) throw std::invalid_argument(option + " " + path + ": is a directory");
 }
 
-
 Eigen::VectorXd magnitude_db(const models::StateSpace& ss, const Eigen::VectorXd& f, double fs) {
   Eigen::VectorXd db(f.size());
   for (Eigen::Index k = 0; k < f.size(); ++k) {
