@@ -206,6 +206,7 @@ struct Trainer {
     constexpr double kArmijo = 1e-4;
     constexpr int kHalvings = 40;
     t *= 2.0;
+    // [5E] θ ← θ − t·dV/dθ with t halved until Armijo's condition holds
     for (int attempt = 0; attempt < kHalvings; ++attempt, t *= 0.5) {
       trial.net.parameters() = m.net.parameters() - t * g;
       const double V_new = loss(trial, mode);
@@ -226,7 +227,7 @@ struct Trainer {
     if (mode == TrainingMode::oem_n) {
       numerical_gradient(m, u_est, y_est, skip, kFiniteDifferenceStep, est, g);
       apply_mask(options.mask, g, nullptr);
-      theta.noalias() -= alpha * g;
+      theta.noalias() -= alpha * g;  // [5E]
       return theta.allFinite();
     }
     const Eigen::Index L = options.batch == 0 ? u_est.size() - skip : options.batch;
@@ -401,6 +402,8 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
   Eigen::VectorXd best_theta = current.net.parameters();
 
   int iteration = 0;
+  // Each mode in turn ([5N]'s loss, [5O]'s gradient): iterations of LM, the line search or [5C]'s passes,
+  // stopped early on the validation J (fig. 6.4)
   for (const TrainingMode mode : options.modes) {
     trainer.lm.reset();               // LM damping λ back to its start for each mode
     double t = 0.5 * options.step;    // line search: the first trial step is α
