@@ -235,7 +235,7 @@ struct Trainer {
     b.grad.setZero();
     Eigen::Index in_batch = 0;
     double batch_weight = 0.0;
-    narx::sweep_sensitivities(m, u_est, y_est, mode, skip, b, [&](Eigen::Index k, double yk, const Eigen::VectorXd& psi) {
+    const auto at_sample = [&](Eigen::Index k, double yk, const Eigen::VectorXd& psi) {
       // [5M] dV/dθ = Σ_{batch} w(k)·e(k)·dŷ(k)/dθ, averaged over the batch's weight
       b.grad.noalias() += (b.w(k) * (yk - y_est[k])) * psi;
       batch_weight += b.w(k);
@@ -246,7 +246,8 @@ struct Trainer {
         in_batch = 0;
         batch_weight = 0.0;
       }
-    });
+    };
+    narx::sweep_sensitivities(m, u_est, y_est, mode, skip, b, at_sample);
     apply_mask(options.mask, b.grad, nullptr);
     if (in_batch > 0 && batch_weight > 0.0) theta.noalias() -= (alpha / batch_weight) * b.grad;
     return theta.allFinite();

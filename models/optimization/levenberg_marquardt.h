@@ -32,8 +32,8 @@ enum class LmDamping {
 
 /// How λ moves, and how often a step is retried before the optimiser gives up.
 struct LmSettings {
-  LmDamping damping = LmDamping::relative_to_mean;
-  double initial_lambda = 1e-3;
+  LmDamping damping = LmDamping::relative_to_mean;               ///< what λ multiplies, and its floor
+  double initial_lambda = 1e-3;                                  ///< λ at the start and after reset()
   double min_lambda = 1e-12;                                     ///< λ ÷ factor stops here after a success
   double max_lambda = std::numeric_limits<double>::infinity();   ///< λ × factor stops here after a failure
   double factor = 10.0;                                          ///< λ ÷ factor on success, × factor on failure

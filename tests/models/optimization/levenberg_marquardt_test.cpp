@@ -49,9 +49,9 @@ TEST(LevenbergMarquardt, ReachesTheClosedFormLeastSquaresSolutionOfALinearProble
   LevenbergMarquardt lm(LmSettings{}, 4);
   Eigen::VectorXd theta = Eigen::VectorXd::Zero(4);
   int steps = 0;
+  const auto trial = [&](const Eigen::VectorXd& c) { return p.loss(c); };
   for (; steps < 100; ++steps) {
-    const LmStep s =
-        lm.step(p.hessian(), p.gradient(theta), p.loss(theta), theta, [&](const Eigen::VectorXd& c) { return p.loss(c); });
+    const LmStep s = lm.step(p.hessian(), p.gradient(theta), p.loss(theta), theta, trial);
     if (!s.accepted) break;
     EXPECT_DOUBLE_EQ(s.loss, p.loss(theta));  // the loss it reports is the loss at the new θ
   }
