@@ -174,7 +174,8 @@ OeResult estimate_oe(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const T
     H.setZero();
     H.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
     H.triangularView<Eigen::StrictlyUpper>() = H.transpose();
-    // g = dV/dθ up to the factor 2/M (the scaling H shares), negated exactly from Jᵀe.
+    // g = −Jᵀe = (M/2)·dV/dθ and H = ΨᵀΨ, (M/2) times V's Gauss–Newton matrix: one scaling for both. The
+    // negation is exact, so θ − δ is θ + (H + λ·D)⁻¹Ψᵀe to the bit.
     const Eigen::VectorXd g = -(J.transpose() * e);
 
     // Levenberg–Marquardt: (ΨᵀΨ + λ·diag(ΨᵀΨ))·δ = g, the damping floored so that an identically zero
