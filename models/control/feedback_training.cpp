@@ -1,6 +1,5 @@
 #include "models/control/feedback_training.h"
 
-#include <Eigen/Cholesky>
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
@@ -10,6 +9,7 @@
 #include <string>
 
 #include "dsp/soft_limit.h"
+#include "models/optimization/levenberg_marquardt.h"
 
 namespace panelbass::models {
 namespace {
@@ -45,6 +45,14 @@ void require_weights(const Eigen::VectorXd& weight, Eigen::Index samples, const 
     }
   }
 }
+
+/// Levenberg–Marquardt's settings here: μ from 1e-2 within [1e-10, 1e10], ÷10 on success, ×10 on failure,
+/// 12 retries, the damping μ·(diag H + 1e-9·mean diag H).
+constexpr LmSettings kLmSettings{.damping = LmDamping::relative_to_mean,
+                                 .initial_lambda = 1e-2,
+                                 .min_lambda = 1e-10,
+                                 .max_lambda = 1e10,
+                                 .retries = 12};
 
 // A harmonic stretch as the sweeps use it: an orthonormal basis of its mean and harmonic series.
 struct StretchBasis {
@@ -353,31 +361,16 @@ FeedbackTrainingResult train_feedback(const NeuralFeedback& initial, const Eigen
   const auto score = [&](const FeedbackTrainingRecord& r) { return has_validation ? r.jc_val_pct : r.jc_est_pct; };
   double best = score(record(0));
   int since_best = 0;
-  double mu = 1e-2;
-  Eigen::VectorXd g, delta;
-  Eigen::MatrixXd H, A;
+  LevenbergMarquardt lm(kLmSettings, current.net.parameter_count());
+  Eigen::VectorXd g;
+  Eigen::MatrixXd H;
   for (int it = 1; it <= o.max_iterations; ++it) {
     const double V = est.run(est_record, o.rail_penalty, o.dc_penalty, skip, &g, &H);
-    if (!std::isfinite(V) || !g.allFinite() || !H.allFinite()) break;
-    // Levenberg–Marquardt: (H + μ·diag(H)) δ = g, θ ← θ − δ if V decreases; μ ÷10 on success, ×10 on failure
-    const double floor = 1e-9 * std::max(H.diagonal().mean(), 1e-300);
-    bool improved = false;
-    for (int attempt = 0; attempt < 12 && !improved; ++attempt) {
-      A = H;
-      A.diagonal().array() += mu * (H.diagonal().array() + floor);
-      delta = A.ldlt().solve(g);
-      trial.net.parameters() = current.net.parameters() - delta;
-      const double V_new = delta.allFinite()
-                               ? trial_sweep.run(est_record, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr)
-                               : std::numeric_limits<double>::infinity();
-      if (std::isfinite(V_new) && V_new < V) {
-        current.net.parameters() = trial.net.parameters();
-        mu = std::max(mu / 10.0, 1e-10);
-        improved = true;
-      } else {
-        mu = std::min(mu * 10.0, 1e10);
-      }
-    }
+    // Levenberg–Marquardt on (H, g) through the loop; a non-finite V, g or H ends training.
+    const bool improved = lm.step(H, g, V, current.net.parameters(), [&](const Eigen::VectorXd& candidate) {
+                            trial.net.parameters() = candidate;
+                            return trial_sweep.run(est_record, o.rail_penalty, o.dc_penalty, skip, nullptr, nullptr);
+                          }).accepted;
     if (!improved) break;
     result.iterations = it;
     const double s = score(record(it));

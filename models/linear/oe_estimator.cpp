@@ -1,6 +1,5 @@
 #include "models/linear/oe_estimator.h"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -8,6 +7,7 @@
 #include <string>
 
 #include "models/linear/estimation_error.h"
+#include "models/optimization/levenberg_marquardt.h"
 
 namespace panelbass::models {
 namespace {
@@ -89,9 +89,11 @@ double loss_of(const Eigen::VectorXd& y, const Eigen::VectorXd& y_hat, Eigen::In
   return (y.tail(M) - y_hat.tail(M)).squaredNorm() / static_cast<double>(M);
 }
 
-constexpr double kInitialLambda = 1e-3;
-constexpr double kMinLambda = 1e-12;
-constexpr int kMaxRetries = 30;  // λ raised ×10 per retry: from 1e-12 this reaches 1e18
+/// λ from 1e-3, ÷10 on success down to 1e-12, ×10 on failure without bound; 30 retries from 1e-12 reach 1e18.
+constexpr LmSettings kLmSettings{.damping = LmDamping::relative_to_largest,
+                                 .initial_lambda = 1e-3,
+                                 .min_lambda = 1e-12,
+                                 .retries = 30};
 
 }  // namespace
 
@@ -159,7 +161,7 @@ OeResult estimate_oe(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const T
   Eigen::VectorXd y_hat = simulate(result.tf, u);
   double loss = loss_of(y, y_hat, skip);
   result.history.push_back(loss);
-  double lambda = kInitialLambda;
+  LevenbergMarquardt lm(kLmSettings, P);
   result.stop_reason = "max_iterations";
   if (loss <= exact) result.stop_reason = "converged";
 
@@ -172,39 +174,33 @@ OeResult estimate_oe(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const T
     H.setZero();
     H.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
     H.triangularView<Eigen::StrictlyUpper>() = H.transpose();
-    const Eigen::VectorXd g = J.transpose() * e;
-    // A column that is identically zero (an unexcited parameter) has zero gradient; give its damping a
-    // floor so the damped system stays definite and its step is zero.
-    const Eigen::VectorXd d = H.diagonal().cwiseMax(1e-12 * std::max(H.diagonal().maxCoeff(), 1e-300));
+    // g = −Jᵀe = (M/2)·dV/dθ and H = ΨᵀΨ, (M/2) times V's Gauss–Newton matrix: one scaling for both. The
+    // negation is exact, so θ − δ is θ + (H + λ·D)⁻¹Ψᵀe to the bit.
+    const Eigen::VectorXd g = -(J.transpose() * e);
 
-    bool accepted = false;
-    for (int retry = 0; retry < kMaxRetries && !accepted; ++retry) {
-      // Levenberg–Marquardt: (ΨᵀΨ + λ·diag(ΨᵀΨ))·δ = Ψᵀe
-      Eigen::MatrixXd damped = H;
-      damped.diagonal() += lambda * d;
-      const Eigen::VectorXd step = damped.ldlt().solve(g);
-      const TransferFunction candidate = tf_of(theta + step, na, initial.nk);
-      if (step.allFinite() && candidate.is_stable(options.stability_margin)) {
-        const Eigen::VectorXd candidate_y = simulate(candidate, u);
-        const double candidate_loss = loss_of(y, candidate_y, skip);
-        if (candidate_loss < loss) {
-          const double improvement = (loss - candidate_loss) / loss;
-          theta += step;
-          result.tf = candidate;
-          y_hat = candidate_y;
-          loss = candidate_loss;
-          lambda = std::max(lambda / 10.0, kMinLambda);
-          accepted = true;
-          ++result.iterations;
-          result.history.push_back(loss);
-          if (options.progress) options.progress(result.iterations, loss);
-          if (improvement < options.tolerance || loss <= exact) result.stop_reason = "converged";
-          break;
-        }
-      }
-      lambda *= 10.0;
+    // Levenberg–Marquardt: (ΨᵀΨ + λ·diag(ΨᵀΨ))·δ = g, the damping floored so that an identically zero
+    // column (an unexcited parameter) keeps the system definite and its step zero; a candidate with a pole
+    // outside the margin is rejected as if its loss were infinite.
+    TransferFunction candidate;
+    Eigen::VectorXd candidate_y;
+    const LmStep step = lm.step(H, g, loss, theta, [&](const Eigen::VectorXd& trial) {
+      candidate = tf_of(trial, na, initial.nk);
+      if (!candidate.is_stable(options.stability_margin)) return std::numeric_limits<double>::infinity();
+      candidate_y = simulate(candidate, u);
+      return loss_of(y, candidate_y, skip);
+    });
+    if (step.accepted) {
+      const double improvement = (loss - step.loss) / loss;
+      result.tf = candidate;
+      y_hat = candidate_y;
+      loss = step.loss;
+      ++result.iterations;
+      result.history.push_back(loss);
+      if (options.progress) options.progress(result.iterations, loss);
+      if (improvement < options.tolerance || loss <= exact) result.stop_reason = "converged";
+    } else {
+      result.stop_reason = "no_descent";
     }
-    if (!accepted) result.stop_reason = "no_descent";
   }
   result.loss = loss;
   result.converged = result.stop_reason == "converged";

@@ -1,6 +1,5 @@
-// NARX training. Choices beyond the header:
-// - OEM simulations start from rest (ŷ and dŷ/dθ before the record are 0), so [5L] is the exact
-//   gradient of the simulation loss from the first sample; `skip` only leaves the transient out of V.
+// NARX training: the driver (checks, the optimisers' passes, early stopping) over the sweeps of
+// narx_gradients. Choices beyond the header:
 // - An iteration is one pass over the data. LM and the line search stop a mode when no step lowers the
 //   mode's loss; sd stops a mode if θ turns non-finite (keeping the parameters before that pass).
 // - oem_n: sd takes one full-batch step per pass (a numerical gradient per batch would cost 2P
@@ -13,7 +12,6 @@
 //   parameters, and δ = 0 exactly for the pruned ones.
 #include "models/narx/narx_training.h"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -22,64 +20,22 @@
 #include <string>
 #include <utility>
 
+#include "models/narx/narx_gradients.h"
+#include "models/optimization/levenberg_marquardt.h"
 #include "models/validation/performance.h"
 
 namespace panelbass::models {
 namespace {
 
-/// ψ columns are gathered into a P×B block before one update H += Ψ·Ψᵀ (a GEMM instead of B rank-1
-/// updates). B keeps the block under 96 kB so that Eigen's GEMM packs it on the stack: no allocation
-/// per block (for P beyond ~3000 the smallest block exceeds that; such nets are not trained with LM).
-Eigen::Index block_columns(Eigen::Index parameters) {
-  constexpr Eigen::Index kBlockBytes = 96 * 1024;
-  return std::clamp<Eigen::Index>(kBlockBytes / (static_cast<Eigen::Index>(sizeof(double)) * parameters), 4, 64);
-}
-
-/// Where the past outputs in the regressor come from ([5H]).
-enum class Feedback {
-  measured,   ///< PEM: y_t(k−1..k−na)
-  simulated,  ///< OEM: ŷ(k−1..k−na)
-};
-
-Feedback feedback_of(TrainingMode mode) { return mode == TrainingMode::pem ? Feedback::measured : Feedback::simulated; }
-
-/// Everything a sweep over the data writes to, sized once so that the per-sample loops never allocate.
-struct Buffers {
-  Mlp::Workspace ws;
-  Eigen::VectorXd x;       ///< the regressor x(k)
-  Eigen::VectorXd dtheta;  ///< ∂F/∂θ at sample k
-  Eigen::VectorXd dx;      ///< ∂F/∂x at sample k (first na entries: ∂F/∂ŷ(k−t))
-  Eigen::VectorXd none;    ///< empty: backward() skips ∂F/∂x
-  Eigen::VectorXd psi;     ///< dŷ(k)/dθ
-  Eigen::VectorXd yhat;    ///< the model output of the last sweep
-  Eigen::MatrixXd ring;    ///< P×na: dŷ(j)/dθ of the last na samples, ψ(j) in column j mod na
-  Eigen::MatrixXd block;   ///< P×B: ψ(k) waiting for H += Ψ·Ψᵀ
-  Eigen::VectorXd grad;    ///< accumulator for a batch gradient (sd)
-  Eigen::VectorXd weight;  ///< w(k) of the loss, as given (empty = 1 everywhere)
-  double weight_total = 0; ///< Σ_{k≥skip} w(k): the loss's normaliser (N − skip without weights)
-
-  /// The weight of sample k's squared error.
-  double w(Eigen::Index k) const { return weight.size() == 0 ? 1.0 : weight[k]; }
-
-  /// Sets the weights (empty = 1) and their total over k ≥ skip for `samples` samples.
-  void set_weights(const Eigen::VectorXd& weights, Eigen::Index samples, Eigen::Index skip) {
-    weight = weights;
-    weight_total = weights.size() == 0 ? static_cast<double>(samples - skip) : weights.tail(samples - skip).sum();
-  }
-
-  Buffers(const NarxModel& model, Eigen::Index samples) {
-    const Eigen::Index P = model.net.parameter_count();
-    ws = model.net.workspace();
-    x.resize(model.net.inputs());
-    dtheta.resize(P);
-    dx.resize(model.net.inputs());
-    psi.resize(P);
-    yhat.resize(samples);
-    ring.resize(P, std::max(model.structure.na, 0));
-    block.resize(P, block_columns(P));
-    grad.resize(P);
-  }
-};
+using narx::Buffers;
+using narx::Feedback;
+using narx::feedback_of;
+using narx::gradient_sweep;
+using narx::kFiniteDifferenceStep;
+using narx::mode_gradient;
+using narx::numerical_gradient;
+using narx::numerical_normal_equations;
+using narx::output_loss;
 
 // ----- validation --------------------------------------------------------------------------------
 
@@ -149,141 +105,15 @@ Buffers weighted_buffers(const NarxModel& model, const Eigen::VectorXd& u, Eigen
   return b;
 }
 
-// ----- sweeps over the data ----------------------------------------------------------------------
-
-/// V = 1/(2·Σw)·Σ_{k≥skip} w(k)·e(k)² (w = 1: 1/(2(N−skip))·Σ e(k)²), with the outputs left in b.yhat
-/// ([5N]; [5H] for the feedback).
-double output_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Feedback feedback,
-                   Eigen::Index skip, Buffers& b) {
-  const Eigen::Index N = u.size();
-  const Eigen::VectorXd& past = feedback == Feedback::measured ? y : b.yhat;
-  double sum = 0.0;
-  // [5H] PEM: ŷ(k) = F(y_t(k−1..), u(k..), θ); OEM: ŷ(k) = F(ŷ(k−1..), u(k..), θ)
-  for (Eigen::Index k = 0; k < N; ++k) {
-    model.regressor(u, past, k, b.x);
-    const double yk = model.net.forward(b.x, b.ws);
-    b.yhat[k] = yk;
-    if (k >= skip) {
-      const double e = yk - y[k];
-      sum += b.w(k) * e * e;
-    }
-  }
-  return 0.5 * sum / b.weight_total;
-}
-
-/// Computes ψ(k) = dŷ(k)/dθ into b.psi after forward()/backward() at sample k, for `mode`, and returns
-/// a reference to it. The ring b.ring must hold ψ(k−1..k−na) for oem_d.
-const Eigen::VectorXd& sensitivity(TrainingMode mode, int na, Eigen::Index k, Buffers& b) {
-  if (mode != TrainingMode::oem_d || na == 0) return b.dtheta;  // [5K] (and oem_s's approximation)
-  // [5L] dŷ(k)/dθ = ∂F/∂θ + Σ_{t=1}^{na} ∂F/∂ŷ(k−t)·dŷ(k−t)/dθ
-  b.psi = b.dtheta;
-  for (int t = 1; t <= na && k - t >= 0; ++t) b.psi.noalias() += b.dx[t - 1] * b.ring.col((k - t) % na);
-  b.ring.col(k % na) = b.psi;
-  return b.psi;
-}
-
-/// One sweep: V, g = dV/dθ = 1/Σw·Σ_{k≥skip} w(k)·e(k)·ψ(k) ([5M], w = 1: Σw = N − skip) and, if H is
-/// given, the Gauss–Newton matrix H = 1/Σw·Σ w(k)·ψ(k)ψ(k)ᵀ (P×P, accumulated in blocks of √w·ψ columns).
-double gradient_sweep(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y, TrainingMode mode,
-                      Eigen::Index skip, Buffers& b, Eigen::VectorXd& g, Eigen::MatrixXd* H) {
-  const Eigen::Index N = u.size();
-  const int na = model.structure.na;
-  const bool dynamic = mode == TrainingMode::oem_d && na > 0;
-  const Eigen::VectorXd& past = mode == TrainingMode::pem ? y : b.yhat;
-  g.setZero();
-  if (H != nullptr) H->setZero();
-  if (dynamic) b.ring.setZero();  // dŷ/dθ before the record: 0 (the start of [5L])
-  Eigen::Index in_block = 0;
-  double sum = 0.0;
-  // [5M] dV/dθ = 1/(N−skip)·Σ_{k≥skip} e(k)·dŷ(k)/dθ, with dŷ/dθ from [5K] (pem, oem_s) or [5L] (oem_d)
-  for (Eigen::Index k = 0; k < N; ++k) {
-    model.regressor(u, past, k, b.x);
-    const double yk = model.net.forward(b.x, b.ws);
-    b.yhat[k] = yk;
-    model.net.backward(b.ws, b.dtheta, dynamic ? b.dx : b.none);
-    const Eigen::VectorXd& psi = sensitivity(mode, na, k, b);
-    if (k < skip) continue;  // [5M] the sum starts at skip
-    const double e = yk - y[k], wk = b.w(k);
-    sum += wk * e * e;
-    g.noalias() += (wk * e) * psi;
-    if (H != nullptr) {
-      b.block.col(in_block++) = std::sqrt(wk) * psi;
-      if (in_block == b.block.cols()) {
-        H->selfadjointView<Eigen::Lower>().rankUpdate(b.block);
-        in_block = 0;
-      }
-    }
-  }
-  const double M = b.weight_total;
-  if (H != nullptr) {
-    if (in_block > 0) H->selfadjointView<Eigen::Lower>().rankUpdate(b.block.leftCols(in_block));
-    H->triangularView<Eigen::StrictlyUpper>() = H->transpose();
-    *H /= M;
-  }
-  g /= M;
-  return 0.5 * sum / M;
-}
-
-/// dV/dθ of the simulation loss by central differences: (V(θ + h·e_p) − V(θ − h·e_p)) / 2h, 2P simulations.
-void numerical_gradient(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                        Eigen::Index skip, double h, Buffers& b, Eigen::VectorXd& g) {
-  NarxModel probe = model;
-  Eigen::VectorXd& theta = probe.net.parameters();
-  for (Eigen::Index p = 0; p < theta.size(); ++p) {
-    const double keep = theta[p];
-    theta[p] = keep + h;
-    const double plus = output_loss(probe, u, y, Feedback::simulated, skip, b);
-    theta[p] = keep - h;
-    const double minus = output_loss(probe, u, y, Feedback::simulated, skip, b);
-    theta[p] = keep;
-    g[p] = (plus - minus) / (2.0 * h);
-  }
-}
-
-/// For oem_n with LM: the numerical Jacobian of the simulated output, column p = (ŷ(θ + h·e_p) −
-/// ŷ(θ − h·e_p)) / 2h over k ≥ skip. It is stored whole ((N−skip)×P), so this is for small nets only.
-double numerical_normal_equations(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                                  Eigen::Index skip, double h, Buffers& b, Eigen::VectorXd& g, Eigen::MatrixXd& H) {
-  const Eigen::Index N = u.size(), M = N - skip;
-  const double V = output_loss(model, u, y, Feedback::simulated, skip, b);
-  const Eigen::VectorXd sqrt_w =
-      b.weight.size() == 0 ? Eigen::VectorXd::Ones(M) : Eigen::VectorXd(b.weight.tail(M).cwiseSqrt());
-  const Eigen::VectorXd e = (b.yhat.tail(M) - y.tail(M)).cwiseProduct(sqrt_w);
-  NarxModel probe = model;
-  Eigen::VectorXd& theta = probe.net.parameters();
-  Eigen::MatrixXd jac(M, theta.size());
-  for (Eigen::Index p = 0; p < theta.size(); ++p) {
-    const double keep = theta[p];
-    theta[p] = keep + h;
-    output_loss(probe, u, y, Feedback::simulated, skip, b);
-    jac.col(p) = b.yhat.tail(M);
-    theta[p] = keep - h;
-    output_loss(probe, u, y, Feedback::simulated, skip, b);
-    jac.col(p) -= b.yhat.tail(M);
-    jac.col(p) = jac.col(p).cwiseProduct(sqrt_w) / (2.0 * h);  // √w(k)·dŷ(k)/dθ_p
-    theta[p] = keep;
-  }
-  g.noalias() = jac.transpose() * e / b.weight_total;
-  H.setZero();
-  H.selfadjointView<Eigen::Lower>().rankUpdate(jac.transpose(), 1.0 / b.weight_total);
-  H.triangularView<Eigen::StrictlyUpper>() = H.transpose();
-  return V;
-}
-
-/// dV/dθ for `mode` into g (oem_n: central differences with step h); returns V.
-double mode_gradient(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y, TrainingMode mode,
-                     Eigen::Index skip, double h, Buffers& b, Eigen::VectorXd& g) {
-  if (mode == TrainingMode::oem_n) {
-    numerical_gradient(model, u, y, skip, h, b, g);
-    return output_loss(model, u, y, Feedback::simulated, skip, b);
-  }
-  return gradient_sweep(model, u, y, mode, skip, b, g, nullptr);
-}
-
 // ----- training ----------------------------------------------------------------------------------
 
-/// Step for the numerical gradient and Jacobian in training (central differences).
-constexpr double kFiniteDifferenceStep = 1e-6;
+/// Levenberg–Marquardt here: λ from 1e-3 (per mode) within [1e-12, 1e12], ÷10 on success, ×10 on failure,
+/// 12 retries, the damping λ·(diag H + 1e-9·mean diag H) + 1e-12·(1 + max diag H).
+constexpr LmSettings kLmSettings{.damping = LmDamping::relative_to_mean_with_ridge,
+                                 .initial_lambda = 1e-3,
+                                 .min_lambda = 1e-12,
+                                 .max_lambda = 1e12,
+                                 .retries = 12};
 
 /// Zeroes the pruned (mask 0) entries of g and, if given, rows and columns of H; no-op for an empty mask.
 void apply_mask(const Eigen::VectorXd& mask, Eigen::VectorXd& g, Eigen::MatrixXd* H) {
@@ -309,9 +139,7 @@ struct Trainer {
   NarxModel trial;          ///< a copy whose θ is overwritten by candidate steps
   Eigen::VectorXd g;
   Eigen::MatrixXd H;
-  Eigen::MatrixXd A;        ///< H + λ·diag(H): the LM system matrix
-  Eigen::VectorXd delta;
-  Eigen::LDLT<Eigen::MatrixXd> ldlt;
+  LevenbergMarquardt lm;    ///< its λ is reset per mode
 
   Trainer(const NarxModel& model, const Eigen::VectorXd& ue, const Eigen::VectorXd& ye, const Eigen::VectorXd& uv,
           const Eigen::VectorXd& yv, Eigen::Index skip_, const TrainingOptions& opt)
@@ -320,15 +148,10 @@ struct Trainer {
         val(weighted_buffers(model, uv, has_validation ? skip_ : 0, has_validation ? opt.validation_weights : Eigen::VectorXd(),
                              "validation")),
         trial(model),
-        // Sized in place: copy-assigning a fresh LDLT would copy its not-yet-set ComputationInfo.
-        ldlt(opt.optimizer == Optimizer::lm ? model.net.parameter_count() : 0) {
+        lm(kLmSettings, opt.optimizer == Optimizer::lm ? model.net.parameter_count() : 0) {
     const Eigen::Index P = model.net.parameter_count();
     g.resize(P);
-    if (opt.optimizer == Optimizer::lm) {
-      H.resize(P, P);
-      A.resize(P, P);
-    }
-    delta.resize(P);
+    if (opt.optimizer == Optimizer::lm) H.resize(P, P);
   }
 
   double loss(const NarxModel& m, TrainingMode mode) {
@@ -357,8 +180,9 @@ struct Trainer {
     return r;
   }
 
-  /// Levenberg–Marquardt: (H + λ·diag(H)) δ = g, θ ← θ − δ if V decreases; λ ÷10 on success, ×10 on failure.
-  bool lm_step(NarxModel& m, TrainingMode mode, double& lambda) {
+  /// One Levenberg–Marquardt step on this mode's Gauss–Newton matrix and gradient, the system reduced to
+  /// the free parameters; false when no step within the retries lowers the mode's loss.
+  bool lm_step(NarxModel& m, TrainingMode mode) {
     double V;
     if (mode == TrainingMode::oem_n) {
       V = numerical_normal_equations(m, u_est, y_est, skip, kFiniteDifferenceStep, est, g, H);
@@ -366,27 +190,11 @@ struct Trainer {
       // oem_s: the static Jacobian ∂F/∂θ with the simulation loss (the approximation of table 5.1)
       V = gradient_sweep(m, u_est, y_est, mode, skip, est, g, &H);
     }
-    if (!std::isfinite(V) || !g.allFinite() || !H.allFinite()) return false;
     apply_mask(options.mask, g, &H);  // the reduced system over the free parameters
-    const Eigen::VectorXd& theta = m.net.parameters();
-    const double floor = 1e-9 * std::max(H.diagonal().mean(), 1e-300);
-    constexpr int kRetries = 12;
-    for (int attempt = 0; attempt < kRetries; ++attempt) {
-      A = H;
-      A.diagonal().array() += lambda * (H.diagonal().array() + floor) + 1e-12 * (1.0 + H.diagonal().maxCoeff());
-      ldlt.compute(A);
-      delta = ldlt.solve(g);
-      if (options.mask.size() != 0) delta.array() *= options.mask.array();  // exactly 0 where pruned
-      trial.net.parameters() = theta - delta;
-      const double V_new = delta.allFinite() ? loss(trial, mode) : std::numeric_limits<double>::infinity();
-      if (std::isfinite(V_new) && V_new < V) {
-        m.net.parameters() = trial.net.parameters();
-        lambda = std::max(lambda / 10.0, 1e-12);
-        return true;
-      }
-      lambda = std::min(lambda * 10.0, 1e12);
-    }
-    return false;  // no decrease within the retries: a (local) minimum for this mode's Jacobian
+    return lm.step(H, g, V, m.net.parameters(), [&](const Eigen::VectorXd& candidate) {
+               trial.net.parameters() = candidate;
+               return loss(trial, mode);
+             }, options.mask).accepted;
   }
 
   /// Steepest descent along −dV/dθ with backtracking until Armijo's condition V(θ − t·g) ≤ V − c·t·‖g‖² holds.
@@ -398,6 +206,7 @@ struct Trainer {
     constexpr double kArmijo = 1e-4;
     constexpr int kHalvings = 40;
     t *= 2.0;
+    // [5E] θ ← θ − t·dV/dθ with t halved until Armijo's condition holds
     for (int attempt = 0; attempt < kHalvings; ++attempt, t *= 0.5) {
       trial.net.parameters() = m.net.parameters() - t * g;
       const double V_new = loss(trial, mode);
@@ -418,26 +227,15 @@ struct Trainer {
     if (mode == TrainingMode::oem_n) {
       numerical_gradient(m, u_est, y_est, skip, kFiniteDifferenceStep, est, g);
       apply_mask(options.mask, g, nullptr);
-      theta.noalias() -= alpha * g;
+      theta.noalias() -= alpha * g;  // [5E]
       return theta.allFinite();
     }
-    const Eigen::Index N = u_est.size();
-    const Eigen::Index L = options.batch == 0 ? N - skip : options.batch;
-    const int na = m.structure.na;
-    const bool dynamic = mode == TrainingMode::oem_d && na > 0;
+    const Eigen::Index L = options.batch == 0 ? u_est.size() - skip : options.batch;
     Buffers& b = est;
-    const Eigen::VectorXd& past = mode == TrainingMode::pem ? y_est : b.yhat;
-    if (dynamic) b.ring.setZero();
     b.grad.setZero();
     Eigen::Index in_batch = 0;
     double batch_weight = 0.0;
-    for (Eigen::Index k = 0; k < N; ++k) {
-      m.regressor(u_est, past, k, b.x);
-      const double yk = m.net.forward(b.x, b.ws);
-      b.yhat[k] = yk;
-      m.net.backward(b.ws, b.dtheta, dynamic ? b.dx : b.none);
-      const Eigen::VectorXd& psi = sensitivity(mode, na, k, b);
-      if (k < skip) continue;
+    const auto at_sample = [&](Eigen::Index k, double yk, const Eigen::VectorXd& psi) {
       // [5M] dV/dθ = Σ_{batch} w(k)·e(k)·dŷ(k)/dθ, averaged over the batch's weight
       b.grad.noalias() += (b.w(k) * (yk - y_est[k])) * psi;
       batch_weight += b.w(k);
@@ -448,7 +246,8 @@ struct Trainer {
         in_batch = 0;
         batch_weight = 0.0;
       }
-    }
+    };
+    narx::sweep_sensitivities(m, u_est, y_est, mode, skip, b, at_sample);
     apply_mask(options.mask, b.grad, nullptr);
     if (in_batch > 0 && batch_weight > 0.0) theta.noalias() -= (alpha / batch_weight) * b.grad;
     return theta.allFinite();
@@ -604,15 +403,17 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
   Eigen::VectorXd best_theta = current.net.parameters();
 
   int iteration = 0;
+  // Each mode in turn ([5N]'s loss, [5O]'s gradient): iterations of LM, the line search or [5C]'s passes,
+  // stopped early on the validation J (fig. 6.4)
   for (const TrainingMode mode : options.modes) {
-    double lambda = 1e-3;             // LM damping, reset per mode
+    trainer.lm.reset();               // LM damping λ back to its start for each mode
     double t = 0.5 * options.step;    // line search: the first trial step is α
     int without_improvement = 0;
     for (int i = 0; i < options.max_iterations; ++i) {
       const Eigen::VectorXd before = current.net.parameters();
       bool moved = false;
       switch (options.optimizer) {
-        case Optimizer::lm: moved = trainer.lm_step(current, mode, lambda); break;
+        case Optimizer::lm: moved = trainer.lm_step(current, mode); break;
         case Optimizer::linesearch: moved = trainer.linesearch_step(current, mode, t); break;
         case Optimizer::sd: moved = trainer.sd_pass(current, mode); break;
       }
