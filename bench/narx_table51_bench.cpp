@@ -4,13 +4,13 @@
 // then OEM_s with L = N, α = 0.01 (20). Added: OEM_s and OEM_d with Levenberg–Marquardt from the same
 // PEM model, and the default chain (PEM then OEM_d, both LM) from the initial weights.
 //
-// Usage: narx_table51_bench [N = 5000] [LM iterations = 200]. Prints a markdown table (J in percent,
+// Usage: narx_table51_bench [N = 5000] [LM iterations = 200] (--help). Prints a markdown table (J in percent,
 // simulation J [2A] over k ≥ 4 unless the column says pred).
+#include <CLI/CLI.hpp>
 #include <Eigen/Core>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <numbers>
 #include <string>
 
@@ -59,8 +59,14 @@ TrainingOptions lm_options(std::vector<TrainingMode> modes, int iterations) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const Eigen::Index n = argc > 1 ? std::atol(argv[1]) : 5000;
-  const int lm_iterations = argc > 2 ? std::atoi(argv[2]) : 200;
+  CLI::App app{"Thesis table 5.1: NN 3-5-1 on [5Q] for poles ever closer to the unit circle (a markdown table)"};
+  long n = 5000;
+  int lm_iterations = 200;
+  app.add_option("samples", n, "Samples N of the estimation record")->check(CLI::Range(100L, 100000000L))->capture_default_str();
+  app.add_option("lm-iterations", lm_iterations, "Levenberg-Marquardt iterations at most per mode")
+      ->check(CLI::Range(1, 100000))->capture_default_str();
+  app.footer("Example:\n  build/bin/narx_table51_bench 5000 200");
+  CLI11_PARSE(app, argc, argv);
   const Eigen::Index skip = 4;  // 2·(na + nb)
   struct Row {
     double A;
