@@ -1,7 +1,9 @@
 // Engine benchmark: ns per sample and real-time factor of the processing chain at the model rate
 // (3000 Hz, 64-sample blocks): band-pass alone, + a linear feedforward (8th order), + a NARX feedback
 // stage in model mode (NN 17-17-1, na = nb = 8, the thesis's size) and the safety limiter (the full
-// chain), the full chain with a swap of the feedback model every 8 blocks, and the full chain closed
+// chain), the full chain with a swap of the feedback model every 8 blocks (one block in 8 crossfades, so
+// the p99 block is a swap block; the warm-up runs in install(), on the control thread, outside the
+// block times), and the full chain closed
 // over the virtual transducer (sensor mode; the plant's simulation counts in the time).
 // Then the device side: the full chain behind the rate bridge (engine/rate_bridge.h) at 48 kHz and
 // 44.1 kHz with 64-frame periods: decimation to 3000 Hz, the chain, interpolation back and the FIFO, per
@@ -196,7 +198,7 @@ int main(int argc, char** argv) {
       {"band-pass (Butterworth 2+2, 20-1200 Hz)", measure(band_pass, plain, program)},
       {"+ linear feedforward (8th order)", measure(with_ff, plain, program)},
       {"+ NARX feedback, model mode (17-17-1) + limiter = full chain", measure(full, plain, program)},
-      {"full chain, feedback swapped every 8 blocks (512-sample warm-up, 64-sample crossfade)",
+      {"full chain, feedback swapped every 8 blocks (512-sample warm-up off the audio thread, 64-sample crossfade)",
        measure(full, swapping, program)},
       {"full chain (sensor mode) closed over the virtual transducer", measure(full_sensor, closed, program)},
   };

@@ -111,17 +111,19 @@ bool ModelSlot::catch_up(Entry& entry) noexcept {
     entry.last_output = 0.0;
     entry.warmed_through = now - kept;
   }
-  // At most a quarter of the longest block more than that block per block, so a catch-up always ends;
-  // the crossfade begins once a quarter of a block or less is left.
-  const std::uint64_t share = std::max<std::uint64_t>(1, block_peak_ / 4);
+  // Behind by at most a block: caught up now, and the crossfade begins (at most two blocks' work for the
+  // stage). Further behind: a block and a quarter per block without a crossfade, so the gap shrinks by a
+  // quarter of a block per block and no block pays for a whole warm-up.
+  const std::uint64_t block = std::max<std::uint64_t>(1, block_peak_);
   const std::uint64_t behind = now - entry.warmed_through;
-  const std::uint64_t steps = behind <= share ? behind : std::min(behind, block_peak_ + share);
+  const bool take_over = behind <= block;
+  const std::uint64_t steps = take_over ? behind : std::min(behind, block + std::max<std::uint64_t>(1, block / 4));
   for (std::uint64_t k = entry.warmed_through; k < entry.warmed_through + steps; ++k) {
     entry.last_output = entry.stage->process(history_.input(k));
     entry.stage->observe(history_.measured(k));
   }
   entry.warmed_through += steps;
-  return behind <= share;
+  return take_over;
 }
 
 double ModelSlot::process(double x) noexcept {

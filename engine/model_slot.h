@@ -9,10 +9,10 @@
 // warms it from a snapshot of the slot's recent history (HistoryRing) and publishes it with an atomic
 // exchange; the audio thread takes it with another at a block boundary, runs it over the few samples that
 // came after the snapshot, crossfades to it, and pushes the retired stage onto a lock-free
-// single-producer single-consumer queue that the control thread drains and frees. Should the snapshot be
-// stale (the stage waited, e.g. behind another crossfade), the audio thread catches up over several
-// blocks, at most a quarter of a block's samples more per block than the block itself, so no block pays
-// for a whole warm-up.
+// single-producer single-consumer queue that the control thread drains and frees. The catch-up is at
+// most a block's samples in the block the crossfade begins; a stage further behind (it waited, e.g.
+// behind another crossfade) catches up over several blocks first, a block and a quarter per block, so no
+// block pays for a whole warm-up.
 //
 // The crossfade is step-bounded: its gain rises by 1/crossfade per sample unless that would make the
 // output step further than the larger of the two stages' own steps at that sample and the output's

@@ -2,8 +2,9 @@
 // the malloc family are replaced for the whole engine_tests executable (under ASan and TSan, their
 // allocator hooks stand in) and count while this thread has set `counting`. The chain — band-pass, linear
 // feedforward, NARX feedback in sensor mode, limiter, the virtual plant in the loop — then processes
-// blocks, takes over two new stages (warm-up, crossfade, retirement), falls into and out of its safe
-// bypass, and must neither allocate nor free.
+// blocks, takes over two new stages (warmed off the audio thread, crossfaded, retired), and one that
+// waited behind a crossfade and catches up on the audio thread, falls into and out of its safe bypass,
+// and must neither allocate nor free.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -237,6 +238,39 @@ TEST(AllocationCounter, TheChainProcessesSwapsAndFaultsWithoutAllocatingOrFreein
   EXPECT_EQ(frees_during_fault, 0);
   EXPECT_EQ(chain.metrics().snapshot().faults, 1u);
   EXPECT_FALSE(chain.in_fault());
+}
+
+TEST(AllocationCounter, AStageCaughtUpOverBlocksOnTheAudioThreadAllocatesNothing) {
+  ChainOptions options;
+  options.spec.max_block = 64;
+  options.slots = {Samples{200}, Samples{256}};
+  Chain chain(options);
+  chain.feedback().set_initial(std::make_unique<NarxStage>(testing::example_narx(71), FeedbackSource::sensor));
+  models::VirtualTransducer plant(models::plant_preset("panel-exciter"), 3);
+  const Eigen::VectorXd program = testing::uniform(64 * 40, 0.5, 72);
+  std::vector<double> drive(64), measured(64);
+  int block = 0;
+  auto process = [&](int blocks) {
+    for (int b = 0; b < blocks; ++b, ++block) {
+      process_closed_loop(chain, plant, {program.data() + 64 * block, 64}, drive, measured);
+    }
+  };
+  process(8);
+  chain.feedback().install(std::make_unique<NarxStage>(testing::example_narx(73), FeedbackSource::sensor));
+  process(1);  // taken over; its 200-sample crossfade runs
+  chain.feedback().install(std::make_unique<NarxStage>(testing::example_narx(74), FeedbackSource::sensor));
+  long allocated = 0, freed = 0;
+  {
+    Counting c;
+    process(30);  // the second waits out the fade, catches up block by block, crossfades
+    allocated = allocations;
+    freed = frees;
+  }
+  EXPECT_EQ(allocated, 0);
+  EXPECT_EQ(freed, 0);
+  EXPECT_EQ(chain.metrics().snapshot().swaps, 2u);
+  EXPECT_TRUE(chain.feedback().idle());
+  EXPECT_EQ(chain.collect_retired(), 2u);
 }
 
 TEST(AllocationCounter, TheControllerStagesSwapAndRunWithoutAllocatingOrFreeing) {
