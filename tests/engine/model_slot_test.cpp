@@ -163,7 +163,7 @@ TEST(ModelSlot, AStageWhoseMissedSamplesLeftTheHistoryStartsAfreshFromWhatIsKept
   slot.set_initial(std::make_unique<NarxStage>(m, FeedbackSource::sensor));
   Eigen::VectorXd y(u.size());
   for (Eigen::Index k = 0; k < u.size(); ++k) {
-    if (k == 100 || k == 101) slot.install(std::make_unique<NarxStage>(m, FeedbackSource::sensor));
+    if (k == 96 || k == 100) slot.install(std::make_unique<NarxStage>(m, FeedbackSource::sensor));
     if (k % 32 == 0) slot.begin_block();
     y[k] = slot.process(u[k]);
     slot.observe(measured[k]);
