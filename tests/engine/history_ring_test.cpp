@@ -50,15 +50,18 @@ TEST(HistoryRing, WithoutLengthItOnlyCounts) {
 TEST(HistoryRing, SnapshotsTakenWhileTheAudioThreadWritesAreConsecutiveAndUntorn) {
   HistoryRing ring(256);
   std::atomic<bool> stop{false};
+  std::atomic<bool> filled{false};
   std::atomic<int> spin{0};
   std::thread writer([&] {
     for (std::uint64_t k = 0; !stop.load(std::memory_order_relaxed); ++k) {
       ring.push_input(static_cast<double>(k));
       ring.set_measured(-static_cast<double>(k));
+      if (k == 256) filled.store(true, std::memory_order_release);
       // A little slower than the reader's copy, so most snapshots keep samples.
       for (int pause = 0; pause < 20; ++pause) spin.fetch_add(1, std::memory_order_relaxed);
     }
   });
+  while (!filled.load(std::memory_order_acquire)) std::this_thread::yield();
   HistoryRing::Snapshot s;
   std::size_t nonempty = 0;
   for (int i = 0; i < 20000; ++i) {
