@@ -34,7 +34,9 @@ struct ProcessSpec {
   int max_block = 1024; ///< longest block process_block() will be given
 };
 
-/// One stage of the chain. Every method but prepare() and the constructor is for the audio thread.
+/// One stage of the chain. Every method but prepare() and the constructor is for the thread that owns the
+/// stage: the control thread until ModelSlot::install() publishes it (which warms it there), then the
+/// audio thread.
 class Stage {
  public:
   virtual ~Stage() = default;
