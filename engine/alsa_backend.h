@@ -9,7 +9,11 @@
 // the xrun is counted in the chain's metrics. A device that fails (unplugged, its JACK server gone,
 // silent for longer than the timeout) is closed, reported in the status, and reopened with an
 // exponential back-off until it comes back or stop() is called; the process stays up. Opening may
-// allocate (libasound does); it happens on the same thread, never while a period is processed.
+// allocate (libasound does); it happens on the same thread, between periods, never while one is processed.
+//
+// The backend's parts, a file pair each: sample formats (alsa_sample_format), the hardware and software
+// parameters a PCM is opened with (alsa_hw_params), the device lifecycle — open, restart, close, reopen
+// with back-off (alsa_devices) — and the stream loop, period by period (alsa_stream).
 
 #include <array>
 #include <atomic>
@@ -84,6 +88,7 @@ struct AlsaStatus {
   std::uint64_t xruns = 0;               ///< xruns recovered (also in the chain's metrics)
   std::uint64_t periods = 0;             ///< periods processed
   bool realtime = false;                 ///< the device thread got its SCHED_FIFO priority
+  bool memory_locked = false;            ///< the process's memory got locked (asked for once realtime)
   std::array<char, 160> last_error{};    ///< the most recent error, NUL-terminated ("" if none)
   /// Successful opens after the first: how often a lost device came back.
   std::uint64_t reopens() const { return opens > 0 ? opens - 1 : 0; }
@@ -140,7 +145,7 @@ class AlsaBackend {
   std::atomic<bool> stop_{false};
   std::atomic<AlsaState> state_{AlsaState::stopped};
   std::atomic<std::uint64_t> opens_{0}, failed_opens_{0}, losses_{0}, xruns_{0}, periods_{0};
-  std::atomic<bool> realtime_{false};
+  std::atomic<bool> realtime_{false}, memory_locked_{false};
   // The last error: a seqlock (odd = being written), the text in relaxed atomic chars.
   std::atomic<std::uint32_t> error_seq_{0};
   std::array<std::atomic<char>, 160> error_text_{};

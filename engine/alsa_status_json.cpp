@@ -13,6 +13,7 @@ nlohmann::json alsa_status_to_json(const AlsaStatus& s, const RateBridgeLatency&
           {"xruns", s.xruns},
           {"periods", s.periods},
           {"realtime", s.realtime},
+          {"memory_locked", s.memory_locked},
           {"last_error", std::string(s.last_error.data())},
           {"resampling_latency_samples", latency.total_samples},
           {"resampling_latency_ms", latency.total_ms}};

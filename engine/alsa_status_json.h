@@ -8,7 +8,7 @@
 
 namespace panelbass::engine {
 
-/// {"state","opens","failed_opens","losses","reopens","xruns","periods","realtime","last_error",
+/// {"state","opens","failed_opens","losses","reopens","xruns","periods","realtime","memory_locked","last_error",
 ///  "resampling_latency_samples","resampling_latency_ms"}.
 nlohmann::json alsa_status_to_json(const AlsaStatus& status, const RateBridgeLatency& latency);
 

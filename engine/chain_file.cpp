@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "dsp/sample_rate.h"
 #include "engine/stage_factory.h"
 #include "models/io/config_error.h"
 #include "models/io/json_fields.h"
@@ -103,7 +104,7 @@ SlotConfig parse_slot(const nlohmann::json& value, const std::string& name, doub
   } catch (const std::exception& e) {
     throw ConfigError(where + ": " + e.what());
   }
-  if (!(std::abs(model_fs - fs) <= 1e-9 * fs)) {
+  if (!dsp::same_rate(model_fs, fs)) {
     throw ConfigError(where + ": the model runs at fs = " + show(model_fs) + " Hz, the chain at chain.fs = " +
                       show(fs) + " Hz");
   }

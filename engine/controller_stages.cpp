@@ -5,11 +5,14 @@
 #include <stdexcept>
 #include <string>
 
+#include "dsp/sample_rate.h"
+#include "models/io/config_error.h"
+
 namespace panelbass::engine {
 namespace {
 
 void require_rate(double model_fs, double fs, const char* stage) {
-  if (!(std::abs(model_fs - fs) <= 1e-9 * fs)) {
+  if (!dsp::same_rate(model_fs, fs)) {
     throw std::invalid_argument(std::string(stage) + ": designed for " + std::to_string(model_fs) +
                                 " Hz, the chain runs at " + std::to_string(fs) + " Hz");
   }
@@ -17,31 +20,25 @@ void require_rate(double model_fs, double fs, const char* stage) {
 
 }  // namespace
 
-StateSpaceStage::StateSpaceStage(models::StateSpace system, double fs) : ss_(std::move(system)), fs_(fs) {}
+StateSpaceStage::StateSpaceStage(models::StateSpace system, double fs) : ss_(std::move(system)), fs_(fs) {
+  if (ss_.A.rows() > kMaxStageStates) {
+    throw models::ConfigError("params: " + std::to_string(ss_.A.rows()) + " states are more than the engine runs (" +
+                              std::to_string(kMaxStageStates) + ")");
+  }
+}
 
 void StateSpaceStage::prepare(const ProcessSpec& spec) {
   require_rate(fs_, spec.fs, "state-space stage");
-  const Eigen::Index n = ss_.A.rows();
-  if (ss_.A.cols() != n || ss_.B.size() != n || ss_.C.size() != n) {
-    throw std::invalid_argument("state-space stage: A is " + std::to_string(n) + "×" + std::to_string(ss_.A.cols()) +
-                                ", B has " + std::to_string(ss_.B.size()) + " rows, C " + std::to_string(ss_.C.size()) +
-                                " columns");
-  }
-  c_ = ss_.C.transpose();
-  state_ = Eigen::VectorXd::Zero(n);
-  next_ = Eigen::VectorXd::Zero(n);
+  models::check_shape(ss_, "state-space stage");
+  runner_ = models::StateSpaceRunner(ss_);
 }
 
 double StateSpaceStage::process(double x) noexcept {
   // [7B] u*(k) = −L·x(k) + u(k), x(k+1) = (A − BL)·x(k) + B·u(k), as y = C·x + D·u, x ← A·x + B·u
-  const double y = c_.dot(state_) + ss_.D * x;
-  next_.noalias() = ss_.A * state_;
-  next_ += ss_.B * x;
-  state_.swap(next_);
-  return y;
+  return runner_.step(x);
 }
 
-void StateSpaceStage::reset() noexcept { state_.setZero(); }
+void StateSpaceStage::reset() noexcept { runner_.reset(); }
 
 NeuralFeedbackStage::NeuralFeedbackStage(models::NeuralFeedback controller, FeedbackSource source)
     : controller_(std::move(controller)), source_(source) {}

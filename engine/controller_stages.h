@@ -9,14 +9,14 @@
 #include "engine/sensor_watch.h"
 #include "engine/stage.h"
 #include "models/control/neural_feedback.h"
-#include "models/linear/state_space.h"
+#include "models/linear/state_space_runner.h"
 
 namespace panelbass::engine {
 
 /// A SISO state-space system in raw units as a stage (the LQ feedforward controller's u → u*).
 class StateSpaceStage final : public Stage {
  public:
-  /// The stage of `system`, valid at sample rate `fs`.
+  /// The stage of `system`, valid at sample rate `fs`; a ConfigError if it has more than kMaxStageStates.
   StateSpaceStage(models::StateSpace system, double fs);
   /// Sizes the state; throws if spec.fs differs from the system's rate or the matrices disagree in size.
   void prepare(const ProcessSpec& spec) override;
@@ -28,7 +28,7 @@ class StateSpaceStage final : public Stage {
  private:
   models::StateSpace ss_;
   double fs_;
-  Eigen::VectorXd c_, state_, next_;
+  models::StateSpaceRunner runner_;
 };
 
 /// The neural feedback controller as a stage: program (feedforward output) in, drive out.

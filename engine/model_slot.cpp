@@ -2,20 +2,21 @@
 
 #include <algorithm>
 #include <cmath>
-#include <span>
 #include <stdexcept>
 #include <utility>
 
 namespace panelbass::engine {
 
 ModelSlot::ModelSlot(const ProcessSpec& spec, const SlotOptions& options, Metrics& metrics, std::size_t index)
-    : spec_(spec), options_(options), metrics_(metrics), index_(index) {
+    : spec_(spec),
+      options_(options),
+      metrics_(metrics),
+      index_(index),
+      history_(static_cast<std::size_t>(std::max(0, options.history.value))) {
   if (options.crossfade.value < 0 || options.history.value < 0) {
     throw std::invalid_argument("model slot: crossfade and history must be >= 0 samples");
   }
   const auto h = static_cast<std::size_t>(options.history.value);
-  input_history_.assign(2 * h, 0.0);
-  measured_history_.assign(2 * h, 0.0);
   peak_decay_ = h > 0 ? std::exp(-1.0 / static_cast<double>(h)) : 0.0;
   crossfade_ = options.crossfade.value;
   crossfade_request_.store(crossfade_, std::memory_order_relaxed);
@@ -24,6 +25,7 @@ ModelSlot::ModelSlot(const ProcessSpec& spec, const SlotOptions& options, Metric
 ModelSlot::~ModelSlot() {
   collect_retired();
   delete pending_.exchange(nullptr);
+  delete warming_;
   delete incoming_;
   delete active_;
 }
@@ -31,8 +33,16 @@ ModelSlot::~ModelSlot() {
 void ModelSlot::install(std::unique_ptr<Stage> stage) {
   if (!stage) throw std::invalid_argument("model slot: cannot install a null stage");
   stage->prepare(spec_);
+  // The warm-up, here rather than on the audio thread: the stage runs from rest over the newest history
+  // so its state is what it would be had it been running all along.
+  HistoryRing::Snapshot recent;
+  history_.snapshot(history_.length(), recent);
+  auto entry = std::make_unique<Entry>();
+  entry->last_output = stage->warm_up(recent.input, recent.measured);
+  entry->warmed_through = recent.end;
+  entry->stage = std::move(stage);
   // Whatever was pending is ours again: the audio thread takes a stage only by exchanging it out.
-  std::unique_ptr<Stage> never_taken(pending_.exchange(stage.release(), std::memory_order_acq_rel));
+  std::unique_ptr<Entry> never_taken(pending_.exchange(entry.release(), std::memory_order_acq_rel));
   collect_retired();
 }
 
@@ -40,15 +50,15 @@ void ModelSlot::set_initial(std::unique_ptr<Stage> stage) {
   if (!stage) throw std::invalid_argument("model slot: cannot set a null stage");
   stage->prepare(spec_);
   delete active_;
-  active_ = stage.release();
-  metrics_.set_active_id(index_, active_->id());
+  active_ = new Entry{std::move(stage)};
+  metrics_.set_active_id(index_, active_->stage->id());
 }
 
 std::size_t ModelSlot::collect_retired() {
   std::size_t freed = 0;
-  Stage* stage = nullptr;
-  while (retired_.pop(stage)) {
-    delete stage;
+  Entry* entry = nullptr;
+  while (retired_.pop(entry)) {
+    delete entry;
     ++freed;
   }
   return freed;
@@ -70,20 +80,21 @@ void ModelSlot::set_initial_bypass(bool bypassed) {
 
 void ModelSlot::begin_block() noexcept {
   wet_target_ = bypass_request_.load(std::memory_order_relaxed) ? 0.0 : 1.0;
+  block_peak_ = std::max(block_peak_, block_samples_);
+  block_samples_ = 0;
   // A new crossfade length applies from a block boundary on, never in the middle of a fade.
   if (incoming_ == nullptr) crossfade_ = crossfade_request_.load(std::memory_order_relaxed);
   // One hand-over at a time, and only with room to retire the stage it replaces.
   if (incoming_ != nullptr || !retired_.has_room()) return;
-  Stage* next = pending_.exchange(nullptr, std::memory_order_acq_rel);
-  if (next == nullptr) return;
-  const std::size_t h = input_history_.size() / 2;
-  const std::size_t n = std::min(history_filled_, h);
-  const std::size_t start = history_pos_ + h - n;
-  last_new_ = next->warm_up(std::span<const double>(input_history_.data() + start, n),
-                            std::span<const double>(measured_history_.data() + start, n));
-  incoming_ = next;
+  if (warming_ == nullptr) {
+    warming_ = pending_.exchange(nullptr, std::memory_order_acq_rel);
+    if (warming_ == nullptr) return;
+    fading_.store(true, std::memory_order_release);
+  }
+  if (!catch_up(*warming_)) return;
+  incoming_ = std::exchange(warming_, nullptr);
+  last_new_ = incoming_->last_output;
   fade_gain_ = 0.0;
-  fading_.store(true, std::memory_order_release);
   metrics_.record_swap();
   if (crossfade_ == 0) {
     finish_swap();
@@ -91,19 +102,38 @@ void ModelSlot::begin_block() noexcept {
   }
 }
 
-double ModelSlot::process(double x) noexcept {
-  const std::size_t h = input_history_.size() / 2;
-  if (h > 0) {
-    input_history_[history_pos_] = input_history_[history_pos_ + h] = x;
-    measured_history_[history_pos_] = measured_history_[history_pos_ + h] = 0.0;
-    history_pos_ = (history_pos_ + 1) % h;
-    history_filled_ = std::min(history_filled_ + 1, h);
+bool ModelSlot::catch_up(Entry& entry) noexcept {
+  const std::uint64_t now = history_.count();
+  const std::uint64_t kept = std::min<std::uint64_t>(now, history_.length());
+  if (now - entry.warmed_through > kept) {
+    // What it missed is no longer kept: start it afresh from the oldest sample that is.
+    entry.stage->reset();
+    entry.last_output = 0.0;
+    entry.warmed_through = now - kept;
   }
-  const double old_out = active_ != nullptr ? active_->process(x) : x;
+  // Behind by at most a block: caught up now, and the crossfade begins (at most two blocks' work for the
+  // stage). Further behind: a block and a quarter per block without a crossfade, so the gap shrinks by a
+  // quarter of a block per block and no block pays for a whole warm-up.
+  const std::uint64_t block = std::max<std::uint64_t>(1, block_peak_);
+  const std::uint64_t behind = now - entry.warmed_through;
+  const bool take_over = behind <= block;
+  const std::uint64_t steps = take_over ? behind : std::min(behind, block + std::max<std::uint64_t>(1, block / 4));
+  for (std::uint64_t k = entry.warmed_through; k < entry.warmed_through + steps; ++k) {
+    entry.last_output = entry.stage->process(history_.input(k));
+    entry.stage->observe(history_.measured(k));
+  }
+  entry.warmed_through += steps;
+  return take_over;
+}
+
+double ModelSlot::process(double x) noexcept {
+  history_.push_input(x);
+  ++block_samples_;
+  const double old_out = active_ != nullptr ? active_->stage->process(x) : x;
   double y = old_out;
   double active_out = old_out;
   if (incoming_ != nullptr) {
-    const double new_out = incoming_->process(x);
+    const double new_out = incoming_->stage->process(x);
     const double g = next_fade_gain(old_out, new_out);
     last_new_ = new_out;
     if (g >= 1.0) {
@@ -129,24 +159,20 @@ double ModelSlot::process(double x) noexcept {
 }
 
 void ModelSlot::observe(double measured) noexcept {
-  const std::size_t h = input_history_.size() / 2;
-  if (h > 0) {
-    const std::size_t last = (history_pos_ + h - 1) % h;
-    measured_history_[last] = measured_history_[last + h] = measured;
-  }
-  if (active_ != nullptr) active_->observe(measured);
-  if (incoming_ != nullptr) incoming_->observe(measured);
+  history_.set_measured(measured);
+  if (active_ != nullptr) active_->stage->observe(measured);
+  if (incoming_ != nullptr) incoming_->stage->observe(measured);
 }
 
 Fault ModelSlot::take_fault() noexcept {
-  const Fault incoming = incoming_ != nullptr ? incoming_->take_fault() : Fault::none;
-  const Fault active = active_ != nullptr ? active_->take_fault() : Fault::none;
+  const Fault incoming = incoming_ != nullptr ? incoming_->stage->take_fault() : Fault::none;
+  const Fault active = active_ != nullptr ? active_->stage->take_fault() : Fault::none;
   return active != Fault::none ? active : incoming;
 }
 
 void ModelSlot::reset() noexcept {
-  if (active_ != nullptr) active_->reset();
-  if (incoming_ != nullptr) incoming_->reset();
+  if (active_ != nullptr) active_->stage->reset();
+  if (incoming_ != nullptr) incoming_->stage->reset();
 }
 
 double ModelSlot::next_fade_gain(double old_out, double new_out) const noexcept {
@@ -169,7 +195,7 @@ void ModelSlot::finish_swap() noexcept {
   // begin_block() made sure the queue has room, so the push cannot fail.
   if (active_ != nullptr) retired_.push(active_);
   active_ = std::exchange(incoming_, nullptr);
-  metrics_.set_active_id(index_, active_->id());
+  metrics_.set_active_id(index_, active_->stage->id());
   fading_.store(false, std::memory_order_release);
 }
 

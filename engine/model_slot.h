@@ -5,10 +5,14 @@
 // one is deleted off the audio thread).
 //
 // Threads: one control thread calls install(), collect_retired() and set_bypassed(); the audio thread
-// calls begin_block(), process(), observe() and reset(). Hand-over: the control thread publishes a
-// prepared stage with an atomic exchange; the audio thread takes it with another at a block boundary,
-// warms it from the slot's recent history, crossfades to it, and pushes the retired stage onto a
-// lock-free single-producer single-consumer queue that the control thread drains and frees.
+// calls begin_block(), process(), observe() and reset(). Hand-over: the control thread prepares a stage,
+// warms it from a snapshot of the slot's recent history (HistoryRing) and publishes it with an atomic
+// exchange; the audio thread takes it with another at a block boundary, runs it over the few samples that
+// came after the snapshot, crossfades to it, and pushes the retired stage onto a lock-free
+// single-producer single-consumer queue that the control thread drains and frees. The catch-up is at
+// most a block's samples in the block the crossfade begins; a stage further behind (it waited, e.g.
+// behind another crossfade) catches up over several blocks first, a block and a quarter per block, so no
+// block pays for a whole warm-up.
 //
 // The crossfade is step-bounded: its gain rises by 1/crossfade per sample unless that would make the
 // output step further than the larger of the two stages' own steps at that sample and the output's
@@ -19,8 +23,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
-#include <vector>
 
+#include "engine/history_ring.h"
 #include "engine/metrics.h"
 #include "engine/spsc_queue.h"
 #include "engine/stage.h"
@@ -45,9 +49,9 @@ class ModelSlot {
 
   // ---- control thread ----
 
-  /// Prepares `stage` and publishes it; the audio thread takes it over at its next block boundary.
-  /// A stage published earlier and not yet taken is freed here. Throws (nothing published) if
-  /// prepare() throws or `stage` is null.
+  /// Prepares `stage`, warms it from the slot's recent history (here, off the audio thread) and publishes
+  /// it; the audio thread takes it over at its next block boundary. A stage published earlier and not yet
+  /// taken is freed here. Throws (nothing published) if prepare() throws or `stage` is null.
   void install(std::unique_ptr<Stage> stage);
   /// Prepares `stage` and makes it active at once, freeing the one before; only while no audio runs.
   void set_initial(std::unique_ptr<Stage> stage);
@@ -66,7 +70,8 @@ class ModelSlot {
 
   // ---- audio thread ----
 
-  /// At a block boundary: takes over a pending stage (warmed from history) and reads the bypass request.
+  /// At a block boundary: takes over a pending stage (catching it up with the history since it was
+  /// warmed) and reads the bypass request.
   void begin_block() noexcept;
   /// One sample through the slot (crossfading while a new stage takes over).
   double process(double x) noexcept;
@@ -78,7 +83,15 @@ class ModelSlot {
   Fault take_fault() noexcept;
 
  private:
+  // A stage as the slot holds it: warmed over the history up to sample `warmed_through`.
+  struct Entry {
+    std::unique_ptr<Stage> stage;
+    std::uint64_t warmed_through = 0;  // one past the last history sample it has run over
+    double last_output = 0.0;          // its output for that sample
+  };
+
   double next_fade_gain(double old_out, double new_out) const noexcept;
+  bool catch_up(Entry& entry) noexcept;
   void finish_swap() noexcept;
 
   ProcessSpec spec_;
@@ -86,15 +99,16 @@ class ModelSlot {
   Metrics& metrics_;
   std::size_t index_;
 
-  std::atomic<Stage*> pending_{nullptr};
+  std::atomic<Entry*> pending_{nullptr};
   std::atomic<bool> bypass_request_{false};
   std::atomic<int> crossfade_request_{0};
-  std::atomic<bool> fading_{false};
-  SpscQueue<Stage*, 16> retired_;
+  std::atomic<bool> fading_{false};  // a stage is being caught up or crossfaded to
+  SpscQueue<Entry*, 16> retired_;
 
   // Owned by the audio thread while it runs.
-  Stage* active_ = nullptr;
-  Stage* incoming_ = nullptr;
+  Entry* active_ = nullptr;
+  Entry* warming_ = nullptr;  // taken from pending_, still catching up with the history
+  Entry* incoming_ = nullptr;
   double fade_gain_ = 0.0;   // 0 = old stage, 1 = new stage
   double last_old_ = 0.0;    // previous output of the active stage
   double last_new_ = 0.0;    // previous output of the incoming stage
@@ -104,11 +118,9 @@ class ModelSlot {
   int crossfade_ = 0;        // the crossfade length in use (audio thread's copy of crossfade_request_)
   double wet_ = 1.0;         // 1 = stage output, 0 = bypassed
   double wet_target_ = 1.0;
-  // Recent inputs and measured outputs, each written twice (at i and i + H) so the last H samples are
-  // always one contiguous span.
-  std::vector<double> input_history_, measured_history_;
-  std::size_t history_pos_ = 0;
-  std::size_t history_filled_ = 0;
+  std::uint64_t block_samples_ = 0;  // samples processed since the last block boundary
+  std::uint64_t block_peak_ = 0;     // the longest block so far
+  HistoryRing history_;
 };
 
 }  // namespace panelbass::engine

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "dsp/sample_rate.h"
 #include "dsp/wav_file.h"
 #include "engine/closed_loop.h"
 #include "models/plant/virtual_transducer.h"
@@ -20,7 +21,7 @@ Rendering render(Chain& chain, const Eigen::VectorXd& program, const RenderOptio
   }
   std::optional<models::VirtualTransducer> plant;
   if (options.plant) {
-    if (!(std::abs(options.plant->fs - spec.fs) <= 1e-9 * spec.fs)) {
+    if (!dsp::same_rate(options.plant->fs, spec.fs)) {
       throw std::invalid_argument("render: the plant runs at " + std::to_string(options.plant->fs) +
                                   " Hz, the chain at " + std::to_string(spec.fs) + " Hz");
     }
@@ -51,7 +52,7 @@ void render_file(const std::filesystem::path& in, const std::string& channel, co
                  Chain& chain, const RenderOptions& options) {
   const dsp::Record input = dsp::read_wav(in, {channel});
   const double fs = chain.options().spec.fs;
-  if (!(std::abs(input.fs - fs) <= 1e-9 * fs)) {
+  if (!dsp::same_rate(input.fs, fs)) {
     throw std::invalid_argument(in.string() + ": sample rate " + std::to_string(input.fs) +
                                 " Hz, the chain runs at " + std::to_string(fs) + " Hz (no resampling yet)");
   }

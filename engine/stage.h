@@ -7,14 +7,14 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <span>
-#include <vector>
 
 #include "dsp/biquad.h"
 #include "engine/metrics.h"
 #include "models/linear/linear_model.h"
 #include "models/narx/mlp.h"
+#include "models/narx/narx_history.h"
 #include "models/narx/narx_model.h"
-#include "models/linear/state_space.h"
+#include "models/linear/state_space_runner.h"
 
 namespace panelbass::engine {
 
@@ -34,7 +34,9 @@ struct ProcessSpec {
   int max_block = 1024; ///< longest block process_block() will be given
 };
 
-/// One stage of the chain. Every method but prepare() and the constructor is for the audio thread.
+/// One stage of the chain. Every method but prepare() and the constructor is for the thread that owns the
+/// stage: the control thread until ModelSlot::install() publishes it (which warms it there), then the
+/// audio thread.
 class Stage {
  public:
   virtual ~Stage() = default;
@@ -108,10 +110,12 @@ class BandPassStage final : public Stage {
   dsp::SosFilter filter_;
 };
 
-/// The most states a LinearStage realizes: it runs a dense state space of order max(na, nb + nk), realized
-/// with O(n³) work when the stage is prepared, so a long pure delay would stall a model swap; identified
-/// models stay far below this.
-inline constexpr Eigen::Index kMaxLinearStageStates = 64;
+/// The most states a stage runs (LinearStage and StateSpaceStage alike): a dense state space costs O(n²)
+/// per sample and a LinearStage's realisation (order max(na, nb + nk)) O(n³) when it is prepared, so a long
+/// pure delay would stall a model swap; identified models stay far below this.
+inline constexpr Eigen::Index kMaxStageStates = 64;
+/// kMaxStageStates under the name the model validation of api/ uses.
+inline constexpr Eigen::Index kMaxLinearStageStates = kMaxStageStates;
 
 /// The order of the state space a LinearStage realizes for `tf`: max(na, nb + nk).
 Eigen::Index linear_stage_states(const models::TransferFunction& tf);
@@ -119,7 +123,7 @@ Eigen::Index linear_stage_states(const models::TransferFunction& tf);
 /// A linear model as a stage: its state-space realisation run on raw input, giving raw output.
 class LinearStage : public Stage {
  public:
-  /// The stage of `model` (realised in prepare()); a ConfigError if it has more than kMaxLinearStageStates.
+  /// The stage of `model` (realised in prepare()); a ConfigError if it has more than kMaxStageStates.
   explicit LinearStage(models::LinearModel model);
   /// Realises the model; throws if its fs differs from spec.fs (resampling is not the stage's job).
   void prepare(const ProcessSpec& spec) override;
@@ -132,8 +136,7 @@ class LinearStage : public Stage {
 
  private:
   models::LinearModel model_;
-  models::StateSpace ss_;
-  Eigen::VectorXd c_, state_, next_;
+  models::StateSpaceRunner runner_;
 };
 
 /// Where a NARX stage takes its past outputs y(k−1..k−na) from.
@@ -159,14 +162,10 @@ class NarxStage : public Stage {
   const models::NarxModel& model() const { return model_; }
 
  private:
-  void push_output(double y_scaled) noexcept;
-
   models::NarxModel model_;
   FeedbackSource source_;
   models::Mlp::Workspace workspace_;
-  Eigen::VectorXd regressor_;
-  std::vector<double> past_u_;  // past_u_[j] = u(k − j), scaled, j = 0..nk+nb
-  std::vector<double> past_y_;  // past_y_[i] = y(k − 1 − i), scaled, i = 0..na−1
+  models::NarxHistory history_;  // scaled u(k..k−nk−nb) and y(k−1..k−na)
 };
 
 }  // namespace panelbass::engine

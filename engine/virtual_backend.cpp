@@ -7,6 +7,7 @@
 #include <string>
 #include <utility>
 
+#include "dsp/sample_rate.h"
 #include "engine/closed_loop.h"
 #include "engine/realtime_thread.h"
 
@@ -19,7 +20,7 @@ const VirtualBackendOptions& checked(const Chain& chain, const VirtualBackendOpt
     throw std::invalid_argument("virtual backend: block must be within [1, " + std::to_string(spec.max_block) +
                                 "], got " + std::to_string(options.block.value));
   }
-  if (!(std::abs(options.plant.fs - spec.fs) <= 1e-9 * spec.fs)) {
+  if (!dsp::same_rate(options.plant.fs, spec.fs)) {
     throw std::invalid_argument("virtual backend: the plant runs at " + std::to_string(options.plant.fs) +
                                 " Hz, the chain at " + std::to_string(spec.fs) + " Hz");
   }
@@ -59,7 +60,9 @@ void VirtualBackend::wait() {
 
 void VirtualBackend::run() noexcept {
   if (options_.pacing == Pacing::real_time) {
-    realtime_.store(make_this_thread_realtime(options_.realtime_priority), std::memory_order_relaxed);
+    const RealtimeGrant grant = make_this_thread_realtime_and_locked(options_.realtime_priority);
+    realtime_.store(grant.priority, std::memory_order_relaxed);
+    memory_locked_.store(grant.memory_locked, std::memory_order_relaxed);
   }
   using clock = std::chrono::steady_clock;
   const auto period = std::chrono::duration_cast<clock::duration>(

@@ -68,6 +68,8 @@ class VirtualBackend {
   std::uint64_t blocks() const { return blocks_.load(std::memory_order_relaxed); }
   /// The audio thread got its SCHED_FIFO priority.
   bool realtime() const { return realtime_.load(std::memory_order_relaxed); }
+  /// The process's memory got locked (asked for with the priority, once it was granted).
+  bool memory_locked() const { return memory_locked_.load(std::memory_order_relaxed); }
 
  private:
   void run() noexcept;
@@ -82,6 +84,7 @@ class VirtualBackend {
   std::atomic<bool> finished_{false};
   std::atomic<std::uint64_t> blocks_{0};
   std::atomic<bool> realtime_{false};
+  std::atomic<bool> memory_locked_{false};
 };
 
 }  // namespace panelbass::engine

@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "dsp/sample_rate.h"
 #include "dsp/soft_limit.h"
 #include "models/io/config_error.h"
 #include "models/io/json_fields.h"
@@ -24,13 +25,6 @@ void require_structure(const FeedbackStructure& s) {
                                 ", nv = " + std::to_string(s.nv) + ", ny = " + std::to_string(s.ny));
   }
   if (s.hidden.empty()) throw std::invalid_argument("neural feedback: at least one hidden layer is needed");
-}
-
-// Shifts `history` one place towards the past and puts `newest` first.
-void push_front(std::vector<double>& history, double newest) noexcept {
-  if (history.empty()) return;
-  std::copy_backward(history.begin(), history.end() - 1, history.end());
-  history.front() = newest;
 }
 
 }  // namespace
@@ -90,48 +84,49 @@ FeedbackRunner::FeedbackRunner(const NeuralFeedback& controller) : c_(controller
     throw std::invalid_argument("neural feedback: the structure has " + std::to_string(s.inputs()) +
                                 " network inputs, the network " + std::to_string(c_.net.inputs()));
   }
+  if (c_.plant.net.inputs() != p.inputs()) {
+    throw std::invalid_argument("neural feedback: the plant model's structure has " + std::to_string(p.inputs()) +
+                                " network inputs (na + nb + 1), its network " + std::to_string(c_.plant.net.inputs()));
+  }
   ws_ = c_.net.workspace();
   plant_ws_ = c_.plant.net.workspace();
   r_ = Eigen::VectorXd::Zero(s.inputs());
-  x_ = Eigen::VectorXd::Zero(p.inputs());
-  u_hist_.assign(static_cast<std::size_t>(s.nu + 1), 0.0);
-  v_hist_.assign(static_cast<std::size_t>(s.nv), 0.0);
-  y_hist_.assign(static_cast<std::size_t>(s.ny), 0.0);
-  plant_u_hist_.assign(static_cast<std::size_t>(p.nk + p.nb + 1), 0.0);
-  plant_y_hist_.assign(static_cast<std::size_t>(p.na), 0.0);
+  u_hist_ = SignalHistory(static_cast<std::size_t>(s.nu + 1));
+  v_hist_ = SignalHistory(static_cast<std::size_t>(s.nv));
+  y_hist_ = SignalHistory(static_cast<std::size_t>(s.ny));
+  plant_ = NarxHistory(p);
 }
 
 double FeedbackRunner::control(double u) noexcept {
-  push_front(u_hist_, u);
-  Eigen::Index i = 0;
-  for (double x : u_hist_) r_[i++] = x;
-  for (double x : v_hist_) r_[i++] = x;
-  for (double x : y_hist_) r_[i++] = x;
-  const double v = dsp::soft_limit(u + c_.net.forward(r_, ws_), c_.knee);
-  push_front(v_hist_, v);
+  u_hist_.push(u);
+  // Appendix 3: r(k) = [u(k..k−nu), v(k−1..k−nv), y(k−1..k−ny)]
+  u_hist_.copy_to(r_, 0);
+  v_hist_.copy_to(r_, static_cast<Eigen::Index>(u_hist_.size()));
+  y_hist_.copy_to(r_, static_cast<Eigen::Index>(u_hist_.size() + v_hist_.size()));
+  const double v = dsp::soft_limit(u + c_.net.forward_unchecked(r_, ws_), c_.knee);
+  v_hist_.push(v);
   const Scaling& sc = c_.plant.scaling;
-  push_front(plant_u_hist_, (v - sc.u_offset) / sc.u_scale);
+  plant_.push_input((v - sc.u_offset) / sc.u_scale);
   return v;
 }
 
 double FeedbackRunner::plant_model_output() noexcept {
-  const NarxStructure& p = c_.plant.structure;
-  Eigen::Index i = 0;
-  for (double y : plant_y_hist_) x_[i++] = y;
-  for (int j = 0; j <= p.nb; ++j) x_[i++] = plant_u_hist_[static_cast<std::size_t>(p.nk + j)];
-  const double y_scaled = c_.plant.net.forward(x_, plant_ws_);
-  push_front(plant_y_hist_, y_scaled);
+  const double y_scaled = c_.plant.net.forward_unchecked(plant_.regressor(), plant_ws_);
+  plant_.push_output(y_scaled);
   const Scaling& sc = c_.plant.scaling;
   return y_scaled * sc.y_scale + sc.y_offset;
 }
 
 void FeedbackRunner::push_output(double y) noexcept {
   const Scaling& sc = c_.plant.scaling;
-  push_front(y_hist_, (y - sc.y_offset) / sc.y_scale);
+  y_hist_.push((y - sc.y_offset) / sc.y_scale);
 }
 
 void FeedbackRunner::reset() noexcept {
-  for (auto* h : {&u_hist_, &v_hist_, &y_hist_, &plant_u_hist_, &plant_y_hist_}) std::fill(h->begin(), h->end(), 0.0);
+  u_hist_.reset();
+  v_hist_.reset();
+  y_hist_.reset();
+  plant_.reset();
 }
 
 nlohmann::json neural_feedback_to_json(const NeuralFeedback& c) {
@@ -181,7 +176,7 @@ NeuralFeedback neural_feedback_from_json(const nlohmann::json& j) {
     const std::string what = e.what();
     throw ConfigError(what.rfind("model", 0) == 0 ? "model.plant" + what.substr(5) : "model.plant: " + what);
   }
-  if (std::abs(plant.fs - fs) > 1e-9 * fs) {
+  if (!dsp::same_rate(plant.fs, fs)) {
     throw ConfigError("model.plant.fs: " + std::to_string(plant.fs) + " Hz, the controller runs at " +
                       std::to_string(fs) + " Hz");
   }

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "models/narx/mlp.h"
+#include "models/narx/narx_history.h"
 #include "models/narx/narx_model.h"
 
 namespace panelbass::models {
@@ -59,7 +60,8 @@ ClosedLoopRun simulate_closed_loop(const NeuralFeedback& controller, const Eigen
 /// The controller sample by sample, for the engine: sized once, then allocation-free.
 class FeedbackRunner {
  public:
-  /// A runner at rest for `controller` (kept by reference: it must outlive the runner).
+  /// A runner at rest for `controller` (kept by reference: it must outlive the runner); throws
+  /// std::invalid_argument unless N1 and the plant model's network have the inputs their structures say.
   explicit FeedbackRunner(const NeuralFeedback& controller);
   /// v(k) from u(k) and the histories; u(k) and v(k) become history.
   double control(double u) noexcept;
@@ -73,9 +75,9 @@ class FeedbackRunner {
  private:
   const NeuralFeedback& c_;
   Mlp::Workspace ws_, plant_ws_;
-  Eigen::VectorXd r_, x_;
-  std::vector<double> u_hist_, v_hist_, y_hist_;          // newest first: u(k..), v(k−1..), y_s(k−1..)
-  std::vector<double> plant_u_hist_, plant_y_hist_;       // the plant model's own: u_s(k..), ŷ_s(k−1..)
+  Eigen::VectorXd r_;
+  SignalHistory u_hist_, v_hist_, y_hist_;  // newest first: u(k..), v(k−1..), y_s(k−1..)
+  NarxHistory plant_;                       // the plant model's own: u_s(k..), ŷ_s(k−1..)
 };
 
 /// {"format":"panelbass.model/1","kind":"neural_feedback","fs",

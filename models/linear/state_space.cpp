@@ -1,6 +1,7 @@
 #include "models/linear/state_space.h"
 
 #include "models/linear/extended_precision.h"
+#include "models/linear/state_space_runner.h"
 #include "models/io/number_text.h"
 
 #include <Eigen/Dense>
@@ -33,15 +34,6 @@ constexpr Real kMinimalTolerance = 1e-16L;
 constexpr double kFaithfulResponse = 1e-8;
 
 std::string show(double v) { return number_text(v); }
-
-void check_shape(const StateSpace& ss, const char* where) {
-  const Eigen::Index n = ss.A.rows();
-  if (ss.A.cols() != n || ss.B.size() != n || ss.C.size() != n) {
-    throw std::invalid_argument(std::string(where) + ": A must be n×n and B, C of length n (A " +
-                                std::to_string(ss.A.rows()) + "×" + std::to_string(ss.A.cols()) + ", B " +
-                                std::to_string(ss.B.size()) + ", C " + std::to_string(ss.C.size()) + ")");
-  }
-}
 
 
 // A square root L (L·Lᵀ = W) of a positive semidefinite W; eigenvalues that rounding made negative are
@@ -123,6 +115,15 @@ bool faithful(const StateSpace& ss, const VectorL& alpha, const VectorL& beta) {
 }
 
 }  // namespace
+
+void check_shape(const StateSpace& ss, const char* where) {
+  const Eigen::Index n = ss.A.rows();
+  if (ss.A.cols() != n || ss.B.size() != n || ss.C.size() != n) {
+    throw std::invalid_argument(std::string(where) + ": A must be n×n and B, C of length n (A " +
+                                std::to_string(ss.A.rows()) + "×" + std::to_string(ss.A.cols()) + ", B " +
+                                std::to_string(ss.B.size()) + ", C " + std::to_string(ss.C.size()) + ")");
+  }
+}
 
 StateSpace realize(const TransferFunction& tf) {
   if (!tf.all_finite()) throw std::invalid_argument("realize: transfer function has a non-finite coefficient");
@@ -225,16 +226,9 @@ Eigen::VectorXd simulate(const StateSpace& ss, const Eigen::VectorXd& u, const E
     throw std::invalid_argument("simulate: initial state has " + std::to_string(x0.size()) + " entries, model has " +
                                 std::to_string(n) + " states");
   }
-  Eigen::VectorXd x = x0.size() == 0 ? Eigen::VectorXd::Zero(n) : x0;
-  Eigen::VectorXd next(n);
+  StateSpaceRunner runner(ss, x0);
   Eigen::VectorXd y(u.size());
-  // x(k+1) = A·x(k) + B·u(k),  y(k) = C·x(k) + D·u(k)
-  for (Eigen::Index k = 0; k < u.size(); ++k) {
-    y[k] = ss.C.dot(x) + ss.D * u[k];
-    next.noalias() = ss.A * x;
-    next += ss.B * u[k];
-    x.swap(next);
-  }
+  for (Eigen::Index k = 0; k < u.size(); ++k) y[k] = runner.step(u[k]);
   return y;
 }
 

@@ -33,6 +33,9 @@ StateSpace balance(const StateSpace& ss, Eigen::VectorXd* hankel_singular_values
 /// The transfer function of `ss` (nk = 0; leading zero numerator coefficients kept as b).
 TransferFunction to_transfer_function(const StateSpace& ss);
 
+/// Throws std::invalid_argument, prefixed with `where`, unless A is n×n and B, C have length n.
+void check_shape(const StateSpace& ss, const char* where);
+
 /// Output of `ss` driven by `u` from state `x0` (zero when empty).
 Eigen::VectorXd simulate(const StateSpace& ss, const Eigen::VectorXd& u, const Eigen::VectorXd& x0 = {});
 

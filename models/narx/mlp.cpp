@@ -16,17 +16,6 @@ using ConstLayerWeights = Eigen::Map<const RowMajorMatrix>;
 using LayerWeights = Eigen::Map<RowMajorMatrix>;
 using ConstVectorMap = Eigen::Map<const Eigen::VectorXd>;
 
-// True when `ws` has the sizes workspace() gives for this network.
-bool fits(const Mlp::Workspace& ws, int inputs, const std::vector<int>& hidden) {
-  if (ws.input.size() != inputs || ws.activation.size() != hidden.size() || ws.delta.size() != hidden.size()) {
-    return false;
-  }
-  for (std::size_t l = 0; l < hidden.size(); ++l) {
-    if (ws.activation[l].size() != hidden[l] || ws.delta[l].size() != hidden[l]) return false;
-  }
-  return true;
-}
-
 }  // namespace
 
 Mlp::Mlp(int inputs, std::vector<int> hidden) : inputs_(inputs), hidden_(std::move(hidden)) {
@@ -67,6 +56,16 @@ void Mlp::initialize(double input_max, std::uint64_t seed, double scale) {
   }
 }
 
+bool Mlp::fits(const Workspace& ws) const noexcept {
+  if (ws.input.size() != inputs_ || ws.activation.size() != hidden_.size() || ws.delta.size() != hidden_.size()) {
+    return false;
+  }
+  for (std::size_t l = 0; l < hidden_.size(); ++l) {
+    if (ws.activation[l].size() != hidden_[l] || ws.delta[l].size() != hidden_[l]) return false;
+  }
+  return true;
+}
+
 Mlp::Workspace Mlp::workspace() const {
   Workspace ws;
   ws.input = Eigen::VectorXd::Zero(inputs_);
@@ -85,7 +84,11 @@ double Mlp::forward(const Eigen::Ref<const Eigen::VectorXd>& x, Workspace& ws) c
                                 std::to_string(inputs_));
   }
   // A workspace that does not fit (default-constructed, or from another network) is sized once here.
-  if (!fits(ws, inputs_, hidden_)) ws = workspace();
+  if (!fits(ws)) ws = workspace();
+  return forward_unchecked(x, ws);
+}
+
+double Mlp::forward_unchecked(const Eigen::Ref<const Eigen::VectorXd>& x, Workspace& ws) const noexcept {
   ws.input = x;
   const double* p = theta_.data();
   const Eigen::VectorXd* previous = &ws.input;
@@ -115,7 +118,7 @@ void Mlp::backward(Workspace& ws, Eigen::Ref<Eigen::VectorXd> dtheta, Eigen::Ref
     throw std::invalid_argument("Mlp::backward: dx has " + std::to_string(dx.size()) + " entries, the network " +
                                 std::to_string(inputs_) + " inputs");
   }
-  if (!fits(ws, inputs_, hidden_)) throw std::invalid_argument("Mlp::backward: the workspace is not from forward()");
+  if (!fits(ws)) throw std::invalid_argument("Mlp::backward: the workspace is not from forward()");
 
   const std::size_t layers = hidden_.size();
   const Eigen::VectorXd& last = layers > 0 ? ws.activation[layers - 1] : ws.input;

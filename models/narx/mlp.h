@@ -42,8 +42,16 @@ class Mlp {
   /// A workspace of the right sizes.
   Workspace workspace() const;
 
-  /// F(x): the output for input x (size inputs()); fills `ws` for backward().
+  /// True when `ws` has the sizes workspace() gives (so forward_unchecked() may use it).
+  bool fits(const Workspace& ws) const noexcept;
+
+  /// F(x): the output for input x (size inputs()); fills `ws` for backward(). Checks x's size (throws
+  /// std::invalid_argument) and sizes a workspace that does not fit.
   double forward(const Eigen::Ref<const Eigen::VectorXd>& x, Workspace& ws) const;
+
+  /// F(x) for the real-time path: the same numbers as forward(), without its checks, never allocating.
+  /// Requires x.size() == inputs() and fits(ws), which the caller checked once when it was prepared.
+  double forward_unchecked(const Eigen::Ref<const Eigen::VectorXd>& x, Workspace& ws) const noexcept;
 
   /// After forward(x, ws): ∂F/∂θ into `dtheta` (size P) and ∂F/∂x into `dx` (size inputs(); may be
   /// empty to skip). No allocation.

@@ -11,6 +11,7 @@
 #include "models/io/json_fields.h"
 #include "models/io/model_header.h"
 #include "models/io/network_fields.h"
+#include "models/narx/narx_history.h"
 
 namespace panelbass::models {
 namespace {
@@ -97,16 +98,10 @@ NarxModel NarxModel::with_structure(const NarxStructure& structure, const Scalin
 
 void NarxModel::regressor(const Eigen::VectorXd& u, const Eigen::VectorXd& y_past, Eigen::Index k,
                           Eigen::Ref<Eigen::VectorXd> x) const {
-  const Eigen::Index na = structure.na;
-  const Eigen::Index nb = structure.nb;
-  const Eigen::Index nk = structure.nk;
-  // [5G] x(k) = [y(k−1)..y(k−na), u(k−nk)..u(k−nk−nb)]; samples before the record are 0
-  const Eigen::Index past_y = std::clamp<Eigen::Index>(k, 0, na);
-  for (Eigen::Index i = 0; i < past_y; ++i) x[i] = y_past[k - 1 - i];
-  for (Eigen::Index i = past_y; i < na; ++i) x[i] = 0.0;
-  const Eigen::Index past_u = std::clamp<Eigen::Index>(k - nk + 1, 0, nb + 1);
-  for (Eigen::Index j = 0; j < past_u; ++j) x[na + j] = u[k - nk - j];
-  for (Eigen::Index j = past_u; j <= nb; ++j) x[na + j] = 0.0;
+  // [5G] from whole records; samples before the record are 0
+  fill_narx_regressor(
+      structure.na, structure.nb, structure.nk, [&](int i) { return k - 1 - i >= 0 ? y_past[k - 1 - i] : 0.0; },
+      [&](int j) { return k - j >= 0 ? u[k - j] : 0.0; }, x);
 }
 
 Eigen::VectorXd NarxModel::simulate_scaled(const Eigen::VectorXd& u, const Eigen::VectorXd& y,
@@ -122,7 +117,7 @@ Eigen::VectorXd NarxModel::simulate_scaled(const Eigen::VectorXd& u, const Eigen
   // [5H] OEM: ŷ(k) = F(ŷ(k−1..k−na), u(k−nk..k−nk−nb), θ), the simulated output fed back
   for (Eigen::Index k = init; k < n; ++k) {
     regressor(u, out, k, x);
-    out[k] = net.forward(x, ws);
+    out[k] = net.forward_unchecked(x, ws);
   }
   return out;
 }
@@ -140,7 +135,7 @@ Eigen::VectorXd NarxModel::predict_scaled(const Eigen::VectorXd& u, const Eigen:
   // [5H] PEM: ŷ(k) = F(y(k−1..k−na), u(k−nk..k−nk−nb), θ), the measured output as the past
   for (Eigen::Index k = 0; k < n; ++k) {
     regressor(u, y, k, x);
-    out[k] = net.forward(x, ws);
+    out[k] = net.forward_unchecked(x, ws);
   }
   return out;
 }

@@ -2,8 +2,9 @@
 // the malloc family are replaced for the whole engine_tests executable (under ASan and TSan, their
 // allocator hooks stand in) and count while this thread has set `counting`. The chain — band-pass, linear
 // feedforward, NARX feedback in sensor mode, limiter, the virtual plant in the loop — then processes
-// blocks, takes over two new stages (warm-up, crossfade, retirement), falls into and out of its safe
-// bypass, and must neither allocate nor free.
+// blocks, takes over two new stages (warmed off the audio thread, crossfaded, retired), and one that
+// waited behind a crossfade and catches up on the audio thread, falls into and out of its safe bypass,
+// and must neither allocate nor free.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -12,6 +13,7 @@
 #include <memory>
 #include <new>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "engine/chain.h"
@@ -182,6 +184,26 @@ TEST(AllocationCounter, SeesAllocationsAndFrees) {
   EXPECT_EQ(seen_allocations, 1);
 }
 
+/// `chain` closed over the panel-exciter plant (noise seed 3), fed `program` 64 samples a block.
+class ClosedLoopBlocks {
+ public:
+  ClosedLoopBlocks(Chain& chain, Eigen::VectorXd program)
+      : chain_(chain), plant_(models::plant_preset("panel-exciter"), 3), program_(std::move(program)) {}
+  /// The next `blocks` blocks of the program.
+  void operator()(int blocks) {
+    for (int b = 0; b < blocks; ++b, ++block_) run({program_.data() + 64 * block_, 64});
+  }
+  /// One block of `program` (64 samples) instead of the program's next.
+  void run(std::span<const double> program) { process_closed_loop(chain_, plant_, program, drive_, measured_); }
+
+ private:
+  Chain& chain_;
+  models::VirtualTransducer plant_;
+  Eigen::VectorXd program_;
+  std::vector<double> drive_ = std::vector<double>(64), measured_ = std::vector<double>(64);
+  int block_ = 0;
+};
+
 TEST(AllocationCounter, TheChainProcessesSwapsAndFaultsWithoutAllocatingOrFreeing) {
   ChainOptions options;
   options.spec.max_block = 64;
@@ -189,15 +211,7 @@ TEST(AllocationCounter, TheChainProcessesSwapsAndFaultsWithoutAllocatingOrFreein
   Chain chain(options);
   chain.feedforward().set_initial(std::make_unique<LinearStage>(testing::example_linear()));
   chain.feedback().set_initial(std::make_unique<NarxStage>(testing::example_narx(61), FeedbackSource::sensor));
-  models::VirtualTransducer plant(models::plant_preset("panel-exciter"), 3);
-  const Eigen::VectorXd program = testing::uniform(64 * 40, 0.5, 62);
-  std::vector<double> drive(64), measured(64);
-  int block = 0;
-  auto process = [&](int blocks) {
-    for (int b = 0; b < blocks; ++b, ++block) {
-      process_closed_loop(chain, plant, {program.data() + 64 * block, 64}, drive, measured);
-    }
-  };
+  ClosedLoopBlocks process(chain, testing::uniform(64 * 40, 0.5, 62));
   process(8);  // warm: history filled, every lazily sized buffer sized
 
   // Control side (may allocate): two new stages and a bypass.
@@ -226,7 +240,7 @@ TEST(AllocationCounter, TheChainProcessesSwapsAndFaultsWithoutAllocatingOrFreein
   long during_fault = 0, frees_during_fault = 0;
   {
     Counting c;
-    process_closed_loop(chain, plant, bad, drive, measured);
+    process.run(bad);
     process(2);
     chain.clear_fault();
     process(2);
@@ -237,6 +251,31 @@ TEST(AllocationCounter, TheChainProcessesSwapsAndFaultsWithoutAllocatingOrFreein
   EXPECT_EQ(frees_during_fault, 0);
   EXPECT_EQ(chain.metrics().snapshot().faults, 1u);
   EXPECT_FALSE(chain.in_fault());
+}
+
+TEST(AllocationCounter, AStageCaughtUpOverBlocksOnTheAudioThreadAllocatesNothing) {
+  ChainOptions options;
+  options.spec.max_block = 64;
+  options.slots = {Samples{200}, Samples{256}};
+  Chain chain(options);
+  chain.feedback().set_initial(std::make_unique<NarxStage>(testing::example_narx(71), FeedbackSource::sensor));
+  ClosedLoopBlocks process(chain, testing::uniform(64 * 40, 0.5, 72));
+  process(8);
+  chain.feedback().install(std::make_unique<NarxStage>(testing::example_narx(73), FeedbackSource::sensor));
+  process(1);  // taken over; its 200-sample crossfade runs
+  chain.feedback().install(std::make_unique<NarxStage>(testing::example_narx(74), FeedbackSource::sensor));
+  long allocated = 0, freed = 0;
+  {
+    Counting c;
+    process(30);  // the second waits out the fade, catches up block by block, crossfades
+    allocated = allocations;
+    freed = frees;
+  }
+  EXPECT_EQ(allocated, 0);
+  EXPECT_EQ(freed, 0);
+  EXPECT_EQ(chain.metrics().snapshot().swaps, 2u);
+  EXPECT_TRUE(chain.feedback().idle());
+  EXPECT_EQ(chain.collect_retired(), 2u);
 }
 
 TEST(AllocationCounter, TheControllerStagesSwapAndRunWithoutAllocatingOrFreeing) {
@@ -251,15 +290,7 @@ TEST(AllocationCounter, TheControllerStagesSwapAndRunWithoutAllocatingOrFreeing)
   models::initialize_feedback(fb, 72, 1.0);
   chain.feedforward().set_initial(std::make_unique<StateSpaceStage>(ff.controller(), ff.fs));
   chain.feedback().set_initial(std::make_unique<NeuralFeedbackStage>(fb, FeedbackSource::sensor));
-  models::VirtualTransducer plant(models::plant_preset("panel-exciter"), 3);
-  const Eigen::VectorXd program = testing::uniform(64 * 30, 0.3, 73);
-  std::vector<double> drive(64), measured(64);
-  int block = 0;
-  auto process = [&](int blocks) {
-    for (int b = 0; b < blocks; ++b, ++block) {
-      process_closed_loop(chain, plant, {program.data() + 64 * block, 64}, drive, measured);
-    }
-  };
+  ClosedLoopBlocks process(chain, testing::uniform(64 * 30, 0.3, 73));
   process(8);
   // new controllers of both kinds (the feedback one now in model mode: its own plant model runs)
   chain.feedforward().install(std::make_unique<StateSpaceStage>(ff.controller(), ff.fs));

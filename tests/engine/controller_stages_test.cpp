@@ -55,6 +55,22 @@ TEST(ControllerStagesTest, LqFeedforwardStageIsTheStateSpaceOf7B) {
   }
 }
 
+TEST(ControllerStagesTest, AStateSpaceStageHasTheLinearStagesStateCap) {
+  models::StateSpace ss;
+  const Eigen::Index n = kMaxStageStates + 1;
+  ss.A = 0.5 * Eigen::MatrixXd::Identity(n, n);
+  ss.B = Eigen::VectorXd::Ones(n);
+  ss.C = Eigen::RowVectorXd::Ones(n);
+  EXPECT_THROW(StateSpaceStage(ss, kFs), models::ConfigError);
+  ss.A = 0.5 * Eigen::MatrixXd::Identity(n - 1, n - 1);
+  ss.B = Eigen::VectorXd::Ones(n - 1);
+  ss.C = Eigen::RowVectorXd::Ones(n - 1);
+  StateSpaceStage stage(ss, kFs);
+  stage.prepare(ProcessSpec{kFs, 64});
+  EXPECT_DOUBLE_EQ(stage.process(1.0), 0.0);
+  EXPECT_DOUBLE_EQ(stage.process(0.0), static_cast<double>(n - 1));  // C·B
+}
+
 TEST(ControllerStagesTest, NeuralFeedbackStageInModelModeIsTheClosedLoopOfItsPlantModel) {
   const models::NeuralFeedback c = example_feedback();
   NeuralFeedbackStage stage(c, FeedbackSource::model);

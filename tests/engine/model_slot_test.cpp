@@ -129,6 +129,50 @@ TEST(ModelSlot, ANewStageWarmedFromHistoryTakesOverInvisibly) {
   EXPECT_GT((run(0) - expected).cwiseAbs().maxCoeff(), 1e-2 * scale) << "a cold start should be visible";
 }
 
+TEST(ModelSlot, AStageThatWaitedBehindACrossfadeCatchesUpOverBlocksAndStillTakesOverInvisibly) {
+  const models::LinearModel m = testing::example_linear();
+  const Eigen::VectorXd u = testing::uniform(3000, 0.5, 24);
+  const Eigen::VectorXd expected = m.simulate(u);
+  Metrics metrics;
+  // A 300-sample crossfade: the second stage, installed 5 samples after the first, waits 6 blocks of 50,
+  // so its snapshot is 295 samples stale; it catches up 62 samples a block (12 more than come in) until
+  // a block or less is left, then crossfades.
+  ModelSlot slot({kFs, 64}, options(300, 600), metrics, 1);
+  slot.set_initial(std::make_unique<LinearStage>(m));
+  Eigen::VectorXd y(u.size());
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    if (k == 700 || k == 705) slot.install(std::make_unique<LinearStage>(m));
+    if (k % 50 == 0) slot.begin_block();
+    y[k] = slot.process(u[k]);
+  }
+  EXPECT_EQ(metrics.snapshot().swaps, 2u);
+  EXPECT_TRUE(slot.idle());
+  EXPECT_LE((y - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
+}
+
+TEST(ModelSlot, AStageWhoseMissedSamplesLeftTheHistoryStartsAfreshFromWhatIsKept) {
+  // History of 40 samples, a stage waiting 300 samples behind a crossfade: what it missed is gone, so it
+  // restarts from the 40 samples kept and catches up from there; a NARX model in sensor mode forgets
+  // everything older than na, nb + nk samples, so its output is still the one-step prediction.
+  const models::NarxModel m = testing::example_narx(9);
+  const Eigen::VectorXd u = testing::uniform(1200, 1.0, 25);
+  const Eigen::VectorXd measured = testing::uniform(1200, 0.5, 26);
+  const Eigen::VectorXd expected = m.predict(u, measured);
+  Metrics metrics;
+  ModelSlot slot({kFs, 64}, options(300, 40), metrics, 2);
+  slot.set_initial(std::make_unique<NarxStage>(m, FeedbackSource::sensor));
+  Eigen::VectorXd y(u.size());
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    if (k == 96 || k == 100) slot.install(std::make_unique<NarxStage>(m, FeedbackSource::sensor));
+    if (k % 32 == 0) slot.begin_block();
+    y[k] = slot.process(u[k]);
+    slot.observe(measured[k]);
+  }
+  EXPECT_EQ(metrics.snapshot().swaps, 2u);
+  EXPECT_TRUE(slot.idle());
+  EXPECT_LE((y - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
+}
+
 TEST(ModelSlot, ASensorModeStageIsWarmedFromTheMeasuredHistoryToo) {
   const models::NarxModel m = testing::example_narx(9);
   const Eigen::VectorXd u = testing::uniform(600, 1.0, 22);

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <functional>
+#include <stdexcept>
 #include <numbers>
 #include <vector>
 
@@ -89,6 +90,16 @@ TEST(NeuralFeedbackTest, RunnerMatchesTheClosedLoopSimulation) {
     }
     runner.reset();
   }
+}
+
+TEST(NeuralFeedbackTest, RunnerRefusesAPlantModelWhoseNetworkDisagreesWithItsStructure) {
+  NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
+  EXPECT_NO_THROW(FeedbackRunner{c});
+  c.plant.net = Mlp(c.plant.structure.inputs() + 1, {3});
+  EXPECT_THROW(FeedbackRunner{c}, std::invalid_argument);
+  c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
+  c.net = Mlp(c.structure.inputs() + 2, {3});
+  EXPECT_THROW(FeedbackRunner{c}, std::invalid_argument);
 }
 
 // The central finite difference (step 1e-6) of `loss` in each of c's parameters.

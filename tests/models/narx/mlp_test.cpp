@@ -283,5 +283,27 @@ TEST(Mlp, DefaultWorkspaceIsSizedOnFirstUse) {
   EXPECT_NEAR(net.forward(x, ws), plain_forward(net.parameters(), 2, {3}, x), 1e-15);
 }
 
+TEST(Mlp, TheUncheckedForwardGivesTheCheckedOnesOutputToTheBit) {
+  for (const std::vector<int>& hidden : {std::vector<int>{}, std::vector<int>{5}, std::vector<int>{4, 3}}) {
+    Mlp net(3, hidden);
+    net.initialize(1.0, 11);
+    Mlp::Workspace checked = net.workspace(), unchecked = net.workspace();
+    for (int k = 0; k < 20; ++k) {
+      const Eigen::Vector3d x(std::sin(0.7 * k), std::cos(1.3 * k), 0.1 * k - 1.0);
+      ASSERT_EQ(net.forward_unchecked(x, unchecked), net.forward(x, checked)) << k;
+      ASSERT_EQ(unchecked.activation.size(), checked.activation.size());
+      for (std::size_t l = 0; l < checked.activation.size(); ++l) ASSERT_EQ(unchecked.activation[l], checked.activation[l]);
+    }
+  }
+}
+
+TEST(Mlp, FitsTellsAWorkspaceOfTheNetworksSizesFromAnother) {
+  const Mlp net(3, {4, 2});
+  EXPECT_TRUE(net.fits(net.workspace()));
+  EXPECT_FALSE(net.fits(Mlp::Workspace{}));
+  EXPECT_FALSE(net.fits(Mlp(3, {4, 3}).workspace()));
+  EXPECT_FALSE(net.fits(Mlp(2, {4, 2}).workspace()));
+}
+
 }  // namespace
 }  // namespace panelbass::models

@@ -1,0 +1,50 @@
+#include "engine/history_ring.h"
+
+#include <algorithm>
+
+namespace panelbass::engine {
+
+HistoryRing::HistoryRing(std::size_t length) : input_(length), measured_(length) {}
+
+void HistoryRing::push_input(double x) noexcept {
+  const std::uint64_t k = count_++;
+  if (!input_.empty()) {
+    // Seqlock writer: announce that sample k's position (sample k − length's) is being rewritten before
+    // rewriting it; a reader that copied the old values then sees the announcement.
+    touched_.store(k + 1, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+    input_[k % input_.size()].store(x, std::memory_order_relaxed);
+    measured_[k % measured_.size()].store(0.0, std::memory_order_relaxed);
+  }
+  final_.store(k, std::memory_order_release);
+}
+
+void HistoryRing::set_measured(double y) noexcept {
+  if (count_ == 0) return;
+  if (!measured_.empty()) measured_[(count_ - 1) % measured_.size()].store(y, std::memory_order_relaxed);
+  final_.store(count_, std::memory_order_release);
+}
+
+void HistoryRing::snapshot(std::size_t n, Snapshot& out) const {
+  const std::uint64_t size = input_.size();
+  const std::uint64_t end = final_.load(std::memory_order_acquire);
+  std::uint64_t begin = end - std::min<std::uint64_t>({n, size, end});
+  out.input.resize(static_cast<std::size_t>(end - begin));
+  out.measured.resize(out.input.size());
+  for (std::uint64_t k = begin; k < end; ++k) {
+    out.input[k - begin] = input_[k % size].load(std::memory_order_relaxed);
+    out.measured[k - begin] = measured_[k % size].load(std::memory_order_relaxed);
+  }
+  // Seqlock reader: sample k was overwritten if the writer announced sample k + length or later.
+  std::atomic_thread_fence(std::memory_order_acquire);
+  const std::uint64_t touched = touched_.load(std::memory_order_relaxed);
+  const std::uint64_t intact = touched > size ? touched - size : 0;
+  if (intact > begin) {
+    const auto drop = static_cast<std::ptrdiff_t>(std::min(intact, end) - begin);
+    out.input.erase(out.input.begin(), out.input.begin() + drop);
+    out.measured.erase(out.measured.begin(), out.measured.begin() + drop);
+  }
+  out.end = end;
+}
+
+}  // namespace panelbass::engine
