@@ -2,7 +2,7 @@
 // against a fake environment whose backend is an independent reference — a second-order system written
 // as its textbook difference equation (tests/support/linear_systems.h), or the virtual transducer.
 
-#include "api/job_kinds.h"
+#include "api/jobs/job_kinds.h"
 
 #include <gtest/gtest.h>
 
@@ -15,9 +15,9 @@
 #include <vector>
 
 #include "api/model_store.h"
-#include "api/job_params.h"
+#include "api/jobs/excitation_record.h"
 #include "api/model_validation.h"
-#include "api/job_plots.h"
+#include "api/jobs/job_plots.h"
 #include "engine/chain_evaluation.h"
 #include "engine/chain_file.h"
 #include "engine/distortion_attribution.h"
