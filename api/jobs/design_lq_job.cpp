@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+
 #include "api/jobs/job_plots.h"
 #include "api/jobs/job_progress.h"
 #include "api/jobs/param_reader.h"

@@ -4,6 +4,7 @@
 #include <optional>
 #include <string>
 #include <vector>
+
 #include "api/jobs/hidden_layers.h"
 #include "api/jobs/job_plots.h"
 #include "api/jobs/job_progress.h"

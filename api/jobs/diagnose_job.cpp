@@ -4,6 +4,7 @@
 #include <optional>
 #include <string>
 #include <variant>
+
 #include "api/jobs/job_plots.h"
 #include "api/jobs/job_progress.h"
 #include "api/jobs/model_judgement.h"

@@ -1,6 +1,7 @@
 #include "api/jobs/excite_job.h"
 
 #include <cmath>
+
 #include "api/jobs/excitation_record.h"
 #include "api/jobs/job_plots.h"
 #include "api/jobs/job_progress.h"

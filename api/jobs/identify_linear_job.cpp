@@ -3,6 +3,7 @@
 #include <limits>
 #include <string>
 #include <vector>
+
 #include "api/jobs/job_plots.h"
 #include "api/jobs/job_progress.h"
 #include "api/jobs/model_judgement.h"

@@ -1,5 +1,6 @@
 #pragma once
-// The identify-linear job: a linear model (FIR, ARX, OE, Zhu, FIR → Hankel → OE) of a record, with an optional order scan
+// The identify-linear job: a linear model (FIR, ARX, OE, Zhu, FIR → Hankel → OE) of a record, with an
+// optional order scan
 
 #include "api/jobs/job_kind.h"
 

@@ -36,7 +36,8 @@ nlohmann::json model_plots(const models::AnyModel& model, const ExcitationRecord
           {"spectrum", spectrum_plot(part.u, part.y, model.simulate(part.u), fs)}};
 }
 
-std::optional<models::DistortionSpec> harmonic_spec(const JobEnvironment& env, double model_fs, const ExcitationRecord& r) {
+std::optional<models::DistortionSpec> harmonic_spec(const JobEnvironment& env, double model_fs,
+                                                    const ExcitationRecord& r) {
   if (!env.plant || !dsp::same_rate(env.plant->fs, model_fs)) return std::nullopt;
   models::DistortionSpec spec;
   spec.frequencies = kHarmonicFrequencies;

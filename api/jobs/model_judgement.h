@@ -29,7 +29,8 @@ nlohmann::json model_plots(const models::AnyModel& model, const ExcitationRecord
 
 /// The stepped-sine harmonic distortion measurement (H2/H3 at the record's drive level) that compares the
 /// server's plant with a model at `model_fs`; nullopt unless the plant is known and runs at that rate.
-std::optional<models::DistortionSpec> harmonic_spec(const JobEnvironment& env, double model_fs, const ExcitationRecord& r);
+std::optional<models::DistortionSpec> harmonic_spec(const JobEnvironment& env, double model_fs,
+                                                    const ExcitationRecord& r);
 
 /// The "harmonics" plot of the plant's and `model`'s H2/H3 (harmonic_spec()); null when there is no spec.
 nlohmann::json harmonics_if_known(const JobEnvironment& env, const models::AnyModel& model, const ExcitationRecord& r,
