@@ -3,6 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "dsp/sample_rate.h"
 #include "engine/alsa_status_json.h"
 #include "models/io/config_error.h"
 #include "models/plant/virtual_transducer.h"
@@ -80,7 +81,7 @@ ModelSlotName parse_slot_name(const std::string& name) {
 }
 
 EngineService::EngineService(EngineServiceOptions options) : options_(std::move(options)) {
-  if (!(std::abs(options_.plant.fs - options_.chain.fs) <= 1e-9 * options_.chain.fs)) {
+  if (!dsp::same_rate(options_.plant.fs, options_.chain.fs)) {
     throw std::invalid_argument("engine: the plant runs at " + std::to_string(options_.plant.fs) +
                                 " Hz, the chain at " + std::to_string(options_.chain.fs) + " Hz");
   }

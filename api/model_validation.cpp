@@ -5,17 +5,15 @@
 #include <cmath>
 #include <complex>
 #include <cstdint>
-#include <numbers>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include "dsp/random.h"
 #include "engine/stage.h"
 #include "models/io/config_error.h"
-#include "models/linear/extended_precision.h"
+#include "models/kinds/model_checks.h"
 #include "models/linear/linear_model.h"
 #include "models/control/lq_feedforward.h"
 #include "models/narx/narx_model.h"
@@ -31,13 +29,6 @@ using nlohmann::json;
 
 constexpr const char* kBadRequest = "bad_request";
 constexpr const char* kInvalidModel = "invalid_model";
-
-// The free run that stands in for a stability proof of a network: its length, the seed of its noise and
-// how far (in scaled output units, where the identification data spans [−1, 1]) it may wander.
-constexpr Eigen::Index kFreeRunSamples = 2000;
-// The seed is the NARX loader's, so that both free runs see the same noise and agree.
-constexpr std::uint64_t kFreeRunSeed = 20240501;
-constexpr double kFreeRunBound = 100.0;
 
 std::string show(double v) { return models::number_text(v); }
 
@@ -102,15 +93,10 @@ std::optional<std::string> linear_instability(const json& model) {
   models::TransferFunction tf;
   tf.a = numbers(model.at("params").at("a"));
   tf.b = Eigen::VectorXd::Ones(1);
-  const Eigen::VectorXcd poles = tf.poles();
-  Eigen::Index worst = -1;
-  for (Eigen::Index i = 0; i < poles.size(); ++i) {
-    if (worst < 0 || std::abs(poles[i]) > std::abs(poles[worst])) worst = i;
-  }
-  if (worst < 0 || std::abs(poles[worst]) < 1.0) return std::nullopt;
   const double fs = model.contains("fs") && model["fs"].is_number() ? model["fs"].get<double>() : NAN;
-  return pole_problem("model.params.a", std::abs(poles[worst]),
-                      std::abs(std::arg(poles[worst])) * fs / (2.0 * std::numbers::pi));
+  const std::optional<models::UnstablePole> pole = models::unstable_pole(tf, fs);
+  if (!pole) return std::nullopt;
+  return pole_problem("model.params.a", pole->radius, pole->hz);
 }
 
 // LQ feedforward: the controller runs x(k+1) = (A − B·L)·x(k) + B·u(k); its spectral radius must be < 1.
@@ -128,29 +114,17 @@ std::optional<std::string> lq_instability(const json& model) {
   const Eigen::VectorXd B = numbers(params.at("B"));
   const Eigen::VectorXd L = numbers(params.at("L"));
   if (B.size() != n || L.size() != n || n == 0) return std::nullopt;
-  const Eigen::MatrixXd closed = A - B * L.transpose();
-  const double radius = static_cast<double>(models::extended::spectral_radius(closed.cast<models::extended::Real>()));
-  if (radius < 1.0) return std::nullopt;
-  return "model.params: unstable: pole of A − B·L at |z| = " + show(radius);
+  const std::optional<double> radius = models::unstable_lq_radius(A, B, L);
+  if (!radius) return std::nullopt;
+  return "model.params: unstable: pole of A − B·L at |z| = " + show(*radius);
 }
 
-// n samples of uniform noise over [lo, hi), the same every time.
-Eigen::VectorXd uniform_noise(Eigen::Index n, double lo, double hi) {
-  dsp::Rng rng(kFreeRunSeed);
-  Eigen::VectorXd u(n);
-  for (Eigen::Index k = 0; k < n; ++k) u[k] = rng.uniform(lo, hi);
-  return u;
-}
-
-// The first sample of a scaled output record that is not finite or beyond the bound, as a problem.
-std::optional<std::string> runaway(const Eigen::VectorXd& y_scaled, const std::string& path, const std::string& what) {
-  for (Eigen::Index k = 0; k < y_scaled.size(); ++k) {
-    if (!(std::abs(y_scaled[k]) <= kFreeRunBound)) {
-      return path + ": unstable: " + what + " on uniform noise leaves ±" + show(kFreeRunBound) +
-             " output ranges (|y| = " + show(std::abs(y_scaled[k])) + " after " + std::to_string(k + 1) + " samples)";
-    }
-  }
-  return std::nullopt;
+// A free run's runaway as a problem of the model at `path`.
+std::optional<std::string> runaway_problem(const std::optional<models::Runaway>& run, const std::string& path,
+                                           const std::string& what) {
+  if (!run) return std::nullopt;
+  return path + ": unstable: " + what + " on uniform noise leaves ±" + show(models::kFreeRunBound) +
+         " output ranges (|y| = " + show(run->magnitude) + " after " + std::to_string(run->samples) + " samples)";
 }
 
 // NARX (at `path`, e.g. "model" or "model.plant"): a free run on uniform noise spanning the scaled input
@@ -171,7 +145,7 @@ std::optional<std::string> narx_instability(const json& model, const std::string
   s.na = order("na", 999);
   s.nb = order("nb", 999);
   // Any delay of the whole run or more gives the same run: the input never arrives.
-  s.nk = static_cast<int>(std::min<std::int64_t>(order("nk", 384000L * 60L), kFreeRunSamples));
+  s.nk = static_cast<int>(std::min<std::int64_t>(order("nk", 384000L * 60L), models::kFreeRunSamples));
   if (s.inputs() > 1000) return std::nullopt;
   s.hidden = models::read_hidden(params.contains("hidden") ? &params["hidden"] : nullptr, path + ".params.hidden");
   const std::int64_t count = models::parameter_count(s.inputs(), s.hidden);
@@ -179,7 +153,7 @@ std::optional<std::string> narx_instability(const json& model, const std::string
       models::read_theta(params.contains("theta") ? &params["theta"] : nullptr, path + ".params.theta", count);
   models::NarxModel m = models::NarxModel::with_structure(s, scaling, 1.0);
   m.net.parameters() = theta;
-  return runaway(m.simulate_scaled(uniform_noise(kFreeRunSamples, -1.0, 1.0)), path, "the free run");
+  return runaway_problem(models::free_run_runaway(m), path, "the free run");
 }
 
 // The stability problem of `model`, if its shape is readable enough to tell; nullopt otherwise.
@@ -197,8 +171,7 @@ std::optional<std::string> instability(const std::string& kind, const json& mode
 
 // The controller and its plant model in closed loop (fig. 7.10) on full-scale drive noise must stay bounded.
 void require_bounded_closed_loop(const models::NeuralFeedback& c) {
-  const models::ClosedLoopRun run = models::simulate_closed_loop(c, uniform_noise(kFreeRunSamples, -1.0, 1.0));
-  if (auto problem = runaway(c.plant.scaling.scale_y(run.y), "model", "the closed loop with its plant model")) {
+  if (auto problem = runaway_problem(models::closed_loop_runaway(c), "model", "the closed loop with its plant model")) {
     throw ModelRejected(kInvalidModel, *problem);
   }
 }

@@ -9,6 +9,7 @@
 
 #include "api/model_validation.h"
 #include "api/prometheus.h"
+#include "dsp/sample_rate.h"
 #include "engine/metrics_json.h"
 
 namespace panelbass::api {
@@ -354,7 +355,7 @@ void Server::register_routes() {
               const nlohmann::json model = parse_body(req);
               if (!model.is_object()) throw HttpError{400, "bad_request", "body: expected a model file object"};
               const ValidatedModel valid = validate_model(model);
-              if (!(std::abs(valid.fs - engine_->fs()) <= 1e-9 * engine_->fs())) {
+              if (!dsp::same_rate(valid.fs, engine_->fs())) {
                 throw HttpError{422, "invalid_model",
                                 "fs: the model runs at " + std::to_string(valid.fs) + " Hz, the engine at " +
                                     std::to_string(engine_->fs()) + " Hz"};

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "api/engine_service.h"
-#include "api/job_kinds.h"
+#include "api/jobs/job_kinds.h"
 #include "api/job_queue.h"
 #include "api/model_store.h"
 

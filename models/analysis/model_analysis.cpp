@@ -9,6 +9,7 @@
 #include "dsp/spectrum.h"
 #include "models/io/config_error.h"
 #include "models/io/json_fields.h"
+#include "models/io/roots_json.h"
 #include "models/linear/oe_estimator.h"
 #include "models/validation/performance.h"
 
@@ -22,12 +23,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 json vector_json(const Eigen::VectorXd& v) {
   json out = json::array();
   for (Eigen::Index k = 0; k < v.size(); ++k) out.push_back(number_or_null(v[k]));
-  return out;
-}
-
-json roots_json(const Eigen::VectorXcd& roots) {
-  json out = json::array();
-  for (Eigen::Index k = 0; k < roots.size(); ++k) out.push_back({roots[k].real(), roots[k].imag()});
   return out;
 }
 

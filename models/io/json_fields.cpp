@@ -73,10 +73,15 @@ std::string JsonFields::string(const std::string& key, const std::string& fallba
   return v->get<std::string>();
 }
 
-void JsonFields::finish() const {
+std::optional<std::string> JsonFields::unknown_key() const {
   for (auto it = value_.begin(); it != value_.end(); ++it) {
-    if (!known_.contains(it.key())) throw ConfigError(path_of(it.key()) + ": unknown key");
+    if (!known_.contains(it.key())) return it.key();
   }
+  return std::nullopt;
+}
+
+void JsonFields::finish() const {
+  if (const std::optional<std::string> key = unknown_key()) throw ConfigError(path_of(*key) + ": unknown key");
 }
 
 void require_positive(double v, const std::string& path) {

@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <string>
 
@@ -31,6 +32,9 @@ class JsonFields {
 
   /// Full path of `key` inside this object, for messages.
   std::string path_of(const std::string& key) const;
+
+  /// The first key (in the object's order) that no accessor asked for; nullopt when there is none.
+  std::optional<std::string> unknown_key() const;
 
   /// Throws ConfigError naming the first key that was never asked for.
   void finish() const;

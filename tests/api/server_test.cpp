@@ -16,7 +16,7 @@
 #include <set>
 #include <thread>
 
-#include "api/job_kinds.h"
+#include "api/jobs/job_kinds.h"
 #include "models/linear/linear_model.h"
 #include "models/plant/plant_presets.h"
 #include "tests/engine/engine_test_models.h"

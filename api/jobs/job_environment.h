@@ -1,16 +1,13 @@
 #pragma once
-// The kinds of job the API runs (ROUTES.md "Jobs"): excite, identify-linear, identify-narx, design-lq,
-// design-nn, evaluate, analyze, diagnose. Each validates its params before it is queued and returns a result with
-// plot-ready columns.
+// What a job may use of the running service: the engine's rate, the backend to excite, the virtual
+// transducer when that is the backend, the model store and the results of earlier jobs.
 
 #include <Eigen/Core>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
-#include <vector>
 
-#include "api/job_queue.h"
 #include "api/model_store.h"
 #include "models/plant/plant_config.h"
 
@@ -30,17 +27,5 @@ struct JobEnvironment {
   /// or not succeeded.
   std::function<std::optional<nlohmann::json>(const std::string& job_id)> job_result;
 };
-
-/// The job kinds, in the order ROUTES.md lists them.
-const std::vector<std::string>& job_kinds();
-
-/// Checks `params` of `kind` without running anything: unknown kind, unknown fields (named), wrong types,
-/// values out of range, referenced models or jobs that do not exist or are of the wrong kind. Returns the
-/// params with defaults filled in. Throws std::invalid_argument with "params.<field>: …" (or "kind: …").
-nlohmann::json validate_job_params(const std::string& kind, const nlohmann::json& params, const JobEnvironment& env);
-
-/// The work of `kind` (params already validated). A job that makes a model stores it (validated, source
-/// = control.job_id()) and returns "model_id" in its result.
-JobWork job_work(const std::string& kind, const JobEnvironment& env);
 
 }  // namespace panelbass::api

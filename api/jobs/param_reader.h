@@ -1,17 +1,23 @@
 #pragma once
-// Checking a job's params (ROUTES.md "Jobs") before it is queued: a reader that takes one JSON object
-// field by field (typed, ranged, defaults filled in, unknown fields refused, every error naming
-// "params.<field>"), the checks of each kind, and the excitation record an excite job leaves behind.
+// Reading a job's params (ROUTES.md "Jobs") before it is queued: one JSON object field by field — typed,
+// ranged, defaults filled in, unknown fields refused, every error naming "params.<field>" — on the models'
+// validated reader (models::JsonFields), which keeps the key paths and the fields asked for.
 
-#include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "api/job_kinds.h"
+#include "models/io/json_fields.h"
 
 namespace panelbass::api {
+
+/// Seeds are integers a JSON client can hold exactly (2^53).
+inline constexpr long long kMaxSeed = 9'007'199'254'740'992LL;
+/// Highest model order, numerator length or network lag a job accepts (FIR taps may go further).
+inline constexpr long long kMaxOrder = 40;
+/// Iterations of any training loop.
+inline constexpr long long kMaxIterations = 10'000;
 
 /// A range of real numbers with open or closed ends, e.g. (0, 1].
 struct Interval {
@@ -33,6 +39,8 @@ class ParamReader {
  public:
   /// Wraps `params` (an object; null counts as {}) found at `path` ("params", "params.excite").
   ParamReader(const nlohmann::json& params, std::string path);
+  ParamReader(const ParamReader&) = delete;
+  ParamReader& operator=(const ParamReader&) = delete;
 
   /// An integer within [lo, hi]; `fallback` when absent.
   long long integer(const std::string& key, long long fallback, long long lo, long long hi);
@@ -65,35 +73,15 @@ class ParamReader {
   nlohmann::json finish() const;
 
  private:
-  const nlohmann::json* find(const std::string& key);
-
-  nlohmann::json params_;
-  std::string path_;
-  std::vector<std::string> known_;
+  const nlohmann::json params_;
+  models::JsonFields fields_;  ///< over params_: the key paths and the keys asked for
   nlohmann::json filled_ = nlohmann::json::object();
 };
 
-/// The estimation and validation parts of a recording: raw drive u and response y.
-struct ExcitationRecord {
-  Eigen::VectorXd u_est, y_est, u_val, y_val;
-  Eigen::VectorXd w_est, w_val;  ///< per-sample harmonic weights of a control excitation; empty otherwise
-};
+/// Throws std::invalid_argument "<path>: <what>".
+[[noreturn]] void refuse(const std::string& path, const std::string& what);
 
-/// {"u_est":[…],"y_est":[…],"u_val":[…],"y_val":[…]}, and "w_est", "w_val" when the record has weights.
-nlohmann::json excitation_record_to_json(const ExcitationRecord& record);
-
-/// The record in an excite job's result ({"fs", "record":{…}}), checked: four arrays of finite numbers,
-/// equal lengths per part, at least 200 estimation samples, recorded at `fs`. Throws std::invalid_argument
-/// starting with `where` ("params.record: job j3 …").
-ExcitationRecord excitation_record_from_result(const nlohmann::json& result, double fs, const std::string& where);
-
-/// The fewest samples a record part must have.
-inline constexpr long long kMinSamples = 200;
-/// The most samples a record part may have.
-inline constexpr long long kMaxSamples = 10'000'000;
-
-/// The params of `kind` checked against `env`, defaults filled in; the checks of validate_job_params()
-/// without the check of the kind's name. Throws std::invalid_argument naming the field.
-nlohmann::json validate_kind_params(const std::string& kind, const nlohmann::json& params, const JobEnvironment& env);
+/// A short rendering of a value for a message: `"x"`, `12.5`, `[1,2]` (long ones cut).
+std::string shown(const nlohmann::json& value);
 
 }  // namespace panelbass::api

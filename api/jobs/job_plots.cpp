@@ -1,4 +1,4 @@
-#include "api/job_plots.h"
+#include "api/jobs/job_plots.h"
 
 #include <algorithm>
 #include <cmath>

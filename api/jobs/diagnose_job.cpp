@@ -1,0 +1,78 @@
+#include "api/jobs/diagnose_job.h"
+
+#include <cmath>
+#include <optional>
+#include <string>
+#include <variant>
+
+#include "api/jobs/job_plots.h"
+#include "api/jobs/job_progress.h"
+#include "api/jobs/model_judgement.h"
+#include "api/jobs/param_reader.h"
+#include "api/jobs/record_acquisition.h"
+#include "api/jobs/stored_models.h"
+#include "models/diagnosis/diagnosis.h"
+#include "models/diagnosis/diagnosis_baselines.h"
+#include "models/kinds/model_file.h"
+
+namespace panelbass::api {
+namespace {
+
+using nlohmann::json;
+
+json diagnose_params(const json& params, const JobEnvironment& env) {
+  ParamReader r(params, "params");
+  std::string validation_path;
+  const long long validation = record_source(r, env, validation_path);
+  if (validation == 0) refuse(validation_path, "diagnose needs validation data (it judges every augmentation on it)");
+  require_stored_model(r, "baseline_model", false, {"linear", "narx"}, env);
+  r.integer("max_findings", 4, 0, 20);
+  return r.finish();
+}
+
+json diagnose_work(const json& params, const JobEnvironment& env, JobControl& control) {
+  JobProgress progress(control);
+  const SourcedRecord data = acquire_record(params, env, progress, control);
+  const ExcitationRecord& r = data.record;
+  // The simulation diagnosed: a stored linear or NARX model, or (without one) the best linear OE model.
+  std::optional<models::AnyModel> baseline;
+  if (params.contains("baseline_model") && params.at("baseline_model").is_string()) {
+    baseline = models::model_from_json(stored_model_file(env, params.at("baseline_model").get<std::string>()));
+  }
+  models::DiagnosisOptions options;
+  options.init = kInit;
+  options.max_findings = params.at("max_findings").get<int>();
+  int stages = 0;
+  progress.span(kExcitationShare, 0.95);
+  // The diagnosis names its stages but not how many remain: each one closes part of the gap to the end.
+  options.progress = [&](const std::string& stage) { progress.at(1.0 - std::pow(0.8, ++stages), "diagnose: " + stage); };
+  const auto* narx = baseline ? std::get_if<models::NarxModel>(&baseline->model) : nullptr;
+  const models::Diagnosis d =
+      narx != nullptr
+          ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs, models::narx_baseline(*narx), options)
+          : models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs,
+                             baseline ? std::optional(std::get<models::LinearModel>(baseline->model)) : std::nullopt,
+                             options);
+
+  progress.span(0.95, 1.0);
+  json report = models::diagnosis_to_json(d);
+  report["fs"] = env.fs;
+  report["data"] = data.source;
+  report["j_val_pct"] = d.j_val_after_pct;
+  const Eigen::Index init = init_samples(r.u_val.size());
+  const Eigen::VectorXd y_sim = models::simulate_augmented(d.model, r.u_val, r.y_val, init);
+  const Eigen::VectorXd y_baseline = models::simulate_augmented(d.baseline_model, r.u_val, r.y_val, init);
+  const Eigen::Index n = r.u_val.size() - init;
+  const Eigen::VectorXd y_judged = r.y_val.tail(n);
+  report["plots"] = {{"fit", fit_plot(y_judged, y_sim.tail(n), env.fs, init)},
+                     {"residual_spectrum", residual_spectrum_plot(y_judged - y_baseline.tail(n), y_judged - y_sim.tail(n),
+                                                                  d.located_val.noise_psd, env.fs)}};
+  progress.at(1.0, "done");
+  return report;
+}
+
+}  // namespace
+
+JobKind diagnose_job() { return {"diagnose", diagnose_params, diagnose_work}; }
+
+}  // namespace panelbass::api

@@ -1,0 +1,41 @@
+#pragma once
+// The record an excite job leaves behind (estimation and validation parts of drive and response, and a
+// control excitation's harmonic weights), read back for the jobs that use it, and the part of it a model is
+// judged on.
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace panelbass::api {
+
+/// The estimation and validation parts of a recording: raw drive u and response y.
+struct ExcitationRecord {
+  Eigen::VectorXd u_est, y_est, u_val, y_val;
+  Eigen::VectorXd w_est, w_val;  ///< per-sample harmonic weights of a control excitation; empty otherwise
+};
+
+/// {"u_est":[…],"y_est":[…],"u_val":[…],"y_val":[…]}, and "w_est", "w_val" when the record has weights.
+nlohmann::json excitation_record_to_json(const ExcitationRecord& record);
+
+/// The record in an excite job's result ({"fs", "record":{…}}), checked: four arrays of finite numbers,
+/// equal lengths per part, at least 200 estimation samples, recorded at `fs`. Throws std::invalid_argument
+/// starting with `where` ("params.record: job j3 …").
+ExcitationRecord excitation_record_from_result(const nlohmann::json& result, double fs, const std::string& where);
+
+/// The fewest samples a record part must have.
+inline constexpr long long kMinSamples = 200;
+/// The most samples a record part may have.
+inline constexpr long long kMaxSamples = 10'000'000;
+
+/// The part of a record a model is judged on: validation when there is one, else estimation.
+struct JudgedPart {
+  const Eigen::VectorXd& u;  ///< raw drive
+  const Eigen::VectorXd& y;  ///< raw response
+  bool validation;           ///< true for the validation part
+};
+
+/// The validation part of `r` when it has one, else its estimation part (refers into `r`).
+JudgedPart judged_part(const ExcitationRecord& r);
+
+}  // namespace panelbass::api

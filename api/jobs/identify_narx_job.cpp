@@ -1,0 +1,164 @@
+#include "api/jobs/identify_narx_job.h"
+
+#include <algorithm>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "api/jobs/hidden_layers.h"
+#include "api/jobs/job_plots.h"
+#include "api/jobs/job_progress.h"
+#include "api/jobs/model_judgement.h"
+#include "api/jobs/param_reader.h"
+#include "api/jobs/record_acquisition.h"
+#include "api/jobs/stored_models.h"
+#include "models/kinds/model_file.h"
+#include "models/linear/data_survey.h"
+#include "models/narx/friction_seed.h"
+#include "models/narx/narx_model.h"
+#include "models/narx/narx_training.h"
+#include "models/preprocess/scaling.h"
+
+namespace panelbass::api {
+namespace {
+
+using nlohmann::json;
+
+json identify_narx_params(const json& params, const JobEnvironment& env) {
+  ParamReader r(params, "params");
+  std::string validation_path;
+  record_source(r, env, validation_path);
+  r.integer("na", 2, 0, kMaxOrder);
+  r.integer("nb", 3, 0, kMaxOrder);
+  r.integer("nk", -1, -1, 1000);
+  const std::vector<long long> hidden = hidden_layers(r, {8});
+  r.choices("modes", {"pem", "oem-d"}, {"pem", "oem-s", "oem-d", "oem-n"});
+  r.integer("max_iterations", 30, 0, kMaxIterations);
+  r.integer("seed", 1, 0, kMaxSeed);
+  // The control excitation's harmonic weights in the loss (identify narx --weight-col w).
+  if (r.boolean("weighted", false)) {
+    const json* excite = r.member("excite");
+    const json* record = r.member("record");
+    const bool has_weights = record != nullptr ? record_has_weights(env, record->get<std::string>())
+                                               : excite != nullptr && excite->value("signal", "") == "control";
+    if (!has_weights) {
+      refuse(r.path_of("weighted"), "the weights come with a control excitation (excite.signal \"control\"), and " +
+                                        (record != nullptr ? "job " + record->get<std::string>() + "'s record has none"
+                                                           : std::string("this job's excitation is not one")));
+    }
+  }
+  // Hidden nodes seeded as Coulomb friction (models::seed_friction_units): one per gain and lag.
+  const std::vector<double> gains = r.numbers("friction_units", {}, 0, 16, {0.0, 1000.0, true, false});
+  const long long lags = r.integer("friction_lags", 1, 1, 20);
+  if (static_cast<long long>(gains.size()) * lags > hidden[0]) {
+    refuse(r.path_of("friction_units"), std::to_string(gains.size()) + " gains x " + std::to_string(lags) +
+                                            " lags need as many first-layer nodes, hidden[0] is " + std::to_string(hidden[0]));
+  }
+  return r.finish();
+}
+
+json identify_narx_work(const json& params, const JobEnvironment& env, JobControl& control) {
+  JobProgress progress(control);
+  const SourcedRecord data = acquire_record(params, env, progress, control);
+  const ExcitationRecord& r = data.record;
+
+  const models::Scaling scaling = models::scaling_from_data(r.u_est, r.y_est);
+  int nk = params.at("nk").get<int>();
+  if (nk < 0) nk = models::survey_data(r.u_est, r.y_est).delay;
+  const models::NarxStructure structure{params.at("na").get<int>(), params.at("nb").get<int>(), nk,
+                                        hidden_widths(params.at("hidden"))};
+  const std::uint64_t seed = params.at("seed").get<std::uint64_t>();
+  models::NarxModel model = models::NarxModel::with_structure(structure, scaling, env.fs);
+  model.net.initialize(1.0, seed);
+  const Eigen::VectorXd us = scaling.scale_u(r.u_est), ys = scaling.scale_y(r.y_est);
+  const Eigen::VectorXd uv = r.u_val.size() ? scaling.scale_u(r.u_val) : Eigen::VectorXd(),
+                        yv = r.y_val.size() ? scaling.scale_y(r.y_val) : Eigen::VectorXd();
+  json friction = nullptr;
+  if (const auto gains = params.value("friction_units", std::vector<double>{}); !gains.empty()) {
+    friction = models::friction_seed_report(
+        models::seed_friction_units(model, us, ys, gains, params.value("friction_lags", 1)));
+  }
+
+  models::TrainingOptions options;
+  options.modes.clear();
+  std::string train;
+  for (const json& m : params.at("modes")) {
+    options.modes.push_back(models::parse_training_mode(m.get<std::string>()));
+    train += (train.empty() ? "" : ",") + m.get<std::string>();
+  }
+  options.optimizer = models::Optimizer::lm;
+  options.max_iterations = params.at("max_iterations").get<int>();
+  const bool weighted = params.value("weighted", false);
+  if (weighted) {
+    if (r.w_est.size() == 0) throw std::invalid_argument("params.weighted: the record has no harmonic weights");
+    options.weights = r.w_est;
+    options.validation_weights = r.w_val;
+  }
+  const int total = std::max(1, options.max_iterations * static_cast<int>(options.modes.size()));
+  progress.span(kExcitationShare, 0.85);
+  options.progress = [&](const models::TrainingRecord& rec) {
+    progress.at(static_cast<double>(rec.iteration) / total,
+                models::to_string(rec.mode) + " iteration " + std::to_string(rec.iteration));
+  };
+  models::TrainingResult trained = models::train_narx(model, us, ys, uv, yv, options);
+
+  progress.span(0.85, 1.0);
+  progress.at(0.0, "judging the model");
+  const models::AnyModel judged{trained.model};
+  const double j_est = simulation_j(judged, r.u_est, r.y_est);
+  const double j_val = simulation_j(judged, r.u_val, r.y_val);
+  json meta_history = json::array();
+  std::vector<HistoryPoint> history;
+  for (std::size_t k = 0; k < trained.history.size(); ++k) {
+    const models::TrainingRecord& rec = trained.history[k];
+    meta_history.push_back({{"iter", rec.iteration}, {"mode", models::to_string(rec.mode)},
+                            {"J_est_pct", finite_or_null(rec.j_est_pct)}, {"J_val_pct", finite_or_null(rec.j_val_pct)}});
+    history.push_back({rec.iteration, rec.j_est_pct, rec.j_val_pct});
+  }
+  trained.model.meta = {{"data", data.source + " (estimation)"},
+                        {"val", r.u_val.size() ? json(data.source + " (validation)") : json("")},
+                        {"train", train},
+                        {"optimizer", "lm"},
+                        {"J_est_pct", j_est},
+                        {"J_val_pct", finite_or_null(j_val)},
+                        {"seed", seed},
+                        {"weighted", weighted},
+                        {"history", meta_history}};
+  if (!friction.is_null()) trained.model.meta["friction_units"] = friction;
+  progress.at(0.2, "storing the model");
+  const std::string name = "narx " + std::to_string(structure.na) + "/" + std::to_string(structure.nb) + "/" +
+                           std::to_string(structure.nk) + " " + hidden_text(structure.hidden) + " (" + control.job_id() + ")";
+  const std::string model_id = store_model(env, models::narx_model_to_json(trained.model), name, control);
+
+  const models::AnyModel any{trained.model};
+  json plots = model_plots(any, r, env.fs);
+  plots["history"] = history_plot(history);
+  progress.span(0.9, 1.0);
+  const json harmonics = harmonics_if_known(env, any, r, progress);
+  if (!harmonics.is_null()) plots["harmonics"] = harmonics;
+  progress.at(1.0, "done");
+  json result = {{"model_id", model_id},
+                 {"j_est_pct", j_est},
+                 {"j_val_pct", finite_or_null(j_val)},
+                 {"summary",
+                  {{"na", structure.na},
+                   {"nb", structure.nb},
+                   {"nk", structure.nk},
+                   {"hidden", structure.hidden},
+                   {"modes", params.at("modes")},
+                   {"params", trained.model.net.parameter_count()},
+                   {"iterations", trained.iterations},
+                   {"seconds", trained.seconds},
+                   {"weighted", weighted},
+                   {"data", data.source}}},
+                 {"plots", plots}};
+  if (!friction.is_null()) result["summary"]["friction_units"] = friction;
+  return result;
+}
+
+}  // namespace
+
+JobKind identify_narx_job() { return {"identify-narx", identify_narx_params, identify_narx_work}; }
+
+}  // namespace panelbass::api

@@ -1,0 +1,45 @@
+#pragma once
+// Where the data of a job comes from: an excitation of its own, played through the backend (noise, a
+// multisine, or the LQ controller's drive for a controller design's program), or the record of a finished
+// excite job. The params side checks the choice before the job is queued; the work side acquires it.
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "api/job_queue.h"
+#include "api/jobs/excitation_record.h"
+#include "api/jobs/job_environment.h"
+#include "api/jobs/job_progress.h"
+#include "api/jobs/param_reader.h"
+
+namespace panelbass::api {
+
+/// Share of a job's progress given to an excitation of its own.
+inline constexpr double kExcitationShare = 0.1;
+
+/// The excite params at `path` (the excite kind's own params, or the "excite" field of another kind),
+/// defaults filled in; refused when the backend cannot be excited (a sound card).
+nlohmann::json excite_params(const nlohmann::json& params, const std::string& path, const JobEnvironment& env);
+
+/// Reads where an identify/analyze/diagnose job's data comes from: "record" (a succeeded excite job) or
+/// "excite" (an excitation of its own, the default), filling exactly one of them. Returns the validation
+/// samples the job will have, and in `validation_path` the field to name when they are missing.
+long long record_source(ParamReader& r, const JobEnvironment& env, std::string& validation_path);
+
+/// True when the succeeded excite job `id` recorded harmonic weights (a control excitation).
+bool record_has_weights(const JobEnvironment& env, const std::string& id);
+
+/// Runs the excitation of filled-in excite params: estimation part (seed), then validation part (seed + 1).
+ExcitationRecord run_excitation(const nlohmann::json& excite, const JobEnvironment& env, JobProgress& progress);
+
+/// A job's data and where it came from ("job j3" or "excitation of j5").
+struct SourcedRecord {
+  ExcitationRecord record;  ///< the data
+  std::string source;       ///< where it came from
+};
+
+/// The data of checked params (record_source), over the first kExcitationShare of the job's progress.
+SourcedRecord acquire_record(const nlohmann::json& params, const JobEnvironment& env, JobProgress& progress,
+                             const JobControl& control);
+
+}  // namespace panelbass::api
