@@ -20,8 +20,11 @@
 #include "cli/gnuplot.h"
 #include "cli/json_output.h"
 #include "dsp/butterworth.h"
+#include "dsp/decibels.h"
 #include "dsp/frequency_grid.h"
 #include "models/io/json_file.h"
+#include "models/io/roots_json.h"
+#include "models/linear/frequency_response.h"
 #include "models/linear/linear_model.h"
 #include "models/control/lq_feedforward.h"
 #include "models/control/lq_weight_search.h"
@@ -47,12 +50,6 @@ struct DesignLqOptions {
   std::uint64_t seed = 1;
   std::string plot_format = "png";
 };
-
-nlohmann::json roots_json(const Eigen::VectorXcd& roots) {
-  nlohmann::json out = nlohmann::json::array();
-  for (Eigen::Index k = 0; k < roots.size(); ++k) out.push_back({roots[k].real(), roots[k].imag()});
-  return out;
-}
 
 nlohmann::json vector_json(const Eigen::RowVectorXd& v) {
   nlohmann::json out = nlohmann::json::array();
@@ -83,13 +80,9 @@ void check_output_file(const std::string& option, const std::string& path) {
   if (fs::is_directory(path)) throw std::invalid_argument(option + " " + path + ": is a directory");
 }
 
+// 20·log10|H| of `ss` at each of `f` (Hz), NaN where H = 0.
 Eigen::VectorXd magnitude_db(const models::StateSpace& ss, const Eigen::VectorXd& f, double fs) {
-  Eigen::VectorXd db(f.size());
-  for (Eigen::Index k = 0; k < f.size(); ++k) {
-    const double m = std::abs(models::response(ss, f[k], fs));
-    db[k] = m > 0.0 ? 20.0 * std::log10(m) : kNaN;
-  }
-  return db;
+  return dsp::magnitude_db(models::frequency_response(ss, f, fs));
 }
 
 // Largest minus smallest magnitude (dB) of `ss` over [lo, hi] Hz.
@@ -220,8 +213,8 @@ void run_design_lq(const DesignLqOptions& o) {
                            {"R_search", search},
                            {"R0", o.R0},
                            {"L", vector_json(ff.L)},
-                           {"poles", roots_json(poles)},
-                           {"zeros", roots_json(ff.zeros())},
+                           {"poles", models::roots_json(poles)},
+                           {"zeros", models::roots_json(ff.zeros())},
                            {"pole_radius", poles.size() ? poles.cwiseAbs().maxCoeff() : 0.0},
                            {"bandpass", {lo, hi}},
                            {"bandpass_order", o.order},

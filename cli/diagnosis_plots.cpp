@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
 
+#include "dsp/decibels.h"
 #include "dsp/spectrum.h"
 #include "models/diagnosis/diagnosis_terms.h"
 
@@ -16,8 +16,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using models::Diagnosis;
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // The validation record's two simulations, from the first judged sample on.
 struct JudgedSimulations {
@@ -35,11 +33,6 @@ std::size_t residual_segment(Eigen::Index n) {
   return segment;
 }
 
-// 10·log10 of a power, NaN where it is not positive.
-Eigen::VectorXd power_db(const Eigen::VectorXd& p) {
-  return p.unaryExpr([](double v) { return v > 0.0 ? 10.0 * std::log10(v) : kNaN; });
-}
-
 fs::path plot_residual_spectrum(const Diagnosis& d, const JudgedSimulations& s, double fs, const fs::path& dir,
                                 const DiagnosisPlotOptions& o) {
   const dsp::WelchSpec spec{residual_segment(s.y.size()), 0.5, dsp::Window::hann};
@@ -47,7 +40,7 @@ fs::path plot_residual_spectrum(const Diagnosis& d, const JudgedSimulations& s, 
   const dsp::PowerSpectrum after = dsp::welch_psd(s.y - s.final, fs, spec);
   const Eigen::Index n = before.frequency.size() - 1;  // DC left out
   GnuplotFigure f("residual_spectrum");
-  f.add_block({before.frequency.tail(n), power_db(before.psd.tail(n)), power_db(after.psd.tail(n))});
+  f.add_block({before.frequency.tail(n), dsp::power_db(before.psd.tail(n)), dsp::power_db(after.psd.tail(n))});
   f << "set title " + gnuplot_quoted("Residual spectrum on the validation record (Welch, " + std::to_string(spec.segment) +
                                       "-point segments): before and after the diagnosis")
     << "set xlabel 'frequency (Hz)'"

@@ -11,6 +11,7 @@
 #include "cli/progress_bar.h"
 #include "dsp/data_file.h"
 #include "dsp/sample_rate.h"
+#include "models/io/roots_json.h"
 #include "models/narx/friction_seed.h"
 #include "models/io/json_fields.h"
 #include "models/linear/linear_identification.h"
@@ -33,12 +34,6 @@ struct IdentifyLinearOptions {
   int decimation = 1;
   int max_iterations = 100;
 };
-
-nlohmann::json roots_json(const Eigen::VectorXcd& roots) {
-  nlohmann::json out = nlohmann::json::array();
-  for (Eigen::Index k = 0; k < roots.size(); ++k) out.push_back({roots[k].real(), roots[k].imag()});
-  return out;
-}
 
 void run_identify_linear(const IdentifyLinearOptions& o) {
   const dsp::Record est = o.columns.read(o.data);
@@ -85,8 +80,8 @@ void run_identify_linear(const IdentifyLinearOptions& o) {
                            {"J_val_pct", models::number_or_null(id.j_val_pct)},
                            {"J_pred_est_pct", id.j_pred_est_pct},
                            {"delay", id.model.tf.nk},
-                           {"poles", roots_json(id.model.tf.poles())},
-                           {"zeros", roots_json(id.model.tf.zeros())},
+                           {"poles", models::roots_json(id.model.tf.poles())},
+                           {"zeros", models::roots_json(id.model.tf.zeros())},
                            {"survey", models::data_survey_to_json(id.survey)},
                            {"out", o.out}};
   if (!id.scan.empty()) {

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 #include <sstream>
+#include "dsp/decibels.h"
 
 namespace panelbass::cli {
 namespace {
@@ -16,15 +17,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 const char* const kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"};
 
 std::string colour(std::size_t i) { return std::string("lc rgb '") + kColours[i % std::size(kColours)] + "'"; }
-
-// 10·log10 of a power, NaN where it is not positive.
-Eigen::VectorXd power_db(const Eigen::VectorXd& p) {
-  return p.unaryExpr([](double v) { return v > 0.0 ? 10.0 * std::log10(v) : kNaN; });
-}
-
-Eigen::VectorXd magnitude_db(const Eigen::VectorXcd& h) {
-  return h.unaryExpr([](std::complex<double> v) { return std::abs(v) > 0.0 ? 20.0 * std::log10(std::abs(v)) : kNaN; });
-}
 
 // `text` as a double-quoted gnuplot string (so that \n breaks lines), wrapped at about `width` characters.
 std::string wrapped(const std::string& text, std::size_t width) {
@@ -72,8 +64,8 @@ fs::path plot_psd(const ModelAnalysis& a, const fs::path& dir, const ReportPlotO
   const models::ResidualSpectrum& s = a.spectrum;
   const Eigen::Index n = s.frequency.size() - 1;  // DC left out: the means were removed
   GnuplotFigure f("psd");
-  f.add_block({s.frequency.tail(n), power_db(s.output_psd.tail(n)), power_db(s.residual_psd.tail(n)),
-               power_db(s.noncoherent_psd.tail(n))});
+  f.add_block({s.frequency.tail(n), dsp::power_db(s.output_psd.tail(n)), dsp::power_db(s.residual_psd.tail(n)),
+               dsp::power_db(s.noncoherent_psd.tail(n))});
   f << "set title " + gnuplot_quoted("Spectra of output and residual against the noise floor (Welch, " +
                                       std::to_string(s.segment) + "-point segments)")
     << "set xlabel 'frequency (Hz)'"
@@ -98,7 +90,7 @@ fs::path plot_frf(const ModelAnalysis& a, const fs::path& dir, const ReportPlotO
   const models::FrfComparison& r = a.frf;
   const Eigen::Index n = r.frequency.size() - 1;
   GnuplotFigure f("frf");
-  f.add_block({r.frequency.tail(n), magnitude_db(r.measured.tail(n)), magnitude_db(r.model.tail(n)), r.coherence.tail(n)});
+  f.add_block({r.frequency.tail(n), dsp::magnitude_db(r.measured.tail(n)), dsp::magnitude_db(r.model.tail(n)), r.coherence.tail(n)});
   f << "set title 'Frequency response: measured (H1) and model, with the coherence of the data'"
     << "set xlabel 'frequency (Hz)'"
     << "set ylabel 'magnitude (dB re 1 output unit per input unit)'"

@@ -12,6 +12,7 @@
 #include "api/jobs/record_acquisition.h"
 #include "api/jobs/stored_models.h"
 #include "models/analysis/model_analysis.h"
+#include "models/io/json_fields.h"
 #include "models/kinds/model_file.h"
 
 namespace panelbass::api {
@@ -65,7 +66,7 @@ json analyze_work(const json& params, const JobEnvironment& env, JobControl& con
   summary["model"] = model_id;
   summary["data"] = data.source + (part.validation ? " (validation)" : " (estimation)");
   progress.at(1.0, "done");
-  return {{"j_est_pct", j_est}, {"j_val_pct", finite_or_null(j_val)}, {"summary", summary}, {"plots", plots}};
+  return {{"j_est_pct", j_est}, {"j_val_pct", models::number_or_null(j_val)}, {"summary", summary}, {"plots", plots}};
 }
 
 }  // namespace

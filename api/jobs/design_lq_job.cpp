@@ -11,6 +11,7 @@
 #include "api/jobs/param_reader.h"
 #include "api/jobs/stored_models.h"
 #include "dsp/butterworth.h"
+#include "dsp/decibels.h"
 #include "dsp/frequency_grid.h"
 #include "models/control/lq_feedforward.h"
 #include "models/control/lq_weight_search.h"
@@ -119,9 +120,9 @@ json design_lq_work(const json& params, const JobEnvironment& env, JobControl& c
                  {"plots",
                   {{"spectrum",
                     {{"f", column(f)},
-                     {"plant_db", column(magnitude_db(models::frequency_response(ff.plant, f, ff.fs)))},
-                     {"controlled_db", column(magnitude_db(models::frequency_response(ff.desired(), f, ff.fs)))},
-                     {"controller_db", column(magnitude_db(models::frequency_response(ff.controller(), f, ff.fs)))}}}}}};
+                     {"plant_db", column(dsp::magnitude_db(models::frequency_response(ff.plant, f, ff.fs)))},
+                     {"controlled_db", column(dsp::magnitude_db(models::frequency_response(ff.desired(), f, ff.fs)))},
+                     {"controller_db", column(dsp::magnitude_db(models::frequency_response(ff.controller(), f, ff.fs)))}}}}}};
   progress.at(1.0, "done");
   return result;
 }

@@ -16,6 +16,7 @@
 #include "models/control/lq_feedforward.h"
 #include "models/control/model_probes.h"
 #include "models/control/neural_feedback.h"
+#include "models/io/json_fields.h"
 #include "models/io/number_text.h"
 #include "models/narx/narx_model.h"
 #include "models/plant/plant_presets.h"
@@ -139,16 +140,16 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
   json training = json::array();
   std::vector<HistoryPoint> history;
   for (const auto& rec : d.training.history) {
-    training.push_back({{"iteration", rec.iteration}, {"jc_est_pct", finite_or_null(rec.jc_est_pct)},
-                        {"jc_val_pct", finite_or_null(rec.jc_val_pct)}, {"rail_fraction", rec.rail_fraction}});
+    training.push_back({{"iteration", rec.iteration}, {"jc_est_pct", models::number_or_null(rec.jc_est_pct)},
+                        {"jc_val_pct", models::number_or_null(rec.jc_val_pct)}, {"rail_fraction", rec.rail_fraction}});
     history.push_back({rec.iteration, rec.jc_est_pct, rec.jc_val_pct});
   }
   json restart_jc_val = json::array();
-  for (const double jc : d.restart_jc_val_pct) restart_jc_val.push_back(finite_or_null(jc));
+  for (const double jc : d.restart_jc_val_pct) restart_jc_val.push_back(models::number_or_null(jc));
   json restart_probes = json::array();
   for (const std::vector<double>& changes : d.restart_probe_change_db) {
     restart_probes.push_back(json::array());
-    for (const double db : changes) restart_probes.back().push_back(finite_or_null(db));
+    for (const double db : changes) restart_probes.back().push_back(models::number_or_null(db));
   }
   const json design = models::feedback_design_options_json(options);
   d.controller.meta = {{"plant", plant_id},
@@ -178,8 +179,8 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
                   {"feedforward_model", ff_id},
                   {"parameters", d.controller.net.parameter_count()},
                   {"iterations", d.training.iterations},
-                  {"jc_val_before_pct", finite_or_null(first.jc_val_pct)},
-                  {"jc_val_after_pct", finite_or_null(jc_val_after)},
+                  {"jc_val_before_pct", models::number_or_null(first.jc_val_pct)},
+                  {"jc_val_after_pct", models::number_or_null(jc_val_after)},
                   {"rail_fraction", best.rail_fraction},
                   {"chosen_restart", d.chosen_restart},
                   {"restart_jc_val_pct", restart_jc_val},
@@ -189,8 +190,8 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
   summary.update(design);
   progress.at(1.0, "done");
   return {{"model_id", model_id},
-          {"j_est_pct", finite_or_null(best.jc_est_pct)},
-          {"j_val_pct", finite_or_null(jc_val_after)},
+          {"j_est_pct", models::number_or_null(best.jc_est_pct)},
+          {"j_val_pct", models::number_or_null(jc_val_after)},
           {"summary", summary},
           {"plots", {{"history", history_plot(history)}}}};
 }

@@ -4,16 +4,17 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "dsp/decibels.h"
 #include "dsp/spectrum.h"
+#include "models/io/json_fields.h"
 
 namespace panelbass::api {
 
 using nlohmann::json;
 
-json finite_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 json without_non_finite(const json& value) {
-  if (value.is_number_float()) return finite_or_null(value.get<double>());
+  if (value.is_number_float()) return models::number_or_null(value.get<double>());
   if (value.is_array() || value.is_object()) {
     json out = value;
     for (auto& element : out) element = without_non_finite(element);
@@ -24,7 +25,7 @@ json without_non_finite(const json& value) {
 
 json column(const Eigen::VectorXd& x) {
   json out = json::array();
-  for (Eigen::Index k = 0; k < x.size(); ++k) out.push_back(finite_or_null(x[k]));
+  for (Eigen::Index k = 0; k < x.size(); ++k) out.push_back(models::number_or_null(x[k]));
   return out;
 }
 
@@ -42,12 +43,6 @@ json fit_plot(const Eigen::VectorXd& measured, const Eigen::VectorXd& simulated,
   return {{"t", column(t)}, {"measured", column(measured.head(n))}, {"simulated", column(simulated.head(n))}};
 }
 
-Eigen::VectorXd magnitude_db(const Eigen::VectorXcd& h) {
-  Eigen::VectorXd db(h.size());
-  for (Eigen::Index k = 0; k < h.size(); ++k) db[k] = 20.0 * std::log10(std::abs(h[k]));
-  return db;
-}
-
 json spectrum_plot(const Eigen::VectorXd& f, const Eigen::VectorXcd& measured, const Eigen::VectorXcd& model) {
   if (f.size() != measured.size() || f.size() != model.size()) throw std::invalid_argument("spectrum plot: lengths differ");
   std::vector<Eigen::Index> bins;
@@ -61,7 +56,7 @@ json spectrum_plot(const Eigen::VectorXd& f, const Eigen::VectorXcd& measured, c
     mk[i] = measured[bins[i]];
     hk[i] = model[bins[i]];
   }
-  return {{"f", column(fk)}, {"measured_db", column(magnitude_db(mk))}, {"model_db", column(magnitude_db(hk))}};
+  return {{"f", column(fk)}, {"measured_db", column(dsp::magnitude_db(mk))}, {"model_db", column(dsp::magnitude_db(hk))}};
 }
 
 json spectrum_plot(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const Eigen::VectorXd& y_model, double fs) {
@@ -83,13 +78,10 @@ json residual_spectrum_plot(const Eigen::VectorXd& residual_before, const Eigen:
   const dsp::PowerSpectrum before = dsp::welch_psd(residual_before, fs, spec);
   const dsp::PowerSpectrum after = dsp::welch_psd(residual_after, fs, spec);
   const Eigen::Index n = before.frequency.size() - 1;  // DC left out
-  const auto db = [](const Eigen::VectorXd& p) {
-    return Eigen::VectorXd(p.unaryExpr([](double v) { return v > 0.0 ? 10.0 * std::log10(v) : std::nan(""); }));
-  };
   const double floor_db = noise_psd > 0.0 ? 10.0 * std::log10(noise_psd) : std::nan("");
   return {{"frequency_hz", column(before.frequency.tail(n))},
-          {"before_db", column(db(before.psd.tail(n)))},
-          {"after_db", column(db(after.psd.tail(n)))},
+          {"before_db", column(dsp::power_db(before.psd.tail(n)))},
+          {"after_db", column(dsp::power_db(after.psd.tail(n)))},
           {"noise_floor_db", column(Eigen::VectorXd::Constant(n, floor_db))}};
 }
 
@@ -97,8 +89,8 @@ json history_plot(const std::vector<HistoryPoint>& points) {
   json iteration = json::array(), est = json::array(), val = json::array();
   for (const HistoryPoint& p : points) {
     iteration.push_back(p.iteration);
-    est.push_back(finite_or_null(p.j_est_pct));
-    val.push_back(finite_or_null(p.j_val_pct));
+    est.push_back(models::number_or_null(p.j_est_pct));
+    val.push_back(models::number_or_null(p.j_val_pct));
   }
   return {{"iteration", iteration}, {"j_est_pct", est}, {"j_val_pct", val}};
 }
@@ -106,11 +98,11 @@ json history_plot(const std::vector<HistoryPoint>& points) {
 json harmonics_plot(const models::DistortionComparison& comparison) {
   json f = json::array(), ph2 = json::array(), ph3 = json::array(), mh2 = json::array(), mh3 = json::array();
   const auto level = [](const models::DistortionRow& row, std::size_t index) {
-    return index < row.harmonic_db.size() ? finite_or_null(row.harmonic_db[index]) : json(nullptr);
+    return index < row.harmonic_db.size() ? models::number_or_null(row.harmonic_db[index]) : json(nullptr);
   };
   const std::size_t n = std::min(comparison.plant.size(), comparison.model.size());
   for (std::size_t k = 0; k < n; ++k) {
-    f.push_back(finite_or_null(comparison.plant[k].frequency));
+    f.push_back(models::number_or_null(comparison.plant[k].frequency));
     ph2.push_back(level(comparison.plant[k], 0));
     ph3.push_back(level(comparison.plant[k], 1));
     mh2.push_back(level(comparison.model[k], 0));

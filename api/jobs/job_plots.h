@@ -10,8 +10,6 @@
 
 namespace panelbass::api {
 
-/// `v` as JSON when finite, null otherwise.
-nlohmann::json finite_or_null(double v);
 
 /// A copy of `value` with every non-finite number replaced by null.
 nlohmann::json without_non_finite(const nlohmann::json& value);
@@ -56,7 +54,5 @@ nlohmann::json history_plot(const std::vector<HistoryPoint>& points);
 /// the model's rows (the same order: frequency within amplitude), dB relative to the fundamental.
 nlohmann::json harmonics_plot(const models::DistortionComparison& comparison);
 
-/// 20·log10|h| per entry (−inf for 0).
-Eigen::VectorXd magnitude_db(const Eigen::VectorXcd& h);
 
 }  // namespace panelbass::api

@@ -6,6 +6,7 @@
 #include <string>
 #include <variant>
 
+#include "dsp/decibels.h"
 #include "dsp/spectrum.h"
 #include "models/io/config_error.h"
 #include "models/io/json_fields.h"
@@ -24,13 +25,6 @@ json vector_json(const Eigen::VectorXd& v) {
   json out = json::array();
   for (Eigen::Index k = 0; k < v.size(); ++k) out.push_back(number_or_null(v[k]));
   return out;
-}
-
-// 20·log10|h|, NaN for h = 0.
-Eigen::VectorXd magnitude_db(const Eigen::VectorXcd& h) {
-  Eigen::VectorXd db(h.size());
-  for (Eigen::Index k = 0; k < h.size(); ++k) db[k] = std::abs(h[k]) > 0.0 ? 20.0 * std::log10(std::abs(h[k])) : kNaN;
-  return db;
 }
 
 Eigen::VectorXd centred(const Eigen::VectorXd& x) { return x.array() - x.mean(); }
@@ -314,7 +308,7 @@ json analysis_to_json(const ModelAnalysis& a) {
                    {"noncoherent_psd", vector_json(s.noncoherent_psd)}};
 
   // How far the model's response is from the measured one where the measurement is trustworthy.
-  const Eigen::VectorXd measured_db = magnitude_db(a.frf.measured), model_db = magnitude_db(a.frf.model);
+  const Eigen::VectorXd measured_db = dsp::magnitude_db(a.frf.measured), model_db = dsp::magnitude_db(a.frf.model);
   double squared = 0.0;
   int coherent = 0;
   for (Eigen::Index k = 1; k < measured_db.size(); ++k) {
