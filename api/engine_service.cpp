@@ -4,7 +4,7 @@
 #include <stdexcept>
 
 #include "dsp/sample_rate.h"
-#include "engine/alsa_status_json.h"
+#include "api/alsa_status_json.h"
 #include "models/io/config_error.h"
 #include "models/plant/virtual_transducer.h"
 
@@ -167,7 +167,7 @@ nlohmann::json EngineService::engine_status() const {
                             {"realtime", alsa_ ? alsa_->status().realtime : backend_->realtime()},
                             {"recoveries", recoveries_},
                             {"fault_hold_s", hold_s_}};
-  if (alsa_) status["device"] = engine::alsa_status_to_json(alsa_->status(), alsa_->resampling_latency());
+  if (alsa_) status["device"] = api::alsa_status_to_json(alsa_->status(), alsa_->resampling_latency());
   return status;
 }
 

@@ -83,7 +83,7 @@ class EngineService {
   void housekeeping();
 
   /// {"state","backend","plant","fs","block","uptime_s","realtime","recoveries","fault_hold_s"}; on a sound card
-  /// also "device" (engine/alsa_status_json.h: its state, losses, reopens, last error).
+  /// also "device" (api/alsa_status_json.h: its state, losses, reopens, last error).
   nlohmann::json engine_status() const;
   /// The sound card's status (nullopt on the virtual transducer).
   std::optional<engine::AlsaStatus> device_status() const;

@@ -10,7 +10,7 @@
 #include "api/model_validation.h"
 #include "api/prometheus.h"
 #include "dsp/sample_rate.h"
-#include "engine/metrics_json.h"
+#include "api/metrics_json.h"
 
 namespace panelbass::api {
 namespace {
@@ -236,7 +236,7 @@ std::string Server::submit_job(const std::string& kind, const nlohmann::json& pa
 }
 
 nlohmann::json Server::status_json() const {
-  nlohmann::json metrics = engine::metrics_to_json(engine_->metrics());
+  nlohmann::json metrics = api::metrics_to_json(engine_->metrics());
   metrics.erase("active_ids");
   nlohmann::json active = nlohmann::json::object();
   for (const ModelSlotName slot : {ModelSlotName::feedforward, ModelSlotName::feedback}) {

@@ -13,10 +13,10 @@
 #include "cli/gnuplot.h"
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
-#include "engine/chain_evaluation.h"
+#include "evaluation/chain_evaluation.h"
 #include "engine/chain_file.h"
-#include "engine/distortion_attribution.h"
-#include "engine/evaluation_json.h"
+#include "evaluation/distortion_attribution.h"
+#include "evaluation/evaluation_json.h"
 #include "models/io/json_file.h"
 #include "models/plant/plant_presets.h"
 
@@ -27,18 +27,18 @@ struct EvaluateOptions {
   std::string plant = "panel-exciter", chain, out, plots;
   std::string plot_format = "png";
   bool attribute = false;
-  engine::EvaluationOptions evaluation;
+  evaluation::EvaluationOptions evaluation;
 };
 
 // The table a person reads, on stderr: ripple and J_c of the transducer's output, and (on a plant whose
 // sensor is noisy) as the sensor measures them.
-void print_table(const engine::ChainEvaluation& e) {
+void print_table(const evaluation::ChainEvaluation& e) {
   std::fprintf(stderr, "%-36s %9s %8s", "configuration", "ripple dB", "J_c %");
-  for (const engine::ProbeResult& p : e.rows.front().probes) std::fprintf(stderr, "  THD@%-4.0f%%", p.frequency_hz);
+  for (const evaluation::ProbeResult& p : e.rows.front().probes) std::fprintf(stderr, "  THD@%-4.0f%%", p.frequency_hz);
   std::fprintf(stderr, "  max|drive|  rest|drive|\n");
-  for (const engine::EvaluationRow& row : e.rows) {
+  for (const evaluation::EvaluationRow& row : e.rows) {
     std::fprintf(stderr, "%-36s %9.2f %8.2f", row.name.c_str(), row.ripple_db, row.jc_pct);
-    for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.2f", p.thd_pct);
+    for (const evaluation::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.2f", p.thd_pct);
     std::fprintf(stderr, "  %10.3f  %11.4f\n", row.max_drive, row.rest_drive_peak);
     if (e.jc_noise_floor_pct > 0.0) {
       std::fprintf(stderr, "%-36s %9.2f %8.2f\n", "  (through the noisy sensor)", row.measured_ripple_db,
@@ -46,7 +46,7 @@ void print_table(const engine::ChainEvaluation& e) {
     }
     if (!row.probes.empty() && std::isfinite(row.probes.front().model_thd_pct)) {
       std::fprintf(stderr, "%-36s %9s %8s", "  (the design's plant model)", "", "");
-      for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.2f", p.model_thd_pct);
+      for (const evaluation::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.2f", p.model_thd_pct);
       std::fprintf(stderr, "\n");
     }
   }
@@ -54,24 +54,24 @@ void print_table(const engine::ChainEvaluation& e) {
 
 // Each nonlinear term's THD per probe behind band-pass + feedforward (what a feedback stage is there to
 // remove), on stderr, with the whole plant's first: its row of the same name as the terms' last.
-void print_attribution(const engine::ChainEvaluation& whole, const std::vector<engine::TermDistortion>& terms) {
+void print_attribution(const evaluation::ChainEvaluation& whole, const std::vector<evaluation::TermDistortion>& terms) {
   if (terms.empty()) {
     std::fprintf(stderr, "which term makes the distortion: the plant has no nonlinear term switched on\n");
     return;
   }
   const std::string& compared = terms.front().rows.back().name;
-  const auto same_name = [&](const engine::EvaluationRow& r) { return r.name == compared; };
+  const auto same_name = [&](const evaluation::EvaluationRow& r) { return r.name == compared; };
   const auto found = std::find_if(whole.rows.begin(), whole.rows.end(), same_name);
   if (found == whole.rows.end()) throw std::logic_error("the evaluation has no \"" + compared + "\" row");
-  const engine::EvaluationRow& row = *found;
+  const evaluation::EvaluationRow& row = *found;
   std::fprintf(stderr, "which term makes the distortion (%s, THD %% with that term alone on):\n", row.name.c_str());
   std::fprintf(stderr, "%-14s", "term");
-  for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  THD@%-4.0f%%", p.frequency_hz);
+  for (const evaluation::ProbeResult& p : row.probes) std::fprintf(stderr, "  THD@%-4.0f%%", p.frequency_hz);
   std::fprintf(stderr, "\n%-14s", "(all)");
-  for (const engine::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.3f", p.thd_pct);
-  for (const engine::TermDistortion& t : terms) {
+  for (const evaluation::ProbeResult& p : row.probes) std::fprintf(stderr, "  %9.3f", p.thd_pct);
+  for (const evaluation::TermDistortion& t : terms) {
     std::fprintf(stderr, "\n%-14s", t.term.c_str());
-    for (const engine::ProbeResult& p : t.rows.back().probes) std::fprintf(stderr, "  %9.3f", p.thd_pct);
+    for (const evaluation::ProbeResult& p : t.rows.back().probes) std::fprintf(stderr, "  %9.3f", p.thd_pct);
   }
   std::fprintf(stderr, "\n");
 }
@@ -81,11 +81,11 @@ void run_evaluate(const EvaluateOptions& o) {
   if (!o.plots.empty()) find_gnuplot();  // before the work, not after it
   const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
   const engine::ChainConfig config = engine::load_chain_file(o.chain);
-  const engine::ChainEvaluation e = engine::evaluate_chain(config, plant, o.evaluation);
+  const evaluation::ChainEvaluation e = evaluation::evaluate_chain(config, plant, o.evaluation);
   print_table(e);
   std::fprintf(stderr, "(J_c noise floor of the sensor: %.2f %%)\n", e.jc_noise_floor_pct);
   nlohmann::json rows = nlohmann::json::array();
-  for (const engine::EvaluationRow& row : e.rows) rows.push_back(engine::evaluation_row_to_json(row));
+  for (const evaluation::EvaluationRow& row : e.rows) rows.push_back(evaluation::evaluation_row_to_json(row));
   nlohmann::json result = {{"plant", plant.name},
                                  {"chain", o.chain},
                                  {"noise_amplitude", e.noise_amplitude},
@@ -95,17 +95,17 @@ void run_evaluate(const EvaluateOptions& o) {
                                  {"rows", rows},
                                  {"plots", nullptr}};
   if (o.attribute) {
-    std::vector<engine::TermDistortion> terms;
+    std::vector<evaluation::TermDistortion> terms;
     {
       ProgressBar bar("evaluate: each nonlinear term alone");
-      terms = engine::attribute_distortion(config, plant, o.evaluation,
+      terms = evaluation::attribute_distortion(config, plant, o.evaluation,
                                            [&](std::size_t done, std::size_t total, const std::string&) {
                                              bar.update(static_cast<double>(done) / static_cast<double>(total));
                                            });
       bar.update(1.0);
     }
     print_attribution(e, terms);
-    result["attribution"] = engine::attribution_to_json(terms);
+    result["attribution"] = evaluation::attribution_to_json(terms);
   }
   if (!o.plots.empty()) {
     const std::filesystem::path dir(o.plots);

@@ -18,12 +18,12 @@ constexpr double kFloorDb = -100.0;
 
 }  // namespace
 
-std::filesystem::path plot_evaluation_response(const engine::ChainEvaluation& e, const engine::EvaluationOptions& o,
+std::filesystem::path plot_evaluation_response(const evaluation::ChainEvaluation& e, const evaluation::EvaluationOptions& o,
                                                const std::filesystem::path& dir, PlotFormat format) {
   GnuplotFigure fig("evaluation_response");
   std::string plot = "plot ";
   for (std::size_t r = 0; r < e.rows.size(); ++r) {
-    const engine::EvaluationRow& row = e.rows[r];
+    const evaluation::EvaluationRow& row = e.rows[r];
     const int block = fig.add_block({row.response_hz, row.response_db});
     plot += (r == 0 ? fig.data() : std::string("     ''")) + " index " + std::to_string(block) +
             " using 1:2 with lines lw 1.8 " + colour(r) + " title " +
@@ -43,7 +43,7 @@ std::filesystem::path plot_evaluation_response(const engine::ChainEvaluation& e,
   return fig.render(dir, format);
 }
 
-std::filesystem::path plot_evaluation_harmonics(const engine::ChainEvaluation& e, const std::filesystem::path& dir,
+std::filesystem::path plot_evaluation_harmonics(const evaluation::ChainEvaluation& e, const std::filesystem::path& dir,
                                                 PlotFormat format) {
   GnuplotFigure fig("evaluation_harmonics", 1100, 560);
   // x positions: harmonic h + 2 of probe p at p·(H + 1) + h (H harmonics per probe, a gap between probes),
@@ -73,7 +73,7 @@ std::filesystem::path plot_evaluation_harmonics(const engine::ChainEvaluation& e
   std::string tics;
   if (!e.rows.empty()) {
     for (std::size_t p = 0; p < e.rows.front().probes.size(); ++p) {
-      const engine::ProbeResult& probe = e.rows.front().probes[p];
+      const evaluation::ProbeResult& probe = e.rows.front().probes[p];
       for (std::size_t h = 0; h < harmonics; ++h) {
         const std::string label = "H" + std::to_string(h + 2) + (h == 0 ? "\\n" + gnuplot_number(probe.frequency_hz, 4) + " Hz" : "");
         tics += (tics.empty() ? "" : ", ") + std::string("\"") + label + "\" " +

@@ -5,16 +5,16 @@
 #include <filesystem>
 
 #include "cli/gnuplot.h"
-#include "engine/chain_evaluation.h"
+#include "evaluation/chain_evaluation.h"
 
 namespace panelbass::cli {
 
 /// |program → measured output| in dB for every configuration, the ripple band marked; returns the image.
-std::filesystem::path plot_evaluation_response(const engine::ChainEvaluation& e, const engine::EvaluationOptions& o,
+std::filesystem::path plot_evaluation_response(const evaluation::ChainEvaluation& e, const evaluation::EvaluationOptions& o,
                                                const std::filesystem::path& dir, PlotFormat format);
 
 /// Harmonics 2..n relative to the fundamental (dB) at each probe, one series per configuration; returns the image.
-std::filesystem::path plot_evaluation_harmonics(const engine::ChainEvaluation& e, const std::filesystem::path& dir,
+std::filesystem::path plot_evaluation_harmonics(const evaluation::ChainEvaluation& e, const std::filesystem::path& dir,
                                                 PlotFormat format);
 
 }  // namespace panelbass::cli

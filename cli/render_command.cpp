@@ -69,7 +69,7 @@ struct DesiredResponse {
 
 // The desired response, kept deliberately simple until the control work refines it:
 //  - with an LQ feedforward stage, its [7B] desired response y_lin (the controlled linear model) to the
-//    band-passed program: the thesis's fig. 7.10 reference, as engine/chain_evaluation.cpp uses it;
+//    band-passed program: the thesis's fig. 7.10 reference, as evaluation/chain_evaluation.cpp uses it;
 //  - otherwise the band-passed program through the linearised plant (every nonlinear term off, no
 //    sensor noise): what the transducer would give were it linear. Its J_c thus measures the nonlinear
 //    distortion and the noise left in the output (and anything a controller changes in the linear

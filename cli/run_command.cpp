@@ -21,9 +21,9 @@
 #include "dsp/sample_rate.h"
 #include "dsp/wav_file.h"
 #include "engine/alsa_backend.h"
-#include "engine/alsa_status_json.h"
+#include "api/alsa_status_json.h"
 #include "engine/chain_file.h"
-#include "engine/metrics_json.h"
+#include "api/metrics_json.h"
 #include "engine/virtual_backend.h"
 #include "models/plant/plant_presets.h"
 
@@ -89,7 +89,7 @@ void run_virtual(const RunOptions& o, const engine::ChainConfig& config, nlohman
   result["program"] = program.description;
   result["seconds"] = elapsed;
   result["interrupted"] = stop_requested();
-  result["metrics"] = engine::metrics_to_json(chain->metrics().snapshot());
+  result["metrics"] = api::metrics_to_json(chain->metrics().snapshot());
 }
 
 void run_alsa(const RunOptions& o, const engine::ChainConfig& config, nlohmann::json& result) {
@@ -128,8 +128,8 @@ void run_alsa(const RunOptions& o, const engine::ChainConfig& config, nlohmann::
   result["program"] = program_description;
   result["seconds"] = elapsed;
   result["interrupted"] = stop_requested();
-  result["alsa"] = engine::alsa_status_to_json(status, backend.resampling_latency());
-  result["metrics"] = engine::metrics_to_json(chain->metrics().snapshot());
+  result["alsa"] = api::alsa_status_to_json(status, backend.resampling_latency());
+  result["metrics"] = api::metrics_to_json(chain->metrics().snapshot());
 }
 
 void run_run(const RunOptions& o) {

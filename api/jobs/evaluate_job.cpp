@@ -10,10 +10,10 @@
 #include "api/jobs/param_reader.h"
 #include "api/jobs/excitation_record.h"
 #include "api/jobs/stored_models.h"
-#include "engine/chain_evaluation.h"
+#include "evaluation/chain_evaluation.h"
 #include "engine/chain_file.h"
-#include "engine/distortion_attribution.h"
-#include "engine/evaluation_json.h"
+#include "evaluation/distortion_attribution.h"
+#include "evaluation/evaluation_json.h"
 #include "models/control/lq_feedforward.h"
 #include "models/plant/plant_presets.h"
 
@@ -36,7 +36,7 @@ json evaluate_params(const json& params, const JobEnvironment& env) {
   std::vector<std::string> plants = models::plant_preset_names();
   if (env.plant) plants.insert(plants.begin(), "server");
   r.choice("plant", plants.front(), plants);
-  const engine::EvaluationOptions defaults;
+  const evaluation::EvaluationOptions defaults;
   r.numbers("probes_hz", defaults.probe_hz, 1, 16, {0.0, env.fs / 2.0, true, true});
   r.number("probe_peak", defaults.probe_peak, {0.0, 1.0, false, false});
   r.integer("noise_samples", defaults.noise_samples, 4096, kMaxSamples);
@@ -75,7 +75,7 @@ json evaluate_work(const json& params, const JobEnvironment& env, JobControl& co
   }
   const std::string plant_name = params.at("plant").get<std::string>();
   const models::PlantConfig plant = plant_name == "server" ? *env.plant : models::plant_preset(plant_name);
-  engine::EvaluationOptions options;
+  evaluation::EvaluationOptions options;
   options.probe_hz = params.at("probes_hz").get<std::vector<double>>();
   options.probe_peak = params.at("probe_peak").get<double>();
   options.noise_samples = params.at("noise_samples").get<Eigen::Index>();
@@ -83,17 +83,17 @@ json evaluate_work(const json& params, const JobEnvironment& env, JobControl& co
   const bool attribute = params.at("attribute").get<bool>();
 
   progress.at(0.05, "evaluating the chain on " + plant.name);
-  const engine::ChainEvaluation e = engine::evaluate_chain(config, plant, options);
+  const evaluation::ChainEvaluation e = evaluation::evaluate_chain(config, plant, options);
   json rows = json::array();
-  for (const engine::EvaluationRow& row : e.rows) rows.push_back(engine::evaluation_row_to_json(row));
+  for (const evaluation::EvaluationRow& row : e.rows) rows.push_back(evaluation::evaluation_row_to_json(row));
   // The table at a glance: each row's ripple, J_c and THD per probe.
   json table = json::object();
   json response = {{"f", column(e.rows.front().response_hz)}};
   json thd = {{"f", options.probe_hz}};
   for (std::size_t k = 0; k < e.rows.size(); ++k) {
-    const engine::EvaluationRow& row = e.rows[k];
+    const evaluation::EvaluationRow& row = e.rows[k];
     json row_thd = json::array();
-    for (const engine::ProbeResult& p : row.probes) row_thd.push_back(p.thd_pct);
+    for (const evaluation::ProbeResult& p : row.probes) row_thd.push_back(p.thd_pct);
     table[row.name] = {{"ripple_db", row.ripple_db},
                        {"jc_pct", row.jc_pct},
                        {"measured_ripple_db", row.measured_ripple_db},
@@ -117,19 +117,19 @@ json evaluate_work(const json& params, const JobEnvironment& env, JobControl& co
   json result = {{"summary", summary}, {"rows", rows}, {"plots", {{"response", response}, {"thd", thd}}}};
   if (attribute) {
     progress.span(0.5, 1.0);
-    const std::vector<engine::TermDistortion> terms = engine::attribute_distortion(
+    const std::vector<evaluation::TermDistortion> terms = evaluation::attribute_distortion(
         config, plant, options, [&](std::size_t done, std::size_t total, const std::string& term) {
           progress.at(static_cast<double>(done) / static_cast<double>(total), "evaluating with only the " + term + " on");
         });
     // Each term's THD per probe behind band-pass + feedforward: what a feedback stage is there to remove.
     json by_term = json::object();
-    for (const engine::TermDistortion& t : terms) {
+    for (const evaluation::TermDistortion& t : terms) {
       json term_thd = json::array();
-      for (const engine::ProbeResult& p : t.rows.at(1).probes) term_thd.push_back(p.thd_pct);
+      for (const evaluation::ProbeResult& p : t.rows.at(1).probes) term_thd.push_back(p.thd_pct);
       by_term[t.term] = term_thd;
     }
     result["summary"]["attribution_thd_pct"] = by_term;
-    result["attribution"] = engine::attribution_to_json(terms);
+    result["attribution"] = evaluation::attribution_to_json(terms);
   }
   progress.at(1.0, "done");
   return result;

@@ -10,6 +10,7 @@
 #include "api/jobs/param_reader.h"
 #include "api/jobs/record_acquisition.h"
 #include "api/jobs/stored_models.h"
+#include "models/io/json_fields.h"
 #include "models/io/roots_json.h"
 #include "models/kinds/model_file.h"
 #include "models/linear/data_survey.h"
@@ -92,7 +93,7 @@ json identify_linear_work(const json& params, const JobEnvironment& env, JobCont
                    {"nb", id.model.tf.nb()},
                    {"nk", id.model.tf.nk},
                    {"J_est_pct", id.j_est_pct},
-                   {"J_val_pct", finite_or_null(id.j_val_pct)}};
+                   {"J_val_pct", models::number_or_null(id.j_val_pct)}};
   const int order = id.model.tf.na() > 0 ? id.model.tf.na() : id.model.tf.nb();
   const std::string model_id = store_model(env, models::linear_model_to_json(id.model),
                                            method + " order " + std::to_string(order) + " (" + control.job_id() + ")", control);
@@ -123,7 +124,7 @@ json identify_linear_work(const json& params, const JobEnvironment& env, JobCont
   progress.at(1.0, "done");
   return {{"model_id", model_id},
           {"j_est_pct", id.j_est_pct},
-          {"j_val_pct", finite_or_null(id.j_val_pct)},
+          {"j_val_pct", models::number_or_null(id.j_val_pct)},
           {"summary", summary},
           {"plots", plots}};
 }

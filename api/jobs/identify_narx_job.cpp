@@ -13,6 +13,7 @@
 #include "api/jobs/param_reader.h"
 #include "api/jobs/record_acquisition.h"
 #include "api/jobs/stored_models.h"
+#include "models/io/json_fields.h"
 #include "models/kinds/model_file.h"
 #include "models/linear/data_survey.h"
 #include "models/narx/friction_seed.h"
@@ -113,7 +114,7 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
   for (std::size_t k = 0; k < trained.history.size(); ++k) {
     const models::TrainingRecord& rec = trained.history[k];
     meta_history.push_back({{"iter", rec.iteration}, {"mode", models::to_string(rec.mode)},
-                            {"J_est_pct", finite_or_null(rec.j_est_pct)}, {"J_val_pct", finite_or_null(rec.j_val_pct)}});
+                            {"J_est_pct", models::number_or_null(rec.j_est_pct)}, {"J_val_pct", models::number_or_null(rec.j_val_pct)}});
     history.push_back({rec.iteration, rec.j_est_pct, rec.j_val_pct});
   }
   trained.model.meta = {{"data", data.source + " (estimation)"},
@@ -121,7 +122,7 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
                         {"train", train},
                         {"optimizer", "lm"},
                         {"J_est_pct", j_est},
-                        {"J_val_pct", finite_or_null(j_val)},
+                        {"J_val_pct", models::number_or_null(j_val)},
                         {"seed", seed},
                         {"weighted", weighted},
                         {"history", meta_history}};
@@ -140,7 +141,7 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
   progress.at(1.0, "done");
   json result = {{"model_id", model_id},
                  {"j_est_pct", j_est},
-                 {"j_val_pct", finite_or_null(j_val)},
+                 {"j_val_pct", models::number_or_null(j_val)},
                  {"summary",
                   {{"na", structure.na},
                    {"nb", structure.nb},

@@ -160,9 +160,9 @@ TEST_F(JobKindsTest, DesignNnTunesOnADeviceFromAStoredController) {
   EXPECT_EQ(refusal("design-nn", params), "params.start_from: training on from a controller is one training, and restarts is 2");
 }
 
-// The evaluate job is `panelbass chain` + `evaluate`: its rows are engine::evaluate_chain's on a chain built
+// The evaluate job is `panelbass chain` + `evaluate`: its rows are evaluation::evaluate_chain's on a chain built
 // here from the same stored models (the feedforward's band-pass from its design), and its attribution is
-// engine::attribute_distortion's.
+// evaluation::attribute_distortion's.
 
 TEST_F(JobKindsTest, DesignNnKeepsTheBestOfItsRestarts) {
   json params = design_nn_models();

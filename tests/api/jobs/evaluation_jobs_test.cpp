@@ -28,14 +28,14 @@ TEST_F(JobKindsTest, EvaluateIsTheChainsEvaluationOnTheVirtualTransducer) {
   config.feedforward->model = *store_->model(ff);
   config.feedback = engine::SlotConfig{};
   config.feedback->model = *store_->model(fb);
-  engine::EvaluationOptions options;
+  evaluation::EvaluationOptions options;
   options.probe_hz = {80.0, 160.0};
   options.probe_peak = 0.6;
   options.noise_samples = 4096;
-  const engine::ChainEvaluation expected = engine::evaluate_chain(config, *env_.plant, options);
+  const evaluation::ChainEvaluation expected = evaluation::evaluate_chain(config, *env_.plant, options);
   ASSERT_EQ(result.at("rows").size(), 3u);
   for (std::size_t r = 0; r < 3; ++r) {
-    EXPECT_EQ(result.at("rows")[r], without_non_finite(engine::evaluation_row_to_json(expected.rows[r]))) << r;
+    EXPECT_EQ(result.at("rows")[r], without_non_finite(evaluation::evaluation_row_to_json(expected.rows[r]))) << r;
   }
   const json& summary = result.at("summary");
   EXPECT_EQ(summary.at("plant"), env_.plant->name) << "the server's own transducer by default";
@@ -46,7 +46,7 @@ TEST_F(JobKindsTest, EvaluateIsTheChainsEvaluationOnTheVirtualTransducer) {
   expect_plot(result.at("plots").at("response"), {"f", "plant_db", "feedforward_db", "feedback_db"});
   expect_plot(result.at("plots").at("thd"), {"f", "plant_thd_pct", "feedforward_thd_pct", "feedback_thd_pct"});
 
-  const std::vector<engine::TermDistortion> terms = engine::attribute_distortion(config, *env_.plant, options);
+  const std::vector<evaluation::TermDistortion> terms = evaluation::attribute_distortion(config, *env_.plant, options);
   ASSERT_EQ(result.at("attribution").size(), terms.size());
   for (std::size_t t = 0; t < terms.size(); ++t) {
     EXPECT_EQ(result.at("attribution")[t].at("term"), terms[t].term);

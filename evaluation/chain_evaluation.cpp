@@ -1,4 +1,4 @@
-#include "engine/chain_evaluation.h"
+#include "evaluation/chain_evaluation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -17,7 +17,9 @@
 #include "models/control/neural_feedback.h"
 #include "models/linear/state_space.h"
 
-namespace panelbass::engine {
+namespace panelbass::evaluation {
+
+using namespace engine;  // the chain under evaluation
 namespace {
 
 // Samples at the start of a noise run left out of J_c (the chain and the plant start at rest).
@@ -198,4 +200,4 @@ ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantCon
   return result;
 }
 
-}  // namespace panelbass::engine
+}  // namespace panelbass::evaluation

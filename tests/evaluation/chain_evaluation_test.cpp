@@ -8,8 +8,8 @@
 
 #include "dsp/butterworth.h"
 #include "dsp/random.h"
-#include "engine/chain_evaluation.h"
-#include "engine/distortion_attribution.h"
+#include "evaluation/chain_evaluation.h"
+#include "evaluation/distortion_attribution.h"
 #include "models/linear/linear_identification.h"
 #include "models/control/feedback_training.h"
 #include "models/control/lq_feedforward.h"
@@ -19,8 +19,10 @@
 #include "models/plant/virtual_transducer.h"
 #include "tests/engine/engine_test_models.h"
 
-namespace panelbass::engine {
+namespace panelbass::evaluation {
 namespace {
+
+using namespace engine;  // the chain under evaluation
 
 // An OE model of the linear preset from 8000 samples of full-drive noise, and the LQ controller on it.
 nlohmann::json lq_on_linear_plant(const models::PlantConfig& plant) {
@@ -203,4 +205,4 @@ TEST(ChainEvaluationTest, RefusesAChainWithoutAnLqFeedforward) {
 }
 
 }  // namespace
-}  // namespace panelbass::engine
+}  // namespace panelbass::evaluation

@@ -1,8 +1,10 @@
-#include "engine/evaluation_json.h"
+#include "evaluation/evaluation_json.h"
 
 #include "models/io/json_fields.h"
 
-namespace panelbass::engine {
+namespace panelbass::evaluation {
+
+using namespace engine;  // the chain under evaluation
 
 nlohmann::json evaluation_row_to_json(const EvaluationRow& row) {
   nlohmann::json probes = nlohmann::json::array();
@@ -40,4 +42,4 @@ nlohmann::json attribution_to_json(const std::vector<TermDistortion>& terms) {
   return attribution;
 }
 
-}  // namespace panelbass::engine
+}  // namespace panelbass::evaluation

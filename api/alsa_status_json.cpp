@@ -1,8 +1,8 @@
-#include "engine/alsa_status_json.h"
+#include "api/alsa_status_json.h"
 
 #include <string>
 
-namespace panelbass::engine {
+namespace panelbass::api {
 
 nlohmann::json alsa_status_to_json(const AlsaStatus& s, const RateBridgeLatency& latency) {
   return {{"state", alsa_state_name(s.state)},
@@ -19,4 +19,4 @@ nlohmann::json alsa_status_to_json(const AlsaStatus& s, const RateBridgeLatency&
           {"resampling_latency_ms", latency.total_ms}};
 }
 
-}  // namespace panelbass::engine
+}  // namespace panelbass::api

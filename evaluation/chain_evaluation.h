@@ -15,7 +15,10 @@
 #include "models/control/model_probes.h"
 #include "models/plant/plant_config.h"
 
-namespace panelbass::engine {
+namespace panelbass::evaluation {
+
+// The engine's chain, judged here offline.
+using engine::ChainConfig;
 
 /// What the evaluation measures.
 struct EvaluationOptions {
@@ -83,4 +86,4 @@ struct ChainEvaluation {
 ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantConfig& plant,
                                const EvaluationOptions& options = {});
 
-}  // namespace panelbass::engine
+}  // namespace panelbass::evaluation

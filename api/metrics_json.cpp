@@ -1,6 +1,6 @@
-#include "engine/metrics_json.h"
+#include "api/metrics_json.h"
 
-namespace panelbass::engine {
+namespace panelbass::api {
 
 nlohmann::json metrics_to_json(const MetricsSnapshot& m) {
   return {{"blocks", m.blocks},
@@ -22,4 +22,4 @@ nlohmann::json metrics_to_json(const MetricsSnapshot& m) {
            {{"band_pass", m.active_ids[0]}, {"feedforward", m.active_ids[1]}, {"feedback", m.active_ids[2]}}}};
 }
 
-}  // namespace panelbass::engine
+}  // namespace panelbass::api

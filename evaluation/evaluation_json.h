@@ -5,10 +5,10 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "engine/chain_evaluation.h"
-#include "engine/distortion_attribution.h"
+#include "evaluation/chain_evaluation.h"
+#include "evaluation/distortion_attribution.h"
 
-namespace panelbass::engine {
+namespace panelbass::evaluation {
 
 /// {"name","ripple_db","jc_pct" (the transducer's output without sensor noise),"measured_ripple_db",
 /// "measured_jc_pct" (through the noisy sensor),"max_drive","rail_fraction","rest_drive_peak","faults","probes":[{"frequency_hz",
@@ -19,4 +19,4 @@ nlohmann::json evaluation_row_to_json(const EvaluationRow& row);
 /// [{"term","rows":[evaluation_row_to_json…]}], one entry per term of attribute_distortion().
 nlohmann::json attribution_to_json(const std::vector<TermDistortion>& terms);
 
-}  // namespace panelbass::engine
+}  // namespace panelbass::evaluation

@@ -9,11 +9,11 @@
 #include <string>
 #include <vector>
 
-#include "engine/chain_evaluation.h"
+#include "evaluation/chain_evaluation.h"
 #include "engine/chain_file.h"
 #include "models/plant/plant_config.h"
 
-namespace panelbass::engine {
+namespace panelbass::evaluation {
 
 /// The evaluation's rows on the plant with only one nonlinear term on.
 struct TermDistortion {
@@ -31,4 +31,4 @@ std::vector<TermDistortion> attribute_distortion(
     const ChainConfig& config, const models::PlantConfig& plant, const EvaluationOptions& options,
     const std::function<void(std::size_t done, std::size_t total, const std::string& term)>& progress = {});
 
-}  // namespace panelbass::engine
+}  // namespace panelbass::evaluation

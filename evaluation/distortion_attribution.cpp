@@ -1,6 +1,8 @@
-#include "engine/distortion_attribution.h"
+#include "evaluation/distortion_attribution.h"
 
-namespace panelbass::engine {
+namespace panelbass::evaluation {
+
+using namespace engine;  // the chain under evaluation
 
 std::vector<TermDistortion> attribute_distortion(
     const ChainConfig& config, const models::PlantConfig& plant, const EvaluationOptions& options,
@@ -18,4 +20,4 @@ std::vector<TermDistortion> attribute_distortion(
   return result;
 }
 
-}  // namespace panelbass::engine
+}  // namespace panelbass::evaluation

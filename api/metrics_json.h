@@ -5,10 +5,12 @@
 
 #include "engine/metrics.h"
 
-namespace panelbass::engine {
+namespace panelbass::api {
+
+using engine::MetricsSnapshot;
 
 /// {"blocks","samples","xruns","faults","in_fault","last_fault","swaps","mean_block_ns","p99_block_ns",
 ///  "max_block_ns","max_late_ns","ns_per_sample","load","active_ids":{"band_pass","feedforward","feedback"}}.
 nlohmann::json metrics_to_json(const MetricsSnapshot& m);
 
-}  // namespace panelbass::engine
+}  // namespace panelbass::api
