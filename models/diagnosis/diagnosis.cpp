@@ -565,6 +565,7 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     current = chosen->fit;
   }
   d.j_val_after_pct = current.j_val;
+  d.at_noise_floor = at_noise_floor(d.j_val_after_pct, d.noise_floor_pct);
   d.located_val_after = locate_residual(u_val, y_val, simulate_augmented(current.model, u_val, y_val, r.init), fs, r.init);
   d.model = current.model;
 }
@@ -672,6 +673,10 @@ Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, c
   return d;
 }
 
+bool at_noise_floor(double j_pct, double noise_floor_pct) {
+  return noise_floor_pct > 0.0 && j_pct < kNoiseFloorMargin * noise_floor_pct;
+}
+
 nlohmann::json diagnosis_to_json(const Diagnosis& d) {
   nlohmann::json findings = nlohmann::json::array();
   for (const auto& f : d.findings)
@@ -690,6 +695,7 @@ nlohmann::json diagnosis_to_json(const Diagnosis& d) {
           {"J_val_before_pct", d.j_val_before_pct},
           {"J_val_after_pct", d.j_val_after_pct},
           {"noise_floor_pct", d.noise_floor_pct},
+          {"at_noise_floor", d.at_noise_floor},
           {"location",
            {{"estimation", location_to_json(d.located_est)},
             {"validation", location_to_json(d.located_val)},

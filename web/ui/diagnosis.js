@@ -12,7 +12,8 @@ export function baselineLabel(b) {
   return `${b.kind || 'model'}${method ? ` · ${method}` : ''}${b.source ? ` (${b.source})` : ''}`;
 }
 
-/** Plain sentences on where the baseline's validation residual lies (the report's location.validation). */
+/** Plain sentences on where the baseline's validation residual lies (the report's location.validation); what is
+ *  significant the server decides (the *_significant fields), this only words it. */
 export function locationSentences(l) {
   if (!l) return [];
   const out = [];
@@ -22,7 +23,7 @@ export function locationSentences(l) {
       + `(most at ${fmtNumber(f.frequency_hz, 4)} Hz, the response off by ${fmtNumber(f.relative_db, 3)} dB there): a linear error.`
     : 'Frequency: the input explains none of the residual beyond noise (no FRF error).');
   if (num(l.peak_over_noise) && num(l.peak_threshold)) {
-    out.push(l.peak_over_noise > l.peak_threshold
+    out.push(l.peak_significant
       ? `The residual's spectrum peaks at ${fmtNumber(l.peak_frequency_hz, 4)} Hz, ${fmtNumber(l.peak_over_noise, 3)} × its noise level.`
       : 'The residual\'s spectrum stays within its noise level at every bin.');
   }
@@ -37,16 +38,16 @@ export function locationSentences(l) {
   const states = Array.isArray(l.states) ? l.states : [];
   const shaped = states.filter((p) => num(p.shape_chi2)).sort((a, b) => b.shape_chi2 - a.shape_chi2)[0];
   if (shaped) {
-    out.push(shaped.shape_chi2 > 3
+    out.push(shaped.shape_significant
       ? `State: the residual depends most on the ${shaped.state} (its bin means ${fmtNumber(shaped.shape_chi2, 3)} × what noise gives).`
       : 'State: the residual does not depend on the input, the output or its integrals beyond noise.');
   }
   const directed = states.filter((p) => num(p.direction_t)).sort((a, b) => Math.abs(b.direction_t) - Math.abs(a.direction_t))[0];
-  if (directed && Math.abs(directed.direction_t) > 4) {
+  if (directed && directed.direction_significant) {
     out.push(`Direction: the residual differs between a rising and a falling ${directed.state} (${fmtNumber(directed.direction_t, 3)} standard errors).`);
   }
   if (num(l.change_t)) {
-    out.push(Math.abs(l.change_t) > 4
+    out.push(l.change_significant
       ? `Time: the residual's level changes × ${fmtNumber(l.change_ratio, 3)} at ${fmtNumber(l.change_time_s, 4)} s.`
       : 'Time: the residual\'s level holds steady through the record.');
   }
@@ -63,7 +64,7 @@ export function renderDiagnosis(r) {
   const ratio = num(r.J_val_after_pct) && num(r.noise_floor_pct) && r.noise_floor_pct > 0
     ? r.J_val_after_pct / r.noise_floor_pct : null;
   setText('#diag-verdict', ratio === null ? ''
-    : ratio < 1.1 ? 'The final model is at the noise floor: what is left of the residual is noise.'
+    : r.at_noise_floor ? 'The final model is at the noise floor: what is left of the residual is noise.'
     : `The final model's J is ${fmtNumber(ratio, 2)} × the noise floor: ${fmtPct(r.J_val_after_pct - r.noise_floor_pct)} is still unexplained.`);
   const findings = Array.isArray(r.findings) ? r.findings : [];
   $('#diag-findings tbody').replaceChildren(...findings.map((f, i) => el('tr', { dataset: { effect: f.effect } },
