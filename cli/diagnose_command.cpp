@@ -113,6 +113,7 @@ void run_diagnose(const DiagnoseOptions& o) {
                             {"J_val_before_pct", d.j_val_before_pct},
                             {"J_val_after_pct", d.j_val_after_pct},
                             {"noise_floor_pct", d.noise_floor_pct},
+                            {"at_noise_floor", report["at_noise_floor"]},
                             {"out", o.outputs.out},
                             {"html", report["html"]},
                             {"plots", report["plots"]}};

@@ -15,6 +15,14 @@
 
 namespace panelbass::models {
 
+/// How close to the noise floor a final validation J counts as there: within 10 %, what the floor's own
+/// estimate (a median of the residual's top band) is good to.
+inline constexpr double kNoiseFloorMargin = 1.1;
+
+/// Whether validation J `j_pct` is at the noise floor `noise_floor_pct` (J < kNoiseFloorMargin × floor, floor > 0):
+/// what is left of the residual is noise.
+bool at_noise_floor(double j_pct, double noise_floor_pct);
+
 /// How a diagnosis runs.
 struct DiagnosisOptions {
   Eigen::Index init = 50;   ///< measured outputs that set a simulation's state; J counts the samples after them
@@ -71,6 +79,7 @@ struct Diagnosis {
   double j_val_before_pct = 0.0;
   double j_val_after_pct = 0.0;
   double noise_floor_pct = 0.0;             ///< the validation residual's white-noise share of Σy²
+  bool at_noise_floor = false;              ///< at_noise_floor(j_val_after_pct, noise_floor_pct): nothing but noise is left
   ResidualLocation located_est, located_val;  ///< the baseline's residual
   ResidualLocation located_val_after;         ///< the final model's validation residual
   nlohmann::json rounds = nlohmann::json::array();  ///< per round: every candidate's best variant and its score
@@ -100,7 +109,7 @@ Eigen::VectorXd simulate_augmented(const AugmentedModel& model, const Eigen::Vec
                                    Eigen::Index init);
 
 /// The report: {"baseline":{"kind","J_val_pct",…},"findings":[…],"J_val_before_pct","J_val_after_pct",
-/// "noise_floor_pct","location":{…}}.
+/// "noise_floor_pct","at_noise_floor","location":{…}}.
 nlohmann::json diagnosis_to_json(const Diagnosis& diagnosis);
 
 }  // namespace panelbass::models

@@ -168,6 +168,7 @@ StateProfile state_profile(const std::string& name, const Eigen::VectorXd& state
     if (standard_error > 0.0) chi2 += (s / count) * (s / count) / (standard_error * standard_error);
   }
   p.shape_chi2 = chi2 / (kBins - 1);
+  p.shape_significant = state_dependence_significant(p.shape_chi2);
   p.level_ratio = quartile_rms_ratio(e, centred.cwiseAbs());
   double rising = 0.0, falling = 0.0;
   Eigen::Index n_rising = 0, n_falling = 0;
@@ -179,10 +180,17 @@ StateProfile state_profile(const std::string& name, const Eigen::VectorXd& state
     const double difference = rising / static_cast<double>(n_rising) - falling / static_cast<double>(n_falling);
     p.direction_t = difference / (sd * std::sqrt(inflation * (1.0 / static_cast<double>(n_rising) + 1.0 / static_cast<double>(n_falling))));
   }
+  p.direction_significant = t_significant(p.direction_t);
   return p;
 }
 
 }  // namespace
+
+bool state_dependence_significant(double shape_chi2) { return shape_chi2 > kShapeChi2Significant; }
+
+bool t_significant(double t) { return std::abs(t) > kTSignificant; }
+
+bool peak_significant(double peak_over_noise, double peak_threshold) { return peak_over_noise > peak_threshold; }
 
 ResidualLocation locate_residual(const Eigen::VectorXd& u_all, const Eigen::VectorXd& y_all,
                                  const Eigen::VectorXd& y_sim_all, double fs, Eigen::Index start) {
@@ -222,6 +230,7 @@ ResidualLocation locate_residual(const Eigen::VectorXd& u_all, const Eigen::Vect
   // ≈ normal with relative standard deviation 1/√K; 3.1 of those is the 0.1 % tail.
   const double segments = std::max(1.0, 2.0 * static_cast<double>(n) / static_cast<double>(segment) - 1.0);
   r.peak_threshold = 1.0 + 3.1 / std::sqrt(0.95 * segments);
+  r.peak_significant = peak_significant(r.peak_over_noise, r.peak_threshold);
 
   // Mean and its standard error from 20 block means (the residual is coloured, so not σ/√N).
   r.mean = e.mean();
@@ -260,6 +269,7 @@ ResidualLocation locate_residual(const Eigen::VectorXd& u_all, const Eigen::Vect
   const double spread = std::sqrt(variance_of(log_before) / static_cast<double>(split) +
                                   variance_of(log_after) / static_cast<double>(kBlocks - split));
   r.change_t = spread > 0.0 ? (log_after.mean() - log_before.mean()) / spread : 0.0;
+  r.change_significant = t_significant(r.change_t);
 
   // Input–residual cross-correlation over ±10 samples (a delay error shows as a peak at a lag).
   const Eigen::VectorXd uc = u.array() - u.mean(), ec = e.array() - e.mean();
@@ -313,13 +323,16 @@ nlohmann::json location_to_json(const ResidualLocation& l) {
                       {"mean", std::vector<double>(p.mean.data(), p.mean.data() + p.mean.size())},
                       {"level_ratio", p.level_ratio},
                       {"shape_chi2", p.shape_chi2},
-                      {"direction_t", p.direction_t}});
+                      {"direction_t", p.direction_t},
+                      {"shape_significant", p.shape_significant},
+                      {"direction_significant", p.direction_significant}});
   return {{"noise_psd", l.noise_psd},
           {"noise_floor_pct", l.noise_floor_pct},
           {"residual_pct", l.residual_pct},
           {"peak_frequency_hz", l.peak_frequency_hz},
           {"peak_over_noise", l.peak_over_noise},
           {"peak_threshold", l.peak_threshold},
+          {"peak_significant", l.peak_significant},
           {"mean", l.mean},
           {"mean_t", l.mean_t},
           {"level_ratio", l.level_ratio},
@@ -331,6 +344,7 @@ nlohmann::json location_to_json(const ResidualLocation& l) {
           {"change_time_s", l.change_time_s},
           {"change_ratio", l.change_ratio},
           {"change_t", l.change_t},
+          {"change_significant", l.change_significant},
           {"effective_samples", l.effective_samples},
           {"frf_error", frf_error_to_json(l.frf_error)},
           {"distortion", distortion_to_json(l.distortion)},

@@ -13,6 +13,21 @@
 
 namespace panelbass::models {
 
+// The significance verdicts of the location's statistics, decided here once (the JSON carries them, so the
+// reports and the web UI show them instead of judging the numbers again).
+
+/// χ²/bin above which a state's bin means show a dependence: noise gives ≈ 1 (spread √(2/11) over 12 bins), 3 is far in its tail.
+inline constexpr double kShapeChi2Significant = 3.0;
+/// |t| above which a direction or level-change statistic counts: 4 standard errors, rare for noise even over the searches made.
+inline constexpr double kTSignificant = 4.0;
+
+/// Whether a state's bin means depend on it beyond noise: shape_chi2 > kShapeChi2Significant.
+bool state_dependence_significant(double shape_chi2);
+/// Whether a t statistic lies beyond kTSignificant standard errors, of either sign.
+bool t_significant(double t);
+/// Whether the residual's spectral peak rises above what noise reaches: peak_over_noise > peak_threshold.
+bool peak_significant(double peak_over_noise, double peak_threshold);
+
 /// The linear part of the residual: H_ue = H_uy − H_uŷ, the FRF error, where the input explains the residual.
 struct FrfError {
   double frequency_hz = 0.0;   ///< the bin whose residual the input explains most (largest coherence γ²_ue)
@@ -46,6 +61,8 @@ struct StateProfile {
   double level_ratio = 1.0;    ///< residual rms where |state| is in its top quartile over its bottom quartile
   double shape_chi2 = 0.0;     ///< Σ (bin mean / its standard error)² / bins: ≈ 1 when the residual ignores the state
   double direction_t = 0.0;    ///< (residual mean while the state rises − while it falls) / its standard error
+  bool shape_significant = false;      ///< state_dependence_significant(shape_chi2): the residual depends on this state
+  bool direction_significant = false;  ///< t_significant(direction_t): it differs between rising and falling
 };
 
 /// Where the residual e = y − ŷ of one record lies.
@@ -56,6 +73,7 @@ struct ResidualLocation {
   double peak_frequency_hz = 0.0;  ///< frequency of the largest residual PSD bin above DC
   double peak_over_noise = 0.0;    ///< that bin's PSD divided by the noise level
   double peak_threshold = 0.0;     ///< the ratio pure noise exceeds with probability ≈ 0.1 % at any bin
+  bool peak_significant = false;   ///< peak_significant(peak_over_noise, peak_threshold): the peak is not noise
   double mean = 0.0;               ///< residual mean
   double mean_t = 0.0;             ///< mean / its standard error (from 20 block means)
   double level_ratio = 1.0;        ///< residual rms in the top quartile of |u| over that in the bottom
@@ -67,6 +85,7 @@ struct ResidualLocation {
   double change_time_s = 0.0;      ///< where the residual's level changes most (from the record's first sample)
   double change_ratio = 1.0;       ///< residual rms after that time over before
   double change_t = 0.0;           ///< the change of log block power over its standard error (Welch's t)
+  bool change_significant = false; ///< t_significant(change_t): the residual's level changes through the record
   double effective_samples = 0.0;  ///< N shrunk by the residual's own correlation (for the standard errors)
   FrfError frf_error;
   PeriodicDistortion distortion;

@@ -106,14 +106,15 @@ const diagnosisReport = (params) => ({
   findings: [{ effect: 'cubic_stiffness', J_val_before_pct: 4.6, J_val_after_pct: 2.5,
                explanation: 'The model leaves out a cubic stiffness (a spring that hardens or softens with excursion): '
                  + 'the residual follows the cube of the estimated output (odd and level-dependent; correlation 0.54).' }],
-  J_val_before_pct: 4.6, J_val_after_pct: 2.5, noise_floor_pct: 0.69, j_val_pct: 2.5,
+  J_val_before_pct: 4.6, J_val_after_pct: 2.5, noise_floor_pct: 0.69, at_noise_floor: false, j_val_pct: 2.5,
   location: { validation: {
-    peak_frequency_hz: 152.3, peak_over_noise: 41.0, peak_threshold: 1.4, change_time_s: 0.4, change_ratio: 1.02, change_t: 0.6,
+    peak_frequency_hz: 152.3, peak_over_noise: 41.0, peak_threshold: 1.4, peak_significant: true, change_time_s: 0.4, change_ratio: 1.02, change_t: 0.6,
+    change_significant: false,
     frf_error: { significant: true, frequency_hz: 152.3, band_low_hz: 140.6, band_high_hz: 164.1, relative_db: -18.2,
                  coherence: 0.62, threshold: 0.31 },
     distortion: { periodic: false },
-    states: [{ state: 'input', shape_chi2: 1.1, level_ratio: 1.0, direction_t: 0.4 },
-             { state: 'output', shape_chi2: 24.0, level_ratio: 1.9, direction_t: 1.2 }] } },
+    states: [{ state: 'input', shape_chi2: 1.1, level_ratio: 1.0, direction_t: 0.4, shape_significant: false, direction_significant: false },
+             { state: 'output', shape_chi2: 24.0, level_ratio: 1.9, direction_t: 1.2, shape_significant: true, direction_significant: false }] } },
   rule: 'an augmentation is kept when N·ln(J_before/J_after) > p·ln(N) on the N validation samples (BIC)',
 });
 

@@ -7,11 +7,12 @@
 // result panel appears as the active feedforward model in the status; the fit plot is drawn (uPlot canvas
 // with the series' colours in it); a "Diagnose" job (its own 3000 + 2000-sample excitation, the identified
 // model as baseline, one finding at most) shows the baseline, J before and after, the noise floor, the
-// findings table (or its "no finding" line) and the residual-spectrum plot; an LQ feedforward designed on the
+// findings table (or its "no finding" line), the location sentences as the server's verdict fields decide
+// them, and the residual-spectrum plot; an LQ feedforward designed on the
 // identified model and a small NARX plant identified, a "Design NN feedback" job with every field of its form
 // set off its default sends each value in its request body, succeeds, and its summary shows the restart kept,
-// every restart's validation J_c and the design's params. Saves ARTIFACTS/ui.png (and ui-server.log,
-// ui-console.log).
+// every restart's validation J_c and the design's params. Saves ARTIFACTS/ui.png, ui-diagnosis.png (the
+// diagnose job's result panel), ui-server.log and ui-console.log.
 // Exit 0 on success; 1 with "ui_test: FAIL <step>: <reason>" otherwise; 2 on bad usage.
 
 import { spawn } from 'node:child_process';
@@ -392,6 +393,24 @@ async function main() {
     check(diagnosis.location.some((t) => t.startsWith(topic)), `no "${topic}" sentence on where the residual lies: ${JSON.stringify(diagnosis.location)}`);
   }
   await page.waitForSelector('#plot-residual_spectrum canvas', { timeout: 5000 });
+  fs.mkdirSync(artifacts, { recursive: true });
+  await page.locator('#result').screenshot({ path: path.join(artifacts, 'ui-diagnosis.png') });
+  // The verdicts are the server's (diagnosis_to_json's *_significant and at_noise_floor): the page words them.
+  const report = (await (await fetch(`${base}api/jobs/${diagnoseId}`)).json()).result;
+  const where = report?.location?.validation ?? {};
+  check(typeof report?.at_noise_floor === 'boolean' && typeof where.change_significant === 'boolean'
+        && typeof where.peak_significant === 'boolean'
+        && (where.states ?? []).every((s) => typeof s.shape_significant === 'boolean' && typeof s.direction_significant === 'boolean'),
+        `the diagnose result carries no verdict fields: ${JSON.stringify({ at_noise_floor: report?.at_noise_floor, ...where, states: undefined })}`);
+  check(diagnosis.verdict.includes('at the noise floor') === report.at_noise_floor,
+        `verdict "${diagnosis.verdict}" against at_noise_floor ${report.at_noise_floor}`);
+  const sentence = (topic) => diagnosis.location.find((t) => t.startsWith(topic)) ?? '';
+  check(sentence('Time:').includes('changes') === where.change_significant,
+        `"${sentence('Time:')}" against change_significant ${where.change_significant}`);
+  check(sentence('State:').includes('depends most') === where.states.some((s) => s.shape_significant),
+        `"${sentence('State:')}" against the states' shape_significant`);
+  check(diagnosis.location.some((t) => t.startsWith('Direction:')) === where.states.some((s) => s.direction_significant),
+        'a "Direction:" sentence shown against the states\' direction_significant');
   await page.waitForSelector('#plot-fit canvas', { timeout: 5000 });
 
   // A NN feedback design needs a NARX plant and an LQ feedforward: both made here, small and quick.

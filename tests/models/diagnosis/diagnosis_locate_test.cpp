@@ -161,5 +161,59 @@ TEST(LocateResidual, AChangeOfLevelIsDatedAndSized) {
   EXPECT_GT(l.drift_ratio, 2.5);
 }
 
+// The verdicts against the thresholds the web UI hard-coded before they moved here (χ²/bin 3, |t| 4, the
+// peak against its own threshold), written out as numbers rather than through the constants: a statistic
+// just above and just below each.
+TEST(DiagnosisVerdicts, EachStatisticIsSignificantJustAboveItsThresholdAndNotJustBelow) {
+  EXPECT_TRUE(state_dependence_significant(3.001));
+  EXPECT_FALSE(state_dependence_significant(2.999));
+  EXPECT_FALSE(state_dependence_significant(1.0)) << "what noise gives";
+  EXPECT_TRUE(t_significant(4.001));
+  EXPECT_TRUE(t_significant(-4.001));
+  EXPECT_FALSE(t_significant(3.999));
+  EXPECT_FALSE(t_significant(-3.999));
+  EXPECT_TRUE(peak_significant(1.401, 1.4));
+  EXPECT_FALSE(peak_significant(1.399, 1.4));
+}
+
+// Every location carries the verdicts of its own statistics, and its JSON sends them unchanged: a cubic
+// residual (its output profile significant), a friction-like one (its direction), a change of level, plain noise.
+TEST(DiagnosisVerdicts, ALocationCarriesTheVerdictsOfItsStatistics) {
+  const Eigen::VectorXd u = gaussian(kN, 1.0, 21);
+  const Eigen::VectorXd y_sim = filter_through(resonator_600(), u);
+  const double rms = std::sqrt(y_sim.squaredNorm() / kN);
+  const Eigen::VectorXd noise = gaussian(kN, 0.05, 22);
+  Eigen::VectorXd friction = noise;
+  for (Eigen::Index k = 1; k < kN; ++k) friction[k] += 0.02 * (y_sim[k] > y_sim[k - 1] ? 1.0 : -1.0);
+  Eigen::VectorXd change = noise;
+  change.tail(kN / 2) *= 3.0;
+  const ResidualLocation cubic = locate_residual(u, y_sim + 0.05 * (y_sim / rms).array().cube().matrix() + noise, y_sim, kFs, 0);
+  const ResidualLocation directed = locate_residual(u, y_sim + friction, y_sim, kFs, 0);
+  const ResidualLocation changed = locate_residual(u, y_sim + change, y_sim, kFs, 0);
+  const ResidualLocation plain = locate_residual(u, y_sim + noise, y_sim, kFs, 0);
+  EXPECT_TRUE(profile(cubic, "output").shape_significant);
+  EXPECT_TRUE(profile(directed, "output").direction_significant);
+  EXPECT_TRUE(changed.change_significant);
+  EXPECT_FALSE(plain.change_significant);
+  for (const ResidualLocation* l : {&cubic, &directed, &changed, &plain}) {
+    const nlohmann::json j = location_to_json(*l);
+    EXPECT_EQ(l->peak_significant, l->peak_over_noise > l->peak_threshold);
+    EXPECT_EQ(l->change_significant, std::abs(l->change_t) > 4.0) << "change_t " << l->change_t;
+    EXPECT_EQ(j.at("peak_significant").get<bool>(), l->peak_significant);
+    EXPECT_EQ(j.at("change_significant").get<bool>(), l->change_significant);
+    ASSERT_EQ(j.at("states").size(), l->states.size());
+    for (std::size_t i = 0; i < l->states.size(); ++i) {
+      const StateProfile& p = l->states[i];
+      EXPECT_EQ(p.shape_significant, p.shape_chi2 > 3.0) << p.state << ": χ² " << p.shape_chi2;
+      EXPECT_EQ(p.direction_significant, std::abs(p.direction_t) > 4.0) << p.state << ": t " << p.direction_t;
+      if (l == &plain) {
+        EXPECT_FALSE(p.shape_significant || p.direction_significant) << p.state;
+      }
+      EXPECT_EQ(j["states"][i].at("shape_significant").get<bool>(), p.shape_significant);
+      EXPECT_EQ(j["states"][i].at("direction_significant").get<bool>(), p.direction_significant);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace panelbass::models

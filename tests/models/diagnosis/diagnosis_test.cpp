@@ -122,6 +122,8 @@ TEST(Diagnosis, GivenBaselineMissingASensorOffsetGetsADcOffset) {
   // The offset fitted, in raw units, is the sensor's: Σ coefficient · y_scale.
   const DiagnosisTerm& term = d.model.terms.front();
   EXPECT_NEAR(term.coefficients[0] * d.baseline_model.linear.scaling.y_scale, 0.03, 0.003);
+  EXPECT_EQ(d.at_noise_floor, d.j_val_after_pct < 1.1 * d.noise_floor_pct)
+      << "J " << d.j_val_after_pct << " %, floor " << d.noise_floor_pct << " %";
 }
 
 TEST(Diagnosis, GivenBaselineWithTooShortADelayGetsADelay) {
@@ -162,6 +164,22 @@ TEST(Diagnosis, APeriodicMultisineRecordIsIdentifiedAndItsEmptyLinesAreRead) {
   EXPECT_LT(p.output_even_db, p.threshold_db);
   EXPECT_LT(p.output_odd_db, p.threshold_db);
   EXPECT_LT(d.baseline_j_val_pct, 2.0 * d.noise_floor_pct) << "the linear plant is fitted to its noise";
+}
+
+// The final verdict against the margin the web UI hard-coded before it moved here (J under 1.1 × the noise
+// floor), written out as a number: a J just below and just above it.
+TEST(Diagnosis, AtTheNoiseFloorJustUnderTenPercentAboveItAndNotJustOver) {
+  EXPECT_TRUE(at_noise_floor(2.0 * 1.0999, 2.0));
+  EXPECT_FALSE(at_noise_floor(2.0 * 1.1001, 2.0));
+  EXPECT_TRUE(at_noise_floor(1.5, 2.0)) << "under the floor (an estimate) is at it too";
+  EXPECT_FALSE(at_noise_floor(0.0, 0.0)) << "no floor estimated: no verdict of noise";
+  Diagnosis d;
+  d.j_val_after_pct = 2.1;
+  d.noise_floor_pct = 2.0;
+  d.at_noise_floor = true;
+  EXPECT_TRUE(diagnosis_to_json(d).at("at_noise_floor").get<bool>());
+  d.at_noise_floor = false;
+  EXPECT_FALSE(diagnosis_to_json(d).at("at_noise_floor").get<bool>());
 }
 
 TEST(Diagnosis, BadRecordsAreNamed) {

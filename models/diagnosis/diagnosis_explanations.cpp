@@ -1,0 +1,83 @@
+#include "models/diagnosis/diagnosis_explanations.h"
+
+#include <cmath>
+#include <vector>
+
+namespace panelbass::models::diagnosis_detail {
+
+double added_correlation(const Records& r, const Fit& before, const Fit& after) {
+  const Eigen::VectorXd y0 = simulate_augmented(before.model, r.u_est, r.y_est, r.init);
+  const Eigen::VectorXd y1 = simulate_augmented(after.model, r.u_est, r.y_est, r.init);
+  const Eigen::Index n = y0.size() - r.init;
+  const Eigen::VectorXd e = (r.y_est - y0).tail(n), d = (y1 - y0).tail(n);
+  const double norm = e.norm() * d.norm();
+  return norm > 0.0 ? e.dot(d) / norm : 0.0;
+}
+
+std::string explain(const Candidate& c, const ResidualLocation& where, double correlation) {
+  std::string state = c.parameters_json.contains("state") ? c.parameters_json["state"].get<std::string>() : "";
+  if (state == "integral") state = "integral of the output (a velocity, for an accelerometer)";
+  if (state == "double_integral") state = "double integral of the output (a displacement, for an accelerometer)";
+  const std::string r = fixed(correlation, 2);
+  switch (c.effect) {
+    case Effect::dc_offset:
+      return "The model leaves out a DC offset in the drive or the sensor: the residual mean is " + fixed(where.mean, 4) +
+             ", " + fixed(std::abs(where.mean_t), 1) + " standard errors from zero.";
+    case Effect::delay:
+      return "The model leaves out " + std::string(c.parameters_json["nk_after"].get<int>() > c.parameters_json["nk_before"].get<int>() ? "a sample more" : "a sample less") +
+             " of dead time: the input–residual cross-correlation peaks at lag " + std::to_string(where.xcorr_lag) +
+             " and refitting with nk = " + std::to_string(c.parameters_json["nk_after"].get<int>()) + " removes it.";
+    case Effect::resonance:
+      return "The model leaves out a lightly damped mode near " + fixed(c.parameters_json["frequency_hz"].get<double>(), 0) +
+             " Hz: the residual spectrum peaks at " + fixed(where.peak_frequency_hz, 0) + " Hz (" +
+             fixed(where.peak_over_noise, 2) + " times the noise floor), and an extra pole pair there, adding motion in "
+             "quadrature with the response (" + fixed(c.parameters_json["change_phase_deg"].get<double>(), 0) + "°), explains it.";
+    case Effect::antiresonance:
+      return "The model leaves out an antiresonance near " + fixed(c.parameters_json["frequency_hz"].get<double>(), 0) +
+             " Hz (modes cancelling): the model over-predicts there by " +
+             fixed(c.parameters_json["dip_db"].get<double>(), 2) + " dB, the residual spectrum peaks at " +
+             fixed(where.peak_frequency_hz, 0) + " Hz, and a zero pair with its pole pair fills the dip.";
+    case Effect::cubic_stiffness:
+      return "The model leaves out a cubic stiffness (a spring that hardens or softens with excursion): the residual "
+             "follows the cube of the estimated " + state + " (odd and level-dependent; correlation " + r + ").";
+    case Effect::asymmetric_stiffness:
+      return "The model leaves out an asymmetric stiffness: the residual follows the square of the estimated " + state +
+             " (even-order; correlation " + r + ").";
+    case Effect::hysteresis:
+      return "The model leaves out friction or hysteresis: the residual follows the direction of motion of the estimated " +
+             state + " rather than its position (correlation " + r + ").";
+    case Effect::saturation:
+      return std::string(c.parameters_json["one_sided"].get<bool>()
+                             ? "The model leaves out a saturation that differs between the two directions (diode-like): "
+                             : "The model leaves out a saturation (clipping) alike in both directions: ") +
+             "the residual follows the input beyond " + fixed(c.parameters_json["knee_fraction_of_peak"].get<double>() * 100.0, 0) +
+             " % of its peak and is " + fixed(where.level_ratio, 1) + " times larger at high input level than at low.";
+    case Effect::force_factor:
+      return "The model leaves out a force factor that falls with excursion (the coil leaving the gap): the residual "
+             "follows the drive times the square of the estimated " + state + " (odd, intermodulating; correlation " + r + ").";
+    case Effect::inductance:
+      return std::string("The model leaves out an inductance that varies with ") +
+             (c.parameters_json["state"] == "input" ? "the current" : "excursion") +
+             ": the residual follows the estimated " + (c.parameters_json["state"] == "input" ? std::string("drive") : state) +
+             " times the rate of change of the drive (an i·di/dt-type term, strongest above resonance; correlation " + r + ").";
+    case Effect::thermal_compression:
+      return "The model leaves out thermal compression (the coil resistance rising with dissipated power): the residual "
+             "follows the drive times its power averaged over " + fixed(c.parameters_json["time_constant_s"].get<double>(), 1) +
+             " s (the gain changed by " + fixed(where.gain_drift * 100.0, 2) + " % between the first and the last quarter; correlation " + r + ").";
+    default: return "The model leaves out " + to_string(c.effect) + ".";
+  }
+}
+
+nlohmann::json terms_json(const AugmentedModel& m) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& t : m.terms)
+    out.push_back({{"effect", to_string(t.effect)},
+                   {"state", to_string(t.proxy)},
+                   {"threshold", t.threshold},
+                   {"time_constant_s", t.time_constant_s},
+                   {"one_sided", t.one_sided},
+                   {"coefficients", std::vector<double>(t.coefficients.data(), t.coefficients.data() + t.coefficients.size())}});
+  return out;
+}
+
+}  // namespace panelbass::models::diagnosis_detail
