@@ -13,6 +13,7 @@
 #include "models/io/json_fields.h"
 #include "models/io/model_header.h"
 #include "models/io/number_text.h"
+#include "models/linear/stability.h"
 
 namespace panelbass::models {
 namespace {
@@ -32,17 +33,11 @@ void require_finite(const Eigen::VectorXd& x, const char* where, const char* nam
   }
 }
 
-// The pole farthest from the origin, reported with its frequency so the message points at the mode.
+// The loader's stability test (unstable_pole), worded with the pole's frequency so the message points at the mode.
 void require_stable(const TransferFunction& tf, double fs) {
-  const Eigen::VectorXcd poles = tf.poles();
-  Eigen::Index worst = -1;
-  for (Eigen::Index i = 0; i < poles.size(); ++i) {
-    if (std::abs(poles[i]) >= 1.0 && (worst < 0 || std::abs(poles[i]) > std::abs(poles[worst]))) worst = i;
+  if (const std::optional<UnstablePole> pole = unstable_pole(tf, fs)) {
+    throw ConfigError("model: unstable, pole of radius " + show(pole->radius) + " at " + show(pole->hz) + " Hz");
   }
-  if (worst < 0) return;
-  const double radius = std::abs(poles[worst]);
-  const double hz = std::abs(std::arg(poles[worst])) * fs / (2.0 * std::numbers::pi);
-  throw ConfigError("model: unstable, pole of radius " + show(radius) + " at " + show(hz) + " Hz");
 }
 
 }  // namespace

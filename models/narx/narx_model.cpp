@@ -3,14 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
-#include "dsp/random.h"
 #include "models/io/config_error.h"
 #include "models/io/json_fields.h"
 #include "models/io/model_header.h"
 #include "models/io/network_fields.h"
+#include "models/narx/free_run.h"
 #include "models/narx/narx_history.h"
 
 namespace panelbass::models {
@@ -21,10 +22,6 @@ constexpr const char* kKind = "narx";
 constexpr long kMaxInputs = 1000;
 // An input delay beyond a minute at 384 kHz is a corrupt file, not a model.
 constexpr long kMaxDelay = 384000L * 60L;
-// The bounded free run of the loader: samples, seed and bound (scaled units).
-constexpr Eigen::Index kFreeRunSamples = 2000;
-constexpr std::uint64_t kFreeRunSeed = 20240501;
-constexpr double kFreeRunBound = 100.0;
 
 void require_finite(const Eigen::VectorXd& x, const std::string& where, const char* name) {
   for (Eigen::Index k = 0; k < x.size(); ++k) {
@@ -70,14 +67,8 @@ int read_order(JsonFields& params, const char* key, long hi) {
 
 // The loader's stability test: a free run on full-scale uniform noise (scaled units) must stay bounded.
 void require_bounded_free_run(const NarxModel& m) {
-  dsp::Rng rng(kFreeRunSeed);
-  Eigen::VectorXd u(kFreeRunSamples);
-  for (Eigen::Index k = 0; k < u.size(); ++k) u[k] = rng.uniform(-1.0, 1.0);
-  const Eigen::VectorXd y = m.simulate_scaled(u);
-  for (Eigen::Index k = 0; k < y.size(); ++k) {
-    if (!(std::abs(y[k]) <= kFreeRunBound)) {
-      throw ConfigError("model: the free run diverges (|y| > 100 after " + std::to_string(k + 1) + " samples)");
-    }
+  if (const std::optional<Runaway> run = free_run_runaway(m)) {
+    throw ConfigError("model: the free run diverges (|y| > 100 after " + std::to_string(run->samples) + " samples)");
   }
 }
 
