@@ -16,7 +16,7 @@ cd "$(dirname "$0")/.."
 
 fuzz_seconds=${1:-10}
 # clang with its sanitizer and libFuzzer runtimes (the main build's packages are bootstrap.sh's).
-bash scripts/install_packages.sh clang libclang-rt-14-dev
+bash scripts/install_packages.sh clang libclang-rt-14-dev ninja-build
 jobs=$(nproc)
 # Only the executables built here are run: the browser test and the load bench (not built here) are left out.
 not_built='_NOT_BUILT$|^web\.|^api\.load'
@@ -41,8 +41,10 @@ long_repeats+='|^LinearIdentification\.OeZhuAndBackxRecoverTheLinearPlant$'
 long_repeats+='|^NarxStructureGrowth\.TheDxOverNRule|^NarxTransducer\.NeuralModelBeatsTheBestLinearModel'
 long_repeats+='|^JobKindsTest\.EvaluateIsTheChainsEvaluationOnTheVirtualTransducer$|^CliControl\.AttributeEvaluatesEachNonlinearTermAlone$'
 long_repeats+='|^PlantSurvey\.PanelExciter'
+# Ninja for a new build folder (as bootstrap.sh); a folder configured before keeps its generator.
+ninja_unless_configured() { [ -f "$1/CMakeCache.txt" ] || echo "-G Ninja"; }
 started=$(date +%s)
-CC=clang CXX=clang++ cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" \
+CC=clang CXX=clang++ cmake -S . -B build-asan $(ninja_unless_configured build-asan) -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" \
   -DPANELBASS_SANITIZE=ON -DPANELBASS_FUZZ=ON -DPANELBASS_FUZZ_COVERAGE=OFF >/dev/null
 cmake --build build-asan -j"$jobs" --target dsp_tests models_tests engine_tests evaluation_tests api_tests cli_tests \
   csv_fuzz wav_fuzz model_json_fuzz chain_json_fuzz plant_json_fuzz http_fuzz
@@ -54,7 +56,7 @@ asan_done=$(date +%s)
 FUZZ_BUILD=build-asan FUZZ_CONFIGURE=0 FUZZ_PARALLEL=2 bash scripts/fuzz.sh "$fuzz_seconds"
 fuzz_done=$(date +%s)
 
-CC=clang CXX=clang++ cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" -DPANELBASS_TSAN=ON >/dev/null
+CC=clang CXX=clang++ cmake -S . -B build-tsan $(ninja_unless_configured build-tsan) -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" -DPANELBASS_TSAN=ON >/dev/null
 cmake --build build-tsan -j"$jobs" --target engine_tests
 tsan_built=$(date +%s)
 # The JACK loopback tests are left out here: libjack is not instrumented, so TSan cannot see its
