@@ -2,8 +2,6 @@
 
 namespace panelbass::evaluation {
 
-using namespace engine;  // the chain under evaluation
-
 std::vector<TermDistortion> attribute_distortion(
     const ChainConfig& config, const models::PlantConfig& plant, const EvaluationOptions& options,
     const std::function<void(std::size_t, std::size_t, const std::string&)>& progress) {

@@ -4,8 +4,6 @@
 
 namespace panelbass::evaluation {
 
-using namespace engine;  // the chain under evaluation
-
 nlohmann::json evaluation_row_to_json(const EvaluationRow& row) {
   nlohmann::json probes = nlohmann::json::array();
   for (const ProbeResult& p : row.probes) {

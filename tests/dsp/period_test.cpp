@@ -51,3 +51,19 @@ TEST(FindPeriod, ASlowSineRepeatsAtItsCycleNotAtAShortLag) {
 
 }  // namespace
 }  // namespace panelbass::dsp
+
+namespace panelbass::dsp {
+namespace {
+
+TEST(ClosestWholePeriods, PicksTheCountWhoseLengthIsNearestAWholeNumberOfSamples) {
+  // A period of 37.5 samples: an even count of periods is a whole number of samples; the largest even one wins.
+  EXPECT_EQ(closest_whole_periods(37.5, 80, 40), 80);
+  EXPECT_EQ(closest_whole_periods(37.5, 79, 40), 78);
+  // 3000/7 samples: 7 periods are exactly 3000 samples, the only whole count between 4 and 10.
+  EXPECT_EQ(closest_whole_periods(3000.0 / 7.0, 10, 4), 7);
+  // nothing to choose from: the lower bound
+  EXPECT_EQ(closest_whole_periods(37.5, 2, 4), 4);
+}
+
+}  // namespace
+}  // namespace panelbass::dsp
