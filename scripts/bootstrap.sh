@@ -17,6 +17,7 @@ packages=(
   libgtest-dev libasound2-dev libcpp-httplib-dev libsamplerate0-dev
   gnuplot-nox
   jackd2 libasound2-plugins
+  curl jq
 )
 bash scripts/install_packages.sh "${packages[@]}"
 
