@@ -25,3 +25,23 @@ if [ ! -f web/node_modules/uplot/dist/uPlot.iife.min.js ] || [ ! -d web/node_mod
   (cd web && PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1 npm ci --no-audit --no-fund --loglevel=error)
   echo "$want" > "$stamp"
 fi
+
+# Debian 12's Node (18.20.4) for the check that the browser test runs on it (ctest web.ui_on_debian12_node):
+# the official binary as the npm registry serves it (the package node-linux-<arch>), in tests/web/.node18, installed
+# only when missing. The machine's own node may be newer, which would hide a dependency that needs Node 20.
+node18_version=18.20.4
+node18=tests/web/.node18/bin/node
+if [ "$("$node18" --version 2>/dev/null)" != "v$node18_version" ]; then
+  case "$(uname -m)" in
+    x86_64) node18_arch=x64 ;;
+    aarch64) node18_arch=arm64 ;;
+    *) echo "web_setup: no Node $node18_version package for $(uname -m); web.ui_on_debian12_node will fail" >&2; exit 0 ;;
+  esac
+  echo "web_setup: Node $node18_version (npm package node-linux-$node18_arch) into tests/web/.node18" >&2
+  rm -rf tests/web/.node18
+  mkdir -p tests/web/.node18/bin
+  npm install --prefix tests/web/.node18 --no-save --no-package-lock --no-audit --no-fund --loglevel=error \
+    "node-linux-$node18_arch@$node18_version"
+  ln -sf "../node_modules/node-linux-$node18_arch/bin/node" "$node18"
+  [ "$("$node18" --version)" = "v$node18_version" ] || { echo "web_setup: $node18 is not Node $node18_version" >&2; exit 1; }
+fi
