@@ -59,6 +59,7 @@ export class BrowserRun {
   constructor(name, { artifacts, prefix, timeoutMs }) {
     Object.assign(this, { name, artifacts, prefix, timeoutMs });
     this.step = 'setup';
+    this.chromium = null;  // playwright-core's, once loaded
     this.server = null;
     this.serverExited = null;
     this.serverStderr = [];
@@ -132,20 +133,24 @@ export class BrowserRun {
     });
   }
 
-  /** Launches Chromium through playwright-core and loads `base`; checks every static file was served and uPlot
-   *  loaded. Resolves with the page. */
-  async openPage(base) {
+  /** Loads playwright-core (before anything is started: an unsupported Node makes it exit at once) and checks
+   *  for Chromium. */
+  async loadTools() {
     this.step = 'loading playwright-core';
-    let chromium;
     try {
-      ({ chromium } = createRequire(webPackage)('playwright-core'));
+      ({ chromium: this.chromium } = createRequire(webPackage)('playwright-core'));
     } catch (e) {
       throw new TestFailure(`playwright-core not usable from ${webPackage} on Node ${process.version} `
                             + `(run scripts/web_setup.sh): ${e.message}`);
     }
     check(fs.existsSync(CHROMIUM), `${CHROMIUM} not found (run scripts/web_setup.sh, which installs Debian's chromium)`);
+  }
+
+  /** Launches Chromium through playwright-core and loads `base`; checks every static file was served and uPlot
+   *  loaded. Resolves with the page. */
+  async openPage(base) {
     this.step = 'launching chromium';
-    this.context = await chromium.launchPersistentContext(this.tempDir('ui-profile'), {
+    this.context = await this.chromium.launchPersistentContext(this.tempDir('ui-profile'), {
       executablePath: CHROMIUM, headless: true, args: CHROMIUM_ARGS,
       viewport: { width: 1440, height: 1000 }, timeout: 30_000,
     });
@@ -212,7 +217,9 @@ export class BrowserRun {
   /** Runs `main(run)`; exits 0 with PASS, or 1 with "NAME: FAIL <step>: <reason>" (also on the overall timeout). */
   run(main) {
     this.overall = setTimeout(() => this.finish(1, `timed out after ${this.timeoutMs / 1000} s`), this.timeoutMs);
-    main(this).then(
+    // Whatever ends the process (a dependency may call process.exit), the server does not outlive it.
+    process.on('exit', () => this.server?.kill('SIGKILL'));
+    this.loadTools().then(() => main(this)).then(
       () => {
         this.step = 'done';
         return this.finish(0, 'PASS');

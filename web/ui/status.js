@@ -35,7 +35,7 @@ export const AT_LIMIT = 0.99;
 
 /** Shows the peak drive and says plainly whether the limiter has been at work or the drive at its limit. */
 function renderDrive(peak, knee) {
-  setText('#status-peak-drive', num(peak) ? `${peak.toFixed(4)} of full scale` : '—');
+  setText('#status-peak-drive', num(peak) ? peak.toFixed(4) : '—');
   const meter = $('#status-peak-drive-meter');
   meter.value = num(peak) ? Math.min(1, Math.max(0, peak)) : 0;
   if (num(knee)) meter.low = knee;
