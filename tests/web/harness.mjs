@@ -13,7 +13,8 @@ const CHROMIUM = '/usr/bin/chromium';
 const CHROMIUM_ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
                        '--disable-background-networking', '--disable-component-update', '--disable-sync'];
 const here = path.dirname(fileURLToPath(import.meta.url));
-const webPackage = path.resolve(here, '../../web/package.json');
+const webRoot = path.resolve(here, '../../web');
+const webPackage = path.join(webRoot, 'package.json');
 
 /** A failed check: its message is the test's reason for failing. */
 export class TestFailure extends Error {}
@@ -82,12 +83,13 @@ export class BrowserRun {
     return d;
   }
 
-  /** Starts `serverPath serve --port 0 --store (fresh) ...extraArgs` (a .mjs under this node); resolves with its base
+  /** Starts `serverPath serve --port 0 --store (fresh) --web (this checkout's web/) ...extraArgs` (a .mjs under this node); resolves with its base
    *  URL from the first stdout line "panelbass: serving http://HOST:PORT/". */
   startServer(serverPath, extraArgs = []) {
     check(fs.existsSync(serverPath), `no server binary at ${serverPath}`);
     const store = this.tempDir('ui-store');
-    const args = ['serve', '--port', '0', '--store', store, ...extraArgs];
+    // --web: the UI of this checkout, whichever folder the binary was built from.
+    const args = ['serve', '--port', '0', '--store', store, '--web', webRoot, ...extraArgs];
     const [command, argv] = serverPath.endsWith('.mjs') ? [process.execPath, [serverPath, ...args]] : [serverPath, args];
     return new Promise((resolve, reject) => {
       const server = spawn(command, argv, { stdio: ['ignore', 'pipe', 'pipe'] });

@@ -403,6 +403,9 @@ async function main() {
 
   run.step = 'screenshot';
   fs.mkdirSync(path.dirname(screenshotPath), { recursive: true });
+  // The top of the page, tall enough for the status, the jobs and the shown result's plots.
+  await page.setViewportSize({ width: 1440, height: 1195 });
+  await page.evaluate(() => window.scrollTo(0, 0));
   await page.screenshot({ path: screenshotPath });
   log(`screenshot ${screenshotPath}`);
 }

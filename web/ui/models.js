@@ -75,6 +75,8 @@ function renderModels() {
       const slots = m.active_in || [];
       cells[6].replaceChildren(...slots.map((s) => el('span', { class: 'badge active' }, s)));
       tr.classList.toggle('is-active', slots.length > 0);
+      const button = tr.querySelector('button.activate');
+      if (button) button.disabled = slots.includes(button.dataset.slot);
       tr.dataset.activeIn = slots.join(' ');
     });
   fillModelSelects();
