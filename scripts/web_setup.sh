@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # Sets up what the web UI and its browser test need (called from scripts/bootstrap.sh):
 #   - Debian's chromium (the test drives /usr/bin/chromium; no browser is ever downloaded), and
-#   - web/node_modules from web/package-lock.json (uPlot for the page, playwright-core for the test),
-#     installed with `npm ci` only when node_modules is missing or the lock file changed since.
+#   - web/node_modules from web/package-lock.json (uPlot for the page; for the tests playwright-core, pinned to
+#     1.61.x, the newest that runs on Debian 12's Node 18, and @seriousme/openapi-schema-validator), installed
+#     with `npm ci` only when node_modules is missing or the lock file changed since, and
+#   - Node 18.20.4 (Debian 12's) from the npm registry into tests/web/.node18, only when missing, for the test
+#     that the set-up works on it (ctest web.ui_on_debian12_node).
 # Idempotent: a second run installs nothing. Needs node and npm (Debian's nodejs/npm if missing).
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -18,11 +18,14 @@ const webRoot = path.resolve(here, '../../web');
 
 const args = process.argv.slice(2);
 if (args[0] !== 'serve') {
-  console.error('usage: mock_server.mjs serve [--port N] [--store DIR] [--no-demo]');
+  console.error('usage: mock_server.mjs serve [--port N] [--store DIR] [--web DIR] [--no-demo] [--job-step-ms N]');
   process.exit(2);
 }
 const portArg = args.indexOf('--port');
 const port = portArg >= 0 ? Number(args[portArg + 1]) : 8080;
+// --job-step-ms N: a job's ten progress steps N ms apart (default 200: a job takes ~2 s).
+const stepArg = args.indexOf('--job-step-ms');
+const jobStepMs = stepArg >= 0 ? Number(args[stepArg + 1]) : 200;
 // The start-up demo plays noise at 0.2 into a chain whose safe amplitude is lower: the drive sits at the limiter
 // (peak_drive 0.9999), as the real server's did (issue #31); without the demo nothing has been sent.
 const peakDrive = args.includes('--no-demo') ? 0 : 0.9999;
@@ -194,7 +197,7 @@ function runJob(job) {
     job.state = 'succeeded';
     job.finished = now();
     emit(job, 'state', { state: 'succeeded' });
-  }, 200);
+  }, jobStepMs);
 }
 
 const MIME = { '.html': 'text/html; charset=utf-8', '.js': 'text/javascript; charset=utf-8', '.mjs': 'text/javascript; charset=utf-8',

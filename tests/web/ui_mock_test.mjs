@@ -23,7 +23,7 @@ const run = new BrowserRun('ui_mock_test', { artifacts, prefix: 'ui-mock', timeo
 async function main() {
   run.log(`Node ${process.version}`);
   run.step = 'starting the mock server';
-  const base = await run.startServer(serverPath);  // with its demo: the drive at the limiter
+  const base = await run.startServer(serverPath, ['--job-step-ms', '50']);  // with its demo: the drive at the limiter
   const page = await run.openPage(base);
   const post = async (route, body) => {
     const res = await fetch(`${base}${route}`, { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
