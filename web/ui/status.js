@@ -31,7 +31,7 @@ export async function pollStatus() {
 }
 
 /** A peak |drive| at or above this is at the rails: the soft limiter only approaches 1. */
-export const AT_LIMIT = 0.99;
+const AT_LIMIT = 0.99;
 
 /** Shows the peak drive and says plainly whether the limiter has been at work or the drive at its limit. */
 function renderDrive(peak, knee) {
@@ -44,13 +44,13 @@ function renderDrive(peak, knee) {
   let text = '';
   if (num(peak) && peak >= AT_LIMIT) {
     level = 'limit';
-    text = `The program needs more drive than the chain allows: the drive reached ${peak.toFixed(4)} of full scale, `
-      + 'so the limiter is holding it at the rails and the output is distorted. Lower the program level, or design '
-      + 'the feedforward for a larger max input.';
+    text = `The program needs more drive than the chain allows: the drive has reached ${peak.toFixed(4)} of full `
+      + 'scale since the engine started, where the limiter holds it at the rails and the output distorts. Lower the '
+      + 'program level, or design the feedforward for a larger max input.';
   } else if (num(peak) && num(knee) && peak > knee) {
     level = 'limiting';
-    text = `The limiter is compressing the drive: its peak ${peak.toFixed(3)} is above the limiter's knee `
-      + `${fmtNumber(knee)}. The program is close to the most the chain allows.`;
+    text = `The limiter has compressed the drive: its peak since the engine started, ${peak.toFixed(3)}, is above `
+      + `the limiter's knee ${fmtNumber(knee)}. The program is close to the most the chain allows.`;
   }
   note.dataset.level = level;
   note.className = level === 'limit' ? 'warn-box' : level ? 'warn' : '';
