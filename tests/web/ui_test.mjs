@@ -398,6 +398,9 @@ async function main() {
   check(/click another job/i.test(await page.textContent('#result-hint')) && await page.isVisible('#result-hint'),
         'no hint that clicking another job shows its plots');
 
+  await until(async () => (await page.textContent('#active-feedforward')).includes(' · '), 5000,
+              'after a reload the active feedforward model is never shown with its name');
+
   run.step = 'no page errors';
   check(run.pageErrors.length === 0, `${run.pageErrors.length} error(s) in the page`);
 

@@ -4,6 +4,7 @@ import { api } from '../api.js';
 import { $, $$, confirmButton, el, showMessage, syncRows } from './dom.js';
 import { errorText, fmtTime, num } from './format.js';
 import { slotForKind, state } from './state.js';
+import { renderConfigModels } from './config.js';
 import { pollStatus } from './status.js';
 import { updatePreview } from './job_form.js';
 import { renderActivated } from './results.js';
@@ -80,6 +81,7 @@ function renderModels() {
       tr.dataset.activeIn = slots.join(' ');
     });
   fillModelSelects();
+  renderConfigModels();  // the chain panel's model names, which the store gives
   // The result panel's activate button follows the store (the model may have been activated elsewhere).
   if (state.selectedJob) renderActivated(state.selectedJob);
 }
