@@ -2,7 +2,9 @@
 // A stand-in for `panelbass serve`, for developing and checking the web UI without the C++ server:
 // it serves web/ and answers the routes of api/ROUTES.md with canned, plausible data (jobs progress over
 // ~2 s, identify jobs make a model with fit/spectrum/history plots, design-nn jobs a summary with the restarts and
-// the design's params, diagnose jobs a one-finding report). Same command line and first stdout
+// the design's params, diagnose jobs a one-finding report, an identify-narx job without nk a `warnings` entry; its
+// start-up demo drives at the limiter, peak_drive 0.9999; activation takes controllers only, each into its slot). Same
+// command line and first stdout
 // line as the real server, so ui_test.mjs can drive it:
 //   node tests/web/ui_test.mjs --server tests/web/mock_server.mjs --artifacts /tmp/ui
 // Not a test of the server: the real test runs against build/bin/panelbass.
