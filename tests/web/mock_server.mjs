@@ -4,9 +4,9 @@
 // ~2 s, identify jobs make a model with fit/spectrum/history plots, design-nn jobs a summary with the restarts and
 // the design's params, diagnose jobs a one-finding report, an identify-narx job without nk a `warnings` entry; its
 // start-up demo drives at the limiter, peak_drive 0.9999; activation takes controllers only, each into its slot). Same
-// command line and first stdout
-// line as the real server, so ui_test.mjs can drive it:
-//   node tests/web/ui_test.mjs --server tests/web/mock_server.mjs --artifacts /tmp/ui
+// command line and first stdout line as the real server, so the browser tests can drive it (ctest
+// web.ui_on_debian12_node runs ui_mock_test.mjs against it):
+//   node tests/web/ui_mock_test.mjs --server tests/web/mock_server.mjs --artifacts /tmp/ui
 // Not a test of the server: the real test runs against build/bin/panelbass.
 
 import http from 'node:http';
