@@ -24,8 +24,8 @@ function init() {
   $('#job-form').addEventListener('change', updateJobForm);
   $('#job-cancel').addEventListener('click', () => state.selected && cancelJob(state.selected));
   $('#result-activate').addEventListener('click', () => {
-    const id = $('#result-activate').dataset.modelId;
-    if (id) activate(id, $('#result-activated'));
+    const { modelId, slot } = $('#result-activate').dataset;
+    if (modelId && slot) activate(modelId, slot, $('#result-activated'));
   });
   updateJobForm();
 

@@ -2,9 +2,11 @@
 // A stand-in for `panelbass serve`, for developing and checking the web UI without the C++ server:
 // it serves web/ and answers the routes of api/ROUTES.md with canned, plausible data (jobs progress over
 // ~2 s, identify jobs make a model with fit/spectrum/history plots, design-nn jobs a summary with the restarts and
-// the design's params, diagnose jobs a one-finding report). Same command line and first stdout
-// line as the real server, so ui_test.mjs can drive it:
-//   node tests/web/ui_test.mjs --server tests/web/mock_server.mjs --artifacts /tmp/ui
+// the design's params, diagnose jobs a one-finding report, an identify-narx job without nk a `warnings` entry; its
+// start-up demo drives at the limiter, peak_drive 0.9999; activation takes controllers only, each into its slot). Same
+// command line and first stdout line as the real server, so the browser tests can drive it (ctest
+// web.ui_on_debian12_node runs ui_mock_test.mjs against it):
+//   node tests/web/ui_mock_test.mjs --server tests/web/mock_server.mjs --artifacts /tmp/ui
 // Not a test of the server: the real test runs against build/bin/panelbass.
 
 import http from 'node:http';
@@ -18,11 +20,17 @@ const webRoot = path.resolve(here, '../../web');
 
 const args = process.argv.slice(2);
 if (args[0] !== 'serve') {
-  console.error('usage: mock_server.mjs serve [--port N] [--store DIR] [--no-demo]');
+  console.error('usage: mock_server.mjs serve [--port N] [--store DIR] [--web DIR] [--no-demo] [--job-step-ms N]');
   process.exit(2);
 }
 const portArg = args.indexOf('--port');
 const port = portArg >= 0 ? Number(args[portArg + 1]) : 8080;
+// --job-step-ms N: a job's ten progress steps N ms apart (default 200: a job takes ~2 s).
+const stepArg = args.indexOf('--job-step-ms');
+const jobStepMs = stepArg >= 0 ? Number(args[stepArg + 1]) : 200;
+// The start-up demo plays noise at 0.2 into a chain whose safe amplitude is lower: the drive sits at the limiter
+// (peak_drive 0.9999), as the real server's did (issue #31); without the demo nothing has been sent.
+const peakDrive = args.includes('--no-demo') ? 0 : 0.9999;
 
 const FS = 3000;
 const started = Date.now();
@@ -133,7 +141,11 @@ function designNnSummary(params) {
 }
 
 const summaryOf = (j) => ({ id: j.id, kind: j.kind, state: j.state, progress: j.progress, message: j.message,
-                            created: j.created, finished: j.finished, error: j.error });
+                            created: j.created, finished: j.finished, error: j.error,
+                            ...(j.warnings.length ? { warnings: j.warnings } : {}) });
+
+// The slot each controller kind goes into; a plant model (linear, narx) goes into none.
+const SLOT_OF_KIND = { lq_feedforward: 'feedforward', neural_feedback: 'feedback' };
 
 function emit(job, type, data) {
   for (const res of job.listeners) res.write(`event: ${type}\ndata: ${JSON.stringify(data)}\n\n`);
@@ -161,6 +173,12 @@ function runJob(job) {
     const result = job.kind === 'diagnose' ? { ...diagnosisReport(job.params), plots: plots(job.kind) }
       : { j_est_pct: 1.85, j_val_pct: 2.2, summary: { method: job.params.method || 'oe', order: job.params.order ?? 8, delay: 1 },
           plots: plots(job.kind) };
+    // identify-narx without nk: the delay estimated far too long and a model no better than zero (issue #31).
+    if (job.kind === 'identify-narx' && job.params.nk === undefined) {
+      Object.assign(result, { j_est_pct: 100.4, j_val_pct: 100.3, summary: { na: 10, nb: 10, nk: 1001 } });
+      job.warnings.push('J_val 100.3 % is no better than predicting zero; the delay estimate nk = 1001 is longer '
+                        + 'than the lags support: set nk (e.g. 1)');
+    }
     if (job.kind === 'design-nn') {
       result.summary = designNnSummary(job.params);
       result.j_val_pct = result.summary.jc_val_after_pct;
@@ -170,16 +188,18 @@ function runJob(job) {
       const { id } = storeModel({ format: 'panelbass.model/1', kind, fs: FS, params: { job: job.id, p: job.params } }, `${job.kind} ${job.id}`, job.id);
       result.model_id = id;
       if (job.activate) {
-        const slot = kind === 'neural_feedback' ? 'feedback' : 'feedforward';
-        active[slot] = id;
-        job.activated = { slot, id };
+        const slot = SLOT_OF_KIND[kind];
+        if (slot) {
+          active[slot] = id;
+          job.activated = { slot, id };
+        }
       }
     }
     job.result = result;
     job.state = 'succeeded';
     job.finished = now();
     emit(job, 'state', { state: 'succeeded' });
-  }, 200);
+  }, jobStepMs);
 }
 
 const MIME = { '.html': 'text/html; charset=utf-8', '.js': 'text/javascript; charset=utf-8', '.mjs': 'text/javascript; charset=utf-8',
@@ -210,7 +230,7 @@ async function handle(req, res) {
     return send(res, 200, {
       engine: { state: 'running', backend: 'virtual', plant: 'panel-exciter', fs: FS, block: 64, uptime_s: up },
       metrics: { blocks: Math.floor(up * FS / 64), samples: Math.floor(up * FS), xruns: 0, faults: 0, in_fault: false, last_fault: '',
-                 swaps: 0, mean_block_ns: 8200, p99_block_ns: 14100, max_block_ns: 30100, ns_per_sample: 128, load: 0.0066 },
+                 swaps: 0, peak_drive: peakDrive, mean_block_ns: 8200, p99_block_ns: 14100, max_block_ns: 30100, ns_per_sample: 128, load: 0.0066 },
       active_models: active, jobs: { queued, running } });
   }
   if (p === '/api/config' && m === 'GET') {
@@ -245,7 +265,11 @@ async function handle(req, res) {
     if (!models.has(id)) return fail(res, 404, 'not_found', `no model ${id}`);
     if (match[2] && m === 'POST') {
       const kind = models.get(id).summary.kind;
-      const slot = kind === 'neural_feedback' ? 'feedback' : 'feedforward';
+      let body = {};
+      try { body = JSON.parse((await readBody(req)) || '{}'); } catch { return fail(res, 400, 'bad_request', 'malformed JSON'); }
+      const slot = body.slot ?? SLOT_OF_KIND[kind];
+      if (!SLOT_OF_KIND[kind]) return fail(res, 409, 'conflict', `${id} is a ${kind} model (a plant): no slot takes it`);
+      if (slot !== SLOT_OF_KIND[kind]) return fail(res, 409, 'conflict', `slot ${slot} takes no ${kind} model`);
       active[slot] = id;
       return send(res, 200, { slot, id, change: { kind: 'rebuild with crossfade', keys: [`${slot}.model`] } });
     }
@@ -268,7 +292,7 @@ async function handle(req, res) {
     if (['design-lq', 'design-nn'].includes(body.kind) && !params.plant_model) return fail(res, 400, 'bad_request', 'params.plant_model: required');
     const id = `j${nextJob++}`;
     const job = { id, kind: body.kind, state: 'queued', progress: 0, message: '', created: now(), finished: '', error: '',
-                  params, activate: !!body.activate, result: null, activated: null, listeners: [] };
+                  params, activate: !!body.activate, result: null, activated: null, listeners: [], warnings: [] };
     jobs.set(id, job);
     runJob(job);
     return send(res, 202, { id, kind: job.kind, state: job.state });

@@ -1,177 +1,38 @@
 // Browser test of the web UI against a real `panelbass serve`:
 //   node tests/web/ui_test.mjs --server build/bin/panelbass --artifacts build/test-artifacts
 // Starts the server on a free port with a fresh store and no demo, drives Debian's headless Chromium
-// (/usr/bin/chromium, through playwright-core from web/node_modules; no browser is downloaded) and checks,
-// as a person would: the status is shown; an "Excite + identify" job (identify-linear, 3000 samples,
-// order 6) started from the form runs with its progress shown and succeeds; its model activated from the
-// result panel appears as the active feedforward model in the status; the fit plot is drawn (uPlot canvas
+// (/usr/bin/chromium, through playwright-core from web/node_modules; no browser is downloaded; tests/web/harness.mjs)
+// and checks, as a person would: the status is shown, peak drive included; an "Excite + identify" job
+// (identify-linear, 3000 samples, order 6) started from the form runs with its progress shown and succeeds; its
+// model, a plant, is offered no Activate (the result says it is a plant); the fit plot is drawn (uPlot canvas
 // with the series' colours in it); a "Diagnose" job (its own 3000 + 2000-sample excitation, the identified
 // model as baseline, one finding at most) shows the baseline, J before and after, the noise floor, the
 // findings table (or its "no finding" line), the location sentences as the server's verdict fields decide
-// them, and the residual-spectrum plot; an LQ feedforward designed on the
-// identified model and a small NARX plant identified, a "Design NN feedback" job with every field of its form
-// set off its default sends each value in its request body, succeeds, and its summary shows the restart kept,
-// every restart's validation J_c and the design's params. Saves ARTIFACTS/ui.png, ui-diagnosis.png (the
-// diagnose job's result panel), ui-server.log and ui-console.log.
+// them, and the residual-spectrum plot; an LQ feedforward designed on the identified model is activated
+// with "Activate as feedforward" and appears as the active feedforward model in the status; a small NARX plant
+// identified, a "Design NN feedback" job with every field of its form set off its default sends each value in
+// its request body, succeeds, and its summary shows the restart kept, every restart's validation J_c and the
+// design's params; an evaluate job shows its figures; after a reload the newest finished job's result and plots
+// are shown without a click, with the hint that a click shows another's. Saves the page after the tour as
+// $PANELBASS_SCREENSHOT (default ARTIFACTS/ui.png; docs/images/ui.png is one), ui-diagnosis.png (the diagnose
+// job's result panel), ui-server.log and ui-console.log.
 // Exit 0 on success; 1 with "ui_test: FAIL <step>: <reason>" otherwise; 2 on bad usage.
 
-import { spawn } from 'node:child_process';
-import { createRequire } from 'node:module';
 import fs from 'node:fs';
-import os from 'node:os';
 import path from 'node:path';
-import { fileURLToPath } from 'node:url';
+import { BrowserRun, check, parseArgs, TestFailure, until } from './harness.mjs';
 
 const OVERALL_TIMEOUT_MS = 90_000;
 const JOB_TIMEOUT_MS = 60_000;
-const CHROMIUM = '/usr/bin/chromium';
-const CHROMIUM_ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-                       '--disable-background-networking', '--disable-component-update', '--disable-sync'];
 // The fit plot's series colours (web/plots.js: MEASURED, MODEL).
 const SERIES_RGB = [[0x4e, 0xa1, 0xff], [0xff, 0x8a, 0x3d]];
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const webPackage = path.resolve(here, '../../web/package.json');
-
-function usage(message) {
-  console.error(`ui_test: ${message}\nusage: node tests/web/ui_test.mjs --server PATH_TO_panelbass --artifacts DIR`);
-  process.exit(2);
-}
-
-const argv = process.argv.slice(2);
-const opts = {};
-for (let i = 0; i < argv.length; i++) {
-  const a = argv[i];
-  if (a === '--server' || a === '--artifacts') {
-    if (i + 1 >= argv.length) usage(`${a} needs a value`);
-    opts[a.slice(2)] = argv[++i];
-  } else usage(`unknown argument ${a}`);
-}
-if (!opts.server) usage('--server is required');
-if (!opts.artifacts) usage('--artifacts is required');
-const serverPath = path.resolve(opts.server);
-const artifacts = path.resolve(opts.artifacts);
-
-let step = 'setup';
-const log = (m) => console.log(`ui_test: ${m}`);
-class TestFailure extends Error {}
-const check = (cond, message) => {
-  if (!cond) throw new TestFailure(message);
-};
-
-// ---------------------------------------------------------------------------------------------
-// Resources, released in reverse order on every exit path
-
-let server = null;
-let serverExited = null;   // promise resolved with {code, signal}
-const serverStderr = [];
-let context = null;
+const { server: serverPath, artifacts } = parseArgs('ui_test');
+// The page after the tour, for the README (docs/images/ui.png is one of these).
+const screenshotPath = path.resolve(process.env.PANELBASS_SCREENSHOT || path.join(artifacts, 'ui.png'));
+const run = new BrowserRun('ui_test', { artifacts, prefix: 'ui', timeoutMs: OVERALL_TIMEOUT_MS });
+const log = (m) => run.log(m);
 let page = null;
-const tempDirs = [];
-const consoleLines = [];
-const pageErrors = [];
-
-async function stopServer() {
-  if (!server || server.exitCode !== null || server.signalCode !== null) return;
-  server.kill('SIGTERM');
-  const timer = new Promise((r) => setTimeout(() => r('timeout'), 3000));
-  if ((await Promise.race([serverExited, timer])) === 'timeout') {
-    server.kill('SIGKILL');
-    await serverExited;
-  }
-}
-
-async function cleanup() {
-  try {
-    if (context) await Promise.race([context.close(), new Promise((r) => setTimeout(r, 5000))]);
-  } catch { /* already gone */ }
-  await stopServer();
-  try {
-    fs.mkdirSync(artifacts, { recursive: true });
-    fs.writeFileSync(path.join(artifacts, 'ui-server.log'), serverStderr.join('\n') + '\n');
-    fs.writeFileSync(path.join(artifacts, 'ui-console.log'), consoleLines.join('\n') + '\n');
-  } catch { /* best effort */ }
-  for (const d of tempDirs) fs.rmSync(d, { recursive: true, force: true });
-}
-
-async function finish(code, message) {
-  clearTimeout(overall);
-  if (code !== 0) {
-    console.error(`ui_test: FAIL ${step}: ${message}`);
-    if (pageErrors.length) console.error(`ui_test: page errors:\n  ${pageErrors.join('\n  ')}`);
-    if (serverStderr.length) console.error(`ui_test: last server stderr lines:\n  ${serverStderr.slice(-15).join('\n  ')}`);
-    if (page) {
-      try {
-        fs.mkdirSync(artifacts, { recursive: true });
-        await page.screenshot({ path: path.join(artifacts, 'ui-failure.png'), fullPage: true, timeout: 5000 });
-        console.error(`ui_test: screenshot of the failure: ${path.join(artifacts, 'ui-failure.png')}`);
-      } catch { /* no screenshot */ }
-    }
-  } else log(message);
-  await cleanup();
-  process.exit(code);
-}
-
-const overall = setTimeout(() => {
-  finish(1, `timed out after ${OVERALL_TIMEOUT_MS / 1000} s`);
-}, OVERALL_TIMEOUT_MS);
-
-// ---------------------------------------------------------------------------------------------
-
-/** Starts the server; resolves with its base URL from the first stdout line. */
-function startServer(storeDir) {
-  return new Promise((resolve, reject) => {
-    server = spawn(serverPath, ['serve', '--port', '0', '--store', storeDir, '--no-demo'],
-                   { stdio: ['ignore', 'pipe', 'pipe'] });
-    serverExited = new Promise((r) => server.on('exit', (code, signal) => r({ code, signal })));
-    let out = '';
-    let resolved = false;
-    const timer = setTimeout(() => reject(new TestFailure('no "panelbass: serving http://…" line on stdout within 15 s')), 15_000);
-    server.on('error', (e) => {
-      clearTimeout(timer);
-      reject(new TestFailure(`cannot start ${serverPath}: ${e.message}`));
-    });
-    let errBuf = '';
-    server.stderr.on('data', (d) => {
-      errBuf += d;
-      const lines = errBuf.split('\n');
-      errBuf = lines.pop();
-      serverStderr.push(...lines);
-    });
-    server.stdout.on('data', (d) => {
-      if (resolved) return;
-      out += d;
-      const nl = out.indexOf('\n');
-      if (nl < 0) return;
-      const first = out.slice(0, nl);
-      // "panelbass: serving http://127.0.0.1:PORT/" (anything after the address, e.g. "(store …)", is ignored)
-      const m = first.match(/^panelbass: serving (http:\/\/[^\s/]+)\/?(\s|$)/);
-      clearTimeout(timer);
-      resolved = true;
-      if (m) resolve(`${m[1]}/`);
-      else reject(new TestFailure(`first stdout line is not "panelbass: serving http://HOST:PORT/": ${JSON.stringify(first)}`));
-    });
-    serverExited.then(({ code, signal }) => {
-      if (resolved) {
-        if (step !== 'done') pageErrors.push(`server exited during the test (code ${code}, signal ${signal})`);
-        return;
-      }
-      clearTimeout(timer);
-      reject(new TestFailure(`server exited before serving (code ${code}, signal ${signal})`));
-    });
-  });
-}
-
-/** Polls `fn` (async) until it returns a truthy value; throws `message` after `timeoutMs`. */
-async function until(fn, timeoutMs, message, periodMs = 100) {
-  const end = Date.now() + timeoutMs;
-  for (;;) {
-    const v = await fn();
-    if (v) return v;
-    if (Date.now() > end) throw new TestFailure(message);
-    await new Promise((r) => setTimeout(r, periodMs));
-  }
-}
 
 /** Clicks Start on the job form and waits for the job (not `previousId`) to succeed; returns its id. */
 async function runFormJob(what, previousId) {
@@ -201,56 +62,22 @@ async function resultModel(what) {
 }
 
 async function main() {
-  step = 'loading playwright-core';
-  let chromium;
-  try {
-    ({ chromium } = createRequire(webPackage)('playwright-core'));
-  } catch (e) {
-    throw new TestFailure(`playwright-core not found from ${webPackage} (run scripts/web_setup.sh): ${e.message}`);
-  }
-  step = 'checking the tools';
-  check(fs.existsSync(CHROMIUM), `${CHROMIUM} not found (run scripts/web_setup.sh, which installs Debian's chromium)`);
-  check(fs.existsSync(serverPath), `no server binary at ${serverPath}`);
+  run.step = 'starting the server';
+  const base = await run.startServer(serverPath, ['--no-demo']);
+  page = await run.openPage(base);
 
-  step = 'starting the server';
-  const storeDir = fs.mkdtempSync(path.join(os.tmpdir(), 'panelbass-ui-store-'));
-  tempDirs.push(storeDir);
-  const base = await startServer(storeDir);
-  log(`server at ${base} (store ${storeDir})`);
-
-  step = 'launching chromium';
-  const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'panelbass-ui-profile-'));
-  tempDirs.push(profile);
-  context = await chromium.launchPersistentContext(profile, {
-    executablePath: CHROMIUM, headless: true, args: CHROMIUM_ARGS,
-    viewport: { width: 1440, height: 1000 }, timeout: 30_000,
-  });
-  page = context.pages()[0] || await context.newPage();
-  page.setDefaultTimeout(15_000);
-  page.on('console', (m) => consoleLines.push(`[${m.type()}] ${m.text()}`));
-  page.on('pageerror', (e) => pageErrors.push(`uncaught: ${e.message}`));
-  const badStatic = [];
-  page.on('response', (r) => {
-    const u = new URL(r.url());
-    if (r.status() >= 400 && !u.pathname.startsWith('/api/') && u.pathname !== '/favicon.ico') badStatic.push(`${r.status()} ${u.pathname}`);
-  });
-
-  step = 'loading the page';
-  await page.goto(base, { waitUntil: 'load' });
-  check(badStatic.length === 0, `static files not served: ${badStatic.join(', ')}`);
-  check(await page.evaluate(() => typeof window.uPlot === 'function'), 'uPlot did not load (node_modules/uplot/dist/uPlot.iife.min.js)');
-
-  step = 'status shown';
+  run.step = 'status shown';
   await page.waitForSelector('#conn[data-state="online"]', { timeout: 10_000 });
   await until(async () => (await page.textContent('#status-state')).trim() !== '—', 5000, 'engine state never shown');
-  const status = await page.evaluate(() => Object.fromEntries(['state', 'backend', 'fs', 'block', 'load', 'p99', 'xruns', 'faults']
+  const status = await page.evaluate(() => Object.fromEntries(['state', 'backend', 'fs', 'block', 'load', 'p99', 'xruns', 'faults', 'peak-drive']
     .map((k) => [k, document.querySelector(`#status-${k}`).textContent.trim()])));
   check(/\d/.test(status.fs), `sample rate not shown: ${JSON.stringify(status)}`);
   check(status.backend !== '—' && status.xruns !== '—', `status incomplete: ${JSON.stringify(status)}`);
+  check(/^\d\.\d{4}$/.test(status['peak-drive']), `peak drive not shown: ${JSON.stringify(status)}`);
   log(`status: ${Object.entries(status).map(([k, v]) => `${k}=${v}`).join(', ')}`);
   await until(async () => (await page.inputValue('[name="band_pass.high_hz"]')) !== '', 8000, 'chain settings never loaded from GET /api/config');
 
-  step = 'starting an excite + identify job';
+  run.step = 'starting an excite + identify job';
   await page.selectOption('#job-kind', 'identify-linear');
   await page.selectOption('#job-source', '');
   await page.fill('#excite-samples', '3000');
@@ -264,7 +91,7 @@ async function main() {
   }, 10_000, 'the result panel never showed the started job');
   log(`job ${jobId} started`);
 
-  step = `following job ${jobId}`;
+  run.step = `following job ${jobId}`;
   const seen = new Set();
   const t0 = Date.now();
   const final = await until(async () => {
@@ -287,7 +114,7 @@ async function main() {
   await until(async () => (await page.$(row)) && (await page.$eval(row, (e) => e.dataset.state)) === 'succeeded',
               6000, `job ${jobId} not listed as succeeded in the jobs table`);
 
-  step = 'result figures';
+  run.step = 'result figures';
   await page.waitForSelector('#result-body:not([hidden])', { timeout: 5000 });
   const jVal = (await page.textContent('#result-j-val')).trim();
   check(/\d/.test(jVal), `J validation not shown (got "${jVal}")`);
@@ -297,18 +124,14 @@ async function main() {
   const modelRow = `#models-table tr[data-model-id="${modelId}"]`;
   await page.waitForSelector(modelRow, { timeout: 8000 });
 
-  step = `activating ${modelId}`;
-  await page.click('#result-activate');
-  await until(async () => {
-    const err = await page.$eval('#result-activate-error', (e) => (e.hidden ? '' : e.textContent));
-    if (err) throw new TestFailure(err);
-    return (await page.getAttribute('#active-feedforward', 'data-model-id')) === modelId;
-  }, 8000, `status never showed ${modelId} as the active feedforward model (shows "${await page.textContent('#active-feedforward')}")`);
-  await until(async () => ((await page.getAttribute(modelRow, 'data-active-in')) || '').includes('feedforward'),
-              8000, `models table never showed ${modelId} active in feedforward`);
-  log(`active feedforward: ${(await page.textContent('#active-feedforward')).trim()}`);
+  // An identified linear model is a plant: neither the result nor the store offers to activate it.
+  run.step = `no Activate on the plant model ${modelId}`;
+  check(!(await page.isVisible('#result-activate')), 'the identify-linear result offers Activate on a plant model');
+  check(/plant/.test(await page.textContent('#result-plant-note')) && await page.isVisible('#result-plant-note'),
+        'the identify-linear result does not say its model is a plant');
+  check((await page.$$(`${modelRow} button.activate`)).length === 0, `the models table offers Activate on the plant model ${modelId}`);
 
-  step = 'fit plot drawn';
+  run.step = 'fit plot drawn';
   await page.waitForSelector('#plot-fit canvas', { timeout: 5000 });
   const pixels = await page.$eval('#plot-fit canvas', (canvas, series) => {
     const ctx = canvas.getContext('2d');
@@ -333,7 +156,7 @@ async function main() {
   const plotsShown = await page.$$eval('#plots [data-plot]', (els) => els.map((e) => e.dataset.plot));
   log(`plots shown: ${plotsShown.join(', ')}`);
 
-  step = 'starting a diagnose job';
+  run.step = 'starting a diagnose job';
   await page.selectOption('#job-kind', 'diagnose');
   await page.selectOption('#job-source', '');
   await page.fill('#excite-samples', '3000');
@@ -350,7 +173,7 @@ async function main() {
   }, 10_000, 'the result panel never showed the diagnose job');
   log(`diagnose job ${diagnoseId} started`);
 
-  step = `following diagnose job ${diagnoseId}`;
+  run.step = `following diagnose job ${diagnoseId}`;
   const t1 = Date.now();
   await until(async () => {
     const s = await page.$eval('#result', (e) => e.dataset.state);
@@ -359,7 +182,7 @@ async function main() {
   }, JOB_TIMEOUT_MS, `diagnose job ${diagnoseId} did not succeed within ${JOB_TIMEOUT_MS / 1000} s`, 100);
   log(`diagnose job ${diagnoseId} succeeded in ${((Date.now() - t1) / 1000).toFixed(1)} s`);
 
-  step = 'diagnosis shown';
+  run.step = 'diagnosis shown';
   await page.waitForSelector('#result-diagnosis:not([hidden])', { timeout: 5000 });
   const diagnosis = await page.evaluate(() => ({
     baseline: document.querySelector('#diag-baseline').textContent.trim(),
@@ -414,7 +237,7 @@ async function main() {
   await page.waitForSelector('#plot-fit canvas', { timeout: 5000 });
 
   // A NN feedback design needs a NARX plant and an LQ feedforward: both made here, small and quick.
-  step = 'designing an LQ feedforward';
+  run.step = 'designing an LQ feedforward';
   await page.selectOption('#job-kind', 'design-lq');
   await page.selectOption('#lq-plant', modelId);
   await page.fill('fieldset[data-kinds="design-lq"] [data-param="max_input"]', '0.3');
@@ -428,8 +251,24 @@ async function main() {
   check(lqSummary.includes('R_search.target_noise_amplitude'),
         `the design-lq summary shows no R_search: ${lqSummary.join(', ')}`);
 
+  run.step = `activating the LQ feedforward ${lqModel}`;
+  check((await page.textContent('#result-activate')).trim() === 'Activate as feedforward',
+        `the design-lq result's button reads "${await page.textContent('#result-activate')}", expected "Activate as feedforward"`);
+  await page.click('#result-activate');
+  await until(async () => {
+    const err = await page.$eval('#result-activate-error', (e) => (e.hidden ? '' : e.textContent));
+    if (err) throw new TestFailure(err);
+    return (await page.getAttribute('#active-feedforward', 'data-model-id')) === lqModel;
+  }, 8000, `status never showed ${lqModel} as the active feedforward model (shows "${await page.textContent('#active-feedforward')}")`);
+  const lqRow = `#models-table tr[data-model-id="${lqModel}"]`;
+  await until(async () => ((await page.getAttribute(lqRow, 'data-active-in')) || '').includes('feedforward'),
+              8000, `models table never showed ${lqModel} active in feedforward`);
+  check((await page.textContent(`${lqRow} button.activate`)).trim() === 'Activate as feedforward',
+        'the models table does not offer the LQ feedforward "Activate as feedforward"');
+  log(`active feedforward: ${(await page.textContent('#active-feedforward')).trim()}`);
+
   // The plant in its operating regime: the LQ's output for noise and stepped sines, with harmonic weights.
-  step = 'recording a control excitation';
+  run.step = 'recording a control excitation';
   await page.selectOption('#job-kind', 'excite');
   await page.selectOption('[data-kinds="excite"] [data-param="signal"]', 'control');
   await until(async () => (await page.$$eval('#excite-ff option', (os) => os.map((o) => o.value))).includes(lqModel),
@@ -448,7 +287,7 @@ async function main() {
   check(Array.isArray(record.result?.record?.w_est) && record.result.record.w_est.length === 3000,
         `the control excitation's record has no harmonic weights w_est of 3000 samples`);
 
-  step = 'identifying a NARX plant';
+  run.step = 'identifying a NARX plant';
   await page.selectOption('#job-kind', 'identify-narx');
   await until(async () => (await page.$$eval('#job-source option', (os) => os.map((o) => o.value))).includes(controlJob),
               8000, `the control excitation ${controlJob} is never offered as data`);
@@ -472,7 +311,7 @@ async function main() {
         `the identify-narx summary shows no friction_units: ${narxSummary.join(', ')}`);
 
   // Every design-nn field off its default, so that each one is seen to reach the request body.
-  step = 'starting a design-nn job';
+  run.step = 'starting a design-nn job';
   await page.selectOption('#job-kind', 'design-nn');
   await until(async () => (await page.$$eval('#nn-plant option', (os) => os.map((o) => o.value))).includes(narxModel),
               8000, `the NARX model ${narxModel} is never offered as the plant of a design-nn job`);
@@ -500,7 +339,7 @@ async function main() {
           `params.${k} in the request is ${JSON.stringify(body.params?.[k])}, expected ${JSON.stringify(v)}`);
   }
 
-  step = 'design-nn summary shown';
+  run.step = 'design-nn summary shown';
   const summary = await page.$$eval('#result-summary dt', (dts) => Object.fromEntries(
     dts.map((dt) => [dt.textContent.trim(), dt.nextElementSibling.textContent.trim()])));
   log(`design-nn ${nnJob} summary: ${Object.entries(summary).map(([k, v]) => `${k}=${v}`).join(', ')}`);
@@ -517,7 +356,7 @@ async function main() {
   }
 
   // The chain just designed, evaluated on the server's virtual transducer, with the per-term attribution.
-  step = 'starting an evaluate job';
+  run.step = 'starting an evaluate job';
   const nnModel = await resultModel('design-nn');
   await page.selectOption('#job-kind', 'evaluate');
   await until(async () => (await page.$$eval('#ev-feedback option', (os) => os.map((o) => o.value))).includes(nnModel),
@@ -539,7 +378,7 @@ async function main() {
     check(JSON.stringify(evBody.params?.[k]) === JSON.stringify(v),
           `params.${k} in the request is ${JSON.stringify(evBody.params?.[k])}, expected ${JSON.stringify(v)}`);
   }
-  step = 'evaluate result shown';
+  run.step = 'evaluate result shown';
   const evSummary = await page.$$eval('#result-summary dt', (dts) => dts.map((dt) => dt.textContent.trim()));
   log(`evaluate ${evJob} summary keys: ${evSummary.join(', ')}`);
   for (const key of ['table.band-pass + feedforward + feedback.ripple_db', 'attribution_thd_pct.friction']) {
@@ -550,18 +389,28 @@ async function main() {
                 8000, `the evaluate result shows no "${plot}" figure`);
   }
 
-  step = 'no page errors';
-  check(pageErrors.length === 0, `${pageErrors.length} error(s) in the page`);
+  // On load the newest finished job's result is shown without a click (the evaluate job's), with the hint.
+  run.step = 'newest result shown on load';
+  await page.reload({ waitUntil: 'load' });
+  await until(async () => (await page.$eval('#result', (e) => (e.hidden ? '' : e.dataset.jobId))) === evJob,
+              8000, `after a reload the result panel does not show the newest finished job ${evJob}`);
+  await page.waitForSelector('#plots [data-plot="response"] canvas', { timeout: 8000 });
+  check(/click another job/i.test(await page.textContent('#result-hint')) && await page.isVisible('#result-hint'),
+        'no hint that clicking another job shows its plots');
 
-  step = 'screenshot';
-  fs.mkdirSync(artifacts, { recursive: true });
-  const shot = path.join(artifacts, 'ui.png');
-  await page.screenshot({ path: shot, fullPage: true });
-  log(`screenshot ${shot}`);
-  step = 'done';
+  await until(async () => (await page.textContent('#active-feedforward')).includes(' · '), 5000,
+              'after a reload the active feedforward model is never shown with its name');
+
+  run.step = 'no page errors';
+  check(run.pageErrors.length === 0, `${run.pageErrors.length} error(s) in the page`);
+
+  run.step = 'screenshot';
+  fs.mkdirSync(path.dirname(screenshotPath), { recursive: true });
+  // The top of the page, tall enough for the status, the jobs and the shown result's plots.
+  await page.setViewportSize({ width: 1440, height: 1195 });
+  await page.evaluate(() => window.scrollTo(0, 0));
+  await page.screenshot({ path: screenshotPath });
+  log(`screenshot ${screenshotPath}`);
 }
 
-main().then(
-  () => finish(0, 'PASS'),
-  (e) => finish(1, e instanceof TestFailure ? e.message : (e && e.stack) || String(e)),
-);
+run.run(main);

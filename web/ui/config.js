@@ -14,9 +14,14 @@ function fillConfigForm(config) {
     if (field.type === 'checkbox') field.checked = !!v;
     else field.value = v ?? '';
   }
-  setText('#config-ff-model', modelLabel(config.feedforward?.model));
-  setText('#config-fb-model', modelLabel(config.feedback?.model));
+  renderConfigModels();
   setText('#config-fixed', `fs ${config.fs ?? '—'} Hz · block ${config.block ?? '—'} · history ${config.history ?? '—'} (fixed while running)`);
+}
+
+/** Shows the slots' models of the last settings read, with their names from the store. */
+export function renderConfigModels() {
+  setText('#config-ff-model', modelLabel(state.config?.feedforward?.model));
+  setText('#config-fb-model', modelLabel(state.config?.feedback?.model));
 }
 
 /** Reads the chain settings; fills the form unless it holds edits (then only the model names). */
@@ -25,10 +30,7 @@ export async function loadConfig() {
     const config = await api.config();
     state.config = config;
     if (!state.configDirty) fillConfigForm(config);
-    else {
-      setText('#config-ff-model', modelLabel(config.feedforward?.model));
-      setText('#config-fb-model', modelLabel(config.feedback?.model));
-    }
+    else renderConfigModels();
   } catch (e) {
     showMessage('#config-error', `cannot read the settings: ${errorText(e)}`);
   }

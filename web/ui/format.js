@@ -15,6 +15,9 @@ export function setPath(obj, path, value) {
   o[keys[keys.length - 1]] = value;
 }
 
+/** A job's warnings (its result is useless or suspicious): the server's `warnings` strings, [] when none. */
+export const jobWarnings = (job) => (Array.isArray(job?.warnings) ? job.warnings.filter((w) => typeof w === 'string') : []);
+
 /** Whether `v` is a finite number. */
 export const num = (v) => typeof v === 'number' && Number.isFinite(v);
 

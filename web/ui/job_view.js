@@ -1,8 +1,8 @@
 // The selected job: its progress while it runs (event stream, else polling), then its result.
 
 import { api, FINISHED_STATES } from '../api.js';
-import { $, $$, setText, showMessage } from './dom.js';
-import { errorText, num } from './format.js';
+import { $, $$, el, setText, showMessage } from './dom.js';
+import { errorText, jobWarnings, num } from './format.js';
 import { state } from './state.js';
 import { refreshJobs } from './jobs.js';
 import { clearPlots, renderActivated, renderResult } from './results.js';
@@ -34,6 +34,7 @@ export function selectJob(id) {
     $('#result-body').hidden = true;
     showMessage('#result-error', '');
     showMessage('#result-activate-error', '');
+    renderWarnings([]);
     setProgress(0, '');
     for (const tr of $$('#jobs-table tbody tr')) tr.classList.toggle('selected', tr.dataset.jobId === id);
   }
@@ -128,6 +129,19 @@ function setState(jobState) {
   $('#job-cancel').hidden = FINISHED_STATES.has(jobState);
 }
 
+/** Shows a job's warnings above its result, or hides the box when there are none. */
+function renderWarnings(warnings) {
+  const box = $('#result-warnings');
+  const signature = JSON.stringify(warnings);
+  if (box.dataset.signature === signature) return;
+  box.dataset.signature = signature;
+  box.replaceChildren(...(warnings.length
+    ? [el('div', {}, warnings.length > 1 ? `⚠ ${warnings.length} warnings on this result:` : '⚠ Warning on this result:'),
+       el('ul', {}, ...warnings.map((w) => el('li', {}, w)))]
+    : []));
+  box.hidden = warnings.length === 0;
+}
+
 function renderJob(job) {
   state.selectedJob = job;
   setText('#result-kind', job.kind || '');
@@ -135,6 +149,7 @@ function renderJob(job) {
   setProgress(job.state === 'succeeded' ? 1 : job.progress, job.message);
   showMessage('#result-error', job.state === 'failed' ? `failed: ${job.error || job.message || 'no reason given'}`
     : job.state === 'cancelled' ? 'cancelled' : '');
+  renderWarnings(jobWarnings(job));
   if (job.state === 'succeeded' && job.result && state.renderedResult !== job.id) {
     state.renderedResult = job.id;
     renderResult(job);

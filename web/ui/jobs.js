@@ -2,7 +2,7 @@
 
 import { api, FINISHED_STATES } from '../api.js';
 import { $, el, showMessage, syncRows } from './dom.js';
-import { errorText, fmtTime, num } from './format.js';
+import { errorText, fmtTime, jobWarnings, num } from './format.js';
 import { state } from './state.js';
 import { fillSourceSelect } from './job_form.js';
 import { loadSelected, selectJob } from './job_view.js';
@@ -13,11 +13,26 @@ const jobNumber = (id) => Number(String(id).replace(/^\D+/, '')) || 0;
 export async function refreshJobs() {
   try {
     const res = await api.jobs();
+    const previous = state.jobs === null ? null : new Map(state.jobs.map((j) => [j.id, j.state]));
     state.jobs = (res.jobs || []).sort((a, b) => jobNumber(b.id) - jobNumber(a.id));
     renderJobs();
+    showFinishedJob(previous);
   } catch (e) {
     /* the status badge already says the server is unreachable */
   }
+}
+
+/** Shows a result without a click: on load the newest succeeded job's, later each job's as it succeeds (unless
+ *  the job shown is still running). `previous` maps the ids last seen to their states (null on the first read). */
+function showFinishedJob(previous) {
+  if (previous === null) {
+    const newest = state.jobs.find((j) => j.state === 'succeeded');
+    if (newest && !state.selected) selectJob(newest.id);
+    return;
+  }
+  const finished = state.jobs.find((j) => j.state === 'succeeded' && previous.get(j.id) !== 'succeeded');
+  const shown = state.jobs.find((j) => j.id === state.selected);
+  if (finished && finished.id !== state.selected && (!shown || FINISHED_STATES.has(shown.state))) selectJob(finished.id);
 }
 
 function progressCell() {
@@ -41,8 +56,12 @@ function renderJobs() {
       c[2].replaceChildren(el('span', { class: 'badge', dataset: { state: j.state } }, j.state));
       c[3].firstChild.value = num(j.progress) ? j.progress : 0;
       c[3].lastChild.textContent = num(j.progress) ? `${Math.round(100 * j.progress)} %` : '';
-      c[4].textContent = j.state === 'failed' && j.error ? j.error : j.message || '';
-      c[4].title = c[4].textContent;
+      const warnings = jobWarnings(j);
+      c[4].textContent = j.state === 'failed' && j.error ? j.error
+        : warnings.length ? `⚠ ${warnings.length > 1 ? `${warnings.length} warnings: ` : ''}${warnings[0]}` : j.message || '';
+      c[4].title = warnings.length ? warnings.join('\n') : c[4].textContent;
+      c[4].classList.toggle('warn', warnings.length > 0);
+      tr.dataset.warnings = String(warnings.length);
       c[5].textContent = fmtTime(j.created);
       c[6].textContent = fmtTime(j.finished);
       tr.dataset.state = j.state;

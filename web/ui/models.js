@@ -3,7 +3,8 @@
 import { api } from '../api.js';
 import { $, $$, confirmButton, el, showMessage, syncRows } from './dom.js';
 import { errorText, fmtTime, num } from './format.js';
-import { state } from './state.js';
+import { slotForKind, state } from './state.js';
+import { renderConfigModels } from './config.js';
 import { pollStatus } from './status.js';
 import { updatePreview } from './job_form.js';
 import { renderActivated } from './results.js';
@@ -19,10 +20,11 @@ export async function refreshModels() {
   }
 }
 
-/** Activates model `id`; says so in `resultNode` (the result panel's), or the error next to where it was asked. */
-export async function activate(id, resultNode) {
+/** Activates model `id` in `slot`; says so in `resultNode` (the result panel's), or shows the server's error next
+ *  to where it was asked. */
+export async function activate(id, slot, resultNode) {
   try {
-    const res = await api.activateModel(id);
+    const res = await api.activateModel(id, slot);
     if (resultNode) resultNode.textContent = `active in ${res.slot}`;
     showMessage('#models-error', '');
     showMessage('#result-activate-error', '');
@@ -44,8 +46,13 @@ function renderModels() {
       const tr = el('tr', { dataset: { modelId: m.id } });
       tr.append(el('td', { class: 'mono' }, m.id), el('td'), el('td'), el('td', { class: 'num' }), el('td'),
                 el('td', { class: 'mono' }), el('td'));
-      const activateButton = el('button', { type: 'button', class: 'small activate' }, 'Activate');
-      activateButton.addEventListener('click', () => activate(m.id, null));
+      // Only a controller is offered to its slot; a plant model says what it is for instead.
+      const slot = slotForKind(m.kind);
+      const activateButton = slot
+        ? el('button', { type: 'button', class: 'small activate', dataset: { slot }, onclick: () => activate(m.id, slot, null) },
+             `Activate as ${slot}`)
+        : el('span', { class: 'muted plant-note', title: 'a plant model: design a controller on it (Design LQ feedforward / NN feedback); no slot takes a plant' },
+             'plant');
       const del = confirmButton('Delete', async () => {
         try {
           await api.deleteModel(m.id);
@@ -69,9 +76,12 @@ function renderModels() {
       const slots = m.active_in || [];
       cells[6].replaceChildren(...slots.map((s) => el('span', { class: 'badge active' }, s)));
       tr.classList.toggle('is-active', slots.length > 0);
+      const button = tr.querySelector('button.activate');
+      if (button) button.disabled = slots.includes(button.dataset.slot);
       tr.dataset.activeIn = slots.join(' ');
     });
   fillModelSelects();
+  renderConfigModels();  // the chain panel's model names, which the store gives
   // The result panel's activate button follows the store (the model may have been activated elsewhere).
   if (state.selectedJob) renderActivated(state.selectedJob);
 }

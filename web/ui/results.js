@@ -1,10 +1,14 @@
 // A succeeded job's result: its J figures, model, summary and plots (a diagnosis has its own view).
 
 import { drawPlot, PLOT_ORDER } from '../plots.js';
-import { $, el, setText } from './dom.js';
+import { $, el, setText, showMessage } from './dom.js';
 import { flatten, fmtPct, fmtValue } from './format.js';
-import { modelLabel, state } from './state.js';
+import { modelLabel, slotForKind, state } from './state.js';
 import { renderDiagnosis } from './diagnosis.js';
+
+/** The kind of model each model-making job kind stores. */
+const MODEL_KIND_OF_JOB = { 'identify-linear': 'linear', 'identify-narx': 'narx', 'design-lq': 'lq_feedforward',
+                            'design-nn': 'neural_feedback' };
 
 /** Removes the result's plots. */
 export function clearPlots() {
@@ -29,7 +33,15 @@ export function renderResult(job) {
   const box = $('#result-model-box');
   box.hidden = !r.model_id;
   setText('#result-model', r.model_id ? modelLabel(r.model_id) : '—');
-  $('#result-activate').dataset.modelId = r.model_id || '';
+  // Activate only a controller, naming its slot; a plant model (identified from a record) goes into no slot.
+  const slot = slotForKind(MODEL_KIND_OF_JOB[job.kind]);
+  const button = $('#result-activate');
+  button.dataset.modelId = r.model_id || '';
+  button.dataset.slot = slot || '';
+  button.hidden = !slot;
+  button.textContent = slot ? `Activate as ${slot}` : 'Activate';
+  showMessage('#result-plant-note', r.model_id && !slot
+    ? 'A plant model: design a controller on it (Design LQ feedforward / NN feedback) and activate that; no slot takes a plant.' : '');
 
   // Summary: the server's summary object, plus the excite figures when this is a record (a diagnosis has
   // none: its data, rate, baseline and rule instead, the scan of orders left out).

@@ -5,7 +5,7 @@ export const state = {
   status: null,
   activeKey: '',      // the active models last seen, to refresh what depends on them when they change
   models: [],
-  jobs: [],
+  jobs: null,         // null until the job list was first read
   config: null,
   configDirty: false,
   selected: null,     // id of the job shown in the result panel
@@ -20,4 +20,10 @@ export function modelLabel(id) {
   if (!id) return '—';
   const m = state.models.find((x) => x.id === id);
   return m && m.name ? `${id} · ${m.name}` : id;
+}
+
+/** The engine slot a model of `kind` goes into: controllers only (a `linear` or `narx` model is a plant, which
+ *  controllers are designed on, and no slot takes one); null for a plant or an unknown kind. */
+export function slotForKind(kind) {
+  return { lq_feedforward: 'feedforward', neural_feedback: 'feedback' }[kind] ?? null;
 }

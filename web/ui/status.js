@@ -30,6 +30,34 @@ export async function pollStatus() {
   renderStatus(status);
 }
 
+/** A peak |drive| at or above this is at the rails: the soft limiter only approaches 1. */
+const AT_LIMIT = 0.99;
+
+/** Shows the peak drive and says plainly whether the limiter has been at work or the drive at its limit. */
+function renderDrive(peak, knee) {
+  setText('#status-peak-drive', num(peak) ? peak.toFixed(4) : '—');
+  const meter = $('#status-peak-drive-meter');
+  meter.value = num(peak) ? Math.min(1, Math.max(0, peak)) : 0;
+  if (num(knee)) meter.low = knee;
+  const note = $('#status-drive-note');
+  let level = '';
+  let text = '';
+  if (num(peak) && peak >= AT_LIMIT) {
+    level = 'limit';
+    text = `The program needs more drive than the chain allows: the drive has reached ${peak.toFixed(4)} of full `
+      + 'scale since the engine started, where the limiter holds it at the rails and the output distorts. Lower the '
+      + 'program level, or design the feedforward for a larger max input.';
+  } else if (num(peak) && num(knee) && peak > knee) {
+    level = 'limiting';
+    text = `The limiter has compressed the drive: its peak since the engine started, ${peak.toFixed(3)}, is above `
+      + `the limiter's knee ${fmtNumber(knee)}. The program is close to the most the chain allows.`;
+  }
+  note.dataset.level = level;
+  note.className = level === 'limit' ? 'warn-box' : level ? 'warn' : '';
+  note.hidden = !text;
+  setText('#status-drive-note', text);
+}
+
 /** Shows an engine status; reloads the models and settings when the active models changed. */
 export function renderStatus(st) {
   const engine = st.engine || {};
@@ -58,6 +86,7 @@ export function renderStatus(st) {
   $('#status-faults').classList.toggle('warn', num(m.faults) && m.faults > 0);
   setText('#status-last-fault', m.last_fault || '—');
   setText('#status-swaps', fmtNumber(m.swaps));
+  renderDrive(m.peak_drive, state.config?.limiter?.knee);
   const jobs = st.jobs || {};
   setText('#status-jobs', `${jobs.running ?? 0} running, ${jobs.queued ?? 0} queued`);
   $('#status-in-fault').hidden = !m.in_fault;
