@@ -6,6 +6,7 @@
 #include "dsp/sample_rate.h"
 #include "api/alsa_status_json.h"
 #include "models/io/config_error.h"
+#include "models/io/number_text.h"
 #include "models/plant/virtual_transducer.h"
 
 namespace panelbass::api {
@@ -32,6 +33,48 @@ std::string keys_needing_restart(const engine::ConfigChange& change) {
     keys += (keys.empty() ? "" : ", ") + d.key;
   }
   return keys;
+}
+
+// The model kind each slot runs (ROUTES.md "Models"): the feedforward slot an LQ controller, the feedback
+// slot a neural feedback controller. Plant models (linear, narx) describe the transducer: no slot runs them.
+constexpr std::array<const char*, 2> kSlotKinds = {"lq_feedforward", "neural_feedback"};
+
+// What a model of `kind` is, in words.
+std::string kind_in_words(const std::string& kind) {
+  if (kind == "linear") return "a linear plant model";
+  if (kind == "narx") return "a NARX plant model";
+  if (kind == "lq_feedforward") return "an LQ feedforward controller";
+  if (kind == "neural_feedback") return "a neural feedback controller";
+  return "a model of kind \"" + kind + "\"";
+}
+
+// Why model `id` of `kind` cannot go into slot `s` (nullopt: it can).
+std::optional<std::string> slot_refusal(std::size_t s, const std::string& id, const std::string& kind) {
+  if (kind == kSlotKinds[s]) return std::nullopt;
+  std::string message = "model \"" + id + "\" is " + kind_in_words(kind) + " (kind " + kind + "): the " +
+                        kSlotKeys[s] + " slot takes " + kind_in_words(kSlotKinds[s]) + " (kind " + kSlotKinds[s] + ")";
+  if (kind == "linear" || kind == "narx") {
+    message += "; a plant model is what controllers are designed on (design-lq takes a linear one, design-nn a NARX one)";
+  } else {
+    message += "; activate it in the " + std::string(kSlotKeys[1 - s]) + " slot";
+  }
+  return message;
+}
+
+// The first key of `whole` (the running settings, recursively) that `settings` leaves out, as
+// "config.band_pass.order"; nullopt if none. `fs`, `block` and `history` may be left out.
+std::optional<std::string> first_missing_key(const nlohmann::json& whole, const nlohmann::json& settings,
+                                             const std::string& path) {
+  if (!settings.is_object()) return std::nullopt;  // a wrong type: the chain file's reader names it
+  for (const auto& [key, value] : whole.items()) {
+    if (path == "config" && (key == "fs" || key == "block" || key == "history")) continue;
+    const auto it = settings.find(key);
+    if (it == settings.end()) return path + "." + key;
+    if (value.is_object()) {
+      if (auto missing = first_missing_key(value, *it, path + "." + key)) return missing;
+    }
+  }
+  return std::nullopt;
 }
 
 // The chain-file object of API settings: format tag added, fs/block/history filled in from `running`,
@@ -64,6 +107,8 @@ nlohmann::json chain_json_of(const nlohmann::json& settings, const engine::Chain
     const std::string id = slot["model"].get<std::string>();
     std::optional<nlohmann::json> model = lookup(id);
     if (!model) throw EngineRequestError(400, "bad_request", "config." + key + ".model: no stored model \"" + id + "\"");
+    const std::string kind = model->value("kind", "");
+    if (auto refusal = slot_refusal(s, id, kind)) throw EngineRequestError(409, "conflict", "config." + key + ".model: " + *refusal);
     slot["model"] = std::move(*model);
     ids[s] = id;
   }
@@ -74,6 +119,26 @@ nlohmann::json chain_json_of(const nlohmann::json& settings, const engine::Chain
 
 const char* slot_name(ModelSlotName slot) { return kSlotKeys[static_cast<std::size_t>(slot)]; }
 
+std::vector<ModelSlotName> slots_accepting(const std::string& kind) {
+  std::vector<ModelSlotName> slots;
+  for (const ModelSlotName slot : {ModelSlotName::feedforward, ModelSlotName::feedback}) {
+    if (kind == kSlotKinds[static_cast<std::size_t>(slot)]) slots.push_back(slot);
+  }
+  return slots;
+}
+
+std::optional<ModelSlotName> default_slot(const std::string& kind) {
+  const std::vector<ModelSlotName> slots = slots_accepting(kind);
+  if (slots.empty()) return std::nullopt;
+  return slots.front();
+}
+
+void require_slot_accepts(ModelSlotName slot, const std::string& id, const std::string& kind) {
+  if (auto refusal = slot_refusal(static_cast<std::size_t>(slot), id, kind)) {
+    throw EngineRequestError(409, "conflict", *refusal);
+  }
+}
+
 ModelSlotName parse_slot_name(const std::string& name) {
   if (name == "feedforward") return ModelSlotName::feedforward;
   if (name == "feedback") return ModelSlotName::feedback;
@@ -82,8 +147,8 @@ ModelSlotName parse_slot_name(const std::string& name) {
 
 EngineService::EngineService(EngineServiceOptions options) : options_(std::move(options)) {
   if (!dsp::same_rate(options_.plant.fs, options_.chain.fs)) {
-    throw std::invalid_argument("engine: the plant runs at " + std::to_string(options_.plant.fs) +
-                                " Hz, the chain at " + std::to_string(options_.chain.fs) + " Hz");
+    throw std::invalid_argument("engine: the plant runs at " + models::number_text(options_.plant.fs) +
+                                " Hz, the chain at " + models::number_text(options_.chain.fs) + " Hz");
   }
   if (options_.chain.feedforward || options_.chain.feedback) {
     throw std::invalid_argument("engine: the service starts with empty model slots; activate stored models instead");
@@ -136,6 +201,12 @@ void EngineService::housekeeping() {
   const std::lock_guard lock(mutex_);
   chain_->collect_retired();
   const clock::time_point now = clock::now();
+  const engine::MetricsSnapshot m = chain_->metrics().snapshot();
+  limiter_samples_.push_back({now, m.samples, m.limited_samples, m.over_range_samples});
+  // Keep one tick at least a second old as the window's start.
+  while (limiter_samples_.size() > 2 && now - limiter_samples_[1].at >= std::chrono::seconds(1)) {
+    limiter_samples_.pop_front();
+  }
   if (!chain_->in_fault()) {
     fault_since_.reset();
     return;
@@ -178,6 +249,22 @@ std::optional<engine::AlsaStatus> EngineService::device_status() const {
 
 engine::MetricsSnapshot EngineService::metrics() const { return chain_->metrics().snapshot(); }
 
+LimiterActivity EngineService::limiter_activity() const {
+  const std::lock_guard lock(mutex_);
+  LimiterActivity a;
+  if (limiter_samples_.size() < 2) return a;
+  const LimiterSample& first = limiter_samples_.front();
+  const LimiterSample& last = limiter_samples_.back();
+  a.window_s = std::chrono::duration<double>(last.at - first.at).count();
+  if (last.samples > first.samples) {
+    const auto samples = static_cast<double>(last.samples - first.samples);
+    a.limited_fraction = static_cast<double>(last.limited - first.limited) / samples;
+    a.over_range_fraction = static_cast<double>(last.over_range - first.over_range) / samples;
+  }
+  a.needs_more_drive = last.over_range > first.over_range;
+  return a;
+}
+
 std::optional<std::string> EngineService::active_model(ModelSlotName slot) const {
   const std::lock_guard lock(mutex_);
   return active_ids_[static_cast<std::size_t>(slot)];
@@ -185,6 +272,11 @@ std::optional<std::string> EngineService::active_model(ModelSlotName slot) const
 
 nlohmann::json EngineService::config() const {
   const std::lock_guard lock(mutex_);
+  return api_settings();
+}
+
+nlohmann::json EngineService::api_settings() const {
+  // Caller holds mutex_.
   nlohmann::json j = engine::chain_config_to_json(running_);
   j.erase("format");
   const std::array<const std::optional<engine::SlotConfig>*, 2> slots = {&running_.feedforward, &running_.feedback};
@@ -200,6 +292,25 @@ nlohmann::json EngineService::config() const {
 
 nlohmann::json EngineService::apply(const nlohmann::json& settings, const ModelLookup& lookup) {
   // Caller holds mutex_.
+  // A change of the rate, block or history needs a restart whatever else the settings say (the slot
+  // models and the band-pass would otherwise be refused first for not suiting the new rate).
+  if (settings.is_object()) {
+    const std::array<std::pair<const char*, double>, 3> fixed = {
+        {{"fs", running_.fs}, {"block", static_cast<double>(running_.block)}, {"history", static_cast<double>(running_.history)}}};
+    std::string changed;
+    for (const auto& [key, value] : fixed) {
+      const auto it = settings.find(key);
+      if (it != settings.end() && it->is_number() && it->get<double>() != value) {
+        changed += (changed.empty() ? "" : ", ") + std::string(key) + " (" + models::number_text(value) + " → " +
+                   models::number_text(it->get<double>()) + ")";
+      }
+    }
+    if (!changed.empty()) {
+      throw EngineRequestError(409, "conflict",
+                               "config: " + changed + " cannot change while the engine plays (a restart of panelbass "
+                               "serve is needed)");
+    }
+  }
   std::array<std::optional<std::string>, 2> ids;
   const nlohmann::json chain = chain_json_of(settings, running_, lookup, ids);
   engine::ChainConfig next;
@@ -236,6 +347,11 @@ nlohmann::json EngineService::running_settings() const {
 
 nlohmann::json EngineService::put_config(const nlohmann::json& settings, const ModelLookup& lookup) {
   const std::lock_guard lock(mutex_);
+  if (auto missing = first_missing_key(api_settings(), settings, "config")) {
+    throw EngineRequestError(400, "bad_request",
+                             *missing + ": missing (PUT /api/config takes the whole settings object, as GET returns "
+                                        "it; PATCH /api/config changes a part)");
+  }
   return apply(settings, lookup);
 }
 
@@ -248,6 +364,7 @@ nlohmann::json EngineService::patch_config(const nlohmann::json& patch, const Mo
 }
 
 nlohmann::json EngineService::activate(ModelSlotName slot, const std::string& id, const nlohmann::json& model) {
+  require_slot_accepts(slot, id, model.is_object() ? model.value("kind", "") : "");
   const std::lock_guard lock(mutex_);
   nlohmann::json settings = running_settings();
   const std::string key = slot_name(slot);
@@ -269,8 +386,8 @@ nlohmann::json EngineService::activate(ModelSlotName slot, const std::string& id
 Eigen::VectorXd EngineService::excite(const Eigen::VectorXd& drive) {
   for (Eigen::Index k = 0; k < drive.size(); ++k) {
     if (!std::isfinite(drive[k]) || std::abs(drive[k]) > 1.0) {
-      throw std::invalid_argument("excite: drive sample " + std::to_string(k) + " is " + std::to_string(drive[k]) +
-                                  ", outside [-1, 1]");
+      throw std::invalid_argument("excite: drive sample " + std::to_string(k) + " is " +
+                                  models::number_text(drive[k]) + ", outside [-1, 1]");
     }
   }
   if (alsa_) {

@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -61,6 +62,21 @@ enum class ModelSlotName { feedforward, feedback };
 const char* slot_name(ModelSlotName slot);
 /// The slot named `name`; throws EngineRequestError (400) otherwise.
 ModelSlotName parse_slot_name(const std::string& name);
+/// The slots that run a model of `kind`: feedforward an lq_feedforward, feedback a neural_feedback; none
+/// for a plant model (linear, narx).
+std::vector<ModelSlotName> slots_accepting(const std::string& kind);
+/// The slot a model of `kind` goes to unless a client names one (nullopt: no slot runs it).
+std::optional<ModelSlotName> default_slot(const std::string& kind);
+/// Throws EngineRequestError (409) naming model `id`'s kind and what `slot` takes, unless `slot` runs `kind`.
+void require_slot_accepts(ModelSlotName slot, const std::string& id, const std::string& kind);
+
+/// What the safety limiter did over about the last second (the chain's counters sampled by housekeeping()).
+struct LimiterActivity {
+  double window_s = 0.0;             ///< the span the fractions cover (0 until two samples ~100 ms apart)
+  double limited_fraction = 0.0;     ///< share of the window's samples the limiter compressed (above its knee)
+  double over_range_fraction = 0.0;  ///< share whose drive asked for was at or beyond full scale
+  bool needs_more_drive = false;     ///< over_range_fraction > 0: the program needs more drive than the chain allows
+};
 
 /// The running engine (thread-safe: every call may come from any HTTP or job thread).
 class EngineService {
@@ -89,6 +105,8 @@ class EngineService {
   std::optional<engine::AlsaStatus> device_status() const;
   /// The chain's metrics now.
   engine::MetricsSnapshot metrics() const;
+  /// The limiter's activity over about the last second.
+  LimiterActivity limiter_activity() const;
   /// The store id of the model active in `slot` (nullopt: the slot passes its input through).
   std::optional<std::string> active_model(ModelSlotName slot) const;
   /// The settings in the API's form (ROUTES.md "GET /api/config").
@@ -116,6 +134,13 @@ class EngineService {
  private:
   nlohmann::json apply(const nlohmann::json& settings, const ModelLookup& lookup);
   nlohmann::json running_settings() const;
+  nlohmann::json api_settings() const;
+
+  // The limiter counters at one housekeeping tick.
+  struct LimiterSample {
+    std::chrono::steady_clock::time_point at;
+    std::uint64_t samples = 0, limited = 0, over_range = 0;
+  };
 
   EngineServiceOptions options_;
   mutable std::mutex mutex_;                 // serialises changes and guards the fields below
@@ -132,6 +157,7 @@ class EngineService {
   std::chrono::steady_clock::time_point last_recovery_{};
   double hold_s_ = 1.0;
   std::uint64_t recoveries_ = 0;
+  std::deque<LimiterSample> limiter_samples_;  // the last second's ticks, oldest first (under mutex_)
 };
 
 }  // namespace panelbass::api

@@ -77,10 +77,11 @@ bool is_valid_id(std::string_view id) {
   });
 }
 
-std::string model_store_id(const json& model) {
+std::string model_store_id(const json& model) { return model_store_id(engine::model_id(model)); }
+
+std::string model_store_id(std::uint64_t model_hash) {
   char text[16];
-  std::snprintf(text, sizeof text, "m%012llx",
-                static_cast<unsigned long long>(engine::model_id(model) & 0xffffffffffffULL));
+  std::snprintf(text, sizeof text, "m%012llx", static_cast<unsigned long long>(model_hash & 0xffffffffffffULL));
   return text;
 }
 
@@ -167,17 +168,27 @@ StoredModel ModelStore::put(const json& model, const std::string& kind, double f
   const std::lock_guard lock(mutex_);
   if (const auto it = models_.find(id); it != models_.end()) {
     if (created != nullptr) *created = false;
+    if (!name.empty() && name != it->second.name) {
+      StoredModel renamed = it->second;
+      renamed.name = name;
+      write_stored_model(renamed, model_files_.at(id));  // before the entry changes: a failed write changes nothing
+      it->second = renamed;
+    }
     return it->second;
   }
   StoredModel entry{id, kind, fs, name, utc_now(), source};
-  const json file = {{"format", kStoredModelFormat}, {"id", id},          {"name", name},
-                     {"created", entry.created},    {"source", source}, {"model", model}};
-  write_file_atomically(root_ / "models" / (id + ".json"), file.dump(2));
+  write_stored_model(entry, model);
   models_[id] = entry;
   model_files_[id] = model;
   order_.push_back(id);
   if (created != nullptr) *created = true;
   return entry;
+}
+
+void ModelStore::write_stored_model(const StoredModel& entry, const json& model) {
+  const json file = {{"format", kStoredModelFormat}, {"id", entry.id},          {"name", entry.name},
+                     {"created", entry.created},    {"source", entry.source}, {"model", model}};
+  write_file_atomically(root_ / "models" / (entry.id + ".json"), file.dump(2));
 }
 
 std::optional<StoredModel> ModelStore::find(const std::string& id) const {

@@ -5,6 +5,7 @@
 //   root/jobs/<id>.json    {"format":"panelbass.job/1", …the job record…}
 
 #include <filesystem>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <mutex>
@@ -23,6 +24,8 @@ bool is_valid_id(std::string_view id);
 
 /// The store id of a model file object: "m" + 12 lower-case hex digits of engine::model_id(model).
 std::string model_store_id(const nlohmann::json& model);
+/// The store id of the model whose engine::model_id (a stage's id in the metrics) is `model_hash`.
+std::string model_store_id(std::uint64_t model_hash);
 
 /// What the store keeps about a model besides the file object.
 struct StoredModel {
@@ -49,8 +52,9 @@ class ModelStore {
   explicit ModelStore(std::filesystem::path root, Warn warn = {});
 
   /// Stores an already validated model (kind and fs from `info`); returns its entry. A model already
-  /// stored (same id) is not written again: the existing entry comes back and `created` is false.
-  /// Throws StoreError if the file cannot be written (nothing is changed then).
+  /// stored (same id) is not stored twice: the existing entry comes back and `created` is false; a
+  /// non-empty `name` different from its own renames it (the file rewritten). Throws StoreError if the
+  /// file cannot be written (nothing is changed then).
   StoredModel put(const nlohmann::json& model, const std::string& kind, double fs, const std::string& name,
                   const std::string& source, bool* created = nullptr);
   /// The entry of `id`, if stored.
@@ -76,6 +80,9 @@ class ModelStore {
   const std::filesystem::path& root() const { return root_; }
 
  private:
+  // Writes models/<id>.json (atomically); the caller holds mutex_. Throws StoreError.
+  void write_stored_model(const StoredModel& entry, const nlohmann::json& model);
+
   std::filesystem::path root_;
   Warn warn_;
   mutable std::mutex mutex_;

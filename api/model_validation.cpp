@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "engine/chain_file.h"
 #include "engine/stage.h"
 #include "models/io/config_error.h"
 #include "models/kinds/model_checks.h"
@@ -38,7 +39,24 @@ std::string read_kind(const json& model) {
     throw ModelRejected(kBadRequest, std::string("model: expected a JSON object, got ") + model.type_name());
   }
   const auto it = model.find("kind");
-  if (it == model.end()) throw ModelRejected(kBadRequest, "model.kind: missing");
+  if (it == model.end()) {
+    // Another panelbass file sent where a model belongs: say what it is and where it goes.
+    const auto format = model.find("format");
+    const std::string tag = format != model.end() && format->is_string() ? format->get<std::string>() : "";
+    if (tag == "panelbass.plant/1") {
+      throw ModelRejected(kBadRequest,
+                          "model: this is a plant description (\"format\":\"panelbass.plant/1\": the virtual "
+                          "transducer's physics), not a model file; it belongs to --plant of panelbass serve, run or "
+                          "simulate. Models are what identify and design make (\"format\":\"panelbass.model/1\")");
+    }
+    if (tag == engine::kChainFormat) {
+      throw ModelRejected(kBadRequest,
+                          "model: this is a chain file (\"format\":\"panelbass.chain/1\"), not a model file; it "
+                          "belongs to panelbass run --chain (over the API, set the chain with PUT /api/config)");
+    }
+    throw ModelRejected(kBadRequest, "model.kind: missing (a model file has \"format\":\"panelbass.model/1\" and "
+                                     "\"kind\": linear, narx, lq_feedforward or neural_feedback)");
+  }
   if (!it->is_string()) {
     throw ModelRejected(kBadRequest, std::string("model.kind: expected a string, got ") + it->type_name());
   }

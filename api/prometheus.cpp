@@ -52,12 +52,20 @@ std::string prometheus_text(const engine::MetricsSnapshot& m, const ServiceCount
   gauge("panelbass_load", "Processing time over audio time.", m.load);
   gauge("panelbass_max_late_seconds", "Most a paced block was behind its schedule.", m.max_late_ns * 1e-9);
   gauge("panelbass_peak_drive", "Largest |drive| sent to the amplifier (never above 1).", m.peak_drive);
+  gauge("panelbass_peak_demand", "Largest |drive| the chain asked for before the limiter (above 1: more than full scale).",
+        m.peak_demand);
+  counter("panelbass_limited_samples_total", "Samples the safety limiter compressed (drive asked for above its knee).",
+          static_cast<double>(m.limited_samples));
+  counter("panelbass_over_range_samples_total",
+          "Samples whose drive asked for was at or beyond full scale (the program needs more drive than the chain allows).",
+          static_cast<double>(m.over_range_samples));
   e.family("panelbass_block_seconds", "summary", "Processing time of an audio block.");
   e.sample("panelbass_block_seconds", "quantile=\"0.5\"", m.p50_block_ns * 1e-9);
   e.sample("panelbass_block_seconds", "quantile=\"0.99\"", m.p99_block_ns * 1e-9);
-  e.sample("panelbass_block_seconds_max", "", m.max_block_ns * 1e-9);
   e.sample("panelbass_block_seconds_sum", "", m.mean_block_ns * 1e-9 * static_cast<double>(m.blocks));
   e.sample("panelbass_block_seconds_count", "", static_cast<double>(m.blocks));
+  // A family of its own: a summary has only quantiles, _sum and _count.
+  gauge("panelbass_block_seconds_max", "Longest processing time of an audio block.", m.max_block_ns * 1e-9);
   if (service.device) {
     const engine::AlsaStatus& d = *service.device;
     gauge("panelbass_device_up", "1 while the sound card streams.", d.state == engine::AlsaState::running ? 1.0 : 0.0);

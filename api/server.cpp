@@ -3,6 +3,9 @@
 #include <httplib.h>
 #include <malloc.h>
 
+#include <sys/socket.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -11,6 +14,7 @@
 #include "api/prometheus.h"
 #include "dsp/sample_rate.h"
 #include "api/metrics_json.h"
+#include "models/io/number_text.h"
 
 namespace panelbass::api {
 namespace {
@@ -61,21 +65,82 @@ const char* code_of_status(int status) {
   }
 }
 
-// The request body as JSON; an empty body is `empty` (HttpError 400 if that is null: a body is required).
-nlohmann::json parse_body(const httplib::Request& req, const nlohmann::json& empty = nullptr) {
-  if (req.body.empty()) {
-    if (empty.is_null()) throw HttpError{400, "bad_request", "body: expected a JSON object, got an empty body"};
+// What a number beyond a double's range (1e999) in a body means: a model that is not finite (422), or a
+// malformed request (400).
+enum class Overflow { bad_request, invalid_model };
+
+// The request body as text: the body itself, or the one part of a multipart upload (curl -F model=@file).
+std::string body_text(const httplib::Request& req) {
+  if (!req.is_multipart_form_data()) return req.body;
+  if (req.files.size() != 1) {
+    throw HttpError{400, "bad_request", "body: a multipart upload must carry exactly one part (the JSON file), got " +
+                                            std::to_string(req.files.size())};
+  }
+  return req.files.begin()->second.content;
+}
+
+// The request body as JSON. An empty body is `empty`, or, if that is null (the route needs a body),
+// HttpError 400 saying what the body must be (`expected`).
+nlohmann::json parse_body(const httplib::Request& req, const char* expected, const nlohmann::json& empty = nullptr,
+                          Overflow overflow = Overflow::bad_request) {
+  const std::string text = body_text(req);
+  if (text.empty()) {
+    if (empty.is_null()) {
+      throw HttpError{400, "bad_request", std::string("body: missing; ") + req.method + " " + req.path +
+                                              " needs a JSON body: " + expected};
+    }
     return empty;
   }
   try {
-    return nlohmann::json::parse(req.body);
+    return nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     throw HttpError{400, "bad_request", std::string("body: malformed JSON: ") + e.what()};
   } catch (const nlohmann::json::out_of_range& e) {
     // JSON has no NaN or infinity; a number beyond a double's range is the only way one can arrive.
-    throw HttpError{422, "invalid_model", std::string("body: a number is not finite as a double: ") + e.what()};
+    if (overflow == Overflow::invalid_model) {
+      throw HttpError{422, "invalid_model", std::string("body: a number is not finite as a double: ") + e.what()};
+    }
+    throw HttpError{400, "bad_request", std::string("body: a number is beyond a double's range: ") + e.what()};
   } catch (const nlohmann::json::exception& e) {
     throw HttpError{400, "bad_request", std::string("body: ") + e.what()};
+  }
+}
+
+// `bytes` as people write a size: "16 MiB", "64 KiB" or "1000 bytes".
+std::string size_text(std::size_t bytes) {
+  if (bytes >= (1u << 20) && bytes % (1u << 20) == 0) return std::to_string(bytes >> 20) + " MiB";
+  if (bytes >= (1u << 10) && bytes % (1u << 10) == 0) return std::to_string(bytes >> 10) + " KiB";
+  return std::to_string(bytes) + " bytes";
+}
+
+// Makes any request the API takes readable as cpp-httplib 0.11 reads it (it runs before the body is read):
+// - no Content-Length and no Transfer-Encoding means no body (RFC 9112 §6.3; curl -X POST without -d sends
+//   neither), where the library would wait for the connection to close and answer 400;
+// - a body labelled application/x-www-form-urlencoded (curl -d/--data-binary's default) is JSON to this
+//   API: left as that, the library refuses it above 8 KiB (its form limit) and parses it as a form.
+// The request is the library's own (non-const) object, handed to this hook as const.
+void accept_any_body(const httplib::Request& request) {
+  auto& req = const_cast<httplib::Request&>(request);
+  if (!req.has_header("Content-Length") && !req.has_header("Transfer-Encoding")) {
+    req.headers.emplace("Content-Length", "0");
+  }
+  const auto type = req.headers.find("Content-Type");
+  if (type != req.headers.end() && type->second.rfind("application/x-www-form-urlencoded", 0) == 0) {
+    type->second = "application/json";
+  }
+}
+
+// The message of an error the HTTP library answers by itself (before any route runs).
+std::string library_error_message(const httplib::Request& req, int status, std::size_t body_limit) {
+  switch (status) {
+    case 400:
+      return "the request could not be read: malformed HTTP (request line or headers), a method the API does not "
+             "know, or a body that ended before its Content-Length";
+    case 404: return "no such route: " + req.method + " " + req.path;
+    case 405: return "method " + req.method + " not allowed on " + req.path;
+    case 413: return "request body over the size limit of " + size_text(body_limit) + " (panelbass serve --body-limit)";
+    case 414: return "request URI too long";
+    default: return "HTTP status " + std::to_string(status) + " on " + req.method + " " + req.path;
   }
 }
 
@@ -124,9 +189,20 @@ httplib::Server::Handler guarded(std::function<void(const httplib::Request&, htt
   };
 }
 
-// The slot a model of `kind` goes to unless the client names one.
-ModelSlotName default_slot(const std::string& kind) {
-  return kind == "neural_feedback" ? ModelSlotName::feedback : ModelSlotName::feedforward;
+// The kind of model a job of `job_kind` makes ("" if it makes none).
+std::string model_kind_made_by(const std::string& job_kind) {
+  if (job_kind == "identify-linear") return "linear";
+  if (job_kind == "identify-narx") return "narx";
+  if (job_kind == "design-lq") return "lq_feedforward";
+  if (job_kind == "design-nn") return "neural_feedback";
+  return "";
+}
+
+// The slot model `id` of `kind` goes to when a client names none; EngineRequestError (409) if none runs it.
+ModelSlotName slot_for(const std::string& id, const std::string& kind) {
+  if (const std::optional<ModelSlotName> slot = default_slot(kind)) return *slot;
+  require_slot_accepts(ModelSlotName::feedforward, id, kind);  // throws, naming the kind and what slots take
+  return ModelSlotName::feedforward;
 }
 
 }  // namespace
@@ -208,7 +284,7 @@ void Server::on_job_finished(JobRecord& job) {
       const std::optional<StoredModel> entry = store_->find(id);
       const std::optional<nlohmann::json> model = store_->model(id);
       if (!entry || !model) throw std::runtime_error("model " + id + " is not in the store");
-      const ModelSlotName slot = default_slot(entry->kind);
+      const ModelSlotName slot = slot_for(id, entry->kind);
       engine_->activate(slot, id, *model);
       job.extra["activated"] = {{"slot", slot_name(slot)}, {"id", id}};
     } catch (const std::exception& e) {
@@ -223,6 +299,17 @@ void Server::on_job_finished(JobRecord& job) {
 }
 
 std::string Server::submit_job(const std::string& kind, const nlohmann::json& params, bool activate) {
+  if (activate) {
+    const std::string made = model_kind_made_by(kind);
+    if (made.empty() && std::find(job_kinds().begin(), job_kinds().end(), kind) != job_kinds().end()) {
+      throw std::invalid_argument("activate: the job kind " + kind + " makes no model to activate");
+    }
+    if (!made.empty() && slots_accepting(made).empty()) {
+      throw std::invalid_argument("activate: the job kind " + kind + " makes a " + made +
+                                  " plant model, which no slot runs (the feedforward slot takes an lq_feedforward "
+                                  "controller from design-lq, the feedback slot a neural_feedback one from design-nn)");
+    }
+  }
   const nlohmann::json checked = validate_job_params(kind, params, environment_);
   // The queued record is on disk before a worker can start the job (a restart shows it as interrupted).
   // So is the wish to activate its result, which a fast job could otherwise finish before.
@@ -243,6 +330,11 @@ nlohmann::json Server::status_json() const {
     const std::optional<std::string> id = engine_->active_model(slot);
     active[slot_name(slot)] = id ? nlohmann::json(*id) : nlohmann::json(nullptr);
   }
+  const LimiterActivity limiting = engine_->limiter_activity();
+  metrics["limiter_window_s"] = limiting.window_s;
+  metrics["limited_fraction"] = limiting.limited_fraction;
+  metrics["over_range_fraction"] = limiting.over_range_fraction;
+  metrics["needs_more_drive"] = limiting.needs_more_drive;
   return {{"engine", engine_->engine_status()},
           {"metrics", metrics},
           {"active_models", active},
@@ -269,6 +361,12 @@ void Server::register_routes() {
   http.set_payload_max_length(options_.body_limit);
   // Without it, small responses on a kept-alive connection wait for the client's delayed ACK (~40 ms).
   http.set_tcp_nodelay(true);
+  // The library's default adds SO_REUSEPORT, with which a second server binds the same port and the two
+  // answer one address in turn; SO_REUSEADDR alone still allows a restart while old connections linger.
+  http.set_socket_options([](socket_t sock) {
+    const int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
   http.new_task_queue = [threads = options_.http_threads] {
     return new httplib::ThreadPool(static_cast<std::size_t>(threads));
   };
@@ -283,6 +381,7 @@ void Server::register_routes() {
     }
   }
   http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    accept_any_body(req);
     if (options_.token.empty()) return httplib::Server::HandlerResponse::Unhandled;
     const bool guarded_path = req.path.rfind("/api", 0) == 0 || req.path.rfind("/metrics", 0) == 0;
     if (guarded_path && req.get_header_value("Authorization") != "Bearer " + options_.token) {
@@ -291,12 +390,9 @@ void Server::register_routes() {
     }
     return httplib::Server::HandlerResponse::Unhandled;
   });
-  http.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+  http.set_error_handler([limit = options_.body_limit](const httplib::Request& req, httplib::Response& res) {
     if (!res.body.empty()) return;
-    const std::string message = res.status == 404   ? "no such route: " + req.method + " " + req.path
-                                : res.status == 413 ? "request body over the size limit"
-                                                    : "HTTP " + std::to_string(res.status);
-    send_error(res, res.status, code_of_status(res.status), message);
+    send_error(res, res.status, code_of_status(res.status), library_error_message(req, res.status, limit));
   });
   http.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr error) {
     std::string message = "unknown error";
@@ -329,11 +425,14 @@ void Server::register_routes() {
              send_json(res, 200, engine_->config());
            }));
   http.Put("/api/config", guarded([this, lookup](const httplib::Request& req, httplib::Response& res) {
-             const nlohmann::json change = engine_->put_config(parse_body(req), lookup);
+             const nlohmann::json settings = parse_body(req, "the whole settings object, as GET /api/config returns it");
+             const nlohmann::json change = engine_->put_config(settings, lookup);
              send_json(res, 200, {{"config", engine_->config()}, {"change", change}});
            }));
   http.Patch("/api/config", guarded([this, lookup](const httplib::Request& req, httplib::Response& res) {
-               const nlohmann::json change = engine_->patch_config(parse_body(req), lookup);
+               const nlohmann::json patch =
+                   parse_body(req, "a JSON merge patch of the settings, e.g. {\"band_pass\":{\"low_hz\":30}}");
+               const nlohmann::json change = engine_->patch_config(patch, lookup);
                send_json(res, 200, {{"config", engine_->config()}, {"change", change}});
              }));
 
@@ -344,6 +443,9 @@ void Server::register_routes() {
       if (engine_->active_model(slot) == m.id) active_in.push_back(slot_name(slot));
     }
     j["active_in"] = active_in;
+    nlohmann::json slots = nlohmann::json::array();
+    for (const ModelSlotName slot : slots_accepting(m.kind)) slots.push_back(slot_name(slot));
+    j["slots"] = slots;
     return j;
   };
   http.Get("/api/models", guarded([this, model_summary](const httplib::Request&, httplib::Response& res) {
@@ -352,13 +454,14 @@ void Server::register_routes() {
              send_json(res, 200, {{"models", list}});
            }));
   http.Post("/api/models", guarded([this, model_summary](const httplib::Request& req, httplib::Response& res) {
-              const nlohmann::json model = parse_body(req);
+              const nlohmann::json model = parse_body(
+                  req, "a model file object ({\"format\":\"panelbass.model/1\",\"kind\":…})", nullptr, Overflow::invalid_model);
               if (!model.is_object()) throw HttpError{400, "bad_request", "body: expected a model file object"};
               const ValidatedModel valid = validate_model(model);
               if (!dsp::same_rate(valid.fs, engine_->fs())) {
                 throw HttpError{422, "invalid_model",
-                                "fs: the model runs at " + std::to_string(valid.fs) + " Hz, the engine at " +
-                                    std::to_string(engine_->fs()) + " Hz"};
+                                "model.fs: the model runs at " + models::number_text(valid.fs) + " Hz, the engine at " +
+                                    models::number_text(engine_->fs()) + " Hz"};
               }
               const std::string name = req.has_param("name") ? req.get_param_value("name") : "";
               bool created = false;
@@ -389,7 +492,7 @@ void Server::register_routes() {
   http.Post(R"(/api/models/([^/]+)/activate)",
             guarded([this](const httplib::Request& req, httplib::Response& res) {
               const std::string id = path_id(req, "model");
-              const nlohmann::json body = parse_body(req, nlohmann::json::object());
+              const nlohmann::json body = parse_body(req, "", nlohmann::json::object());
               reject_unknown_fields(body, {"slot"}, "body");
               const std::optional<StoredModel> entry = store_->find(id);
               const std::optional<nlohmann::json> model = store_->model(id);
@@ -398,7 +501,7 @@ void Server::register_routes() {
                 throw HttpError{400, "bad_request", "body.slot: expected \"feedforward\" or \"feedback\""};
               }
               const ModelSlotName slot =
-                  body.contains("slot") ? parse_slot_name(body["slot"].get<std::string>()) : default_slot(entry->kind);
+                  body.contains("slot") ? parse_slot_name(body["slot"].get<std::string>()) : slot_for(id, entry->kind);
               const nlohmann::json change = engine_->activate(slot, id, *model);
               send_json(res, 200, {{"slot", slot_name(slot)}, {"id", id}, {"change", change}});
             }));
@@ -409,7 +512,8 @@ void Server::register_routes() {
              send_json(res, 200, {{"jobs", list}});
            }));
   http.Post("/api/jobs", guarded([this](const httplib::Request& req, httplib::Response& res) {
-              const nlohmann::json body = parse_body(req);
+              const nlohmann::json body =
+                  parse_body(req, "{\"kind\":\"identify-linear\",\"params\":{…},\"activate\":false} (kind required)");
               reject_unknown_fields(body, {"kind", "params", "activate"}, "body");
               if (!body.contains("kind") || !body["kind"].is_string()) {
                 throw HttpError{400, "bad_request", "body.kind: required, a string (e.g. \"identify-linear\")"};
@@ -478,12 +582,13 @@ void Server::register_routes() {
 
 int Server::start() {
   if (running_.exchange(true)) throw std::runtime_error("serve: already started");
-  port_ = options_.port == 0 ? http_->bind_to_any_port(options_.bind)
-                             : (http_->bind_to_port(options_.bind, options_.port) ? options_.port : -1);
-  if (port_ < 0) {
+  const int port = options_.port == 0 ? http_->bind_to_any_port(options_.bind)
+                                      : (http_->bind_to_port(options_.bind, options_.port) ? options_.port : -1);
+  port_ = port < 0 ? options_.port : port;
+  if (port < 0) {
     running_ = false;
-    throw std::runtime_error("serve: cannot listen on " + options_.bind + ":" + std::to_string(options_.port) +
-                             " (in use, or not an address of this machine)");
+    throw std::runtime_error("serve: cannot listen on " + address() + ": the port is in use (another panelbass "
+                             "serve?) or the address is not one of this machine's; choose another with --port or --bind");
   }
   engine_->start();
   http_thread_ = std::thread([this] { http_->listen_after_bind(); });

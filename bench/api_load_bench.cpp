@@ -18,6 +18,7 @@
 #include "api/server.h"
 #include "dsp/excitation.h"
 #include "dsp/random.h"
+#include "models/control/lq_feedforward.h"
 #include "models/linear/linear_model.h"
 #include "models/plant/plant_presets.h"
 #include "models/linear/transfer_function.h"
@@ -30,7 +31,7 @@ namespace {
 using namespace panelbass;
 
 // A stable second-order model whose coefficients depend on `k` (so every upload is a new model).
-nlohmann::json numbered_model(int k) {
+models::LinearModel numbered_linear(int k) {
   models::LinearModel m;
   Eigen::VectorXcd poles(2);
   const double theta = 0.1 + 0.5 * (k % 997) / 997.0;
@@ -39,7 +40,15 @@ nlohmann::json numbered_model(int k) {
   m.tf.b = Eigen::Vector2d(0.05 + 1e-4 * k, 0.02);
   m.tf.nk = 1;
   m.fs = 3000.0;
-  return models::linear_model_to_json(m);
+  return m;
+}
+
+// numbered_linear(k) as a model file.
+nlohmann::json numbered_model(int k) { return models::linear_model_to_json(numbered_linear(k)); }
+
+// An LQ feedforward controller designed on numbered_linear(k): what the feedforward slot runs.
+nlohmann::json numbered_controller(int k) {
+  return models::lq_feedforward_to_json(models::design_lq(numbered_linear(k), {3.0, 20.0}));
 }
 
 struct Options {
@@ -83,12 +92,12 @@ int main(int argc, char** argv) try {
   api::Server server(options);
   const int port = server.start();
 
-  // Two models to activate in turn, stored before the load starts.
+  // Two controllers to activate in turn, stored before the load starts.
   std::vector<std::string> active_pool;
   {
     httplib::Client c("127.0.0.1", port);
     for (int k = 0; k < 2; ++k) {
-      const auto r = c.Post("/api/models", numbered_model(100000 + k).dump(), "application/json");
+      const auto r = c.Post("/api/models", numbered_controller(100000 + k).dump(), "application/json");
       if (!r || (r->status != 201 && r->status != 200)) throw std::runtime_error("setup upload failed");
       active_pool.push_back(nlohmann::json::parse(r->body)["id"]);
     }

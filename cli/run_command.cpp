@@ -13,6 +13,7 @@
 
 #include "cli/alsa_options.h"
 #include "cli/commands.h"
+#include "models/io/number_text.h"
 #include "cli/json_output.h"
 #include "cli/looped_program.h"
 #include "cli/stop_signals.h"
@@ -60,8 +61,8 @@ double wait_for_stop(double seconds, engine::Chain& chain) {
 void run_virtual(const RunOptions& o, const engine::ChainConfig& config, nlohmann::json& result) {
   const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
   if (!dsp::same_rate(plant.fs, config.fs)) {
-    throw std::invalid_argument("--plant " + o.plant + ": the plant runs at " + std::to_string(plant.fs) +
-                                " Hz, the chain (" + o.chain + ") at " + std::to_string(config.fs) + " Hz");
+    throw std::invalid_argument("--plant " + o.plant + ": the plant runs at " + models::number_text(plant.fs) +
+                                " Hz, the chain (" + o.chain + ") at " + models::number_text(config.fs) + " Hz");
   }
   LoopedProgram program = looped_program(o.program, o.channel, o.signal, o.amplitude, o.seed, config.fs);
   std::unique_ptr<engine::Chain> chain = engine::make_chain(config);

@@ -15,6 +15,7 @@
 #include "cli/commands.h"
 #include "cli/looped_program.h"
 #include "cli/stop_signals.h"
+#include "models/io/number_text.h"
 #include "models/plant/plant_presets.h"
 
 namespace panelbass::cli {
@@ -55,15 +56,21 @@ bool follow_job(api::Server& server, const std::string& id, const std::string& w
   return true;
 }
 
-// The start-up demo: excitation + linear identification, then the LQ feedforward on that model, activated.
-void run_demo(api::Server& server) {
+// The start-up demo: excitation + linear identification, then the LQ feedforward on that model, designed so
+// that the program's peak `program_peak` is within its safe amplitude (the drive it asks for stays within
+// full scale, rather than sitting at the limiter), activated.
+void run_demo(api::Server& server, double program_peak) {
   const std::string identify = server.submit_job(
       "identify-linear", {{"excite", {{"samples", 10000}, {"seed", 1}}}, {"method", "oe"}, {"order", 8}}, false);
   std::cerr << "serve: demo: job " << identify << " excites the transducer and identifies a linear model\n";
   if (!follow_job(server, identify, "demo " + identify)) return;
   const std::string plant_model = server.jobs().get(identify)->result.at("model_id").get<std::string>();
-  const std::string design = server.submit_job("design-lq", {{"plant_model", plant_model}}, true);
-  std::cerr << "serve: demo: job " << design << " designs the LQ feedforward on " << plant_model << "\n";
+  nlohmann::json design_params = {{"plant_model", plant_model}};
+  if (program_peak > 0.0) design_params["max_input"] = program_peak;
+  const std::string design = server.submit_job("design-lq", design_params, true);
+  std::cerr << "serve: demo: job " << design << " designs the LQ feedforward on " << plant_model
+            << (program_peak > 0.0 ? " for a safe amplitude of the program's peak, " + models::number_text(program_peak) : "")
+            << "\n";
   if (!follow_job(server, design, "demo " + design)) return;
   std::cerr << "serve: demo: done; the LQ feedforward "
             << server.jobs().get(design)->result.at("model_id").get<std::string>() << " plays in the chain\n";
@@ -107,7 +114,8 @@ void run_serve(const ServeOptions& o) {
   if (o.demo && on_card) {
     std::cerr << "serve: no demo on a sound card (its jobs excite the virtual transducer)\n";
   } else if (o.demo) {
-    demo = std::thread([&server] { run_demo(server); });
+    const double program_peak = o.signal == "silence" ? 0.0 : o.amplitude;
+    demo = std::thread([&server, program_peak] { run_demo(server, program_peak); });
   }
   const auto started = std::chrono::steady_clock::now();
   while (!stop_requested() &&
@@ -151,7 +159,8 @@ void register_serve(CLI::App& app) {
       ->check(CLI::Range(1, 1024))
       ->capture_default_str();
   cmd->add_flag("--demo,!--no-demo", o->demo,
-                "At start-up: excite, identify a linear model, design the LQ feedforward and activate it")
+                "At start-up: excite, identify a linear model, design the LQ feedforward whose safe amplitude is "
+                "the program's --amplitude, and activate it")
       ->capture_default_str();
   cmd->add_option("--seconds", o->seconds, "Stop after this long (default: until SIGINT/SIGTERM)")
       ->check(CLI::NonNegativeNumber);

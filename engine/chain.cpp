@@ -1,5 +1,6 @@
 #include "engine/chain.h"
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -39,6 +40,7 @@ void Chain::set_crossfade(Samples crossfade) {
 }
 
 void Chain::begin_block() noexcept {
+  block_limiting_ = {};
   if (limiter_request_.load(std::memory_order_acquire)) {
     limiter_.set_options(pending_limiter_);
     limiter_request_.store(false, std::memory_order_release);
@@ -71,6 +73,15 @@ double Chain::process_sample(double x) noexcept {
   const double band = band_pass().process(x);
   const double v = safe_bypass_ ? band : feedback().process(feedforward().process(band));
   const double drive = limiter_.process(v);
+  // What the chain asked for against what the limiter let through (a non-finite v is a fault instead).
+  const double demand = std::abs(v);
+  if (std::isfinite(demand)) {
+    block_limiting_.peak_demand = std::fmax(block_limiting_.peak_demand, demand);
+    if (demand > limiter_.options().knee) {
+      ++block_limiting_.limited;
+      if (demand >= 1.0) ++block_limiting_.over_range;
+    }
+  }
   switch (limiter_.take_trip()) {
     case Fault::none:
       break;

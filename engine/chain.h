@@ -88,6 +88,7 @@ class Chain {
       observe(sensor(drive[k]));
     }
     metrics_.record_peak_drive(peak);
+    metrics_.record_limiting(block_limiting_.limited, block_limiting_.over_range, block_limiting_.peak_demand);
     const auto elapsed = std::chrono::steady_clock::now() - started;
     metrics_.record_block(static_cast<std::uint64_t>(std::chrono::nanoseconds(elapsed).count()), program.size());
   }
@@ -106,6 +107,12 @@ class Chain {
   LimiterOptions pending_limiter_{};           // written by the control thread while the flag is false
   std::atomic<bool> limiter_request_{false};  // true: pending_limiter_ waits for the audio thread
   bool safe_bypass_ = false;  // audio thread only
+  // The limiter's work in the current block (audio thread only; reset by begin_block).
+  struct BlockLimiting {
+    std::uint64_t limited = 0;     // |v| above the knee: the limiter changed the drive
+    std::uint64_t over_range = 0;  // |v| ≥ 1: the chain asked for more than full scale
+    double peak_demand = 0.0;      // largest finite |v|
+  } block_limiting_;
 };
 
 }  // namespace panelbass::engine

@@ -59,6 +59,9 @@ MetricsSnapshot Metrics::snapshot() const {
   s.peak_drive = peak_drive_.load(std::memory_order_relaxed);
   s.max_late_ns = static_cast<double>(max_late_ns_.load(std::memory_order_relaxed));
   s.last_fault = last_fault_.load(std::memory_order_relaxed);
+  s.limited_samples = limited_samples_.load(std::memory_order_relaxed);
+  s.over_range_samples = over_range_samples_.load(std::memory_order_relaxed);
+  s.peak_demand = peak_demand_.load(std::memory_order_relaxed);
   for (std::size_t i = 0; i < kSlotCount; ++i) s.active_ids[i] = active_ids_[i].load(std::memory_order_relaxed);
   const double total_ns = static_cast<double>(total_ns_.load(std::memory_order_relaxed));
   s.max_block_ns = static_cast<double>(max_ns_.load(std::memory_order_relaxed));

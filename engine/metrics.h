@@ -39,6 +39,9 @@ struct MetricsSnapshot {
   double load = 0.0;             ///< processing time / audio time (1 = no headroom left)
   double peak_drive = 0.0;       ///< largest |drive| sent so far (the limiter keeps it ≤ 1)
   double max_late_ns = 0.0;      ///< most a paced block was behind its schedule (beyond the buffer: an xrun)
+  std::uint64_t limited_samples = 0;     ///< samples the limiter changed (|drive asked for| above its knee)
+  std::uint64_t over_range_samples = 0;  ///< samples whose drive asked for was at or beyond full scale (|v| ≥ 1)
+  double peak_demand = 0.0;      ///< largest |drive asked for| before the limiter (may exceed 1)
   bool in_fault = false;         ///< the chain is in its safe bypass now
   Fault last_fault = Fault::none;  ///< the most recent fault
   std::array<std::uint64_t, kSlotCount> active_ids{};  ///< id of the stage active in each slot
@@ -66,6 +69,15 @@ class Metrics {
   /// The largest |drive| of a block.
   void record_peak_drive(double peak) noexcept {
     if (peak > peak_drive_.load(std::memory_order_relaxed)) peak_drive_.store(peak, std::memory_order_relaxed);
+  }
+  /// One block's limiter activity: `limited` samples compressed above the knee, `over_range` of them asked
+  /// for full scale or more, `peak_demand` the largest |drive asked for|.
+  void record_limiting(std::uint64_t limited, std::uint64_t over_range, double peak_demand) noexcept {
+    if (limited > 0) limited_samples_.fetch_add(limited, std::memory_order_relaxed);
+    if (over_range > 0) over_range_samples_.fetch_add(over_range, std::memory_order_relaxed);
+    if (peak_demand > peak_demand_.load(std::memory_order_relaxed)) {
+      peak_demand_.store(peak_demand, std::memory_order_relaxed);
+    }
   }
   /// A block missed its deadline.
   void record_xrun() noexcept { xruns_.fetch_add(1, std::memory_order_relaxed); }
@@ -98,6 +110,8 @@ class Metrics {
   std::atomic<std::uint64_t> faults_{0}, swaps_{0}, xruns_{0}, max_late_ns_{0};
   std::atomic<bool> in_fault_{false};
   std::atomic<double> peak_drive_{0.0};
+  std::atomic<std::uint64_t> limited_samples_{0}, over_range_samples_{0};
+  std::atomic<double> peak_demand_{0.0};
   static_assert(std::atomic<double>::is_always_lock_free);
   std::atomic<Fault> last_fault_{Fault::none};
   std::array<std::atomic<std::uint64_t>, kSlotCount> active_ids_{};

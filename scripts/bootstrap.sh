@@ -18,6 +18,7 @@ packages=(
   gnuplot-nox
   jackd2 libasound2-plugins
   curl jq
+  prometheus  # promtool: tests/api/promtool_test.cpp checks GET /metrics with it
 )
 bash scripts/install_packages.sh "${packages[@]}"
 

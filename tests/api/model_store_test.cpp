@@ -117,7 +117,7 @@ TEST_F(ModelStoreTest, PutFindListRemove) {
   EXPECT_EQ(store.list()[0].id, b.id);
 }
 
-TEST_F(ModelStoreTest, TheSameModelTwiceIsStoredOnce) {
+TEST_F(ModelStoreTest, TheSameModelTwiceIsStoredOnceAndANewNameRenamesIt) {
   ModelStore store = open();
   const json model = linear_model(0.5);
   bool created = true;
@@ -126,8 +126,17 @@ TEST_F(ModelStoreTest, TheSameModelTwiceIsStoredOnce) {
   const StoredModel again = store.put(json::parse(model.dump()), "linear", 3000.0, "two", "j1", &created);
   EXPECT_FALSE(created);
   EXPECT_EQ(again.id, first.id);
-  EXPECT_EQ(again.name, "one");
+  EXPECT_EQ(again.name, "two");
+  EXPECT_EQ(again.source, "upload");  // only the name changes
+  EXPECT_EQ(again.created, first.created);
   EXPECT_EQ(store.list().size(), 1u);
+  // Without a name it keeps the one it has.
+  EXPECT_EQ(store.put(model, "linear", 3000.0, "", "upload", &created).name, "two");
+  // The new name is on disk.
+  const ModelStore reopened = open();
+  ASSERT_EQ(reopened.list().size(), 1u);
+  EXPECT_EQ(reopened.list()[0].name, "two");
+  EXPECT_TRUE(warnings_.empty());
 }
 
 TEST_F(ModelStoreTest, AReopenedStoreSeesModelsAndJobs) {

@@ -10,6 +10,8 @@
 #include <utility>
 
 #include "models/linear/linear_model.h"
+#include "models/plant/plant_config.h"
+#include "models/plant/plant_presets.h"
 #include "models/control/lq_feedforward.h"
 #include "models/narx/narx_model.h"
 #include "models/control/neural_feedback.h"
@@ -191,6 +193,21 @@ TEST(ModelValidation, AMissingOrUnknownKindIsABadRequestNamingKind) {
   number["kind"] = 3;
   expect_rejected(number, "bad_request", "kind");
   expect_rejected(json::array({1, 2}), "bad_request", "model");
+}
+
+TEST(ModelValidation, APlantDescriptionOrAChainFileSaysWhatItIsAndWhereItBelongs) {
+  const auto [plant_code, plant_message] =
+      rejection(models::plant_to_json(models::plant_preset("panel-exciter")));
+  EXPECT_EQ(plant_code, "bad_request");
+  EXPECT_NE(plant_message.find("this is a plant description"), std::string::npos) << plant_message;
+  EXPECT_NE(plant_message.find("--plant of panelbass serve, run or simulate"), std::string::npos) << plant_message;
+  const auto [chain_code, chain_message] = rejection(json{{"format", "panelbass.chain/1"}, {"fs", 3000}});
+  EXPECT_EQ(chain_code, "bad_request");
+  EXPECT_NE(chain_message.find("this is a chain file"), std::string::npos) << chain_message;
+  // Anything else without a kind says what a model file has.
+  const auto [code, message] = rejection(json{{"fs", 3000}});
+  EXPECT_EQ(code, "bad_request");
+  EXPECT_NE(message.find("model.kind: missing (a model file has"), std::string::npos) << message;
 }
 
 TEST(ModelValidation, ALinearModelWithMoreStatesThanTheEngineRunsIsInvalid) {

@@ -3,7 +3,6 @@
 #include "api/server.h"
 
 #include <gtest/gtest.h>
-#include <httplib.h>
 
 #include <sys/resource.h>
 
@@ -18,103 +17,16 @@
 
 #include "api/jobs/job_kinds.h"
 #include "models/linear/linear_model.h"
-#include "models/plant/plant_presets.h"
-#include "tests/engine/engine_test_models.h"
-#include "tests/support/scratch_directory.h"
+#include "models/plant/plant_config.h"
+#include "tests/api/server_fixture.h"
 
 namespace panelbass::api {
 namespace {
 
 using namespace std::chrono_literals;
+using namespace api_testing;
 using engine::testing::example_linear;
 using engine::testing::resonant_linear;
-
-/// A response: status and the body parsed as JSON (null when it is not JSON).
-struct Reply {
-  int status = 0;
-  nlohmann::json body;
-  std::string text;
-};
-
-Reply reply_of(const httplib::Result& r) {
-  if (!r) return {-1, nullptr, "transport error " + httplib::to_string(r.error())};
-  Reply out{r->status, nullptr, r->body};
-  out.body = nlohmann::json::parse(r->body, nullptr, false);
-  if (out.body.is_discarded()) out.body = nullptr;
-  return out;
-}
-
-std::string error_message(const Reply& r) {
-  return r.body.is_object() && r.body.contains("error") ? r.body["error"].value("message", "") : "";
-}
-
-class ServerTest : public testing_support::ScratchDirectoryTest {
- protected:
-  ServerOptions options(const std::filesystem::path& store) {
-    ServerOptions o;
-    o.port = 0;
-    o.store = store;
-    o.engine.plant = models::plant_preset("panel-exciter");
-    o.engine.chain.fs = o.engine.plant.fs;
-    const Eigen::VectorXd program = engine::testing::uniform(3000, 0.2, 7);
-    o.engine.program.assign(program.data(), program.data() + program.size());
-    o.log = [this](const std::string& line) {
-      const std::lock_guard lock(log_mutex_);
-      log_.push_back(line);
-    };
-    return o;
-  }
-
-  void start(ServerOptions o) {
-    server_ = std::make_unique<Server>(std::move(o));
-    port_ = server_->start();
-    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
-    client_->set_read_timeout(30, 0);
-  }
-  void start() { start(options(dir_ / "store")); }
-
-  Reply get(const std::string& path) { return reply_of(client_->Get(path.c_str())); }
-  Reply post(const std::string& path, const std::string& body) {
-    return reply_of(client_->Post(path.c_str(), body, "application/json"));
-  }
-  Reply post(const std::string& path, const nlohmann::json& body) { return post(path, body.dump()); }
-  Reply put(const std::string& path, const nlohmann::json& body) {
-    return reply_of(client_->Put(path.c_str(), body.dump(), "application/json"));
-  }
-  Reply patch(const std::string& path, const std::string& body) {
-    return reply_of(client_->Patch(path.c_str(), body, "application/json"));
-  }
-  Reply del(const std::string& path) { return reply_of(client_->Delete(path.c_str())); }
-
-  // Waits until job `id` has ended (at most `timeout`) and returns its record.
-  nlohmann::json wait_job(const std::string& id, std::chrono::seconds timeout = 120s) {
-    const auto until = std::chrono::steady_clock::now() + timeout;
-    for (;;) {
-      const Reply r = get("/api/jobs/" + id);
-      const std::string state = r.body.value("state", "");
-      if (state == "succeeded" || state == "failed" || state == "cancelled") return r.body;
-      if (std::chrono::steady_clock::now() > until) return r.body;
-      std::this_thread::sleep_for(50ms);
-    }
-  }
-
-  std::string upload(const nlohmann::json& model) {
-    const Reply r = post("/api/models", model);
-    EXPECT_TRUE(r.status == 201 || r.status == 200) << r.text;
-    return r.body.value("id", "");
-  }
-
-  std::vector<std::string> log_lines() {
-    const std::lock_guard lock(log_mutex_);
-    return log_;
-  }
-
-  std::unique_ptr<Server> server_;
-  int port_ = 0;
-  std::unique_ptr<httplib::Client> client_;
-  std::mutex log_mutex_;
-  std::vector<std::string> log_;
-};
 
 TEST_F(ServerTest, HealthStatusAndMetricsDescribeARunningEngine) {
   start();
@@ -224,17 +136,23 @@ TEST_F(ServerTest, ModelsAreValidatedStoredListedActivatedAndDeleted) {
   const nlohmann::json model = models::linear_model_to_json(example_linear());
   const Reply first = post("/api/models?name=example", model);
   ASSERT_EQ(first.status, 201) << first.text;
-  const std::string id = first.body["id"];
-  EXPECT_EQ(id, model_store_id(model));
+  const std::string plant = first.body["id"];
+  EXPECT_EQ(plant, model_store_id(model));
   EXPECT_EQ(first.body["kind"], "linear");
   EXPECT_EQ(first.body["name"], "example");
+  EXPECT_EQ(first.body["slots"], nlohmann::json::array());  // a plant model runs in no slot
   const Reply again = post("/api/models", model);
   EXPECT_EQ(again.status, 200);
-  EXPECT_EQ(again.body["id"], id);
+  EXPECT_EQ(again.body["id"], plant);
+  EXPECT_EQ(get("/api/models/" + plant).body["model"], model);
 
+  const nlohmann::json controller = lq_gain_controller(0.5);
+  const Reply stored = post("/api/models", controller);
+  ASSERT_EQ(stored.status, 201) << stored.text;
+  const std::string id = stored.body["id"];
+  EXPECT_EQ(stored.body["slots"], nlohmann::json::array({"feedforward"}));
   const Reply list = get("/api/models");
-  ASSERT_EQ(list.body["models"].size(), 1u);
-  EXPECT_EQ(get("/api/models/" + id).body["model"], model);
+  ASSERT_EQ(list.body["models"].size(), 2u);
 
   const std::uint64_t swaps_before = get("/api/status").body["metrics"]["swaps"];
   const Reply activated = post("/api/models/" + id + "/activate", std::string());
@@ -242,14 +160,11 @@ TEST_F(ServerTest, ModelsAreValidatedStoredListedActivatedAndDeleted) {
   EXPECT_EQ(activated.body["slot"], "feedforward");
   EXPECT_EQ(get("/api/status").body["active_models"]["feedforward"], id);
   EXPECT_EQ(get("/api/config").body["feedforward"]["model"], id);
-  EXPECT_EQ(get("/api/models").body["models"][0]["active_in"], nlohmann::json::array({"feedforward"}));
+  EXPECT_EQ(get("/api/models/" + id).body["active_in"], nlohmann::json::array({"feedforward"}));
   // The slot takes the new stage over at a block boundary.
-  const auto until = std::chrono::steady_clock::now() + 5s;
-  while (get("/api/status").body["metrics"]["swaps"].get<std::uint64_t>() <= swaps_before &&
-         std::chrono::steady_clock::now() < until) {
-    std::this_thread::sleep_for(20ms);
-  }
-  EXPECT_GT(get("/api/status").body["metrics"]["swaps"].get<std::uint64_t>(), swaps_before);
+  const nlohmann::json swapped =
+      wait_status([&](const nlohmann::json& s) { return s["metrics"]["swaps"].get<std::uint64_t>() > swaps_before; });
+  EXPECT_GT(swapped["metrics"]["swaps"].get<std::uint64_t>(), swaps_before);
 
   const Reply busy = del("/api/models/" + id);
   EXPECT_EQ(busy.status, 409);
@@ -259,11 +174,12 @@ TEST_F(ServerTest, ModelsAreValidatedStoredListedActivatedAndDeleted) {
   EXPECT_EQ(unknown_field.status, 400);
   EXPECT_NE(error_message(unknown_field).find("slto"), std::string::npos);
 
-  // A second model replaces it; then the first can go.
-  const std::string other = upload(models::linear_model_to_json(resonant_linear(0.9, 0.3, Eigen::Vector2d(0.1, 0.05), 1)));
+  // A second controller replaces it; then the first can go.
+  const std::string other = upload(lq_gain_controller(0.25));
   ASSERT_EQ(post("/api/models/" + other + "/activate", nlohmann::json::object()).status, 200);
   EXPECT_EQ(del("/api/models/" + id).status, 204);
   EXPECT_EQ(get("/api/models/" + id).status, 404);
+  EXPECT_EQ(del("/api/models/" + plant).status, 204);
   EXPECT_EQ(get("/api/models").body["models"].size(), 1u);
 }
 
@@ -291,11 +207,21 @@ TEST_F(ServerTest, BadModelsAndBadIdsAreRefusedWithTheReason) {
   // At another rate than the engine.
   models::LinearModel fast = example_linear();
   fast.fs = 48000.0;
-  EXPECT_EQ(post("/api/models", models::linear_model_to_json(fast)).status, 422);
-  // Oversized body.
+  const Reply fast_reply = post("/api/models", models::linear_model_to_json(fast));
+  EXPECT_EQ(fast_reply.status, 422);
+  // Numbers as people write them (not "48000.000000 Hz").
+  EXPECT_NE(error_message(fast_reply).find("model.fs: the model runs at 48000 Hz, the engine at 3000 Hz"), std::string::npos)
+      << fast_reply.text;
+  // A plant description sent as a model: what it is and where it belongs.
+  const Reply plant = post("/api/models", models::plant_to_json(models::plant_preset("panel-exciter")));
+  EXPECT_EQ(plant.status, 400);
+  EXPECT_NE(error_message(plant).find("this is a plant description"), std::string::npos) << plant.text;
+  EXPECT_NE(error_message(plant).find("--plant"), std::string::npos) << plant.text;
+  // Oversized body: the message names the limit.
   const Reply big = post("/api/models", std::string(100 * 1024, ' '));
   EXPECT_EQ(big.status, 413);
   EXPECT_EQ(big.body["error"]["code"], "too_large");
+  EXPECT_NE(error_message(big).find("size limit of 64 KiB"), std::string::npos) << big.text;
   // Unknown and path-traversal ids.
   EXPECT_EQ(get("/api/models/m123456789abc").status, 404);
   EXPECT_EQ(get("/api/jobs/j999").status, 404);
@@ -305,12 +231,11 @@ TEST_F(ServerTest, BadModelsAndBadIdsAreRefusedWithTheReason) {
   EXPECT_EQ(get("/api/models").body["models"].size(), 0u);
 }
 
-TEST_F(ServerTest, AnIdentificationJobRunsReportsProgressAndActivatesItsModel) {
+TEST_F(ServerTest, AnIdentificationJobRunsReportsProgressAndADesignOnItsModelIsActivated) {
   start();
   const Reply submitted = post("/api/jobs", nlohmann::json{
       {"kind", "identify-linear"},
-      {"params", {{"excite", {{"samples", 3000}, {"seed", 3}}}, {"method", "oe"}, {"order", 4}}},
-      {"activate", true}});
+      {"params", {{"excite", {{"samples", 3000}, {"seed", 3}}}, {"method", "oe"}, {"order", 4}}}});
   ASSERT_EQ(submitted.status, 202) << submitted.text;
   const std::string id = submitted.body["id"];
 
@@ -331,9 +256,17 @@ TEST_F(ServerTest, AnIdentificationJobRunsReportsProgressAndActivatesItsModel) {
   const nlohmann::json job = wait_job(id);
   ASSERT_EQ(job["state"], "succeeded") << job.dump();
   const std::string model_id = job["result"]["model_id"];
-  EXPECT_EQ(job["activated"]["id"], model_id);
-  EXPECT_EQ(get("/api/status").body["active_models"]["feedforward"], model_id);
+  EXPECT_FALSE(job.contains("activated")) << job.dump();
   EXPECT_EQ(get("/api/models/" + model_id).body["source"], id);
+  // The LQ feedforward designed on it is a controller: activated when its job succeeds.
+  const Reply design = post("/api/jobs", nlohmann::json{{"kind", "design-lq"}, {"params", {{"plant_model", model_id}}},
+                                                        {"activate", true}});
+  ASSERT_EQ(design.status, 202) << design.text;
+  const nlohmann::json designed = wait_job(design.body["id"]);
+  ASSERT_EQ(designed["state"], "succeeded") << designed.dump();
+  const std::string controller = designed["result"]["model_id"];
+  EXPECT_EQ(designed["activated"], (nlohmann::json{{"slot", "feedforward"}, {"id", controller}}));
+  EXPECT_EQ(get("/api/status").body["active_models"]["feedforward"], controller);
   const nlohmann::json& fit = job["result"]["plots"]["fit"];
   EXPECT_EQ(fit["measured"].size(), fit["simulated"].size());
   EXPECT_GT(fit["measured"].size(), 100u);
@@ -421,24 +354,12 @@ TEST_F(ServerTest, ATokenGuardsTheApiAndIsRequiredBeyondLoopback) {
 
 TEST_F(ServerTest, ASaturatingControllerTripsTheChainWhichRecoversAndTheDriveStaysBounded) {
   start();
-  // A pure gain of 8 behind the band-pass pins the drive at the rails on the engine's noise program;
-  // with max_pinned_ms = 1 (3 samples) the limiter trips at once.
-  models::LinearModel gain;
-  gain.tf.b = Eigen::VectorXd::Constant(1, 8.0);
-  gain.fs = 3000.0;
+  // A gain of 6 to 8 (u* = u + 7·u(k−1)) behind the band-pass pins the drive at the rails on the engine's
+  // noise program; with max_pinned_ms = 1 (3 samples) the limiter trips at once.
   ASSERT_EQ(patch("/api/config", R"({"limiter":{"max_pinned_ms":1}})").status, 200);
-  const std::string id = upload(models::linear_model_to_json(gain));
+  const std::string id = upload(lq_gain_controller(7.0));
   ASSERT_EQ(post("/api/models/" + id + "/activate", nlohmann::json::object()).status, 200);
-  const auto wait_for = [this](const std::function<bool(const nlohmann::json&)>& condition) {
-    const auto until = std::chrono::steady_clock::now() + 20s;
-    nlohmann::json status;
-    do {
-      status = get("/api/status").body;
-      if (condition(status)) return status;
-      std::this_thread::sleep_for(20ms);
-    } while (std::chrono::steady_clock::now() < until);
-    return status;
-  };
+  const auto wait_for = [this](const std::function<bool(const nlohmann::json&)>& condition) { return wait_status(condition); };
   const nlohmann::json tripped = wait_for([](const nlohmann::json& s) { return s["metrics"]["in_fault"] == true; });
   ASSERT_EQ(tripped["metrics"]["in_fault"], true) << tripped.dump();
   EXPECT_EQ(tripped["metrics"]["last_fault"], "drive pinned at the rails");

@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <regex>
 
+#include "api/model_store.h"
 #include "models/io/json_file.h"
 #include "models/linear/linear_model.h"
 #include "tests/support/cli_runner.h"
@@ -14,16 +16,21 @@ namespace {
 
 using namespace testing_support;
 
+// The feedforward model of the test chain: a linear gain of 0.8.
+json gain_model() {
+  models::LinearModel gain;
+  gain.tf.b = Eigen::VectorXd::Constant(1, 0.8);
+  gain.fs = 3000.0;
+  return models::linear_model_to_json(gain);
+}
+
 class CliRun : public CliTest {
  protected:
-  // A chain with a band-pass and a linear feedforward gain of 0.8 (inline).
+  // A chain with a band-pass and gain_model() as its feedforward (inline).
   fs::path chain() const {
-    models::LinearModel gain;
-    gain.tf.b = Eigen::VectorXd::Constant(1, 0.8);
-    gain.fs = 3000.0;
     json j = json::parse(R"({"format":"panelbass.chain/1","fs":3000,"block":64,
         "band_pass":{"low_hz":20,"high_hz":1200,"order":2}})");
-    j["feedforward"] = {{"model", models::linear_model_to_json(gain)}};
+    j["feedforward"] = {{"model", gain_model()}};
     models::write_json_file(dir_ / "chain.json", j);
     return dir_ / "chain.json";
   }
@@ -38,9 +45,14 @@ void expect_healthy_metrics(const json& metrics) {
   for (const char* key : {"xruns", "mean_block_ns", "p99_block_ns", "max_block_ns", "load"}) {
     EXPECT_TRUE(metrics[key].is_number()) << key << ": " << metrics;
   }
-  EXPECT_NE(metrics["active_ids"]["band_pass"], 0) << metrics;
-  EXPECT_NE(metrics["active_ids"]["feedforward"], 0) << metrics;
-  EXPECT_EQ(metrics["active_ids"]["feedback"], 0) << metrics;
+  // Model ids as the API writes them ("m" + 12 hex digits): the feedforward's is the id the store gives it.
+  EXPECT_EQ(metrics["active_ids"]["feedforward"], api::model_store_id(gain_model())) << metrics;
+  EXPECT_TRUE(std::regex_match(metrics["active_ids"]["band_pass"].get<std::string>(), std::regex("m[0-9a-f]{12}")))
+      << metrics;
+  EXPECT_TRUE(metrics["active_ids"]["feedback"].is_null()) << metrics;
+  // A gain of 0.8 on band-passed noise of peak 0.3 (the default program) stays within the limiter's knee.
+  EXPECT_EQ(metrics["limited_samples"], 0) << metrics;
+  EXPECT_EQ(metrics["over_range_samples"], 0) << metrics;
 }
 
 TEST_F(CliRun, TheVirtualBackendRunsForOneSecondWithoutAFault) {
