@@ -3,7 +3,9 @@
 // it serves web/ and answers the routes of api/ROUTES.md with canned, plausible data (jobs progress over
 // ~2 s, identify jobs make a model with fit/spectrum/history plots, design-nn jobs a summary with the restarts and
 // the design's params, diagnose jobs a one-finding report, an identify-narx job without nk a `warnings` entry; its
-// start-up demo drives at the limiter, peak_drive 0.9999; activation takes controllers only, each into its slot). Same
+// start-up demo drives at the limiter — needs_more_drive, the limiter's shares of the last second, peak_drive 0.9999 —
+// until POST /mock/program makes it quieter; model summaries list their `slots`; activation takes controllers only,
+// each into its slot). Same
 // command line and first stdout line as the real server, so the browser tests can drive it (ctest
 // web.ui_on_debian12_node runs ui_mock_test.mjs against it):
 //   node tests/web/ui_mock_test.mjs --server tests/web/mock_server.mjs --artifacts /tmp/ui
@@ -28,9 +30,19 @@ const port = portArg >= 0 ? Number(args[portArg + 1]) : 8080;
 // --job-step-ms N: a job's ten progress steps N ms apart (default 200: a job takes ~2 s).
 const stepArg = args.indexOf('--job-step-ms');
 const jobStepMs = stepArg >= 0 ? Number(args[stepArg + 1]) : 200;
-// The start-up demo plays noise at 0.2 into a chain whose safe amplitude is lower: the drive sits at the limiter
-// (peak_drive 0.9999), as the real server's did (issue #31); without the demo nothing has been sent.
-const peakDrive = args.includes('--no-demo') ? 0 : 0.9999;
+// The program the engine plays, as the status reports it (api/ROUTES.md "Status"): with the start-up demo it
+// starts "over" — noise at 0.2 into a chain whose safe amplitude is lower, as the real server's demo did (issue
+// #31): 3.2 % of the samples compressed and 0.4 % asking for full scale or more over the last second, so
+// needs_more_drive, and the peak drive 0.9999 since start; without the demo "quiet" (nothing sent). A test sets
+// it with POST /mock/program {"level":"over"|"limiting"|"quiet"} (a route of the mock only) to see the UI's
+// limiter message come and go; the peak drive and demand since start never go down, as the server's.
+const PROGRAM_LEVELS = {
+  quiet: { limited_fraction: 0, over_range_fraction: 0, peak_drive: 0, peak_demand: 0 },
+  limiting: { limited_fraction: 0.012, over_range_fraction: 0, peak_drive: 0.93, peak_demand: 0.97 },
+  over: { limited_fraction: 0.032, over_range_fraction: 0.004, peak_drive: 0.9999, peak_demand: 1.37 },
+};
+let program = args.includes('--no-demo') ? 'quiet' : 'over';
+const limiter = { peak_drive: 0, peak_demand: 0, limited_samples: 0, over_range_samples: 0, counted_to: 0 };
 
 const FS = 3000;
 const started = Date.now();
@@ -46,6 +58,25 @@ let config = {
   fs: FS, block: 64, history: 512,
 };
 const now = () => new Date().toISOString().replace(/\.\d+Z$/, 'Z');
+
+/** The limiter's figures at `up` seconds: the counters and peaks since start (the program's level so far), and
+ *  the program's shares over the last second (the window, up to 1 s, is 0 in the first 0.1 s as the server's). */
+function limiterMetrics(up) {
+  const level = PROGRAM_LEVELS[program];
+  const samples = Math.floor(up * FS) - limiter.counted_to;
+  if (samples > 0) {
+    limiter.limited_samples += Math.round(samples * level.limited_fraction);
+    limiter.over_range_samples += Math.round(samples * level.over_range_fraction);
+    limiter.counted_to += samples;
+  }
+  limiter.peak_drive = Math.max(limiter.peak_drive, level.peak_drive);
+  limiter.peak_demand = Math.max(limiter.peak_demand, level.peak_demand);
+  const span = up < 0.1 ? 0 : Math.min(1, up);
+  return { peak_drive: limiter.peak_drive, peak_demand: limiter.peak_demand, limited_samples: limiter.limited_samples,
+           over_range_samples: limiter.over_range_samples, limiter_window_s: span,
+           limited_fraction: span ? level.limited_fraction : 0, over_range_fraction: span ? level.over_range_fraction : 0,
+           needs_more_drive: span > 0 && level.over_range_fraction > 0 };
+}
 
 function send(res, status, body, type = 'application/json') {
   const text = type === 'application/json' ? JSON.stringify(body) : body;
@@ -69,8 +100,13 @@ function storeModel(model, name, source) {
   return { id, fresh };
 }
 
-const modelSummary = (id) => ({ ...models.get(id).summary,
-  active_in: Object.entries(active).filter(([, v]) => v === id).map(([k]) => k) });
+// A model's summary: what the store keeps, where it is active, and the slots that run it (`slots`: a controller's
+// own slot, none for a plant model).
+const modelSummary = (id) => {
+  const { summary } = models.get(id);
+  return { ...summary, active_in: Object.entries(active).filter(([, v]) => v === id).map(([k]) => k),
+           slots: SLOT_OF_KIND[summary.kind] ? [SLOT_OF_KIND[summary.kind]] : [] };
+};
 
 function plots(kind) {
   const n = 600, t = [], measured = [], simulated = [];
@@ -221,6 +257,14 @@ async function handle(req, res) {
   const p = url.pathname;
   const m = req.method;
   let match;
+  if (p === '/mock/program' && m === 'POST') {
+    let body;
+    try { body = JSON.parse(await readBody(req)); } catch { return fail(res, 400, 'bad_request', 'malformed JSON'); }
+    if (!(body?.level in PROGRAM_LEVELS)) return fail(res, 400, 'bad_request', `level: one of ${Object.keys(PROGRAM_LEVELS).join(', ')}`);
+    limiterMetrics((Date.now() - started) / 1000);  // the counters up to now at the old level
+    program = body.level;
+    return send(res, 200, { level: program });
+  }
   if (!p.startsWith('/api/')) return serveStatic(req, res, p);
   if (p === '/api/health' && m === 'GET') return send(res, 200, { status: 'ok', version: '0.1.0-mock' });
   if (p === '/api/status' && m === 'GET') {
@@ -230,7 +274,8 @@ async function handle(req, res) {
     return send(res, 200, {
       engine: { state: 'running', backend: 'virtual', plant: 'panel-exciter', fs: FS, block: 64, uptime_s: up },
       metrics: { blocks: Math.floor(up * FS / 64), samples: Math.floor(up * FS), xruns: 0, faults: 0, in_fault: false, last_fault: '',
-                 swaps: 0, peak_drive: peakDrive, mean_block_ns: 8200, p99_block_ns: 14100, max_block_ns: 30100, ns_per_sample: 128, load: 0.0066 },
+                 swaps: 0, mean_block_ns: 8200, p99_block_ns: 14100, max_block_ns: 30100, ns_per_sample: 128, load: 0.0066,
+                 ...limiterMetrics(up) },
       active_models: active, jobs: { queued, running } });
   }
   if (p === '/api/config' && m === 'GET') {
@@ -258,7 +303,7 @@ async function handle(req, res) {
     try { model = JSON.parse(await readBody(req)); } catch { return fail(res, 400, 'bad_request', 'malformed JSON'); }
     if (model.format !== 'panelbass.model/1') return fail(res, 400, 'bad_request', 'format: must be "panelbass.model/1"');
     const { id, fresh } = storeModel(model, url.searchParams.get('name'), 'upload');
-    return send(res, fresh ? 201 : 200, models.get(id).summary);
+    return send(res, fresh ? 201 : 200, modelSummary(id));
   }
   if ((match = p.match(/^\/api\/models\/([A-Za-z0-9_-]{1,64})(\/activate)?$/))) {
     const id = match[1];

@@ -4,14 +4,19 @@
 // ctest runs it under Debian 12's Node 18.20.4 (web.ui_on_debian12_node), so it also proves that playwright-core
 // and the test set-up run there. Checks, as a person would, with jobs started through the API (as the README's
 // curl commands do) rather than the form:
-//   - the mock's start-up demo drives at the limiter (peak_drive 0.9999): the status shows the peak drive and says
-//     plainly that the program needs more drive than the chain allows;
+//   - the mock's start-up demo drives at the limiter (needs_more_drive, 3.2 % of the last second's samples
+//     compressed, 0.4 % over range, peak_drive 0.9999): the status shows the limiter's shares and the peak drive
+//     since start and says plainly that the program needs more drive than the chain allows; made quieter
+//     (POST /mock/program), the message goes while the peak since start stays; a program only compressed gets a
+//     milder note; louder again, the message comes back;
 //   - a job that finishes is shown without a click (result, plots, and the hint that a click shows another);
 //   - an identify-narx job without nk ends with a warning (J_val 100.3 %, nk 1001): shown in its row and
 //     prominently on its result;
 //   - plant models (linear, narx) are offered no Activate, in the store or on their result, and the form's
 //     "activate when done" is only offered for controllers; an LQ feedforward is offered "Activate as feedforward";
-//     when the server refuses an activation its error text is shown; accepted, the status shows the model active.
+//     when the server refuses an activation its error text is shown; accepted, the status shows the model active;
+//     Activate follows the models' `slots` from the server, not their kind (the answer altered on its way: a narx
+//     model offered "Activate as feedback", an LQ feedforward with no slot says so and is offered none).
 // Saves ARTIFACTS/ui-mock-server.log and ui-mock-console.log. Exit 0 on success; 1 with
 // "ui_mock_test: FAIL <step>: <reason>" otherwise; 2 on bad usage.
 
@@ -40,14 +45,45 @@ async function main() {
 
   run.step = 'drive at the limit shown';
   await page.waitForSelector('#conn[data-state="online"]', { timeout: 10_000 });
-  await until(async () => (await page.getAttribute('#status-drive-note', 'data-level')) === 'limit', 8000,
-              `the status never says the drive is at its limit (peak drive shown: "${await page.textContent('#status-peak-drive')}")`);
-  const peak = (await page.textContent('#status-peak-drive')).trim();
-  const note = (await page.textContent('#status-drive-note')).trim();
-  run.log(`peak drive ${peak}: ${note}`);
-  check(peak === '0.9999', `peak drive shown as "${peak}"`);
-  check(await page.isVisible('#status-drive-note') && note.includes('needs more drive than the chain allows'),
-        `the status does not say plainly that the program needs more drive than the chain allows: "${note}"`);
+  /** What the status says of the drive: the note's level and text, the limiter's line, the peak since start. */
+  const drive = () => page.evaluate(() => {
+    const note = document.querySelector('#status-drive-note');
+    return { level: note.dataset.level || '', note: note.hidden ? '' : note.textContent.trim(), box: note.className,
+             limiter: document.querySelector('#status-limiter').textContent.trim(),
+             peak: document.querySelector('#status-peak-drive').textContent.trim() };
+  });
+  let d = await until(async () => { const x = await drive(); return x.level === 'limit' ? x : null; }, 8000,
+                      `the status never says the program needs more drive than the chain allows: ${JSON.stringify(await drive())}`);
+  run.log(`over: limiter "${d.limiter}", peak drive ${d.peak}: ${d.note}`);
+  check(d.peak === '0.9999', `peak drive shown as "${d.peak}"`);
+  check(d.note.includes('needs more drive than the chain allows') && d.box === 'warn-box',
+        `the status does not say plainly, in the warning box, that the program needs more drive than the chain allows: ${JSON.stringify(d)}`);
+  check(d.limiter.startsWith('3.2 % of samples compressed, 0.4 % over range'),
+        `the limiter's activity over the last second reads "${d.limiter}", expected 3.2 % compressed, 0.4 % over range`);
+  check(/since start/.test(await page.$eval('#status-peak-drive', (e) => e.closest('dd').previousElementSibling.textContent)),
+        'the peak drive is not labelled as since start');
+
+  run.step = 'the limiter message clears when the program gets quieter';
+  const program = async (level) => {
+    const res = await fetch(`${base}mock/program`, { method: 'POST', body: JSON.stringify({ level }) });
+    check(res.ok, `POST /mock/program ${level} → ${res.status}`);
+  };
+  await program('quiet');
+  d = await until(async () => { const x = await drive(); return x.level === '' ? x : null; }, 5000,
+                  `needs_more_drive turned false, but the status still says: ${JSON.stringify(await drive())}`);
+  check(d.note === '' && await page.isHidden('#status-drive-note'), `the drive note is still shown: ${JSON.stringify(d)}`);
+  check(d.limiter.startsWith('0 % of samples compressed, 0 % over range'), `the quiet program's limiter line reads "${d.limiter}"`);
+  check(d.peak === '0.9999', `the peak drive since start went from 0.9999 to "${d.peak}"`);
+  run.log(`quiet: limiter "${d.limiter}", peak drive since start ${d.peak}`);
+  await program('limiting');
+  d = await until(async () => { const x = await drive(); return x.level === 'limiting' ? x : null; }, 5000,
+                  `the limiter compresses 1.2 % (no sample over range), but the status says: ${JSON.stringify(await drive())}`);
+  check(!d.note.includes('needs more drive') && d.box !== 'warn-box' && d.note.includes('1.2 %'),
+        `a program that is only compressed (needs_more_drive false) is told as: ${JSON.stringify(d)}`);
+  await program('over');
+  await until(async () => (await drive()).level === 'limit', 5000, 'needs_more_drive true again, but no message');
+  await program('quiet');
+  await until(async () => (await drive()).level === '', 5000, 'needs_more_drive false again, but the message stays');
 
   run.step = 'a finished job shown without a click';
   const linearJob = (await post('api/jobs', { kind: 'identify-linear', params: { samples: 3000 } })).id;
@@ -58,7 +94,8 @@ async function main() {
   const linearModel = await page.$eval('#result-activate', (e) => e.dataset.modelId);
 
   run.step = 'a plant model offered no Activate';
-  check(!(await page.isVisible('#result-activate')) && await page.isVisible('#result-plant-note'),
+  await until(async () => await page.isVisible('#result-plant-note'), 8000, 'the identify-linear result never says its model is a plant');
+  check(!(await page.isVisible('#result-activate')) && /plant/.test(await page.textContent('#result-plant-note')),
         'the identify-linear result offers Activate on a plant model, or does not say it is a plant');
   await page.selectOption('#job-kind', 'identify-linear');
   check(!(await page.isVisible('#job-activate')), 'the form offers "activate when done" for an identify job');
@@ -85,13 +122,18 @@ async function main() {
   const lqJob = (await post('api/jobs', { kind: 'design-lq', params: { plant_model: linearModel } })).id;
   await shownWithoutClick(lqJob, 'design-lq');
   const lqModel = await page.$eval('#result-activate', (e) => e.dataset.modelId);
+  await until(async () => await page.isVisible('#result-activate'), 8000, 'the design-lq result never offers Activate');
   check((await page.textContent('#result-activate')).trim() === 'Activate as feedforward',
         `the design-lq result's button reads "${await page.textContent('#result-activate')}"`);
   await until(async () => (await page.$$('#models-table tbody tr')).length === 3, 8000, 'the store never lists the 3 models');
-  const offered = await page.$$eval('#models-table tbody tr', (trs) => Object.fromEntries(trs.map((tr) =>
-    [tr.children[1].textContent, tr.querySelector('button.activate')?.textContent ?? ''])));
+  /** Per model kind in the store: the Activate buttons offered, or the note saying why none is. */
+  const offeredInStore = () => page.$$eval('#models-table tbody tr', (trs) => Object.fromEntries(trs.map((tr) =>
+    [tr.children[1].textContent, [...tr.querySelectorAll('button.activate')].map((b) => b.textContent).join(', ')
+      || `(${tr.querySelector('.no-slot-note')?.textContent ?? ''})`])));
+  const offered = await offeredInStore();
   run.log(`Activate offered: ${JSON.stringify(offered)}`);
-  check(JSON.stringify(offered) === JSON.stringify({ lq_feedforward: 'Activate as feedforward', narx: '', linear: '' }),
+  const plantNote = '(a plant model: design a controller on it)';
+  check(JSON.stringify(offered) === JSON.stringify({ lq_feedforward: 'Activate as feedforward', narx: plantNote, linear: plantNote }),
         `the store offers Activate as ${JSON.stringify(offered)}`);
 
   // The server refuses (a route of the test's answers this once, as the server would): its text is shown.
@@ -106,6 +148,30 @@ async function main() {
   await until(async () => (await page.getAttribute('#active-feedforward', 'data-model-id')) === lqModel, 8000,
               `status never showed ${lqModel} as the active feedforward model`);
   check(await page.isHidden('#result-activate-error'), 'the refusal is still shown after the activation succeeded');
+
+  // Activate follows the server's `slots`, not the model's kind: the store's answer altered on its way to the page
+  // (the narx model said to go into the feedback slot, the LQ feedforward into none), the page reloaded.
+  run.step = 'Activate follows the models\' slots';
+  await page.route('**/api/models', async (r) => {
+    const res = await r.fetch();
+    const body = await res.json();
+    for (const m of body.models) m.slots = { narx: ['feedback'], lq_feedforward: [] }[m.kind] ?? m.slots;
+    await r.fulfill({ response: res, json: body });
+  });
+  await page.reload({ waitUntil: 'load' });
+  const altered = await until(async () => {
+    const o = await offeredInStore();
+    return Object.keys(o).length === 3 ? o : null;
+  }, 8000, 'the store is not listed after the reload');
+  run.log(`Activate offered from altered slots: ${JSON.stringify(altered)}`);
+  check(JSON.stringify(altered) === JSON.stringify({ lq_feedforward: '(no slot runs this lq_feedforward model)',
+                                                     narx: 'Activate as feedback', linear: plantNote }),
+        `with slots {narx: [feedback], lq_feedforward: []} the store offers ${JSON.stringify(altered)}`);
+  // The newest finished job's result (the design-lq) is shown after the reload: no Activate either.
+  await until(async () => (await page.$eval('#result', (e) => e.dataset.jobId)) === lqJob && await page.isVisible('#result-plant-note'),
+              8000, `the reloaded page does not show ${lqJob}'s result saying no slot runs its model`);
+  check(!(await page.isVisible('#result-activate')), 'the design-lq result offers Activate though the server lists no slot for its model');
+  await page.unroute('**/api/models');
 
   run.step = 'no page errors';
   check(run.pageErrors.length === 0, `${run.pageErrors.length} error(s) in the page`);

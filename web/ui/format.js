@@ -33,6 +33,16 @@ export function fmtNumber(v, digits = 3) {
 /** A percentage figure ("2.48 %"); "—" for none. */
 export const fmtPct = (v) => (num(v) ? `${v < 0.1 && v !== 0 ? v.toPrecision(2) : v.toFixed(2)} %` : '—');
 
+/** A share of samples as a percentage: "0 %", "0.05 %", "3.2 %", "> 99.9 %", "100 %". */
+export function fmtShare(fraction) {
+  if (!num(fraction)) return '—';
+  const p = 100 * fraction;
+  if (p === 0) return '0 %';
+  if (p < 0.1) return `${p.toPrecision(1)} %`;
+  if (p < 99.95) return `${p.toFixed(1).replace(/\.0$/, '')} %`;
+  return fraction >= 1 ? '100 %' : '> 99.9 %';
+}
+
 /** A duration in nanoseconds as ns, µs or ms. */
 export function fmtNs(ns) {
   if (!num(ns)) return '—';

@@ -3,7 +3,7 @@
 import { api } from '../api.js';
 import { $, $$, confirmButton, el, showMessage, syncRows } from './dom.js';
 import { errorText, fmtTime, num } from './format.js';
-import { slotForKind, state } from './state.js';
+import { slotsOf, state, whyNoSlot } from './state.js';
 import { renderConfigModels } from './config.js';
 import { pollStatus } from './status.js';
 import { updatePreview } from './job_form.js';
@@ -46,13 +46,6 @@ function renderModels() {
       const tr = el('tr', { dataset: { modelId: m.id } });
       tr.append(el('td', { class: 'mono' }, m.id), el('td'), el('td'), el('td', { class: 'num' }), el('td'),
                 el('td', { class: 'mono' }), el('td'));
-      // Only a controller is offered to its slot; a plant model says what it is for instead.
-      const slot = slotForKind(m.kind);
-      const activateButton = slot
-        ? el('button', { type: 'button', class: 'small activate', dataset: { slot }, onclick: () => activate(m.id, slot, null) },
-             `Activate as ${slot}`)
-        : el('span', { class: 'muted plant-note', title: 'a plant model: design a controller on it (Design LQ feedforward / NN feedback); no slot takes a plant' },
-             'plant');
       const del = confirmButton('Delete', async () => {
         try {
           await api.deleteModel(m.id);
@@ -63,7 +56,7 @@ function renderModels() {
         }
       });
       del.classList.add('delete');
-      tr.append(el('td', { class: 'buttons' }, activateButton, del));
+      tr.append(el('td', { class: 'buttons' }, el('span', { class: 'activate-slots' }), del));
       return tr;
     },
     (tr, m) => {
@@ -76,9 +69,19 @@ function renderModels() {
       const slots = m.active_in || [];
       cells[6].replaceChildren(...slots.map((s) => el('span', { class: 'badge active' }, s)));
       tr.classList.toggle('is-active', slots.length > 0);
-      const button = tr.querySelector('button.activate');
-      if (button) button.disabled = slots.includes(button.dataset.slot);
       tr.dataset.activeIn = slots.join(' ');
+      // Activate is offered for each slot the server says runs the model (`slots`); a model no slot runs says why.
+      const accepts = slotsOf(m);
+      const host = tr.querySelector('.activate-slots');
+      if (tr.dataset.slots !== accepts.join(' ') || !host.hasChildNodes()) {
+        tr.dataset.slots = accepts.join(' ');
+        const why = accepts.length ? null : whyNoSlot(m);
+        host.replaceChildren(...(why
+          ? [el('span', { class: 'muted no-slot-note', title: why.long }, why.short)]
+          : accepts.map((slot) => el('button', { type: 'button', class: 'small activate', dataset: { slot },
+                                                 onclick: () => activate(m.id, slot, null) }, `Activate as ${slot}`))));
+      }
+      for (const button of host.querySelectorAll('button.activate')) button.disabled = slots.includes(button.dataset.slot);
     });
   fillModelSelects();
   renderConfigModels();  // the chain panel's model names, which the store gives

@@ -3,12 +3,9 @@
 import { drawPlot, PLOT_ORDER } from '../plots.js';
 import { $, el, setText, showMessage } from './dom.js';
 import { flatten, fmtPct, fmtValue } from './format.js';
-import { modelLabel, slotForKind, state } from './state.js';
+import { modelLabel, slotsOf, state, whyNoSlot } from './state.js';
+import { refreshModels } from './models.js';
 import { renderDiagnosis } from './diagnosis.js';
-
-/** The kind of model each model-making job kind stores. */
-const MODEL_KIND_OF_JOB = { 'identify-linear': 'linear', 'identify-narx': 'narx', 'design-lq': 'lq_feedforward',
-                            'design-nn': 'neural_feedback' };
 
 /** Removes the result's plots. */
 export function clearPlots() {
@@ -33,15 +30,13 @@ export function renderResult(job) {
   const box = $('#result-model-box');
   box.hidden = !r.model_id;
   setText('#result-model', r.model_id ? modelLabel(r.model_id) : '—');
-  // Activate only a controller, naming its slot; a plant model (identified from a record) goes into no slot.
-  const slot = slotForKind(MODEL_KIND_OF_JOB[job.kind]);
+  // Activate follows the store's summary of the model (its `slots`): renderActivated, once the store lists it.
   const button = $('#result-activate');
   button.dataset.modelId = r.model_id || '';
-  button.dataset.slot = slot || '';
-  button.hidden = !slot;
-  button.textContent = slot ? `Activate as ${slot}` : 'Activate';
-  showMessage('#result-plant-note', r.model_id && !slot
-    ? 'A plant model: design a controller on it (Design LQ feedforward / NN feedback) and activate that; no slot takes a plant.' : '');
+  button.dataset.slot = '';
+  button.hidden = true;
+  showMessage('#result-plant-note', '');
+  if (r.model_id && !state.models.some((m) => m.id === r.model_id)) refreshModels();
 
   // Summary: the server's summary object, plus the excite figures when this is a record (a diagnosis has
   // none: its data, rate, baseline and rule instead, the scan of orders left out).
@@ -72,13 +67,21 @@ export function renderResult(job) {
   if (names.length === 0) $('#plots').append(el('div', { class: 'muted' }, 'this result has no plots'));
 }
 
-/** Shows where the result's model is active (from the store) on the result panel. */
+/** Shows, from the store, where the result's model is active and the slots it can be activated in (the server's
+ *  `slots`: Activate names the slot; a model no slot runs, a plant, says why instead). Nothing is offered until the
+ *  store lists the model. */
 export function renderActivated(job) {
   const id = job?.result?.model_id;
   if (!id || state.selected !== job.id) return;
   const m = state.models.find((x) => x.id === id);
-  const slots = m?.active_in || [];
+  const active = m?.active_in || [];
   setText('#result-model', modelLabel(id));
-  setText('#result-activated', slots.length ? `active in ${slots.join(', ')}` : '');
-  $('#result-activate').disabled = slots.length > 0;
+  setText('#result-activated', active.length ? `active in ${active.join(', ')}` : '');
+  const slot = m ? (slotsOf(m)[0] ?? '') : '';
+  const button = $('#result-activate');
+  button.dataset.slot = slot;
+  button.hidden = !slot;
+  button.textContent = slot ? `Activate as ${slot}` : 'Activate';
+  button.disabled = active.length > 0;
+  showMessage('#result-plant-note', m && !slot ? whyNoSlot(m).long : '');
 }

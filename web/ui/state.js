@@ -22,8 +22,21 @@ export function modelLabel(id) {
   return m && m.name ? `${id} · ${m.name}` : id;
 }
 
-/** The engine slot a model of `kind` goes into: controllers only (a `linear` or `narx` model is a plant, which
- *  controllers are designed on, and no slot takes one); null for a plant or an unknown kind. */
-export function slotForKind(kind) {
-  return { lq_feedforward: 'feedforward', neural_feedback: 'feedback' }[kind] ?? null;
+/** The slots that run model `m` (its summary from the store), as the server lists them (`slots`); [] for none. */
+export function slotsOf(m) {
+  return Array.isArray(m?.slots) ? m.slots.filter((s) => s === 'feedforward' || s === 'feedback') : [];
+}
+
+/** The plant kinds: models of the transducer, which controllers are designed on. */
+const PLANT_KINDS = new Set(['linear', 'narx']);
+
+/** Why no slot runs model `m` (a summary with `slots: []`): short, and the longer explanation. */
+export function whyNoSlot(m) {
+  if (PLANT_KINDS.has(m?.kind)) {
+    return { short: 'a plant model: design a controller on it',
+             long: 'A plant model: design a controller on it (Design LQ feedforward / NN feedback) and activate that; '
+               + 'no slot takes a plant.' };
+  }
+  const what = m?.kind ? `this ${m.kind} model` : 'this model';
+  return { short: `no slot runs ${what}`, long: `No slot runs ${what}: the server lists no slot that accepts it.` };
 }

@@ -2,7 +2,7 @@
 
 import { api } from '../api.js';
 import { $, setText } from './dom.js';
-import { errorText, fmtDuration, fmtNs, fmtNumber, num } from './format.js';
+import { errorText, fmtDuration, fmtNs, fmtNumber, fmtShare, num } from './format.js';
 import { modelLabel, state } from './state.js';
 import { loadConfig } from './config.js';
 import { refreshModels } from './models.js';
@@ -30,27 +30,45 @@ export async function pollStatus() {
   renderStatus(status);
 }
 
-/** A peak |drive| at or above this is at the rails: the soft limiter only approaches 1. */
-const AT_LIMIT = 0.99;
-
-/** Shows the peak drive and says plainly whether the limiter has been at work or the drive at its limit. */
-function renderDrive(peak, knee) {
+/** Shows the drive: its peak since start (which never resets) and, over the limiter's window (about the last
+ *  second), the share of samples the limiter compressed and of those that asked for full scale or more. Says
+ *  plainly when the program needs more drive than the chain allows (`needs_more_drive`), which clears when the
+ *  program gets quieter; a milder note while the limiter only compresses. */
+function renderDrive(m, knee) {
+  const peak = m.peak_drive;
   setText('#status-peak-drive', num(peak) ? peak.toFixed(4) : '—');
   const meter = $('#status-peak-drive-meter');
   meter.value = num(peak) ? Math.min(1, Math.max(0, peak)) : 0;
   if (num(knee)) meter.low = knee;
+  const demand = m.peak_demand;
+  setText('#status-peak-demand', num(demand) ? demand.toFixed(4) : '—');
+  $('#status-peak-demand').classList.toggle('warn', num(demand) && demand >= 1);
+
+  const span = m.limiter_window_s;
+  const limited = m.limited_fraction;
+  const over = m.over_range_fraction;
+  const measured = num(span) && span > 0 && num(limited) && num(over);
+  const limiter = $('#status-limiter');
+  limiter.dataset.limited = measured ? String(limited) : '';
+  limiter.dataset.overRange = measured ? String(over) : '';
+  setText('#status-limiter', measured
+    ? `${fmtShare(limited)} of samples compressed, ${fmtShare(over)} over range (last ${span.toFixed(1)} s)`
+    : 'measuring…');
+  limiter.classList.toggle('warn', measured && limited > 0);
+
   const note = $('#status-drive-note');
   let level = '';
   let text = '';
-  if (num(peak) && peak >= AT_LIMIT) {
+  if (m.needs_more_drive === true) {
     level = 'limit';
-    text = `The program needs more drive than the chain allows: the drive has reached ${peak.toFixed(4)} of full `
-      + 'scale since the engine started, where the limiter holds it at the rails and the output distorts. Lower the '
-      + 'program level, or design the feedforward for a larger max input.';
-  } else if (num(peak) && num(knee) && peak > knee) {
+    text = 'The program needs more drive than the chain allows: '
+      + `over the last ${measured ? `${span.toFixed(1)} s, ${fmtShare(over)} of the samples` : 'second, samples'} asked for `
+      + 'full scale or more, which the limiter squeezes below the rails, and the output distorts. Lower the program '
+      + 'level, or design the LQ feedforward for the program\'s level (Design LQ feedforward, max input).';
+  } else if (measured && limited > 0) {
     level = 'limiting';
-    text = `The limiter has compressed the drive: its peak since the engine started, ${peak.toFixed(3)}, is above `
-      + `the limiter's knee ${fmtNumber(knee)}. The program is close to the most the chain allows.`;
+    text = `The limiter is compressing ${fmtShare(limited)} of the samples (drive asked for above its knee`
+      + `${num(knee) ? ` ${fmtNumber(knee)}` : ''}): the program is close to the most the chain allows.`;
   }
   note.dataset.level = level;
   note.className = level === 'limit' ? 'warn-box' : level ? 'warn' : '';
@@ -86,7 +104,7 @@ export function renderStatus(st) {
   $('#status-faults').classList.toggle('warn', num(m.faults) && m.faults > 0);
   setText('#status-last-fault', m.last_fault || '—');
   setText('#status-swaps', fmtNumber(m.swaps));
-  renderDrive(m.peak_drive, state.config?.limiter?.knee);
+  renderDrive(m, state.config?.limiter?.knee);
   const jobs = st.jobs || {};
   setText('#status-jobs', `${jobs.running ?? 0} running, ${jobs.queued ?? 0} queued`);
   $('#status-in-fault').hidden = !m.in_fault;
