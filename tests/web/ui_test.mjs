@@ -2,10 +2,11 @@
 //   node tests/web/ui_test.mjs --server build/bin/panelbass --artifacts build/test-artifacts
 // Starts the server on a free port with a fresh store and no demo, drives Debian's headless Chromium
 // (/usr/bin/chromium, through playwright-core from web/node_modules; no browser is downloaded; tests/web/harness.mjs)
-// and checks, as a person would: the status is shown, peak drive included; an "Excite + identify" job
-// (identify-linear, 3000 samples, order 6) started from the form runs with its progress shown and succeeds; its
-// model, a plant, is offered no Activate (the result says it is a plant); the fit plot is drawn (uPlot canvas
-// with the series' colours in it); a "Diagnose" job (its own 3000 + 2000-sample excitation, the identified
+// and checks, as a person would: the status is shown, peak drive included, and the limiter's activity over the
+// last second as none (nothing is played); an "Excite + identify" job (identify-linear, 3000 samples, order 6)
+// started from the form runs with its progress shown and succeeds; its model, a plant (the server lists no slot
+// for it), is offered no Activate (the result and the store say it is a plant); the fit plot is drawn (uPlot
+// canvas with the series' colours in it); a "Diagnose" job (its own 3000 + 2000-sample excitation, the identified
 // model as baseline, one finding at most) shows the baseline, J before and after, the noise floor, the
 // findings table (or its "no finding" line), the location sentences as the server's verdict fields decide
 // them, and the residual-spectrum plot; an LQ feedforward designed on the identified model is activated
@@ -75,6 +76,14 @@ async function main() {
   check(status.backend !== '—' && status.xruns !== '—', `status incomplete: ${JSON.stringify(status)}`);
   check(/^\d\.\d{4}$/.test(status['peak-drive']), `peak drive not shown: ${JSON.stringify(status)}`);
   log(`status: ${Object.entries(status).map(([k, v]) => `${k}=${v}`).join(', ')}`);
+  // Without the demo nothing is played: once the server has a window, the limiter compressed nothing in it and
+  // the status says nothing of needing more drive.
+  const limiter = await until(async () => {
+    const t = (await page.textContent('#status-limiter')).trim();
+    return /^0 % of samples compressed, 0 % over range \(last \d\.\d s\)$/.test(t) ? t : null;
+  }, 8000, `the limiter's activity over the last second is not shown as none: "${await page.textContent('#status-limiter')}"`);
+  check(await page.isHidden('#status-drive-note'), `a drive note is shown with nothing played: "${await page.textContent('#status-drive-note')}"`);
+  log(`limiter: ${limiter}`);
   await until(async () => (await page.inputValue('[name="band_pass.high_hz"]')) !== '', 8000, 'chain settings never loaded from GET /api/config');
 
   run.step = 'starting an excite + identify job';
@@ -125,11 +134,18 @@ async function main() {
   await page.waitForSelector(modelRow, { timeout: 8000 });
 
   // An identified linear model is a plant: neither the result nor the store offers to activate it.
+  // The server lists no slot for it (`slots: []`), and the UI offers what the server lists.
   run.step = `no Activate on the plant model ${modelId}`;
+  const plantSummary = await (await fetch(`${base}api/models/${modelId}`)).json();
+  check(Array.isArray(plantSummary.slots) && plantSummary.slots.length === 0,
+        `GET /api/models/${modelId} lists slots ${JSON.stringify(plantSummary.slots)} for a plant`);
+  await until(async () => await page.isVisible('#result-plant-note'), 5000, 'the identify-linear result never says its model is a plant');
   check(!(await page.isVisible('#result-activate')), 'the identify-linear result offers Activate on a plant model');
-  check(/plant/.test(await page.textContent('#result-plant-note')) && await page.isVisible('#result-plant-note'),
+  check(/plant/.test(await page.textContent('#result-plant-note')),
         'the identify-linear result does not say its model is a plant');
   check((await page.$$(`${modelRow} button.activate`)).length === 0, `the models table offers Activate on the plant model ${modelId}`);
+  const why = (await page.textContent(`${modelRow} .no-slot-note`)).trim();
+  check(why === 'a plant model: design a controller on it', `the models table says of the plant model ${modelId}: "${why}"`);
 
   run.step = 'fit plot drawn';
   await page.waitForSelector('#plot-fit canvas', { timeout: 5000 });
@@ -252,6 +268,7 @@ async function main() {
         `the design-lq summary shows no R_search: ${lqSummary.join(', ')}`);
 
   run.step = `activating the LQ feedforward ${lqModel}`;
+  await until(async () => await page.isVisible('#result-activate'), 5000, 'the design-lq result never offers Activate');
   check((await page.textContent('#result-activate')).trim() === 'Activate as feedforward',
         `the design-lq result's button reads "${await page.textContent('#result-activate')}", expected "Activate as feedforward"`);
   await page.click('#result-activate');
