@@ -68,7 +68,9 @@ void run_identify_linear(const IdentifyLinearOptions& o) {
     y_val = val.columns[1];
   }
   ProgressBar bar("identify " + o.method);
-  spec.progress = [&bar](const std::string&, double f) { bar.update(f); };
+  spec.progress = [&bar, &spec](const std::string& stage, double f) {
+    bar.update(models::identification_fraction(spec, stage, f));
+  };
   models::LinearIdentification id = models::identify_linear(est.columns[0], est.columns[1], u_val, y_val, spec);
   bar.update(1.0);
 
