@@ -287,14 +287,10 @@ std::vector<Candidate> candidates(const Records& r, const Fit& current, const Re
   // coefficient added in front, so the baseline is the special case b₀ = 0: one parameter more), then OE.
   // One sample less is tried only when the residual correlates with the input at that lag (3 standard
   // errors): otherwise the added coefficient is merely a free zero, fitting whatever else is missing.
-  // One sample more likewise only when the residual correlates with the input at the lag it removes (a
-  // response the model puts where the plant has none): a baseline with the true delay leaves none there,
-  // and dropping its first coefficient would only trade a parameter for a refit.
-  const double band = 3.0 / std::sqrt(static_cast<double>(r.u_est.size() - r.init));
-  const bool early_response = tf.nk > 0 && std::abs(lag_correlation(r, current, tf.nk - 1)) > band;
-  const bool absent_response = std::abs(lag_correlation(r, current, tf.nk)) > band;
+  const bool early_response = tf.nk > 0 && std::abs(lag_correlation(r, current, tf.nk - 1)) >
+                                               3.0 / std::sqrt(static_cast<double>(r.u_est.size() - r.init));
   for (int step : {+1, -1}) {
-    if (tf.nk + step < 0 || tf.nb() < 2 || (step < 0 && !early_response) || (step > 0 && !absent_response)) continue;
+    if (tf.nk + step < 0 || tf.nb() < 2 || (step < 0 && !early_response)) continue;
     TransferFunction init = tf;
     init.nk = tf.nk + step;
     if (step > 0) {

@@ -7,6 +7,8 @@
 #include <stdexcept>
 
 #include "models/linear/linear_identification.h"
+#include "models/linear/zhu_estimator.h"
+#include "models/preprocess/scaling.h"
 
 namespace panelbass::models {
 namespace {
@@ -24,18 +26,21 @@ std::string percent(double j) {
 
 double linear_reference_j_pct(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, const Eigen::VectorXd& u_val,
                               const Eigen::VectorXd& y_val, int order, int nk, Eigen::Index init) {
-  LinearIdentificationSpec spec;
-  spec.method = LinearMethod::zhu;
-  spec.order = std::max(order, 1);
-  spec.delay = std::max(nk, 0);
-  spec.init = init;
-  spec.fs = 1.0;  // J does not depend on the rate
-  spec.oe.max_iterations = kReferenceIterations;
+  // Zhu's method directly, without identify_linear's data survey: the delay is given, and the survey's
+  // impulse estimate over 1000 lags would cost more than the fit.
+  const int n = std::max(order, 1);
   try {
-    const LinearIdentification id = identify_linear(u_est, y_est, u_val, y_val, spec);
-    return u_val.size() ? id.j_val_pct : id.j_est_pct;
+    LinearModel m;
+    m.scaling = scaling_from_data(u_est, y_est);
+    m.fs = 1.0;  // J does not depend on the rate
+    ZhuOptions options;
+    options.oe.max_iterations = kReferenceIterations;
+    m.tf = estimate_zhu(m.scaling.scale_u(u_est), m.scaling.scale_y(y_est), {n, n, std::max(nk, 0)}, options).tf;
+    if (!m.tf.all_finite() || !m.tf.is_stable()) return std::numeric_limits<double>::quiet_NaN();
+    const bool validated = u_val.size() > 0;
+    return simulation_j_percent(m, validated ? u_val : u_est, validated ? y_val : y_est, init);
   } catch (const std::exception&) {
-    return std::numeric_limits<double>::quiet_NaN();  // no stable linear model of that order: nothing to compare
+    return std::numeric_limits<double>::quiet_NaN();  // no linear model of that order: nothing to compare
   }
 }
 

@@ -8,7 +8,7 @@
 
 namespace panelbass::models {
 
-/// The simulation J (percent, [2A]) of the default linear identification (Zhu's method, `order`, delay `nk`,
+/// The simulation J (percent, [2A]) of a linear model fitted by Zhu's method (na = nb = `order`, delay `nk`,
 /// `init` measured outputs setting the state) fitted on the estimation part and judged on the validation
 /// part (the estimation part when there is none); NaN when no stable linear model can be fitted.
 double linear_reference_j_pct(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, const Eigen::VectorXd& u_val,
