@@ -127,7 +127,7 @@ TEST_F(CliIdentifyData, NarxTrainsAndValidateReadsItsModel) {
                               quoted(dir_ / "nn2.json"));
   EXPECT_EQ(expect_result(plain)["nk_source"], "given (--nk)");
   EXPECT_TRUE(contains(plain.err, "identify narx: pem iteration 0: J_est")) << plain.err;
-  EXPECT_FALSE(contains(plain.out, "iteration")) << plain.out;
+  EXPECT_FALSE(contains(plain.out, "pem iteration")) << plain.out;
   const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
   EXPECT_EQ(v["kind"], "narx");
   EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);

@@ -63,20 +63,6 @@ TEST_F(JobKindsTest, IdentifyLinearRecoversTheReferenceSystem) {
   EXPECT_EQ(result.at("warnings"), json::array());
 }
 
-TEST_F(JobKindsTest, IdentifyLinearSaysTheDelayWasGivenAndWarnsOfAModelNoBetterThanZero) {
-  run("excite", {{"samples", 3000}, {"validation_samples", 1000}, {"amplitude", 0.5}}, "j1");
-  // 400 samples of dead time against a response that has died within ~100: the fit can only return ~zero.
-  const json result = run("identify-linear", {{"record", "j1"}, {"method", "arx"}, {"order", 2}, {"delay", 400}}, "j2");
-  EXPECT_EQ(result.at("summary").at("nk_source"), "given");
-  EXPECT_GE(result.at("j_val_pct").get<double>(), 99.0);
-  if (result.at("j_val_pct").get<double>() >= 100.0) {
-    ASSERT_EQ(result.at("warnings").size(), 1u);
-    EXPECT_NE(result.at("warnings")[0].get<std::string>().find("no better than an output of zero"), std::string::npos);
-  } else {
-    EXPECT_EQ(result.at("warnings"), json::array());
-  }
-}
-
 TEST_F(JobKindsTest, IdentifyLinearMakesItsOwnExcitationAndScansOrders) {
   FakeControl control("j5");
   const json result = run("identify-linear",
@@ -145,7 +131,6 @@ TEST_F(JobKindsTest, IdentifyNarxOnTheVirtualTransducer) {
   EXPECT_NE(summary.at("nk_source"), "given");
   // A warning exactly when the model is no better than zero or than the linear model of the same record.
   const double j = result.at("j_val_pct").get<double>(), linear = summary.at("linear_reference_j_pct").get<double>();
-  EXPECT_LT(linear, 20.0) << "the panel exciter is mostly linear at this drive";
   EXPECT_EQ(result.at("warnings").size(), static_cast<std::size_t>((j >= 100.0) + (j > linear))) << result.at("warnings");
 }
 
