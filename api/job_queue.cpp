@@ -81,6 +81,32 @@ std::string required_string(const json& object, const char* key) {
   return it->get<std::string>();
 }
 
+// The strings of `object[key]` (absent or null: none); throws naming the field for anything else.
+std::vector<std::string> string_list(const json& object, const char* key) {
+  const auto it = object.find(key);
+  if (it == object.end() || it->is_null()) return {};
+  if (!it->is_array()) throw std::invalid_argument(std::string("job.") + key + ": expected an array, got " + it->type_name());
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < it->size(); ++i) {
+    const json& e = (*it)[i];
+    if (!e.is_string()) {
+      throw std::invalid_argument(std::string("job.") + key + "[" + std::to_string(i) + "]: expected a string, got " +
+                                  e.type_name());
+    }
+    out.push_back(e.get<std::string>());
+  }
+  return out;
+}
+
+// A result's "warnings" member, taken out of it (a job's work reports them there; JobWork).
+std::vector<std::string> take_warnings(json& result) {
+  if (!result.is_object() || !result.contains("warnings")) return {};
+  std::vector<std::string> out;
+  for (const json& w : result["warnings"]) out.push_back(w.is_string() ? w.get<std::string>() : w.dump());
+  result.erase("warnings");
+  return out;
+}
+
 JobState state_from_name(const std::string& name) {
   for (JobState s : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed, JobState::cancelled}) {
     if (name == job_state_name(s)) return s;
@@ -110,7 +136,8 @@ json job_to_json(const JobRecord& job, bool with_details) {
             {"created", string_or_null(job.created)},
             {"started", string_or_null(job.started)},
             {"finished", string_or_null(job.finished)},
-            {"error", string_or_null(job.error)}};
+            {"error", string_or_null(job.error)},
+            {"warnings", job.warnings}};
   if (with_details) {
     j["params"] = job.params;
     j["result"] = job.result;
@@ -143,11 +170,12 @@ JobRecord job_from_json(const json& j) {
   job.started = optional_string(j, "started");
   job.finished = optional_string(j, "finished");
   job.error = optional_string(j, "error");
+  job.warnings = string_list(j, "warnings");
   job.params = j.value("params", json(nullptr));
   job.result = j.value("result", json(nullptr));
   // Whatever else job_to_json() merged in from `extra`; "format" is the store's tag, not the record's.
   static const char* const known[] = {"id",       "kind",     "state", "progress", "message", "created",
-                                      "started",  "finished", "error", "params",   "result",  "format"};
+                                      "started",  "finished", "error", "params",   "result",  "format", "warnings"};
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (std::find_if(std::begin(known), std::end(known), [&](const char* k) { return it.key() == k; }) ==
         std::end(known)) {
@@ -321,6 +349,7 @@ void JobQueue::worker() noexcept {
     ended.error = error;
     ended.finished = utc_now();
     if (state == JobState::succeeded) {
+      ended.warnings = take_warnings(result);
       ended.result = std::move(result);
       ended.progress = 1.0;
     }
@@ -394,6 +423,7 @@ std::vector<JobRecord> JobQueue::list() const {
     summary.progress = r.progress;
     summary.message = r.message;
     summary.error = r.error;
+    summary.warnings = r.warnings;
     summary.created = r.created;
     summary.started = r.started;
     summary.finished = r.finished;

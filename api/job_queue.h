@@ -40,7 +40,8 @@ class JobControl {
   virtual const std::string& job_id() const = 0;
 };
 
-/// The work of a job: params in, result out; throws (std::exception) to fail with that message.
+/// The work of a job: params in, result out; throws (std::exception) to fail with that message. A result's
+/// "warnings" member (an array of sentences) becomes the record's `warnings`, not part of the result.
 using JobWork = std::function<nlohmann::json(const nlohmann::json& params, JobControl& control)>;
 
 /// One event of a job's stream.
@@ -60,12 +61,14 @@ struct JobRecord {
   nlohmann::json params;          ///< as submitted
   nlohmann::json result;          ///< null until succeeded
   std::string error;              ///< why it failed ("" otherwise)
+  std::vector<std::string> warnings;  ///< what is wrong with a result that succeeded, and what to try (empty: all is well)
   std::string created, started, finished;  ///< UTC ISO 8601 ("" until it happens)
   nlohmann::json extra = nlohmann::json::object();  ///< set by the owner after it finished (e.g. "activated")
   bool result_dropped = false;    ///< the result was dropped from memory (see JobQueue::kResultsKept); the owner's store has it
 };
 
-/// The record as JSON; `with_details` adds "params", "result" and the extra fields.
+/// The record as JSON, "warnings" always (an array, empty when all is well); `with_details` adds "params",
+/// "result" and the extra fields.
 nlohmann::json job_to_json(const JobRecord& job, bool with_details);
 /// A record from its JSON form (a stored job); throws std::invalid_argument naming the field.
 JobRecord job_from_json(const nlohmann::json& json);

@@ -149,7 +149,7 @@ void write_html_report(const std::filesystem::path& path, const json& result, co
   row(out, "J, free-run simulation (%)", cell(at(result, "J_sim_pct")));
   row(out, "J, one-step prediction (%)", cell(at(result, "J_pred_pct")));
   row(out, "rms simulation error (raw units)", cell(at(result, "rmse")));
-  row(out, "J of the output not coherent with the input: a linear model's floor, upper estimate (%)", cell(at(result, "J_noncoherent_pct")));
+  row(out, "J of the output not coherent with the input (noise, distortion and spectral leakage; an upper estimate, not a floor a model cannot beat) (%)", cell(at(result, "J_noncoherent_pct")));
   row(out, "J of the plant's sensor noise (%)", cell(at(result, "J_noise_pct")));
   const json& spectrum = at(result, "residual_spectrum");
   row(out, "residual power over the non-coherent floor (dB)", cell(at(spectrum, "residual_over_noncoherent_db"), 3));

@@ -1,4 +1,6 @@
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <vector>
 #include <memory>
@@ -14,6 +16,8 @@
 #include "models/io/roots_json.h"
 #include "models/narx/friction_seed.h"
 #include "models/io/json_fields.h"
+#include "models/io/json_file.h"
+#include "models/linear/fit_warnings.h"
 #include "models/linear/linear_identification.h"
 #include "models/kinds/model_file.h"
 #include "models/narx/narx_structure.h"
@@ -22,6 +26,11 @@
 
 namespace panelbass::cli {
 namespace {
+
+/// Each of `warnings` on stderr, prefixed by the command.
+void print_warnings(const std::string& command, const std::vector<std::string>& warnings) {
+  for (const std::string& w : warnings) std::fprintf(stderr, "%s: warning: %s\n", command.c_str(), w.c_str());
+}
 
 struct IdentifyLinearOptions {
   std::string data, val, out;
@@ -59,7 +68,9 @@ void run_identify_linear(const IdentifyLinearOptions& o) {
     y_val = val.columns[1];
   }
   ProgressBar bar("identify " + o.method);
-  spec.progress = [&bar](const std::string&, double f) { bar.update(f); };
+  spec.progress = [&bar, &spec](const std::string& stage, double f) {
+    bar.update(models::identification_fraction(spec, stage, f));
+  };
   models::LinearIdentification id = models::identify_linear(est.columns[0], est.columns[1], u_val, y_val, spec);
   bar.update(1.0);
 
@@ -80,6 +91,7 @@ void run_identify_linear(const IdentifyLinearOptions& o) {
                            {"J_val_pct", models::number_or_null(id.j_val_pct)},
                            {"J_pred_est_pct", id.j_pred_est_pct},
                            {"delay", id.model.tf.nk},
+                           {"nk_source", id.nk_source},
                            {"poles", models::roots_json(id.model.tf.poles())},
                            {"zeros", models::roots_json(id.model.tf.zeros())},
                            {"survey", models::data_survey_to_json(id.survey)},
@@ -90,6 +102,12 @@ void run_identify_linear(const IdentifyLinearOptions& o) {
     result["scan_skipped"] = id.scan_skipped;
     for (const std::string& why : id.scan_skipped) std::fprintf(stderr, "identify linear: scan skipped %s\n", why.c_str());
   }
+  const bool validated = u_val.size() > 0;
+  print_warnings("identify linear",
+                 models::fit_warnings(validated ? id.j_val_pct : id.j_est_pct, validated ? "J_val" : "J_est",
+                                      std::numeric_limits<double>::quiet_NaN(),
+                                      "Check the delay (--delay; " + std::to_string(id.model.tf.nk) + ", " + id.nk_source +
+                                          "); then try another --method, an order --scan, or more --max-iter."));
   print_result(result);
 }
 
@@ -115,7 +133,9 @@ struct IdentifyNarxOptions {
   std::vector<double> friction_gains;
   int friction_lags = 1;
   std::string start_from;
+  std::string history_out;       ///< --history: the training history as JSON there (else on stderr)
   bool structure_given = false;  ///< --na, --nb, --nk or --hidden on the command line
+  bool nk_given = false;         ///< --nk on the command line
 };
 
 std::vector<models::TrainingMode> parse_modes(const std::string& list) {
@@ -272,13 +292,37 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
     structure_report["friction_units"] = friction_report;
   }
   models::save_narx_model(o.out, result.model);
+  // The history is a log, not the result: a file on request, else stderr.
+  if (!o.history_out.empty()) {
+    models::write_json_file(o.history_out, {{"history", history}});
+  } else {
+    for (const auto& r : result.history) {
+      std::fprintf(stderr, "identify narx: %s iteration %d: J_est %.4g %%, J_val %.4g %%\n", models::to_string(r.mode).c_str(),
+                   r.iteration, r.j_est_pct, r.j_val_pct);
+    }
+  }
+  const std::string nk_source = !o.start_from.empty() ? "the --start-from model's"
+                                : o.nk_given          ? "given (--nk)"
+                                                      : "the default of --nk (no dead time)";
+  const bool validated = u_val.size() > 0;
+  const double j_judged = validated ? j_val : j_est;
+  const double j_linear = models::linear_reference_j_pct(est.columns[0], est.columns[1], u_val, y_val,
+                                                         std::max(structure.na, structure.nb), structure.nk,
+                                                         std::min<Eigen::Index>(o.init, (validated ? u_val : est.columns[0]).size() / 10));
+  print_warnings("identify narx", models::fit_warnings(j_judged, validated ? "J_val" : "J_est", j_linear,
+                                                      "Check the delay (--nk " + std::to_string(structure.nk) + ", " +
+                                                          nk_source +
+                                                          "); then try more --max-iter, another --seed, or other --na/--nb."));
   print_result({{"J_est_pct", j_est},
                 {"J_val_pct", models::number_or_null(j_val)},
                 {"iterations", result.iterations},
                 {"seconds", result.seconds},
                 {"params", result.model.net.parameter_count()},
                 {"structure", structure_report},
-                {"history", history},
+                {"nk", structure.nk},
+                {"nk_source", nk_source},
+                {"linear_reference_J_pct", models::number_or_null(j_linear)},
+                {"history_out", o.history_out.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.history_out)},
                 {"out", o.out}});
 }
 
@@ -359,6 +403,9 @@ void register_identify(CLI::App& app) {
                    "Train on from this NARX model (its structure, scaling and weights), e.g. on new records; --seed then "
                    "plays no part");
   narx->add_option("--out", n->out, "Model file to write (JSON)");
+  narx->add_option("--history", n->history_out,
+                   "Write the training history (J per iteration) to this JSON file, {\"history\": [...]}, the form analyze "
+                   "--history reads; without it the history goes to stderr");
   narx->footer(
       "Example:\n  panelbass identify narx --data est.csv --val val.csv --fs 3000 --na 8 --nb 8 --hidden 17 "
       "--train pem,oem-d --optimizer lm --max-iter 50 --seed 1 --out nn.json\n"
@@ -366,6 +413,7 @@ void register_identify(CLI::App& app) {
       "--max-iter 20 --out nn2.json");
   narx->callback([n, narx] {
     for (const char* name : {"--na", "--nb", "--nk", "--hidden"}) n->structure_given |= narx->count(name) > 0;
+    n->nk_given = narx->count("--nk") > 0;
     if (!n->gradient_check && n->out.empty()) throw CLI::RequiredError("--out");
     run_identify_narx(*n);
   });

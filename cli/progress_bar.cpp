@@ -15,7 +15,9 @@ ProgressBar::~ProgressBar() {
 }
 
 void ProgressBar::update(double fraction) {
-  const double f = std::isnan(fraction) ? 0.0 : std::clamp(fraction, 0.0, 1.0);  // NaN (0/0 of no work): nothing done
+  // NaN (0/0 of no work): nothing new done; a stage that restarts its own count never moves the bar back.
+  const double f = std::max(reached_, std::isnan(fraction) ? 0.0 : std::clamp(fraction, 0.0, 1.0));
+  reached_ = f;
   const int percent = static_cast<int>(f * 100.0);
   if (terminal_) {
     if (percent == shown_) return;

@@ -13,7 +13,7 @@ class ProgressBar {
   explicit ProgressBar(std::string label);
   /// Finishes the line if the work ended early.
   ~ProgressBar();
-  /// Shows `fraction` (0..1) done.
+  /// Shows `fraction` (0..1) done; never less than already shown.
   void update(double fraction);
 
  private:
@@ -21,6 +21,7 @@ class ProgressBar {
   bool terminal_;
   int shown_ = -1;  // last percentage (terminal) or tenth (log) shown
   bool done_ = false;
+  double reached_ = 0.0;  // the largest fraction given
 };
 
 }  // namespace panelbass::cli

@@ -1,6 +1,8 @@
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <string>
+#include <variant>
 
 #include "cli/commands.h"
 #include "cli/data_options.h"
@@ -17,6 +19,22 @@ struct ValidateOptions {
   long init = 0;
 };
 
+/// Why a one-step prediction J can be worse than the simulation J, for `model`: its predictor feeds measured
+/// outputs through a noise model it never had (both kinds are fitted for simulation, output error).
+std::string prediction_note(const models::AnyModel& model) {
+  if (const auto* lm = std::get_if<models::LinearModel>(&model.model)) {
+    char gain[64];  // A(q) = 1 + a1 q^-1 + ..., a_1..a_na stored
+    std::snprintf(gain, sizeof gain, "%.3g", 1.0 + lm->tf.a.squaredNorm());
+    return "J_pred is worse than J_sim because this output-error model has no noise model: its one-step predictor "
+           "y(k) = -a1*y(k-1) - ... + B(q)u(k) reads the measured, noisy outputs, so its error is A(q) times the "
+           "simulation error, and A(q) multiplies white noise's power by 1 + sum(a_i^2) = " +
+           std::string(gain) + ". Judge it by J_sim; J_pred fits a model fitted for prediction (ARX, PEM).";
+  }
+  return "J_pred is worse than J_sim because the model was trained for simulation (output error): its one-step predictor "
+         "feeds the measured, noisy outputs into lags trained on its own noise-free outputs. Judge it by J_sim; J_pred "
+         "fits a model trained for prediction (PEM).";
+}
+
 void run_validate(const ValidateOptions& o) {
   const models::AnyModel model = models::load_model(o.model);
   const dsp::Record data = o.columns.read_at_model_rate(o.data, model.fs());
@@ -27,8 +45,12 @@ void run_validate(const ValidateOptions& o) {
   const Eigen::VectorXd y_pred = model.predict(u, y);
   const Eigen::Index n = u.size() - o.init;
   const double rmse = std::sqrt((y_sim - y).tail(n).squaredNorm() / static_cast<double>(n));
-  print_result({{"J_sim_pct", models::j_percent(y_sim, y, o.init)},
-                {"J_pred_pct", models::j_percent(y_pred, y, o.init)},
+  const double j_sim = models::j_percent(y_sim, y, o.init), j_pred = models::j_percent(y_pred, y, o.init);
+  const std::string note = j_pred > j_sim ? prediction_note(model) : "";
+  if (!note.empty()) std::fprintf(stderr, "validate: %s\n", note.c_str());
+  print_result({{"J_sim_pct", j_sim},
+                {"J_pred_pct", j_pred},
+                {"J_pred_note", note.empty() ? nlohmann::json(nullptr) : nlohmann::json(note)},
                 {"rmse", rmse},
                 {"samples", n},
                 {"kind", model.kind()},

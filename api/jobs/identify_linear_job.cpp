@@ -14,6 +14,7 @@
 #include "models/io/roots_json.h"
 #include "models/kinds/model_file.h"
 #include "models/linear/data_survey.h"
+#include "models/linear/fit_warnings.h"
 #include "models/linear/linear_identification.h"
 #include "models/linear/linear_model.h"
 #include "models/preprocess/scaling.h"
@@ -46,6 +47,12 @@ json identify_linear_params(const json& params, const JobEnvironment& env) {
   return r.finish();
 }
 
+// What to try when a linear fit is no better than an output of zero.
+std::string linear_advice(const models::LinearIdentification& id) {
+  return "Check the delay (delay = " + std::to_string(id.model.tf.nk) + ", " + id.nk_source +
+         "); then try another method (oe, zhu, backx), an order scan, or more max_iterations.";
+}
+
 json identify_linear_work(const json& params, const JobEnvironment& env, JobControl& control) {
   JobProgress progress(control);
   const SourcedRecord data = acquire_record(params, env, progress, control);
@@ -75,7 +82,7 @@ json identify_linear_work(const json& params, const JobEnvironment& env, JobCont
   progress.span(kExcitationShare, 0.9);
   spec.progress = [&](const std::string& stage, double f) {
     if (f == 0.0 || stage == "scan") history.clear();  // a fit starts; the last one's iterations are kept
-    base = stage == "scan" ? f * (fits - 1) / fits : stage == "fit" ? static_cast<double>(fits - 1) / fits : 0.0;
+    base = models::identification_fraction(spec, stage, stage == "fit" ? 0.0 : f);  // a fit's iterations add to it
     progress.at(base, method + ": " + stage);
   };
   spec.oe.progress = [&](int iteration, double loss) {
@@ -105,6 +112,7 @@ json identify_linear_work(const json& params, const JobEnvironment& env, JobCont
                   {"na", id.model.tf.na()},
                   {"nb", id.model.tf.nb()},
                   {"delay", id.model.tf.nk},
+                  {"nk_source", id.nk_source},
                   {"J_pred_est_pct", id.j_pred_est_pct},
                   {"poles", models::roots_json(id.model.tf.poles())},
                   {"zeros", models::roots_json(id.model.tf.zeros())},
@@ -122,11 +130,14 @@ json identify_linear_work(const json& params, const JobEnvironment& env, JobCont
   json plots = model_plots(any, r, env.fs);
   plots["history"] = history_plot(history);
   progress.at(1.0, "done");
+  const bool validated = r.u_val.size() > 0;
   return {{"model_id", model_id},
           {"j_est_pct", id.j_est_pct},
           {"j_val_pct", models::number_or_null(id.j_val_pct)},
           {"summary", summary},
-          {"plots", plots}};
+          {"plots", plots},
+          {"warnings", models::fit_warnings(validated ? id.j_val_pct : id.j_est_pct, validated ? "J_val" : "J_est",
+                                            kNaN, linear_advice(id))}};
 }
 
 }  // namespace

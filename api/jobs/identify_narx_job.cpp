@@ -16,6 +16,7 @@
 #include "models/io/json_fields.h"
 #include "models/kinds/model_file.h"
 #include "models/linear/data_survey.h"
+#include "models/linear/fit_warnings.h"
 #include "models/narx/friction_seed.h"
 #include "models/narx/narx_model.h"
 #include "models/narx/narx_training.h"
@@ -66,7 +67,12 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
 
   const models::Scaling scaling = models::scaling_from_data(r.u_est, r.y_est);
   int nk = params.at("nk").get<int>();
-  if (nk < 0) nk = models::survey_data(r.u_est, r.y_est).delay;
+  std::string nk_source = "given";
+  if (nk < 0) {
+    const models::DataSurvey survey = models::survey_data(r.u_est, r.y_est);
+    nk = survey.delay;
+    nk_source = models::delay_finding(survey);
+  }
   const models::NarxStructure structure{params.at("na").get<int>(), params.at("nb").get<int>(), nk,
                                         hidden_widths(params.at("hidden"))};
   const std::uint64_t seed = params.at("seed").get<std::uint64_t>();
@@ -127,6 +133,15 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
                         {"weighted", weighted},
                         {"history", meta_history}};
   if (!friction.is_null()) trained.model.meta["friction_units"] = friction;
+  progress.at(0.1, "a linear model of the same order on the same record, for comparison");
+  const double j_judged = r.u_val.size() ? j_val : j_est;
+  const double j_linear = models::linear_reference_j_pct(r.u_est, r.y_est, r.u_val, r.y_val,
+                                                         std::max(structure.na, structure.nb), structure.nk,
+                                                         init_samples(r.u_val.size() ? r.u_val.size() : r.u_est.size()));
+  const std::vector<std::string> warnings = models::fit_warnings(
+      j_judged, r.u_val.size() ? "J_val" : "J_est", j_linear,
+      "Check the delay (nk = " + std::to_string(structure.nk) + ", " + nk_source +
+          "); then try more iterations (max_iterations), another seed, or other lags (na, nb).");
   progress.at(0.2, "storing the model");
   const std::string name = "narx " + std::to_string(structure.na) + "/" + std::to_string(structure.nb) + "/" +
                            std::to_string(structure.nk) + " " + hidden_text(structure.hidden) + " (" + control.job_id() + ")";
@@ -146,6 +161,8 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
                   {{"na", structure.na},
                    {"nb", structure.nb},
                    {"nk", structure.nk},
+                   {"nk_source", nk_source},
+                   {"linear_reference_j_pct", models::number_or_null(j_linear)},
                    {"hidden", structure.hidden},
                    {"modes", params.at("modes")},
                    {"params", trained.model.net.parameter_count()},
@@ -155,6 +172,7 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
                    {"data", data.source}}},
                  {"plots", plots}};
   if (!friction.is_null()) result["summary"]["friction_units"] = friction;
+  result["warnings"] = warnings;
   return result;
 }
 

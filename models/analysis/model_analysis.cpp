@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <variant>
@@ -155,6 +156,35 @@ double history_number(const json& entry, const std::string& key, const std::stri
 
 }  // namespace
 
+namespace {
+
+// J_sim above this multiple of the sensor noise's J: the residual is model error, not noise.
+constexpr double kModelErrorRatio = 3.0;
+
+// What the figures add to the residual tests' reading: a simulation residual far above the sensor noise is
+// model error whatever its colour, and a coherence figure the model beats is no floor.
+std::string residual_verdict(const ModelAnalysis& a) {
+  std::string out;
+  char text[400];
+  if (std::isfinite(a.j_noise_pct) && a.j_noise_pct > 0.0 && a.j_sim_pct > kModelErrorRatio * a.j_noise_pct) {
+    std::snprintf(text, sizeof text,
+                  "; J_sim is %.3g times the sensor noise's J (%.3g %%): the residual is mostly model error (a "
+                  "nonlinearity or missing dynamics), not noise",
+                  a.j_sim_pct / a.j_noise_pct, a.j_noise_pct);
+    out += text;
+  }
+  if (a.j_sim_pct < a.j_noncoherent_pct) {
+    std::snprintf(text, sizeof text,
+                  "; the model's J_sim is below J_noncoherent (%.3g %%), so that figure is no floor here: spectral leakage "
+                  "of a response long against the %zu-sample Welch segment inflates it",
+                  a.j_noncoherent_pct, a.spectrum.segment);
+    out += text;
+  }
+  return out;
+}
+
+}  // namespace
+
 ModelAnalysis analyze_model(const AnyModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
                             const AnalysisSpec& spec, std::optional<TrainingHistory> given_history) {
   const auto progress = [&](const char* stage, double f) {
@@ -251,6 +281,7 @@ ModelAnalysis analyze_model(const AnyModel& model, const Eigen::VectorXd& u, con
     a.distortion = compare_distortion(*spec.plant, model, spec.distortion);
     a.distortion_amplitudes = spec.distortion.amplitudes;
   }
+  a.residual_tests.explanation += residual_verdict(a);
   progress("done", 1.0);
   return a;
 }

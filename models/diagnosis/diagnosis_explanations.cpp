@@ -14,10 +14,40 @@ double added_correlation(const Records& r, const Fit& before, const Fit& after) 
   return norm > 0.0 ? e.dot(d) / norm : 0.0;
 }
 
+namespace {
+
+// The residual's rms at high over low input level counts as a difference outside [1/this, this].
+constexpr double kLevelRatioShown = 1.2;
+
+bool acts_on_displacement(Effect e) {
+  return e == Effect::cubic_stiffness || e == Effect::asymmetric_stiffness || e == Effect::force_factor;
+}
+
+// The physical quantity a state proxy estimates, for the sensors the plant may have (this project's transducer
+// measures acceleration); a term of a force acting on displacement says when its proxy only stands in for it.
+std::string state_quantity(const std::string& state, bool on_displacement) {
+  if (state == "output") return "output (the displacement for a displacement sensor)";
+  if (state == "integral") {
+    return on_displacement ? "integral of the output (the displacement for a velocity sensor; for an accelerometer a "
+                             "velocity, standing in for the displacement the force acts on)"
+                           : "integral of the output (the velocity, for an accelerometer)";
+  }
+  if (state == "double_integral") return "double integral of the output (the displacement, for an accelerometer)";
+  return state;
+}
+
+// ", and is 2.3 times larger at high input level than at low" when the level matters; nothing when it is ~1.
+std::string level_clause(double ratio) {
+  if (!(ratio > kLevelRatioShown)) return "";
+  return ", and is " + fixed(ratio, 1) + " times larger at high input level than at low";
+}
+
+}  // namespace
+
 std::string explain(const Candidate& c, const ResidualLocation& where, double correlation) {
-  std::string state = c.parameters_json.contains("state") ? c.parameters_json["state"].get<std::string>() : "";
-  if (state == "integral") state = "integral of the output (a velocity, for an accelerometer)";
-  if (state == "double_integral") state = "double integral of the output (a displacement, for an accelerometer)";
+  const std::string state =
+      state_quantity(c.parameters_json.contains("state") ? c.parameters_json["state"].get<std::string>() : "",
+                     acts_on_displacement(c.effect));
   const std::string r = fixed(correlation, 2);
   switch (c.effect) {
     case Effect::dc_offset:
@@ -51,7 +81,7 @@ std::string explain(const Candidate& c, const ResidualLocation& where, double co
                              ? "The model leaves out a saturation that differs between the two directions (diode-like): "
                              : "The model leaves out a saturation (clipping) alike in both directions: ") +
              "the residual follows the input beyond " + fixed(c.parameters_json["knee_fraction_of_peak"].get<double>() * 100.0, 0) +
-             " % of its peak and is " + fixed(where.level_ratio, 1) + " times larger at high input level than at low.";
+             " % of its peak" + level_clause(where.level_ratio) + ".";
     case Effect::force_factor:
       return "The model leaves out a force factor that falls with excursion (the coil leaving the gap): the residual "
              "follows the drive times the square of the estimated " + state + " (odd, intermodulating; correlation " + r + ").";

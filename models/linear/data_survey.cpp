@@ -31,13 +31,25 @@ DataSurvey survey_data(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen
   s.lags_examined = std::min(max_lag, us.size() / 2 - 1);
   const ImpulseEstimate impulse = estimate_impulse(us, ys, s.lags_examined);
   s.delay = impulse.delay;
+  s.delay_found = impulse.delay_found;
   s.impulse_length = impulse.length;
   return s;
+}
+
+std::string delay_finding(const DataSurvey& s) {
+  const std::string lags = std::to_string(s.lags_examined / 2);
+  if (s.delay_found) {
+    return "estimated from the impulse response's first significant tap (lag " + std::to_string(s.delay) + " of the first " +
+           lags + " examined)";
+  }
+  return "no tap of the impulse response's first " + lags +
+         " lags stood out of its noise (a coloured or band-limited input hides it), so no dead time is assumed: nk = 0";
 }
 
 nlohmann::json data_survey_to_json(const DataSurvey& s) {
   return {{"scaling", scaling_to_json(s.scaling)},
           {"delay", s.delay},
+          {"delay_found", s.delay_found},
           {"impulse_length", s.impulse_length},
           {"lags_examined", s.lags_examined},
           {"input_white", s.input_white},

@@ -42,8 +42,13 @@ ImpulseEstimate estimate_impulse(const Eigen::VectorXd& u, const Eigen::VectorXd
   // Dead time ends at the first lag standing out of the noise and above 5 % of the peak: the first
   // sample after a converter step carries ~1 % of the response through the analog filters, which no
   // one reading the correlation would call a response.
+  // Only the first half can hold it: the second half is taken for noise. When nothing there stands out
+  // (a coloured input whose normal equations spread noise over every lag, a record of noise alone), the
+  // correlation says nothing about dead time and none is assumed, rather than the window's length.
   const double visible = std::max(e.noise_band, 0.05 * r.cwiseAbs().maxCoeff());
-  while (e.delay <= max_lag && std::abs(r[e.delay]) <= visible) ++e.delay;
+  while (e.delay < tail && std::abs(r[e.delay]) <= visible) ++e.delay;
+  e.delay_found = e.delay < tail;
+  if (!e.delay_found) e.delay = 0;
 
   // The response has ended where windows of kWindow lags hold no more than three times the noise's RMS.
   constexpr Eigen::Index kWindow = 20;

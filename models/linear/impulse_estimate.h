@@ -8,7 +8,9 @@ namespace panelbass::models {
 
 /// What the cross-correlation of a white input with the output says about the system.
 struct ImpulseEstimate {
-  int delay = 0;               ///< leading lags inside the 99.9 % noise band or below 5 % of the peak
+  int delay = 0;               ///< leading lags inside the 99.9 % noise band or below 5 % of the peak; 0 when
+                               ///< no lag of the first half stands out (delay_found false)
+  bool delay_found = false;    ///< a lag of the first half (where the response must lie) stood out of the noise
   int length = 0;              ///< lag after which the correlation has sunk into its noise band for good
   double noise_band = 0.0;     ///< 99.9 % half-width of the noise band, normalised correlation units
   Eigen::VectorXd response;    ///< impulse response scaled by σ_u/σ_y (the cross-correlation corrected

@@ -80,6 +80,14 @@ double simulation_j_percent(const LinearModel& model, const Eigen::VectorXd& u, 
   return j_percent(y_model, y, init);
 }
 
+double identification_fraction(const LinearIdentificationSpec& spec, const std::string& stage, double fraction) {
+  const int fits = spec.scan_to > 0 ? spec.scan_to - spec.scan_from + 2 : 1;  // each scanned order, then the fit
+  const double share = 1.0 / fits, f = std::clamp(fraction, 0.0, 1.0);
+  if (stage == "scan") return f * (fits - 1) * share;
+  if (stage == "fit") return (fits - 1) * share + f * share;
+  return 0.0;
+}
+
 LinearIdentification identify_linear(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est,
                                      const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val,
                                      const LinearIdentificationSpec& spec) {
@@ -104,6 +112,7 @@ LinearIdentification identify_linear(const Eigen::VectorXd& u_est, const Eigen::
   out.survey = survey_data(u_est, y_est);
   const Scaling& scaling = out.survey.scaling;
   const int nk = spec.delay >= 0 ? spec.delay : out.survey.delay;
+  out.nk_source = spec.delay >= 0 ? "given" : delay_finding(out.survey);
   const Eigen::VectorXd us = scaling.scale_u(u_est), ys = scaling.scale_y(y_est);
 
   auto make_model = [&](int order) {

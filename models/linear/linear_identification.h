@@ -33,8 +33,12 @@ struct LinearIdentificationSpec {
   double fs = 0.0;            ///< sample rate of the data, Hz
   int decimation = 1;         ///< Backx: decimation factor before the FIR step
   OeOptions oe;               ///< OE, Zhu and Backx refinement
-  std::function<void(const std::string& stage, double fraction)> progress;
+  std::function<void(const std::string& stage, double fraction)> progress;  ///< stage and its own fraction
 };
+
+/// The fraction of the whole identification done when `stage` ("survey", "scan", "fit") of `spec` reports
+/// `fraction` of itself: a scan's orders and the final fit share the run equally, so it never goes back.
+double identification_fraction(const LinearIdentificationSpec& spec, const std::string& stage, double fraction);
 
 /// One order of the scan.
 struct OrderScanEntry {
@@ -47,6 +51,7 @@ struct OrderScanEntry {
 struct LinearIdentification {
   LinearModel model;
   DataSurvey survey;                  ///< of the estimation data
+  std::string nk_source;              ///< how nk was found: "given", or delay_finding(survey)
   double j_est_pct = 0.0;             ///< simulation J on the estimation data
   double j_val_pct = std::numeric_limits<double>::quiet_NaN();   ///< on the validation data, if any
   double j_pred_est_pct = 0.0;        ///< one-step prediction J on the estimation data

@@ -107,7 +107,8 @@ ResidualTests residual_tests(const Eigen::VectorXd& u, const Eigen::VectorXd& re
       {&r.u2e, "the residual correlates with u² → unmodelled even-order nonlinearity"},
       {&r.u2e2, "the residual's power correlates with u² → unmodelled odd-order nonlinearity (or input-dependent noise)"},
       {&r.e_eu, "the residual correlates with past residual × input → unmodelled nonlinear noise or output–input cross terms"},
-      {&r.ee, "the residual is coloured → unmodelled noise dynamics (alone, no model error for a simulation residual)"},
+      {&r.ee, "the residual is coloured → coloured noise, or model error the input tests miss (a simulation residual "
+              "well above the noise floor is model error)"},
   };
   for (const auto& [test, meaning] : meanings) {
     if (!test->passes) r.explanation += (r.explanation.empty() ? "" : "; ") + std::string(meaning);

@@ -78,6 +78,28 @@ TEST(JobQueue, ASucceededJobHasItsResult) {
   EXPECT_EQ(queue.submit("double", {{"x", 1}}, [](const json&, JobControl&) { return json(); }), "j2");
 }
 
+TEST(JobQueue, AResultsWarningsBecomeTheRecordsAndEveryJobShowsThem) {
+  JobQueue queue(1);
+  const std::string warned = queue.submit("w", json::object(), [](const json&, JobControl&) -> json {
+    return {{"y", 1}, {"warnings", {"J = 100.3 % is no better than zero.", "try nk"}}};
+  });
+  const std::string clean = queue.submit("c", json::object(), [](const json&, JobControl&) -> json { return {{"y", 2}}; });
+  ASSERT_TRUE(queue.wait(warned, kPatience));
+  ASSERT_TRUE(queue.wait(clean, kPatience));
+  const JobRecord job = *queue.get(warned);
+  EXPECT_EQ(job.warnings, (std::vector<std::string>{"J = 100.3 % is no better than zero.", "try nk"}));
+  EXPECT_EQ(job.result, json({{"y", 1}})) << "taken out of the result";
+  const json shown = job_to_json(job, true);
+  EXPECT_EQ(shown["warnings"], json({"J = 100.3 % is no better than zero.", "try nk"}));
+  EXPECT_EQ(job_from_json(shown).warnings, job.warnings) << "a stored job keeps them";
+  EXPECT_FALSE(job_from_json(shown).extra.contains("warnings"));
+  EXPECT_EQ(job_to_json(*queue.get(clean), false)["warnings"], json::array()) << "present and empty when all is well";
+  const std::vector<JobRecord> listed = queue.list();
+  ASSERT_EQ(listed.size(), 2u);
+  EXPECT_EQ(job_to_json(listed[0], false)["warnings"].size(), 2u) << "the list shows them too";
+  EXPECT_THROW(job_from_json({{"id", "j9"}, {"kind", "k"}, {"state", "succeeded"}, {"warnings", {1}}}), std::invalid_argument);
+}
+
 // The niceness of the calling thread (getpriority on its own thread id).
 int this_thread_niceness() {
   errno = 0;

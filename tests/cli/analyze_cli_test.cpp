@@ -71,7 +71,14 @@ TEST_F(CliAnalyze, LinearModelReportHasEveryPartAndEmbedsEveryFigure) {
     EXPECT_GT(t["band"].get<double>(), 0.0);
   }
   EXPECT_EQ(names, (std::set<std::string>{"phi_ee", "phi_ue", "phi_u2e", "phi_u2e2", "phi_e_eu"}));
-  EXPECT_FALSE(r["residual_tests"]["explanation"].get<std::string>().empty());
+  const std::string explanation = r["residual_tests"]["explanation"];
+  EXPECT_FALSE(explanation.empty());
+  // A linear model of a distorting plant far above its sensor noise: the residual is called model error,
+  // never "no model error", and a coherence figure the model beats is not called a floor.
+  EXPECT_FALSE(contains(explanation, "no model error")) << explanation;
+  const double j_sim = r["J_sim_pct"], j_noise = r["J_noise_pct"], j_noncoherent = r["J_noncoherent_pct"];
+  EXPECT_EQ(contains(explanation, "mostly model error"), j_sim > 3.0 * j_noise) << explanation;
+  EXPECT_EQ(contains(explanation, "no floor here"), j_sim < j_noncoherent) << explanation;
 
   const json& spectrum = r["residual_spectrum"];
   EXPECT_EQ(spectrum["frequency_hz"].size(), spectrum["residual_psd"].size());
@@ -136,9 +143,10 @@ TEST_F(CliAnalyze, HtmlAloneWithSvgFiguresAndNoPlant) {
 TEST_F(CliAnalyze, NarxModelWithItsTrainingLog) {
   const fs::path log = dir_ / "narx.log.json";
   const RunResult trained = run("identify narx --data " + quoted(dir_ / "est.csv") +
-                                " --fs 3000 --na 2 --nb 2 --hidden 3 --max-iter 3 --out " + quoted(dir_ / "nn.json"));
-  const json t = expect_result(trained);
-  file("narx.log.json", trained.out);
+                                " --fs 3000 --na 2 --nb 2 --hidden 3 --max-iter 3 --out " + quoted(dir_ / "nn.json") +
+                                " --history " + quoted(log));
+  expect_result(trained);
+  const json t = json::parse(text_of(log));
   const json r = expect_result(run("analyze --model " + quoted(dir_ / "nn.json") + " --data " + val() + " --fs 3000" +
                                    " --history " + quoted(log) + " --out " + quoted(dir_ / "r.json") + " --plots " +
                                    quoted(dir_ / "p")));

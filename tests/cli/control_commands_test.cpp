@@ -216,8 +216,9 @@ TEST_F(CliControl, ClosedLoopRecordsRefineThePlantModelFromWhereItIs) {
   EXPECT_EQ(same["params"], start["params"]) << "structure and weights kept";
   EXPECT_EQ(same["scaling"], start["scaling"]) << "the start's scaling, not the new record's";
   EXPECT_EQ(same["meta"]["start_from"], path("narx.json").string());
-  const json refined = expect_result(run(refine + " --max-iter 4 --out " + quoted(path("refined.json"))));
-  ASSERT_GE(refined["history"].size(), 2u);
+  const json refined =
+      expect_result(run(refine + " --max-iter 4 --out " + quoted(path("refined.json")) + " --history " + quoted(path("h.json"))));
+  ASSERT_GE(json::parse(text_of(path("h.json")))["history"].size(), 2u);
   EXPECT_LT(refined["J_val_pct"].get<double>(), 1.01 * kept["J_val_pct"].get<double>())
       << "early stopping keeps the start unless training improves on it";
 

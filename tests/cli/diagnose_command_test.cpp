@@ -44,6 +44,16 @@ TEST_F(CliDiagnose, FindsTheCubicSpringAndWritesTheReport) {
   ASSERT_TRUE(r.contains("findings"));
   ASSERT_FALSE(r["findings"].empty()) << r.dump(1);
   EXPECT_EQ(r["findings"][0]["effect"], "cubic_stiffness");
+  // Stiffness acts on displacement: the explanation names it, never the velocity alone.
+  const std::string why = r["findings"][0]["explanation"];
+  EXPECT_TRUE(contains(why, "displacement")) << why;
+  EXPECT_FALSE(contains(why, "(a velocity")) << why;
+  // The plant has the linear preset's one sample of delay and the baseline found it: no delay finding.
+  EXPECT_EQ(r["baseline"]["nk"], 1) << r["baseline"];
+  for (const auto& f : r["findings"]) {
+    EXPECT_NE(f["effect"], "delay") << f["explanation"];
+    EXPECT_FALSE(contains(f["explanation"].get<std::string>(), "1.0 times larger")) << f["explanation"];
+  }
   EXPECT_LT(r["J_val_after_pct"].get<double>(), r["J_val_before_pct"].get<double>());
   EXPECT_EQ(r["baseline"]["kind"], "linear");
   // The report file: the contract's keys, and the same figures as stdout.

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <sstream>
+#include <string>
 
 #include "dsp/csv_table.h"
 #include "dsp/record.h"
@@ -40,8 +42,35 @@ TEST_F(CliIdentifyData, LinearPrintsTheContractAndValidateAgrees) {
   EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
   EXPECT_EQ(v["kind"], "linear");
   // An OE model's A(q) is no predictor: its series-parallel J need not beat its simulation J; it is
-  // reported, finite and positive.
+  // reported, finite and positive, and when it is worse the output says why.
   EXPECT_GT(v["J_pred_pct"].get<double>(), 0.0);
+  if (v["J_pred_pct"].get<double>() > v["J_sim_pct"].get<double>()) {
+    EXPECT_TRUE(contains(v["J_pred_note"].get<std::string>(), "no noise model")) << v;
+  } else {
+    EXPECT_TRUE(v["J_pred_note"].is_null()) << v;
+  }
+  EXPECT_EQ(r["nk_source"].get<std::string>().rfind("estimated from the impulse response's first significant tap (lag 2", 0), 0u)
+      << r["nk_source"];
+}
+
+// The bar on stderr (a line per tenth when stderr is a file) never goes back: an order scan then the final fit
+// once ran 90 % → 0 % → 100 %.
+TEST_F(CliIdentifyData, LinearProgressNeverGoesBack) {
+  const RunResult out = run("identify linear --data " + est() + " --val " + val() +
+                            " --fs 3000 --method arx --scan 1:4 --out " + quoted(dir_ / "p.json"));
+  expect_result(out);
+  int last = -1, lines = 0;
+  std::istringstream err(out.err);
+  for (std::string line; std::getline(err, line);) {
+    const std::string tag = "identify arx: ";
+    if (line.rfind(tag, 0) != 0 || line.back() != '%') continue;
+    const int percent = std::stoi(line.substr(tag.size()));
+    EXPECT_GE(percent, last) << out.err;
+    last = percent;
+    ++lines;
+  }
+  EXPECT_GE(lines, 2) << out.err;
+  EXPECT_EQ(last, 100);
 }
 
 TEST_F(CliIdentifyData, LinearScanReportsEveryOrderAndTheRule) {
@@ -79,15 +108,26 @@ TEST_F(CliIdentifyData, LinearScanSkipsOrdersNoiseFreeDataCannotSupport) {
 
 TEST_F(CliIdentifyData, NarxTrainsAndValidateReadsItsModel) {
   const fs::path model = dir_ / "nn.json";
-  const json r = expect_result(run("identify narx --data " + est() + " --val " + val() +
-                                   " --fs 3000 --na 4 --nb 4 --hidden 5 --train pem,oem-d --max-iter 3 --seed 2 --out " +
-                                   quoted(model)));
-  for (const char* key : {"J_est_pct", "J_val_pct", "iterations", "seconds", "params", "history"}) {
+  const fs::path log = dir_ / "history.json";
+  const RunResult out = run("identify narx --data " + est() + " --val " + val() +
+                            " --fs 3000 --na 4 --nb 4 --hidden 5 --train pem,oem-d --max-iter 3 --seed 2 --out " +
+                            quoted(model) + " --history " + quoted(log));
+  const json r = expect_result(out);
+  for (const char* key : {"J_est_pct", "J_val_pct", "iterations", "seconds", "params", "nk", "nk_source"}) {
     EXPECT_TRUE(r.contains(key)) << key;
   }
+  EXPECT_FALSE(r.contains("history")) << "the training log is no part of the result on stdout";
+  EXPECT_EQ(r["nk_source"], "the default of --nk (no dead time)");
   EXPECT_EQ(r["params"], 9 * 5 + 5 + 5 + 1);
-  EXPECT_GE(r["history"].size(), 2u);
-  EXPECT_EQ(r["history"][0]["iter"], 0);
+  const json h = json::parse(text_of(log));
+  EXPECT_GE(h["history"].size(), 2u);
+  EXPECT_EQ(h["history"][0]["iter"], 0);
+  // without --history the log goes to stderr, a line per iteration
+  const RunResult plain = run("identify narx --data " + est() + " --fs 3000 --na 2 --nb 2 --hidden 2 --max-iter 1 --nk 2 --out " +
+                              quoted(dir_ / "nn2.json"));
+  EXPECT_EQ(expect_result(plain)["nk_source"], "given (--nk)");
+  EXPECT_TRUE(contains(plain.err, "identify narx: pem iteration 0: J_est")) << plain.err;
+  EXPECT_FALSE(contains(plain.out, "pem iteration")) << plain.out;
   const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
   EXPECT_EQ(v["kind"], "narx");
   EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);

@@ -54,6 +54,13 @@ TEST_F(JobKindsTest, IdentifyLinearRecoversTheReferenceSystem) {
     }
   }
   EXPECT_EQ(result.at("summary").at("order"), 2);
+  // The reference system's one sample of delay, found in its impulse response and said so; a good fit warns of nothing.
+  EXPECT_EQ(result.at("summary").at("delay"), 1);
+  EXPECT_EQ(result.at("summary").at("nk_source").get<std::string>().rfind(
+                "estimated from the impulse response's first significant tap (lag 1", 0),
+            0u)
+      << result.at("summary").at("nk_source");
+  EXPECT_EQ(result.at("warnings"), json::array());
 }
 
 TEST_F(JobKindsTest, IdentifyLinearMakesItsOwnExcitationAndScansOrders) {
@@ -117,6 +124,28 @@ TEST_F(JobKindsTest, IdentifyNarxOnTheVirtualTransducer) {
   EXPECT_EQ(plots.at("harmonics").at("f").size(), 4u);
   // The history is in the model file too, where analyze finds it.
   EXPECT_EQ(store_->model(id)->at("meta").at("history").size(), plots.at("history").at("iteration").size());
+  // nk estimated, within the half of the impulse estimate that can hold a delay, and said how.
+  const json& summary = result.at("summary");
+  EXPECT_LT(summary.at("nk").get<int>(), 1500 / 2);
+  EXPECT_FALSE(summary.at("nk_source").get<std::string>().empty());
+  EXPECT_NE(summary.at("nk_source"), "given");
+  // A warning exactly when the model is no better than zero or than the linear model of the same record.
+  const double j = result.at("j_val_pct").get<double>(), linear = summary.at("linear_reference_j_pct").get<double>();
+  EXPECT_EQ(result.at("warnings").size(), static_cast<std::size_t>((j >= 100.0) + (j > linear))) << result.at("warnings");
+}
+
+TEST_F(JobKindsTest, AnUntrainedNarxModelEndsWithAWarningNotInSilence) {
+  use_plant("panel-exciter");
+  run("excite", {{"samples", 3000}, {"validation_samples", 1000}, {"amplitude", 0.8}}, "j1");
+  const json result = run("identify-narx",
+                          {{"record", "j1"}, {"na", 2}, {"nb", 2}, {"nk", 1}, {"hidden", {3}}, {"max_iterations", 0}}, "j2");
+  EXPECT_EQ(result.at("summary").at("nk_source"), "given");
+  const double j = result.at("j_val_pct").get<double>(), linear = result.at("summary").at("linear_reference_j_pct").get<double>();
+  ASSERT_GT(j, linear) << "random initial weights against a fitted linear model";
+  ASSERT_FALSE(result.at("warnings").empty());
+  const std::string last = result.at("warnings").back().get<std::string>();
+  EXPECT_NE(last.find("worse than a linear model"), std::string::npos) << last;
+  EXPECT_NE(last.find("nk = 1, given"), std::string::npos) << last;
 }
 
 TEST_F(JobKindsTest, IdentifyNarxSeedsFrictionNodesWhenAsked) {

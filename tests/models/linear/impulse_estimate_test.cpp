@@ -2,6 +2,7 @@
 // the length against the lag where |h| sinks below the least-squares noise level (computed here from
 // h and σ_e alone), the 5 %-of-peak rule for the first tap, monotonicity in the noise, and the checks.
 #include "models/linear/impulse_estimate.h"
+#include "models/linear/data_survey.h"
 #include "models/linear/fir_estimator.h"
 
 #include <gtest/gtest.h>
@@ -179,6 +180,34 @@ TEST(ImpulseEstimateTest, ABandLimitedMultisineInputGivesTheResponseInItsBandAnd
   const ImpulseEstimate e = estimate_impulse(u, y, kMaxLag);
   EXPECT_GE(e.delay, 2);
   EXPECT_LE(e.delay, 3);
+}
+
+// The second half of the lags is taken for noise, so a delay can only be read in the first: a response
+// that starts at lag 150 of 200 is no delay the window supports (the API once reported nk = 1001, the window's
+// end, for a record where no tap stood out). None is found and none is assumed.
+TEST(ImpulseEstimateTest, ADelayNeverComesFromTheHalfTakenForNoise) {
+  const Eigen::VectorXd u = dsp::uniform_noise(kSamples, 1.0, 9);
+  const ImpulseEstimate late = estimate_impulse(u, respond(delayed_response(150), u, 0.01, 3), kMaxLag);
+  EXPECT_FALSE(late.delay_found);
+  EXPECT_EQ(late.delay, 0);
+  const ImpulseEstimate noise = estimate_impulse(u, respond(Eigen::VectorXd::Zero(kMaxLag + 1), u, 1.0, 4), kMaxLag);
+  EXPECT_LT(noise.delay, kMaxLag / 2) << "output independent of the input";
+  const ImpulseEstimate early = estimate_impulse(u, respond(delayed_response(7), u, 0.01, 3), kMaxLag);
+  EXPECT_TRUE(early.delay_found);
+  EXPECT_EQ(early.delay, 7);
+}
+
+TEST(ImpulseEstimateTest, TheSurveySaysHowItsDelayWasFound) {
+  const Eigen::VectorXd u = dsp::uniform_noise(kSamples, 1.0, 9);
+  const DataSurvey found = survey_data(u, respond(delayed_response(3), u, 0.01, 5), kMaxLag);
+  EXPECT_TRUE(found.delay_found);
+  EXPECT_EQ(found.delay, 3);
+  EXPECT_NE(delay_finding(found).find("first significant tap (lag 3"), std::string::npos) << delay_finding(found);
+  const DataSurvey none = survey_data(u, respond(delayed_response(150), u, 0.01, 5), kMaxLag);
+  EXPECT_FALSE(none.delay_found);
+  EXPECT_EQ(none.delay, 0);
+  EXPECT_NE(delay_finding(none).find("no dead time is assumed: nk = 0"), std::string::npos) << delay_finding(none);
+  EXPECT_EQ(data_survey_to_json(none)["delay_found"], false);
 }
 
 }  // namespace
