@@ -37,11 +37,12 @@ $bin simulate --plant panel-exciter --signal noise --amplitude 1 --samples 10000
 head -n 5001 "$work/n.csv" > "$work/est.csv"
 { head -n 1 "$work/n.csv"; tail -n +5002 "$work/n.csv"; } > "$work/val.csv"
 
-train() {  # train MODES RUN: panelbass NN 17-17-1 into $work/RUN.json (its printed JSON) and $work/RUN.wall
+train() {  # train MODES RUN: panelbass NN 17-17-1 into $work/RUN.json (its printed JSON), $work/RUN-history.json and $work/RUN.wall
   local start end
   start=$(date +%s.%N)
   $bin identify narx --data "$work/est.csv" --val "$work/val.csv" --fs 3000 --na 8 --nb 8 --hidden 17 \
-    --train "$1" --optimizer lm --max-iter 100 --seed 1 --out "$work/$2-model.json" > "$work/$2.json" 2>/dev/null
+    --train "$1" --optimizer lm --max-iter 100 --seed 1 --out "$work/$2-model.json" --history "$work/$2-history.json" \
+    > "$work/$2.json" 2>/dev/null
   end=$(date +%s.%N)
   calc "$end - $start" > "$work/$2.wall"
 }
@@ -53,11 +54,12 @@ seconds=$(for r in 1 2 3; do jq .seconds "$work/full$r.json"; done | median)
 wall=$(cat "$work"/full[123].wall | median)
 pem_seconds=$(for r in 1 2 3; do jq .seconds "$work/pem$r.json"; done | median)
 full=$work/full1.json
+history=$work/full1-history.json
 iterations=$(jq .iterations "$full")
-pem_iterations=$(jq '[.history[] | select(.mode == "pem" and .iter > 0)] | length' "$full")
-target=$(jq '[.history[].J_val_pct] | min' "$full")
+pem_iterations=$(jq '[.history[] | select(.mode == "pem" and .iter > 0)] | length' "$history")
+target=$(jq '[.history[].J_val_pct] | min' "$history")
 threshold=$(calc "1.05 * $target")
-hit=$(jq --argjson t "$threshold" '[.history[] | select(.J_val_pct <= $t) | .iter] | min' "$full")
+hit=$(jq --argjson t "$threshold" '[.history[] | select(.J_val_pct <= $t) | .iter] | min' "$history")
 # Seconds at iteration `hit`: pem iterations share the pem run's seconds, oem-d ones the rest.
 pb_time=$(awk -v k="$hit" -v kp="$pem_iterations" -v n="$iterations" -v tp="$pem_seconds" -v t="$seconds" \
   'BEGIN { print (k <= kp) ? tp * k / kp : tp + (t - tp) * (k - kp) / (n - kp) }')

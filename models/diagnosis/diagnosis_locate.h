@@ -3,7 +3,7 @@
 // located in frequency (against the noise floor, as an FRF error, and as odd/even distortion at the empty
 // lines of periodic data), in amplitude and state (against the input and output level, the estimated
 // velocity and displacement and the direction of motion), and in time (drift, and the onset of a change);
-// see ../shared/PHYSICS.md.
+// see docs/transducer.md.
 
 #include <Eigen/Core>
 #include <limits>

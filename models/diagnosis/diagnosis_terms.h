@@ -12,7 +12,7 @@
 
 namespace panelbass::models {
 
-/// The fixed vocabulary of physics a model can leave out (../shared/PHYSICS.md).
+/// The fixed vocabulary of physics a model can leave out (docs/transducer.md, docs/diagnosis.md).
 enum class Effect {
   resonance,
   antiresonance,
@@ -30,7 +30,7 @@ enum class Effect {
 /// The effect's id ("cubic_stiffness", …).
 std::string to_string(Effect effect);
 
-/// Every effect of the vocabulary, in the order of ../shared/PHYSICS.md.
+/// Every effect of the vocabulary, in the order docs/diagnosis.md lists them.
 std::vector<Effect> all_effects();
 
 /// The ids of all_effects() joined by ", ".

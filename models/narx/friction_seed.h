@@ -1,6 +1,6 @@
 #pragma once
 // Physics-informed initial weights for a NARX network: hidden units seeded as the Coulomb-friction force
-// tanh(g·v̂(k)) of an exciter, v̂ the velocity estimated from the regressor (PHYSICS.md, friction).
+// tanh(g·v̂(k)) of an exciter, v̂ the velocity estimated from the regressor (docs/transducer.md, friction).
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>

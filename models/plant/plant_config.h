@@ -1,6 +1,6 @@
 #pragma once
 // Configuration of the virtual transducer: a moving-magnet exciter on a panel, with switchable
-// nonlinear terms, panel modes, converters and a sensor (see ../shared/PHYSICS.md).
+// nonlinear terms, panel modes, converters and a sensor (see docs/transducer.md).
 
 #include <filesystem>
 #include <nlohmann/json.hpp>

@@ -81,7 +81,7 @@ void VirtualTransducer::derivatives(const Eigen::VectorXd& s, double drive, Eige
   const double i = s[kCurrent], x = s[kDisplacement], v = s[kVelocity], temperature = s[kTemperature];
   const double xm = x * kMmPerM;
 
-  // Large-signal element values (PHYSICS.md): polynomials in displacement (mm) and current.
+  // Large-signal element values (docs/transducer.md): polynomials in displacement (mm) and current.
   const double bl = c.Bl_Tm * (1.0 + n.force_factor.gain() * (n.force_factor.b1_per_mm * xm +
                                                                n.force_factor.b2_per_mm2 * xm * xm));
   const double spring = c.stiffness_N_per_m * x *

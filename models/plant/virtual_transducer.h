@@ -27,7 +27,7 @@ struct PlantRecord {
   Eigen::VectorXd y, i, x, v;
 };
 
-/// The lumped exciter-on-panel model of ../shared/PHYSICS.md, integrated with fixed-step RK4 at
+/// The lumped exciter-on-panel model of docs/transducer.md, integrated with fixed-step RK4 at
 /// `oversample` steps per sample. The drive is held over each sample (DA zero-order hold), passes the
 /// converter delay, the analog DA filter and the amplifier; the acceleration passes the analog AD
 /// filter and is sampled at the end of the sample period, then sensor noise is added.

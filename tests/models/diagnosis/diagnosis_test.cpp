@@ -206,7 +206,7 @@ TEST(Diagnosis, SimulationBaselineAtAnotherRateOrNotFiniteIsNamed) {
 }
 
 TEST(Diagnosis, EffectIdsAreTheVocabulary) {
-  // The ids of issue #9, in the order of ../shared/PHYSICS.md's table.
+  // The ids of issue #9, in the order docs/diagnosis.md lists them.
   const std::vector<std::string> expected = {"resonance",  "antiresonance", "delay",      "cubic_stiffness",
                                              "asymmetric_stiffness", "force_factor", "inductance", "hysteresis",
                                              "saturation", "thermal_compression", "dc_offset"};

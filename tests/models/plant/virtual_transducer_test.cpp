@@ -34,7 +34,7 @@ cd butterworth(int order, double cutoff_hz, cd s) {
   return h;
 }
 
-// Drive (dimensionless) to sensor volts of the linear lumped model of PHYSICS.md, in continuous time:
+// Drive (dimensionless) to sensor volts of the linear lumped model of docs/transducer.md, in continuous time:
 // i = V/(Ze + Bl²/Zm), v = Bl·i/Zm, a = s·v + Σ g_k·s²/(s² + 2ζω_k s + ω_k²)·Bl·i/m.
 cd continuous_response(const PlantConfig& c, double f) {
   const cd s(0.0, 2.0 * kPi * f);
