@@ -384,7 +384,8 @@ TEST(JobRecordJson, TheSummaryAndTheDetails) {
                            {"created", "2026-11-22T09:00:00Z"},
                            {"started", "2026-11-22T09:00:01Z"},
                            {"finished", nullptr},
-                           {"error", nullptr}}));
+                           {"error", nullptr},
+                           {"warnings", json::array()}}));
   const json details = job_to_json(job, true);
   EXPECT_EQ(details["params"], job.params);
   EXPECT_TRUE(details["result"].is_null());
