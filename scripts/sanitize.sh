@@ -7,7 +7,7 @@
 #      from the guidance); scripts/fuzz.sh's long runs build with them;
 #   2. ThreadSanitizer, clang (build-tsan): the engine tests (audio thread, control thread, lock-free
 #      handover). clang, like the ASan build, so the precompiled headers (PANELBASS_PCH) serve it too.
-# Both at -O1 without debug info, to keep the instrumented Eigen code quick to compile. Any sanitizer
+# Both at -O1 without debug info (the command line and the test programs at -O0: CMakeLists.txt, panelbass_glue_code), to keep the instrumented Eigen code quick to compile. Any sanitizer
 # report fails the test that caused it.
 #
 #   bash scripts/sanitize.sh [FUZZ_SECONDS_PER_TARGET]     (default 10)
@@ -18,8 +18,9 @@ fuzz_seconds=${1:-10}
 # clang with its sanitizer and libFuzzer runtimes (the main build's packages are bootstrap.sh's).
 bash scripts/install_packages.sh clang libclang-rt-14-dev ninja-build
 jobs=$(nproc)
-# Only the executables built here are run: the browser test and the load bench (not built here) are left out.
-not_built='_NOT_BUILT$|^web\.|^api\.load'
+# Only the executables built here are run: the browser tests, the load bench (not built here) and the
+# executable documentation (whole user sessions through the command line; the main stage runs them) are left out.
+not_built='_NOT_BUILT$|^web\.|^api\.load|^docs\.'
 
 # The concealed diagnosis scenarios are long numeric runs (seconds each in Release, minutes under ASan)
 # over code the other diagnosis tests already exercise; the sanitizer stage leaves them out.
