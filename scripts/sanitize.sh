@@ -7,9 +7,8 @@
 #      from the guidance); scripts/fuzz.sh's long runs build with them;
 #   2. ThreadSanitizer, clang (build-tsan): the engine tests (audio thread, control thread, lock-free
 #      handover). clang, like the ASan build, so the precompiled headers (PANELBASS_PCH) serve it too.
-# Both at -O1 without debug info (the command line and the test programs at -O0: panelbass_glue_code in
-# CMakeLists.txt), to keep the instrumented Eigen code quick to compile. Any sanitizer report fails the test
-# that caused it.
+# Both at -O1 without debug info (the test programs at -O0: tests/CMakeLists.txt), to keep the instrumented
+# Eigen code quick to compile. Any sanitizer report fails the test that caused it.
 #
 #   bash scripts/sanitize.sh [FUZZ_SECONDS_PER_TARGET]     (default 10)
 set -euo pipefail
