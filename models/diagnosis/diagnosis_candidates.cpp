@@ -207,6 +207,22 @@ double lag_correlation(const Records& r, const Fit& fit, int lag) {
   return norm > 0.0 ? e.dot(u) / norm : 0.0;
 }
 
+/// [2A] on the validation record: the J of `fit`'s simulated output shifted by one sample against itself,
+/// Σ (ŷ(k) − ŷ(k−1))² / Σ y² in percent over k ≥ init — what a missing sample of dead time costs.
+double one_sample_shift_j(const Records& r, const Fit& fit) {
+  const Eigen::VectorXd y_sim = simulate_augmented(fit.model, r.u_val, r.y_val, r.init);
+  const Eigen::Index n = r.y_val.size() - r.init;
+  const Eigen::Index start = std::max<Eigen::Index>(r.init, 1);
+  const Eigen::Index m = r.y_val.size() - start;
+  if (n < 2 || m < 1) return 0.0;
+  const double energy = r.y_val.tail(n).squaredNorm();
+  if (!(energy > 0.0)) return 0.0;
+  return 100.0 * (y_sim.tail(m) - y_sim.segment(start - 1, m)).squaredNorm() / energy;
+}
+
+/// The share of one_sample_shift_j() a delay refit must recover to be named a dead time.
+constexpr double kDelayShareOfShift = 0.25;
+
 DiagnosisTerm term_of(Effect effect, StateProxy proxy, double threshold, double time_constant_s = 0.0) {
   DiagnosisTerm t;
   t.effect = effect;
@@ -289,6 +305,12 @@ std::vector<Candidate> candidates(const Records& r, const Fit& current, const Re
   // errors): otherwise the added coefficient is merely a free zero, fitting whatever else is missing.
   const bool early_response = tf.nk > 0 && std::abs(lag_correlation(r, current, tf.nk - 1)) >
                                                3.0 / std::sqrt(static_cast<double>(r.u_est.size() - r.init));
+  // One sample more is not nested (b₀ dropped, a coefficient gained at the tail), so it needs its own
+  // evidence: a sample of dead time missing misaligns the whole response, and the residual then carries
+  // what a one-sample shift of the simulated output would, J_shift = Σ (ŷ(k) − ŷ(k−1))² / Σ y² [2A]. A
+  // refit that recovers only a small part of that traded a real first coefficient (a converter's small
+  // first sample) for one at the tail: that is the numerator's length, which the order scan owns.
+  const double j_shift = one_sample_shift_j(r, current);
   for (int step : {+1, -1}) {
     if (tf.nk + step < 0 || tf.nb() < 2 || (step < 0 && !early_response)) continue;
     TransferFunction init = tf;
@@ -302,8 +324,10 @@ std::vector<Candidate> candidates(const Records& r, const Fit& current, const Re
     }
     if (auto m = refit_linear(r, linear, init, oe_iterations)) {
       Fit f = fit_terms(r, *m, terms);
-      if (f.j_val < j_same)
-        offer({Effect::delay, "nk " + std::to_string(init.nk), 1, std::move(f), {{"nk_before", tf.nk}, {"nk_after", init.nk}}});
+      const double recovered = current.j_val - f.j_val;
+      if (f.j_val < j_same && (step < 0 || recovered >= kDelayShareOfShift * j_shift))
+        offer({Effect::delay, "nk " + std::to_string(init.nk), 1, std::move(f),
+               {{"nk_before", tf.nk}, {"nk_after", init.nk}, {"shift_j_pct", j_shift}, {"j_recovered_pct", recovered}}});
     }
   }
   // Resonance or antiresonance: a pole pair and a zero pair (cancelling at the start, so the start is the

@@ -55,8 +55,10 @@ std::string explain(const Candidate& c, const ResidualLocation& where, double co
              ", " + fixed(std::abs(where.mean_t), 1) + " standard errors from zero.";
     case Effect::delay:
       return "The model leaves out " + std::string(c.parameters_json["nk_after"].get<int>() > c.parameters_json["nk_before"].get<int>() ? "a sample more" : "a sample less") +
-             " of dead time: the input–residual cross-correlation peaks at lag " + std::to_string(where.xcorr_lag) +
-             " and refitting with nk = " + std::to_string(c.parameters_json["nk_after"].get<int>()) + " removes it.";
+             " of dead time: the whole response is misaligned (shifting the simulated output by one sample changes J by " +
+             fixed(c.parameters_json["shift_j_pct"].get<double>(), 2) + " %), and refitting with nk = " +
+             std::to_string(c.parameters_json["nk_after"].get<int>()) + " lowers J by " +
+             fixed(c.parameters_json["j_recovered_pct"].get<double>(), 2) + " %.";
     case Effect::resonance:
       return "The model leaves out a lightly damped mode near " + fixed(c.parameters_json["frequency_hz"].get<double>(), 0) +
              " Hz: the residual spectrum peaks at " + fixed(where.peak_frequency_hz, 0) + " Hz (" +

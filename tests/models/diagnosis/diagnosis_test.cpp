@@ -137,6 +137,26 @@ TEST(Diagnosis, GivenBaselineWithTooShortADelayGetsADelay) {
   EXPECT_LT(d.findings[0].j_val_after_pct, 0.5 * d.findings[0].j_val_before_pct);
 }
 
+// The README tour's plant: its converters' latency is one sample, the first sample small (their filters).
+// The identified baseline starts there; once a nonlinear term is in, trading that small first coefficient
+// for one more at the tail (nk + 1) lowers J a little, which is the numerator's length, not a dead time.
+// No finding may move the delay away from the converters' latency.
+TEST(Diagnosis, APanelExcitersSmallFirstSampleIsNotTakenForDeadTime) {
+  const PlantConfig plant = plant_preset("panel-exciter");
+  const ScenarioRecords s = make_scenario(plant, 1, 10000, 2000);
+  DiagnosisOptions o;
+  o.scan_from = 7;
+  o.scan_to = 8;
+  o.max_findings = 2;
+  const Diagnosis d = diagnose(s.u_est, s.y_est, s.u_val, s.y_val, kFs, std::nullopt, o);
+  ASSERT_FALSE(d.findings.empty());
+  EXPECT_EQ(d.baseline_info["nk"].get<int>(), plant.converters.delay_samples);
+  for (const Finding& f : d.findings) {
+    if (f.effect != Effect::delay) continue;
+    EXPECT_EQ(f.parameters["nk_after"].get<int>(), plant.converters.delay_samples) << f.explanation;
+  }
+}
+
 TEST(Diagnosis, APeriodicMultisineRecordIsIdentifiedAndItsEmptyLinesAreRead) {
   // Five periods of a random-odd multisine (10–1200 Hz) through the linear plant: the input has no power
   // above 1200 Hz (the baseline's delay estimate must not need it), the record is found periodic, and a
