@@ -29,6 +29,7 @@ Effect effect_named(const std::string& id) {
 
 struct Run {
   std::string first = "none";
+  std::string word;  ///< the first finding's confidence: clear, likely or ambiguous
   int findings = 0;
   double concealment = 0.0, j_before = 0.0, j_after = 0.0;
   std::string baseline;
@@ -48,7 +49,10 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
   const Diagnosis d = diagnose(r.u_est, r.y_est, r.u_val, r.y_val, r.fs, scenario_baseline(s), options_for(s));
   Run run;
   run.findings = static_cast<int>(d.findings.size());
-  if (!d.findings.empty()) run.first = to_string(d.findings.front().effect);
+  if (!d.findings.empty()) {
+    run.first = to_string(d.findings.front().effect);
+    run.word = d.findings.front().confidence.value("word", "");
+  }
   run.concealment = concealment_ratio(r, d.baseline_model.linear, kInit);
   run.j_before = d.j_val_before_pct;
   run.j_after = d.j_val_after_pct;
@@ -100,12 +104,13 @@ int main(int argc, char** argv) {
 
   std::printf("## diagnose detection rate (%ld + %ld samples, seeds %llu..%llu)\n\n", n_est, n_val,
               static_cast<unsigned long long>(first_seed), static_cast<unsigned long long>(first_seed + seeds - 1));
-  std::printf("| effect | size | detected first | median concealment | median J before %% | median J after %% | first findings seen |\n");
-  std::printf("|---|---:|---:|---:|---:|---:|---|\n");
+  std::printf("| effect | size | detected first | right and clear | confidently wrong | median concealment | median J before %% | median J after %% | first findings seen (word) |\n");
+  std::printf("|---|---:|---:|---:|---:|---:|---:|---:|---|\n");
+  int runs = 0, confidently_wrong = 0;
   for (Effect e : chosen) {
     for (double size : sizes) {
       const DiagnosisScenario s = concealed_scenario(e, size);
-      int hits = 0;
+      int hits = 0, clear_hits = 0, wrong_clear = 0;
       std::vector<double> concealment, before, after;
       std::map<std::string, int> seen;
       for (int k = 0; k < seeds; ++k) {
@@ -115,18 +120,23 @@ int main(int argc, char** argv) {
                      s.name.c_str(), size, static_cast<unsigned long long>(seed), run.first.c_str(), run.findings,
                      run.concealment, run.j_before, run.j_after, run.baseline.c_str());
         hits += run.first == s.name;
+        clear_hits += run.first == s.name && run.word == "clear";
+        wrong_clear += run.first != s.name && run.first != "none" && run.word == "clear";
+        ++runs;
         concealment.push_back(run.concealment);
         before.push_back(run.j_before);
         after.push_back(run.j_after);
-        ++seen[run.first];
+        ++seen[run.first + (run.word.empty() ? "" : " (" + run.word + ")")];
       }
       std::string firsts;
       for (const auto& [id, count] : seen) firsts += (firsts.empty() ? "" : ", ") + id + " " + std::to_string(count);
-      std::printf("| %s | %.2f | %d/%d | %.2f | %.4f | %.4f | %s |\n", s.name.c_str(), size, hits, seeds,
-                  median(concealment), median(before), median(after), firsts.c_str());
+      confidently_wrong += wrong_clear;
+      std::printf("| %s | %.2f | %d/%d | %d/%d | %d/%d | %.2f | %.4f | %.4f | %s |\n", s.name.c_str(), size, hits, seeds,
+                  clear_hits, seeds, wrong_clear, seeds, median(concealment), median(before), median(after), firsts.c_str());
       std::fflush(stdout);
     }
   }
+  std::printf("\nconfidently wrong (a wrong first name called clear): %d/%d\n", confidently_wrong, runs);
   if (plain > 0) {
     int false_positives = 0;
     std::map<std::string, int> seen;

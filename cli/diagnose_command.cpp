@@ -114,13 +114,14 @@ void run_diagnose(const DiagnoseOptions& o) {
                             {"J_val_after_pct", d.j_val_after_pct},
                             {"noise_floor_pct", d.noise_floor_pct},
                             {"at_noise_floor", report["at_noise_floor"]},
+                            {"unexplained", report["unexplained"]},
                             {"out", o.outputs.out},
                             {"html", report["html"]},
                             {"plots", report["plots"]}};
   summary["baseline"].erase("scan");
   nlohmann::json findings = nlohmann::json::array();
   for (const auto& f : report["findings"])
-    findings.push_back({{"effect", f["effect"]}, {"explanation", f["explanation"]},
+    findings.push_back({{"effect", f["effect"]}, {"explanation", f["explanation"]}, {"confidence", f["confidence"]["sentence"]},
                         {"J_val_before_pct", f["J_val_before_pct"]}, {"J_val_after_pct", f["J_val_after_pct"]}});
   summary["findings"] = findings;
   print_result(summary);

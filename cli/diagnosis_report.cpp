@@ -34,13 +34,14 @@ void findings_table(std::ostream& out, const json& findings) {
     return;
   }
   out << "<table class=\"findings\"><tr><th>#</th><th>effect</th><th>explanation</th><th>J before</th>"
-         "<th>J after</th><th>parameters added</th><th>BIC score</th></tr>\n";
+         "<th>J after</th><th>parameters added</th><th>BIC score</th><th>how sure</th></tr>\n";
   int step = 0;
   for (const json& f : findings) {
     out << "<tr><td>" << ++step << "</td><th><code>" << html_cell(at(f, "effect")) << "</code></th><td class=\"text\">"
         << html_cell(at(f, "explanation")) << "</td><td>" << pct(at(f, "J_val_before_pct")) << "</td><td>"
         << pct(at(f, "J_val_after_pct")) << "</td><td>" << html_cell(at(at(f, "parameters"), "added")) << "</td><td>"
-        << html_cell(at(at(f, "evidence"), "score_bic"), 3) << "</td></tr>\n";
+        << html_cell(at(at(f, "evidence"), "score_bic"), 3) << "</td><td class=\"text\">"
+        << html_cell(at(at(f, "confidence"), "sentence")) << "</td></tr>\n";
   }
   out << "</table>\n";
 }
@@ -134,6 +135,7 @@ void write_diagnosis_html(const std::filesystem::path& path, const json& report,
       << html_row("findings", std::to_string(at(report, "findings").size())) << "</table>\n";
   baseline_table(out, at(report, "baseline"));
   findings_table(out, at(report, "findings"));
+  if (!at(report, "unexplained").is_null()) out << "<p>" << html_cell(at(at(report, "unexplained"), "sentence")) << "</p>\n";
   location_table(out, at(report, "location"));
   out << "<h2>Figures</h2>\n" << html_figures(figures, format);
   out << "<p><small>Written by <code>panelbass diagnose</code>. J is [2A] Σ(ŷ−y)²/Σy² in percent, from free-run "

@@ -7,6 +7,7 @@
 
 #include "dsp/excitation.h"
 #include "models/diagnosis/diagnosis_candidates.h"
+#include "models/diagnosis/diagnosis_confidence.h"
 #include "models/diagnosis/diagnosis_explanations.h"
 #include "models/linear/linear_identification.h"
 #include "models/validation/performance.h"
@@ -18,6 +19,9 @@ using diagnosis_detail::added_correlation;
 using diagnosis_detail::candidates;
 using diagnosis_detail::Candidate;
 using diagnosis_detail::explain;
+using diagnosis_detail::confidence_to_json;
+using diagnosis_detail::judge_finding;
+using diagnosis_detail::unexplained_residual;
 using diagnosis_detail::Fit;
 using diagnosis_detail::fit_terms;
 using diagnosis_detail::fixed;
@@ -123,6 +127,8 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
                   {"J_est_after_pct", chosen->fit.j_est},
                   {"residual_estimation", location_to_json(where_est)},
                   {"residual_validation", location_to_json(where_val)}};
+    f.confidence = confidence_to_json(
+        judge_finding(*chosen, scored, current.j_val, where_val.effective_samples, d.noise_floor_pct));
     f.parameters = chosen->parameters_json;
     f.parameters["added"] = chosen->parameters;
     f.parameters["terms"] = terms_json(chosen->fit.model);
@@ -135,6 +141,7 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
   d.at_noise_floor = at_noise_floor(d.j_val_after_pct, d.noise_floor_pct);
   d.located_val_after = locate_residual(u_val, y_val, simulate_augmented(current.model, u_val, y_val, r.init), fs, r.init);
   d.model = current.model;
+  d.unexplained = unexplained_residual(d.j_val_after_pct, d.noise_floor_pct, d.located_val_after);
 }
 
 // `simulate` with its results kept per record (input and output data, length, init): a diagnosis simulates
@@ -249,6 +256,7 @@ nlohmann::json diagnosis_to_json(const Diagnosis& d) {
   for (const auto& f : d.findings)
     findings.push_back({{"effect", to_string(f.effect)},
                         {"explanation", f.explanation},
+                        {"confidence", f.confidence},
                         {"evidence", f.evidence},
                         {"parameters", f.parameters},
                         {"J_val_before_pct", f.j_val_before_pct},
@@ -263,6 +271,7 @@ nlohmann::json diagnosis_to_json(const Diagnosis& d) {
           {"J_val_after_pct", d.j_val_after_pct},
           {"noise_floor_pct", d.noise_floor_pct},
           {"at_noise_floor", d.at_noise_floor},
+          {"unexplained", d.unexplained},
           {"location",
            {{"estimation", location_to_json(d.located_est)},
             {"validation", location_to_json(d.located_val)},

@@ -43,6 +43,7 @@ struct Finding {
   int added_parameters = 0;
   double j_val_before_pct = 0.0;
   double j_val_after_pct = 0.0;
+  nlohmann::json confidence = nlohmann::json::object();  ///< runner-up, BIC margin, "clear"/"likely"/"ambiguous"
 };
 
 /// A free-run simulation on raw data (the first `init` measured outputs `y` may set its state).
@@ -80,6 +81,7 @@ struct Diagnosis {
   double j_val_after_pct = 0.0;
   double noise_floor_pct = 0.0;             ///< the validation residual's white-noise share of Σy²
   bool at_noise_floor = false;              ///< at_noise_floor(j_val_after_pct, noise_floor_pct): nothing but noise is left
+  nlohmann::json unexplained;               ///< what is left above the floor and where (null at the floor)
   ResidualLocation located_est, located_val;  ///< the baseline's residual
   ResidualLocation located_val_after;         ///< the final model's validation residual
   nlohmann::json rounds = nlohmann::json::array();  ///< per round: every candidate's best variant and its score

@@ -149,7 +149,9 @@ const diagnosisReport = (params) => ({
               J_val_pct: 4.6, J_est_pct: 5.4 },
   findings: [{ effect: 'cubic_stiffness', J_val_before_pct: 4.6, J_val_after_pct: 2.5,
                explanation: 'The model leaves out a cubic stiffness (a spring that hardens or softens with excursion): '
-                 + 'the residual follows the cube of the estimated output (odd and level-dependent; correlation 0.54).' }],
+                 + 'the residual follows the cube of the estimated output (odd and level-dependent; correlation 0.54).',
+               confidence: { word: 'clear', runner_up: 'force_factor', runner_up_variant: 'output', margin_bic: 31.2, explained_share: 0.54,
+                             sentence: 'clear: cubic_stiffness fits better than the runner-up, force_factor (BIC margin 31.2); it explains 54 % of J above the noise floor.' } }],
   J_val_before_pct: 4.6, J_val_after_pct: 2.5, noise_floor_pct: 0.69, at_noise_floor: false, j_val_pct: 2.5,
   location: { validation: {
     peak_frequency_hz: 152.3, peak_over_noise: 41.0, peak_threshold: 1.4, peak_significant: true, change_time_s: 0.4, change_ratio: 1.02, change_t: 0.6,

@@ -225,6 +225,7 @@ async function main() {
   for (const [, effect, explanation, j] of diagnosis.findings) {
     check(/^[a-z_]+$/.test(effect) && explanation.length > 20, `a finding without effect id or explanation: ${effect} / ${explanation}`);
     check(/\d.*→.*\d/.test(j), `a finding without J before → after: "${j}"`);
+    check(/(clear|likely|ambiguous between \S+ and)/.test(explanation), `a finding without how sure it is: "${explanation}"`);
   }
   // Where the residual lies: a sentence each on frequency, state and time at least.
   log(`location: ${diagnosis.location.join(' | ')}`);

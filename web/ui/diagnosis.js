@@ -65,12 +65,14 @@ export function renderDiagnosis(r) {
     ? r.J_val_after_pct / r.noise_floor_pct : null;
   setText('#diag-verdict', ratio === null ? ''
     : r.at_noise_floor ? 'The final model is at the noise floor: what is left of the residual is noise.'
+    : r.unexplained && r.unexplained.sentence ? r.unexplained.sentence
     : `The final model's J is ${fmtNumber(ratio, 2)} × the noise floor: ${fmtPct(r.J_val_after_pct - r.noise_floor_pct)} is still unexplained.`);
   const findings = Array.isArray(r.findings) ? r.findings : [];
   $('#diag-findings tbody').replaceChildren(...findings.map((f, i) => el('tr', { dataset: { effect: f.effect } },
     el('td', { class: 'num' }, String(i + 1)),
     el('td', { class: 'mono' }, f.effect ?? '—'),
-    el('td', { class: 'explanation' }, f.explanation ?? ''),
+    el('td', { class: 'explanation' }, f.explanation ?? '',
+      f.confidence && f.confidence.sentence ? el('div', { class: `confidence ${f.confidence.word}` }, f.confidence.sentence) : null),
     el('td', { class: 'j' }, `${fmtPct(f.J_val_before_pct)} → ${fmtPct(f.J_val_after_pct)}`))));
   $('#diag-findings').hidden = findings.length === 0;
   $('#diag-no-findings').hidden = findings.length > 0;

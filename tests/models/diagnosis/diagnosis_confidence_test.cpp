@@ -1,0 +1,92 @@
+// judge_finding() and unexplained_residual(): the runner-up is the best candidate of *another* effect, the
+// margin is the BIC difference on the effective samples written out from its definition, the word follows
+// Kass and Raftery's thresholds, and what is left above the noise floor is reported with where it lies.
+
+#include "models/diagnosis/diagnosis_confidence.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace panelbass::models::diagnosis_detail {
+namespace {
+
+Candidate candidate(Effect effect, const std::string& variant, int parameters, double j_val) {
+  Candidate c;
+  c.effect = effect;
+  c.variant = variant;
+  c.parameters = parameters;
+  c.fit.j_val = j_val;
+  return c;
+}
+
+bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+TEST(DiagnosisConfidence, TheRunnerUpIsTheBestOfAnotherEffectAndTheMarginIsTheirBicDifference) {
+  const double n = 400.0, j0 = 2.0;
+  const std::vector<Candidate> scored = {candidate(Effect::cubic_stiffness, "output", 1, 1.0),
+                                         candidate(Effect::cubic_stiffness, "integral", 1, 1.01),  // same effect: no rival
+                                         candidate(Effect::force_factor, "output", 2, 1.1),
+                                         candidate(Effect::saturation, "knee", 1, 1.5)};
+  const FindingConfidence c = judge_finding(scored[0], scored, j0, n, 0.5);
+  EXPECT_EQ(c.runner_up, "force_factor");
+  EXPECT_EQ(c.runner_up_variant, "output");
+  // BIC = N ln(J0/J) − p ln N, each against the round's start.
+  const double expected = (n * std::log(j0 / 1.0) - std::log(n)) - (n * std::log(j0 / 1.1) - 2.0 * std::log(n));
+  EXPECT_NEAR(c.margin_bic, expected, 1e-9);
+  EXPECT_EQ(c.word, "clear");  // ≈ 44
+  EXPECT_NEAR(c.explained_share, (2.0 - 1.0) / (2.0 - 0.5), 1e-12);
+  EXPECT_TRUE(has(c.sentence, "clear: cubic_stiffness fits better than the runner-up, force_factor")) << c.sentence;
+}
+
+TEST(DiagnosisConfidence, CloseRivalsAreAmbiguousAndAModestMarginIsLikely) {
+  const double n = 1000.0, j0 = 2.0;
+  // Equal parameters: the margin is N ln(J_runner/J_best).
+  const auto margin_for = [&](double j_runner) {
+    const std::vector<Candidate> scored = {candidate(Effect::inductance, "input", 1, 1.0),
+                                           candidate(Effect::asymmetric_stiffness, "output", 1, j_runner)};
+    return judge_finding(scored[0], scored, j0, n, 0.0);
+  };
+  const FindingConfidence tie = margin_for(1.0005);  // margin 0.5
+  EXPECT_EQ(tie.word, "ambiguous");
+  EXPECT_TRUE(has(tie.sentence, "ambiguous between inductance and asymmetric_stiffness")) << tie.sentence;
+  EXPECT_EQ(margin_for(std::exp(5.0 / n)).word, "likely");   // margin 5
+  EXPECT_EQ(margin_for(std::exp(12.0 / n)).word, "clear");   // margin 12
+}
+
+TEST(DiagnosisConfidence, AFindingThatDoesNotEarnItsParametersOnTheEffectiveSamplesHasNoRival) {
+  // On 50 effective samples a 1 % drop in J is worth 50·ln(1/0.99) ≈ 0.5, less than one parameter's ln 50.
+  const std::vector<Candidate> scored = {candidate(Effect::saturation, "knee", 1, 0.99)};
+  const FindingConfidence c = judge_finding(scored[0], scored, 1.0, 50.0, 0.2);
+  EXPECT_TRUE(c.runner_up.empty());
+  EXPECT_NEAR(c.margin_bic, 50.0 * std::log(1.0 / 0.99) - std::log(50.0), 1e-9);
+  EXPECT_EQ(c.word, "ambiguous");
+  EXPECT_TRUE(has(c.sentence, "and no effect")) << c.sentence;
+}
+
+TEST(DiagnosisConfidence, WhatIsLeftAboveTheFloorIsUnexplainedWithWhereItLies) {
+  ResidualLocation after;
+  EXPECT_TRUE(unexplained_residual(1.05, 1.0, after).is_null()) << "at the floor: nothing unexplained";
+  after.peak_significant = true;
+  after.peak_frequency_hz = 152.0;
+  after.peak_over_noise = 40.0;
+  after.level_ratio = 1.02;  // no level dependence: not reported
+  StateProfile s;
+  s.state = "integral";
+  s.shape_chi2 = 3.6;
+  s.shape_significant = true;
+  after.states.push_back(s);
+  const nlohmann::json u = unexplained_residual(2.0, 0.5, after);
+  ASSERT_FALSE(u.is_null());
+  EXPECT_NEAR(u["share_of_J"].get<double>(), 0.75, 1e-12);  // 1 − floor / J
+  EXPECT_EQ(u["where"]["frequency_hz"].get<double>(), 152.0);
+  EXPECT_EQ(u["where"]["state"].get<std::string>(), "integral");
+  EXPECT_FALSE(u["where"].contains("input_level_ratio"));
+  const std::string sentence = u["sentence"].get<std::string>();
+  EXPECT_TRUE(has(sentence, "152 Hz") && has(sentence, "follows the integral")) << sentence;
+}
+
+}  // namespace
+}  // namespace panelbass::models::diagnosis_detail
