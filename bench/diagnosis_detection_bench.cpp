@@ -61,7 +61,8 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
     for (const auto& round : d.rounds) {
       std::string line;
       for (const auto& c : round)
-        line += "  " + c["effect"].get<std::string>() + " (" + c["variant"].get<std::string>() + ") J " +
+        if (!c.contains("ruled_out"))
+          line += "  " + c["effect"].get<std::string>() + " (" + c["variant"].get<std::string>() + ") J " +
                 std::to_string(c["J_val_pct"].get<double>()).substr(0, 6) + " score " + std::to_string(static_cast<int>(c["score"].get<double>()));
       std::fprintf(stderr, "round:%s\n", line.c_str());
     }

@@ -27,6 +27,7 @@ using diagnosis_detail::fit_terms;
 using diagnosis_detail::fixed;
 using diagnosis_detail::Records;
 using diagnosis_detail::refit_linear;
+using diagnosis_detail::ruled_out_by_periodic_distortion;
 using diagnosis_detail::terms_json;
 
 void check_record(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const std::string& name, Eigen::Index init) {
@@ -106,6 +107,14 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     const Candidate* chosen = nullptr;
     double best_score = 0.0;
     nlohmann::json round_json = nlohmann::json::array();
+    // Periodic data weigh in: several periods of an odd multisine tell odd from even distortion in the
+    // residual, and a candidate of the parity the residual lacks is not offered.
+    std::erase_if(scored, [&](const Candidate& c) {
+      const std::string why = ruled_out_by_periodic_distortion(c, where_val.distortion);
+      if (!why.empty())
+        round_json.push_back({{"effect", to_string(c.effect)}, {"variant", c.variant}, {"J_val_pct", c.fit.j_val}, {"ruled_out", why}});
+      return !why.empty();
+    });
     for (const auto& c : scored) {
       const double score = n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val);
       round_json.push_back({{"effect", to_string(c.effect)}, {"variant", c.variant}, {"parameters", c.parameters},

@@ -186,6 +186,48 @@ TEST(Diagnosis, APeriodicMultisineRecordIsIdentifiedAndItsEmptyLinesAreRead) {
   EXPECT_LT(d.baseline_j_val_pct, 2.0 * d.noise_floor_pct) << "the linear plant is fitted to its noise";
 }
 
+// A symmetric cubic spring driven by an odd random multisine makes odd distortion only: the residual's empty
+// even lines hold noise, so an even-order term (an asymmetric spring) is ruled out by the periodic record
+// and the spring is named by its odd term.
+TEST(Diagnosis, AnOddMultisineRulesOutEvenOrderTermsWhenOnlyOddDistortionIsLeft) {
+  dsp::MultisineSpec spec;
+  spec.period = 4096;
+  spec.periods = 5;
+  spec.fs = kFs;
+  spec.f_min = 10.0;
+  spec.lines = dsp::MultisineLines::random_odd;
+  spec.amplitude = 0.8;
+  PlantConfig plant = plant_preset("linear");
+  plant.nonlinear.stiffness.enabled = true;
+  plant.nonlinear.stiffness.k1_per_mm = 0.0;   // symmetric: no x² part
+  plant.nonlinear.stiffness.k2_per_mm2 = 0.12;
+  spec.seed = 1;
+  const Eigen::VectorXd u_est = dsp::multisine(spec).signal;
+  spec.seed = 2;
+  const Eigen::VectorXd u_val = dsp::multisine(spec).signal;
+  DiagnosisOptions o = narrow_scan();
+  o.max_findings = 1;
+  const Diagnosis d = diagnose(u_est, simulate(plant, u_est, 3).y, u_val, simulate(plant, u_val, 4).y, kFs, std::nullopt, o);
+  const PeriodicDistortion& p = d.located_val.distortion;
+  ASSERT_TRUE(p.periodic && p.odd_lines_only);
+  ASSERT_GT(p.residual_odd_db, p.threshold_db) << "the spring's odd distortion is visible";
+  ASSERT_LT(p.residual_even_db, p.threshold_db) << "and nothing even";
+  ASSERT_FALSE(d.rounds.empty());
+  bool even_ruled_out = false;
+  for (const auto& c : d.rounds[0]) {
+    if (c["effect"] == "asymmetric_stiffness") {
+      EXPECT_TRUE(c.contains("ruled_out")) << c.dump();
+      even_ruled_out = c.contains("ruled_out");
+    }
+    if (c["effect"] == "cubic_stiffness") {
+      EXPECT_FALSE(c.contains("ruled_out")) << c.dump();
+    }
+  }
+  EXPECT_TRUE(even_ruled_out) << d.rounds[0].dump(1);
+  ASSERT_FALSE(d.findings.empty());
+  EXPECT_EQ(d.findings[0].effect, Effect::cubic_stiffness) << d.findings[0].explanation;
+}
+
 // The final verdict against the margin the web UI hard-coded before it moved here (J under 1.1 × the noise
 // floor), written out as a number: a J just below and just above it.
 TEST(Diagnosis, AtTheNoiseFloorJustUnderTenPercentAboveItAndNotJustOver) {
