@@ -1,7 +1,7 @@
 // The records panel: the uploaded recordings (WAV or CSV) that jobs take as their data, upload and delete.
 
 import { api } from '../api.js';
-import { $, confirmButton, el, showMessage, syncRows } from './dom.js';
+import { $, deleteButton, el, showMessage, syncRows } from './dom.js';
 import { errorText, fmtTime, num } from './format.js';
 import { fillSourceSelect } from './job_form.js';
 import { state } from './state.js';
@@ -25,17 +25,8 @@ function renderRecords() {
       const tr = el('tr', { dataset: { recordId: r.id } });
       tr.append(el('td', { class: 'mono' }, r.id), el('td'), el('td'), el('td', { class: 'num' }),
                 el('td', { class: 'num' }), el('td', { class: 'mono' }), el('td'));
-      const del = confirmButton('Delete', async () => {
-        try {
-          await api.deleteRecord(r.id);
-          showMessage('#records-error', '');
-          refreshRecords();
-        } catch (e) {
-          showMessage('#records-error', `delete ${r.id}: ${errorText(e)}`);
-        }
-      });
-      del.classList.add('delete');
-      tr.append(el('td', { class: 'buttons' }, del));
+      tr.append(el('td', { class: 'buttons' },
+                   deleteButton(r.id, () => api.deleteRecord(r.id), refreshRecords, '#records-error')));
       return tr;
     },
     (tr, r) => {
