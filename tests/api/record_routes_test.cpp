@@ -250,10 +250,10 @@ TEST_F(RecordRoutesTest, AnIdentificationTakesAnUploadedRecordSplitByValFraction
   const json done = wait_job(job.body["id"]);
   ASSERT_EQ(done["state"], "succeeded") << done.dump();
   // The FIR model of order 3 is exact: J is at rounding level (of the scaled least squares, ~1e-6 %). The
-  // validation part is the last quarter, 500 samples, of which the fit shows all but the first kInit (the
-  // simulation's initial state).
+  // validation part is the last quarter, 500 samples, of which the fit shows all but the simulation's initial
+  // state (init_samples: 50).
   EXPECT_LT(done["result"]["j_val_pct"].get<double>(), 1e-4);
-  EXPECT_EQ(done["result"]["plots"]["fit"]["t"].size(), static_cast<std::size_t>(500 - kInit));
+  EXPECT_EQ(done["result"]["plots"]["fit"]["t"].size(), static_cast<std::size_t>(500 - init_samples(500)));
   EXPECT_EQ(done["params"]["val_fraction"], 0.25);
 }
 
