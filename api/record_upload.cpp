@@ -41,9 +41,12 @@ bool looks_like_wav(std::string_view body) {
   return tag == "RIFF" || tag == "RIFX" || tag == "RF64";
 }
 
-// Text (no NUL or other control bytes but tab, CR and LF in the first 4 KiB) whose first line has a comma.
+// Text (no NUL or other control bytes but tab, CR and LF in the first 4 KiB) whose first line has a comma, and
+// not JSON (a first character '{' or '[').
 bool looks_like_csv(std::string_view body) {
   const std::string_view head = body.substr(0, 4096);
+  const std::size_t first = head.find_first_not_of(" \t\r\n");
+  if (first != std::string_view::npos && (head[first] == '{' || head[first] == '[')) return false;
   for (const char ch : head) {
     const auto c = static_cast<unsigned char>(ch);
     if (c < 0x20 && c != '\t' && c != '\r' && c != '\n') return false;
@@ -110,8 +113,7 @@ UploadFormat upload_format(std::string_view body, std::string_view content_type)
   if (looks_like_csv(body)) return UploadFormat::csv;
   throw HttpError{415, "unsupported_media_type",
                   "body: neither a WAV file (it would start with RIFF…WAVE) nor CSV text with a header row (a comma "
-                  "in its first line)" + (type.empty() ? std::string() : ", and Content-Type " + type +
-                  " names neither") + "; send the file itself (curl --data-binary @rec.wav, or -H 'Content-Type: text/csv')"};
+                  "in its first line); send the file itself (curl --data-binary @rec.wav, or -H 'Content-Type: text/csv')"};
 }
 
 dsp::Record read_uploaded_record(std::string_view body, const RecordUpload& upload, double engine_fs,

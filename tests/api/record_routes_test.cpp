@@ -222,6 +222,9 @@ TEST_F(RecordRoutesTest, ABodyThatIsNeitherWavNorCsvIsRefused) {
   expect_refused(upload_record("?fs=3000", std::string("\x89PNG\r\n\x1a\n\0\0\0\rIHDR", 16), "image/png"), 415,
                  "neither a WAV file");
   expect_refused(upload_record("?fs=3000", "just one column\n1\n2\n", "application/octet-stream"), 415, "neither");
+  // JSON (curl -d's form type, which the server reads as JSON) has commas in its first line, but is not CSV.
+  expect_refused(upload_record("?fs=3000", R"({"u":[1,2],"y":[3,4]})", "application/x-www-form-urlencoded"), 415,
+                 "neither");
   expect_refused(upload_record("?fs=3000", ""), 400, "body: missing");
   expect_refused(upload_record("?fs=3000&foo=1", csv_of(fir_record(500))), 400, "foo: unknown query parameter");
 }
