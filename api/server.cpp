@@ -6,6 +6,9 @@
 #include <sys/socket.h>
 
 #include <algorithm>
+#include <charconv>
+#include <cstdlib>
+#include <system_error>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -15,6 +18,7 @@
 #include "api/request_body.h"
 #include "dsp/sample_rate.h"
 #include "api/metrics_json.h"
+#include "models/io/json_fields.h"
 #include "models/io/number_text.h"
 
 namespace panelbass::api {
@@ -30,6 +34,8 @@ const std::vector<Route> kRoutes = {
     {"get", "/api/jobs/{id}"},       {"delete", "/api/jobs/{id}"},
     {"get", "/api/jobs/{id}/events"}, {"get", "/api/openapi.json"},
     {"get", "/metrics"},
+    {"get", "/api/records"},         {"post", "/api/records"},
+    {"get", "/api/records/{id}"},    {"delete", "/api/records/{id}"},
 };
 
 const char* kJsonType = "application/json";
@@ -52,6 +58,7 @@ const char* code_of_status(int status) {
     case 405: return "method_not_allowed";
     case 409: return "conflict";
     case 413: return "too_large";
+    case 415: return "unsupported_media_type";
     case 422: return "invalid_model";
     case 503: return "unavailable";
     case 507: return "storage";
@@ -77,6 +84,22 @@ std::string path_id(const httplib::Request& req, const char* what) {
                                              "\": ids are 1 to 64 letters, digits, '-' or '_'"};
   }
   return id;
+}
+
+// A list's page size unless the client names one, and the largest it may name.
+constexpr std::size_t kDefaultPageLimit = 100;
+constexpr std::size_t kMaxPageLimit = 1000;
+
+// The query's non-negative integer `key` (at most `most`), or `fallback` when absent; 400 naming it otherwise.
+std::size_t query_count(const httplib::Request& req, const char* key, std::size_t fallback, std::size_t most) {
+  if (!req.has_param(key)) return fallback;
+  const std::string text = req.get_param_value(key);
+  std::size_t value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (text.empty() || error != std::errc() || end != text.data() + text.size()) {
+    throw HttpError{400, "bad_request", std::string(key) + ": expected an integer >= 0, got \"" + text + "\""};
+  }
+  return std::min(value, most);
 }
 
 bool is_loopback(const std::string& address) {
@@ -139,6 +162,7 @@ Server::Server(ServerOptions options) : options_(std::move(options)) {
   }
   if (options_.workers < 1) throw std::invalid_argument("--workers: must be at least 1");
   store_ = std::make_unique<ModelStore>(options_.store, [this](const std::string& w) { options_.log("warning: " + w); });
+  records_ = std::make_unique<RecordStore>(options_.store, [this](const std::string& w) { options_.log("warning: " + w); });
   engine_ = std::make_unique<EngineService>(options_.engine);
 
   environment_.fs = engine_->fs();
@@ -148,6 +172,7 @@ Server::Server(ServerOptions options) : options_(std::move(options)) {
     environment_.plant = engine_->plant();
   }
   environment_.store = store_.get();
+  environment_.records = records_.get();
   environment_.job_result = [this](const std::string& id) -> std::optional<nlohmann::json> {
     const std::optional<JobRecord> job = jobs_->get(id);
     if (!job || job->state != JobState::succeeded) return std::nullopt;
@@ -421,6 +446,8 @@ void Server::register_routes() {
               send_json(res, 200, {{"slot", slot_name(slot)}, {"id", id}, {"change", change}});
             }));
 
+  register_record_routes();
+
   http.Get("/api/jobs", guarded([this](const httplib::Request&, httplib::Response& res) {
              nlohmann::json list = nlohmann::json::array();
              for (const JobRecord& job : jobs_->list()) list.push_back(job_to_json(job, false));
@@ -493,6 +520,65 @@ void Server::register_routes() {
                    return sink.is_writable();
                  });
            }));
+}
+
+// GET/POST /api/records, GET/DELETE /api/records/{id} (ROUTES.md "Records").
+void Server::register_record_routes() {
+  httplib::Server& http = *http_;
+  http.Get("/api/records", guarded([this](const httplib::Request& req, httplib::Response& res) {
+             const std::vector<StoredRecord> all = records_->list();
+             const std::size_t offset = query_count(req, "offset", 0, all.size());
+             const std::size_t limit = query_count(req, "limit", kDefaultPageLimit, kMaxPageLimit);
+             nlohmann::json page = nlohmann::json::array();
+             for (std::size_t k = offset; k < all.size() && k < offset + limit; ++k) {
+               page.push_back(stored_record_to_json(all[k]));
+             }
+             send_json(res, 200, {{"records", page}, {"total", all.size()}, {"offset", offset}, {"limit", limit}});
+           }));
+  http.Post("/api/records", guarded([this](const httplib::Request& req, httplib::Response& res) {
+              RecordUpload upload;
+              upload.content_type = req.is_multipart_form_data() && req.files.size() == 1
+                                        ? req.files.begin()->second.content_type
+                                        : req.get_header_value("Content-Type");
+              for (const auto& [key, value] : req.params) {
+                if (key != "fs" && key != "input" && key != "output" && key != "current" && key != "name") {
+                  throw HttpError{400, "bad_request", key + ": unknown query parameter (fs, input, output, current, name)"};
+                }
+              }
+              if (req.has_param("fs")) {
+                const std::string text = req.get_param_value("fs");
+                char* end = nullptr;
+                upload.fs = std::strtod(text.c_str(), &end);
+                if (text.empty() || *end != '\0' || !std::isfinite(upload.fs) || upload.fs <= 0.0) {
+                  throw HttpError{400, "bad_request", "fs: expected a rate in Hz > 0, got \"" + text + "\""};
+                }
+              }
+              if (req.has_param("input")) upload.input = req.get_param_value("input");
+              if (req.has_param("output")) upload.output = req.get_param_value("output");
+              if (req.has_param("current")) upload.current = req.get_param_value("current");
+              const std::string name = req.has_param("name") ? req.get_param_value("name") : "";
+              bool created = false;
+              const StoredRecord stored = records_->put(body_text(req), upload, name, engine_->fs(), &created);
+              send_json(res, created ? 201 : 200, stored_record_to_json(stored));
+            }));
+  http.Get(R"(/api/records/([^/]+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+             const std::string id = path_id(req, "record");
+             const std::optional<StoredRecord> entry = records_->find(id);
+             if (!entry) throw HttpError{404, "not_found", "no uploaded record \"" + id + "\""};
+             nlohmann::json j = stored_record_to_json(*entry);
+             const dsp::Record data = records_->data(id);
+             nlohmann::json columns = nlohmann::json::object();
+             for (std::size_t c = 0; c < data.columns.size(); ++c) {
+               columns[data.names[c]] = models::to_array(data.columns[c]);
+             }
+             j["data"] = columns;
+             send_json(res, 200, j);
+           }));
+  http.Delete(R"(/api/records/([^/]+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+                const std::string id = path_id(req, "record");
+                if (!records_->remove(id)) throw HttpError{404, "not_found", "no uploaded record \"" + id + "\""};
+                res.status = 204;
+              }));
 }
 
 int Server::start() {

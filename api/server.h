@@ -18,6 +18,7 @@
 #include "api/jobs/job_kinds.h"
 #include "api/job_queue.h"
 #include "api/model_store.h"
+#include "api/record_store.h"
 
 namespace httplib {
 class Server;
@@ -87,6 +88,8 @@ class Server {
 
  private:
   void register_routes();
+  // The routes of uploaded records (/api/records…), called by register_routes().
+  void register_record_routes();
   void on_job_finished(JobRecord& job);
   nlohmann::json status_json() const;
   std::string metrics_text() const;
@@ -94,6 +97,7 @@ class Server {
 
   ServerOptions options_;
   std::unique_ptr<ModelStore> store_;
+  std::unique_ptr<RecordStore> records_;  // uploaded recordings, beside the models
   std::unique_ptr<EngineService> engine_;
   JobEnvironment environment_;
   std::map<std::string, bool> activate_on_success_;  // job id → activate its model when it succeeds

@@ -5,7 +5,7 @@
 # (crash, leak, out-of-memory, or an input slower than 30 s), and slow inputs (over 10 s: a warning).
 #
 #   bash scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET ...]    (default 600 s; targets: csv wav model_json
-#                                                              chain_json plant_json http; default all)
+#                                                              chain_json plant_json http record_upload; default all)
 # Environment: FUZZ_JOBS build parallelism (2), FUZZ_PARALLEL targets run at once (1),
 #              FUZZ_WORK scratch folder (a new one under /tmp), FUZZ_BUILD build folder (build-fuzz),
 #              FUZZ_CONFIGURE=0 to use FUZZ_BUILD as it is configured (scripts/sanitize.sh's clang build).
@@ -18,7 +18,7 @@ if ! [[ $seconds =~ ^[0-9]+$ ]] || (( seconds < 1 )); then
   exit 2
 fi
 shift || true
-all_targets=(csv wav model_json chain_json plant_json http)
+all_targets=(csv wav model_json chain_json plant_json http record_upload)
 targets=("$@")
 (( ${#targets[@]} )) || targets=("${all_targets[@]}")
 

@@ -50,7 +50,7 @@ started=$(date +%s)
 CC=clang CXX=clang++ cmake -S . -B build-asan $(ninja_unless_configured build-asan) -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" \
   -DPANELBASS_SANITIZE=ON -DPANELBASS_FUZZ=ON -DPANELBASS_FUZZ_COVERAGE=OFF >/dev/null
 cmake --build build-asan -j"$jobs" --target dsp_tests models_tests engine_tests evaluation_tests api_tests cli_tests \
-  csv_fuzz wav_fuzz model_json_fuzz chain_json_fuzz plant_json_fuzz http_fuzz
+  csv_fuzz wav_fuzz model_json_fuzz chain_json_fuzz plant_json_fuzz http_fuzz record_upload_fuzz
 built=$(date +%s)
 # halt_on_error: a UBSan finding fails the test instead of scrolling past; leaks are reported at exit.
 ASAN_OPTIONS="detect_leaks=1:abort_on_error=1" UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \

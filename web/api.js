@@ -14,12 +14,14 @@ export class ApiError extends Error {
   }
 }
 
-/** A request to the API; JSON in and out. `body` is sent as JSON unless it is already a string. */
+/** A request to the API; JSON out. `body` is sent as JSON unless it is already a string, or as it is with its own
+ *  type when it is a file (a Blob: a recording's WAV or CSV). */
 export async function request(method, path, body) {
   const init = { method, headers: { Accept: 'application/json' } };
   if (body !== undefined) {
-    init.headers['Content-Type'] = 'application/json';
-    init.body = typeof body === 'string' ? body : JSON.stringify(body);
+    const file = typeof Blob !== 'undefined' && body instanceof Blob;
+    init.headers['Content-Type'] = file ? (body.type || 'application/octet-stream') : 'application/json';
+    init.body = file || typeof body === 'string' ? body : JSON.stringify(body);
   }
   let response;
   try {
@@ -59,6 +61,14 @@ export const api = {
   deleteModel: (id) => request('DELETE', `/api/models/${encodeURIComponent(id)}`),
   activateModel: (id, slot) =>
     request('POST', `/api/models/${encodeURIComponent(id)}/activate`, slot ? { slot } : {}),
+
+  records: () => request('GET', '/api/records?limit=1000'),
+  /** Uploads a WAV or CSV file; `query` holds fs, input, output, current and name (empty ones left out). */
+  uploadRecord: (file, query) => {
+    const q = new URLSearchParams(Object.entries(query).filter(([, v]) => v !== '' && v !== undefined)).toString();
+    return request('POST', `/api/records${q ? `?${q}` : ''}`, file);
+  },
+  deleteRecord: (id) => request('DELETE', `/api/records/${encodeURIComponent(id)}`),
 
   jobs: () => request('GET', '/api/jobs'),
   job: (id) => request('GET', `/api/jobs/${encodeURIComponent(id)}`),

@@ -1,12 +1,13 @@
-// panelbass dashboard: engine status, chain settings, jobs with live progress, results with plots,
-// and the model store — all through the HTTP API of `panelbass serve` (api/ROUTES.md). This file wires
-// the panels (web/ui/, a module each) to the page and starts their polls.
+// panelbass dashboard: engine status, chain settings, jobs with live progress, results with plots, the
+// model store and the uploaded records — all through the HTTP API of `panelbass serve` (api/ROUTES.md). This
+// file wires the panels (web/ui/, a module each) to the page and starts their polls.
 
 import { initConfig, loadConfig } from './ui/config.js';
 import { $, el, every } from './ui/dom.js';
 import { startJob, updateJobForm, updatePreview } from './ui/job_form.js';
 import { cancelJob, refreshJobs } from './ui/jobs.js';
 import { activate, refreshModels, uploadModel } from './ui/models.js';
+import { refreshRecords, uploadRecord } from './ui/records.js';
 import { state } from './ui/state.js';
 import { pollStatus } from './ui/status.js';
 
@@ -19,6 +20,7 @@ const CONFIG_PERIOD_MS = 5000;
 function init() {
   initConfig();
   $('#upload-form').addEventListener('submit', uploadModel);
+  $('#record-form').addEventListener('submit', uploadRecord);
   $('#job-form').addEventListener('submit', startJob);
   $('#job-form').addEventListener('input', updatePreview);
   $('#job-form').addEventListener('change', updateJobForm);
@@ -37,6 +39,7 @@ function init() {
   every(STATUS_PERIOD_MS, pollStatus);
   every(JOBS_PERIOD_MS, refreshJobs);
   every(MODELS_PERIOD_MS, refreshModels);
+  every(MODELS_PERIOD_MS, refreshRecords);
   every(CONFIG_PERIOD_MS, () => (state.configDirty ? null : loadConfig()));
 }
 

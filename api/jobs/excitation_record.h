@@ -13,6 +13,7 @@ namespace panelbass::api {
 struct ExcitationRecord {
   Eigen::VectorXd u_est, y_est, u_val, y_val;
   Eigen::VectorXd w_est, w_val;  ///< per-sample harmonic weights of a control excitation; empty otherwise
+  Eigen::VectorXd i_est, i_val;  ///< the transducer's current, when an uploaded record has it; empty otherwise
 };
 
 /// {"u_est":[…],"y_est":[…],"u_val":[…],"y_val":[…]}, and "w_est", "w_val" when the record has weights.

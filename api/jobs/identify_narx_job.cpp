@@ -45,9 +45,12 @@ json identify_narx_params(const json& params, const JobEnvironment& env) {
     const bool has_weights = record != nullptr ? record_has_weights(env, record->get<std::string>())
                                                : excite != nullptr && excite->value("signal", "") == "control";
     if (!has_weights) {
-      refuse(r.path_of("weighted"), "the weights come with a control excitation (excite.signal \"control\"), and " +
-                                        (record != nullptr ? "job " + record->get<std::string>() + "'s record has none"
-                                                           : std::string("this job's excitation is not one")));
+      std::string which = "this job's excitation is not one";
+      if (record != nullptr) {
+        const std::string id = record->get<std::string>();
+        which = is_record_id(id) ? "uploaded record " + id + " has none" : "job " + id + "'s record has none";
+      }
+      refuse(r.path_of("weighted"), "the weights come with a control excitation (excite.signal \"control\"), and " + which);
     }
   }
   // Hidden nodes seeded as Coulomb friction (models::seed_friction_units): one per gain and lag.

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "api/model_store.h"
+#include "api/record_store.h"
 #include "models/plant/plant_config.h"
 
 namespace panelbass::api {
@@ -26,6 +27,8 @@ struct JobEnvironment {
   /// The result of a finished job (the "record" param of identify/analyze/diagnose); nullopt if unknown
   /// or not succeeded.
   std::function<std::optional<nlohmann::json>(const std::string& job_id)> job_result;
+  /// Uploaded records (a "record" param naming "r…" instead of a job); null when the service keeps none.
+  const RecordStore* records = nullptr;
 };
 
 }  // namespace panelbass::api

@@ -21,10 +21,24 @@ inline constexpr double kExcitationShare = 0.1;
 /// defaults filled in; refused when the backend cannot be excited (a sound card).
 nlohmann::json excite_params(const nlohmann::json& params, const std::string& path, const JobEnvironment& env);
 
-/// Reads where an identify/analyze/diagnose job's data comes from: "record" (a succeeded excite job) or
-/// "excite" (an excitation of its own, the default), filling exactly one of them. Returns the validation
-/// samples the job will have, and in `validation_path` the field to name when they are missing.
+/// Reads where an identify/analyze/diagnose job's data comes from: "record" (a succeeded excite job "j…", or an
+/// uploaded record "r…" with its "val_fraction") or "excite" (an excitation of its own, the default), filling
+/// exactly one of them. Returns the validation samples the job will have, and in `validation_path` the field
+/// to name when they are missing.
 long long record_source(ParamReader& r, const JobEnvironment& env, std::string& validation_path);
+
+/// The share of an uploaded record that validates unless a job says otherwise: the excite job's default split
+/// (10000 estimation and 5000 validation samples).
+inline constexpr double kDefaultValFraction = 1.0 / 3.0;
+
+/// An uploaded record's two parts: the first `estimation` samples, then the last `validation`.
+struct RecordSplit {
+  long long estimation;  ///< samples that estimate
+  long long validation;  ///< samples that validate (the record's end)
+};
+
+/// The parts of `samples` with `val_fraction` of them (rounded to the nearest sample) validating.
+RecordSplit split_record(long long samples, double val_fraction);
 
 /// True when the succeeded excite job `id` recorded harmonic weights (a control excitation).
 bool record_has_weights(const JobEnvironment& env, const std::string& id);

@@ -299,6 +299,7 @@ async function handle(req, res) {
     merge(config, patch, '');
     return send(res, 200, { config, change: { kind: keys.some((k) => k.startsWith('band_pass.') && !k.endsWith('bypass')) ? 'rebuild with crossfade' : 'in place', keys } });
   }
+  if (p === '/api/records' && m === 'GET') return send(res, 200, { records: [], total: 0, offset: 0, limit: 1000 });
   if (p === '/api/models' && m === 'GET') return send(res, 200, { models: [...models.keys()].map(modelSummary) });
   if (p === '/api/models' && m === 'POST') {
     let model;

@@ -14,7 +14,9 @@
 // identified, a "Design NN feedback" job with every field of its form set off its default sends each value in
 // its request body, succeeds, and its summary shows the restart kept, every restart's validation J_c and the
 // design's params; an evaluate job shows its figures; after a reload the newest finished job's result and plots
-// are shown without a click, with the hint that a click shows another's. Saves the page after the tour as
+// are shown without a click, with the hint that a click shows another's; a CSV recording uploaded from the records
+// form is listed, a bad one refused naming its line, an identification takes the uploaded record as its data
+// (split by the form's validation share) and the record is deleted. Saves the page after the tour as
 // $PANELBASS_SCREENSHOT (default ARTIFACTS/ui.png; docs/images/ui.png is one), ui-diagnosis.png (the diagnose
 // job's result panel), ui-server.log and ui-console.log.
 // Exit 0 on success; 1 with "ui_test: FAIL <step>: <reason>" otherwise; 2 on bad usage.
@@ -418,6 +420,72 @@ async function main() {
 
   await until(async () => (await page.textContent('#active-feedforward')).includes(' · '), 5000,
               'after a reload the active feedforward model is never shown with its name');
+
+  // A recording uploaded from the records form (CSV, its rate given), listed, then taken as a job's data: an FIR
+  // identification of y(k) = 0.5·u(k) − 0.25·u(k−1) + 0.125·u(k−2), which its model of order 3 fits exactly,
+  // on the record's first 3/4 and judged on its last 1/4; a CSV with a NaN is refused naming its line.
+  run.step = 'uploading a record';
+  const u = [];
+  for (let k = 0, x = 12345; k < 1500; ++k) {  // a seeded LCG's uniform noise, peak 0.5
+    x = (x * 1103515245 + 12345) % 2147483648;
+    u.push(Number((x / 2147483648 - 0.5).toFixed(6)));
+  }
+  const y = u.map((v, k) => 0.5 * v - (k >= 1 ? 0.25 * u[k - 1] : 0) + (k >= 2 ? 0.125 * u[k - 2] : 0));
+  const csv = 'u,y\n' + u.map((v, k) => `${v},${y[k]}`).join('\n') + '\n';
+  await page.setInputFiles('#record-file', { name: 'bench.csv', mimeType: 'text/csv', buffer: Buffer.from(csv) });
+  await page.fill('#record-fs', '3000');
+  await page.click('#record-upload-button');
+  const recordId = await until(async () => {
+    const err = await page.$eval('#record-upload-error', (e) => (e.hidden ? '' : e.textContent));
+    if (err) throw new TestFailure(`the server refused the record: ${err}`);
+    const done = await page.$eval('#record-upload-result', (e) => (e.hidden ? '' : e.textContent));
+    return done.match(/stored (r[0-9a-f]{12})/)?.[1] ?? '';
+  }, 10_000, 'the record upload never said it was stored');
+  const recordRow = `#records-table tr[data-record-id="${recordId}"]`;
+  await page.waitForSelector(recordRow, { timeout: 8000 });
+  const cells = await page.$$eval(`${recordRow} td`, (tds) => tds.map((td) => td.textContent.trim()));
+  check(cells[1] === 'bench' && cells[2] === 'csv' && cells[3] === '1500' && cells[4] === '3000',
+        `the records table shows ${JSON.stringify(cells)} for ${recordId}, expected bench, csv, 1500 samples at 3000 Hz`);
+  log(`record ${recordId} uploaded and listed: ${cells.slice(0, 6).join(' | ')}`);
+
+  run.step = 'a bad record refused';
+  const bad = csv.replace(/\n[^,\n]*,/, '\nnan,');  // line 2's u
+  await page.setInputFiles('#record-file', { name: 'bad.csv', mimeType: 'text/csv', buffer: Buffer.from(bad) });
+  await page.fill('#record-fs', '3000');
+  await page.click('#record-upload-button');
+  const refusal = await until(async () => page.$eval('#record-upload-error', (e) => (e.hidden ? '' : e.textContent)),
+                              10_000, 'a CSV with a NaN was not refused');
+  check(/bad_request: body:2/.test(refusal), `the refusal does not name the line: "${refusal}"`);
+  check((await page.$$('#records-table tbody tr')).length === 1, 'a refused record was listed');
+  log(`refused: ${refusal}`);
+
+  run.step = 'identifying from the uploaded record';
+  await page.selectOption('#job-kind', 'identify-linear');
+  await until(async () => (await page.$$eval('#job-source option', (os) => os.map((o) => o.value))).includes(recordId),
+              8000, `the record ${recordId} is never offered as a job's data`);
+  await page.selectOption('#job-source', recordId);
+  check(await page.isHidden('#fs-excite'), 'the excitation fields are shown with an uploaded record chosen');
+  await page.fill('#job-val-fraction', '0.25');
+  await page.selectOption('#lin-method', 'fir');
+  await page.fill('#lin-order', '3');
+  await page.fill('#job-form fieldset[data-kinds="identify-linear"] [data-param="delay"]', '0');
+  const recPosted = page.waitForRequest((r) => r.method() === 'POST' && new URL(r.url()).pathname === '/api/jobs', { timeout: 10_000 });
+  const recJob = await runFormJob('identify from an uploaded record', evJob);
+  const recBody = (await recPosted).postDataJSON();
+  check(recBody.params.record === recordId && recBody.params.val_fraction === 0.25 && !recBody.params.excite,
+        `the request does not name the record and its split: ${JSON.stringify(recBody.params)}`);
+  const recResult = (await (await fetch(`${base}api/jobs/${recJob}`)).json()).result;
+  // The last quarter validates (375 samples); the fit shows all but the simulation's initial state, its first
+  // min(50, 375 / 10) = 37 samples (api/jobs/model_judgement.cpp).
+  check(recResult.plots.fit.t.length === 338, `the fit covers ${recResult.plots.fit.t.length} samples, expected 375 − 37`);
+  check(recResult.j_val_pct < 1e-3, `J val ${recResult.j_val_pct} % for an exact FIR record`);
+  log(`job ${recJob} on record ${recordId}: J val ${recResult.j_val_pct} %`);
+
+  run.step = 'deleting the record';
+  await page.click(`${recordRow} button.delete`);
+  await page.click(`${recordRow} button.delete`);  // the second click confirms
+  await page.waitForSelector(recordRow, { state: 'detached', timeout: 8000 });
+  check(await page.isVisible('#records-empty'), 'the records list does not say it is empty after the delete');
 
   run.step = 'no page errors';
   check(run.pageErrors.length === 0, `${run.pageErrors.length} error(s) in the page`);

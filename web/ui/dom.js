@@ -1,5 +1,7 @@
 // DOM helpers of the dashboard: element lookup and creation, text and messages, table rows kept in
-// step with a list, a two-click button and a self-rescheduling poll.
+// step with a list, a two-click button (and a Delete one) and a self-rescheduling poll.
+
+import { errorText } from './format.js';
 
 /** The first element matching `selector` under `root`. */
 export const $ = (selector, root = document) => root.querySelector(selector);
@@ -80,5 +82,21 @@ export function confirmButton(label, action) {
     button.textContent = label;
     await action();
   });
+  return button;
+}
+
+/** A confirmed Delete button (class "delete") that calls `remove()`, then `refresh()`; a failure is shown in
+ *  `errorSelector`, naming `id`. */
+export function deleteButton(id, remove, refresh, errorSelector) {
+  const button = confirmButton('Delete', async () => {
+    try {
+      await remove();
+      showMessage(errorSelector, '');
+      refresh();
+    } catch (e) {
+      showMessage(errorSelector, `delete ${id}: ${errorText(e)}`);
+    }
+  });
+  button.classList.add('delete');
   return button;
 }

@@ -68,6 +68,12 @@ function collectJob() {
   }
   if (params.excite && Object.keys(params.excite).length === 0) delete params.excite;
   if (source) params.record = source;
+  const share = $('#job-val-fraction').value.trim();
+  if (isUploadedRecord(source) && share !== '') {
+    const v = Number(share);
+    if (!Number.isFinite(v)) throw new Error(`validation share: not a number: ${share}`);
+    params.val_fraction = v;
+  }
   return { kind, params };
 }
 
@@ -78,6 +84,7 @@ export function updateJobForm() {
   for (const node of $$('#job-form [data-kinds]')) {
     let show = kindsOf(node).includes(kind);
     if (node.id === 'fs-excite' && kind !== 'excite' && source) show = false;
+    if (node.id === 'job-val-fraction-label' && !isUploadedRecord(source)) show = false;
     node.hidden = !show;
   }
   updatePreview();
@@ -121,17 +128,26 @@ export async function startJob(event) {
   }
 }
 
-/** Offers the finished excite jobs as records the identify/analyze/diagnose kinds can reuse. */
+/** True for an uploaded record's id ("r" + 12 hex digits; a job's is "j" + digits). */
+export function isUploadedRecord(id) {
+  return /^r[0-9a-f]{12}$/.test(id || '');
+}
+
+/** Offers the finished excite jobs' records and the uploaded records as data the identify/analyze/diagnose kinds
+ *  can reuse. */
 export function fillSourceSelect() {
   const select = $('#job-source');
-  const records = state.jobs.filter((j) => j.kind === 'excite' && j.state === 'succeeded');
-  const signature = records.map((j) => j.id).join(',');
+  const records = (state.jobs || []).filter((j) => j.kind === 'excite' && j.state === 'succeeded');
+  const uploaded = state.records || [];
+  const signature = records.map((j) => j.id).concat(uploaded.map((r) => r.id + r.name)).join(',');
   if (select.dataset.signature !== signature) {
     const current = select.value;
     select.replaceChildren(el('option', { value: '' }, 'new excitation'),
-      ...records.map((j) => el('option', { value: j.id }, `record of ${j.id} (${fmtTime(j.finished)})`)));
+      ...records.map((j) => el('option', { value: j.id }, `record of ${j.id} (${fmtTime(j.finished)})`)),
+      ...uploaded.map((r) => el('option', { value: r.id },
+                                `uploaded ${r.id}${r.name ? ` · ${r.name}` : ''} (${r.samples} samples)`)));
     select.dataset.signature = signature;
-    select.value = records.some((j) => j.id === current) ? current : '';
+    select.value = records.some((j) => j.id === current) || uploaded.some((r) => r.id === current) ? current : '';
     updateJobForm();
   }
 }

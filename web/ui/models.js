@@ -1,7 +1,7 @@
 // The model store panel: the stored models, activate, delete and upload; the job form's model choices.
 
 import { api } from '../api.js';
-import { $, $$, confirmButton, el, showMessage, syncRows } from './dom.js';
+import { $, $$, deleteButton, el, showMessage, syncRows } from './dom.js';
 import { errorText, fmtTime, num } from './format.js';
 import { slotsOf, state, whyNoSlot } from './state.js';
 import { renderConfigModels } from './config.js';
@@ -46,16 +46,7 @@ function renderModels() {
       const tr = el('tr', { dataset: { modelId: m.id } });
       tr.append(el('td', { class: 'mono' }, m.id), el('td'), el('td'), el('td', { class: 'num' }), el('td'),
                 el('td', { class: 'mono' }), el('td'));
-      const del = confirmButton('Delete', async () => {
-        try {
-          await api.deleteModel(m.id);
-          showMessage('#models-error', '');
-          refreshModels();
-        } catch (e) {
-          showMessage('#models-error', `delete ${m.id}: ${errorText(e)}`);
-        }
-      });
-      del.classList.add('delete');
+      const del = deleteButton(m.id, () => api.deleteModel(m.id), refreshModels, '#models-error');
       tr.append(el('td', { class: 'buttons' }, el('span', { class: 'activate-slots' }), del));
       return tr;
     },

@@ -5,6 +5,7 @@ export const state = {
   status: null,
   activeKey: '',      // the active models last seen, to refresh what depends on them when they change
   models: [],
+  records: [],        // the uploaded records (their summaries)
   jobs: null,         // null until the job list was first read
   config: null,
   configDirty: false,

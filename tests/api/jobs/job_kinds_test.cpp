@@ -169,7 +169,8 @@ TEST_F(JobKindsTest, ReferencedModelsMustExistWithTheRightKind) {
 
 TEST_F(JobKindsTest, RecordMustNameAFinishedExciteJob) {
   EXPECT_EQ(refusal("identify-linear", {{"record", "j99"}}),
-            "params.record: no succeeded job \"j99\" (the record must name a finished excite job)");
+            "params.record: no succeeded job \"j99\" (the record must name a finished excite job \"j…\" or an uploaded "
+            "record \"r…\")");
   results_["j2"] = {{"model_id", "m0123456789ab"}};
   EXPECT_EQ(refusal("analyze", {{"model", store_reference_model()}, {"record", "j2"}}),
             "params.record: job j2 is not an excite job (its result has no \"record\")");
