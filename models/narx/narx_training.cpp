@@ -456,6 +456,9 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
     trainer.lm.reset();               // LM damping λ back to its start for each mode
     double t = 0.5 * options.step;    // line search: the first trial step is α
     int without_improvement = 0;
+    // Patience counts against this mode's own best: a refinement (oem-d after pem) often has to climb back
+    // to the previous mode's best J_val before it improves on it, and is not cut off for that.
+    double mode_best = std::numeric_limits<double>::infinity();
     for (int i = 0; i < options.max_iterations; ++i) {
       const Eigen::VectorXd before = current.net.parameters();
       bool moved = false;
@@ -476,10 +479,14 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
       }
       report(r);
       if (!keep_best) continue;
-      // fig. 6.4: stop when the validation J has not improved for `patience` iterations
+      // fig. 6.4: keep the best validation J; stop the mode when its J_val has not improved for `patience`
+      // iterations
       if (r.j_val_weighted_pct < best_val) {
         best_val = r.j_val_weighted_pct;
         best_theta = current.net.parameters();
+      }
+      if (r.j_val_weighted_pct < mode_best) {
+        mode_best = r.j_val_weighted_pct;
         without_improvement = 0;
       } else if (++without_improvement >= options.patience) {
         break;

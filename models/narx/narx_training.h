@@ -62,7 +62,7 @@ struct TrainingOptions {
   /// start drowns in its own transient.
   Eigen::Index init = 0;
   bool early_stopping = true;        ///< keep the parameters with the best validation J (fig. 6.4)
-  int patience = 20;                 ///< iterations without validation improvement before stopping
+  int patience = 20;                 ///< iterations without improving the mode's best validation J before the mode stops
   /// Weight decay D ≥ 0 (NNSYSID's `D`, a scalar): LM and the line search minimise the regularised
   /// criterion W = V + D/(2·Σw)·‖θ‖² (w = 1: Σw = N − skip, so W = 1/(2(N−skip))·(Σ e² + D·θᵀθ)), the
   /// Gauss–Newton matrix gaining D/Σw on its diagonal. 0 = none; sd refuses D > 0. The J figures, and

@@ -612,16 +612,18 @@ TEST(NarxTrainingSelection, KeepsTheRefinementWhenTheValidationRecordStartsMidSt
   // The reproduction: poles 0.99·e^{±j23°}, uniform white input, output scaled to peak 1 plus
   // Gaussian noise of σ = 0.05 % of the peak; 3000 estimation samples, the next 2000 validation (a split of
   // one record, so the validation record starts mid-stream); NN na = 2, nb = 0, 5 hidden, pem then oem-d
-  // by LM. Judged as validate --init 50 judges it: the first 50 measured outputs set the state.
+  // by LM. Judged as validate --init 50 judges it: the first 50 measured outputs set the state. 500
+  // iterations per mode, not the 200: on this realisation LM crawls along the oem-d valley and
+  // stands at 5.7× the floor after 200 (bench/selection_repro.sh runs the 200 on its own data).
   const Eigen::VectorXd u = dsp::uniform_noise(5000, 1.0, 36);
   const Eigen::VectorXd clean = second_order(u, 0.99);
-  const Eigen::VectorXd noise = (5e-4 / 3.0) * dsp::gaussian_noise(5000, 3.0, 37);  // σ = 5e-4 (redrawn past 3σ)
+  const Eigen::VectorXd noise = 5e-4 * dsp::gaussian_noise(5000, 3.0, 37);  // σ = 1 (redrawn past 3σ) × 5e-4
   const Eigen::VectorXd y = clean + noise;
   const Eigen::VectorXd ue = u.head(3000), ye = y.head(3000), uv = u.tail(2000), yv = y.tail(2000);
   constexpr Eigen::Index init = 50;
   // the noise floor: the J of the noise-free output on the validation record
   const double floor_pct = j_percent(clean.tail(2000), yv, init);
-  TrainingOptions o = options_for({TrainingMode::pem, TrainingMode::oem_d}, Optimizer::lm, 200);
+  TrainingOptions o = options_for({TrainingMode::pem, TrainingMode::oem_d}, Optimizer::lm, 500);
   o.early_stopping = true;
   o.init = init;
   const TrainingResult r = train_narx(initial_model(2, 0, 0, {5}, 1), ue, ye, uv, yv, o);
@@ -633,7 +635,25 @@ TEST(NarxTrainingSelection, KeepsTheRefinementWhenTheValidationRecordStartsMidSt
   EXPECT_NEAR(j_val, best, 1e-9 * best);
 }
 
-TEST(NarxTrainingSelection, RefusesAnInitBeyondTheTransientSkipAndANegativeOne) {
+TEST(NarxTrainingWeightDecay, LmStopsWhereTheRegularisedCriterionIsStationary) {
+  // NNSYSID's W = (Σ e² + D·θᵀθ)/(2M), M = N − skip: at its minimum dV/dθ + (D/M)·θ = 0, dV/dθ from
+  // loss_gradient (independent of the trainer), and θ is shorter than without the decay.
+  DampedCase c;
+  constexpr double D = 1.0;
+  constexpr Eigen::Index skip = 4;
+  TrainingOptions o = options_for({TrainingMode::pem}, Optimizer::lm, 300);
+  o.transient_skip = skip;
+  const NarxModel free = train_narx(c.model, c.u, c.y, {}, {}, o).model;
+  o.weight_decay = D;
+  const NarxModel decayed = train_narx(c.model, c.u, c.y, {}, {}, o).model;
+  const Eigen::VectorXd& theta = decayed.net.parameters();
+  const double per_sample = D / static_cast<double>(c.u.size() - skip);
+  const Eigen::VectorXd stationarity = loss_gradient(decayed, c.u, c.y, TrainingMode::pem, skip) + per_sample * theta;
+  EXPECT_LT(stationarity.norm(), 1e-4 * (per_sample * theta).norm());
+  EXPECT_LT(theta.norm(), free.net.parameters().norm());
+}
+
+TEST(NarxTrainingSelection, RefusesABadInitAndABadWeightDecay) {
   DampedCase c;
   const auto expect_error = [](auto&& call, const std::string& fragment) {
     try {
@@ -647,6 +667,12 @@ TEST(NarxTrainingSelection, RefusesAnInitBeyondTheTransientSkipAndANegativeOne) 
   TrainingOptions o = options_for({TrainingMode::pem}, Optimizer::lm, 1);
   o.init = -1;
   expect_error([&] { train_narx(c.model, c.u, c.y, {}, {}, o); }, "init");
+  o.init = 0;
+  o.weight_decay = -1.0;
+  expect_error([&] { train_narx(c.model, c.u, c.y, {}, {}, o); }, "weight_decay");
+  o.weight_decay = 1.0;
+  o.optimizer = Optimizer::sd;
+  expect_error([&] { train_narx(c.model, c.u, c.y, {}, {}, o); }, "weight_decay");
 }
 
 }  // namespace
