@@ -13,11 +13,7 @@ trap 'rm -rf "$work"' EXIT
 methods=("$@")
 [ ${#methods[@]} -gt 0 ] || methods=(arx oe zhu backx)
 
-split() {  # split FILE at data row N into $work/NAME-est.csv and $work/NAME-val.csv
-  local file=$1 rows=$2 name=$3
-  head -n $((rows + 1)) "$file" > "$work/$name-est.csv"
-  { head -n 1 "$file"; tail -n +$((rows + 2)) "$file"; } > "$work/$name-val.csv"
-}
+source bench/split_record.sh
 rmse_mv() { sed -n 's/.*"rmse": \([-0-9.e+]*\).*/\1/p' | awk '{printf "%.2f", $1 * 1000}'; }
 field() { sed -n "s/.*\"$1\": \([-0-9.e+]*\).*/\1/p" | head -n 1; }
 

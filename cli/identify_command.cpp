@@ -124,6 +124,7 @@ struct IdentifyNarxOptions {
   long batch = 0;
   long skip = -1;
   int patience = 20;
+  double weight_decay = 0.0;
   bool gradient_check = false;
   long parameter = 0;
   long init = 50;
@@ -212,8 +213,14 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   options.batch = o.batch;
   options.transient_skip = o.skip;
   options.patience = o.patience;
+  options.weight_decay = o.weight_decay;
   options.weights = w_est;
   options.validation_weights = w_val;
+  // The J reported below and the J that early stopping and the kept model go by are one figure: the first
+  // `init` measured outputs set the state, then free run (as validate --init).
+  const Eigen::Index init =
+      std::min<Eigen::Index>(o.init, std::min(us.size(), uv.size() ? uv.size() : us.size()) / 10);
+  options.init = init;
   if (o.gradient_check) {
     const Eigen::Index skip = o.skip >= 0 ? o.skip : 2 * (structure.na + structure.nb);
     if (o.parameter < 0 || o.parameter >= model.net.parameter_count()) {
@@ -261,6 +268,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
     // redundant parameters).
     models::PruningOptions pruning;
     pruning.weights = w_est;
+    pruning.init = init;
     const models::PruningResult pruned = models::prune_obs(result.model, us, ys, uv, yv, pruning);
     result.model = pruned.model;
     structure_report["pruning"] = {{"removed", pruned.removed},
@@ -279,7 +287,6 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   }
   // The same protocol as the linear models: the first measured outputs set the state, then free run.
   const auto judged = [&](const Eigen::VectorXd& u, const Eigen::VectorXd& y) {
-    const Eigen::Index init = std::min<Eigen::Index>(o.init, u.size() / 10);
     return models::j_percent(result.model.simulate(u, y, init), y, init);
   };
   const double j_est = judged(est.columns[0], est.columns[1]);
@@ -378,7 +385,13 @@ void register_identify(CLI::App& app) {
   narx->add_option("--patience", n->patience, "Iterations without validation improvement before stopping")
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
-  narx->add_option("--init", n->init, "Measured outputs that set the state before J is computed")
+  narx->add_option("--weight-decay", n->weight_decay,
+                   "Weight decay D (NNSYSID's): lm and linesearch minimise (sum e^2 + D*|theta|^2)/(2N) on scaled data")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  narx->add_option("--init", n->init,
+                   "Measured outputs that set the state before J is computed (at most a tenth of the shorter record); "
+                   "training's simulations, early stopping and the kept model go by the same J")
       ->check(CLI::Range(0L, 1000000L))
       ->capture_default_str();
   narx->add_option("--grow", n->grow, "Grow the hidden layer from 1 node up to N by the thesis's dX/N rule")

@@ -1,6 +1,7 @@
 // NARX sweeps. Choices beyond the header:
-// - OEM simulations start from rest (ŷ and dŷ/dθ before the record are 0), so [5L] is the exact
-//   gradient of the simulation loss from the first sample; `skip` only leaves the transient out of V.
+// - OEM simulations start from rest (ŷ and dŷ/dθ before the record are 0), or with Buffers::init from
+//   measured outputs (ŷ(k) = y(k), dŷ(k)/dθ = 0 for k < init); either way [5L] is the exact gradient of
+//   the simulation loss; `skip` (≥ init) only leaves the transient out of V.
 // - oem_n: the numerical Jacobian is formed column by column (2P simulations, stored (N−skip)×P).
 #include "models/narx/narx_gradients.h"
 
@@ -42,9 +43,11 @@ double output_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eigen
                    Eigen::Index skip, Buffers& b) {
   const Eigen::Index N = u.size();
   const Eigen::VectorXd& past = feedback == Feedback::measured ? y : b.yhat;
+  const Eigen::Index init = feedback == Feedback::measured ? 0 : std::min(b.init, N);
+  b.yhat.head(init) = y.head(init);  // OEM: the state from measured outputs, as validate --init
   double sum = 0.0;
   // [5H] PEM: ŷ(k) = F(y_t(k−1..), u(k..), θ); OEM: ŷ(k) = F(ŷ(k−1..), u(k..), θ)
-  for (Eigen::Index k = 0; k < N; ++k) {
+  for (Eigen::Index k = init; k < N; ++k) {
     model.regressor(u, past, k, b.x);
     const double yk = model.net.forward(b.x, b.ws);
     b.yhat[k] = yk;

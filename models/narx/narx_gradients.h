@@ -5,6 +5,7 @@
 // central-difference counterparts for oem-n. Used by narx_training; scaled data, no checks (the driver's).
 
 #include <Eigen/Core>
+#include <algorithm>
 
 #include "models/narx/narx_model.h"
 #include "models/narx/narx_training.h"
@@ -39,6 +40,7 @@ struct Buffers {
   Eigen::VectorXd grad;    ///< accumulator for a batch gradient (sd)
   Eigen::VectorXd weight;  ///< w(k) of the loss, as given (empty = 1 everywhere)
   double weight_total = 0; ///< Σ_{k≥skip} w(k): the loss's normaliser (N − skip without weights)
+  Eigen::Index init = 0;   ///< simulations take the measured y(k) as ŷ(k) for k < init (as validate --init)
 
   /// Sized for `model` on `samples` samples, weights 1 (set_weights before a sweep).
   Buffers(const NarxModel& model, Eigen::Index samples);
@@ -51,7 +53,7 @@ struct Buffers {
 };
 
 /// V = 1/(2·Σw)·Σ_{k≥skip} w(k)·e(k)² (w = 1: 1/(2(N−skip))·Σ e(k)²), with the outputs left in b.yhat
-/// ([5N]; [5H] for the feedback).
+/// ([5N]; [5H] for the feedback). A simulation takes ŷ(k) = y(k) for k < b.init (skip ≥ b.init).
 double output_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Feedback feedback,
                    Eigen::Index skip, Buffers& b);
 
@@ -70,8 +72,9 @@ inline const Eigen::VectorXd& sensitivity(TrainingMode mode, int na, Eigen::Inde
 
 /// The model output over the record with its sensitivity, sample by sample: ŷ(k) into b.yhat ([5H]: past
 /// outputs measured for pem, simulated otherwise), ψ(k) = dŷ(k)/dθ ([5K] for pem and oem_s, [5L] for
-/// oem_d, from rest), and at_sample(k, ŷ(k), ψ(k)) for each k ≥ skip ([5M]'s sum starts there). at_sample
-/// may change the model's θ (steepest descent within a pass): later samples use the new θ.
+/// oem_d, from rest or, for k < b.init, ŷ(k) = y(k) with ψ(k) = 0: the state set by measured outputs), and
+/// at_sample(k, ŷ(k), ψ(k)) for each k ≥ skip ([5M]'s sum starts there; skip ≥ b.init). at_sample may
+/// change the model's θ (steepest descent within a pass): later samples use the new θ.
 template <class AtSample>
 void sweep_sensitivities(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
                          TrainingMode mode, Eigen::Index skip, Buffers& b, AtSample&& at_sample) {
@@ -79,9 +82,11 @@ void sweep_sensitivities(const NarxModel& model, const Eigen::VectorXd& u, const
   const int na = model.structure.na;
   const bool dynamic = mode == TrainingMode::oem_d && na > 0;
   const Eigen::VectorXd& past = mode == TrainingMode::pem ? y : b.yhat;
-  if (dynamic) b.ring.setZero();  // dŷ/dθ before the record: 0 (the start of [5L])
+  if (dynamic) b.ring.setZero();  // dŷ/dθ before the record and over the measured start: 0 (the start of [5L])
+  const Eigen::Index init = mode == TrainingMode::pem ? 0 : std::min(b.init, N);
+  b.yhat.head(init) = y.head(init);  // the state from measured outputs: ŷ(k) = y(k), independent of θ
   // [5H] ŷ(k) = F(past outputs, u(k..), θ), then [5K]/[5L] dŷ(k)/dθ
-  for (Eigen::Index k = 0; k < N; ++k) {
+  for (Eigen::Index k = init; k < N; ++k) {
     model.regressor(u, past, k, b.x);
     const double yk = model.net.forward(b.x, b.ws);
     b.yhat[k] = yk;

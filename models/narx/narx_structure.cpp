@@ -33,11 +33,14 @@ void require_sizes(const Eigen::MatrixXd& H_inv, const Eigen::VectorXd& theta, c
   }
 }
 
-/// [2A] simulation J in percent over k ≥ skip (scaled data); +∞ for a non-finite simulation.
-double j_sim(const NarxModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index skip) {
-  const Eigen::VectorXd yhat = m.simulate_scaled(u);
+/// [2A] simulation J in percent (scaled data): with init > 0 the first init measured outputs set the state
+/// and J runs over k ≥ init (the J a trained model reports, TrainingOptions::init); else from rest over
+/// k ≥ skip. +∞ for a non-finite simulation.
+double j_sim(const NarxModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index skip,
+             Eigen::Index init) {
+  const Eigen::VectorXd yhat = m.simulate_scaled(u, y, init);
   if (!yhat.allFinite()) return std::numeric_limits<double>::infinity();
-  return j_percent(yhat, y, skip);
+  return j_percent(yhat, y, init > 0 ? init : skip);
 }
 
 void require_data(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index skip, const char* where,
@@ -59,6 +62,7 @@ void require_pruning_options(const PruningOptions& o) {
     throw std::invalid_argument(std::string(where) + ": absolute_tolerance_pct must be a finite number ≥ 0, got " + number_text(o.absolute_tolerance_pct));
   }
   if (o.batch < 1) throw std::invalid_argument(std::string(where) + ": batch must be ≥ 1, got " + std::to_string(o.batch));
+  if (o.init < 0) throw std::invalid_argument(std::string(where) + ": init must be ≥ 0, got " + std::to_string(o.init));
   if (o.retrain_iterations < 0) {
     throw std::invalid_argument(std::string(where) + ": retrain_iterations must be ≥ 0, got " + std::to_string(o.retrain_iterations));
   }
@@ -191,7 +195,9 @@ PruningResult prune_obs(const NarxModel& trained, const Eigen::VectorXd& u_est, 
   constexpr const char* where = "OBS pruning";
   require_pruning_options(options);
   const NarxStructure& s = trained.structure;
-  const Eigen::Index skip = options.transient_skip >= 0 ? options.transient_skip : 2 * (s.na + s.nb);
+  const Eigen::Index init = options.init;
+  const Eigen::Index skip =
+      std::max(options.transient_skip >= 0 ? options.transient_skip : 2 * (s.na + s.nb), init);
   if (u_val.size() == 0 && y_val.size() == 0) {
     throw std::invalid_argument(std::string(where) + ": validation data is needed (it decides when to stop)");
   }
@@ -204,14 +210,15 @@ PruningResult prune_obs(const NarxModel& trained, const Eigen::VectorXd& u_est, 
   retrain.optimizer = Optimizer::lm;
   retrain.max_iterations = options.retrain_iterations;
   retrain.transient_skip = skip;
+  retrain.init = init;
   retrain.early_stopping = false;
   retrain.weights = options.weights;
 
   PruningResult result;
   result.model = trained;
   result.mask = Eigen::VectorXd::Ones(P);
-  result.j_est_before_pct = result.j_est_after_pct = j_sim(trained, u_est, y_est, skip);
-  result.j_val_before_pct = result.j_val_after_pct = j_sim(trained, u_val, y_val, skip);
+  result.j_est_before_pct = result.j_est_after_pct = j_sim(trained, u_est, y_est, skip, init);
+  result.j_val_before_pct = result.j_val_after_pct = j_sim(trained, u_val, y_val, skip, init);
   if (!std::isfinite(result.j_val_before_pct) || !std::isfinite(result.j_est_before_pct)) {
     throw std::invalid_argument(std::string(where) + ": the trained model's simulation is not finite");
   }
@@ -234,7 +241,7 @@ PruningResult prune_obs(const NarxModel& trained, const Eigen::VectorXd& u_est, 
     const Eigen::Index count =
         std::min<Eigen::Index>({batch, max_removed - result.removed, free - options.min_free});
     if (H_inv.size() == 0) {
-      const Eigen::MatrixXd H = gauss_newton_hessian(result.model, u_est, y_est, options.mode, skip, options.weights);
+      const Eigen::MatrixXd H = gauss_newton_hessian(result.model, u_est, y_est, options.mode, skip, options.weights, init);
       H_inv = free_inverse(H, result.mask, options.hessian_damping);
     }
 
@@ -259,8 +266,8 @@ PruningResult prune_obs(const NarxModel& trained, const Eigen::VectorXd& u_est, 
       candidate = train_narx(candidate, u_est, y_est, Eigen::VectorXd(), Eigen::VectorXd(), retrain).model;
     }
     step.free = free - count;
-    step.j_est_pct = j_sim(candidate, u_est, y_est, skip);
-    step.j_val_pct = j_sim(candidate, u_val, y_val, skip);
+    step.j_est_pct = j_sim(candidate, u_est, y_est, skip, init);
+    step.j_val_pct = j_sim(candidate, u_val, y_val, skip, init);
     step.accepted = step.j_val_pct <= result.j_val_limit_pct;
     result.steps.push_back(step);
 
@@ -306,7 +313,9 @@ GrowthResult grow_hidden_nodes(const NarxStructure& base, const Scaling& scaling
   }
   NarxStructure s = base;
   s.hidden = {1};
-  const Eigen::Index skip = options.transient_skip >= 0 ? options.transient_skip : 2 * (s.na + s.nb);
+  const Eigen::Index init = options.init;
+  const Eigen::Index skip =
+      std::max(options.transient_skip >= 0 ? options.transient_skip : 2 * (s.na + s.nb), init);
   require_data(u_est, y_est, skip, where, "estimation");
   const bool has_validation = u_val.size() > 0 || y_val.size() > 0;
   if (has_validation) require_data(u_val, y_val, skip, where, "validation");
@@ -324,7 +333,7 @@ GrowthResult grow_hidden_nodes(const NarxStructure& base, const Scaling& scaling
     double best_j = std::numeric_limits<double>::infinity();
     auto consider = [&](const NarxModel& start) {
       NarxModel trained = train_narx(start, u_est, y_est, u_val, y_val, options).model;
-      const double j = j_sim(trained, u_est, y_est, skip);
+      const double j = j_sim(trained, u_est, y_est, skip, init);
       if (j < best_j || !std::isfinite(best_j)) {
         best_j = j;
         best = std::move(trained);
@@ -334,7 +343,7 @@ GrowthResult grow_hidden_nodes(const NarxStructure& base, const Scaling& scaling
       // The grown net untrained is a candidate too: its J is the smaller net's, so that a training run that
       // ends worse (PEM first can leave a basin of the simulation loss) cannot make a node look harmful.
       const NarxModel grown = with_added_node(*warm, seed + 1000 * static_cast<std::uint64_t>(hidden));
-      best_j = j_sim(grown, u_est, y_est, skip);
+      best_j = j_sim(grown, u_est, y_est, skip, init);
       best = grown;
       consider(grown);
     }
@@ -353,8 +362,8 @@ GrowthResult grow_hidden_nodes(const NarxStructure& base, const Scaling& scaling
     GrowthStep step;
     step.hidden = hidden;
     step.params = m.net.parameter_count();
-    step.j_est_pct = j_sim(m, u_est, y_est, skip);
-    step.j_val_pct = has_validation ? j_sim(m, u_val, y_val, skip) : std::numeric_limits<double>::quiet_NaN();
+    step.j_est_pct = j_sim(m, u_est, y_est, skip, init);
+    step.j_val_pct = has_validation ? j_sim(m, u_val, y_val, skip, init) : std::numeric_limits<double>::quiet_NaN();
     return step;
   };
 

@@ -52,6 +52,7 @@ struct PruningOptions {
   double hessian_damping = 1e-6;      ///< H + δ·mean(diag H)·I before inversion (H is singular for redundant nets)
   TrainingMode mode = TrainingMode::oem_d;  ///< sensitivities of the Hessian and the retraining (simulation loss)
   Eigen::Index transient_skip = -1;   ///< samples left out of the loss and J; −1 = 2·(na + nb)
+  Eigen::Index init = 0;              ///< measured outputs setting the state, as TrainingOptions::init
   Eigen::VectorXd weights;            ///< per-sample weights of the estimation loss (TrainingOptions::weights)
                                       ///< for the saliencies and the retraining; empty = 1. J stays unweighted
 };

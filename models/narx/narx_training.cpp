@@ -78,6 +78,14 @@ void require_data(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Ind
   require_finite(y, which + " output");
 }
 
+/// init measured outputs, 0 ≤ init ≤ skip (the loss starts no earlier than the free run).
+void require_init(Eigen::Index init, Eigen::Index skip) {
+  if (init < 0 || init > skip) {
+    throw std::invalid_argument("NARX training: init = " + std::to_string(init) + " must be within [0, skip = " +
+                                std::to_string(skip) + "]");
+  }
+}
+
 /// Weights are empty, or one finite w(k) ≥ 0 per sample with a positive total over k ≥ skip.
 void require_weights(const Eigen::VectorXd& w, Eigen::Index samples, Eigen::Index skip, const std::string& which) {
   if (w.size() == 0) return;
@@ -132,6 +140,7 @@ struct Trainer {
   const Eigen::VectorXd& u_val;
   const Eigen::VectorXd& y_val;
   Eigen::Index skip;
+  Eigen::Index j_start;  ///< where the J figures start: init when given, else the transient skip
   bool has_validation;
   const TrainingOptions& options;
   Buffers est;
@@ -143,7 +152,8 @@ struct Trainer {
 
   Trainer(const NarxModel& model, const Eigen::VectorXd& ue, const Eigen::VectorXd& ye, const Eigen::VectorXd& uv,
           const Eigen::VectorXd& yv, Eigen::Index skip_, const TrainingOptions& opt)
-      : u_est(ue), y_est(ye), u_val(uv), y_val(yv), skip(skip_), has_validation(uv.size() > 0), options(opt),
+      : u_est(ue), y_est(ye), u_val(uv), y_val(yv), skip(skip_), j_start(opt.init > 0 ? opt.init : skip_),
+        has_validation(uv.size() > 0), options(opt),
         est(weighted_buffers(model, ue, skip_, opt.weights, "estimation")),
         val(weighted_buffers(model, uv, has_validation ? skip_ : 0, has_validation ? opt.validation_weights : Eigen::VectorXd(),
                              "validation")),
@@ -152,19 +162,37 @@ struct Trainer {
     const Eigen::Index P = model.net.parameter_count();
     g.resize(P);
     if (opt.optimizer == Optimizer::lm) H.resize(P, P);
+    est.init = opt.init;
+    val.init = opt.init;
   }
 
+  /// The criterion minimised: the mode's loss V plus the weight decay D/(2·Σw)·‖θ‖².
   double loss(const NarxModel& m, TrainingMode mode) {
-    return output_loss(m, u_est, y_est, feedback_of(mode), skip, est);
+    return output_loss(m, u_est, y_est, feedback_of(mode), skip, est) + decay_term(m.net.parameters());
   }
 
-  /// [2A] simulation J in percent over k ≥ skip; +∞ for a non-finite simulation. With `weighted` and
-  /// weights in b: Σ w·e² / Σ w·y² instead (the figure the weighted loss minimises).
+  /// D/(2·Σw)·‖θ‖² (NNSYSID's regularisation with D = weight_decay·I).
+  double decay_term(const Eigen::VectorXd& theta) const {
+    return options.weight_decay == 0.0 ? 0.0 : 0.5 * options.weight_decay / est.weight_total * theta.squaredNorm();
+  }
+
+  /// Adds the weight decay's share to V, g = dW/dθ (+ D/Σw·θ) and, if given, H (+ D/Σw·I).
+  void add_decay(const Eigen::VectorXd& theta, double& V, Eigen::VectorXd& grad, Eigen::MatrixXd* hessian) const {
+    if (options.weight_decay == 0.0) return;
+    const double c = options.weight_decay / est.weight_total;
+    V += 0.5 * c * theta.squaredNorm();
+    grad.noalias() += c * theta;
+    if (hessian != nullptr) hessian->diagonal().array() += c;
+  }
+
+  /// [2A] simulation J in percent over k ≥ j_start (the state from init measured outputs); +∞ for a
+  /// non-finite simulation. With `weighted` and weights in b: Σ w·e² / Σ w·y² over k ≥ skip instead (the
+  /// figure the weighted loss minimises).
   double j_sim(const NarxModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Buffers& b,
                bool weighted = false) {
     const double V = output_loss(m, u, y, Feedback::simulated, skip, b);
     if (!b.yhat.allFinite()) return std::numeric_limits<double>::infinity();
-    if (!weighted || b.weight.size() == 0) return j_percent(b.yhat, y, skip);
+    if (!weighted || b.weight.size() == 0) return j_percent(b.yhat, y, j_start);
     const Eigen::Index M = y.size() - skip;
     const double energy = b.weight.tail(M).dot(y.tail(M).cwiseAbs2());
     return energy > 0.0 ? 100.0 * 2.0 * V * b.weight_total / energy : std::numeric_limits<double>::infinity();
@@ -190,6 +218,7 @@ struct Trainer {
       // oem_s: the static Jacobian ∂F/∂θ with the simulation loss (the approximation of table 5.1)
       V = gradient_sweep(m, u_est, y_est, mode, skip, est, g, &H);
     }
+    add_decay(m.net.parameters(), V, g, &H);
     apply_mask(options.mask, g, &H);  // the reduced system over the free parameters
     return lm.step(H, g, V, m.net.parameters(), [&](const Eigen::VectorXd& candidate) {
                trial.net.parameters() = candidate;
@@ -199,7 +228,8 @@ struct Trainer {
 
   /// Steepest descent along −dV/dθ with backtracking until Armijo's condition V(θ − t·g) ≤ V − c·t·‖g‖² holds.
   bool linesearch_step(NarxModel& m, TrainingMode mode, double& t) {
-    const double V = mode_gradient(m, u_est, y_est, mode, skip, kFiniteDifferenceStep, est, g);
+    double V = mode_gradient(m, u_est, y_est, mode, skip, kFiniteDifferenceStep, est, g);
+    add_decay(m.net.parameters(), V, g, nullptr);
     apply_mask(options.mask, g, nullptr);
     const double slope = g.squaredNorm();
     if (!std::isfinite(V) || !std::isfinite(slope) || slope == 0.0) return false;
@@ -265,9 +295,17 @@ void require_options(const TrainingOptions& o) {
     }
   }
   if (o.batch < 0) throw std::invalid_argument("NARX training: batch must be ≥ 0 (0 = all samples)");
+  if (!(o.weight_decay >= 0.0) || !std::isfinite(o.weight_decay)) {
+    throw std::invalid_argument("NARX training: weight_decay must be a finite number ≥ 0, got " +
+                                std::to_string(o.weight_decay));
+  }
+  if (o.weight_decay > 0.0 && o.optimizer == Optimizer::sd) {
+    throw std::invalid_argument("NARX training: weight_decay needs --optimizer lm or linesearch (sd has none)");
+  }
   if (o.transient_skip < -1) {
     throw std::invalid_argument("NARX training: transient_skip must be ≥ 0 or −1 (= 2·(na + nb))");
   }
+  if (o.init < 0) throw std::invalid_argument("NARX training: init must be ≥ 0, got " + std::to_string(o.init));
   if (o.early_stopping && o.patience < 1) {
     throw std::invalid_argument("NARX training: patience must be ≥ 1, got " + std::to_string(o.patience));
   }
@@ -310,31 +348,39 @@ std::string to_string(Optimizer optimizer) {
 }
 
 double training_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y, TrainingMode mode,
-                     Eigen::Index skip, const Eigen::VectorXd& weights) {
+                     Eigen::Index skip, const Eigen::VectorXd& weights, Eigen::Index init) {
   require_model(model);
   require_data(u, y, skip, "estimation");
+  require_init(init, skip);
   Buffers b = weighted_buffers(model, u, skip, weights, "estimation");
+  b.init = init;
   return output_loss(model, u, y, feedback_of(mode), skip, b);
 }
 
 Eigen::VectorXd loss_gradient(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                              TrainingMode mode, Eigen::Index skip, double h, const Eigen::VectorXd& weights) {
+                              TrainingMode mode, Eigen::Index skip, double h, const Eigen::VectorXd& weights,
+                              Eigen::Index init) {
   require_model(model);
   require_data(u, y, skip, "estimation");
+  require_init(init, skip);
   if (mode == TrainingMode::oem_n && !(h > 0.0 && std::isfinite(h))) {
     throw std::invalid_argument("NARX training: finite-difference step h must be > 0, got " + std::to_string(h));
   }
   Buffers b = weighted_buffers(model, u, skip, weights, "estimation");
+  b.init = init;
   Eigen::VectorXd g(model.net.parameter_count());
   mode_gradient(model, u, y, mode, skip, h, b, g);
   return g;
 }
 
 Eigen::MatrixXd gauss_newton_hessian(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                                     TrainingMode mode, Eigen::Index skip, const Eigen::VectorXd& weights) {
+                                     TrainingMode mode, Eigen::Index skip, const Eigen::VectorXd& weights,
+                                     Eigen::Index init) {
   require_model(model);
   require_data(u, y, skip, "estimation");
+  require_init(init, skip);
   Buffers b = weighted_buffers(model, u, skip, weights, "estimation");
+  b.init = init;
   const Eigen::Index P = model.net.parameter_count();
   Eigen::VectorXd g(P);
   Eigen::MatrixXd H(P, P);
@@ -352,7 +398,8 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
   require_options(options);
   require_model(initial);
   const NarxStructure& s = initial.structure;
-  const Eigen::Index skip = options.transient_skip >= 0 ? options.transient_skip : 2 * (s.na + s.nb);
+  const Eigen::Index skip =
+      std::max(options.transient_skip >= 0 ? options.transient_skip : 2 * (s.na + s.nb), options.init);
   const Eigen::Index P = initial.net.parameter_count();
   require_data(u_est, y_est, skip, "estimation");
   if (u_est.size() - skip <= P) {
@@ -409,6 +456,9 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
     trainer.lm.reset();               // LM damping λ back to its start for each mode
     double t = 0.5 * options.step;    // line search: the first trial step is α
     int without_improvement = 0;
+    // Patience counts against this mode's own best: a refinement (oem-d after pem) often has to climb back
+    // to the previous mode's best J_val before it improves on it, and is not cut off for that.
+    double mode_best = std::numeric_limits<double>::infinity();
     for (int i = 0; i < options.max_iterations; ++i) {
       const Eigen::VectorXd before = current.net.parameters();
       bool moved = false;
@@ -429,10 +479,14 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
       }
       report(r);
       if (!keep_best) continue;
-      // fig. 6.4: stop when the validation J has not improved for `patience` iterations
+      // fig. 6.4: keep the best validation J; stop the mode when its J_val has not improved for `patience`
+      // iterations
       if (r.j_val_weighted_pct < best_val) {
         best_val = r.j_val_weighted_pct;
         best_theta = current.net.parameters();
+      }
+      if (r.j_val_weighted_pct < mode_best) {
+        mode_best = r.j_val_weighted_pct;
         without_improvement = 0;
       } else if (++without_improvement >= options.patience) {
         break;

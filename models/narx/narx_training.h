@@ -40,8 +40,8 @@ std::string to_string(Optimizer optimizer);
 struct TrainingRecord {
   int iteration = 0;
   TrainingMode mode = TrainingMode::pem;
-  double j_est_pct = 0.0;   ///< simulation J on the estimation data
-  double j_val_pct = 0.0;   ///< simulation J on the validation data (NaN without)
+  double j_est_pct = 0.0;   ///< simulation J on the estimation data (from TrainingOptions::init)
+  double j_val_pct = 0.0;   ///< simulation J on the validation data (NaN without), likewise
   double j_val_weighted_pct = 0.0;  ///< Σw·e²/Σw·y² on the validation data with its weights (= j_val_pct
                                     ///< without): what early stopping watches
 };
@@ -54,8 +54,20 @@ struct TrainingOptions {
   double step = 0.1;                 ///< α for sd
   Eigen::Index batch = 0;            ///< L for sd: samples per update (0 = all, L = N)
   Eigen::Index transient_skip = -1;  ///< [5M] samples left out of the OEM loss; −1 = 2·(na + nb)
+  /// Measured outputs that set the state of every simulation, estimation and validation alike, as
+  /// `validate --init` does: ŷ(k) = y(k) for k < init, then free run. The loss leaves out at least these
+  /// samples (skip = max(transient skip, init)), and with init > 0 the J figures of the history — and so
+  /// early stopping and the kept model — are the J reported for the model, over k ≥ init. 0 = from rest
+  /// (J over k ≥ skip, the thesis's protocol), which on a badly damped system a mid-record validation
+  /// start drowns in its own transient.
+  Eigen::Index init = 0;
   bool early_stopping = true;        ///< keep the parameters with the best validation J (fig. 6.4)
-  int patience = 20;                 ///< iterations without validation improvement before stopping
+  int patience = 20;                 ///< iterations without improving the mode's best validation J before the mode stops
+  /// Weight decay D ≥ 0 (NNSYSID's `D`, a scalar): LM and the line search minimise the regularised
+  /// criterion W = V + D/(2·Σw)·‖θ‖² (w = 1: Σw = N − skip, so W = 1/(2(N−skip))·(Σ e² + D·θᵀθ)), the
+  /// Gauss–Newton matrix gaining D/Σw on its diagonal. 0 = none; sd refuses D > 0. The J figures, and
+  /// so early stopping, stay the unregularised ones.
+  double weight_decay = 0.0;
   /// Which parameters train (size P; 1 = free, 0 = pruned); empty = all free. Pruned parameters are set to
   /// exactly 0 at the start and stay there: LM solves the reduced system over the free parameters (the
   /// pruned rows and columns of H and entries of g are zeroed), sd and the line search step along the
@@ -85,20 +97,23 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
                           const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const TrainingOptions& options);
 
 /// dV/dθ of V = 1/(2(N−skip))·Σ_{k≥skip} e(k)² for `mode` (scaled data), or with `weights` of
-/// V = Σ w(k)·e(k)² / (2·Σ w(k)). For oem_n: central differences with step h.
+/// V = Σ w(k)·e(k)² / (2·Σ w(k)). For oem_n: central differences with step h. `init` as
+/// TrainingOptions::init (the simulation's first init outputs measured; skip ≥ init, else invalid_argument).
 Eigen::VectorXd loss_gradient(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
                               TrainingMode mode, Eigen::Index skip, double h = 1e-6,
-                              const Eigen::VectorXd& weights = Eigen::VectorXd());
+                              const Eigen::VectorXd& weights = Eigen::VectorXd(), Eigen::Index init = 0);
 
 /// The Gauss–Newton matrix H = 1/(N−skip)·Σ_{k≥skip} ψ(k)·ψ(k)ᵀ, ψ = dŷ/dθ for `mode` (the matrix LM uses;
 /// for oem_d the exact [5L] sensitivities of the simulation, for oem_n central differences). Scaled data.
-/// With `weights`: 1/Σw·Σ w(k)·ψ(k)·ψ(k)ᵀ.
+/// With `weights`: 1/Σw·Σ w(k)·ψ(k)·ψ(k)ᵀ. `init` as loss_gradient's.
 Eigen::MatrixXd gauss_newton_hessian(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
                                      TrainingMode mode, Eigen::Index skip,
-                                     const Eigen::VectorXd& weights = Eigen::VectorXd());
+                                     const Eigen::VectorXd& weights = Eigen::VectorXd(), Eigen::Index init = 0);
 
-/// The loss V for `mode` (pem: prediction error; oem_*: simulation error), weighted as loss_gradient says.
+/// The loss V for `mode` (pem: prediction error; oem_*: simulation error, its state from `init` measured
+/// outputs as loss_gradient says), weighted as loss_gradient says.
 double training_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                     TrainingMode mode, Eigen::Index skip, const Eigen::VectorXd& weights = Eigen::VectorXd());
+                     TrainingMode mode, Eigen::Index skip, const Eigen::VectorXd& weights = Eigen::VectorXd(),
+                     Eigen::Index init = 0);
 
 }  // namespace panelbass::models

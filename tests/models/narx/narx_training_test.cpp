@@ -122,6 +122,30 @@ TEST(NarxTrainingGradient, OemDynamicMatchesCentralDifferencesWithTwoLayersDelay
   EXPECT_LT(worst_relative_error(dynamic, fd), 1e-6);
 }
 
+TEST(NarxTrainingGradient, OemDynamicFromMeasuredOutputsMatchesCentralDifferences) {
+  // The state set by the first 30 measured outputs (ŷ(k) = y(k), k < 30), then free run: [5L] starts there.
+  DampedCase c;
+  constexpr Eigen::Index init = 30;
+  const Eigen::VectorXd dynamic = loss_gradient(c.model, c.u, c.y, TrainingMode::oem_d, init, 1e-6, {}, init);
+  NarxModel probe = c.model;
+  Eigen::VectorXd fd(dynamic.size());
+  for (Eigen::Index p = 0; p < fd.size(); ++p) {
+    const double keep = probe.net.parameters()[p], h = 1e-5;
+    probe.net.parameters()[p] = keep + h;
+    const double plus = training_loss(probe, c.u, c.y, TrainingMode::oem_d, init, {}, init);
+    probe.net.parameters()[p] = keep - h;
+    const double minus = training_loss(probe, c.u, c.y, TrainingMode::oem_d, init, {}, init);
+    probe.net.parameters()[p] = keep;
+    fd[p] = (plus - minus) / (2.0 * h);
+  }
+  EXPECT_LT(worst_relative_error(dynamic, fd), 1e-6);
+  // and the loss is the one of the simulation validate --init runs: 1/(2(N − init))·Σ_{k≥init} e²
+  const Eigen::VectorXd y_sim = c.model.simulate_scaled(c.u, c.y, init);
+  const Eigen::Index M = c.u.size() - init;
+  EXPECT_NEAR(training_loss(c.model, c.u, c.y, TrainingMode::oem_d, init, {}, init),
+              0.5 * (y_sim - c.y).tail(M).squaredNorm() / static_cast<double>(M), 1e-15);
+}
+
 TEST(NarxTrainingGradient, PemMatchesCentralDifferencesOfThePredictionLoss) {
   DampedCase c;
   const Eigen::VectorXd pem = loss_gradient(c.model, c.u, c.y, TrainingMode::pem, 4);
@@ -580,6 +604,75 @@ TEST(NarxTrainingErrors, BadInputIsRejectedWithAReason) {
   NarxModel broken = c.model;
   broken.net.parameters()[2] = std::numeric_limits<double>::infinity();
   expect_error([&] { train_narx(broken, c.u, c.y, none, none, o); }, "θ");
+}
+
+// ----- selection on the J reported (issue #36) ------------------------------------------------------
+
+TEST(NarxTrainingSelection, KeepsTheRefinementWhenTheValidationRecordStartsMidStream) {
+  // The issue's reproduction: poles 0.99·e^{±j23°}, uniform white input, output scaled to peak 1 plus
+  // Gaussian noise of σ = 0.05 % of the peak; 3000 estimation samples, the next 2000 validation (a split of
+  // one record, so the validation record starts mid-stream); NN na = 2, nb = 0, 5 hidden, pem then oem-d
+  // by LM. Judged as validate --init 50 judges it: the first 50 measured outputs set the state. 500
+  // iterations per mode, not the issue's 200: on this realisation LM crawls along the oem-d valley and
+  // stands at 5.7× the floor after 200 (bench/selection_repro.sh runs the issue's 200 on its own data).
+  const Eigen::VectorXd u = dsp::uniform_noise(5000, 1.0, 36);
+  const Eigen::VectorXd clean = second_order(u, 0.99);
+  const Eigen::VectorXd noise = 5e-4 * dsp::gaussian_noise(5000, 3.0, 37);  // σ = 1 (redrawn past 3σ) × 5e-4
+  const Eigen::VectorXd y = clean + noise;
+  const Eigen::VectorXd ue = u.head(3000), ye = y.head(3000), uv = u.tail(2000), yv = y.tail(2000);
+  constexpr Eigen::Index init = 50;
+  // the noise floor: the J of the noise-free output on the validation record
+  const double floor_pct = j_percent(clean.tail(2000), yv, init);
+  TrainingOptions o = options_for({TrainingMode::pem, TrainingMode::oem_d}, Optimizer::lm, 500);
+  o.early_stopping = true;
+  o.init = init;
+  const TrainingResult r = train_narx(initial_model(2, 0, 0, {5}, 1), ue, ye, uv, yv, o);
+  const double j_val = j_percent(r.model.simulate_scaled(uv, yv, init), yv, init);
+  EXPECT_LT(j_val, 2.0 * floor_pct) << "noise floor " << floor_pct << " %";
+  // the J the history reports is the J of validate --init, and the kept model is the history's best
+  double best = std::numeric_limits<double>::infinity();
+  for (const TrainingRecord& rec : r.history) best = std::min(best, rec.j_val_pct);
+  EXPECT_NEAR(j_val, best, 1e-9 * best);
+}
+
+TEST(NarxTrainingWeightDecay, LmStopsWhereTheRegularisedCriterionIsStationary) {
+  // NNSYSID's W = (Σ e² + D·θᵀθ)/(2M), M = N − skip: at its minimum dV/dθ + (D/M)·θ = 0, dV/dθ from
+  // loss_gradient (independent of the trainer), and θ is shorter than without the decay.
+  DampedCase c;
+  constexpr double D = 1.0;
+  constexpr Eigen::Index skip = 4;
+  TrainingOptions o = options_for({TrainingMode::pem}, Optimizer::lm, 300);
+  o.transient_skip = skip;
+  const NarxModel free = train_narx(c.model, c.u, c.y, {}, {}, o).model;
+  o.weight_decay = D;
+  const NarxModel decayed = train_narx(c.model, c.u, c.y, {}, {}, o).model;
+  const Eigen::VectorXd& theta = decayed.net.parameters();
+  const double per_sample = D / static_cast<double>(c.u.size() - skip);
+  const Eigen::VectorXd stationarity = loss_gradient(decayed, c.u, c.y, TrainingMode::pem, skip) + per_sample * theta;
+  EXPECT_LT(stationarity.norm(), 1e-4 * (per_sample * theta).norm());
+  EXPECT_LT(theta.norm(), free.net.parameters().norm());
+}
+
+TEST(NarxTrainingSelection, RefusesABadInitAndABadWeightDecay) {
+  DampedCase c;
+  const auto expect_error = [](auto&& call, const std::string& fragment) {
+    try {
+      call();
+      ADD_FAILURE() << "no exception; expected one naming " << fragment;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+  };
+  expect_error([&] { training_loss(c.model, c.u, c.y, TrainingMode::oem_d, 10, {}, 11); }, "init");
+  TrainingOptions o = options_for({TrainingMode::pem}, Optimizer::lm, 1);
+  o.init = -1;
+  expect_error([&] { train_narx(c.model, c.u, c.y, {}, {}, o); }, "init");
+  o.init = 0;
+  o.weight_decay = -1.0;
+  expect_error([&] { train_narx(c.model, c.u, c.y, {}, {}, o); }, "weight_decay");
+  o.weight_decay = 1.0;
+  o.optimizer = Optimizer::sd;
+  expect_error([&] { train_narx(c.model, c.u, c.y, {}, {}, o); }, "weight_decay");
 }
 
 }  // namespace
