@@ -105,6 +105,9 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
     options.weights = r.w_est;
     options.validation_weights = r.w_val;
   }
+  // Training selects and stops on the J the job reports (simulation_j): the first init_samples() measured
+  // outputs set the state, then free run.
+  options.init = init_samples(std::min(us.size(), uv.size() ? uv.size() : us.size()));
   const int total = std::max(1, options.max_iterations * static_cast<int>(options.modes.size()));
   progress.span(kExcitationShare, 0.85);
   options.progress = [&](const models::TrainingRecord& rec) {
