@@ -14,11 +14,7 @@ data=${PANELBASS_DATA:-../shared/data}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
-split() {  # split FILE at data row N into $work/NAME-est.csv and $work/NAME-val.csv
-  local file=$1 rows=$2 name=$3
-  head -n $((rows + 1)) "$file" > "$work/$name-est.csv"
-  { head -n 1 "$file"; tail -n +$((rows + 2)) "$file"; } > "$work/$name-val.csv"
-}
+source bench/split_record.sh
 
 report() {  # report REPORT.json SECONDS: the baseline, every finding, the first, J before/after
   python3 - "$1" "$2" <<'PY'
