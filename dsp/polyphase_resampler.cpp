@@ -7,6 +7,7 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
+#include <Eigen/Core>
 #include <unsupported/Eigen/FFT>
 
 namespace panelbass::dsp {
@@ -163,7 +164,9 @@ std::size_t PolyphaseResampler::process(std::span<const std::span<const double>>
       const double* taps = bank_.data() + static_cast<std::size_t>(next_phase_) * t;
       for (std::size_t c = 0; c < in.size(); ++c) {
         const double* window = history_.data() + c * 2 * t + head_;
-        out_[c * max_output_ + produced_] = std::inner_product(taps, taps + t, window, 0.0);
+        // Eigen's dot product runs in SIMD packets (a few partial sums), unlike std::inner_product.
+        out_[c * max_output_ + produced_] = Eigen::Map<const Eigen::VectorXd>(taps, static_cast<Eigen::Index>(t))
+                                                .dot(Eigen::Map<const Eigen::VectorXd>(window, static_cast<Eigen::Index>(t)));
       }
       ++produced_;
       next_phase_ += filter_.down;

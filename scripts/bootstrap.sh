@@ -20,6 +20,7 @@ packages=(
   curl jq
   prometheus  # promtool: tests/api/promtool_test.cpp checks GET /metrics with it
   systemd     # systemd-analyze: ctest packaging.unit_verify checks the service's unit with it
+  libsoxr-dev # bench/rate_bridge_bench: libsoxr's streaming hold-back beside the bridge's own converters
 )
 bash scripts/install_packages.sh "${packages[@]}"
 
