@@ -60,6 +60,42 @@ double max_error(const std::vector<double>& y, std::size_t from, Expected&& expe
   return worst;
 }
 
+/// `x` through the bridge in kOddPeriods-sized periods, the identity in place of the chain.
+std::vector<double> through_bridge(RateBridge& bridge, const std::vector<double>& x) {
+  std::vector<double> y(x.size(), 0.0);
+  for (std::size_t pos = 0, i = 0; pos < x.size(); ++i) {
+    const std::size_t n = std::min<std::size_t>(static_cast<std::size_t>(std::min(kOddPeriods[i % kOddPeriods.size()], 256)), x.size() - pos);
+    const std::span<const double> in(x.data() + pos, n);
+    bridge.process(std::span<const std::span<const double>>(&in, 1), std::span<double>(y.data() + pos, n),
+                   [](std::span<const std::span<const double>> model_in, std::span<double> model_out) {
+                     std::copy(model_in[0].begin(), model_in[0].end(), model_out.begin());
+                   });
+    pos += n;
+  }
+  return y;
+}
+
+/// The bridge's response to a unit impulse at sample `at` of `length`: its area Σ y (the DC gain), centre
+/// of mass Σ k·y[k] / Σ y[k] and the position of its largest sample, both counted from `at`.
+struct ImpulseFigures {
+  double area = 0.0, centre = 0.0;
+  int peak = 0;
+};
+
+ImpulseFigures impulse_response(RateBridge& bridge, std::size_t length, std::size_t at) {
+  std::vector<double> x(length, 0.0);
+  x[at] = 1.0;
+  const std::vector<double> y = through_bridge(bridge, x);
+  double area = 0.0, moment = 0.0;
+  std::size_t peak = 0;
+  for (std::size_t k = 0; k < y.size(); ++k) {
+    area += y[k];
+    moment += static_cast<double>(k) * y[k];
+    if (std::abs(y[k]) > std::abs(y[peak])) peak = k;
+  }
+  return {area, moment / area - static_cast<double>(at), static_cast<int>(peak) - static_cast<int>(at)};
+}
+
 // Error bound for a 0.8-amplitude sine well inside the pass band (437 Hz of 1200): libsamplerate's
 // fastest converter claims 97 dB SNR; single-precision samples, pass-band ripple and the tails of a
 // truncated sinc stay under 1e-4 (−80 dB re 1) after the start-up transient (1.3e-5 measured at worst).
@@ -119,18 +155,7 @@ TEST_P(AtDeviceRate, SineThroughTheBridgeComesOutDelayedByTheReportedLatency) {
   RateBridge bridge(options);
   const int latency = bridge.latency().total_samples;
   const std::vector<double> x = sine(kF, fs, static_cast<std::size_t>(fs), kAmplitude);
-  std::vector<double> y(x.size());
-  std::size_t pos = 0;
-  for (std::size_t i = 0; pos < x.size(); ++i) {
-    const std::size_t n = std::min<std::size_t>(static_cast<std::size_t>(kOddPeriods[i % kOddPeriods.size()]), x.size() - pos);
-    const std::span<const double> in(x.data() + pos, n);
-    // The identity in place of the chain.
-    bridge.process(std::span<const std::span<const double>>(&in, 1), std::span<double>(y.data() + pos, n),
-                   [](std::span<const std::span<const double>> model_in, std::span<double> model_out) {
-                     std::copy(model_in[0].begin(), model_in[0].end(), model_out.begin());
-                   });
-    pos += n;
-  }
+  const std::vector<double> y = through_bridge(bridge, x);
   // Silence while the FIFO's priming comes out, then the sine, late by exactly the latency.
   for (int k = 0; k < latency; ++k) ASSERT_EQ(y[static_cast<std::size_t>(k)], 0.0) << k;
   const double err = max_error(y, static_cast<std::size_t>(latency) + static_cast<std::size_t>(fs / 30), [&](std::size_t n) {
@@ -153,55 +178,21 @@ TEST_P(AtDeviceRate, ImpulseComesOutAfterExactlyTheReportedLatency) {
   const RateBridgeLatency latency = bridge.latency();
   // Off the model-rate grid on purpose (5003 is no multiple of 16 or of 14.7).
   constexpr std::size_t kAt = 5003;
-  std::vector<double> x(20000, 0.0), y(x.size(), 0.0);
-  x[kAt] = 1.0;
-  std::size_t pos = 0;
-  for (std::size_t i = 0; pos < x.size(); ++i) {
-    const std::size_t n = std::min<std::size_t>(static_cast<std::size_t>(kOddPeriods[i % kOddPeriods.size()]), x.size() - pos);
-    const std::span<const double> in(x.data() + pos, n);
-    bridge.process(std::span<const std::span<const double>>(&in, 1), std::span<double>(y.data() + pos, n),
-                   [](std::span<const std::span<const double>> model_in, std::span<double> model_out) {
-                     std::copy(model_in[0].begin(), model_in[0].end(), model_out.begin());
-                   });
-    pos += n;
-  }
-  // Centre of mass Σ k·y[k] / Σ y[k]: both converters are linear-phase, so it sits at the impulse plus
-  // the delay; the area Σ y is the DC gain, 1.
-  double area = 0.0, moment = 0.0;
-  std::size_t peak = 0;
-  for (std::size_t k = 0; k < y.size(); ++k) {
-    area += y[k];
-    moment += static_cast<double>(k) * y[k];
-    if (std::abs(y[k]) > std::abs(y[peak])) peak = k;
-  }
-  const double measured = moment / area - static_cast<double>(kAt);
+  // Centre of mass: both converters are linear-phase, so it sits at the impulse plus the delay; the
+  // area is the DC gain, 1.
+  const ImpulseFigures h = impulse_response(bridge, 20000, kAt);
   std::printf("[ latency  ] %.0f Hz <-> 3000 Hz: reported %d device samples (%.3f ms; decimator lag %.1f, "
               "interpolator lag %.1f), impulse centre of mass at +%.3f, peak at +%d\n",
               fs, latency.total_samples, latency.total_ms, latency.decimator_samples, latency.interpolator_samples,
-              measured, static_cast<int>(peak) - static_cast<int>(kAt));
-  EXPECT_NEAR(area, 1.0, 1e-3);
-  EXPECT_NEAR(measured, latency.total_samples, 0.05);
-  EXPECT_LE(std::abs(static_cast<int>(peak) - static_cast<int>(kAt) - latency.total_samples), 1);
+              h.centre, h.peak);
+  EXPECT_NEAR(h.area, 1.0, 1e-3);
+  EXPECT_NEAR(h.centre, latency.total_samples, 0.05);
+  EXPECT_LE(std::abs(h.peak - latency.total_samples), 1);
   EXPECT_NEAR(latency.total_ms, 1e3 * latency.total_samples / fs, 1e-9);
   // The priming covers both converters' look-ahead (and no more than both plus a model sample and the margin).
   EXPECT_GE(latency.total_samples, std::max(latency.decimator_samples, latency.interpolator_samples));
   EXPECT_LE(latency.total_samples, latency.decimator_samples + latency.interpolator_samples + fs / kModelRate + 3);
   EXPECT_EQ(bridge.underrun_frames(), 0u);
-}
-
-/// `x` through the bridge in kOddPeriods-sized periods, the identity in place of the chain.
-std::vector<double> through_bridge(RateBridge& bridge, const std::vector<double>& x) {
-  std::vector<double> y(x.size(), 0.0);
-  for (std::size_t pos = 0, i = 0; pos < x.size(); ++i) {
-    const std::size_t n = std::min<std::size_t>(static_cast<std::size_t>(std::min(kOddPeriods[i % kOddPeriods.size()], 256)), x.size() - pos);
-    const std::span<const double> in(x.data() + pos, n);
-    bridge.process(std::span<const std::span<const double>>(&in, 1), std::span<double>(y.data() + pos, n),
-                   [](std::span<const std::span<const double>> model_in, std::span<double> model_out) {
-                     std::copy(model_in[0].begin(), model_in[0].end(), model_out.begin());
-                   });
-    pos += n;
-  }
-  return y;
 }
 
 /// The amplitude of the least-squares sine at `f` in `y` from sample `from` on (rate fs).
@@ -228,23 +219,12 @@ TEST_P(AtDeviceRate, LowLatencyImpulseComesOutWithinTwoMilliseconds) {
   RateBridge bridge = low_latency_bridge(fs);
   const RateBridgeLatency latency = bridge.latency();
   constexpr std::size_t kAt = 5003;
-  std::vector<double> x(12000, 0.0);
-  x[kAt] = 1.0;
-  const std::vector<double> y = through_bridge(bridge, x);
-  double area = 0.0, moment = 0.0;
-  std::size_t peak = 0;
-  for (std::size_t k = 0; k < y.size(); ++k) {
-    area += y[k];
-    moment += static_cast<double>(k) * y[k];
-    if (std::abs(y[k]) > std::abs(y[peak])) peak = k;
-  }
-  const double measured = moment / area - static_cast<double>(kAt);
+  const ImpulseFigures h = impulse_response(bridge, 12000, kAt);
   std::printf("[ latency  ] low-latency %.0f Hz <-> 3000 Hz: reported %.3f ms (%d FIFO + %.2f filter samples), "
               "impulse centre of mass at +%.3f samples (%.3f ms), peak at +%d\n",
-              fs, latency.total_ms, latency.fifo_samples, latency.filter_samples, measured, 1e3 * measured / fs,
-              static_cast<int>(peak) - static_cast<int>(kAt));
-  EXPECT_NEAR(area, 1.0, 1e-3);
-  EXPECT_NEAR(measured, 1e-3 * latency.total_ms * fs, 0.05);
+              fs, latency.total_ms, latency.fifo_samples, latency.filter_samples, h.centre, 1e3 * h.centre / fs, h.peak);
+  EXPECT_NEAR(h.area, 1.0, 1e-3);
+  EXPECT_NEAR(h.centre, 1e-3 * latency.total_ms * fs, 0.05);
   EXPECT_EQ(latency.total_samples, static_cast<int>(std::lround(1e-3 * latency.total_ms * fs)));
   EXPECT_LE(latency.total_ms, 2.0);
   EXPECT_EQ(latency.fifo_samples, RateBridgeOptions{}.margin.value);  // nothing held back
