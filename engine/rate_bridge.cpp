@@ -235,7 +235,10 @@ void RateBridge::push(double x) noexcept {
     ++overflow_frames_;
     return;
   }
-  fifo_[(head_ + count_) % fifo_.size()] = x;
+  // A wrap by comparison, not %: no integer division per frame.
+  std::size_t tail = head_ + count_;
+  if (tail >= fifo_.size()) tail -= fifo_.size();
+  fifo_[tail] = x;
   ++count_;
 }
 
@@ -255,7 +258,7 @@ void RateBridge::interpolate(std::size_t n, std::span<double> out) noexcept {
       continue;
     }
     y = fifo_[head_];
-    head_ = (head_ + 1) % fifo_.size();
+    if (++head_ == fifo_.size()) head_ = 0;
     --count_;
   }
 }
