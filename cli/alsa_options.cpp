@@ -10,7 +10,8 @@ namespace {
 engine::ResampleQuality quality_of(const std::string& name) {
   if (name == "best") return engine::ResampleQuality::best;
   if (name == "medium") return engine::ResampleQuality::medium;
-  return engine::ResampleQuality::fastest;
+  if (name == "fastest") return engine::ResampleQuality::fastest;
+  return engine::ResampleQuality::low_latency;
 }
 
 }  // namespace
@@ -33,8 +34,9 @@ void add_alsa_options(CLI::App* cmd, AlsaCliOptions& o) {
                   "ALSA: capture channel with the program input (default: the program played from memory)");
   cmd->add_option("--sensor-channel", o.sensor_channel,
                   "ALSA: capture channel with the sensor (needed for a feedback stage in sensor mode)");
-  cmd->add_option("--quality", o.quality, "ALSA: resampler quality when the device runs at another rate")
-      ->check(CLI::IsMember({"fastest", "medium", "best"}))
+  cmd->add_option("--quality", o.quality, "ALSA: resampler when the device runs at another rate: low-latency (minimum-phase, ~1.5 ms) or "
+                  "libsamplerate's fastest|medium|best (linear-phase, 13 ms and more)")
+      ->check(CLI::IsMember({"low-latency", "fastest", "medium", "best"}))
       ->capture_default_str();
   cmd->add_option("--alsa-config", o.config_file,
                   "ALSA: configuration file defining the PCMs named above (default: the system's configuration)")

@@ -21,7 +21,7 @@ struct AlsaCliOptions {
   int capture_channels = 2;                   ///< channels of the capture PCM
   int program_channel = engine::kNoChannel;   ///< capture channel with the program input
   int sensor_channel = engine::kNoChannel;    ///< capture channel with the sensor
-  std::string quality = "fastest";            ///< the rate bridge's resampler quality
+  std::string quality = "low-latency";          ///< the rate bridge's resampler quality
   std::string config_file;                    ///< ALSA configuration file to open the PCMs from ("" = system's)
 };
 

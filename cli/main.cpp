@@ -11,6 +11,7 @@ int main(int argc, char** argv) {
   CLI::App app{"panelbass: identify panel-mounted transducers and cancel their distortion", "panelbass"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "panelbass 0.1.0");
+  app.set_config("--config", "", "Read options from this file (before the verb): a [verb] section of key = value lines");
   app.footer("Run `panelbass <verb> --help` for a verb's options and an example.");
   panelbass::cli::register_simulate(app);
   panelbass::cli::register_plant(app);

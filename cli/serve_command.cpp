@@ -3,6 +3,7 @@
 // linear model, designs the LQ feedforward on it and activates it, so that a new user opens the address
 // and sees everything working.
 #include <chrono>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <stdexcept>
@@ -21,12 +22,22 @@
 namespace panelbass::cli {
 namespace {
 
+/// The web UI next to the running binary: <bin>/PANELBASS_WEB_FROM_BIN, i.e. /usr/share/panelbass/web for
+/// /usr/bin/panelbass, and in a build tree the link CMake makes there to the source tree's web/. Empty if
+/// the running binary cannot be found.
+std::string default_web_dir() {
+  std::error_code error;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (error) return {};
+  return (exe.parent_path() / PANELBASS_WEB_FROM_BIN).lexically_normal().string();
+}
+
 struct ServeOptions {
   std::string bind = "127.0.0.1";
   int port = 8080;
   std::string token;
   std::string store = "panelbass-store";
-  std::string web = PANELBASS_WEB_DIR;
+  std::string web = default_web_dir();
   std::string plant = "panel-exciter";
   std::string signal = "noise";
   double amplitude = 0.2;
@@ -140,7 +151,8 @@ void register_serve(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--token", o->token, "Require Authorization: Bearer TOKEN on /api and /metrics");
   cmd->add_option("--store", o->store, "Folder of the model store (created if missing)")->capture_default_str();
-  cmd->add_option("--web", o->web, "Folder of the web UI (\"\": no UI)")->capture_default_str();
+  cmd->add_option("--web", o->web, "Folder of the web UI (\"\": no UI; default: the installed one, or the source tree's)")
+      ->capture_default_str();
   cmd->add_option("--backend", o->backend, "virtual: the simulated transducer in-process; alsa: a sound card")
       ->check(CLI::IsMember({"virtual", "alsa"}))
       ->capture_default_str();
@@ -172,6 +184,8 @@ void register_serve(CLI::App& app) {
   cmd->footer(
       "Examples:\n  panelbass serve                      (http://127.0.0.1:8080/, demo jobs at start-up)\n"
       "  panelbass serve --port 0 --no-demo --store /tmp/store\n"
+      "  panelbass --config /etc/panelbass/panelbass.conf serve   (as the installed systemd unit does: its\n"
+      "      [serve] section holds these options as key = value, e.g. port = 8080)\n"
       "  panelbass serve --backend alsa --playback hw:1 --capture hw:1 --sensor-channel 1 --period 64\n"
       "  panelbass serve --bind 0.0.0.0 --token s3cret      (clients send Authorization: Bearer s3cret)");
   cmd->callback([o] { run_serve(*o); });

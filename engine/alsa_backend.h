@@ -59,7 +59,7 @@ struct AlsaOptions {
   std::vector<double> program;              ///< program at the device rate when program_channel is none
   bool loop_program = true;                 ///< repeat `program`; else silence after its end
   std::string config_text;  ///< ALSA configuration to open both PCMs from (snd_pcm_open_lconf); "" = system's
-  ResampleQuality quality = ResampleQuality::fastest;  ///< the rate bridge's converters
+  ResampleQuality quality = ResampleQuality::low_latency;  ///< the rate bridge's converters
   std::chrono::milliseconds reopen_min{50};    ///< first wait before reopening a lost device
   std::chrono::milliseconds reopen_max{2000};  ///< longest wait between reopen attempts (doubling)
   std::chrono::milliseconds device_timeout{0};  ///< no data for this long = device lost (0: 8 buffers, ≥ 200 ms)

@@ -19,6 +19,8 @@ int converter_type(ResampleQuality quality) {
       return SRC_SINC_MEDIUM_QUALITY;
     case ResampleQuality::best:
       return SRC_SINC_BEST_QUALITY;
+    case ResampleQuality::low_latency:
+      break;
   }
   return SRC_SINC_FASTEST;
 }
@@ -46,6 +48,8 @@ const char* resample_quality_name(ResampleQuality quality) {
       return "medium";
     case ResampleQuality::best:
       return "best";
+    case ResampleQuality::low_latency:
+      return "low-latency";
   }
   return "?";
 }
@@ -59,6 +63,11 @@ StreamingResampler::StreamingResampler(Hertz from, Hertz to, int channels, int m
   // In steady state a call yields input · ratio frames give or take one; the slack covers a call that
   // completes frames held back from the one before.
   out_stride_ = static_cast<std::size_t>(std::ceil(static_cast<double>(max_input) * ratio_)) + 8;
+  if (quality == ResampleQuality::low_latency) {
+    polyphase_ = std::make_unique<dsp::PolyphaseResampler>(from.value, to.value, channels, max_input, kLowLatencySpec);
+    out_stride_ = polyphase_->max_output();
+    return;
+  }
   int error = 0;
   state_ = src_new(converter_type(quality), channels, &error);
   if (state_ == nullptr) {
@@ -70,7 +79,9 @@ StreamingResampler::StreamingResampler(Hertz from, Hertz to, int channels, int m
   out_.assign(out_stride_ * ch, 0.0);
 }
 
-StreamingResampler::~StreamingResampler() { src_delete(static_cast<SRC_STATE*>(state_)); }
+StreamingResampler::~StreamingResampler() {
+  if (state_ != nullptr) src_delete(static_cast<SRC_STATE*>(state_));
+}
 
 std::size_t StreamingResampler::process(std::span<const std::span<const double>> in) noexcept {
   produced_ = 0;
@@ -79,6 +90,10 @@ std::size_t StreamingResampler::process(std::span<const std::span<const double>>
   if (in.size() != ch) {
     ++errors_;
     return 0;
+  }
+  if (polyphase_) {
+    produced_ = polyphase_->process(in);
+    return produced_;
   }
   for (std::size_t c = 0; c < ch; ++c) {
     const std::span<const double> x = in[c];
@@ -103,7 +118,8 @@ std::size_t StreamingResampler::process(std::span<const std::span<const double>>
 }
 
 void StreamingResampler::reset() noexcept {
-  src_reset(static_cast<SRC_STATE*>(state_));
+  if (polyphase_) polyphase_->reset();
+  if (state_ != nullptr) src_reset(static_cast<SRC_STATE*>(state_));
   produced_ = 0;
 }
 
@@ -176,11 +192,16 @@ RateBridge::RateBridge(const RateBridgeOptions& options)
   decimator_.reset();
   interpolator_.reset();
   if (first_output < 0) throw std::invalid_argument("rate bridge: the converters produced no output");
-  latency_.total_samples = static_cast<int>(shortfall) + options.margin.value;
-  latency_.total_ms = 1e3 * latency_.total_samples / options.device_rate.value;
-  latency_.decimator_samples = decimator_lag;
-  latency_.interpolator_samples = interpolator_lag;
-  const std::size_t capacity = static_cast<std::size_t>(latency_.total_samples) +
+  // The low-latency converters hold nothing back (shortfall 0) but delay by their filters' centres of
+  // mass; libsamplerate's are the other way round.
+  const double fs = options.device_rate.value;
+  latency_.fifo_samples = static_cast<int>(std::max(shortfall, 0L)) + options.margin.value;
+  latency_.filter_samples = fs * (decimator_.filter_delay_s() + interpolator_.filter_delay_s());
+  latency_.total_samples = static_cast<int>(std::lround(latency_.fifo_samples + latency_.filter_samples));
+  latency_.total_ms = 1e3 * (latency_.fifo_samples + latency_.filter_samples) / fs;
+  latency_.decimator_samples = decimator_lag + fs * decimator_.filter_delay_s();
+  latency_.interpolator_samples = interpolator_lag + fs * interpolator_.filter_delay_s();
+  const std::size_t capacity = static_cast<std::size_t>(latency_.fifo_samples) +
                                static_cast<std::size_t>(options.max_period.value) + interpolator_.max_output() + 16;
   fifo_.assign(capacity, 0.0);
   prime();
@@ -189,7 +210,7 @@ RateBridge::RateBridge(const RateBridgeOptions& options)
 void RateBridge::prime() noexcept {
   std::fill(fifo_.begin(), fifo_.end(), 0.0);
   head_ = 0;
-  count_ = static_cast<std::size_t>(latency_.total_samples);
+  count_ = static_cast<std::size_t>(latency_.fifo_samples);
   debt_ = 0;
 }
 
@@ -214,7 +235,10 @@ void RateBridge::push(double x) noexcept {
     ++overflow_frames_;
     return;
   }
-  fifo_[(head_ + count_) % fifo_.size()] = x;
+  // A wrap by comparison, not %: no integer division per frame.
+  std::size_t tail = head_ + count_;
+  if (tail >= fifo_.size()) tail -= fifo_.size();
+  fifo_[tail] = x;
   ++count_;
 }
 
@@ -234,7 +258,7 @@ void RateBridge::interpolate(std::size_t n, std::span<double> out) noexcept {
       continue;
     }
     y = fifo_[head_];
-    head_ = (head_ + 1) % fifo_.size();
+    if (++head_ == fifo_.size()) head_ = 0;
     --count_;
   }
 }

@@ -3,34 +3,46 @@
 // (the thesis's 3000 Hz). Device frames are decimated to the model rate, the chain runs there, and its
 // drive is interpolated back, period by period, allocation-free after construction.
 //
-// Both converters are libsamplerate's band-limited sinc converters at a fixed ratio. They are
+// The default converters (ResampleQuality::low_latency) are minimum-phase polyphase FIR filters
+// (dsp/polyphase_resampler.h): no hold-back, and a filter delay of about 0.75 ms each way, so the
+// bridge adds about 1.55 ms at low frequencies (80 dB alias rejection, ±0.002 dB ripple up to 1200 Hz;
+// the group delay rises towards the band edge, see docs/engine.md).
+// The others are libsamplerate's band-limited sinc converters at a fixed ratio. They are
 // time-aligned (sample m of a converted stream sits exactly at time m / rate, no phase delay) but hold
 // back output until the filter's look-ahead has arrived, and a period that is not a multiple of the
 // ratio (44100 / 3000 = 14.7) yields a varying number of model samples. A FIFO on the device side,
-// primed with silence, makes every period get exactly its frames; the priming is the bridge's whole
-// latency: an impulse in comes out exactly latency().total_samples device samples later.
+// primed with silence, makes every period get exactly its frames; the priming plus the converters'
+// own filter delay (none for libsamplerate's) is the bridge's whole latency: an impulse's centre of
+// mass comes out latency().total_ms later.
 //
 // src_process() does not allocate: libsamplerate sizes its state (the sinc filter's buffer) in
 // src_new(); the conversion loop only copies into it (src/src_sinc.c).
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
+#include "dsp/polyphase_resampler.h"
 #include "engine/stage.h"
 
 namespace panelbass::engine {
 
-/// Which of libsamplerate's sinc converters (its own quality figures).
+/// Which converters: the low-latency polyphase filters, or one of libsamplerate's sinc converters
+/// (its own quality figures).
 enum class ResampleQuality {
+  low_latency,  ///< minimum-phase polyphase FIR (dsp/polyphase_resampler.h): 80 dB, 80 % bandwidth, ~0.75 ms each way
   fastest,  ///< SRC_SINC_FASTEST: 97 dB SNR, 80 % bandwidth (1200 Hz at 3000 Hz: the band-pass's edge)
   medium,   ///< SRC_SINC_MEDIUM_QUALITY: 121 dB SNR, 90 % bandwidth; longer filter, more latency
   best,     ///< SRC_SINC_BEST_QUALITY: 144 dB SNR, 96 % bandwidth; longest filter, most latency
 };
 
-/// A short name of `quality` ("fastest", "medium", "best").
+/// A short name of `quality` ("low-latency", "fastest", "medium", "best").
 const char* resample_quality_name(ResampleQuality quality);
+
+/// The filter specification of ResampleQuality::low_latency.
+inline constexpr dsp::LowLatencySpec kLowLatencySpec{0.8, 80.0};
 
 /// A streaming converter at a fixed ratio: `channels` channels at once (they share the timing), any
 /// number of frames per call up to `max_input`. Construct on a control thread; process() is
@@ -38,7 +50,8 @@ const char* resample_quality_name(ResampleQuality quality);
 class StreamingResampler {
  public:
   /// A converter from `from` to `to` Hz; throws std::invalid_argument for a rate that is not finite
-  /// and > 0, a ratio outside libsamplerate's [1/256, 256], channels < 1 or max_input < 1.
+  /// and > 0, a ratio outside libsamplerate's [1/256, 256], channels < 1 or max_input < 1, and for
+  /// low_latency a rate that is not a whole number of Hz or a ratio beyond 1000/1000 in lowest terms.
   StreamingResampler(Hertz from, Hertz to, int channels, int max_input, ResampleQuality quality);
   /// Frees libsamplerate's state.
   ~StreamingResampler();
@@ -50,6 +63,7 @@ class StreamingResampler {
   std::size_t process(std::span<const std::span<const double>> in) noexcept;
   /// Channel `channel` of what the last process() produced.
   std::span<const double> output(int channel) const noexcept {
+    if (polyphase_) return polyphase_->output(channel);
     return {out_.data() + static_cast<std::size_t>(channel) * out_stride_, produced_};
   }
   /// Back to rest (silence before the next input), as if just constructed.
@@ -63,8 +77,14 @@ class StreamingResampler {
   std::size_t max_output() const { return out_stride_; }
   /// Calls that libsamplerate refused or that could not place all their output (none expected).
   std::uint64_t errors() const { return errors_; }
+  /// The converter's own delay at low frequencies, seconds: the low-latency filter's centre of mass;
+  /// 0 for libsamplerate's time-aligned converters (their delay is the output they hold back).
+  double filter_delay_s() const { return polyphase_ ? polyphase_->filter().delay_s : 0.0; }
+  /// The low-latency converter's filter and figures; null for libsamplerate's.
+  const dsp::LowLatencyFilter* low_latency_filter() const { return polyphase_ ? &polyphase_->filter() : nullptr; }
 
  private:
+  std::unique_ptr<dsp::PolyphaseResampler> polyphase_;  // set for ResampleQuality::low_latency
   void* state_ = nullptr;  // SRC_STATE*, kept out of the header
   double ratio_;
   int channels_;
@@ -82,16 +102,18 @@ struct RateBridgeOptions {
   Hertz model_rate{3000.0};    ///< the chain's rate (the models' fs)
   Samples max_period{1024};    ///< the longest device period process() is given
   int input_channels = 1;      ///< device channels decimated together (program input, sensor)
-  ResampleQuality quality = ResampleQuality::fastest;  ///< both converters' quality
+  ResampleQuality quality = ResampleQuality::low_latency;  ///< both converters' kind
   Samples margin{2};           ///< FIFO priming beyond the worst shortfall found (rounding drift)
 };
 
 /// The latency a bridge adds, device side.
 struct RateBridgeLatency {
-  double decimator_samples = 0.0;     ///< most device samples the decimator's output lags its input
-  double interpolator_samples = 0.0;  ///< most device samples the interpolator's output lags its input
-  int total_samples = 0;              ///< device in → device out delay, exact (the FIFO's priming)
-  double total_ms = 0.0;              ///< total_samples at the device rate, ms
+  double decimator_samples = 0.0;     ///< most device samples the decimator's output lags its input (hold-back + filter delay)
+  double interpolator_samples = 0.0;  ///< most device samples the interpolator's output lags its input (hold-back + filter delay)
+  int total_samples = 0;              ///< device in → device out delay at low frequencies, rounded to a sample
+  double total_ms = 0.0;              ///< the same delay, unrounded, ms: fifo_samples + filter_samples at the device rate
+  int fifo_samples = 0;               ///< the FIFO's priming (for libsamplerate's converters, the whole delay)
+  double filter_samples = 0.0;        ///< both converters' own filter delay (centre of mass), device samples
 };
 
 /// Device rate → model rate → device rate, one device period at a time, with the FIFO that gives every

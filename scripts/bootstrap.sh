@@ -19,6 +19,8 @@ packages=(
   jackd2 libasound2-plugins
   curl jq
   prometheus  # promtool: tests/api/promtool_test.cpp checks GET /metrics with it
+  systemd     # systemd-analyze: ctest packaging.unit_verify checks the service's unit with it
+  libsoxr-dev # bench/rate_bridge_bench: libsoxr's streaming hold-back beside the bridge's own converters
 )
 bash scripts/install_packages.sh "${packages[@]}"
 

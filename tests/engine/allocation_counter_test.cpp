@@ -309,9 +309,11 @@ TEST(AllocationCounter, TheControllerStagesSwapAndRunWithoutAllocatingOrFreeing)
 }
 
 TEST(AllocationCounter, TheRateBridgeAndTheChainRunOddPeriodsWithoutAllocating) {
-  for (double fs : {44100.0, 48000.0}) {
+  for (const auto& [fs, quality] : {std::pair{44100.0, ResampleQuality::low_latency}, std::pair{48000.0, ResampleQuality::low_latency},
+                                   std::pair{44100.0, ResampleQuality::fastest}, std::pair{48000.0, ResampleQuality::fastest}}) {
     RateBridgeOptions bo;
     bo.device_rate = Hertz{fs};
+    bo.quality = quality;
     bo.max_period = Samples{256};
     bo.input_channels = 2;
     RateBridge bridge(bo);
