@@ -1,5 +1,6 @@
 #include "engine/chain.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -76,7 +77,7 @@ double Chain::process_sample(double x) noexcept {
   // What the chain asked for against what the limiter let through (a non-finite v is a fault instead).
   const double demand = std::abs(v);
   if (std::isfinite(demand)) {
-    block_limiting_.peak_demand = std::fmax(block_limiting_.peak_demand, demand);
+    block_limiting_.peak_demand = std::max(block_limiting_.peak_demand, demand);  // both finite: no fmax call
     if (demand > limiter_.options().knee) {
       ++block_limiting_.limited;
       if (demand >= 1.0) ++block_limiting_.over_range;

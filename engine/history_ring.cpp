@@ -13,15 +13,18 @@ void HistoryRing::push_input(double x) noexcept {
     // rewriting it; a reader that copied the old values then sees the announcement.
     touched_.store(k + 1, std::memory_order_relaxed);
     std::atomic_thread_fence(std::memory_order_release);
-    input_[k % input_.size()].store(x, std::memory_order_relaxed);
-    measured_[k % measured_.size()].store(0.0, std::memory_order_relaxed);
+    // Position k mod length, kept as a running index: no division per sample.
+    newest_ = next_;
+    next_ = next_ + 1 == input_.size() ? 0 : next_ + 1;
+    input_[newest_].store(x, std::memory_order_relaxed);
+    measured_[newest_].store(0.0, std::memory_order_relaxed);
   }
   final_.store(k, std::memory_order_release);
 }
 
 void HistoryRing::set_measured(double y) noexcept {
   if (count_ == 0) return;
-  if (!measured_.empty()) measured_[(count_ - 1) % measured_.size()].store(y, std::memory_order_relaxed);
+  if (!measured_.empty()) measured_[newest_].store(y, std::memory_order_relaxed);
   final_.store(count_, std::memory_order_release);
 }
 

@@ -55,6 +55,8 @@ class HistoryRing {
   std::atomic<std::uint64_t> final_{0};    // samples before this one are final
   std::atomic<std::uint64_t> touched_{0};  // samples from this one − length() on have not been overwritten
   std::uint64_t count_ = 0;                // the audio thread's own count
+  std::size_t newest_ = 0;                 // (count_ − 1) mod length: where the newest sample is
+  std::size_t next_ = 0;                   // count_ mod length: where the next one goes
 };
 
 }  // namespace panelbass::engine

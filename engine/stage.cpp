@@ -83,7 +83,7 @@ void NarxStage::prepare(const ProcessSpec& spec) {
     throw std::invalid_argument("NARX stage: the structure has " + std::to_string(st.inputs()) +
                                 " network inputs (na + nb + 1), the network " + std::to_string(model_.net.inputs()));
   }
-  workspace_ = model_.net.workspace();
+  network_ = models::MlpKernel(model_.net);
   history_ = models::NarxHistory(st);
 }
 
@@ -91,7 +91,7 @@ double NarxStage::process(double x) noexcept {
   const models::Scaling& s = model_.scaling;
   history_.push_input((x - s.u_offset) / s.u_scale);
   // [5G] y(k) = F(y(k−1..k−na), u(k−nk..k−nk−nb))
-  const double y = model_.net.forward_unchecked(history_.regressor(), workspace_);
+  const double y = network_.forward(history_.past_outputs(), history_.past_inputs());
   if (source_ == FeedbackSource::model) history_.push_output(y);
   return y * s.y_scale + s.y_offset;
 }

@@ -12,6 +12,7 @@
 #include "engine/metrics.h"
 #include "models/linear/linear_model.h"
 #include "models/narx/mlp.h"
+#include "models/narx/mlp_kernel.h"
 #include "models/narx/narx_history.h"
 #include "models/narx/narx_model.h"
 #include "models/linear/state_space_runner.h"
@@ -164,7 +165,7 @@ class NarxStage : public Stage {
  private:
   models::NarxModel model_;
   FeedbackSource source_;
-  models::Mlp::Workspace workspace_;
+  models::MlpKernel network_;    // model_.net prepared for the per-sample path
   models::NarxHistory history_;  // scaled u(k..k−nk−nb) and y(k−1..k−na)
 };
 

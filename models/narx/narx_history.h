@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cstddef>
+#include <span>
 #include <vector>
 
 namespace panelbass::models {
@@ -22,31 +23,41 @@ void fill_narx_regressor(int na, int nb, int nk, PastOutput&& past_output, Input
 }
 
 /// The recent past of one signal, newest first: a fixed length, sized once, pushed without allocating.
+/// A mirrored ring: each sample is written twice, `length` apart, so the newest `length` samples always
+/// lie contiguous (newest first) and a push moves one index instead of shifting the whole history.
 class SignalHistory {
  public:
   /// No past.
   SignalHistory() = default;
   /// `length` past samples, all 0.
-  explicit SignalHistory(std::size_t length) : values_(length, 0.0) {}
+  explicit SignalHistory(std::size_t length) : length_(length), values_(2 * length, 0.0) {}
   /// `x` becomes the newest sample (index 0); the oldest is dropped.
   void push(double x) noexcept {
-    if (values_.empty()) return;
-    std::copy_backward(values_.begin(), values_.end() - 1, values_.end());
-    values_.front() = x;
+    if (length_ == 0) return;
+    newest_ = newest_ == 0 ? length_ - 1 : newest_ - 1;
+    values_[newest_] = x;
+    values_[newest_ + length_] = x;
   }
   /// The sample `i` places back from the newest (0 = newest).
-  double operator[](std::size_t i) const noexcept { return values_[i]; }
+  double operator[](std::size_t i) const noexcept { return values_[newest_ + i]; }
   /// Number of samples kept.
-  std::size_t size() const noexcept { return values_.size(); }
+  std::size_t size() const noexcept { return length_; }
+  /// Every sample, newest first, contiguous (valid until the next push).
+  std::span<const double> newest_first() const noexcept { return {values_.data() + newest_, length_}; }
   /// Copies every sample, newest first, into x[offset..offset + size()).
   void copy_to(Eigen::Ref<Eigen::VectorXd> x, Eigen::Index offset) const noexcept {
-    for (std::size_t i = 0; i < values_.size(); ++i) x[offset + static_cast<Eigen::Index>(i)] = values_[i];
+    for (std::size_t i = 0; i < length_; ++i) x[offset + static_cast<Eigen::Index>(i)] = (*this)[i];
   }
   /// Every sample back to 0.
-  void reset() noexcept { std::fill(values_.begin(), values_.end(), 0.0); }
+  void reset() noexcept {
+    std::fill(values_.begin(), values_.end(), 0.0);
+    newest_ = 0;
+  }
 
  private:
-  std::vector<double> values_;
+  std::size_t length_ = 0;
+  std::size_t newest_ = 0;      // position of the newest sample in the first half
+  std::vector<double> values_;  // values_[newest_ + i] = values_[newest_ + i ± length_] = sample i back
 };
 
 /// A NARX model's inputs and outputs kept sample by sample (scaled units) and the regressor built from
@@ -63,6 +74,12 @@ class NarxHistory {
   void push_output(double y) noexcept { outputs_.push(y); }
   /// [5G] x(k) = [y(k−1)..y(k−na), u(k−nk)..u(k−nk−nb)] from the histories; allocation-free.
   const Eigen::VectorXd& regressor() noexcept;
+  /// The regressor's first part without copying: y(k−1)..y(k−na), contiguous.
+  std::span<const double> past_outputs() const noexcept { return outputs_.newest_first(); }
+  /// The regressor's second part without copying: u(k−nk)..u(k−nk−nb), contiguous.
+  std::span<const double> past_inputs() const noexcept {
+    return inputs_.newest_first().subspan(static_cast<std::size_t>(nk_));
+  }
   /// Every past sample back to 0.
   void reset() noexcept;
 

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <vector>
@@ -107,6 +108,39 @@ TEST(Chain, TheDriveNeverLeavesTheUnitRangeWhateverTheInput) {
         }
       }
     }
+  }
+}
+
+// The thesis's NARX size (NN 17-17-1, na = nb = 8) with random weights from `seed`, scaled output ×0.5.
+models::NarxModel thesis_narx(std::uint64_t seed) {
+  models::NarxModel m = models::NarxModel::with_structure(models::NarxStructure{}, {0.0, 1.0, 0.0, 0.5}, kFs);
+  m.net.initialize(1.0, seed);
+  return m;
+}
+
+TEST(Chain, TheFullChainIsItsStagesRunOneAfterAnotherOnTheWholeRecord) {
+  // Band-pass, linear feedforward, NARX feedback in model mode, limiter: the chain's per-sample path
+  // (the NARX stage's kernel and ring histories) against each stage's own whole-record evaluation —
+  // SosFilter, LinearModel::simulate, NarxModel::simulate (the straightforward per-sample network) —
+  // and the limiter's curve, in blocks of several lengths.
+  const models::LinearModel ff = testing::example_linear();
+  const models::NarxModel fb = thesis_narx(91);
+  const Eigen::VectorXd program = testing::uniform(6000, 0.5, 92);
+  const Eigen::VectorXd band = dsp::SosFilter(dsp::butterworth_bandpass(2, 20.0, 1200.0, kFs)).process(program);
+  const Eigen::VectorXd v = fb.simulate(ff.simulate(band));
+  ASSERT_GT(v.cwiseAbs().maxCoeff(), 0.05);  // the feedback stage shapes something
+  for (Eigen::Index block : {64, 17, 1}) {
+    ChainOptions options;
+    Chain chain(options);
+    chain.feedforward().set_initial(std::make_unique<LinearStage>(ff));
+    chain.feedback().set_initial(std::make_unique<NarxStage>(fb, FeedbackSource::model));
+    const Eigen::VectorXd drive = run(chain, program, block);
+    double worst = 0.0;
+    for (Eigen::Index k = 0; k < program.size(); ++k) {
+      worst = std::max(worst, std::abs(drive[k] - testing::reference_soft_limit(v[k], options.limiter.knee)));
+    }
+    EXPECT_LE(worst, 1e-12) << "blocks of " << block;
+    EXPECT_EQ(chain.metrics().snapshot().faults, 0u);
   }
 }
 

@@ -88,6 +88,30 @@ TEST(NarxStage, SensorModeEqualsNarxModelPredictFromTheMeasuredOutputs) {
   EXPECT_LE((run(stage, u, measured) - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
 }
 
+TEST(NarxStage, TheThesisSizeAndTwoHiddenLayersEqualTheModelsOwnSimulationInBothModes) {
+  // NN 17-17-1 (na = nb = 8) and a two-layer net with a delay, large weights so every tanh bends: the
+  // stage's kernel (padded column-major weights, vectorised tanh) and ring histories against
+  // NarxModel::simulate and ::predict, which run Mlp::forward on regressors built from the whole record.
+  models::NarxStructure two_layers;
+  two_layers.na = 3;
+  two_layers.nb = 5;
+  two_layers.nk = 2;
+  two_layers.hidden = {9, 6};
+  for (const models::NarxStructure& st : {models::NarxStructure{}, two_layers}) {
+    models::NarxModel m = models::NarxModel::with_structure(st, {0.01, 0.9, -0.02, 0.8}, kFs);
+    m.net.initialize(1.0, 17, 2.0);
+    const Eigen::VectorXd u = testing::uniform(5000, 1.0, 18);
+    const Eigen::VectorXd measured = testing::uniform(5000, 0.5, 19);
+    NarxStage model_mode(m, FeedbackSource::model), sensor_mode(m, FeedbackSource::sensor);
+    model_mode.prepare({kFs, 64});
+    sensor_mode.prepare({kFs, 64});
+    const Eigen::VectorXd simulated = m.simulate(u), predicted = m.predict(u, measured);
+    EXPECT_LE((run(model_mode, u) - simulated).cwiseAbs().maxCoeff(), 1e-12 * simulated.cwiseAbs().maxCoeff());
+    EXPECT_LE((run(sensor_mode, u, measured) - predicted).cwiseAbs().maxCoeff(),
+              1e-12 * predicted.cwiseAbs().maxCoeff());
+  }
+}
+
 TEST(Stage, WarmUpFromRecentHistoryContinuesAnUninterruptedRun) {
   const models::LinearModel m = testing::example_linear();
   const Eigen::VectorXd u = testing::uniform(1200, 0.5, 8);

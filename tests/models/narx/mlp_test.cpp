@@ -2,12 +2,19 @@
 // from its formula, a plain loop evaluation of θ's documented layout, central finite differences for
 // every gradient, and the [5F] bound on the initial node inputs checked analytically.
 #include "models/narx/mlp.h"
+#include "models/narx/mlp_kernel.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <span>
+#include <utility>
 #include <stdexcept>
 #include <vector>
+
+#include "dsp/random.h"
 
 namespace panelbass::models {
 namespace {
@@ -111,6 +118,51 @@ TEST(Mlp, ForwardFollowsDocumentedLayoutForOneAndTwoHiddenLayers) {
       const Eigen::VectorXd x = Eigen::VectorXd::LinSpaced(3, -1.0 + 0.3 * t, 0.8 - 0.2 * t);
       EXPECT_NEAR(net.forward(x, ws), plain_forward(net.parameters(), 3, hidden, x), 1e-13);
       EXPECT_EQ(ws.input, x);
+    }
+  }
+}
+
+TEST(TanhInPlace, IsWithin1e15OfStdTanhAndKeepsTheLimitsAndNaN) {
+  // A dense grid over the range a node input takes and beyond, plus the tiny and the special values.
+  std::vector<double> x;
+  for (int i = -40000; i <= 40000; ++i) x.push_back(i * 6.25e-4);  // [−25, 25]
+  for (double tiny : {1e-300, 1e-20, 1e-9, 3e-5}) {
+    x.push_back(tiny);
+    x.push_back(-tiny);
+  }
+  const double inf = std::numeric_limits<double>::infinity();
+  x.insert(x.end(), {-0.0, 400.0, -400.0, 1e300, -1e300, inf, -inf});
+  std::vector<double> y = x;
+  tanh_in_place(y);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) worst = std::max(worst, std::abs(y[i] - std::tanh(x[i])));
+  EXPECT_LE(worst, 1e-15);
+  EXPECT_EQ(y[y.size() - 2], 1.0);
+  EXPECT_EQ(y[y.size() - 1], -1.0);
+  std::vector<double> nan = {0.5, std::numeric_limits<double>::quiet_NaN(), 0.25};
+  tanh_in_place(nan);
+  EXPECT_TRUE(std::isnan(nan[1]));
+  EXPECT_NEAR(nan[0], std::tanh(0.5), 1e-15);
+}
+
+TEST(MlpKernel, GivesTheDocumentedLayoutsOutputWithTheInputSplitAnywhere) {
+  // Widths on and off the kernel's multiples of 4, no hidden layer, and the thesis's NN 17-17-1.
+  const std::vector<std::pair<int, std::vector<int>>> shapes = {
+      {3, {}}, {3, {4}}, {5, {7, 3}}, {17, {17}}, {2, {5, 8, 1}}};
+  for (const auto& [inputs, hidden] : shapes) {
+    Mlp net(inputs, hidden);
+    net.initialize(1.0, 7, 3.0);  // weights large enough that every tanh is visibly nonlinear
+    MlpKernel kernel(net);
+    ASSERT_EQ(kernel.inputs(), inputs);
+    dsp::Rng rng(11);
+    for (int t = 0; t < 20; ++t) {
+      Eigen::VectorXd x(inputs);
+      for (double& v : x) v = rng.uniform(-1.0, 1.0);
+      const double expected = plain_forward(net.parameters(), inputs, hidden, x);
+      const auto split = static_cast<std::size_t>(t % (inputs + 1));
+      const std::span<const double> all(x.data(), static_cast<std::size_t>(inputs));
+      EXPECT_NEAR(kernel.forward(all.first(split), all.subspan(split)), expected, 1e-13)
+          << inputs << " inputs, " << hidden.size() << " layers, split " << split;
     }
   }
 }

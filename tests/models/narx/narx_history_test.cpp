@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <span>
 #include <vector>
 
 #include "models/narx/narx_model.h"
@@ -30,6 +31,27 @@ TEST(SignalHistory, KeepsTheNewestSampleFirstAndDropsTheOldest) {
   SignalHistory none;
   none.push(1.0);  // nothing kept, nothing broken
   EXPECT_EQ(none.size(), 0u);
+}
+
+TEST(SignalHistory, ItsContiguousWindowIsTheShiftedHistoryAcrossManyWrapArounds) {
+  // Against a history shifted by hand, newest first, over more pushes than the ring has places many times.
+  for (std::size_t length : {1u, 4u, 17u}) {
+    SignalHistory h(length);
+    std::vector<double> shifted(length, 0.0);
+    for (int k = 0; k < 100; ++k) {
+      const double x = std::sin(0.7 * k) + 0.01 * k;
+      h.push(x);
+      shifted.insert(shifted.begin(), x);
+      shifted.pop_back();
+      const std::span<const double> window = h.newest_first();
+      ASSERT_EQ(std::vector<double>(window.begin(), window.end()), shifted) << length << " " << k;
+      for (std::size_t i = 0; i < length; ++i) ASSERT_EQ(h[i], shifted[i]);
+    }
+    h.reset();
+    h.push(5.0);
+    EXPECT_EQ(h[0], 5.0);
+    for (std::size_t i = 1; i < length; ++i) EXPECT_EQ(h[i], 0.0);
+  }
 }
 
 TEST(NarxHistory, SampleBySampleItIsTheRegressorOfTheWholeRecord) {
@@ -58,6 +80,10 @@ TEST(NarxHistory, SampleBySampleItIsTheRegressorOfTheWholeRecord) {
       for (Eigen::Index i = 0; i < x.size(); ++i) ASSERT_EQ(x[i], expected[static_cast<std::size_t>(i)]) << k << " " << i;
       m.regressor(u, y, k, from_record);
       ASSERT_EQ(from_record, x) << k;
+      // The same regressor in two contiguous parts, as the engine's NARX stage reads it without a copy.
+      std::vector<double> parts(history.past_outputs().begin(), history.past_outputs().end());
+      parts.insert(parts.end(), history.past_inputs().begin(), history.past_inputs().end());
+      ASSERT_EQ(parts, expected) << k;
       history.push_output(y[k]);
     }
     history.reset();
