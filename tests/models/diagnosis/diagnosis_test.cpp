@@ -157,10 +157,8 @@ TEST(Diagnosis, APanelExcitersSmallFirstSampleIsNotTakenForDeadTime) {
   }
 }
 
-TEST(Diagnosis, APeriodicMultisineRecordIsIdentifiedAndItsEmptyLinesAreRead) {
-  // Five periods of a random-odd multisine (10–1200 Hz) through the linear plant: the input has no power
-  // above 1200 Hz (the baseline's delay estimate must not need it), the record is found periodic, and a
-  // linear plant puts nothing on the empty lines beyond its noise.
+// Five periods of a random-odd multisine (4096 samples a period, 10–1200 Hz, amplitude 0.8), seed `seed`.
+Eigen::VectorXd odd_multisine(std::uint64_t seed) {
   dsp::MultisineSpec spec;
   spec.period = 4096;
   spec.periods = 5;
@@ -168,11 +166,16 @@ TEST(Diagnosis, APeriodicMultisineRecordIsIdentifiedAndItsEmptyLinesAreRead) {
   spec.f_min = 10.0;
   spec.lines = dsp::MultisineLines::random_odd;
   spec.amplitude = 0.8;
+  spec.seed = seed;
+  return dsp::multisine(spec).signal;
+}
+
+TEST(Diagnosis, APeriodicMultisineRecordIsIdentifiedAndItsEmptyLinesAreRead) {
+  // Five periods of a random-odd multisine (10–1200 Hz) through the linear plant: the input has no power
+  // above 1200 Hz (the baseline's delay estimate must not need it), the record is found periodic, and a
+  // linear plant puts nothing on the empty lines beyond its noise.
   const PlantConfig plant = plant_preset("linear");
-  spec.seed = 1;
-  const Eigen::VectorXd u_est = dsp::multisine(spec).signal;
-  spec.seed = 2;
-  const Eigen::VectorXd u_val = dsp::multisine(spec).signal;
+  const Eigen::VectorXd u_est = odd_multisine(1), u_val = odd_multisine(2);
   const Diagnosis d = diagnose(u_est, simulate(plant, u_est, 3).y, u_val, simulate(plant, u_val, 4).y, kFs, std::nullopt,
                                narrow_scan());
   const PeriodicDistortion& p = d.located_val.distortion;
@@ -190,21 +193,11 @@ TEST(Diagnosis, APeriodicMultisineRecordIsIdentifiedAndItsEmptyLinesAreRead) {
 // even lines hold noise, so an even-order term (an asymmetric spring) is ruled out by the periodic record
 // and the spring is named by its odd term.
 TEST(Diagnosis, AnOddMultisineRulesOutEvenOrderTermsWhenOnlyOddDistortionIsLeft) {
-  dsp::MultisineSpec spec;
-  spec.period = 4096;
-  spec.periods = 5;
-  spec.fs = kFs;
-  spec.f_min = 10.0;
-  spec.lines = dsp::MultisineLines::random_odd;
-  spec.amplitude = 0.8;
   PlantConfig plant = plant_preset("linear");
   plant.nonlinear.stiffness.enabled = true;
   plant.nonlinear.stiffness.k1_per_mm = 0.0;   // symmetric: no x² part
   plant.nonlinear.stiffness.k2_per_mm2 = 0.12;
-  spec.seed = 1;
-  const Eigen::VectorXd u_est = dsp::multisine(spec).signal;
-  spec.seed = 2;
-  const Eigen::VectorXd u_val = dsp::multisine(spec).signal;
+  const Eigen::VectorXd u_est = odd_multisine(1), u_val = odd_multisine(2);
   DiagnosisOptions o = narrow_scan();
   o.max_findings = 1;
   const Diagnosis d = diagnose(u_est, simulate(plant, u_est, 3).y, u_val, simulate(plant, u_val, 4).y, kFs, std::nullopt, o);
