@@ -3,7 +3,9 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "dsp/excitation.h"
 #include "dsp/sample_rate.h"
+#include "engine/measurement.h"
 #include "api/alsa_status_json.h"
 #include "models/io/config_error.h"
 #include "models/io/number_text.h"
@@ -390,18 +392,75 @@ Eigen::VectorXd EngineService::excite(const Eigen::VectorXd& drive) {
                                   models::number_text(drive[k]) + ", outside [-1, 1]");
     }
   }
-  if (alsa_) {
-    throw EngineRequestError(409, "conflict",
-                             "excite: this server plays on a sound card (ALSA), which it cannot measure through "
-                             "yet: identify from a recording of the transducer (panelbass identify linear --data "
-                             "rec.wav) and upload the model");
-  }
+  if (alsa_) return measure(drive).y;
   std::uint64_t seed = 0;
   {
     const std::lock_guard lock(mutex_);
     seed = options_.seed + 1 + excitations_++;
   }
   return models::simulate(options_.plant, drive, seed).y;
+}
+
+MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
+  if (!alsa_) throw EngineRequestError(409, "conflict", "measure: this server plays on the virtual transducer");
+  const double fs = options_.chain.fs, safe = options_.safe_level;
+  const double peak = drive.size() > 0 ? drive.cwiseAbs().maxCoeff() : 0.0;
+  if (!drive.allFinite() || peak > safe) {
+    throw std::invalid_argument("excite: the drive's peak " + models::number_text(peak) + " exceeds the card's safe level " +
+                                models::number_text(safe) + " (panelbass serve --safe-level)");
+  }
+  const engine::AlsaOptions& card = *options_.alsa;
+  if (card.sensor_channel == engine::kNoChannel) {
+    throw EngineRequestError(409, "conflict", "excite: the card captures no sensor (panelbass serve --sensor-channel)");
+  }
+  // The played sequence: a calibration sweep (faded in and out), a gap, the drive, and a tail of silence
+  // long enough for the longest round trip looked for.
+  const auto samples = [&](double seconds) { return static_cast<Eigen::Index>(std::llround(seconds * fs)); };
+  const Eigen::Index sweep_n = samples(0.25), gap = samples(0.05), tail = samples(0.25), fade = samples(0.005);
+  Eigen::VectorXd sweep = dsp::log_sweep(static_cast<std::size_t>(sweep_n), fs, 20.0, 0.4 * fs, 0.5 * safe);
+  for (Eigen::Index k = 0; k < fade; ++k) {
+    const double g = 0.5 - 0.5 * std::cos(M_PI * static_cast<double>(k) / static_cast<double>(fade));
+    sweep[k] *= g;
+    sweep[sweep_n - 1 - k] *= g;
+  }
+  const Eigen::Index offset = sweep_n + gap;
+  std::vector<double> played(static_cast<std::size_t>(offset + drive.size() + tail), 0.0);
+  for (Eigen::Index k = 0; k < sweep_n; ++k) played[static_cast<std::size_t>(k)] = sweep[k];
+  for (Eigen::Index k = 0; k < drive.size(); ++k) played[static_cast<std::size_t>(offset + k)] = drive[k];
+  engine::Measurement m(std::move(played), static_cast<std::size_t>(std::max<Eigen::Index>(1, samples(options_.measurement_fade_s))));
+  const auto duration = std::chrono::milliseconds(static_cast<long long>(1e3 * static_cast<double>(m.drive().size()) / fs));
+  const auto began = std::chrono::steady_clock::now();
+  if (alsa_->measure(m, duration + std::chrono::seconds(10)) != engine::Measurement::State::finished) {
+    throw std::runtime_error("excite: the measurement through the card was interrupted (an xrun, the device lost, or "
+                             "no device streaming: see GET /api/status, engine.device)");
+  }
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
+  const auto as_vector = [](const std::vector<double>& x) {
+    return Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size())).eval();
+  };
+  const Eigen::VectorXd heard_sensor = as_vector(m.captured(engine::MeasuredChannel::sensor));
+  const bool loopback = card.loopback_channel != engine::kNoChannel;
+  const Eigen::VectorXd reference = loopback ? as_vector(m.captured(engine::MeasuredChannel::loopback)) : heard_sensor;
+  const Eigen::VectorXd sent = as_vector(m.drive());
+  if (reference.cwiseAbs().maxCoeff() == 0.0) {
+    throw std::runtime_error(std::string("excite: the card's ") + (loopback ? "loopback" : "sensor") +
+                             " channel stayed silent: nothing of the drive came back (is the transducer connected?)");
+  }
+  const engine::RoundTrip trip = engine::find_round_trip(sent, reference, tail);
+  MeasuredResponse out;
+  out.y = heard_sensor.segment(offset + trip.samples, drive.size());
+  if (card.current_channel != engine::kNoChannel) {
+    out.i = as_vector(m.captured(engine::MeasuredChannel::current)).segment(offset + trip.samples, drive.size());
+  }
+  out.report = {{"calibrated_on", loopback ? "loopback" : "sensor"},
+                {"round_trip_samples", trip.samples},
+                {"round_trip_fractional", trip.fractional},
+                {"round_trip_ms", 1e3 * trip.fractional / fs},
+                {"peak_correlation", trip.peak},
+                {"safe_level", safe},
+                {"played_s", static_cast<double>(m.drive().size()) / fs},
+                {"took_s", took}};
+  return out;
 }
 
 }  // namespace panelbass::api

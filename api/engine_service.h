@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "api/jobs/excitation_record.h"
 #include "engine/alsa_backend.h"
 #include "engine/chain.h"
 #include "engine/chain_file.h"
@@ -53,6 +54,10 @@ struct EngineServiceOptions {
   /// Play on a sound card instead (program from its options, at the device rate); the virtual transducer
   /// then only sets the chain's rate. nullopt: the virtual transducer.
   std::optional<engine::AlsaOptions> alsa;
+  /// On a sound card: the largest drive peak a measurement may play (the exciter's safe level).
+  double safe_level = 0.5;
+  /// On a sound card: the program's fade out before a measurement and back in after it, seconds.
+  double measurement_fade_s = 0.02;
 };
 
 /// The chain slots a model can be activated in.
@@ -126,6 +131,14 @@ class EngineService {
   /// playing) and returns the measured response; throws std::invalid_argument for a drive outside [−1, 1]
   /// or non-finite, and EngineRequestError (409) on a sound card, which this service cannot measure through.
   Eigen::VectorXd excite(const Eigen::VectorXd& drive);
+  /// On a sound card: plays a calibration sweep, then `drive`, through the playback PCM in place of the
+  /// chain (program faded out and paused), captures the sensor (and current, loopback), finds the round
+  /// trip from the loopback channel (else the sensor) and returns the response with it removed, at the
+  /// chain's rate. Throws std::invalid_argument for a drive beyond the safe level, EngineRequestError (409)
+  /// on the virtual transducer, std::runtime_error when the card interrupted it (an xrun, a lost device).
+  MeasuredResponse measure(const Eigen::VectorXd& drive);
+  /// The largest drive peak the backend may be excited with (1 on the virtual transducer).
+  double safe_level() const { return alsa_ ? options_.safe_level : 1.0; }
   /// The simulated transducer.
   const models::PlantConfig& plant() const { return options_.plant; }
   /// The engine's rate, Hz.

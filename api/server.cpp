@@ -166,9 +166,12 @@ Server::Server(ServerOptions options) : options_(std::move(options)) {
   engine_ = std::make_unique<EngineService>(options_.engine);
 
   environment_.fs = engine_->fs();
-  // On a sound card there is no transducer to excite, nor a simulated one to compare with.
-  if (!engine_->device_status()) {
-    environment_.excite = [this](const Eigen::VectorXd& drive) { return engine_->excite(drive); };
+  // On a sound card the jobs measure through it; there is no simulated transducer to compare with.
+  environment_.excite = [this](const Eigen::VectorXd& drive) { return engine_->excite(drive); };
+  environment_.safe_level = engine_->safe_level();
+  if (engine_->device_status()) {
+    environment_.measure = [this](const Eigen::VectorXd& drive) { return engine_->measure(drive); };
+  } else {
     environment_.plant = engine_->plant();
   }
   environment_.store = store_.get();

@@ -34,6 +34,11 @@ void add_alsa_options(CLI::App* cmd, AlsaCliOptions& o) {
                   "ALSA: capture channel with the program input (default: the program played from memory)");
   cmd->add_option("--sensor-channel", o.sensor_channel,
                   "ALSA: capture channel with the sensor (needed for a feedback stage in sensor mode)");
+  cmd->add_option("--current-channel", o.current_channel,
+                  "ALSA: capture channel with the coil current (recorded by measurements; default: none)");
+  cmd->add_option("--loopback-channel", o.loopback_channel,
+                  "ALSA: capture channel hearing the drive looped back, which calibrates a measurement's round trip "
+                  "(default: none; the sensor then calibrates it, the transducer's own delay included)");
   cmd->add_option("--quality", o.quality, "ALSA: resampler when the device runs at another rate: low-latency (minimum-phase, ~1.5 ms) or "
                   "libsamplerate's fastest|medium|best (linear-phase, 13 ms and more)")
       ->check(CLI::IsMember({"low-latency", "fastest", "medium", "best"}))
@@ -55,6 +60,8 @@ engine::AlsaOptions alsa_options_of(const AlsaCliOptions& o) {
   options.capture_channels = o.capture_channels;
   options.program_channel = o.program_channel;
   options.sensor_channel = o.sensor_channel;
+  options.current_channel = o.current_channel;
+  options.loopback_channel = o.loopback_channel;
   options.quality = quality_of(o.quality);
   if (!o.config_file.empty()) {
     std::ifstream in(o.config_file);

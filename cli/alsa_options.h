@@ -21,6 +21,8 @@ struct AlsaCliOptions {
   int capture_channels = 2;                   ///< channels of the capture PCM
   int program_channel = engine::kNoChannel;   ///< capture channel with the program input
   int sensor_channel = engine::kNoChannel;    ///< capture channel with the sensor
+  int current_channel = engine::kNoChannel;   ///< capture channel with the coil current (measurements)
+  int loopback_channel = engine::kNoChannel;  ///< capture channel hearing the drive itself (calibration)
   std::string quality = "low-latency";          ///< the rate bridge's resampler quality
   std::string config_file;                    ///< ALSA configuration file to open the PCMs from ("" = system's)
 };

@@ -48,4 +48,7 @@ void register_diagnose(CLI::App& app);
 /// `panelbass serve`: the engine, the HTTP API and the web UI in one process.
 void register_serve(CLI::App& app);
 
+/// `panelbass transducer --jack`: the virtual transducer as a JACK client (drive in, sensor and current out).
+void register_transducer(CLI::App& app);
+
 }  // namespace panelbass::cli

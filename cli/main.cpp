@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   panelbass::cli::register_evaluate(app);
   panelbass::cli::register_diagnose(app);
   panelbass::cli::register_serve(app);
+  panelbass::cli::register_transducer(app);
 
   try {
     app.parse(argc, argv);

@@ -48,6 +48,7 @@ struct ServeOptions {
   std::size_t body_limit_mib = 16;
   std::string backend = "virtual";
   int realtime_priority = 0;
+  double safe_level = 0.5;
   AlsaCliOptions alsa;
 };
 
@@ -107,6 +108,7 @@ void run_serve(const ServeOptions& o) {
   if (on_card) {
     options.engine.alsa = alsa_options_of(o.alsa);
     options.engine.alsa->realtime_priority = o.realtime_priority;
+    options.engine.safe_level = o.safe_level;
     if (o.alsa.program_channel == engine::kNoChannel) options.engine.alsa->program = std::move(program);
   } else {
     options.engine.program = std::move(program);
@@ -123,7 +125,7 @@ void run_serve(const ServeOptions& o) {
   std::cout << "panelbass: serving " << server.address() << " (store " << o.store << ")" << std::endl;
   std::thread demo;
   if (o.demo && on_card) {
-    std::cerr << "serve: no demo on a sound card (its jobs excite the virtual transducer)\n";
+    std::cerr << "serve: no demo on a sound card (start the tune from the web UI once the transducer is connected)\n";
   } else if (o.demo) {
     const double program_peak = o.signal == "silence" ? 0.0 : o.amplitude;
     demo = std::thread([&server, program_peak] { run_demo(server, program_peak); });
@@ -181,6 +183,10 @@ void register_serve(CLI::App& app) {
       ->check(CLI::Range(0, 99))
       ->capture_default_str();
   add_alsa_options(cmd, o->alsa);
+  cmd->add_option("--safe-level", o->safe_level,
+                  "ALSA: the largest drive peak a measurement plays through the card (the exciter's safe level)")
+      ->check(CLI::Range(1e-6, 1.0))
+      ->capture_default_str();
   cmd->footer(
       "Examples:\n  panelbass serve                      (http://127.0.0.1:8080/, demo jobs at start-up)\n"
       "  panelbass serve --port 0 --no-demo --store /tmp/store\n"

@@ -64,9 +64,13 @@ void checked(const AlsaOptions& o) {
     if (o.capture_channels < 1) fail("capture_channels must be >= 1, got " + std::to_string(o.capture_channels));
     check_channel("program_channel", o.program_channel, o.capture_channels, true);
     check_channel("sensor_channel", o.sensor_channel, o.capture_channels, true);
+    check_channel("current_channel", o.current_channel, o.capture_channels, true);
+    check_channel("loopback_channel", o.loopback_channel, o.capture_channels, true);
   } else {
     if (o.program_channel != kNoChannel) fail("program_channel is set but no capture device is named");
     if (o.sensor_channel != kNoChannel) fail("sensor_channel is set but no capture device is named");
+    if (o.current_channel != kNoChannel) fail("current_channel is set but no capture device is named");
+    if (o.loopback_channel != kNoChannel) fail("loopback_channel is set but no capture device is named");
   }
   for (const double x : o.program) {
     if (!std::isfinite(x)) fail("the program has a non-finite sample");
@@ -93,7 +97,11 @@ AlsaBackend::AlsaBackend(Chain& chain, AlsaOptions options)
     bridge.device_rate = options_.rate;
     bridge.model_rate = Hertz{spec.fs};
     bridge.max_period = options_.period;
-    bridge.input_channels = options_.sensor_channel != kNoChannel ? 2 : 1;
+    // Program, then the sensor, the current and the loopback as far as the last one captured.
+    bridge.input_channels = options_.loopback_channel != kNoChannel  ? 4
+                            : options_.current_channel != kNoChannel ? 3
+                            : options_.sensor_channel != kNoChannel  ? 2
+                                                                     : 1;
     bridge.quality = options_.quality;
     bridge_ = std::make_unique<RateBridge>(bridge);
     if (bridge_->max_model_block() > static_cast<std::size_t>(spec.max_block)) {
@@ -122,6 +130,9 @@ AlsaBackend::AlsaBackend(Chain& chain, AlsaOptions options)
   }
   program_.assign(period, 0.0);
   sensor_.assign(period, 0.0);
+  current_.assign(period, 0.0);
+  loopback_.assign(period, 0.0);
+  zeros_.assign(std::max<std::size_t>(period, static_cast<std::size_t>(spec.max_block)), 0.0);
   drive_.assign(period, 0.0);
   devices_->playback_raw.assign(period * static_cast<std::size_t>(options_.playback_channels) * kMaxSampleBytes, 0);
   devices_->capture_raw.assign(period * static_cast<std::size_t>(options_.capture_channels) * kMaxSampleBytes, 0);
@@ -141,6 +152,28 @@ void AlsaBackend::stop() {
   stop_.store(true, std::memory_order_relaxed);
   if (thread_.joinable()) thread_.join();
   state_.store(AlsaState::stopped, std::memory_order_relaxed);
+}
+
+Measurement::State AlsaBackend::measure(Measurement& m, std::chrono::milliseconds timeout) {
+  const std::lock_guard turn(measuring_);
+  if (m.state() != Measurement::State::pending) throw std::logic_error("alsa backend: a measurement is played once");
+  const auto until = std::chrono::steady_clock::now() + timeout;
+  measurement_request_.store(&m, std::memory_order_release);
+  for (;;) {
+    const Measurement::State s = m.state();
+    if (s == Measurement::State::finished || s == Measurement::State::aborted) return s;
+    if (std::chrono::steady_clock::now() >= until || !thread_.joinable()) {
+      // Withdraw it if the device thread has not taken it; else have it abandoned, and wait for that.
+      Measurement* expected = &m;
+      if (measurement_request_.compare_exchange_strong(expected, nullptr, std::memory_order_acq_rel)) {
+        m.cancel();
+        m.abort();
+        return Measurement::State::aborted;
+      }
+      m.cancel();
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
 }
 
 RateBridgeLatency AlsaBackend::resampling_latency() const { return bridge_ ? bridge_->latency() : RateBridgeLatency{}; }

@@ -21,12 +21,14 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "engine/chain.h"
+#include "engine/measurement.h"
 #include "engine/rate_bridge.h"
 
 namespace panelbass::engine {
@@ -56,6 +58,8 @@ struct AlsaOptions {
   int capture_channels = 2;                 ///< channels of the capture PCM
   int program_channel = kNoChannel;         ///< capture channel with program input (none: `program`)
   int sensor_channel = kNoChannel;          ///< capture channel with the sensor (none: model mode)
+  int current_channel = kNoChannel;         ///< capture channel with the coil current (measurements only)
+  int loopback_channel = kNoChannel;        ///< capture channel hearing the drive itself (calibrates measurements)
   std::vector<double> program;              ///< program at the device rate when program_channel is none
   bool loop_program = true;                 ///< repeat `program`; else silence after its end
   std::string config_text;  ///< ALSA configuration to open both PCMs from (snd_pcm_open_lconf); "" = system's
@@ -115,6 +119,11 @@ class AlsaBackend {
   RateBridgeLatency resampling_latency() const;
   /// The options the backend was built with.
   const AlsaOptions& options() const { return options_; }
+  /// Plays `m` on the device thread in place of the chain (the program faded out before it and back in
+  /// after, the chain's stages not run meanwhile) and waits until it has finished or been aborted, at most
+  /// `timeout` (then it is cancelled). Returns its final state; a measurement already under way (from
+  /// another thread) makes this one wait its turn. Call from a control thread while the backend runs.
+  Measurement::State measure(Measurement& m, std::chrono::milliseconds timeout);
 
  private:
   struct Devices;  // the PCMs, their configuration and raw buffers (libasound types stay in the .cpp)
@@ -127,6 +136,8 @@ class AlsaBackend {
   int read_period() noexcept;
   int write_period() noexcept;
   void process_period() noexcept;
+  void run_model_block(std::span<const std::span<const double>> in, std::span<double> out) noexcept;
+  void end_measurement(bool aborted) noexcept;
   bool recover(void* pcm, int err, const char* where) noexcept;
   void set_error(const char* where, int err) noexcept;
   void set_error_text(const char* text) noexcept;
@@ -138,7 +149,16 @@ class AlsaBackend {
   std::unique_ptr<Devices> devices_;
   // Device-rate channels of one period.
   std::vector<double> program_, sensor_, drive_;
+  std::vector<double> current_, loopback_, zeros_;
   std::size_t program_pos_ = 0;
+  // Measurements: handed over through `measurement_request_`, played by the device thread alone.
+  std::atomic<Measurement*> measurement_request_{nullptr};
+  std::mutex measuring_;  // one measurement at a time (control threads only)
+  enum class MeasurePhase : std::uint8_t { idle, fading_out, measuring, fading_in };
+  Measurement* measurement_ = nullptr;  // device thread only
+  MeasurePhase phase_ = MeasurePhase::idle;
+  std::size_t ramp_ = 0, fade_ = 1;
+  std::uint64_t xruns_at_start_ = 0;
   std::uint64_t period_index_ = 0;
 
   std::thread thread_;

@@ -132,12 +132,17 @@ void AlsaBackend::run() noexcept {
     state_.store(AlsaState::running, std::memory_order_relaxed);
     const bool stopped = stream();
     close_devices();
+    end_measurement(true);  // a device lost (or stopped) mid-measurement leaves it incomplete
+    phase_ = MeasurePhase::idle;
     if (stopped || stop_.load(std::memory_order_relaxed)) break;
     losses_.fetch_add(1, std::memory_order_relaxed);
     state_.store(AlsaState::reopening, std::memory_order_relaxed);
     if (!sleep_unless_stopped(wait)) break;
   }
   close_devices();
+  end_measurement(true);
+  phase_ = MeasurePhase::idle;
+  if (Measurement* m = measurement_request_.exchange(nullptr, std::memory_order_acq_rel)) m->abort();
   state_.store(AlsaState::stopped, std::memory_order_relaxed);
 }
 

@@ -63,6 +63,8 @@ int AlsaBackend::read_period() noexcept {
   };
   if (options_.program_channel != kNoChannel) take(options_.program_channel, program_);
   if (options_.sensor_channel != kNoChannel) take(options_.sensor_channel, sensor_);
+  if (options_.current_channel != kNoChannel) take(options_.current_channel, current_);
+  if (options_.loopback_channel != kNoChannel) take(options_.loopback_channel, loopback_);
   return static_cast<int>(AlsaIo::ok);
 }
 
@@ -117,11 +119,12 @@ int AlsaBackend::write_period() noexcept {
 }
 
 void AlsaBackend::process_period() noexcept {
-  // Program input from the vector when no capture channel carries it.
+  // Program input from the vector when no capture channel carries it; paused while a measurement plays.
   if (options_.program_channel == kNoChannel) {
     const std::vector<double>& p = options_.program;
+    const bool paused = phase_ == MeasurePhase::measuring;
     for (double& x : program_) {
-      if (p.empty() || (!options_.loop_program && program_pos_ >= p.size())) {
+      if (paused || p.empty() || (!options_.loop_program && program_pos_ >= p.size())) {
         x = 0.0;
         continue;
       }
@@ -131,26 +134,17 @@ void AlsaBackend::process_period() noexcept {
   }
   const bool sensed = options_.sensor_channel != kNoChannel;
   std::span<const double> model_program, model_drive;
-  // The chain with the sensor as it was captured for the same position in the period: a real loop
-  // measures the drive only after the device's round trip, which the feedback stage is designed for.
-  const auto run_chain = [&](std::span<const double> program, std::span<const double> sensor, std::span<double> drive) {
-    if (sensed) {
-      std::size_t k = 0;
-      chain_.process_block(program, drive, [&](double) noexcept { return sensor[k++]; });
-    } else {
-      chain_.process_block(program, drive);
-    }
-    model_program = program;
-    model_drive = drive;
+  const auto run = [&](std::span<const std::span<const double>> in, std::span<double> out) {
+    run_model_block(in, out);
+    model_program = in[0];
+    model_drive = out;
   };
+  const std::span<const double> in[4] = {program_, sensor_, current_, loopback_};
   if (bridge_) {
-    const std::span<const double> in[2] = {program_, sensor_};
-    bridge_->process(std::span<const std::span<const double>>(in, sensed ? 2 : 1), drive_,
-                     [&](std::span<const std::span<const double>> model_in, std::span<double> model_out) {
-                       run_chain(model_in[0], sensed ? model_in[1] : std::span<const double>{}, model_out);
-                     });
+    const auto channels = static_cast<std::size_t>(bridge_->options().input_channels);
+    bridge_->process(std::span<const std::span<const double>>(in, channels), drive_, run);
   } else {
-    run_chain(program_, sensor_, drive_);
+    run(std::span<const std::span<const double>>(in, 4), drive_);
   }
   // The chain's limiter keeps its drive in [−1, 1]; the interpolator's ringing may overshoot a hair.
   for (double& x : drive_) x = std::isfinite(x) ? std::clamp(x, -1.0, 1.0) : 0.0;
@@ -160,6 +154,70 @@ void AlsaBackend::process_period() noexcept {
   }
   ++period_index_;
   periods_.fetch_add(1, std::memory_order_relaxed);
+}
+
+void AlsaBackend::end_measurement(bool aborted) noexcept {
+  if (measurement_ == nullptr) return;
+  if (aborted) measurement_->abort();
+  measurement_ = nullptr;
+  phase_ = MeasurePhase::fading_in;
+  ramp_ = 0;
+}
+
+void AlsaBackend::run_model_block(std::span<const std::span<const double>> in, std::span<double> out) noexcept {
+  const std::size_t n = out.size();
+  const bool sensed = options_.sensor_channel != kNoChannel;
+  // A channel the bridge does not carry (or the card does not capture) reads as silence.
+  const auto channel = [&](std::size_t c) {
+    return c < in.size() ? in[c] : std::span<const double>(zeros_.data(), n);
+  };
+  const std::span<const double> program = in[0], sensor = channel(1), current = channel(2), loopback = channel(3);
+  if (phase_ == MeasurePhase::idle) {
+    if (Measurement* m = measurement_request_.exchange(nullptr, std::memory_order_acq_rel)) {
+      if (m->begin()) {
+        measurement_ = m;
+        fade_ = m->fade_samples();
+        ramp_ = 0;
+        phase_ = MeasurePhase::fading_out;
+        xruns_at_start_ = xruns_.load(std::memory_order_relaxed);
+      }
+    }
+  }
+  if (measurement_ != nullptr &&
+      (measurement_->cancelled() || xruns_.load(std::memory_order_relaxed) != xruns_at_start_)) {
+    // Cancelled, or an xrun broke the round trip's timing: the record would be misaligned.
+    end_measurement(true);
+  }
+  if (phase_ == MeasurePhase::measuring) {
+    std::fill(out.begin(), out.end(), 0.0);  // the chain is bypassed: nothing of it reaches the drive
+  } else if (sensed) {
+    // The chain with the sensor as it was captured for the same position in the period: a real loop
+    // measures the drive only after the device's round trip, which the feedback stage is designed for.
+    std::size_t k = 0;
+    chain_.process_block(program, out, [&](double) noexcept { return sensor[k++]; });
+  } else {
+    chain_.process_block(program, out);
+  }
+  for (std::size_t k = 0; k < n && phase_ != MeasurePhase::idle; ++k) {
+    switch (phase_) {
+      case MeasurePhase::fading_out:
+        out[k] *= 1.0 - static_cast<double>(ramp_) / static_cast<double>(fade_);
+        if (++ramp_ >= fade_) phase_ = MeasurePhase::measuring;
+        break;
+      case MeasurePhase::measuring: {
+        bool done = false;
+        out[k] = measurement_->step(sensor[k], current[k], loopback[k], done);
+        if (done) end_measurement(false);
+        break;
+      }
+      case MeasurePhase::fading_in:
+        out[k] *= static_cast<double>(ramp_) / static_cast<double>(fade_);
+        if (++ramp_ >= fade_) phase_ = MeasurePhase::idle;
+        break;
+      case MeasurePhase::idle:
+        break;
+    }
+  }
 }
 
 bool AlsaBackend::stream() noexcept {

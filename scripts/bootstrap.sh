@@ -16,7 +16,7 @@ packages=(
   libeigen3-dev nlohmann-json3-dev libcli11-dev libsndfile1-dev
   libgtest-dev libasound2-dev libcpp-httplib-dev libsamplerate0-dev
   gnuplot-nox
-  jackd2 libasound2-plugins
+  jackd2 libasound2-plugins libjack-jackd2-dev
   curl jq
   prometheus  # promtool: tests/api/promtool_test.cpp checks GET /metrics with it
   systemd     # systemd-analyze: ctest packaging.unit_verify checks the service's unit with it

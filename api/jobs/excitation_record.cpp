@@ -41,6 +41,10 @@ json excitation_record_to_json(const ExcitationRecord& record) {
     out["w_est"] = models::to_array(record.w_est);
     out["w_val"] = models::to_array(record.w_val);
   }
+  if (record.i_est.size() > 0) {
+    out["i_est"] = models::to_array(record.i_est);
+    out["i_val"] = models::to_array(record.i_val);
+  }
   return out;
 }
 
@@ -65,6 +69,13 @@ ExcitationRecord excitation_record_from_result(const json& result, double fs, co
     }
     if ((out.w_est.array() < 0.0).any() || (out.w_val.array() < 0.0).any()) {
       fail_after(where, "has a record with a negative weight");
+    }
+  }
+  if (record.contains("i_est")) {
+    out.i_est = numbers_of(record, "i_est", where);
+    out.i_val = numbers_of(record, "i_val", where);
+    if (out.i_est.size() != out.u_est.size() || out.i_val.size() != out.u_val.size()) {
+      fail_after(where, "has a record whose current and drive differ in length");
     }
   }
   if (out.u_est.size() < kMinSamples) {

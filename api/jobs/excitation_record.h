@@ -14,9 +14,19 @@ struct ExcitationRecord {
   Eigen::VectorXd u_est, y_est, u_val, y_val;
   Eigen::VectorXd w_est, w_val;  ///< per-sample harmonic weights of a control excitation; empty otherwise
   Eigen::VectorXd i_est, i_val;  ///< the transducer's current, when an uploaded record has it; empty otherwise
+  nlohmann::json card;  ///< measured through a sound card: each part's calibration report (null otherwise)
 };
 
-/// {"u_est":[…],"y_est":[…],"u_val":[…],"y_val":[…]}, and "w_est", "w_val" when the record has weights.
+/// What playing a drive through a sound card gave: the response, the current (empty unless captured) and
+/// what the calibration measured ({"round_trip_samples", "round_trip_ms", "calibrated_on", …}).
+struct MeasuredResponse {
+  Eigen::VectorXd y;       ///< the sensor, aligned to the drive (the card's round trip removed)
+  Eigen::VectorXd i;       ///< the coil current, aligned likewise; empty when the card captures none
+  nlohmann::json report;   ///< the calibration's figures
+};
+
+/// {"u_est":[…],"y_est":[…],"u_val":[…],"y_val":[…]}, "w_est", "w_val" when the record has weights, and
+/// "i_est", "i_val" when it has the current.
 nlohmann::json excitation_record_to_json(const ExcitationRecord& record);
 
 /// The record in an excite job's result ({"fs", "record":{…}}), checked: four arrays of finite numbers,

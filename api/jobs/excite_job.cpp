@@ -38,6 +38,7 @@ json excite_work(const json& params, const JobEnvironment& env, JobControl& cont
                  {"plots",
                   {{"fit", {{"t", column(t)}, {"drive", column(r.u_est.head(n))}, {"measured", column(r.y_est.head(n))}}}}},
                  {"record", excitation_record_to_json(r)}};
+  if (!r.card.is_null()) result["card"] = r.card;
   progress.span(0.0, 1.0);
   progress.at(1.0, "done");
   return result;

@@ -8,6 +8,7 @@
 #include <optional>
 #include <string>
 
+#include "api/jobs/excitation_record.h"
 #include "api/model_store.h"
 #include "api/record_store.h"
 #include "models/plant/plant_config.h"
@@ -20,6 +21,11 @@ struct JobEnvironment {
   /// Plays `drive` (raw drive units, within [−1, 1]) through the active backend, bypassing the chain, and
   /// returns the recorded response, same length. Called from a worker thread.
   std::function<Eigen::VectorXd(const Eigen::VectorXd& drive)> excite;
+  /// On a sound card: plays `drive` through it (program paused, chain bypassed, the round trip calibrated
+  /// and removed) and returns the aligned response with its report; empty on the virtual transducer.
+  std::function<MeasuredResponse(const Eigen::VectorXd& drive)> measure;
+  /// The largest drive peak the backend may be excited with (a sound card's configured safe level).
+  double safe_level = 1.0;
   /// The virtual transducer when that is the backend (harmonic distortion, noise floor); empty otherwise.
   std::optional<models::PlantConfig> plant;
   /// The store: models a job reads ("plant_model", …) and the model it makes.

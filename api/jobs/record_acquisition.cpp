@@ -42,10 +42,21 @@ Eigen::VectorXd excitation_signal(const std::string& signal, Eigen::Index sample
   return drive.cwiseMax(-1.0).cwiseMin(1.0);
 }
 
-// Plays `drive` through the backend; the response must be as long and finite.
-Eigen::VectorXd play(const JobEnvironment& env, const Eigen::VectorXd& drive) {
-  if (!env.excite) throw std::runtime_error("no backend to excite");
-  Eigen::VectorXd response = env.excite(drive);
+// Plays `drive` through the backend; the response must be as long and finite. On a sound card, the part's
+// calibration report goes to `record.card` and the current, when captured, to `current`.
+Eigen::VectorXd play(const JobEnvironment& env, const Eigen::VectorXd& drive, ExcitationRecord& record,
+                     Eigen::VectorXd& current) {
+  if (!env.excite && !env.measure) throw std::runtime_error("no backend to excite");
+  Eigen::VectorXd response;
+  if (env.measure) {
+    MeasuredResponse measured = env.measure(drive);
+    response = std::move(measured.y);
+    current = std::move(measured.i);
+    if (record.card.is_null()) record.card = nlohmann::json::array();
+    record.card.push_back(std::move(measured.report));
+  } else {
+    response = env.excite(drive);
+  }
   if (response.size() != drive.size()) {
     throw std::runtime_error("the backend recorded " + std::to_string(response.size()) + " samples for a drive of " +
                              std::to_string(drive.size()));
@@ -59,9 +70,9 @@ Eigen::VectorXd play(const JobEnvironment& env, const Eigen::VectorXd& drive) {
 // The excite params at `path` (the excite kind's own params, or the "excite" field of another kind); refused
 // when the backend cannot be excited (a sound card).
 json excite_params(const json& params, const std::string& path, const JobEnvironment& env) {
-  if (!env.excite) {
-    refuse(path, "this server plays on a sound card (ALSA), which jobs cannot measure through yet: identify from a "
-                 "recording of the transducer (panelbass identify linear --data rec.wav) and upload the model");
+  if (!env.excite && !env.measure) {
+    refuse(path, "this server has no backend to excite: identify from a recording of the transducer (POST "
+                 "/api/records) instead");
   }
   ParamReader r(params, path);
   const std::string signal = r.choice("signal", "noise", {"noise", "multisine", "control"});
@@ -71,7 +82,11 @@ json excite_params(const json& params, const std::string& path, const JobEnviron
     refuse(r.path_of("validation_samples"), "must be 0 (none) or at least " + std::to_string(kMinSamples) + ", got " +
                                                 std::to_string(validation));
   }
-  r.number("amplitude", 0.3, {0.0, 1.0, true, false});
+  const double amplitude = r.number("amplitude", std::min(0.3, env.safe_level), {0.0, 1.0, true, false});
+  if (signal != "control" && amplitude > env.safe_level) {
+    refuse(r.path_of("amplitude"), "exceeds the sound card's safe level " + std::to_string(env.safe_level) +
+                                       " (panelbass serve --safe-level), got " + std::to_string(amplitude));
+  }
   r.integer("seed", 1, 0, kMaxSeed);
   // The plant in its operating regime (panelbass simulate --signal control): the LQ feedforward's output
   // for the controller design's program, noise then stepped sines, with per-sample harmonic weights.
@@ -178,8 +193,11 @@ ExcitationRecord run_excitation(const json& excite, const JobEnvironment& env, J
       design.samples = n;
       const models::ControlRecord part = models::control_record(ff, band_pass, design, part_seed);
       if (!part.u.allFinite()) throw std::runtime_error("the control excitation has a non-finite sample");
-      u = part.u.cwiseMax(-1.0).cwiseMin(1.0);
-      y = play(env, u);
+      // The safety rule, and on a card its safe level: the controller's drive is clipped to it.
+      const double cap = std::min(1.0, env.safe_level);
+      u = part.u.cwiseMax(-cap).cwiseMin(cap);
+      Eigen::VectorXd current;
+      y = play(env, u, record, current);
       w = models::harmonic_weights(part, y, env.fs);
     };
     control_part(samples, seed, record.u_est, record.y_est, record.w_est);
@@ -191,11 +209,11 @@ ExcitationRecord run_excitation(const json& excite, const JobEnvironment& env, J
     return record;
   }
   record.u_est = excitation_signal(signal, samples, amplitude, seed, env.fs);
-  record.y_est = play(env, record.u_est);
+  record.y_est = play(env, record.u_est, record, record.i_est);
   if (validation > 0) {
     progress.at(samples / total, "excitation: " + std::to_string(validation) + " validation samples");
     record.u_val = excitation_signal(signal, validation, amplitude, seed + 1, env.fs);
-    record.y_val = play(env, record.u_val);
+    record.y_val = play(env, record.u_val, record, record.i_val);
   }
   progress.at(1.0, "excitation recorded");
   return record;

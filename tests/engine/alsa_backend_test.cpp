@@ -284,6 +284,84 @@ TEST(AlsaBackend, JackLoopbackRunsWithoutXrunsAndSurvivesAServerRestart) {
   EXPECT_GE(after.losses, 1u) << describe(after);
 }
 
+TEST(AlsaBackend, JackMeasurementPlaysInPlaceOfTheChainAndFindsTheRoundTrip) {
+  // A measurement on the loopback: channel 1 hears the drive, as sensor and as loopback. Independent
+  // expectations: the measurement's samples reach the chain-rate drive verbatim (the chain bypassed); the
+  // round trip the calibration finds at 3000 Hz is the loop's own delay found at 48 kHz on the device-rate
+  // recording plus the rate bridge's latency (its impulse's centre of mass), within one sample; no xrun; and
+  // the program plays again afterwards.
+  if (skip_jack()) GTEST_SKIP() << "PANELBASS_SKIP_JACK=1";
+  const std::string tag = "pm" + std::to_string(::getpid());
+  JackServer server("panelbass-m" + std::to_string(::getpid()), kDeviceRate, kPeriod);
+  ::setenv("JACK_DEFAULT_SERVER", server.name().c_str(), 1);
+  const std::string started = server.start();
+  ASSERT_EQ(started, "") << started;
+
+  Chain chain(chain_options(3000.0, 64));
+  Recording rec(static_cast<std::size_t>(6 * kDeviceRate / kPeriod));
+  AlsaOptions o;
+  o.playback_device = "pb_play";
+  o.capture_device = "pb_capture";
+  o.config_text = loopback_config(tag);
+  o.rate = Hertz{kDeviceRate};
+  o.period = Samples{kPeriod};
+  o.periods = kPeriods;
+  o.sensor_channel = 1;
+  o.loopback_channel = 1;
+  o.program.resize(static_cast<std::size_t>(kDeviceRate));
+  for (std::size_t k = 0; k < o.program.size(); ++k) o.program[k] = 0.3 * std::sin(2.0 * M_PI * 60.0 * k / kDeviceRate);
+  // The chain-rate drive, as the device thread produced it, in a buffer sized before the run.
+  std::vector<double> model_drive(static_cast<std::size_t>(6 * 3000), 0.0);
+  std::atomic<std::size_t> model_n{0};
+  o.on_block = [&](const AlsaBlockView& v) {
+    rec.record(v);
+    std::size_t n = model_n.load(std::memory_order_relaxed);
+    for (const double x : v.model_drive) {
+      if (n < model_drive.size()) model_drive[n++] = x;
+    }
+    model_n.store(n, std::memory_order_release);
+  };
+  AlsaBackend backend(chain, o);
+  backend.start();
+  ASSERT_TRUE(wait_for([&] { return backend.status().periods > 200; }, 5s)) << describe(backend.status());
+
+  dsp::Rng rng(3);
+  std::vector<double> drive(4500, 0.0);  // 1.2 s of noise, then 0.3 s of silence for the round trip
+  for (std::size_t k = 0; k < 3600; ++k) drive[k] = rng.uniform(-0.5, 0.5);
+  Measurement m(drive, 60);
+  EXPECT_THROW(Measurement({1.5}, 10), std::invalid_argument);
+  const Measurement::State state = backend.measure(m, 10s);
+  ASSERT_EQ(state, Measurement::State::finished) << describe(backend.status());
+  const std::uint64_t blocks_after = chain.metrics().snapshot().blocks;
+  std::this_thread::sleep_for(300ms);
+  EXPECT_GT(chain.metrics().snapshot().blocks, blocks_after) << "the chain plays again";
+  backend.stop();
+  server.stop();
+  EXPECT_EQ(backend.status().xruns, 0u) << describe(backend.status());
+
+  // The chain bypassed: the measurement's samples appear in the chain-rate drive exactly.
+  const std::size_t n = model_n.load(std::memory_order_acquire);
+  std::size_t at = n;
+  for (std::size_t k = 0; k + drive.size() <= n && at == n; ++k) {
+    if (model_drive[k] == drive[0] && std::equal(drive.begin(), drive.end(), model_drive.begin() + static_cast<std::ptrdiff_t>(k))) at = k;
+  }
+  EXPECT_LT(at, n) << "the measurement's drive never reached the chain-rate output verbatim";
+
+  const Eigen::VectorXd played = Eigen::Map<const Eigen::VectorXd>(m.drive().data(), static_cast<Eigen::Index>(drive.size()));
+  const auto& heard_v = m.captured(MeasuredChannel::loopback);
+  const Eigen::VectorXd heard = Eigen::Map<const Eigen::VectorXd>(heard_v.data(), static_cast<Eigen::Index>(heard_v.size()));
+  const RoundTrip trip = find_round_trip(played, heard, 800);
+  const Delay loop = measure_epoch_delay(rec, 0, 2048);
+  ASSERT_GE(loop.frames, 0);
+  const double expected = (loop.frames + backend.resampling_latency().total_ms * kDeviceRate / 1e3) * 3000.0 / kDeviceRate;
+  std::printf("[ measurement ] round trip %d samples at 3000 Hz (%.2f refined, %.3f ms; correlation %.4f); the loop "
+              "%d frames at 48 kHz + the bridge's %.3f ms = %.2f samples\n",
+              trip.samples, trip.fractional, 1e3 * trip.fractional / 3000.0, trip.peak, loop.frames,
+              backend.resampling_latency().total_ms, expected);
+  EXPECT_GT(trip.peak, 0.95);
+  EXPECT_NEAR(trip.fractional, expected, 1.0);
+}
+
 TEST(AlsaBackend, PlaybackOnlyAtTheChainsOwnRateIsPacedByTheDevice) {
   // No capture, no rate bridge: the chain runs at 48 kHz, paced by room in the playback buffer, with
   // S16/S32/float conversion as the device asks (float for JACK) and the drive on channel 1 of 2.
