@@ -38,6 +38,9 @@ std::string jack_status_text(jack_status_t status) {
 }  // namespace
 
 JackTransducer::JackTransducer(JackTransducerOptions options) {
+  // libjack prints its own diagnostics on stderr; the errors thrown here say what failed instead.
+  jack_set_error_function([](const char*) {});
+  jack_set_info_function([](const char*) {});
   jack_status_t status{};
   const int flags = JackNoStartServer | (options.server_name.empty() ? 0 : JackServerName);
   jack_client_t* client =

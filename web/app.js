@@ -10,6 +10,7 @@ import { activate, refreshModels, uploadModel } from './ui/models.js';
 import { refreshRecords, uploadRecord } from './ui/records.js';
 import { state } from './ui/state.js';
 import { pollStatus } from './ui/status.js';
+import { tune } from './ui/tune.js';
 
 const STATUS_PERIOD_MS = 1000;
 const JOBS_PERIOD_MS = 2000;
@@ -24,6 +25,7 @@ function init() {
   $('#job-form').addEventListener('submit', startJob);
   $('#job-form').addEventListener('input', updatePreview);
   $('#job-form').addEventListener('change', updateJobForm);
+  $('#tune-start').addEventListener('click', tune);
   $('#job-cancel').addEventListener('click', () => state.selected && cancelJob(state.selected));
   $('#result-activate').addEventListener('click', () => {
     const { modelId, slot } = $('#result-activate').dataset;

@@ -308,6 +308,7 @@ TEST(AlsaBackend, JackMeasurementPlaysInPlaceOfTheChainAndFindsTheRoundTrip) {
   o.periods = kPeriods;
   o.sensor_channel = 1;
   o.loopback_channel = 1;
+  o.realtime_priority = 20;  // where granted, as in the loopback test above
   o.program.resize(static_cast<std::size_t>(kDeviceRate));
   for (std::size_t k = 0; k < o.program.size(); ++k) o.program[k] = 0.3 * std::sin(2.0 * M_PI * 60.0 * k / kDeviceRate);
   // The chain-rate drive, as the device thread produced it, in a buffer sized before the run.
@@ -358,7 +359,7 @@ TEST(AlsaBackend, JackMeasurementPlaysInPlaceOfTheChainAndFindsTheRoundTrip) {
               "%d frames at 48 kHz + the bridge's %.3f ms = %.2f samples\n",
               trip.samples, trip.fractional, 1e3 * trip.fractional / 3000.0, trip.peak, loop.frames,
               backend.resampling_latency().total_ms, expected);
-  EXPECT_GT(trip.peak, 0.95);
+  EXPECT_GT(trip.peak, 0.5);  // the bridge passes 0..1200 Hz of the drive's 0..1500 Hz, minimum-phase
   EXPECT_NEAR(trip.fractional, expected, 1.0);
 }
 

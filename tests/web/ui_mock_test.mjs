@@ -12,6 +12,8 @@
 //   - a job that finishes is shown without a click (result, plots, and the hint that a click shows another);
 //   - an identify-narx job without nk ends with a warning (J_val 100.3 %, nk 1001): shown in its row and
 //     prominently on its result;
+//   - the Tune button runs measure → identify linear → design LQ → control record → identify NARX → design NN, each
+//     step marked as its job succeeds, and the neural feedback it designed is active at the end;
 //   - plant models (linear, narx) are offered no Activate, in the store or on their result, and the form's
 //     "activate when done" is only offered for controllers; an LQ feedforward is offered "Activate as feedforward";
 //     when the server refuses an activation its error text is shown; accepted, the status shows the model active;
@@ -172,6 +174,22 @@ async function main() {
               8000, `the reloaded page does not show ${lqJob}'s result saying no slot runs its model`);
   check(!(await page.isVisible('#result-activate')), 'the design-lq result offers Activate though the server lists no slot for its model');
   await page.unroute('**/api/models');
+
+  // Tune: one click runs the six jobs one after another, each step marked as its job succeeds, and the two
+  // controllers it designed end up active.
+  run.step = 'tune';
+  await page.click('#tune-start');
+  const tuned = await until(async () => {
+    const s = await page.$$eval('#tune-steps li', (items) => items.map((li) => li.dataset.state));
+    return s.length === 6 && s.every((x) => x === 'succeeded') ? s : null;
+  }, 30_000, 'the tune pipeline did not finish its six steps');
+  run.log(`tune: ${tuned.join(', ')}`);
+  const tunedJobs = await page.$$eval('#tune-steps li span', (spans) => spans.map((x) => x.textContent));
+  const status = await (await fetch(new URL('/api/status', base))).json();
+  const nnModel = (await (await fetch(new URL(`/api/jobs/${tunedJobs[5]}`, base))).json()).result.model_id;
+  check(status.active_models.feedback === nnModel,
+        `after the tune the feedback slot runs ${JSON.stringify(status.active_models)}, not the designed ${nnModel}`);
+  check(!(await page.isVisible('#tune-error')), 'the tune shows an error');
 
   run.step = 'no page errors';
   check(run.pageErrors.length === 0, `${run.pageErrors.length} error(s) in the page`);
