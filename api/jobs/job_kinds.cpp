@@ -12,6 +12,7 @@
 #include "api/jobs/identify_narx_job.h"
 #include "api/jobs/job_kind.h"
 #include "api/jobs/job_plots.h"
+#include "api/jobs/verify_job.h"
 
 namespace panelbass::api {
 namespace {
@@ -22,7 +23,7 @@ using nlohmann::json;
 const std::vector<JobKind>& registry() {
   static const std::vector<JobKind> kinds{excite_job(),     identify_linear_job(), identify_narx_job(),
                                           design_lq_job(),  design_nn_job(),       evaluate_job(),
-                                          analyze_job(),    diagnose_job()};
+                                          analyze_job(),    diagnose_job(),        verify_job()};
   return kinds;
 }
 
