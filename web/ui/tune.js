@@ -1,5 +1,6 @@
 // The tune pipeline in one action: measure → identify linear → design LQ (activated) → record in the operating
-// regime → identify NARX → design the neural feedback (activated). Each step is an ordinary job (its progress in
+// regime → identify NARX → design the neural feedback (activated) → verify (probe tones without and with the
+// chain: THD and level of the response, shown here). Each step is an ordinary job (its progress in
 // the jobs table, its result and plots a click away); the list here says where the pipeline is, and a failed
 // step stops it, saying why. The same jobs run on the virtual transducer and on a sound card.
 
@@ -27,7 +28,21 @@ const STEPS = [
     keep: (job, made) => { made.narx = job.result.model_id; } },
   { label: 'design neural feedback', kind: 'design-nn', activate: true, params: (made) => ({ plant_model: made.narx }),
     keep: (job, made) => { made.nn = job.result.model_id; } },
+  { label: 'verify', kind: 'verify', params: (made) => ({ feedforward_model: made.lq, feedback_model: made.nn }),
+    keep: (job) => showProbes(job.result) },
 ];
+
+const fixed = (x, digits) => (typeof x === 'number' && Number.isFinite(x) ? x.toFixed(digits) : '—');
+
+/** The verify step's probes: THD and level of the response without and with the chain, per tone. */
+function showProbes(result) {
+  const rows = (result.probes || []).map((p) => el('tr', {},
+    el('td', {}, `${p.frequency_hz} Hz`), el('td', {}, `${fixed(p.thd_before_pct, 2)} %`), el('td', {}, `${fixed(p.thd_after_pct, 2)} %`),
+    el('td', {}, `${fixed(p.thd_change_db, 1)} dB`), el('td', {}, fixed(p.level_before, 4)), el('td', {}, fixed(p.level_after, 4))));
+  $('#tune-probes').replaceChildren(el('thead', {}, el('tr', {}, ...['probe', 'THD before', 'THD after', 'change', 'level before',
+    'level after'].map((h) => el('th', {}, h)))), el('tbody', {}, ...rows));
+  $('#tune-probes').hidden = false;
+}
 
 const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
 
@@ -48,6 +63,7 @@ export async function tune() {
   button.disabled = true;
   const items = STEPS.map((s) => el('li', { dataset: { state: 'waiting' } }, s.label, ' ', el('span', { class: 'mono' })));
   list.replaceChildren(...items);
+  $('#tune-probes').hidden = true;
   const made = {};
   try {
     for (const [n, step] of STEPS.entries()) {
