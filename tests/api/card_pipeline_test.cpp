@@ -107,7 +107,7 @@ TEST_F(CardPipelineTest, MeasuresThroughTheCardAlignedAndIdentifiesAsOnTheVirtua
   card.program.assign(static_cast<std::size_t>(kDeviceRate), 0.0);
   for (std::size_t k = 0; k < card.program.size(); ++k) card.program[k] = 0.2 * std::sin(2.0 * M_PI * 60.0 * k / kDeviceRate);
   o.engine.alsa = card;
-  o.engine.safe_level = 0.5;
+  o.engine.safe_level = 0.8;
   start(o);
   const nlohmann::json streaming = wait_status([](const nlohmann::json& s) {
     return s.is_object() && s["engine"]["device"]["state"] == "running" && s["metrics"]["blocks"].get<int>() > 100;
@@ -115,7 +115,7 @@ TEST_F(CardPipelineTest, MeasuresThroughTheCardAlignedAndIdentifiesAsOnTheVirtua
   ASSERT_EQ(streaming["engine"]["device"]["state"], "running") << streaming.dump() << "\njackd:\n" << jack.log();
 
   // Beyond the safe level: refused at submission, naming it.
-  const Reply loud = post("/api/jobs", R"({"kind":"excite","params":{"amplitude":0.8}})");
+  const Reply loud = post("/api/jobs", R"({"kind":"excite","params":{"amplitude":0.9}})");
   EXPECT_EQ(loud.status, 400) << loud.text;
   EXPECT_NE(loud.text.find("safe level"), std::string::npos) << loud.text;
 
@@ -146,7 +146,7 @@ TEST_F(CardPipelineTest, MeasuresThroughTheCardAlignedAndIdentifiesAsOnTheVirtua
               report["peak_correlation"].get<double>(), lag, result["record"].contains("i_est") ? "yes" : "no");
   EXPECT_LE(std::abs(lag), 1.0) << "the record is not aligned with the plant's own delay";
   EXPECT_TRUE(result["record"].contains("i_est"));
-  EXPECT_LE(u.cwiseAbs().maxCoeff(), 0.5);
+  EXPECT_LE(u.cwiseAbs().maxCoeff(), 0.4);
 
   // The same identification over HTTP from the card's record, and on the virtual backend.
   const nlohmann::json identify = {{"kind", "identify-linear"},
@@ -156,6 +156,19 @@ TEST_F(CardPipelineTest, MeasuresThroughTheCardAlignedAndIdentifiesAsOnTheVirtua
   const nlohmann::json card_job = wait_job(on_card.body["id"], 120s);
   ASSERT_EQ(card_job["state"], "succeeded") << card_job.dump().substr(0, 2000);
   const double j_card = card_job["result"]["J_val_pct"].get<double>();
+  // An LQ feedforward designed on it, and verified through the card: probe tones without and with it.
+  const Reply design = post("/api/jobs", nlohmann::json{{"kind", "design-lq"},
+                                                         {"params", {{"plant_model", card_job["result"]["model_id"]}, {"max_input", 0.3}}}});
+  ASSERT_EQ(design.status, 202) << design.text;
+  const nlohmann::json design_job = wait_job(design.body["id"], 120s);
+  ASSERT_EQ(design_job["state"], "succeeded") << design_job.dump().substr(0, 2000);
+  const std::string lq_id = design_job["result"]["model_id"];
+  const nlohmann::json lq_model = get("/api/models/" + lq_id).body;
+  const nlohmann::json verify_params = {{"feedforward_model", lq_id}, {"frequencies", {60, 120}}, {"level", 0.15}, {"seconds", 0.5}};
+  const Reply verify = post("/api/jobs", nlohmann::json{{"kind", "verify"}, {"params", verify_params}});
+  ASSERT_EQ(verify.status, 202) << verify.text;
+  const nlohmann::json card_verify = wait_job(verify.body["id"], 120s);
+  ASSERT_EQ(card_verify["state"], "succeeded") << card_verify.dump().substr(0, 2000);
   const double pipeline_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
 
   const nlohmann::json status = get("/api/status").body;
@@ -175,6 +188,23 @@ TEST_F(CardPipelineTest, MeasuresThroughTheCardAlignedAndIdentifiesAsOnTheVirtua
   const nlohmann::json virtual_job = wait_job(on_virtual.body["id"], 120s);
   ASSERT_EQ(virtual_job["state"], "succeeded") << virtual_job.dump().substr(0, 2000);
   const double j_virtual = virtual_job["result"]["J_val_pct"].get<double>();
+  // The same controller verified on the virtual backend.
+  const std::string lq_here = upload(lq_model.contains("model") ? lq_model["model"] : lq_model);
+  nlohmann::json here_params = verify_params;
+  here_params["feedforward_model"] = lq_here;
+  const Reply verify_here = post("/api/jobs", nlohmann::json{{"kind", "verify"}, {"params", here_params}});
+  ASSERT_EQ(verify_here.status, 202) << verify_here.text;
+  const nlohmann::json virtual_verify = wait_job(verify_here.body["id"], 120s);
+  ASSERT_EQ(virtual_verify["state"], "succeeded") << virtual_verify.dump().substr(0, 2000);
+  for (std::size_t p = 0; p < 2; ++p) {
+    const nlohmann::json& c = card_verify["result"]["probes"][p];
+    const nlohmann::json& v = virtual_verify["result"]["probes"][p];
+    std::printf("[ card ] verify %g Hz: THD %.3f %% -> %.3f %% (%+.2f dB) through the card; %.3f %% -> %.3f %% (%+.2f dB) on the "
+                "virtual backend\n", c["frequency_hz"].get<double>(), c["thd_before_pct"].get<double>(),
+                c["thd_after_pct"].get<double>(), c["thd_change_db"].get<double>(), v["thd_before_pct"].get<double>(),
+                v["thd_after_pct"].get<double>(), v["thd_change_db"].get<double>());
+    EXPECT_NEAR(c["thd_change_db"].get<double>(), v["thd_change_db"].get<double>(), 1.5) << c.dump() << v.dump();
+  }
   std::printf("[ card ] linear OE(8) J_val %.3f %% through the card, %.3f %% on the virtual backend; excite + identify "
               "on the card path %.1f s\n", j_card, j_virtual, pipeline_s);
   EXPECT_NEAR(j_card, j_virtual, 0.2 * j_virtual);
