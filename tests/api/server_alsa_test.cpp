@@ -6,8 +6,8 @@
 // /metrics has panelbass_device_up 1; once the JACK server is gone the status reports the loss
 // (losses ≥ 1, state "reopening", the error text) and the gauge drops to 0; after the server is back
 // the backend reopens by itself (reopens ≥ 1, streaming again, blocks advancing) with no restart of
-// panelbass; the drive stays within [−1, 1] throughout; and a job that would excite the transducer is
-// refused at submission with a message saying why.
+// panelbass; the drive stays within [−1, 1] throughout; and a job that would excite the transducer beyond
+// the card's safe level is refused at submission with a message saying why.
 //
 // A machine without jackd FAILS this test with a message saying what to install; only
 // PANELBASS_SKIP_JACK=1 skips it.
@@ -98,11 +98,11 @@ TEST_F(ServerOnACardTest, TheCardGoingAwayShowsInStatusAndMetricsAndItComesBackB
   ASSERT_EQ(status["engine"]["device"]["state"], "running") << status.dump() << "\njackd:\n" << jack.log();
   EXPECT_NE(get_text("/metrics").find("\npanelbass_device_up 1\n"), std::string::npos) << get_text("/metrics");
 
-  // Nothing to excite on a card: refused at submission, saying why.
-  const httplib::Result job = client_->Post("/api/jobs", R"({"kind":"excite","params":{}})", "application/json");
+  // A job excites through the card, within its safe level: beyond it, refused at submission, saying why.
+  const httplib::Result job = client_->Post("/api/jobs", R"({"kind":"excite","params":{"amplitude":0.9}})", "application/json");
   ASSERT_TRUE(job);
   EXPECT_EQ(job->status, 400) << job->body;
-  EXPECT_NE(job->body.find("sound card"), std::string::npos) << job->body;
+  EXPECT_NE(job->body.find("safe level"), std::string::npos) << job->body;
 
   // The card disappears.
   jack.stop();

@@ -293,8 +293,7 @@ TEST(AlsaBackend, JackMeasurementPlaysInPlaceOfTheChainAndFindsTheRoundTrip) {
   if (skip_jack()) GTEST_SKIP() << "PANELBASS_SKIP_JACK=1";
   const std::string tag = "pm" + std::to_string(::getpid());
   JackServer server("panelbass-m" + std::to_string(::getpid()), kDeviceRate, kPeriod);
-  ::setenv("JACK_DEFAULT_SERVER", server.name().c_str(), 1);
-  const std::string started = server.start();
+  const std::string started = server.start_as_default();
   ASSERT_EQ(started, "") << started;
 
   Chain chain(chain_options(3000.0, 64));

@@ -99,6 +99,13 @@ class JackServer {
     return "jackd did not open its socket " + socket_ + " within 5 s; its output:\n" + log();
   }
 
+  /// Makes this server the one every JACK client of the process connects to (JACK_DEFAULT_SERVER), then
+  /// start(); "" on success, else what went wrong.
+  std::string start_as_default() {
+    ::setenv("JACK_DEFAULT_SERVER", name_.c_str(), 1);
+    return start();
+  }
+
   /// Stops the server (SIGTERM, then SIGKILL after 3 s) and waits for it.
   void stop() {
     if (pid_ <= 0) return;
