@@ -1,4 +1,4 @@
-// `panelbass transducer --jack` as a user runs it: against a JACK server with the dummy driver it runs the
+// `panelbass transducer --jack` as a user runs it: --help shows an example; against a JACK server with the dummy driver it runs the
 // plant at the server's rate for the time asked and reports what it simulated; without --jack it is bad
 // usage; with no server to connect to it fails naming that.
 //
@@ -18,6 +18,9 @@ namespace {
 using namespace testing_support;
 
 TEST_F(CliTest, TransducerRunsThePlantAsAJackClient) {
+  const RunResult help = run("transducer --help");
+  EXPECT_EQ(help.status, 0);
+  EXPECT_TRUE(contains(help.out, "Example")) << help.out;
   expect_usage_error(run("transducer --plant linear --seconds 1"));
   if (skip_jack()) GTEST_SKIP() << "PANELBASS_SKIP_JACK=1";
   const RunResult none = run("transducer --jack --server panelbass-nobody-" + std::to_string(::getpid()) + " --seconds 1");
