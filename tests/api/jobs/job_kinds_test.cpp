@@ -12,7 +12,7 @@ namespace {
 
 TEST(JobKinds, ListsTheKindsInTheOrderOfRoutes) {
   EXPECT_EQ(job_kinds(), (std::vector<std::string>{"excite", "identify-linear", "identify-narx", "design-lq", "design-nn",
-                                                   "evaluate", "analyze", "diagnose"}));
+                                                   "evaluate", "analyze", "diagnose", "verify"}));
 }
 
 TEST_F(JobKindsTest, UnknownKindIsRefusedWithTheKindsThereAre) {
