@@ -424,33 +424,59 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
     sweep[sweep_n - 1 - k] *= g;
   }
   const Eigen::Index offset = sweep_n + gap;
-  std::vector<double> played(static_cast<std::size_t>(offset + drive.size() + tail), 0.0);
-  for (Eigen::Index k = 0; k < sweep_n; ++k) played[static_cast<std::size_t>(k)] = sweep[k];
-  for (Eigen::Index k = 0; k < drive.size(); ++k) played[static_cast<std::size_t>(offset + k)] = drive[k];
-  engine::Measurement m(std::move(played), static_cast<std::size_t>(std::max<Eigen::Index>(1, samples(options_.measurement_fade_s))));
-  const auto duration = std::chrono::milliseconds(static_cast<long long>(1e3 * static_cast<double>(m.drive().size()) / fs));
-  const auto began = std::chrono::steady_clock::now();
-  if (alsa_->measure(m, duration + std::chrono::seconds(10)) != engine::Measurement::State::finished) {
-    throw std::runtime_error("excite: the measurement through the card was interrupted (an xrun, the device lost, or "
-                             "no device streaming: see GET /api/status, engine.device)");
+  // The sweep again after the drive: the round trip found on each must agree.
+  const Eigen::Index second = offset + drive.size() + gap;
+  std::vector<double> played(static_cast<std::size_t>(second + sweep_n + tail), 0.0);
+  for (Eigen::Index k = 0; k < sweep_n; ++k) {
+    played[static_cast<std::size_t>(k)] = sweep[k];
+    played[static_cast<std::size_t>(second + k)] = sweep[k];
   }
-  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
+  for (Eigen::Index k = 0; k < drive.size(); ++k) played[static_cast<std::size_t>(offset + k)] = drive[k];
+  const auto duration = std::chrono::milliseconds(static_cast<long long>(1e3 * static_cast<double>(played.size()) / fs));
   const auto as_vector = [](const std::vector<double>& x) {
     return Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size())).eval();
   };
-  const Eigen::VectorXd heard_sensor = as_vector(m.captured(engine::MeasuredChannel::sensor));
   const bool loopback = card.loopback_channel != engine::kNoChannel;
-  const Eigen::VectorXd reference = loopback ? as_vector(m.captured(engine::MeasuredChannel::loopback)) : heard_sensor;
-  const Eigen::VectorXd sent = as_vector(m.drive());
-  if (reference.cwiseAbs().maxCoeff() == 0.0) {
-    throw std::runtime_error(std::string("excite: the card's ") + (loopback ? "loopback" : "sensor") +
-                             " channel stayed silent: nothing of the drive came back (is the transducer connected?)");
+  const auto began = std::chrono::steady_clock::now();
+  // The round trip is found on the sweep before the drive (unambiguous, whatever the drive). A loop that
+  // slips inside the device's server (JACK on a loaded machine) shifts part of a measurement without an
+  // xrun: the round trip found on the sweep after the drive must agree, else the measurement is played
+  // again (at most three times in all).
+  std::unique_ptr<engine::Measurement> m;
+  engine::RoundTrip trip;
+  int attempts = 0;
+  for (bool consistent = false; !consistent;) {
+    if (++attempts > 3) {
+      throw std::runtime_error("excite: the card's round trip changed during each of 3 measurements (the loop slips: "
+                               "is the machine overloaded?)");
+    }
+    m = std::make_unique<engine::Measurement>(played, static_cast<std::size_t>(std::max<Eigen::Index>(1, samples(options_.measurement_fade_s))));
+    if (alsa_->measure(*m, duration + std::chrono::seconds(10)) != engine::Measurement::State::finished) {
+      throw std::runtime_error("excite: the measurement through the card was interrupted (an xrun, the device lost, or "
+                               "no device streaming: see GET /api/status, engine.device)");
+    }
+    const Eigen::VectorXd sent = as_vector(m->drive());
+    const Eigen::VectorXd reference =
+        as_vector(m->captured(loopback ? engine::MeasuredChannel::loopback : engine::MeasuredChannel::sensor));
+    if (reference.cwiseAbs().maxCoeff() == 0.0) {
+      throw std::runtime_error(std::string("excite: the card's ") + (loopback ? "loopback" : "sensor") +
+                               " channel stayed silent: nothing of the drive came back (is the transducer connected?)");
+    }
+    const auto over = [&](Eigen::Index start) {
+      // The sweep alone against what came back while it and the round trip after it lasted.
+      Eigen::VectorXd alone = Eigen::VectorXd::Zero(sweep_n + tail);
+      alone.head(sweep_n) = sent.segment(start, sweep_n);
+      return engine::find_round_trip(alone, reference.segment(start, sweep_n + tail), tail);
+    };
+    trip = over(0);
+    consistent = std::abs(over(second).samples - trip.samples) <= 1;
   }
-  const engine::RoundTrip trip = engine::find_round_trip(sent, reference, tail);
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
+  const Eigen::VectorXd heard_sensor = as_vector(m->captured(engine::MeasuredChannel::sensor));
   MeasuredResponse out;
   out.y = heard_sensor.segment(offset + trip.samples, drive.size());
   if (card.current_channel != engine::kNoChannel) {
-    out.i = as_vector(m.captured(engine::MeasuredChannel::current)).segment(offset + trip.samples, drive.size());
+    out.i = as_vector(m->captured(engine::MeasuredChannel::current)).segment(offset + trip.samples, drive.size());
   }
   out.report = {{"calibrated_on", loopback ? "loopback" : "sensor"},
                 {"round_trip_samples", trip.samples},
@@ -458,7 +484,8 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
                 {"round_trip_ms", 1e3 * trip.fractional / fs},
                 {"peak_correlation", trip.peak},
                 {"safe_level", safe},
-                {"played_s", static_cast<double>(m.drive().size()) / fs},
+                {"attempts", attempts},
+                {"played_s", static_cast<double>(played.size()) / fs},
                 {"took_s", took}};
   return out;
 }
