@@ -61,7 +61,7 @@ double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noe
   const Electrical el = electrical_terms(m.electrical, s.x, s.i);
   const double i1 = (drive - el.back_emf * s.v + el.inductance * s.i / h) / (el.inductance / h + m.electrical[4]);
   // [M2], [M3]
-  const double accel = (c[0] + c[1] * s.x + c[2] * s.x * s.x) * i1 + (c[3] + c[4] * s.x) * i1 * i1 +
+  const double accel = (c[0] + c[1] * s.x + c[2] * s.x * s.x) * s.i + (c[3] + c[4] * s.x) * s.i * s.i +
                        restoring(c, s.x, s.v, m.friction_velocity);
   s.i = i1;
   s.v += h * accel;
@@ -79,15 +79,16 @@ void MirrorFilter::reset() noexcept {
 
 double MirrorFilter::process(double program) noexcept {
   const double h = 1.0 / model_.fs;
-  const double x = ref_.x, v = ref_.v;  // the reference's motion, which the nonlinear model is to share
-  step_mirror_model(reference_, ref_, program);
+  const double x = ref_.x, v = ref_.v;  // the reference's motion at k, which the nonlinear model shares
+  step_mirror_model(reference_, ref_, program);  // the reference at k+1
   const std::array<double, 10>& c = model_.mechanical;
-  // [M2]: the current ĩ that gives the nonlinear model the reference's acceleration,
-  //   (c3 + c4·x)·ĩ² + (c0 + c1·x + c2·x²)·ĩ = c0·i_ref + c6·x + c5·v − (restoring terms of the nonlinear model)
-  const double qa = c[3] + c[4] * x;
-  const double qb = c[0] + c[1] * x + c[2] * x * x;
-  const double qr = c[0] * ref_.i + restoring(reference_.mechanical, x, v, model_.friction_velocity) -
-                    restoring(c, x, v, model_.friction_velocity);
+  // [M2] at k+1: the current ĩ that gives the nonlinear model the reference's acceleration,
+  //   (c3 + c4·x)·ĩ² + (c0 + c1·x + c2·x²)·ĩ = c0·i_ref + (linear restoring terms) − (nonlinear model's restoring terms)
+  const double x1 = ref_.x, v1 = ref_.v;
+  const double qa = c[3] + c[4] * x1;
+  const double qb = c[0] + c[1] * x1 + c[2] * x1 * x1;
+  const double qr = c[0] * ref_.i + restoring(reference_.mechanical, x1, v1, model_.friction_velocity) -
+                    restoring(c, x1, v1, model_.friction_velocity);
   const double disc = qb * qb + 4.0 * qa * qr;
   double next = 0.0;
   saturated_ = false;
@@ -97,7 +98,7 @@ double MirrorFilter::process(double program) noexcept {
     saturated_ = true;
     next = c[0] * ref_.i / (qb != 0.0 ? qb : c[0]);
   }
-  // [M1]: the drive that takes the current from ĩ_k to ĩ_{k+1} at the reference's motion
+  // [M1] at k: the drive that takes the current from ĩ_k to ĩ_{k+1} at the reference's motion
   const Electrical el = electrical_terms(model_.electrical, x, current_);
   const double drive = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * v;
   current_ = next;
@@ -153,9 +154,9 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
   Eigen::MatrixXd mech(rows, 10);
   for (Eigen::Index r = 0; r < rows; ++r) {
     const Eigen::Index k = first + r;
-    const double xk = x[k], i1 = i[k + 1];
+    const double xk = x[k], ik = i[k];
     accel[r] = (v[k + 1] - v[k]) / h;
-    mech.row(r) << i1, i1 * xk, i1 * xk * xk, i1 * i1, i1 * i1 * xk, v[k], xk, xk * xk, xk * xk * xk, 0.0;
+    mech.row(r) << ik, ik * xk, ik * xk * xk, ik * ik, ik * ik * xk, v[k], xk, xk * xk, xk * xk * xk, 0.0;
   }
   double best = std::numeric_limits<double>::infinity();
   for (double v0 : kFrictionVelocities) {
@@ -171,26 +172,37 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
   fit.mechanical_fit_pct = 100.0 * best / accel.squaredNorm();
 
   // [M1] for each delay of the drive
+  double drive_power = 1.0;
+  const double b1 = fit.model.mechanical[1] / fit.model.mechanical[0], b2 = fit.model.mechanical[2] / fit.model.mechanical[0];
   Eigen::MatrixXd elec(rows, 10);
   for (Eigen::Index r = 0; r < rows; ++r) {
     const Eigen::Index k = first + r;
     const double xk = x[k], ik = i[k], di = (i[k + 1] - i[k]) / h;
-    elec.row(r) << di, xk * di, xk * xk * di, ik * ik * di, i[k + 1], v[k], xk * v[k], xk * xk * v[k], ik * v[k],
-        ik * xk * v[k];
+    // the back-EMF's force factor has the shape Bl(x)/Bl0 = 1 + b1·x + b2·x² that [M2] found (one Bl for both
+    // equations: the mechanical fit is the better determined one)
+    elec.row(r) << di, xk * di, xk * xk * di, ik * ik * di, i[k + 1], v[k] * (1.0 + b1 * xk + b2 * xk * xk), 0.0, 0.0,
+        ik * v[k], ik * xk * v[k];
   }
-  best = std::numeric_limits<double>::infinity();
-  double drive_power = 1.0;
-  for (int d = 0; d <= max_delay; ++d) {
-    const Eigen::VectorXd target = drive.segment(first - d, rows);
-    double residual = 0.0;
-    const Eigen::VectorXd e = scaled_least_squares(elec, target, residual);
-    if (residual < best) {
-      best = residual;
-      drive_power = target.squaredNorm();
-      fit.model.delay = d;
-      for (int j = 0; j < 10; ++j) fit.model.electrical[static_cast<std::size_t>(j)] = e[j];
+  // A negative inductance (the drive's fractional delay absorbed as a lead) would make the reference unstable:
+  // the fit then leaves the inductance out (the electrical time constant is then taken as below a sample).
+  for (const bool with_inductance : {true, false}) {
+    if (!with_inductance) elec.leftCols(4).setZero();
+    best = std::numeric_limits<double>::infinity();
+    for (int d = 0; d <= max_delay; ++d) {
+      const Eigen::VectorXd target = drive.segment(first - d, rows);
+      double residual = 0.0;
+      const Eigen::VectorXd e = scaled_least_squares(elec, target, residual);
+      if (residual < best) {
+        best = residual;
+        drive_power = target.squaredNorm();
+        fit.model.delay = d;
+        for (int j = 0; j < 10; ++j) fit.model.electrical[static_cast<std::size_t>(j)] = e[j];
+      }
     }
+    if (fit.model.electrical[0] >= 0.0) break;
   }
+  fit.model.electrical[6] = fit.model.electrical[5] * b1;
+  fit.model.electrical[7] = fit.model.electrical[5] * b2;
   fit.electrical_fit_pct = 100.0 * best / drive_power;
   return fit;
 }
