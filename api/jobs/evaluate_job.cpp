@@ -1,5 +1,6 @@
 #include "api/jobs/evaluate_job.h"
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -145,17 +146,18 @@ json evaluate_work(const json& params, const JobEnvironment& env, JobControl& co
           progress.at(static_cast<double>(done) / static_cast<double>(total), "THD against output level");
         });
     result["level_sweep"] = evaluation::level_sweep_to_json(sweep);
-    json curves = json::array();
+    // one plot per probe, its columns equally long: the levels the chain reached, THD of each there
     for (const evaluation::LevelCurve& c : sweep.curves) {
       json chain_level = json::array(), chain_thd = json::array(), plant_thd = json::array();
       for (const evaluation::LevelPoint& p : c.points) {
+        if (!p.reachable) continue;
         chain_level.push_back(p.chain.fundamental);
         chain_thd.push_back(p.chain.thd_pct);
         plant_thd.push_back(p.plant.thd_pct);
       }
-      curves.push_back({{"f", c.frequency_hz}, {"level", chain_level}, {"chain_thd_pct", chain_thd}, {"plant_thd_pct", plant_thd}});
+      result["plots"]["thd_vs_level_" + std::to_string(static_cast<int>(std::lround(c.frequency_hz)))] =
+          json{{"level", chain_level}, {"chain_thd_pct", chain_thd}, {"plant_thd_pct", plant_thd}};
     }
-    result["plots"]["thd_vs_level"] = curves;
   }
   progress.at(1.0, "done");
   return result;
