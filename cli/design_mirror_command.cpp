@@ -58,9 +58,10 @@ void add_design_mirror(CLI::App& design) {
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Model file to write (JSON, kind mirror_filter)")->required();
   cmd->footer(
-      "Example:\n  panelbass simulate --plant panel-exciter --signal noise --amplitude 0.6 --samples 30000 --out rec.csv\n"
+      "Example:\n  panelbass simulate --plant panel-exciter --signal multisine --f-min 10 --f-max 300 --amplitude 0.5 "
+      "--samples 30000 --out rec.csv\n"
       "  panelbass design mirror --data rec.csv --fs 3000 --out mirror.json\n"
-      "  panelbass chain --feedforward mirror.json --bandpass none --out chain.json");
+      "  panelbass chain --bandpass 0,1200 --ff mirror.json --out chain.json");
   cmd->callback([o] { run_design_mirror(*o); });
 }
 
