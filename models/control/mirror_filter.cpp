@@ -16,7 +16,7 @@ namespace {
 constexpr const char* kKind = "mirror_filter";
 constexpr double kMmPerM = 1000.0;
 // Friction velocity scales tried by the fit, mm/s.
-constexpr double kFrictionVelocities[] = {5.0, 10.0, 20.0, 50.0, 100.0, 200.0};
+constexpr double kFrictionVelocities[] = {5.0, 7.0, 10.0, 14.0, 20.0, 30.0, 50.0, 70.0, 100.0, 140.0, 200.0};
 
 /// E_L and E_v of [M1] at (x, i).
 struct Electrical {
@@ -27,7 +27,8 @@ Electrical electrical_terms(const std::array<double, 10>& e, double x, double i)
   return {e[0] + e[1] * x + e[2] * x * x + e[3] * i * i, e[5] + e[6] * x + e[7] * x * x + e[8] * i + e[9] * i * x};
 }
 
-/// The force of [M2] without the current's terms: damping, K(x)·x and friction, over the mass.
+/// The force of [M2] without the current's terms: damping, K(x)·x and friction, over the mass (v the velocity at
+/// the sample instant).
 double restoring(const std::array<double, 10>& c, double x, double v, double v0) noexcept {
   return c[5] * v + c[6] * x + c[7] * x * x + c[8] * x * x * x + c[9] * std::tanh(v / v0);
 }
@@ -57,15 +58,27 @@ MirrorModel MirrorModel::linear() const {
 double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noexcept {
   const double h = 1.0 / m.fs;
   const std::array<double, 10>& c = m.mechanical;
+  // [M2] with the velocity at the sample instant, v̄ = (v_k + v_{k+1})/2: implicit in v_{k+1}, solved by Newton
+  // (the damping and the friction only take energy out, so the residual rises monotonically and the root is unique)
+  const double drive_force = (c[0] + c[1] * s.x + c[2] * s.x * s.x) * s.i + (c[3] + c[4] * s.x) * s.i * s.i +
+                             c[6] * s.x + c[7] * s.x * s.x + c[8] * s.x * s.x * s.x;
+  double v1 = s.v;
+  for (int it = 0; it < 50; ++it) {
+    const double mid = 0.5 * (s.v + v1), t = std::tanh(mid / m.friction_velocity);
+    const double f = v1 - s.v - h * (drive_force + c[5] * mid + c[9] * t);
+    const double df = 1.0 - h * 0.5 * (c[5] + c[9] * (1.0 - t * t) / m.friction_velocity);
+    const double step = f / df;
+    v1 -= step;
+    if (std::abs(step) <= 1e-15 * (1.0 + std::abs(v1))) break;
+  }
+  const double mid = 0.5 * (s.v + v1);
   // [M1] solved for i_{k+1}
   const Electrical el = electrical_terms(m.electrical, s.x, s.i);
-  const double i1 = (drive - el.back_emf * s.v + el.inductance * s.i / h) / (el.inductance / h + m.electrical[4]);
-  // [M2], [M3]
-  const double accel = (c[0] + c[1] * s.x + c[2] * s.x * s.x) * s.i + (c[3] + c[4] * s.x) * s.i * s.i +
-                       restoring(c, s.x, s.v, m.friction_velocity);
+  const double i1 = (drive - el.back_emf * mid + el.inductance * s.i / h) / (el.inductance / h + m.electrical[4]);
+  const double accel = (v1 - s.v) / h;
   s.i = i1;
-  s.v += h * accel;
-  s.x += h * s.v;
+  s.v = v1;
+  s.x += h * v1;  // [M3]
   return accel;
 }
 
@@ -82,13 +95,16 @@ double MirrorFilter::process(double program) noexcept {
   const double x = ref_.x, v = ref_.v;  // the reference's motion at k, which the nonlinear model shares
   step_mirror_model(reference_, ref_, program);  // the reference at k+1
   const std::array<double, 10>& c = model_.mechanical;
-  // [M2] at k+1: the current ĩ that gives the nonlinear model the reference's acceleration,
-  //   (c3 + c4·x)·ĩ² + (c0 + c1·x + c2·x²)·ĩ = c0·i_ref + (linear restoring terms) − (nonlinear model's restoring terms)
+  const std::array<double, 10>& r = reference_.mechanical;
+  // the reference's velocity at k+2 (its [M2] is linear: v̄ = (v_{k+1} + v_{k+2})/2 solved in closed form)
   const double x1 = ref_.x, v1 = ref_.v;
+  const double v2 = (v1 * (1.0 + 0.5 * h * r[5]) + h * (r[0] * ref_.i + r[6] * x1)) / (1.0 - 0.5 * h * r[5]);
+  const double mid1 = 0.5 * (v1 + v2);
+  // [M2] at k+1: the current ĩ that gives the nonlinear model the reference's acceleration,
+  //   (c3 + c4·x)·ĩ² + (c0 + c1·x + c2·x²)·ĩ = (v_{k+2} − v_{k+1})/h − (the nonlinear model's restoring terms)
   const double qa = c[3] + c[4] * x1;
   const double qb = c[0] + c[1] * x1 + c[2] * x1 * x1;
-  const double qr = c[0] * ref_.i + restoring(reference_.mechanical, x1, v1, model_.friction_velocity) -
-                    restoring(c, x1, v1, model_.friction_velocity);
+  const double qr = (v2 - v1) / h - restoring(c, x1, mid1, model_.friction_velocity);
   const double disc = qb * qb + 4.0 * qa * qr;
   double next = 0.0;
   saturated_ = false;
@@ -100,7 +116,7 @@ double MirrorFilter::process(double program) noexcept {
   }
   // [M1] at k: the drive that takes the current from ĩ_k to ĩ_{k+1} at the reference's motion
   const Electrical el = electrical_terms(model_.electrical, x, current_);
-  const double drive = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * v;
+  const double drive = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * 0.5 * (v + v1);
   current_ = next;
   if (!std::isfinite(drive)) {
     saturated_ = true;
@@ -143,6 +159,8 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
   const Eigen::VectorXd x = displacement * kMmPerM;
   Eigen::VectorXd v = Eigen::VectorXd::Zero(n);  // [M3]: v_k = (x_k − x_{k−1})/h
   for (Eigen::Index k = 1; k < n; ++k) v[k] = (x[k] - x[k - 1]) / h;
+  Eigen::VectorXd mid = Eigen::VectorXd::Zero(n);  // the velocity at the sample instant, (v_k + v_{k+1})/2
+  for (Eigen::Index k = 0; k + 1 < n; ++k) mid[k] = 0.5 * (v[k] + v[k + 1]);
   const Eigen::VectorXd& i = current;
   // rows k = first..n−2 (each needs x_k, v_k, i_k, i_{k+1}, v_{k+1} and the drive max_delay samples back)
   const Eigen::Index first = 1 + max_delay, rows = n - 1 - first;
@@ -156,11 +174,11 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
     const Eigen::Index k = first + r;
     const double xk = x[k], ik = i[k];
     accel[r] = (v[k + 1] - v[k]) / h;
-    mech.row(r) << ik, ik * xk, ik * xk * xk, ik * ik, ik * ik * xk, v[k], xk, xk * xk, xk * xk * xk, 0.0;
+    mech.row(r) << ik, ik * xk, ik * xk * xk, ik * ik, ik * ik * xk, mid[k], xk, xk * xk, xk * xk * xk, 0.0;
   }
   double best = std::numeric_limits<double>::infinity();
   for (double v0 : kFrictionVelocities) {
-    for (Eigen::Index r = 0; r < rows; ++r) mech(r, 9) = std::tanh(v[first + r] / v0);
+    for (Eigen::Index r = 0; r < rows; ++r) mech(r, 9) = std::tanh(mid[first + r] / v0);
     double residual = 0.0;
     const Eigen::VectorXd c = scaled_least_squares(mech, accel, residual);
     if (residual < best) {
@@ -180,8 +198,8 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
     const double xk = x[k], ik = i[k], di = (i[k + 1] - i[k]) / h;
     // the back-EMF's force factor has the shape Bl(x)/Bl0 = 1 + b1·x + b2·x² that [M2] found (one Bl for both
     // equations: the mechanical fit is the better determined one)
-    elec.row(r) << di, xk * di, xk * xk * di, ik * ik * di, i[k + 1], v[k] * (1.0 + b1 * xk + b2 * xk * xk), 0.0, 0.0,
-        ik * v[k], ik * xk * v[k];
+    elec.row(r) << di, xk * di, xk * xk * di, ik * ik * di, i[k + 1], mid[k] * (1.0 + b1 * xk + b2 * xk * xk), 0.0, 0.0,
+        ik * mid[k], ik * xk * mid[k];
   }
   // A negative inductance (the drive's fractional delay absorbed as a lead) would make the reference unstable:
   // the fit then leaves the inductance out (the electrical time constant is then taken as below a sample).

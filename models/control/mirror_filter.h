@@ -10,15 +10,16 @@
 // and displacement in mm, so that it can be fitted by linear least squares to a record of drive, coil
 // current and displacement alone (fit_mirror_model), with no knowledge of the amplifier's gain or of
 // the moving mass:
-//   [M1] drive_k = E_L(x_k, i_k)·(i_{k+1} − i_k)/h + e_R·i_{k+1} + E_v(x_k, i_k)·v_k
+//   [M1] drive_k = E_L(x_k, i_k)·(i_{k+1} − i_k)/h + e_R·i_{k+1} + E_v(x_k, i_k)·v̄_k
 //        E_L = e0 + e1·x + e2·x² + e3·i²          (Le(x, i) / gain)
 //        E_v = e5 + e6·x + e7·x² + e8·i + e9·i·x  (Bl(x)/gain and i·dLe/dx / gain)
-//   [M2] v_{k+1} = v_k + h·M(x_k, v_k, i_k)
+//   [M2] v_{k+1} = v_k + h·M(x_k, v̄_k, i_k),  v̄_k = (v_k + v_{k+1})/2 the velocity at the sample instant
 //        M = c0·i + c1·i·x + c2·i·x² + c3·i² + c4·i²·x + c5·v + c6·x + c7·x² + c8·x³ + c9·tanh(v/v0)
 //        (Bl(x)·i, reluctance force ½i²·dLe/dx, damping, K(x)·x, Coulomb friction — all over the mass)
 //   [M3] x_{k+1} = x_k + h·v_{k+1}
-// The mirror runs the reference one step ahead: at k it knows the reference's state at k+1, solves [M2] there for
-// the current ĩ_{k+1} that gives the reference's next acceleration, and [M1] at k for the drive that makes it.
+// The mirror runs the reference one step ahead: at k it knows the reference's state at k+1 (and, its [M2] being
+// linear, its velocity at k+2), solves [M2] at k+1 for the current ĩ_{k+1} that gives the reference's next
+// acceleration, and [M1] at k for the drive that makes it.
 // The linear reference keeps e0, e_R, e5, c0, c5, c6 and drops every other coefficient.
 
 #include <Eigen/Core>
