@@ -130,9 +130,9 @@ void run_evaluate(EvaluateOptions o) {
   if (!o.plots.empty() || !o.html.empty()) find_gnuplot();  // before the work, not after it
   const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
   const engine::ChainConfig config = engine::load_chain_file(o.chain);
-  // The Control issue's table needs an LQ feedforward stage (its desired response is the J_c reference); a chain
-  // with another feedforward (a mirror filter) is judged by the level sweep alone.
-  const bool lq = config.feedforward && config.feedforward->model.value("kind", "") == "lq_feedforward";
+  // The Control issue's table needs an LQ feedforward stage (its desired response is the J_c reference: any other
+  // chain is refused by evaluate_chain); a chain whose feedforward is a mirror filter is judged by the level sweep.
+  const bool lq = !(config.feedforward && config.feedforward->model.value("kind", "") == "mirror_filter");
   evaluation::ChainEvaluation e;
   if (lq) {
     e = evaluation::evaluate_chain(config, plant, o.evaluation);
@@ -218,7 +218,7 @@ void register_evaluate(CLI::App& app) {
   cmd->add_flag("--level-sweep", o->level_sweep,
                "Also sweep the program level at each probe: THD, H2, H3 against the sensor's fundamental, the chain "
                "beside the plant alone at equal output level, and two-tone IMD (\"level_sweep\" in the result; always "
-               "run for a chain whose feedforward is not an LQ controller)");
+               "run for a chain whose feedforward is a mirror filter, which has no J_c table)");
   cmd->add_option("--levels", o->sweep.program_amplitudes, "Program sine amplitudes of the level sweep")
       ->delimiter(',')
       ->capture_default_str();
