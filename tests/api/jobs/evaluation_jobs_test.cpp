@@ -8,6 +8,17 @@
 namespace panelbass::api::job_testing {
 namespace {
 
+// The chain an evaluate job builds from a stored LQ feedforward `ff_model`: its 20-1200 Hz band-pass (the design
+// job's default) and the feedforward.
+engine::ChainConfig band_pass_lq_chain(const json& ff_model) {
+  engine::ChainConfig config;
+  config.fs = kFs;
+  config.band_pass.design = {engine::Hertz{20.0}, engine::Hertz{1200.0}, 2};
+  config.feedforward = engine::SlotConfig{};
+  config.feedforward->model = ff_model;
+  return config;
+}
+
 TEST_F(JobKindsTest, EvaluateIsTheChainsEvaluationOnTheVirtualTransducer) {
   use_plant("panel-exciter");
   json models = design_nn_models();
@@ -21,11 +32,7 @@ TEST_F(JobKindsTest, EvaluateIsTheChainsEvaluationOnTheVirtualTransducer) {
   const json result = run("evaluate", params, control);
   expect_progress(control);
 
-  engine::ChainConfig config;
-  config.fs = kFs;
-  config.band_pass.design = {engine::Hertz{20.0}, engine::Hertz{1200.0}, 2};
-  config.feedforward = engine::SlotConfig{};
-  config.feedforward->model = *store_->model(ff);
+  engine::ChainConfig config = band_pass_lq_chain(*store_->model(ff));
   config.feedback = engine::SlotConfig{};
   config.feedback->model = *store_->model(fb);
   evaluation::EvaluationOptions options;
@@ -95,11 +102,7 @@ TEST_F(JobKindsTest, EvaluateLevelSweepIsTheLibrarysAndPlotsEachProbe) {
   const json result = run("evaluate", params, control);
   expect_progress(control);
 
-  engine::ChainConfig config;
-  config.fs = kFs;
-  config.band_pass.design = {engine::Hertz{20.0}, engine::Hertz{1200.0}, 2};
-  config.feedforward = engine::SlotConfig{};
-  config.feedforward->model = *store_->model(lq);
+  const engine::ChainConfig config = band_pass_lq_chain(*store_->model(lq));
   evaluation::LevelSweepOptions options;
   options.frequencies_hz = {80.0};
   const evaluation::LevelSweep expected = evaluation::sweep_levels(config, *env_.plant, options);
