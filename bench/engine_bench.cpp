@@ -28,6 +28,7 @@
 #include "dsp/random.h"
 #include "engine/chain.h"
 #include "engine/closed_loop.h"
+#include "engine/mirror_filter_stage.h"
 #include "engine/rate_bridge.h"
 #include "models/linear/linear_model.h"
 #include "models/narx/narx_model.h"
@@ -268,9 +269,23 @@ int main(int argc, char** argv) {
     if (block == 0) stage.prepare(options.spec);
     stage.process_block(in, out);
   };
+  // Issue #34's mirror filter stage by itself: the exact inverse of a gray-box exciter model (its coefficients as
+  // design mirror fits them on panel-exciter), no chain around it.
+  auto mirror_stage = [&](Chain&, std::span<const double> in, std::span<double> out, int block) {
+    static MirrorFilterStage stage([] {
+      models::MirrorModel m;
+      m.electrical = {0.0, 0.0, 0.0, 0.0, 0.204, 8.1e-5, 0.0, -3.6e-5, -1.3e-6, -4.3e-6};
+      m.mechanical = {1.46e5, -15.0, -6.46e4, -1473.0, -163.0, -39.6, -8.72e5, -2.6e4, -5.17e4, -5068.0};
+      m.friction_velocity = 100.0;
+      return m;
+    }());
+    if (block == 0) stage.prepare(options.spec);
+    stage.process_block(in, out);
+  };
   const Row rows[] = {
       {"band-pass stage alone (Butterworth 2+2: two second-order sections, no chain around it)",
        measure(band_pass, band_pass_stage, program)},
+      {"mirror filter stage alone (gray-box exciter model's inverse, issue #34)", measure(band_pass, mirror_stage, program)},
       {"band-pass (Butterworth 2+2, 20-1200 Hz)", measure(band_pass, plain, program)},
       {"+ linear feedforward (8th order)", measure(with_ff, plain, program)},
       {"+ NARX feedback, model mode (17-17-1) + limiter = full chain", measure(full, plain, program)},

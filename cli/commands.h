@@ -36,6 +36,9 @@ void register_design(CLI::App& app);
 /// Adds `design nn` (the neural feedback controller) to the `design` verb `design`.
 void add_design_nn(CLI::App& design);
 
+/// Adds `design mirror` (the mirror filter fitted to a record) to the `design` verb `design`.
+void add_design_mirror(CLI::App& design);
+
 /// `panelbass chain`: write the chain file the engine runs (band-pass, feedforward, feedback).
 void register_chain(CLI::App& app);
 

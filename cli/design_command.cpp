@@ -280,6 +280,7 @@ void register_design(CLI::App& app) {
   design->footer("Example:\n  panelbass design lq --model lin.json --R 3 --R0 20 --bandpass 20,1200 --out ff.json");
   add_design_lq(design);
   add_design_nn(*design);
+  add_design_mirror(*design);
 }
 
 }  // namespace panelbass::cli

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -11,12 +12,14 @@
 #include "cli/commands.h"
 #include "cli/evaluation_plots.h"
 #include "cli/gnuplot.h"
+#include "cli/html_report.h"
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
 #include "evaluation/chain_evaluation.h"
 #include "engine/chain_file.h"
 #include "evaluation/distortion_attribution.h"
 #include "evaluation/evaluation_json.h"
+#include "evaluation/level_sweep.h"
 #include "models/io/json_file.h"
 #include "models/plant/plant_presets.h"
 
@@ -24,11 +27,57 @@ namespace panelbass::cli {
 namespace {
 
 struct EvaluateOptions {
-  std::string plant = "panel-exciter", chain, out, plots;
+  std::string plant = "panel-exciter", chain, out, plots, html;
   std::string plot_format = "png";
   bool attribute = false;
+  bool level_sweep = false;
   evaluation::EvaluationOptions evaluation;
+  evaluation::LevelSweepOptions sweep;
 };
+
+// The level sweep on stderr: per probe and level, the output level, THD of the chain and of the plant alone at
+// that level, and the cut; a level the chain cannot reach undistorted by its limiter is marked.
+void print_level_sweep(const evaluation::LevelSweep& sweep) {
+  std::fprintf(stderr, "THD at equal output level (sensor fundamental), chain vs plant alone:\n");
+  std::fprintf(stderr, "%7s %8s %10s %10s %10s %9s %9s %8s\n", "f Hz", "program", "output V", "chain %", "plant %",
+               "cut dB", "floor %", "drive");
+  for (const evaluation::LevelCurve& c : sweep.curves) {
+    for (const evaluation::LevelPoint& p : c.points) {
+      std::fprintf(stderr, "%7.0f %8.3f %10.4f %10.3f %10.3f %9.1f %9.3f %8.3f%s\n", c.frequency_hz, p.program_amplitude,
+                   p.chain.fundamental, p.chain.thd_pct, p.plant.thd_pct, p.cut_db, p.noise_floor_pct, p.chain.drive_peak,
+                   p.reachable ? "" : "  (not reachable)");
+    }
+    std::fprintf(stderr, "%7.0f worst cut over the reachable levels: %.1f dB\n", c.frequency_hz,
+                 sweep.worst_cut_db(c.frequency_hz));
+  }
+  std::fprintf(stderr, "two-tone IMD: program  chain %%  plant %%  cut dB\n");
+  for (const evaluation::ImdPoint& p : sweep.imd) {
+    std::fprintf(stderr, "            %8.3f %8.3f %8.3f %7.1f%s\n", p.program_amplitude, p.chain_imd_pct, p.plant_imd_pct,
+                 p.cut_db, p.reachable ? "" : "  (not reachable)");
+  }
+}
+
+// The level sweep as an HTML page: the THD-versus-level chart and the table of cuts.
+void write_sweep_html(const std::string& path, const std::string& chain, const std::string& plant,
+                      const evaluation::LevelSweep& sweep, const std::filesystem::path& figure, PlotFormat format) {
+  std::string body = "<h1>Distortion at equal output level</h1><p>chain " + html_escaped(chain) + " on plant " +
+                     html_escaped(plant) +
+                     ": THD against the fundamental at the sensor (an independent DFT), the chain beside the plant "
+                     "driven alone at the drive that gives the same fundamental.</p>";
+  body += html_figures({{"thd_vs_level", "THD against the output level: chain (solid), plant alone (dashed)", figure}}, format);
+  body += "<table><tr><th>f (Hz)</th><th>program</th><th>output (V)</th><th>THD chain (%)</th><th>THD plant (%)</th>"
+          "<th>cut (dB)</th><th>noise floor (%)</th><th>reachable</th></tr>";
+  for (const evaluation::LevelCurve& c : sweep.curves) {
+    for (const evaluation::LevelPoint& p : c.points) {
+      body += "<tr><td>" + html_cell(c.frequency_hz) + "</td><td>" + html_cell(p.program_amplitude) + "</td><td>" +
+              html_cell(p.chain.fundamental) + "</td><td>" + html_cell(p.chain.thd_pct) + "</td><td>" +
+              html_cell(p.plant.thd_pct) + "</td><td>" + html_cell(p.cut_db, 3) + "</td><td>" +
+              html_cell(p.noise_floor_pct) + "</td><td>" + html_cell(p.reachable) + "</td></tr>";
+    }
+  }
+  body += "</table>";
+  write_html_page(path, "panelbass evaluate: THD against level", body);
+}
 
 // The table a person reads, on stderr: ripple and J_c of the transducer's output, and (on a plant whose
 // sensor is noisy) as the sensor measures them.
@@ -76,14 +125,20 @@ void print_attribution(const evaluation::ChainEvaluation& whole, const std::vect
   std::fprintf(stderr, "\n");
 }
 
-void run_evaluate(const EvaluateOptions& o) {
+void run_evaluate(EvaluateOptions o) {
   const PlotFormat format = parse_plot_format(o.plot_format);
-  if (!o.plots.empty()) find_gnuplot();  // before the work, not after it
+  if (!o.plots.empty() || !o.html.empty()) find_gnuplot();  // before the work, not after it
   const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
   const engine::ChainConfig config = engine::load_chain_file(o.chain);
-  const evaluation::ChainEvaluation e = evaluation::evaluate_chain(config, plant, o.evaluation);
-  print_table(e);
-  std::fprintf(stderr, "(J_c noise floor of the sensor: %.2f %%)\n", e.jc_noise_floor_pct);
+  // The Control issue's table needs an LQ feedforward stage (its desired response is the J_c reference: any other
+  // chain is refused by evaluate_chain); a chain whose feedforward is a mirror filter is judged by the level sweep.
+  const bool lq = !(config.feedforward && config.feedforward->model.value("kind", "") == "mirror_filter");
+  evaluation::ChainEvaluation e;
+  if (lq) {
+    e = evaluation::evaluate_chain(config, plant, o.evaluation);
+    print_table(e);
+    std::fprintf(stderr, "(J_c noise floor of the sensor: %.2f %%)\n", e.jc_noise_floor_pct);
+  }
   nlohmann::json rows = nlohmann::json::array();
   for (const evaluation::EvaluationRow& row : e.rows) rows.push_back(evaluation::evaluation_row_to_json(row));
   nlohmann::json result = {{"plant", plant.name},
@@ -94,7 +149,19 @@ void run_evaluate(const EvaluateOptions& o) {
                                  {"ripple_band_hz", {o.evaluation.ripple_low_hz, o.evaluation.ripple_high_hz}},
                                  {"rows", rows},
                                  {"plots", nullptr}};
-  if (o.attribute) {
+  std::optional<evaluation::LevelSweep> sweep;
+  if (o.level_sweep || !lq || !o.html.empty()) {
+    o.sweep.seed = o.evaluation.seed;
+    {
+      ProgressBar bar("evaluate: THD against output level");
+      sweep = evaluation::sweep_levels(config, plant, o.sweep, [&](std::size_t done, std::size_t total) {
+        bar.update(static_cast<double>(done) / static_cast<double>(total));
+      });
+    }
+    print_level_sweep(*sweep);
+    result["level_sweep"] = evaluation::level_sweep_to_json(*sweep);
+  }
+  if (o.attribute && lq) {
     std::vector<evaluation::TermDistortion> terms;
     {
       ProgressBar bar("evaluate: each nonlinear term alone");
@@ -107,11 +174,20 @@ void run_evaluate(const EvaluateOptions& o) {
     print_attribution(e, terms);
     result["attribution"] = evaluation::attribution_to_json(terms);
   }
-  if (!o.plots.empty()) {
-    const std::filesystem::path dir(o.plots);
+  if (!o.plots.empty() || !o.html.empty()) {
+    const std::filesystem::path dir = !o.plots.empty() ? std::filesystem::path(o.plots)
+                                                       : std::filesystem::path(o.html + ".figures");
     std::filesystem::create_directories(dir);
-    result["plots"] = {{"response", plot_evaluation_response(e, o.evaluation, dir, format).string()},
-                       {"harmonics", plot_evaluation_harmonics(e, dir, format).string()}};
+    result["plots"] = nlohmann::json::object();
+    if (lq) {
+      result["plots"]["response"] = plot_evaluation_response(e, o.evaluation, dir, format).string();
+      result["plots"]["harmonics"] = plot_evaluation_harmonics(e, dir, format).string();
+    }
+    if (sweep) {
+      const std::filesystem::path chart = plot_level_sweep(*sweep, dir, format);
+      result["plots"]["thd_vs_level"] = chart.string();
+      if (!o.html.empty()) write_sweep_html(o.html, o.chain, plant.name, *sweep, chart, format);
+    }
   }
   if (!o.out.empty()) models::write_json_file(o.out, result);
   print_result(result);
@@ -125,7 +201,7 @@ void register_evaluate(CLI::App& app) {
       "evaluate", "Evaluate a controller chain on a simulated transducer: response ripple, THD and J_c ([2C])");
   cmd->add_option("--plant", o->plant, "Preset (panel-exciter, linear) or plant JSON file")->capture_default_str();
   cmd->add_option("--chain", o->chain, "Chain file (panelbass chain)")->required();
-  cmd->add_option("--probes", o->evaluation.probe_hz, "Probe sine frequencies, Hz")
+  cmd->add_option("--probes", o->evaluation.probe_hz, "Probe sine frequencies, Hz (of the table and the level sweep)")
       ->delimiter(',')
       ->capture_default_str();
   cmd->add_option("--probe-peak", o->evaluation.probe_peak,
@@ -139,13 +215,26 @@ void register_evaluate(CLI::App& app) {
   cmd->add_flag("--attribute", o->attribute,
                "Also evaluate on copies of the plant with one nonlinear term on at a time (every other off): "
                "which physics makes each probe's distortion (\"attribution\" in the result)");
+  cmd->add_flag("--level-sweep", o->level_sweep,
+               "Also sweep the program level at each probe: THD, H2, H3 against the sensor's fundamental, the chain "
+               "beside the plant alone at equal output level, and two-tone IMD (\"level_sweep\" in the result; always "
+               "run for a chain whose feedforward is a mirror filter, which has no J_c table)");
+  cmd->add_option("--levels", o->sweep.program_amplitudes, "Program sine amplitudes of the level sweep")
+      ->delimiter(',')
+      ->capture_default_str();
+  cmd->add_option("--html", o->html, "Also write the level sweep's THD-versus-level chart and table as an HTML page");
   cmd->add_option("--out", o->out, "Also write the result here (JSON)");
   cmd->add_option("--plot", o->plots, "Directory for the response and harmonics figures (created)");
   cmd->add_option("--plot-format", o->plot_format, "png or svg")->check(CLI::IsMember({"png", "svg"}))->capture_default_str();
   cmd->footer(
       "Examples:\n  panelbass evaluate --plant panel-exciter --chain chain.json --probe-peak 0.6 --out eval.json --plot plots/\n"
-      "  panelbass evaluate --plant panel-exciter --chain chain.json --probe-peak 0.6 --attribute   # which term distorts where");
-  cmd->callback([o] { run_evaluate(*o); });
+      "  panelbass evaluate --plant panel-exciter --chain chain.json --probe-peak 0.6 --attribute   # which term distorts where\n"
+      "  panelbass evaluate --plant panel-exciter --chain mirror-chain.json --levels 0.1,0.2,0.4 --html thd.html");
+  cmd->callback([o] {
+    EvaluateOptions run = *o;
+    run.sweep.frequencies_hz = run.evaluation.probe_hz;
+    run_evaluate(std::move(run));
+  });
 }
 
 }  // namespace panelbass::cli

@@ -95,4 +95,37 @@ std::filesystem::path plot_evaluation_harmonics(const evaluation::ChainEvaluatio
   return fig.render(dir, format);
 }
 
+std::filesystem::path plot_level_sweep(const evaluation::LevelSweep& sweep, const std::filesystem::path& dir,
+                                       PlotFormat format) {
+  GnuplotFigure fig("evaluation_thd_vs_level", 1000, 600);
+  std::string plot = "plot ";
+  bool first = true;
+  for (std::size_t c = 0; c < sweep.curves.size(); ++c) {
+    const evaluation::LevelCurve& curve = sweep.curves[c];
+    for (const bool chain : {false, true}) {
+      std::vector<double> level, thd;
+      for (const evaluation::LevelPoint& p : curve.points) {
+        if (!p.reachable) continue;
+        level.push_back((chain ? p.chain : p.plant).fundamental);
+        thd.push_back((chain ? p.chain : p.plant).thd_pct);
+      }
+      if (level.empty()) continue;
+      const int block = fig.add_block({Eigen::Map<Eigen::VectorXd>(level.data(), static_cast<Eigen::Index>(level.size())),
+                                       Eigen::Map<Eigen::VectorXd>(thd.data(), static_cast<Eigen::Index>(thd.size()))});
+      plot += (first ? fig.data() : std::string(", \\\n     ''")) + " index " + std::to_string(block) +
+              " using 1:2 with linespoints lw 1.8 pt 7 ps 0.6 " + (chain ? "dt 1 " : "dt 2 ") + colour(c + 1) +
+              " title " + gnuplot_quoted(gnuplot_number(curve.frequency_hz, 4) + " Hz " + (chain ? "chain" : "plant alone"));
+      first = false;
+    }
+  }
+  fig << "set title 'THD against the output level (sensor fundamental), chain and plant alone at equal output level'"
+      << "set xlabel 'fundamental at the sensor (V)'"
+      << "set ylabel 'THD (%)'"
+      << "set logscale xy"
+      << "set grid xtics ytics mxtics mytics"
+      << "set key outside right box opaque"
+      << (first ? std::string("plot NaN notitle") : plot);
+  return fig.render(dir, format);
+}
+
 }  // namespace panelbass::cli

@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "engine/controller_stages.h"
+#include "engine/mirror_filter_stage.h"
 #include "models/io/config_error.h"
 #include "models/linear/linear_model.h"
 #include "models/control/lq_feedforward.h"
@@ -22,6 +23,7 @@ std::unique_ptr<Stage> make_stage(const nlohmann::json& model_file, FeedbackSour
     const models::LqFeedforward ff = models::lq_feedforward_from_json(model_file);
     return std::make_unique<StateSpaceStage>(ff.controller(), ff.fs);
   }
+  if (kind == "mirror_filter") return std::make_unique<MirrorFilterStage>(models::mirror_model_from_json(model_file));
   if (kind == "neural_feedback") {
     return std::make_unique<NeuralFeedbackStage>(models::neural_feedback_from_json(model_file), source);
   }

@@ -40,4 +40,46 @@ nlohmann::json attribution_to_json(const std::vector<TermDistortion>& terms) {
   return attribution;
 }
 
+namespace {
+
+nlohmann::json harmonic_figures_to_json(const HarmonicFigures& h) {
+  return {{"fundamental", models::number_or_null(h.fundamental)},
+          {"thd_pct", models::number_or_null(h.thd_pct)},
+          {"h2_db", models::number_or_null(h.h2_db)},
+          {"h3_db", models::number_or_null(h.h3_db)},
+          {"drive_peak", models::number_or_null(h.drive_peak)}};
+}
+
+}  // namespace
+
+nlohmann::json level_sweep_to_json(const LevelSweep& sweep) {
+  nlohmann::json curves = nlohmann::json::array();
+  for (const LevelCurve& c : sweep.curves) {
+    nlohmann::json points = nlohmann::json::array();
+    for (const LevelPoint& p : c.points) {
+      points.push_back({{"program_amplitude", p.program_amplitude},
+                        {"reachable", p.reachable},
+                        {"cut_db", models::number_or_null(p.cut_db)},
+                        {"noise_floor_pct", models::number_or_null(p.noise_floor_pct)},
+                        {"plant_drive", models::number_or_null(p.plant_drive)},
+                        {"chain", harmonic_figures_to_json(p.chain)},
+                        {"plant", harmonic_figures_to_json(p.plant)}});
+    }
+    curves.push_back({{"frequency_hz", c.frequency_hz},
+                      {"worst_cut_db", models::number_or_null(sweep.worst_cut_db(c.frequency_hz))},
+                      {"points", points}});
+  }
+  nlohmann::json imd = nlohmann::json::array();
+  for (const ImdPoint& p : sweep.imd) {
+    imd.push_back({{"program_amplitude", p.program_amplitude},
+                   {"output_low", models::number_or_null(p.output_low)},
+                   {"chain_imd_pct", models::number_or_null(p.chain_imd_pct)},
+                   {"plant_scale", models::number_or_null(p.plant_scale)},
+                   {"plant_imd_pct", models::number_or_null(p.plant_imd_pct)},
+                   {"cut_db", models::number_or_null(p.cut_db)},
+                   {"reachable", p.reachable}});
+  }
+  return {{"curves", curves}, {"imd", imd}};
+}
+
 }  // namespace panelbass::evaluation

@@ -76,6 +76,18 @@ const SPECS = {
   },
 };
 
+/** An evaluate job's THD-versus-level plot at one probe, `thd_vs_level_<Hz>` (as Klippel plots it). */
+function levelSpec(name) {
+  return {
+    title: `THD against output level at ${name.slice('thd_vs_level_'.length)} Hz (chain and plant alone at equal output)`,
+    x: 'level', xLabel: 'fundamental at the sensor (V)', yLabel: 'THD (%)', logX: true, logY: true,
+    series: {
+      chain_thd_pct: { label: 'chain', stroke: MEASURED },
+      plant_thd_pct: { label: 'plant alone', stroke: BEFORE },
+    },
+  };
+}
+
 /** The order in which a result's plots are shown; unknown plot names follow. */
 export const PLOT_ORDER = ['fit', 'spectrum', 'residual_spectrum', 'harmonics', 'response', 'thd', 'history'];
 
@@ -150,7 +162,7 @@ function wantsLogY(columns, keys) {
  */
 export function drawPlot(host, name, columns) {
   host.replaceChildren();
-  const spec = SPECS[name] || { title: name, x: Object.keys(columns)[0], xLabel: Object.keys(columns)[0],
+  const spec = SPECS[name] || (name.startsWith('thd_vs_level_') ? levelSpec(name) : null) || { title: name, x: Object.keys(columns)[0], xLabel: Object.keys(columns)[0],
                                 yLabel: '', series: {} };
   const keys = Object.keys(columns).filter((k) => k !== spec.x && Array.isArray(columns[k]));
   // Known series first in the spec's order, then whatever else the server sent.
@@ -202,5 +214,5 @@ export function drawPlot(host, name, columns) {
 
 /** The title a plot is shown under (for its placeholder while empty). */
 export function plotTitle(name) {
-  return SPECS[name]?.title || name;
+  return SPECS[name]?.title || (name.startsWith('thd_vs_level_') ? levelSpec(name).title : name);
 }

@@ -1,5 +1,6 @@
 #include "api/jobs/evaluate_job.h"
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "evaluation/chain_evaluation.h"
 #include "engine/chain_file.h"
 #include "evaluation/distortion_attribution.h"
+#include "evaluation/level_sweep.h"
 #include "evaluation/evaluation_json.h"
 #include "models/control/lq_feedforward.h"
 #include "models/plant/plant_presets.h"
@@ -42,6 +44,7 @@ json evaluate_params(const json& params, const JobEnvironment& env) {
   r.integer("noise_samples", defaults.noise_samples, 4096, kMaxSamples);
   r.integer("seed", 1, 0, kMaxSeed);
   r.boolean("attribute", false);
+  r.boolean("level_sweep", false);
   return r.finish();
 }
 
@@ -130,6 +133,31 @@ json evaluate_work(const json& params, const JobEnvironment& env, JobControl& co
     }
     result["summary"]["attribution_thd_pct"] = by_term;
     result["attribution"] = evaluation::attribution_to_json(terms);
+  }
+  if (params.at("level_sweep").get<bool>()) {
+    // THD against the output level (the chain beside the plant alone at equal sensor fundamental) and two-tone IMD,
+    // as evaluate --level-sweep; the chart's curves in "plots": per probe, output level and THD of each.
+    progress.span(attribute ? 0.9 : 0.5, 1.0);
+    evaluation::LevelSweepOptions sweep_options;
+    sweep_options.frequencies_hz = options.probe_hz;
+    sweep_options.seed = options.seed;
+    const evaluation::LevelSweep sweep =
+        evaluation::sweep_levels(config, plant, sweep_options, [&](std::size_t done, std::size_t total) {
+          progress.at(static_cast<double>(done) / static_cast<double>(total), "THD against output level");
+        });
+    result["level_sweep"] = evaluation::level_sweep_to_json(sweep);
+    // one plot per probe, its columns equally long: the levels the chain reached, THD of each there
+    for (const evaluation::LevelCurve& c : sweep.curves) {
+      json chain_level = json::array(), chain_thd = json::array(), plant_thd = json::array();
+      for (const evaluation::LevelPoint& p : c.points) {
+        if (!p.reachable) continue;
+        chain_level.push_back(p.chain.fundamental);
+        chain_thd.push_back(p.chain.thd_pct);
+        plant_thd.push_back(p.plant.thd_pct);
+      }
+      result["plots"]["thd_vs_level_" + std::to_string(static_cast<int>(std::lround(c.frequency_hz)))] =
+          json{{"level", chain_level}, {"chain_thd_pct", chain_thd}, {"plant_thd_pct", plant_thd}};
+    }
   }
   progress.at(1.0, "done");
   return result;

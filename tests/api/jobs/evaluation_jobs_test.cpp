@@ -8,6 +8,17 @@
 namespace panelbass::api::job_testing {
 namespace {
 
+// The chain an evaluate job builds from a stored LQ feedforward `ff_model`: its 20-1200 Hz band-pass (the design
+// job's default) and the feedforward.
+engine::ChainConfig band_pass_lq_chain(const json& ff_model) {
+  engine::ChainConfig config;
+  config.fs = kFs;
+  config.band_pass.design = {engine::Hertz{20.0}, engine::Hertz{1200.0}, 2};
+  config.feedforward = engine::SlotConfig{};
+  config.feedforward->model = ff_model;
+  return config;
+}
+
 TEST_F(JobKindsTest, EvaluateIsTheChainsEvaluationOnTheVirtualTransducer) {
   use_plant("panel-exciter");
   json models = design_nn_models();
@@ -21,11 +32,7 @@ TEST_F(JobKindsTest, EvaluateIsTheChainsEvaluationOnTheVirtualTransducer) {
   const json result = run("evaluate", params, control);
   expect_progress(control);
 
-  engine::ChainConfig config;
-  config.fs = kFs;
-  config.band_pass.design = {engine::Hertz{20.0}, engine::Hertz{1200.0}, 2};
-  config.feedforward = engine::SlotConfig{};
-  config.feedforward->model = *store_->model(ff);
+  engine::ChainConfig config = band_pass_lq_chain(*store_->model(ff));
   config.feedback = engine::SlotConfig{};
   config.feedback->model = *store_->model(fb);
   evaluation::EvaluationOptions options;
@@ -86,6 +93,28 @@ TEST_F(JobKindsTest, EvaluateRefusalsNameTheField) {
   EXPECT_NO_THROW(validate_job_params("evaluate", {{"feedforward_model", ff}, {"plant", "server"}}, env_));
 }
 
+
+TEST_F(JobKindsTest, EvaluateLevelSweepIsTheLibrarysAndPlotsEachProbe) {
+  use_plant("panel-exciter");
+  const std::string lq = run("design-lq", {{"plant_model", store_reference_model()}, {"r", 3.0}}, "j1").at("model_id");
+  const json params = {{"feedforward_model", lq}, {"probes_hz", {80.0}}, {"noise_samples", 4096}, {"level_sweep", true}};
+  FakeControl control("j2");
+  const json result = run("evaluate", params, control);
+  expect_progress(control);
+
+  const engine::ChainConfig config = band_pass_lq_chain(*store_->model(lq));
+  evaluation::LevelSweepOptions options;
+  options.frequencies_hz = {80.0};
+  const evaluation::LevelSweep expected = evaluation::sweep_levels(config, *env_.plant, options);
+  EXPECT_EQ(result.at("level_sweep"), without_non_finite(evaluation::level_sweep_to_json(expected)));
+  // the web UI's plot: equal-length columns, one entry per level the chain reached
+  const json& plot = result.at("plots").at("thd_vs_level_80");
+  std::size_t reached = 0;
+  for (const evaluation::LevelPoint& p : expected.curves.at(0).points) reached += p.reachable ? 1 : 0;
+  EXPECT_EQ(plot.at("level").size(), reached);
+  EXPECT_EQ(plot.at("chain_thd_pct").size(), reached);
+  EXPECT_EQ(plot.at("plant_thd_pct").size(), reached);
+}
 
 TEST_F(JobKindsTest, AnalyzeJudgesAModelOnARecord) {
   const std::string model = store_reference_model();

@@ -1,0 +1,271 @@
+#include "models/control/mirror_filter.h"
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "models/io/config_error.h"
+#include "models/io/json_fields.h"
+#include "models/io/model_header.h"
+
+namespace panelbass::models {
+namespace {
+
+constexpr const char* kKind = "mirror_filter";
+constexpr double kMmPerM = 1000.0;
+// Friction velocity scales tried by the fit, mm/s.
+constexpr double kFrictionVelocities[] = {5.0, 7.0, 10.0, 14.0, 20.0, 30.0, 50.0, 70.0, 100.0, 140.0, 200.0};
+
+/// E_L and E_v of [M1] at (x, i).
+struct Electrical {
+  double inductance, back_emf;
+};
+
+Electrical electrical_terms(const std::array<double, 10>& e, double x, double i) noexcept {
+  return {e[0] + e[1] * x + e[2] * x * x + e[3] * i * i, e[5] + e[6] * x + e[7] * x * x + e[8] * i + e[9] * i * x};
+}
+
+/// The force of [M2] without the current's terms: damping, K(x)·x and friction, over the mass (v the velocity at
+/// the sample instant).
+double restoring(const std::array<double, 10>& c, double x, double v, double v0) noexcept {
+  return c[5] * v + c[6] * x + c[7] * x * x + c[8] * x * x * x + c[9] * std::tanh(v / v0);
+}
+
+/// Least squares with each column scaled to unit norm first (the regressors differ by orders of magnitude);
+/// returns the coefficients and writes the residual's squared norm.
+Eigen::VectorXd scaled_least_squares(const Eigen::MatrixXd& a, const Eigen::VectorXd& b, double& residual) {
+  Eigen::VectorXd scale = a.colwise().norm().transpose();
+  for (Eigen::Index j = 0; j < scale.size(); ++j) {
+    if (!(scale[j] > 0.0)) scale[j] = 1.0;  // a column that is zero in the record: its coefficient stays 0
+  }
+  const Eigen::MatrixXd as = a * scale.cwiseInverse().asDiagonal();
+  Eigen::VectorXd theta = as.colPivHouseholderQr().solve(b);
+  residual = (as * theta - b).squaredNorm();
+  return theta.cwiseQuotient(scale);
+}
+
+}  // namespace
+
+MirrorModel MirrorModel::linear() const {
+  MirrorModel l = *this;
+  for (int j : {1, 2, 3, 6, 7, 8, 9}) l.electrical[j] = 0.0;
+  for (int j : {1, 2, 3, 4, 7, 8, 9}) l.mechanical[j] = 0.0;
+  return l;
+}
+
+double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noexcept {
+  const double h = 1.0 / m.fs;
+  const std::array<double, 10>& c = m.mechanical;
+  // [M2] with the velocity at the sample instant, v̄ = (v_k + v_{k+1})/2: implicit in v_{k+1}, solved by Newton
+  // (the damping and the friction only take energy out, so the residual rises monotonically and the root is unique)
+  const double drive_force = (c[0] + c[1] * s.x + c[2] * s.x * s.x) * s.i + (c[3] + c[4] * s.x) * s.i * s.i +
+                             c[6] * s.x + c[7] * s.x * s.x + c[8] * s.x * s.x * s.x;
+  double v1 = s.v;
+  for (int it = 0; it < 50; ++it) {
+    const double mid = 0.5 * (s.v + v1), t = std::tanh(mid / m.friction_velocity);
+    const double f = v1 - s.v - h * (drive_force + c[5] * mid + c[9] * t);
+    const double df = 1.0 - h * 0.5 * (c[5] + c[9] * (1.0 - t * t) / m.friction_velocity);
+    const double step = f / df;
+    v1 -= step;
+    if (std::abs(step) <= 1e-15 * (1.0 + std::abs(v1))) break;
+  }
+  const double mid = 0.5 * (s.v + v1);
+  // [M1] solved for i_{k+1}
+  const Electrical el = electrical_terms(m.electrical, s.x, s.i);
+  const double i1 = (drive - el.back_emf * mid + el.inductance * s.i / h) / (el.inductance / h + m.electrical[4]);
+  const double accel = (v1 - s.v) / h;
+  s.i = i1;
+  s.v = v1;
+  s.x += h * v1;  // [M3]
+  return accel;
+}
+
+MirrorFilter::MirrorFilter(const MirrorModel& model) : model_(model), reference_(model.linear()) {}
+
+void MirrorFilter::reset() noexcept {
+  ref_ = {};
+  current_ = 0.0;
+  saturated_ = false;
+}
+
+double MirrorFilter::process(double program) noexcept {
+  const double h = 1.0 / model_.fs;
+  const double x = ref_.x, v = ref_.v;  // the reference's motion at k, which the nonlinear model shares
+  step_mirror_model(reference_, ref_, program);  // the reference at k+1
+  const std::array<double, 10>& c = model_.mechanical;
+  const std::array<double, 10>& r = reference_.mechanical;
+  // the reference's velocity at k+2 (its [M2] is linear: v̄ = (v_{k+1} + v_{k+2})/2 solved in closed form)
+  const double x1 = ref_.x, v1 = ref_.v;
+  const double v2 = (v1 * (1.0 + 0.5 * h * r[5]) + h * (r[0] * ref_.i + r[6] * x1)) / (1.0 - 0.5 * h * r[5]);
+  const double mid1 = 0.5 * (v1 + v2);
+  // [M2] at k+1: the current ĩ that gives the nonlinear model the reference's acceleration,
+  //   (c3 + c4·x)·ĩ² + (c0 + c1·x + c2·x²)·ĩ = (v_{k+2} − v_{k+1})/h − (the nonlinear model's restoring terms)
+  const double qa = c[3] + c[4] * x1;
+  const double qb = c[0] + c[1] * x1 + c[2] * x1 * x1;
+  const double qr = (v2 - v1) / h - restoring(c, x1, mid1, model_.friction_velocity);
+  const double disc = qb * qb + 4.0 * qa * qr;
+  double next = 0.0;
+  saturated_ = false;
+  if (disc >= 0.0 && qb != 0.0) {
+    next = 2.0 * qr / (qb + std::copysign(std::sqrt(disc), qb));  // the root that tends to qr/qb as qa → 0
+  } else {
+    saturated_ = true;
+    next = c[0] * ref_.i / (qb != 0.0 ? qb : c[0]);
+  }
+  // [M1] at k: the drive that takes the current from ĩ_k to ĩ_{k+1} at the reference's motion
+  const Electrical el = electrical_terms(model_.electrical, x, current_);
+  const double drive = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * 0.5 * (v + v1);
+  current_ = next;
+  if (!std::isfinite(drive)) {
+    saturated_ = true;
+    return program;
+  }
+  return drive;
+}
+
+Eigen::VectorXd mirror_filter(const MirrorModel& model, const Eigen::VectorXd& program) {
+  MirrorFilter filter(model);
+  Eigen::VectorXd out(program.size());
+  for (Eigen::Index k = 0; k < program.size(); ++k) out[k] = filter.process(program[k]);
+  return out;
+}
+
+Eigen::VectorXd simulate_mirror_model(const MirrorModel& model, const Eigen::VectorXd& drive) {
+  MirrorState s;
+  Eigen::VectorXd accel(drive.size());
+  for (Eigen::Index k = 0; k < drive.size(); ++k) accel[k] = step_mirror_model(model, s, drive[k]);
+  return accel;
+}
+
+MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& current,
+                           const Eigen::VectorXd& displacement, double fs, int max_delay) {
+  const Eigen::Index n = drive.size();
+  if (current.size() != n || displacement.size() != n) {
+    throw std::invalid_argument("mirror fit: drive, current and displacement must have the same length (" +
+                                std::to_string(n) + ", " + std::to_string(current.size()) + ", " +
+                                std::to_string(displacement.size()) + ")");
+  }
+  if (n < 1000) throw std::invalid_argument("mirror fit: at least 1000 samples are needed, got " + std::to_string(n));
+  if (!(fs > 0.0)) throw std::invalid_argument("mirror fit: fs must be > 0");
+  if (max_delay < 0 || max_delay > 64) throw std::invalid_argument("mirror fit: max_delay must be within [0, 64]");
+  for (Eigen::Index k = 0; k < n; ++k) {
+    if (!std::isfinite(drive[k]) || !std::isfinite(current[k]) || !std::isfinite(displacement[k])) {
+      throw std::invalid_argument("mirror fit: sample " + std::to_string(k) + " is not finite");
+    }
+  }
+  const double h = 1.0 / fs;
+  const Eigen::VectorXd x = displacement * kMmPerM;
+  Eigen::VectorXd v = Eigen::VectorXd::Zero(n);  // [M3]: v_k = (x_k − x_{k−1})/h
+  for (Eigen::Index k = 1; k < n; ++k) v[k] = (x[k] - x[k - 1]) / h;
+  Eigen::VectorXd mid = Eigen::VectorXd::Zero(n);  // the velocity at the sample instant, (v_k + v_{k+1})/2
+  for (Eigen::Index k = 0; k + 1 < n; ++k) mid[k] = 0.5 * (v[k] + v[k + 1]);
+  const Eigen::VectorXd& i = current;
+  // rows k = first..n−2 (each needs x_k, v_k, i_k, i_{k+1}, v_{k+1} and the drive max_delay samples back)
+  const Eigen::Index first = 1 + max_delay, rows = n - 1 - first;
+
+  MirrorFit fit;
+  fit.model.fs = fs;
+  // [M2] for each friction velocity scale; the smallest residual wins
+  Eigen::VectorXd accel(rows);
+  Eigen::MatrixXd mech(rows, 10);
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    const Eigen::Index k = first + r;
+    const double xk = x[k], ik = i[k];
+    accel[r] = (v[k + 1] - v[k]) / h;
+    mech.row(r) << ik, ik * xk, ik * xk * xk, ik * ik, ik * ik * xk, mid[k], xk, xk * xk, xk * xk * xk, 0.0;
+  }
+  double best = std::numeric_limits<double>::infinity();
+  for (double v0 : kFrictionVelocities) {
+    for (Eigen::Index r = 0; r < rows; ++r) mech(r, 9) = std::tanh(mid[first + r] / v0);
+    double residual = 0.0;
+    const Eigen::VectorXd c = scaled_least_squares(mech, accel, residual);
+    if (residual < best) {
+      best = residual;
+      fit.model.friction_velocity = v0;
+      for (int j = 0; j < 10; ++j) fit.model.mechanical[static_cast<std::size_t>(j)] = c[j];
+    }
+  }
+  fit.mechanical_fit_pct = 100.0 * best / accel.squaredNorm();
+
+  // [M1] for each delay of the drive
+  double drive_power = 1.0;
+  const double b1 = fit.model.mechanical[1] / fit.model.mechanical[0], b2 = fit.model.mechanical[2] / fit.model.mechanical[0];
+  Eigen::MatrixXd elec(rows, 10);
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    const Eigen::Index k = first + r;
+    const double xk = x[k], ik = i[k], di = (i[k + 1] - i[k]) / h;
+    // the back-EMF's force factor has the shape Bl(x)/Bl0 = 1 + b1·x + b2·x² that [M2] found (one Bl for both
+    // equations: the mechanical fit is the better determined one)
+    elec.row(r) << di, xk * di, xk * xk * di, ik * ik * di, i[k + 1], mid[k] * (1.0 + b1 * xk + b2 * xk * xk), 0.0, 0.0,
+        ik * mid[k], ik * xk * mid[k];
+  }
+  // A negative inductance (the drive's fractional delay absorbed as a lead) would make the reference unstable:
+  // the fit then leaves the inductance out (the electrical time constant is then taken as below a sample).
+  for (const bool with_inductance : {true, false}) {
+    if (!with_inductance) elec.leftCols(4).setZero();
+    best = std::numeric_limits<double>::infinity();
+    for (int d = 0; d <= max_delay; ++d) {
+      const Eigen::VectorXd target = drive.segment(first - d, rows);
+      double residual = 0.0;
+      const Eigen::VectorXd e = scaled_least_squares(elec, target, residual);
+      if (residual < best) {
+        best = residual;
+        drive_power = target.squaredNorm();
+        fit.model.delay = d;
+        for (int j = 0; j < 10; ++j) fit.model.electrical[static_cast<std::size_t>(j)] = e[j];
+      }
+    }
+    if (fit.model.electrical[0] >= 0.0) break;
+  }
+  fit.model.electrical[6] = fit.model.electrical[5] * b1;
+  fit.model.electrical[7] = fit.model.electrical[5] * b2;
+  fit.electrical_fit_pct = 100.0 * best / drive_power;
+  return fit;
+}
+
+nlohmann::json mirror_model_to_json(const MirrorModel& m, const nlohmann::json& meta) {
+  return {{"format", kModelFormat},
+          {"kind", kKind},
+          {"fs", m.fs},
+          {"params",
+           {{"electrical", m.electrical},
+            {"mechanical", m.mechanical},
+            {"friction_velocity_mm_per_s", m.friction_velocity},
+            {"delay", m.delay}}},
+          {"meta", meta.is_null() ? nlohmann::json::object() : meta}};
+}
+
+MirrorModel mirror_model_from_json(const nlohmann::json& j) {
+  MirrorModel m;
+  JsonFields top(j, "model");
+  m.fs = read_model_header(top, kKind);
+  (void)read_model_meta(top);
+  const nlohmann::json* params = top.member("params");
+  if (params == nullptr) throw ConfigError("model.params: missing");
+  JsonFields p(*params, "model.params");
+  const auto coefficients = [&p](const char* key, std::array<double, 10>& out) {
+    const nlohmann::json* v = p.member(key);
+    if (v == nullptr) throw ConfigError(p.path_of(key) + ": missing");
+    const Eigen::VectorXd read = read_vector(*v, p.path_of(key));
+    if (read.size() != 10) {
+      throw ConfigError(p.path_of(key) + ": 10 coefficients expected, got " + std::to_string(read.size()));
+    }
+    for (int k = 0; k < 10; ++k) out[static_cast<std::size_t>(k)] = read[k];
+  };
+  coefficients("electrical", m.electrical);
+  coefficients("mechanical", m.mechanical);
+  m.friction_velocity = p.number("friction_velocity_mm_per_s");
+  require_positive(m.friction_velocity, "model.params.friction_velocity_mm_per_s");
+  m.delay = static_cast<int>(p.integer("delay", 0, 0, 64));
+  p.finish();
+  top.finish();
+  const double denominator = m.electrical[0] * m.fs + m.electrical[4];
+  if (!(std::abs(denominator) > 0.0) || !(m.mechanical[0] != 0.0)) {
+    throw ConfigError("model.params: electrical e0·fs + e4 and mechanical c0 must not be zero (no current, no force)");
+  }
+  return m;
+}
+
+}  // namespace panelbass::models

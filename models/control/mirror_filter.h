@@ -1,0 +1,98 @@
+#pragma once
+// Klippel's mirror filter: the exact inverse of an identified nonlinear state model of the exciter
+// (voltage → current → force Bl(x)·i → mass-spring with K(x), Le(x, i), friction), run in feedforward
+// sample by sample. A linear reference model (the same model with every element at its rest value)
+// is driven by the program; the filter solves the nonlinear model's mechanical equation for the
+// current that produces the reference's motion, then its electrical equation for the drive that
+// produces that current. On a plant the model describes exactly, the output is the linear model's.
+//
+// The model is gray-box and discrete (one step per sample, drive held over the sample), in drive units
+// and displacement in mm, so that it can be fitted by linear least squares to a record of drive, coil
+// current and displacement alone (fit_mirror_model), with no knowledge of the amplifier's gain or of
+// the moving mass:
+//   [M1] drive_k = E_L(x_k, i_k)·(i_{k+1} − i_k)/h + e_R·i_{k+1} + E_v(x_k, i_k)·v̄_k
+//        E_L = e0 + e1·x + e2·x² + e3·i²          (Le(x, i) / gain)
+//        E_v = e5 + e6·x + e7·x² + e8·i + e9·i·x  (Bl(x)/gain and i·dLe/dx / gain)
+//   [M2] v_{k+1} = v_k + h·M(x_k, v̄_k, i_k),  v̄_k = (v_k + v_{k+1})/2 the velocity at the sample instant
+//        M = c0·i + c1·i·x + c2·i·x² + c3·i² + c4·i²·x + c5·v + c6·x + c7·x² + c8·x³ + c9·tanh(v/v0)
+//        (Bl(x)·i, reluctance force ½i²·dLe/dx, damping, K(x)·x, Coulomb friction — all over the mass)
+//   [M3] x_{k+1} = x_k + h·v_{k+1}
+// The mirror runs the reference one step ahead: at k it knows the reference's state at k+1 (and, its [M2] being
+// linear, its velocity at k+2), solves [M2] at k+1 for the current ĩ_{k+1} that gives the reference's next
+// acceleration, and [M1] at k for the drive that makes it.
+// The linear reference keeps e0, e_R, e5, c0, c5, c6 and drops every other coefficient.
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <nlohmann/json.hpp>
+
+namespace panelbass::models {
+
+/// The identified gray-box exciter model of [M1]–[M3] (x in mm, v in mm/s, i in A, drive dimensionless).
+struct MirrorModel {
+  double fs = 3000.0;                ///< sample rate, Hz
+  std::array<double, 10> electrical{};  ///< e0..e9 of [M1]; e4 is e_R (the coil resistance over the gain)
+  std::array<double, 10> mechanical{};  ///< c0..c9 of [M2]
+  double friction_velocity = 50.0;   ///< v0 of the friction term, mm/s
+  int delay = 0;                     ///< samples between the drive and the coil voltage found by the fit
+  /// The same model with every nonlinear coefficient zero: the linear reference.
+  MirrorModel linear() const;
+};
+
+/// One step of the model's state (current A, displacement mm, velocity mm/s).
+struct MirrorState {
+  double i = 0.0, x = 0.0, v = 0.0;
+};
+
+/// Steps [M1]–[M3] once with `drive` held; returns the acceleration (v_{k+1} − v_k)/h, mm/s².
+double step_mirror_model(const MirrorModel& model, MirrorState& state, double drive) noexcept;
+
+/// The mirror filter on a model: program sample in, drive sample out, allocation-free and noexcept.
+class MirrorFilter {
+ public:
+  /// A filter at rest for `model` (the linear reference is model.linear()).
+  explicit MirrorFilter(const MirrorModel& model);
+  /// The drive that makes the nonlinear model follow the linear reference driven by `program`.
+  double process(double program) noexcept;
+  /// Back to rest.
+  void reset() noexcept;
+  /// True when the last sample's force equation had no real solution (the current was clamped to the
+  /// linear one): the program asks for more than the model's force factor can give.
+  bool saturated() const { return saturated_; }
+
+ private:
+  MirrorModel model_, reference_;
+  MirrorState ref_;
+  double current_ = 0.0;  // the nonlinear model's current, ĩ_k
+  bool saturated_ = false;
+};
+
+/// Runs the mirror filter over `program` from rest.
+Eigen::VectorXd mirror_filter(const MirrorModel& model, const Eigen::VectorXd& program);
+
+/// Simulates the model [M1]–[M3] from rest on `drive`; returns the acceleration, mm/s².
+Eigen::VectorXd simulate_mirror_model(const MirrorModel& model, const Eigen::VectorXd& drive);
+
+/// How a gray-box fit went.
+struct MirrorFit {
+  MirrorModel model;               ///< the fitted model
+  double electrical_fit_pct = 0.0; ///< residual power of [M1] over the drive's power, percent
+  double mechanical_fit_pct = 0.0; ///< residual power of [M2] over the acceleration's power, percent
+};
+
+/// Fits [M1]–[M3] to a record of `drive`, coil `current` (A) and `displacement` (m) at `fs` by linear least
+/// squares (velocity from the displacement's differences, as [M3] has it), choosing the drive's delay in
+/// 0..max_delay samples and the friction velocity scale on a grid by the smallest residual. Throws
+/// std::invalid_argument naming the problem for columns of unequal length, fewer than 1000 samples or a
+/// non-finite sample.
+MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& current,
+                           const Eigen::VectorXd& displacement, double fs, int max_delay = 4);
+
+/// The model file {"format":"panelbass.model/1","kind":"mirror_filter","fs",…,"params":{…},"meta"}.
+nlohmann::json mirror_model_to_json(const MirrorModel& model, const nlohmann::json& meta = nlohmann::json::object());
+
+/// Reads a mirror_filter model file; ConfigError naming the key for anything missing or not finite.
+MirrorModel mirror_model_from_json(const nlohmann::json& json);
+
+}  // namespace panelbass::models

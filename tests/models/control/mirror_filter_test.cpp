@@ -1,0 +1,109 @@
+// The mirror filter: exact where its model is (the compensated output of a plant that the model describes
+// exactly equals the linear reference's to 1e-6), a gray-box fit that recovers a model from its own record,
+// and the model file's round trip and bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "dsp/excitation.h"
+#include "models/control/mirror_filter.h"
+#include "models/io/config_error.h"
+#include "models/plant/plant_presets.h"
+#include "models/plant/virtual_transducer.h"
+#include "tests/support/expect_error.h"
+
+namespace panelbass::models {
+namespace {
+
+// panel-exciter's physics written in [M1]–[M3]'s units (drive, A, mm, mm/s): amplifier gain G = 20 V, Re = 4 Ω,
+// Le = 0.3 mH, m = 10 g, K0 = 8880 N/m, Rm = 0.4 Ns/m, Bl0 = 1.5 Tm, K(x) = K0(1 + 0.03x + 0.06x²),
+// Bl(x) = Bl0(1 − 0.45x²), Le(x, i) = Le0(1 − 0.1x − 0.02i²), Coulomb friction 0.05 N at 50 mm/s.
+MirrorModel exciter_model() {
+  const double g = 20.0, re = 4.0, le = 3e-4, m = 0.01, k0 = 8880.0, rm = 0.4, bl = 1.5;
+  MirrorModel model;
+  model.fs = 3000.0;
+  const double e5 = bl / g / 1000.0;  // V per mm/s over the gain
+  model.electrical = {le / g, le / g * -0.1, 0.0, le / g * -0.02, re / g, e5, 0.0, e5 * -0.45, le * -0.1 / g, 0.0};
+  const double c0 = 1000.0 * bl / m, c6 = -k0 / m;
+  // reluctance force ½·i²·dLe/dx over the mass, in mm/s²: ½·Le0·l1 [H/mm]·1000 [mm/m]·1000 / m
+  const double c3 = 0.5 * le * -0.1 * 1000.0 * 1000.0 / m;
+  model.mechanical = {c0, 0.0, c0 * -0.45, c3, 0.0, -rm / m, c6, c6 * 0.03, c6 * 0.06, -1000.0 * 0.05 / m};
+  model.friction_velocity = 50.0;
+  return model;
+}
+
+Eigen::VectorXd two_tone(Eigen::Index n, double fs) {
+  Eigen::VectorXd p(n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const double t = static_cast<double>(k) / fs;
+    p[k] = 0.35 * std::sin(2.0 * std::numbers::pi * 40.0 * t) + 0.25 * std::sin(2.0 * std::numbers::pi * 130.0 * t);
+  }
+  return p;
+}
+
+TEST(MirrorFilter, CompensatedOutputEqualsTheLinearTargetOnAPlantItsModelDescribesExactly) {
+  const MirrorModel model = exciter_model();
+  const Eigen::VectorXd program = two_tone(6000, model.fs);
+  // the target: the linear reference (every element at its rest value) driven by the program
+  const Eigen::VectorXd target = simulate_mirror_model(model.linear(), program);
+  const Eigen::VectorXd plain = simulate_mirror_model(model, program);
+  const Eigen::VectorXd compensated = simulate_mirror_model(model, mirror_filter(model, program));
+  const double scale = target.cwiseAbs().maxCoeff();
+  // the nonlinearity is strong enough that the plant alone misses the target by far more than the tolerance
+  EXPECT_GT((plain - target).cwiseAbs().maxCoeff() / scale, 0.05);
+  EXPECT_LT((compensated - target).cwiseAbs().maxCoeff() / scale, 1e-6);
+}
+
+TEST(MirrorFilter, LinearModelPassesTheProgramUnchanged) {
+  // on a linear model the mirror's current equation gives back the reference's current, so its drive is the
+  // program itself: u = E_L·Δi/h + e_R·i + E_v·v is [M1] solved back for the drive
+  const MirrorModel model = exciter_model().linear();
+  const Eigen::VectorXd program = two_tone(3000, model.fs);
+  EXPECT_LT((mirror_filter(model, program) - program).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+TEST(MirrorFilter, FitRecoversTheModelFromItsOwnRecord) {
+  const MirrorModel truth = exciter_model();
+  // a record made by the model: drive in, current and displacement (m) out
+  const Eigen::VectorXd drive = 0.8 * dsp::gaussian_noise(12000, 0.4, 3).cwiseMax(-1.0).cwiseMin(1.0);
+  MirrorState s;
+  Eigen::VectorXd current(drive.size()), displacement(drive.size());
+  for (Eigen::Index k = 0; k < drive.size(); ++k) {
+    // record index k holds the state at the start of sample k, before drive[k] acts
+    current[k] = s.i;
+    displacement[k] = s.x / 1000.0;
+    step_mirror_model(truth, s, drive[k]);
+  }
+  const MirrorFit fit = fit_mirror_model(drive, current, displacement, truth.fs);
+  EXPECT_EQ(fit.model.delay, 0);  // record[k] is the state drive[k] starts from: no delay
+  EXPECT_DOUBLE_EQ(fit.model.friction_velocity, 50.0);
+  for (std::size_t j = 0; j < 10; ++j) {
+    EXPECT_NEAR(fit.model.mechanical[j], truth.mechanical[j], 1e-6 * std::abs(truth.mechanical[0]) + 1e-6 * std::abs(truth.mechanical[6])) << "c" << j;
+    EXPECT_NEAR(fit.model.electrical[j], truth.electrical[j], 1e-7 * std::abs(truth.electrical[4]) + 1e-9) << "e" << j;
+  }
+  EXPECT_LT(fit.electrical_fit_pct, 1e-8);
+  EXPECT_LT(fit.mechanical_fit_pct, 1e-8);
+}
+
+TEST(MirrorFilter, ModelFileRoundTripsAndNamesBadInput) {
+  const MirrorModel model = exciter_model();
+  const MirrorModel back = mirror_model_from_json(mirror_model_to_json(model));
+  EXPECT_EQ(back.electrical, model.electrical);
+  EXPECT_EQ(back.mechanical, model.mechanical);
+  EXPECT_EQ(back.friction_velocity, model.friction_velocity);
+  nlohmann::json bad = mirror_model_to_json(model);
+  bad["params"]["mechanical"].erase(3);
+  EXPECT_NE(testing_support::one_line_error<ConfigError>([&] { (void)mirror_model_from_json(bad); }).find("model.params.mechanical: 10 coefficients"), std::string::npos);
+  bad = mirror_model_to_json(model);
+  bad["params"].erase("electrical");
+  EXPECT_NE(testing_support::one_line_error<ConfigError>([&] { (void)mirror_model_from_json(bad); }).find("model.params.electrical: missing"), std::string::npos);
+  bad = mirror_model_to_json(model);
+  bad["params"]["friction_velocity_mm_per_s"] = -1.0;
+  EXPECT_NE(testing_support::one_line_error<ConfigError>([&] { (void)mirror_model_from_json(bad); }).find("friction_velocity_mm_per_s"), std::string::npos);
+  EXPECT_NE(testing_support::one_line_error<std::invalid_argument>([&] { (void)fit_mirror_model(Eigen::VectorXd::Zero(2000), Eigen::VectorXd::Zero(1999),
+                                         Eigen::VectorXd::Zero(2000), 3000.0); }).find("same length"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace panelbass::models
