@@ -233,6 +233,13 @@ DiagnosisTerm term_of(Effect effect, StateProxy proxy, double threshold, double 
   return t;
 }
 
+// The proxy that estimates the displacement when the output measures `q` (known).
+StateProxy displacement_proxy(OutputQuantity q) {
+  return q == OutputQuantity::displacement ? StateProxy::output
+         : q == OutputQuantity::velocity   ? StateProxy::integral
+                                           : StateProxy::double_integral;
+}
+
 bool has_effect(const std::vector<DiagnosisTerm>& terms, Effect e) {
   for (const auto& t : terms)
     if (t.effect == e) return true;
@@ -438,8 +445,11 @@ std::vector<Candidate> candidates(const Records& r, const Fit& current, const Re
     offer(std::move(c));
   };
   add_term(term_of(Effect::dc_offset, StateProxy::output, 0.0), "constant", 0, nlohmann::json::object());
-  // A state proxy is one more choice made from the data: one parameter.
+  // A state proxy is one more choice made from the data: one parameter. With the output's quantity known,
+  // the forces of the motion act on the displacement's proxy only (the velocity is its rate of change): a
+  // cubic spring and a nonlinear damping are then different functions, not the cube of one signal.
   for (StateProxy p : {StateProxy::output, StateProxy::integral, StateProxy::double_integral}) {
+    if (r.output != OutputQuantity::unknown && p != displacement_proxy(r.output)) continue;
     add_term(term_of(Effect::cubic_stiffness, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
     add_term(term_of(Effect::asymmetric_stiffness, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
     add_term(term_of(Effect::hysteresis, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});

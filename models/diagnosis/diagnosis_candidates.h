@@ -24,6 +24,7 @@ struct Records {
   Eigen::Index init;
   int lags;
   const AugmentedModel* base = nullptr;  ///< the simulation diagnosed (its linear part and, if not linear, its simulation)
+  OutputQuantity output = OutputQuantity::unknown;  ///< what the output measures (which proxy is the displacement)
 };
 
 /// An augmented model with its coefficients fitted, and its simulation J on both records.

@@ -110,7 +110,9 @@ std::string explain(const Candidate& c, const ResidualLocation& where, double co
       const bool wiener = p.value("position", "") == "output";
       const std::string shape = p.value("shape", "");
       const std::string what = shape == "polynomial" ? "a polynomial of order " + std::to_string(p.value("polynomial_order", 3))
-                               : shape == "saturating" || shape == "dead zone" ? "a " + shape : "a knee (" + shape + ")";
+                               : shape == "saturating" ? std::string("a saturating knee")
+                               : shape == "dead zone" ? std::string("a knee past which the gain rises (dead-zone-like)")
+                                                      : "a knee (" + shape + ")";
       return "The model leaves out a static nonlinearity, " + what +
              (shape == "polynomial" ? std::string("") : p.value("one_sided", false) ? ", different on the two sides," : ", alike on both sides,") +
              (wiener ? " at the output of the dynamics (a Wiener structure)"

@@ -25,6 +25,7 @@ DiagnosisOptions options(int max_findings) {
   o.init = kInit;
   o.scan_from = 12;  // the linear preset's true order is 13 (see linear_identification_test.cpp)
   o.scan_to = 13;
+  o.output = OutputQuantity::acceleration;  // the virtual transducer's sensor is an accelerometer
   o.max_findings = max_findings;
   return o;
 }
