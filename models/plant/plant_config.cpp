@@ -221,14 +221,12 @@ nlohmann::json plant_to_json(const PlantConfig& c) {
   thermal["alpha_per_K"] = n.thermal.alpha_per_K;
   thermal["resistance_K_per_W"] = n.thermal.resistance_K_per_W;
   thermal["time_constant_s"] = n.thermal.time_constant_s;
-  json damping = sw(n.damping);
-  damping["r2_per_m2ps2"] = n.damping.r2_per_m2ps2;
   json modes = json::array();
   for (const auto& m : c.panel_modes) {
     modes.push_back({{"frequency_hz", m.frequency_hz}, {"damping_ratio", m.damping_ratio}, {"gain", m.gain}});
   }
   auto filter = [](const AnalogFilter& f) { return json{{"order", f.order}, {"cutoff_hz", f.cutoff_hz}}; };
-  return json{
+  json out{
       {"format", kFormat},
       {"name", c.name},
       {"fs", c.fs},
@@ -246,8 +244,7 @@ nlohmann::json plant_to_json(const PlantConfig& c) {
         {"inductance", inductance},
         {"friction", friction},
         {"clipping", clipping},
-        {"thermal", thermal},
-        {"damping", damping}}},
+        {"thermal", thermal}}},
       {"panel_modes", modes},
       {"converters",
        {{"da_filter", filter(c.converters.da_filter)},
@@ -256,9 +253,17 @@ nlohmann::json plant_to_json(const PlantConfig& c) {
       {"sensor",
        {{"sensitivity_V_per_mps2", c.sensor.sensitivity_V_per_mps2},
         {"offset_V", c.sensor.offset_V},
-        {"noise_rms_V", c.sensor.noise_rms_V},
-        {"preamp_clip_V", c.sensor.preamp_clip_V}}},
+        {"noise_rms_V", c.sensor.noise_rms_V}}},
   };
+  // Written only when used, so that a plant without them (every preset) writes the JSON it always has.
+  const DampingTerm plain_damping;
+  if (n.damping.enabled || n.damping.scale != plain_damping.scale || n.damping.r2_per_m2ps2 != plain_damping.r2_per_m2ps2) {
+    json damping = sw(n.damping);
+    damping["r2_per_m2ps2"] = n.damping.r2_per_m2ps2;
+    out["nonlinear"]["damping"] = damping;
+  }
+  if (c.sensor.preamp_clip_V != 0.0) out["sensor"]["preamp_clip_V"] = c.sensor.preamp_clip_V;
+  return out;
 }
 
 PlantConfig load_plant_file(const std::filesystem::path& path) {
