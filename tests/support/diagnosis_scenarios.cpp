@@ -52,7 +52,7 @@ DiagnosisScenario concealed_scenario(Effect effect, double size) {
       p.nonlinear.force_factor.enabled = true;
       p.nonlinear.force_factor.b1_per_mm = -0.3;
       p.nonlinear.force_factor.b2_per_mm2 = 0.0;
-      p.nonlinear.force_factor.scale = 0.025 * size;
+      p.nonlinear.force_factor.scale = 0.045 * size;
       break;
     case Effect::inductance:
       p.nonlinear.inductance.enabled = true;
@@ -72,12 +72,12 @@ DiagnosisScenario concealed_scenario(Effect effect, double size) {
       p.nonlinear.clipping.knee = 0.02;
       break;
     case Effect::static_nonlinearity:  // the sensor's preamplifier saturates between the mechanics and the AD filter
-      p.sensor.preamp_clip_V = 2.8 / size;
+      p.sensor.preamp_clip_V = 8.0 / size;
       break;
     case Effect::nonlinear_damping:  // Rms(v) = Rm·(1 + r2·v²)
       p.nonlinear.damping.enabled = true;
       p.nonlinear.damping.r2_per_m2ps2 = 1.0;
-      p.nonlinear.damping.scale = 0.08 * size;
+      p.nonlinear.damping.scale = 0.06 * size;
       break;
     case Effect::thermal_compression:
       p.nonlinear.thermal.enabled = true;
