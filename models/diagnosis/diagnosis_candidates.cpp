@@ -453,9 +453,7 @@ std::vector<Candidate> candidates(const Records& r, const Fit& current, const Re
     add_term(term_of(Effect::cubic_stiffness, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
     add_term(term_of(Effect::asymmetric_stiffness, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
     add_term(term_of(Effect::hysteresis, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
-    add_term(term_of(Effect::nonlinear_damping, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
     add_term(term_of(Effect::force_factor, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
-    add_term(term_of(Effect::asymmetric_force_factor, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
   }
   for (StateProxy p : {StateProxy::output, StateProxy::integral, StateProxy::double_integral, StateProxy::input})
     add_term(term_of(Effect::inductance, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});

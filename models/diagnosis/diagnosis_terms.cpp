@@ -114,8 +114,7 @@ std::string to_string(Effect effect) {
 std::vector<Effect> all_effects() {
   return {Effect::resonance,  Effect::antiresonance, Effect::delay,      Effect::cubic_stiffness,
           Effect::asymmetric_stiffness, Effect::force_factor, Effect::inductance, Effect::hysteresis,
-          Effect::saturation, Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity,
-          Effect::nonlinear_damping, Effect::asymmetric_force_factor};
+          Effect::saturation, Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity};
 }
 
 std::string vocabulary_text() {

@@ -74,8 +74,7 @@ INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, ConcealedEffect,
                          testing::Values(Effect::resonance, Effect::antiresonance, Effect::delay,
                                          Effect::cubic_stiffness, Effect::asymmetric_stiffness, Effect::force_factor,
                                          Effect::inductance, Effect::hysteresis, Effect::saturation,
-                                         Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity,
-                                         Effect::nonlinear_damping, Effect::asymmetric_force_factor),
+                                         Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity),
                          [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
 
 // The fitted parameters of the effects that have a value to compare with the plant's.
