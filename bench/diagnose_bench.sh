@@ -22,10 +22,13 @@ import json, sys
 r = json.load(open(sys.argv[1]))
 b = r["baseline"]
 print(f"baseline: linear OE na={b['na']} nb={b['nb']} nk={b['nk']}, J_val {b['J_val_pct']:.4f} %, noise floor {r['noise_floor_pct']:.4f} %")
-print("| # | effect | J_val before % | J_val after % | explanation |")
-print("|---:|---|---:|---:|---|")
+print("| # | effect | confidence | J_val before % | J_val after % | explanation |")
+print("|---:|---|---|---:|---:|---|")
 for i, f in enumerate(r["findings"], 1):
-    print(f"| {i} | {f['effect']} | {f['J_val_before_pct']:.4f} | {f['J_val_after_pct']:.4f} | {f['explanation']} |")
+    p = f["parameters"]
+    where = f" ({p['structure']}, {p['shape']})" if "structure" in p else ""
+    word = f["confidence"].get("word", "")
+    print(f"| {i} | {f['effect']}{where} | {word} | {f['J_val_before_pct']:.4f} | {f['J_val_after_pct']:.4f} | {f['explanation']} |")
 def where(l):
     f, d = l["frf_error"], l["distortion"]
     frf = (f"FRF error {f['band_low_hz']:.0f}-{f['band_high_hz']:.0f} Hz ({f['relative_db']:.1f} dB at {f['frequency_hz']:.0f} Hz)"

@@ -40,6 +40,7 @@ DiagnosisOptions options_for(const DiagnosisScenario& s) {
   o.init = kInit;
   o.scan_from = 12;  // the linear preset's true order is 13: a narrow scan keeps each run short
   o.scan_to = 13;
+  o.output = OutputQuantity::acceleration;  // the virtual transducer's sensor is an accelerometer
   o.max_findings = static_cast<int>(std::max<std::size_t>(1, s.effects.size())) + 1;
   return o;
 }

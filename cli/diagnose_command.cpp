@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -38,6 +39,7 @@ struct DiagnoseOptions {
   int scan_from = 2, scan_to = 14;
   int max_findings = 4;
   long window = 300;
+  models::OutputQuantity sensor = models::OutputQuantity::unknown;
 };
 
 // The simulation --model names: a linear model, or a simulation that is not linear (a NARX model, a
@@ -85,6 +87,7 @@ void run_diagnose(const DiagnoseOptions& o) {
   options.scan_from = o.scan_from;
   options.scan_to = o.scan_to;
   options.max_findings = o.max_findings;
+  options.output = o.sensor;
   options.progress = [](const std::string& stage) { std::cerr << "diagnose: " << stage << std::endl; };
   const models::Diagnosis d =
       baseline && baseline->simulation
@@ -127,6 +130,13 @@ void run_diagnose(const DiagnoseOptions& o) {
   print_result(summary);
 }
 
+// --sensor's names and values.
+std::map<std::string, models::OutputQuantity> output_quantities() {
+  std::map<std::string, models::OutputQuantity> out;
+  for (auto q : models::all_output_quantities()) out[models::to_string(q)] = q;
+  return out;
+}
+
 }  // namespace
 
 void register_diagnose(CLI::App& app) {
@@ -144,6 +154,11 @@ void register_diagnose(CLI::App& app) {
   cmd->add_option("--scan-from", o->scan_from, "Without --model: lowest OE order scanned")->check(CLI::Range(1, 60))->capture_default_str();
   cmd->add_option("--scan-to", o->scan_to, "Without --model: highest OE order scanned")->check(CLI::Range(1, 60))->capture_default_str();
   cmd->add_option("--max-findings", o->max_findings, "Augmentation rounds at most")->check(CLI::Range(0, 20))->capture_default_str();
+  cmd->add_option("--sensor", o->sensor,
+                  "What the output measures: displacement, velocity or acceleration (a spring and a damping then act on "
+                  "the displacement and its rate of change, not on the cube of one signal); unknown tries every state")
+      ->transform(CLI::CheckedTransformer(output_quantities()))
+      ->capture_default_str();
   o->outputs.add_to(cmd, "Report to write (JSON)", "Self-contained HTML report (findings, J per step, figures embedded)");
   cmd->add_option("--window", o->window, "Samples shown in the fit plot")->check(CLI::Range(2L, 100000000L))->capture_default_str();
   cmd->footer(
@@ -151,7 +166,7 @@ void register_diagnose(CLI::App& app) {
       "is fitted on --data and judged on --val; the best is kept while\n"
       "N·ln(J_before/J_after) > p·ln(N) (BIC, N validation samples, p added parameters).\n"
       "Example:\n"
-      "  panelbass diagnose --data est.csv --val val.csv --fs 3000 --out report.json \\\n"
+      "  panelbass diagnose --data est.csv --val val.csv --fs 3000 --sensor acceleration --out report.json \\\n"
       "      --html report.html --plots plots/");
   cmd->callback([o] {
     if (o->scan_from > o->scan_to)

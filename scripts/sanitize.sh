@@ -37,6 +37,7 @@ long_repeats+='|^Diagnosis\.VisibleAsymmetricStiffnessIsNamedFirst$|^Diagnosis\.
 long_repeats+='|^Diagnosis\.GivenBaselineMissingASensorOffsetGetsADcOffset$|^Diagnosis\.GivenBaselineWithTooShortADelayGetsADelay$'
 long_repeats+='|^LinearIdentification\.OeZhuAndBackxRecoverTheLinearPlant$'
 long_repeats+='|^Diagnosis\.APanelExcitersSmallFirstSampleIsNotTakenForDeadTime$|^Diagnosis\.AnOddMultisineRulesOutEvenOrderTerms'  # the same pipeline
+long_repeats+='|^DiagnosisStructure\.ADiodeAfterTheDynamicsIsAWienerStaticNonlinearity$'  # the path of its between-filters twin
 # Six more long numeric runs (30-110 s each under ASan, 7 min of the stage's CPU) whose paths shorter tests
 # walk under the sanitizer too: the dX/N growth loop (NarxStructureGrowth.MaxHiddenOne...), NARX training on
 # the transducer (JobKindsTest.IdentifyNarxOnTheVirtualTransducer), the chain's evaluation on the transducer

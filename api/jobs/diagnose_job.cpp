@@ -27,6 +27,9 @@ json diagnose_params(const json& params, const JobEnvironment& env) {
   if (validation == 0) refuse(validation_path, "diagnose needs validation data (it judges every augmentation on it)");
   require_stored_model(r, "baseline_model", false, {"linear", "narx"}, env);
   r.integer("max_findings", 4, 0, 20);
+  std::vector<std::string> quantities;
+  for (auto q : models::all_output_quantities()) quantities.push_back(models::to_string(q));
+  r.choice("sensor", "unknown", quantities);
   return r.finish();
 }
 
@@ -42,6 +45,8 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
   models::DiagnosisOptions options;
   options.init = kInit;
   options.max_findings = params.at("max_findings").get<int>();
+  for (auto q : models::all_output_quantities())
+    if (models::to_string(q) == params.value("sensor", "unknown")) options.output = q;
   int stages = 0;
   progress.span(kExcitationShare, 0.95);
   // The diagnosis names its stages but not how many remain: each one closes part of the gap to the end.

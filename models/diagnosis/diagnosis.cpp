@@ -184,7 +184,9 @@ Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, c
                    const DiagnosisOptions& options) {
   check_arguments(u_est, y_est, u_val, y_val, fs, options);
   Records r{u_est, y_est, u_val, y_val, fs, options.init, options.lags};
+  r.output = options.output;
   Diagnosis d;
+  d.output_quantity = options.output;
   LinearModel linear;
   if (baseline) {
     linear = *baseline;
@@ -230,6 +232,7 @@ Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, c
     throw std::invalid_argument("diagnose: the " + baseline.kind + " baseline runs at " + std::to_string(baseline.fs) +
                                 " Hz but the data is at " + std::to_string(fs) + " Hz");
   Records r{u_est, y_est, u_val, y_val, fs, options.init, options.lags};
+  r.output = options.output;
   AugmentedModel base;
   base.simulate_baseline = remembered(baseline.simulate);
   if (options.progress) options.progress("simulating the " + baseline.kind + " baseline and fitting its linearisation (OE)");
@@ -246,6 +249,7 @@ Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, c
   base.reference = linear;
   r.base = &base;
   Diagnosis d;
+  d.output_quantity = options.output;
   d.baseline_kind = baseline.kind;
   d.baseline_info = {{"source", "given"},
                      {"linearisation",
@@ -254,6 +258,20 @@ Diagnosis diagnose(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est, c
                        {"scan", scan}}}};
   run_rounds(r, options, d);
   return d;
+}
+
+std::string to_string(OutputQuantity quantity) {
+  switch (quantity) {
+    case OutputQuantity::unknown: return "unknown";
+    case OutputQuantity::displacement: return "displacement";
+    case OutputQuantity::velocity: return "velocity";
+    case OutputQuantity::acceleration: return "acceleration";
+  }
+  return "unknown";
+}
+
+std::vector<OutputQuantity> all_output_quantities() {
+  return {OutputQuantity::unknown, OutputQuantity::displacement, OutputQuantity::velocity, OutputQuantity::acceleration};
 }
 
 bool at_noise_floor(double j_pct, double noise_floor_pct) {
@@ -274,6 +292,7 @@ nlohmann::json diagnosis_to_json(const Diagnosis& d) {
   baseline["kind"] = d.baseline_kind;
   baseline["J_val_pct"] = d.baseline_j_val_pct;
   baseline["J_est_pct"] = d.baseline_j_est_pct;
+  baseline["output_quantity"] = to_string(d.output_quantity);
   return {{"baseline", baseline},
           {"findings", findings},
           {"J_val_before_pct", d.j_val_before_pct},

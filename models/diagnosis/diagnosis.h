@@ -23,8 +23,20 @@ inline constexpr double kNoiseFloorMargin = 1.1;
 /// what is left of the residual is noise.
 bool at_noise_floor(double j_pct, double noise_floor_pct);
 
+/// What the recorded output measures, when known: it says which state proxy is the displacement (the output,
+/// its integral, its double integral), so that a force of the displacement (a spring, the force factor) and one
+/// of the velocity (damping) are not the same cube of the same signal.
+enum class OutputQuantity { unknown, displacement, velocity, acceleration };
+
+/// The quantity's name ("unknown", "displacement", "velocity", "acceleration").
+std::string to_string(OutputQuantity quantity);
+
+/// Every quantity, in the order of the enum (for the CLI's and the API's choices).
+std::vector<OutputQuantity> all_output_quantities();
+
 /// How a diagnosis runs.
 struct DiagnosisOptions {
+  OutputQuantity output = OutputQuantity::unknown;  ///< known: mechanical terms act on the displacement proxy only
   Eigen::Index init = 50;   ///< measured outputs that set a simulation's state; J counts the samples after them
   int scan_from = 2;        ///< without a baseline: OE orders scanned for the best linear model
   int scan_to = 14;
@@ -73,6 +85,7 @@ struct AugmentedModel {
 /// The result of a diagnosis.
 struct Diagnosis {
   std::string baseline_kind = "linear";
+  OutputQuantity output_quantity = OutputQuantity::unknown;  ///< what the output measures, as told
   nlohmann::json baseline_info = nlohmann::json::object();  ///< method, orders, how it was chosen
   double baseline_j_val_pct = 0.0;
   double baseline_j_est_pct = 0.0;

@@ -1,6 +1,7 @@
 #include "models/diagnosis/diagnosis_candidates.h"
 
 #include <Eigen/QR>
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <iomanip>
@@ -232,13 +233,190 @@ DiagnosisTerm term_of(Effect effect, StateProxy proxy, double threshold, double 
   return t;
 }
 
+// The proxy that estimates the displacement when the output measures `q` (known).
+StateProxy displacement_proxy(OutputQuantity q) {
+  return q == OutputQuantity::displacement ? StateProxy::output
+         : q == OutputQuantity::velocity   ? StateProxy::integral
+                                           : StateProxy::double_integral;
+}
+
 bool has_effect(const std::vector<DiagnosisTerm>& terms, Effect e) {
   for (const auto& t : terms)
     if (t.effect == e) return true;
   return false;
 }
 
+
+// The baseline's poles in groups that a real filter can hold (a conjugate pair, or a real pole), by frequency.
+std::vector<Eigen::VectorXcd> pole_groups(const TransferFunction& tf) {
+  const Eigen::VectorXcd poles = tf.poles();
+  std::vector<Eigen::VectorXcd> groups;
+  for (Eigen::Index k = 0; k < poles.size(); ++k) {
+    if (poles[k].imag() < -1e-12) continue;  // its conjugate holds it
+    if (poles[k].imag() > 1e-12) {
+      Eigen::VectorXcd pair(2);
+      pair << poles[k], std::conj(poles[k]);
+      groups.push_back(pair);
+    } else {
+      groups.push_back(Eigen::VectorXcd::Constant(1, std::complex<double>(poles[k].real(), 0.0)));
+    }
+  }
+  std::sort(groups.begin(), groups.end(),
+            [](const Eigen::VectorXcd& a, const Eigen::VectorXcd& b) { return std::abs(std::arg(a[0])) < std::abs(std::arg(b[0])); });
+  return groups;
+}
+
+// The all-pole filter with `roots` as its poles and unit gain at DC.
+TransferFunction all_pole(const Eigen::VectorXcd& roots) {
+  TransferFunction f;
+  const Eigen::VectorXd a = polynomial_from_roots(roots);
+  f.a = a.tail(a.size() - 1);
+  f.b = Eigen::VectorXd::Constant(1, a.sum());
+  return f;
+}
+
+// The identity filter (y = x).
+TransferFunction identity_filter() {
+  TransferFunction f;
+  f.b = Eigen::VectorXd::Ones(1);
+  return f;
+}
+
+// The ways the baseline's dynamics G can be split around a static nonlinearity: all of G after it is the
+// input's saturation (not offered here), all before it Wiener; between two filters, the front an all-pole
+// filter of some of G's pole groups and the back the rest with G's zeros and delay (Wiener–Hammerstein).
+// With up to five groups every split; with more, the lowest and the highest k groups in front.
+std::vector<std::pair<TransferFunction, TransferFunction>> block_splits(const TransferFunction& tf) {
+  std::vector<std::pair<TransferFunction, TransferFunction>> out;
+  out.emplace_back(tf, identity_filter());  // Wiener
+  const std::vector<Eigen::VectorXcd> groups = pole_groups(tf);
+  const std::size_t g = groups.size();
+  if (g < 2) return out;
+  std::vector<std::vector<bool>> subsets;
+  if (g <= 5) {
+    for (unsigned mask = 1; mask + 1 < (1u << g); ++mask) {
+      std::vector<bool> in(g);
+      for (std::size_t k = 0; k < g; ++k) in[k] = (mask >> k) & 1u;
+      subsets.push_back(in);
+    }
+  } else {
+    for (std::size_t k = 1; k < g; ++k) {
+      std::vector<bool> low(g, false), high(g, false);
+      for (std::size_t j = 0; j < k; ++j) low[j] = true, high[g - 1 - j] = true;
+      subsets.push_back(low);
+      subsets.push_back(high);
+    }
+  }
+  for (const auto& in : subsets) {
+    std::vector<std::complex<double>> front, back;
+    for (std::size_t k = 0; k < g; ++k)
+      for (Eigen::Index j = 0; j < groups[k].size(); ++j) (in[k] ? front : back).push_back(groups[k][j]);
+    TransferFunction b = all_pole(Eigen::Map<Eigen::VectorXcd>(back.data(), static_cast<Eigen::Index>(back.size())));
+    b.b = tf.b;
+    b.nk = tf.nk;
+    out.emplace_back(all_pole(Eigen::Map<Eigen::VectorXcd>(front.data(), static_cast<Eigen::Index>(front.size()))), b);
+  }
+  return out;
+}
+
+// A fitted static nonlinearity's shape from its coefficients: the static curve is front_rms·z (the linear
+// path through the back filter) plus Σ_l c_l times each feature; the slope beyond the knee over the slope
+// inside it, per side. Below 1: saturating; above: dead-zone-like (the gain rises past the knee).
+nlohmann::json static_shape(const DiagnosisTerm& t, const StateSignals& states, int lags) {
+  const Eigen::VectorXd z = static_nonlinearity_signal(t, states);
+  const int width = lags + kTermLead;
+  if (t.shape == Shape::polynomial) {
+    const double c3 = t.coefficients.segment(width, width).sum();
+    return {{"shape", "polynomial"}, {"polynomial_order", 3}, {"compressive", c3 * t.front_rms < 0.0}};
+  }
+  // The features are the raw knees minus β·z (orthogonalised): the slope inside is front_rms − Σ_j C_j·β_j.
+  const Eigen::Index sides = t.one_sided ? 2 : 1;
+  Eigen::VectorXd sums(sides), betas(sides);
+  for (Eigen::Index j = 0; j < sides; ++j) {
+    Eigen::VectorXd raw(z.size());
+    for (Eigen::Index k = 0; k < z.size(); ++k)
+      raw[k] = !t.one_sided ? std::max(std::abs(z[k]) - t.threshold, 0.0) * (z[k] < 0 ? -1.0 : 1.0)
+                            : j == 0 ? std::max(z[k] - t.threshold, 0.0) : std::min(z[k] + t.threshold, 0.0);
+    betas[j] = z.dot(raw) / std::max(z.squaredNorm(), 1e-300);
+    sums[j] = t.coefficients.segment(j * width, width).sum();
+  }
+  const double inside = t.front_rms - sums.dot(betas);
+  nlohmann::json ratios = nlohmann::json::array();
+  bool falls = false, rises = false;
+  for (Eigen::Index j = 0; j < sides; ++j) {
+    const double ratio = (inside + sums[j]) / inside;
+    ratios.push_back(ratio);
+    falls = falls || ratio < 0.9;
+    rises = rises || ratio > 1.1;
+  }
+  const std::string word = falls && !rises ? "saturating" : rises && !falls ? "dead zone" : falls ? "mixed" : "nearly linear";
+  return {{"shape", word}, {"slope_beyond_knee_over_inside", ratios}};
+}
+
 }  // namespace
+
+void static_nonlinearity_candidates(const Records& r, const Fit& current, const std::function<void(Candidate)>& offer) {
+  if (has_effect(current.model.terms, Effect::static_nonlinearity)) return;
+  const LinearModel& linear = current.model.linear;
+  const StateSignals states = state_signals(linear.scaling.scale_u(r.u_est), linear.scaling.scale_u(r.u_est), r.fs);
+  const double n_val = static_cast<double>(r.u_val.size() - r.init);
+  auto fitted = [&](DiagnosisTerm t, int choices) {
+    std::vector<DiagnosisTerm> with = current.model.terms;
+    with.push_back(t);
+    return Candidate{Effect::static_nonlinearity, "", term_columns(t, r.lags) + choices, fit_terms(r, linear, with), {}};
+  };
+  auto score = [&](const Candidate& c) { return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val); };
+  // Each split screened with one shape (a knee at half the peak, each side on its own); the best split then
+  // gets every shape. The split and the knee are choices made from the data: a parameter each.
+  std::optional<Candidate> best;
+  DiagnosisTerm best_term;
+  for (const auto& [front, back] : block_splits(linear.tf)) {
+    DiagnosisTerm t;
+    t.effect = Effect::static_nonlinearity;
+    t.position = back.a.size() == 0 && back.nk == 0 && back.b.size() == 1 ? Position::output : Position::between;
+    t.front = front;
+    t.back = back;
+    const Eigen::VectorXd w = filter_through(front, states.input);
+    t.front_rms = std::sqrt(w.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, w.size())));
+    if (!(t.front_rms > 0.0) || !std::isfinite(t.front_rms)) continue;
+    t.one_sided = true;
+    t.threshold = 0.5 * (w / t.front_rms).cwiseAbs().maxCoeff();
+    Candidate c = fitted(t, 3);
+    if (!best || score(c) > score(*best)) best = std::move(c), best_term = t;
+  }
+  if (!best) return;
+  const double peak = static_nonlinearity_signal(best_term, states).cwiseAbs().maxCoeff();
+  std::vector<DiagnosisTerm> shapes;
+  for (bool one_sided : {false, true})
+    for (double fraction : {0.2, 0.35, 0.5, 0.65, 0.8}) {
+      DiagnosisTerm t = best_term;
+      t.one_sided = one_sided;
+      t.threshold = fraction * peak;
+      shapes.push_back(t);
+    }
+  DiagnosisTerm poly = best_term;
+  poly.shape = Shape::polynomial;
+  shapes.push_back(poly);
+  for (const auto& t : shapes) {
+    Candidate c = fitted(t, t.shape == Shape::knee ? 3 : 2);
+    const DiagnosisTerm& kept = c.fit.model.terms.back();
+    const std::string where = t.position == Position::output ? "output" : "between";
+    c.variant = std::string(where == "output" ? "Wiener" : "Wiener–Hammerstein") + ", " +
+                (t.shape == Shape::polynomial ? std::string("polynomial")
+                                              : std::string(t.one_sided ? "each side" : "both sides") + ", knee " +
+                                                    fixed(t.threshold / peak, 2));
+    c.parameters_json = static_shape(kept, states, r.lags);
+    c.parameters_json["position"] = where;
+    c.parameters_json["structure"] = where == "output" ? "Wiener" : "Wiener–Hammerstein";
+    c.parameters_json["front_order"] = t.front.na();
+    c.parameters_json["back_order"] = t.back.na();
+    if (t.shape == Shape::knee) {
+      c.parameters_json["knee_fraction_of_peak"] = t.threshold / peak;
+      c.parameters_json["one_sided"] = t.one_sided;
+    }
+    offer(std::move(c));
+  }
+}
 
 std::vector<Candidate> candidates(const Records& r, const Fit& current, const ResidualLocation& where,
                                   int oe_iterations) {
@@ -267,8 +445,11 @@ std::vector<Candidate> candidates(const Records& r, const Fit& current, const Re
     offer(std::move(c));
   };
   add_term(term_of(Effect::dc_offset, StateProxy::output, 0.0), "constant", 0, nlohmann::json::object());
-  // A state proxy is one more choice made from the data: one parameter.
+  // A state proxy is one more choice made from the data: one parameter. With the output's quantity known,
+  // the forces of the motion act on the displacement's proxy only (the velocity is its rate of change): a
+  // cubic spring and a nonlinear damping are then different functions, not the cube of one signal.
   for (StateProxy p : {StateProxy::output, StateProxy::integral, StateProxy::double_integral}) {
+    if (r.output != OutputQuantity::unknown && p != displacement_proxy(r.output)) continue;
     add_term(term_of(Effect::cubic_stiffness, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
     add_term(term_of(Effect::asymmetric_stiffness, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
     add_term(term_of(Effect::hysteresis, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
@@ -294,6 +475,7 @@ std::vector<Candidate> candidates(const Records& r, const Fit& current, const Re
                  {{"knee_fraction_of_peak", fraction}, {"one_sided", one_sided}});
       }
   }
+  static_nonlinearity_candidates(r, current, offer);
   // The linear refits below are judged against the same structure refitted on the same record, so that
   // what a refit gains by itself (a given baseline from other data) is credited to no effect.
   const TransferFunction& tf = linear.tf;
@@ -383,12 +565,18 @@ DistortionParity distortion_parity(const Candidate& c) {
     case Effect::cubic_stiffness:      // x³
     case Effect::force_factor:         // x²·u, x²·v
     case Effect::hysteresis:           // sign of the motion: odd
+    case Effect::nonlinear_damping:    // v³
     case Effect::thermal_compression:  // the drive times its (even) power
       return DistortionParity::odd;
-    case Effect::asymmetric_stiffness:  // x²
+    case Effect::asymmetric_stiffness:     // x²
+    case Effect::asymmetric_force_factor:  // x·u, x·v
       return DistortionParity::even;
     case Effect::saturation:
       return c.parameters_json.value("one_sided", false) ? DistortionParity::both : DistortionParity::odd;
+    case Effect::static_nonlinearity:  // a two-sided knee is odd; one side alone or a polynomial with z² both
+      return c.parameters_json.value("shape", "") != "polynomial" && !c.parameters_json.value("one_sided", true)
+                 ? DistortionParity::odd
+                 : DistortionParity::both;
     case Effect::inductance:  // z·Δu and u²
       return DistortionParity::both;
     case Effect::resonance:

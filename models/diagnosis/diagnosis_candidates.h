@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,6 +24,7 @@ struct Records {
   Eigen::Index init;
   int lags;
   const AugmentedModel* base = nullptr;  ///< the simulation diagnosed (its linear part and, if not linear, its simulation)
+  OutputQuantity output = OutputQuantity::unknown;  ///< what the output measures (which proxy is the displacement)
 };
 
 /// An augmented model with its coefficients fitted, and its simulation J on both records.
@@ -57,6 +59,12 @@ std::optional<LinearModel> refit_linear(const Records& r, const LinearModel& bas
 /// pole and zero pair).
 std::vector<Candidate> candidates(const Records& r, const Fit& current, const ResidualLocation& where,
                                   int oe_iterations);
+
+/// The static nonlinearity's candidates, offered to `offer`: the baseline's dynamics split around it
+/// (Wiener: all before; Wiener–Hammerstein: some pole groups before, the rest with the zeros after), the best
+/// split found with one shape, then its shapes (a knee on both sides or each on its own at five levels, a
+/// polynomial of order 3); each with its position, structure and shape (saturating, dead zone, polynomial).
+void static_nonlinearity_candidates(const Records& r, const Fit& current, const std::function<void(Candidate)>& offer);
 
 /// Which harmonics an effect's term makes from a multisine: odd, even, both, or none (a linear refit or
 /// a constant).

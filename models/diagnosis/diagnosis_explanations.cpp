@@ -20,7 +20,8 @@ namespace {
 constexpr double kLevelRatioShown = 1.2;
 
 bool acts_on_displacement(Effect e) {
-  return e == Effect::cubic_stiffness || e == Effect::asymmetric_stiffness || e == Effect::force_factor;
+  return e == Effect::cubic_stiffness || e == Effect::asymmetric_stiffness || e == Effect::force_factor ||
+         e == Effect::asymmetric_force_factor;
 }
 
 // The physical quantity a state proxy estimates, for the sensors the plant may have (this project's transducer
@@ -96,6 +97,30 @@ std::string explain(const Candidate& c, const ResidualLocation& where, double co
       return "The model leaves out thermal compression (the coil resistance rising with dissipated power): the residual "
              "follows the drive times its power averaged over " + fixed(c.parameters_json["time_constant_s"].get<double>(), 1) +
              " s (the gain changed by " + fixed(where.gain_drift * 100.0, 2) + " % between the first and the last quarter; correlation " + r + ").";
+    case Effect::asymmetric_force_factor:
+      return "The model leaves out a force factor that differs on the two sides of the rest position (a coil offset, "
+             "Bl(x) with an odd term): the residual follows the drive times the estimated " + state +
+             " (even harmonics and a DC displacement; correlation " + r + ").";
+    case Effect::nonlinear_damping:
+      return "The model leaves out a mechanical resistance that rises with velocity (nonlinear damping, Rms(v)): the "
+             "residual follows the cube of the rate of change of the estimated " + state +
+             " (odd, strongest at resonance where the velocity peaks; correlation " + r + ").";
+    case Effect::static_nonlinearity: {
+      const nlohmann::json& p = c.parameters_json;
+      const bool wiener = p.value("position", "") == "output";
+      const std::string shape = p.value("shape", "");
+      const std::string what = shape == "polynomial" ? "a polynomial of order " + std::to_string(p.value("polynomial_order", 3))
+                               : shape == "saturating" ? std::string("a saturating knee")
+                               : shape == "dead zone" ? std::string("a knee past which the gain rises (dead-zone-like)")
+                                                      : "a knee (" + shape + ")";
+      return "The model leaves out a static nonlinearity, " + what +
+             (shape == "polynomial" ? std::string("") : p.value("one_sided", false) ? ", different on the two sides," : ", alike on both sides,") +
+             (wiener ? " at the output of the dynamics (a Wiener structure)"
+                     : " between two filters (a Wiener–Hammerstein structure: " + std::to_string(p.value("front_order", 0)) +
+                           " poles before it, " + std::to_string(p.value("back_order", 0)) + " and the zeros after)") +
+             ": the residual follows a static function of the input filtered by the first part of the dynamics (correlation " + r + ")" +
+             level_clause(where.level_ratio) + ".";
+    }
     default: return "The model leaves out " + to_string(c.effect) + ".";
   }
 }
@@ -108,6 +133,8 @@ nlohmann::json terms_json(const AugmentedModel& m) {
                    {"threshold", t.threshold},
                    {"time_constant_s", t.time_constant_s},
                    {"one_sided", t.one_sided},
+                   {"position", to_string(t.position)},
+                   {"shape", t.shape == Shape::knee ? "knee" : "polynomial"},
                    {"coefficients", std::vector<double>(t.coefficients.data(), t.coefficients.data() + t.coefficients.size())}});
   return out;
 }

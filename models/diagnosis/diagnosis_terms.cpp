@@ -59,7 +59,37 @@ Eigen::VectorXd centred_orthogonal_to(Eigen::VectorXd x, const Eigen::VectorXd& 
   return orthogonal_to(std::move(x), basis);
 }
 
+// The drive beyond a knee c: on both sides alike, (|z| − c)₊·sign(z), one column orthogonal to z; or each side
+// on its own, (z − c)₊ and (z + c)₋, two columns (one alone bends one way: a diode).
+Eigen::MatrixXd knee_features(const Eigen::VectorXd& z, double c, bool one_sided) {
+  if (!one_sided) {
+    Eigen::VectorXd g(z.size());
+    for (Eigen::Index k = 0; k < z.size(); ++k) g[k] = std::max(std::abs(z[k]) - c, 0.0) * (z[k] < 0 ? -1.0 : 1.0);
+    return orthogonal_to(g, z);
+  }
+  Eigen::MatrixXd g(z.size(), 2);
+  for (Eigen::Index k = 0; k < z.size(); ++k) {
+    g(k, 0) = std::max(z[k] - c, 0.0);
+    g(k, 1) = std::min(z[k] + c, 0.0);
+  }
+  for (Eigen::Index j = 0; j < 2; ++j) g.col(j) = centred_orthogonal_to(g.col(j), z);
+  return g;
+}
+
 }  // namespace
+
+Eigen::VectorXd static_nonlinearity_signal(const DiagnosisTerm& term, const StateSignals& states) {
+  return filter_through(term.front, states.input) / term.front_rms;
+}
+
+std::string to_string(Position position) {
+  switch (position) {
+    case Position::input: return "input";
+    case Position::output: return "output";
+    case Position::between: return "between";
+  }
+  return "unknown";
+}
 
 std::string to_string(Effect effect) {
   switch (effect) {
@@ -74,6 +104,9 @@ std::string to_string(Effect effect) {
     case Effect::saturation: return "saturation";
     case Effect::thermal_compression: return "thermal_compression";
     case Effect::dc_offset: return "dc_offset";
+    case Effect::static_nonlinearity: return "static_nonlinearity";
+    case Effect::nonlinear_damping: return "nonlinear_damping";
+    case Effect::asymmetric_force_factor: return "asymmetric_force_factor";
   }
   return "unknown";
 }
@@ -81,7 +114,7 @@ std::string to_string(Effect effect) {
 std::vector<Effect> all_effects() {
   return {Effect::resonance,  Effect::antiresonance, Effect::delay,      Effect::cubic_stiffness,
           Effect::asymmetric_stiffness, Effect::force_factor, Effect::inductance, Effect::hysteresis,
-          Effect::saturation, Effect::thermal_compression, Effect::dc_offset};
+          Effect::saturation, Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity};
 }
 
 std::string vocabulary_text() {
@@ -153,16 +186,17 @@ Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& stat
       Eigen::VectorXd g = (v.array() / (0.1 * std::max(r, 1e-300))).tanh().matrix();
       return orthogonal_to(orthogonal_to(g, v), z);
     }
-    case Effect::saturation: {  // the drive beyond a knee on both sides alike: (|u| − c)₊·sign(u)
-      if (term.one_sided) return term_features(term, states).col(0);
-      const double c = term.threshold;
-      Eigen::VectorXd g(z.size());
-      for (Eigen::Index k = 0; k < z.size(); ++k) g[k] = std::max(std::abs(z[k]) - c, 0.0) * (z[k] < 0 ? -1.0 : 1.0);
-      return orthogonal_to(g, z);
+    case Effect::nonlinear_damping: {  // Rms(v)·v = Rm·v + Rm·r2·v³: the cube of the velocity, v = dz/dt
+      const Eigen::VectorXd v = first_difference(z);
+      const double r = std::sqrt(v.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, v.size())));
+      const Eigen::VectorXd w = v / std::max(r, 1e-300);
+      return orthogonal_to(orthogonal_to(w.array().cube().matrix(), w), z);
     }
-    case Effect::force_factor:  // the first of term_features'
-      return term_features(term, states).col(0);
+    case Effect::saturation:  // the drive beyond a knee: the first of term_features'
+    case Effect::force_factor:
+    case Effect::asymmetric_force_factor:
     case Effect::inductance:
+    case Effect::static_nonlinearity:
       return term_features(term, states).col(0);
     case Effect::thermal_compression: {  // Re(T): the current falls by ∝ u·ΔT, T a low-pass of the power u²
       const Eigen::VectorXd& u = states.input;
@@ -176,8 +210,12 @@ Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& stat
 }
 
 int feature_count(const DiagnosisTerm& term) {
-  if (term.effect == Effect::saturation) return term.one_sided ? 2 : 1;
-  return term.effect == Effect::force_factor || term.effect == Effect::inductance ? 2 : 1;
+  if (term.effect == Effect::static_nonlinearity && term.shape == Shape::polynomial) return 2;
+  if (term.effect == Effect::saturation || term.effect == Effect::static_nonlinearity) return term.one_sided ? 2 : 1;
+  return term.effect == Effect::force_factor || term.effect == Effect::asymmetric_force_factor ||
+                 term.effect == Effect::inductance
+             ? 2
+             : 1;
 }
 
 Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& states) {
@@ -193,6 +231,15 @@ Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& sta
       g.col(1) = orthogonal_to(orthogonal_to((z.array().square() * v.array()).matrix(), v), z);
       return g;
     }
+    case Effect::asymmetric_force_factor: {
+      // Bl(x) = Bl₀(1 + b₁x), a coil offset: the force changes by ∝ x·u and the back-EMF by ∝ x·v; even
+      // harmonics, and a DC part (a DC displacement) which the offset term does not own here: x·u has one.
+      Eigen::MatrixXd g(z.size(), 2);
+      g.col(0) = orthogonal_to(orthogonal_to((z.array() * u.array()).matrix(), u), z);
+      const Eigen::VectorXd v = first_difference(z);
+      g.col(1) = orthogonal_to(orthogonal_to((z.array() * v.array()).matrix(), v), z);
+      return g;
+    }
     case Effect::inductance: {
       // Le(x) (or Le(i) for the input proxy) in Le·di/dt: the current changes by ∝ z·Δu; and the reluctance
       // force ½·i²·dLe/dx ∝ u².
@@ -201,17 +248,14 @@ Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& sta
       g.col(1) = centred_orthogonal_to(u.array().square().matrix(), u);
       return g;
     }
-    case Effect::saturation: {
-      if (!term.one_sided) return term_feature(term, states);
-      // The drive beyond a knee c on either side, (z − c)₊ and (z + c)₋, each with its own coefficients:
-      // one alone clips one way (a diode).
-      const double c = term.threshold;
-      Eigen::MatrixXd g(z.size(), 2);
-      for (Eigen::Index k = 0; k < z.size(); ++k) {
-        g(k, 0) = std::max(z[k] - c, 0.0);
-        g(k, 1) = std::min(z[k] + c, 0.0);
-      }
-      for (Eigen::Index j = 0; j < 2; ++j) g.col(j) = centred_orthogonal_to(g.col(j), z);
+    case Effect::saturation: return knee_features(z, term.threshold, term.one_sided);
+    case Effect::static_nonlinearity: {
+      // f(z) with z = front·u: a knee, or z² and z³ (a polynomial of order 3), beyond the linear part
+      const Eigen::VectorXd w = static_nonlinearity_signal(term, states);
+      if (term.shape == Shape::knee) return knee_features(w, term.threshold, term.one_sided);
+      Eigen::MatrixXd g(w.size(), 2);
+      g.col(0) = centred_orthogonal_to(w.array().square().matrix(), w);
+      g.col(1) = orthogonal_to(w.array().cube().matrix(), w);
       return g;
     }
     default: return term_feature(term, states);
@@ -222,10 +266,12 @@ Eigen::MatrixXd term_regressors(const DiagnosisTerm& term, const StateSignals& s
                                 const TransferFunction& dynamics, int lags) {
   if (term.effect == Effect::dc_offset) return Eigen::VectorXd::Ones(states.input.size());
   const Eigen::MatrixXd g = term_features(term, states);
+  // A static nonlinearity's output passes only the filter after it; every other term the baseline's dynamics.
+  const TransferFunction& through = term.effect == Effect::static_nonlinearity ? term.back : dynamics;
   const int width = lags + kTermLead;
   Eigen::MatrixXd phi = Eigen::MatrixXd::Zero(g.rows(), width * g.cols());
   for (Eigen::Index j = 0; j < g.cols(); ++j) {
-    const Eigen::VectorXd f = filter_through(dynamics, g.col(j));
+    const Eigen::VectorXd f = filter_through(through, g.col(j));
     for (int l = -kTermLead; l < lags; ++l) {
       const Eigen::Index c = j * width + l + kTermLead, m = f.size() - std::abs(l);
       if (l >= 0) phi.col(c).tail(m) = f.head(m);

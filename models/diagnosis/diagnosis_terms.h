@@ -25,6 +25,10 @@ enum class Effect {
   saturation,
   thermal_compression,
   dc_offset,
+  static_nonlinearity,
+  nonlinear_damping,  ///< its term and scenario exist, but it is not offered yet (all_effects() leaves it out): at
+                      ///< one resonance v³ and x³ differ by a phase the term's leads absorb, and it took the cubic spring's place
+  asymmetric_force_factor,  ///< not offered yet either: without the current channel it took a visible asymmetric spring's place
 };
 
 /// The effect's id ("cubic_stiffness", …).
@@ -47,13 +51,34 @@ enum class StateProxy {
 /// The proxy's name ("output", "integral", "double_integral", "input").
 std::string to_string(StateProxy proxy);
 
+/// Where a static nonlinearity sits in a block structure (static_nonlinearity; saturation is the input's).
+enum class Position {
+  input,    ///< before the dynamics: Hammerstein
+  output,   ///< after them: Wiener
+  between,  ///< between two filters: Wiener–Hammerstein
+};
+
+/// The position's name ("input", "output", "between").
+std::string to_string(Position position);
+
+/// The static function of a static nonlinearity.
+enum class Shape {
+  knee,        ///< a change of slope beyond a knee (saturating or dead-zone-like, by the fitted slope)
+  polynomial,  ///< z² and z³ (a polynomial of order 3)
+};
+
 /// One augmentation term and its fitted coefficients.
 struct DiagnosisTerm {
   Effect effect = Effect::dc_offset;
   StateProxy proxy = StateProxy::output;
   double threshold = 0.0;   ///< saturation: the knee, in units of the normalised input
   double time_constant_s = 0.0;  ///< thermal_compression: the time constant of the power-driven state
-  bool one_sided = false;   ///< saturation: each side of the knee fitted on its own (a diode), not alike
+  bool one_sided = false;   ///< saturation, static_nonlinearity: each side of the knee fitted on its own (a diode), not alike
+  Position position = Position::input;  ///< static_nonlinearity: where it sits
+  Shape shape = Shape::knee;            ///< static_nonlinearity: its static function
+  TransferFunction front;   ///< static_nonlinearity: the filter before it (scaled input → its signal z; unit DC gain)
+  TransferFunction back;    ///< static_nonlinearity: the filter after it (its output → the scaled output)
+  double front_rms = 1.0;   ///< static_nonlinearity: rms of front·u on the estimation record (z is divided by it)
   Eigen::VectorXd coefficients;  ///< one per lag (dc_offset: one, the offset in scaled output units)
 };
 
@@ -83,9 +108,12 @@ Eigen::VectorXd filter_through(const TransferFunction& tf, const Eigen::VectorXd
 /// against z and u where they carry a linear part.
 Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& states);
 
-/// Features of a term: 2 for force_factor (x²·u, x²·v), inductance (z·Δu, u²) and a one-sided saturation
+/// Features of a term: 2 for a static nonlinearity's polynomial (z², z³), for asymmetric_force_factor (x·u, x·v), for force_factor (x²·u, x²·v), inductance (z·Δu, u²) and a one-sided saturation
 /// (each side of the knee with its own coefficients), else 1.
 int feature_count(const DiagnosisTerm& term);
+
+/// A static nonlinearity's signal z: the normalised input through the filter before it, over front_rms.
+Eigen::VectorXd static_nonlinearity_signal(const DiagnosisTerm& term, const StateSignals& states);
 
 /// Every static feature of `term` (feature_count columns; the first is term_feature).
 Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& states);

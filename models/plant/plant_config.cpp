@@ -20,13 +20,14 @@ constexpr const char* kFormat = "panelbass.plant/1";
 // NonlinearTerms, or const NonlinearTerms to read the switches only).
 template <class Terms,
           class Switch = std::conditional_t<std::is_const_v<Terms>, const NonlinearSwitch, NonlinearSwitch>>
-std::array<std::pair<const char*, Switch*>, 6> nonlinear_switches(Terms& n) {
+std::array<std::pair<const char*, Switch*>, 7> nonlinear_switches(Terms& n) {
   return {{{"stiffness", &n.stiffness},
            {"force_factor", &n.force_factor},
            {"inductance", &n.inductance},
            {"friction", &n.friction},
            {"clipping", &n.clipping},
-           {"thermal", &n.thermal}}};
+           {"thermal", &n.thermal},
+           {"damping", &n.damping}}};
 }
 
 // RK4 is stable up to |λh| ≈ 2.8; keeping |λh| below this leaves margin for accuracy too.
@@ -138,6 +139,10 @@ PlantConfig plant_from_json(const nlohmann::json& json) {
       t.knee = g.number("knee", t.knee);
       require_within(t.knee, 1e-6, 10.0, g.path_of("knee"));
     });
+    read_term(f, "damping", n.damping, [](JsonFields& g, DampingTerm& t) {
+      t.r2_per_m2ps2 = g.number("r2_per_m2ps2", t.r2_per_m2ps2);
+      require_non_negative(t.r2_per_m2ps2, g.path_of("r2_per_m2ps2"));
+    });
     read_term(f, "thermal", n.thermal, [](JsonFields& g, ThermalTerm& t) {
       t.alpha_per_K = g.number("alpha_per_K", t.alpha_per_K);
       require_non_negative(t.alpha_per_K, g.path_of("alpha_per_K"));
@@ -176,6 +181,8 @@ PlantConfig plant_from_json(const nlohmann::json& json) {
     c.sensor.offset_V = f.number("offset_V", c.sensor.offset_V);
     c.sensor.noise_rms_V = f.number("noise_rms_V", c.sensor.noise_rms_V);
     require_non_negative(c.sensor.noise_rms_V, f.path_of("noise_rms_V"));
+    c.sensor.preamp_clip_V = f.number("preamp_clip_V", c.sensor.preamp_clip_V);
+    require_non_negative(c.sensor.preamp_clip_V, f.path_of("preamp_clip_V"));
     f.finish();
   }
   top.finish();
@@ -219,7 +226,7 @@ nlohmann::json plant_to_json(const PlantConfig& c) {
     modes.push_back({{"frequency_hz", m.frequency_hz}, {"damping_ratio", m.damping_ratio}, {"gain", m.gain}});
   }
   auto filter = [](const AnalogFilter& f) { return json{{"order", f.order}, {"cutoff_hz", f.cutoff_hz}}; };
-  return json{
+  json out{
       {"format", kFormat},
       {"name", c.name},
       {"fs", c.fs},
@@ -248,6 +255,15 @@ nlohmann::json plant_to_json(const PlantConfig& c) {
         {"offset_V", c.sensor.offset_V},
         {"noise_rms_V", c.sensor.noise_rms_V}}},
   };
+  // Written only when used, so that a plant without them (every preset) writes the JSON it always has.
+  const DampingTerm plain_damping;
+  if (n.damping.enabled || n.damping.scale != plain_damping.scale || n.damping.r2_per_m2ps2 != plain_damping.r2_per_m2ps2) {
+    json damping = sw(n.damping);
+    damping["r2_per_m2ps2"] = n.damping.r2_per_m2ps2;
+    out["nonlinear"]["damping"] = damping;
+  }
+  if (c.sensor.preamp_clip_V != 0.0) out["sensor"]["preamp_clip_V"] = c.sensor.preamp_clip_V;
+  return out;
 }
 
 PlantConfig load_plant_file(const std::filesystem::path& path) {

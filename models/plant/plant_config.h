@@ -56,6 +56,11 @@ struct ThermalTerm : NonlinearSwitch {
   double time_constant_s = 2.0;
 };
 
+/// Rms(v) = Rm·(1 + s·r2·v²), v in m/s: the mechanical resistance rising with velocity (nonlinear damping).
+struct DampingTerm : NonlinearSwitch {
+  double r2_per_m2ps2 = 0.0;
+};
+
 /// All nonlinear terms of the plant.
 struct NonlinearTerms {
   StiffnessTerm stiffness;
@@ -64,6 +69,7 @@ struct NonlinearTerms {
   FrictionTerm friction;
   ClippingTerm clipping;
   ThermalTerm thermal;
+  DampingTerm damping;  ///< off unless a plant file switches it on (presets and renders do not change)
 };
 
 /// A structural panel mode driven by the coil force: q̈ + 2ζω q̇ + ω² q = g·F/m; it adds q̈ to the
@@ -92,6 +98,7 @@ struct Sensor {
   double sensitivity_V_per_mps2 = 0.01;
   double offset_V = 0.0;
   double noise_rms_V = 0.0;   ///< white Gaussian noise added to each sample
+  double preamp_clip_V = 0.0; ///< > 0: the preamplifier saturates softly, v·tanh(s·a/v), before the AD filter (off: 0)
 };
 
 /// Everything that defines a virtual transducer.

@@ -96,11 +96,13 @@ void VirtualTransducer::derivatives(const Eigen::VectorXd& s, double drive, Eige
   const double friction =
       n.friction.gain() * n.friction.coulomb_N * std::tanh(v / n.friction.velocity_scale_m_per_s);
 
-  // Le·di/dt = u − Re·i − Bl·v − i·v·dLe/dx;  m·dv/dt = Bl·i + ½i²·dLe/dx − Rm·v − K(x)·x − F_friction
+  const double rm = c.damping_Ns_per_m * (1.0 + n.damping.gain() * n.damping.r2_per_m2ps2 * v * v);  // Rms(v)
+
+  // Le·di/dt = u − Re·i − Bl·v − i·v·dLe/dx;  m·dv/dt = Bl·i + ½i²·dLe/dx − Rms(v)·v − K(x)·x − F_friction
   const double force = bl * i + 0.5 * i * i * dle_dx;
   ds[kCurrent] = (volts - re * i - bl * v - i * v * dle_dx) / le;
   ds[kDisplacement] = v;
-  ds[kVelocity] = (force - c.damping_Ns_per_m * v - spring - friction) / c.mass_kg;
+  ds[kVelocity] = (force - rm * v - spring - friction) / c.mass_kg;
   ds[kTemperature] =
       gt != 0.0 ? (re * i * i * n.thermal.resistance_K_per_W - temperature) / n.thermal.time_constant_s : 0.0;
 
@@ -113,6 +115,13 @@ void VirtualTransducer::derivatives(const Eigen::VectorXd& s, double drive, Eige
     ds[p + 1] = m.gain * force / c.mass_kg - 2.0 * m.damping_ratio * w * s[p + 1] - w * w * s[p];
     accel += ds[p + 1];
     p += 2;
+  }
+  // The sensor's preamplifier saturates before the anti-alias filter: a static nonlinearity between two
+  // filters (the mechanics and the AD filter), a Wiener–Hammerstein structure.
+  const double clip_V = c.sensor.preamp_clip_V;
+  if (clip_V > 0.0) {
+    const double limit = clip_V / c.sensor.sensitivity_V_per_mps2;
+    accel = limit * std::tanh(accel / limit);
   }
   filter_derivatives(ad_sections_, s, accel, ds);
 }

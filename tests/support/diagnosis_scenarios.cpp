@@ -48,6 +48,12 @@ DiagnosisScenario concealed_scenario(Effect effect, double size) {
       p.nonlinear.force_factor.b2_per_mm2 = -0.45;
       p.nonlinear.force_factor.scale = 0.034 * size;
       break;
+    case Effect::asymmetric_force_factor:  // a coil offset: Bl(x) = Bl₀(1 + b₁x)
+      p.nonlinear.force_factor.enabled = true;
+      p.nonlinear.force_factor.b1_per_mm = -0.3;
+      p.nonlinear.force_factor.b2_per_mm2 = 0.0;
+      p.nonlinear.force_factor.scale = 0.045 * size;
+      break;
     case Effect::inductance:
       p.nonlinear.inductance.enabled = true;
       p.nonlinear.inductance.l1_per_mm = -0.1;
@@ -64,6 +70,14 @@ DiagnosisScenario concealed_scenario(Effect effect, double size) {
       p.nonlinear.clipping.enabled = true;
       p.nonlinear.clipping.level = 1.0 - 0.032 * size;
       p.nonlinear.clipping.knee = 0.02;
+      break;
+    case Effect::static_nonlinearity:  // the sensor's preamplifier saturates between the mechanics and the AD filter
+      p.sensor.preamp_clip_V = 8.0 / size;
+      break;
+    case Effect::nonlinear_damping:  // Rms(v) = Rm·(1 + r2·v²)
+      p.nonlinear.damping.enabled = true;
+      p.nonlinear.damping.r2_per_m2ps2 = 1.0;
+      p.nonlinear.damping.scale = 0.06 * size;
       break;
     case Effect::thermal_compression:
       p.nonlinear.thermal.enabled = true;
@@ -107,7 +121,9 @@ DiagnosisScenario combined_scenario(const DiagnosisScenario& first, const Diagno
   if (q.nonlinear.friction.enabled) p.nonlinear.friction = q.nonlinear.friction;
   if (q.nonlinear.clipping.enabled) p.nonlinear.clipping = q.nonlinear.clipping;
   if (q.nonlinear.thermal.enabled) p.nonlinear.thermal = q.nonlinear.thermal;
+  if (q.nonlinear.damping.enabled) p.nonlinear.damping = q.nonlinear.damping;
   if (q.sensor.offset_V != plain.sensor.offset_V) p.sensor.offset_V = q.sensor.offset_V;
+  if (q.sensor.preamp_clip_V != plain.sensor.preamp_clip_V) p.sensor.preamp_clip_V = q.sensor.preamp_clip_V;
   for (std::size_t k = plain.panel_modes.size(); k < q.panel_modes.size(); ++k) p.panel_modes.push_back(q.panel_modes[k]);
   s.modulated_level = first.modulated_level || second.modulated_level;
   if (s.baseline == ScenarioBaseline::identified) s.baseline = second.baseline;

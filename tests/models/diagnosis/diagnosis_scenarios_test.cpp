@@ -25,6 +25,7 @@ DiagnosisOptions options(int max_findings) {
   o.init = kInit;
   o.scan_from = 12;  // the linear preset's true order is 13 (see linear_identification_test.cpp)
   o.scan_to = 13;
+  o.output = OutputQuantity::acceleration;  // the virtual transducer's sensor is an accelerometer
   o.max_findings = max_findings;
   return o;
 }
@@ -73,7 +74,7 @@ INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, ConcealedEffect,
                          testing::Values(Effect::resonance, Effect::antiresonance, Effect::delay,
                                          Effect::cubic_stiffness, Effect::asymmetric_stiffness, Effect::force_factor,
                                          Effect::inductance, Effect::hysteresis, Effect::saturation,
-                                         Effect::thermal_compression, Effect::dc_offset),
+                                         Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity),
                          [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
 
 // The fitted parameters of the effects that have a value to compare with the plant's.

@@ -220,6 +220,25 @@ TEST(PlantConfigRoundTrip, ConfigThroughJsonTextIsBitExact) {
   expect_same_plant(plant_from_json(json::parse(plant_to_json(c).dump())), c);
 }
 
+// The nonlinear damping and the preamplifier's saturation are written when used, and come back as written.
+TEST(PlantConfigRoundTrip, DampingAndPreampSaturationAreWrittenWhenUsed) {
+  PlantConfig c = unusual_plant();
+  EXPECT_FALSE(plant_to_json(c)["nonlinear"].contains("damping"));
+  EXPECT_FALSE(plant_to_json(c)["sensor"].contains("preamp_clip_V"));
+  c.nonlinear.damping.enabled = true;
+  c.nonlinear.damping.scale = 0.5;
+  c.nonlinear.damping.r2_per_m2ps2 = 2.5;
+  c.sensor.preamp_clip_V = 1.75;
+  const json j = plant_to_json(c);
+  EXPECT_EQ(j["nonlinear"]["damping"], json::parse(R"({"enabled": true, "scale": 0.5, "r2_per_m2ps2": 2.5})"));
+  EXPECT_EQ(j["sensor"]["preamp_clip_V"], 1.75);
+  const PlantConfig back = plant_from_json(json::parse(j.dump()));
+  EXPECT_TRUE(back.nonlinear.damping.enabled);
+  EXPECT_EQ(back.nonlinear.damping.scale, 0.5);
+  EXPECT_EQ(back.nonlinear.damping.r2_per_m2ps2, 2.5);
+  EXPECT_EQ(back.sensor.preamp_clip_V, 1.75);
+}
+
 TEST(PlantConfigRoundTrip, JsonWritesEveryFieldOfTheUnusualPlant) {
   const json expected = json::parse(R"json({
     "format": "panelbass.plant/1", "name": "round-trip", "fs": 4000, "oversample": 20,
@@ -316,7 +335,7 @@ TEST(PlantConfigPresets, WithOnlyTermKeepsThatTermAndSwitchesOffTheRest) {
   } catch (const ConfigError& e) {
     EXPECT_STREQ(e.what(),
                  "unknown nonlinear term \"hysteresis\" (terms: stiffness, force_factor, inductance, friction, "
-                 "clipping, thermal)");
+                 "clipping, thermal, damping)");
   }
 }
 

@@ -192,6 +192,44 @@ TEST(VirtualTransducer, ThermalCompressionLowersTheOutputOverTime) {
   EXPECT_NEAR(std::sqrt(cold.i.segment(9000, 3000).squaredNorm() / 3000), std::sqrt(cold.i.segment(300, 3000).squaredNorm() / 3000), 1e-3);
 }
 
+// Rms(v) = Rm(1 + r2·v²) at the resonance, by the describing function of v³ (its fundamental is ¾V²·v): the
+// plant with it moves like the linear plant whose resistance is Rm(1 + ¾·r2·V²), V the velocity amplitude.
+TEST(VirtualTransducer, NonlinearDampingActsAsItsDescribingFunctionAtResonance) {
+  PlantConfig plant = quiet(plant_preset("linear"));
+  const double f0 = std::sqrt(plant.stiffness_N_per_m / plant.mass_kg) / (2.0 * kPi);
+  const Eigen::VectorXd u = dsp::sine(6000, plant.fs, f0, 0.3);
+  auto amplitude = [&](const PlantConfig& c) {
+    const Eigen::VectorXd v = simulate(c, u, 1).v.tail(3000);
+    return 2.0 * std::abs(single_bin(v, f0, plant.fs)) / 3000.0;
+  };
+  plant.nonlinear.damping.enabled = true;
+  plant.nonlinear.damping.r2_per_m2ps2 = 0.0;
+  const double linear = amplitude(plant);
+  plant.nonlinear.damping.r2_per_m2ps2 = 0.6 / (linear * linear);  // ≈ 0.3 added at the linear amplitude
+  const double damped = amplitude(plant);
+  EXPECT_LT(damped, 0.95 * linear);
+  PlantConfig equivalent = plant;
+  equivalent.nonlinear.damping.enabled = false;
+  equivalent.damping_Ns_per_m *= 1.0 + 0.75 * plant.nonlinear.damping.r2_per_m2ps2 * damped * damped;
+  EXPECT_NEAR(damped, amplitude(equivalent), 0.02 * damped);
+}
+
+// The preamplifier's saturation lies before the AD filter: without one the measured signal never leaves
+// ±preamp_clip_V, and far below the clip the plant is the linear one (tanh(x) = x − x³/3 + …).
+TEST(VirtualTransducer, PreampSaturationBoundsTheSensorBeforeTheAdFilter) {
+  PlantConfig plant = quiet(plant_preset("linear"));
+  plant.converters.ad_filter.order = 0;
+  const Eigen::VectorXd u = dsp::uniform_noise(6000, 1.0, 3);
+  const double peak = simulate(plant, u, 1).y.cwiseAbs().maxCoeff();
+  plant.sensor.preamp_clip_V = 0.5 * peak;
+  EXPECT_LE(simulate(plant, u, 1).y.cwiseAbs().maxCoeff(), 0.5 * peak * (1.0 + 1e-12));
+  const Eigen::VectorXd small = 0.01 * u;
+  PlantConfig off = plant;
+  off.sensor.preamp_clip_V = 0.0;
+  const Eigen::VectorXd y_lin = simulate(off, small, 1).y;
+  EXPECT_LT((simulate(plant, small, 1).y - y_lin).cwiseAbs().maxCoeff(), 1e-3 * y_lin.cwiseAbs().maxCoeff());
+}
+
 TEST(VirtualTransducer, RejectsNonFiniteDrive) {
   Eigen::VectorXd u = Eigen::VectorXd::Zero(10);
   u[4] = std::nan("");
