@@ -22,6 +22,26 @@ void HistoryRing::push_input(double x) noexcept {
   final_.store(k, std::memory_order_release);
 }
 
+void HistoryRing::push_block(std::span<const double> in, std::size_t observed) noexcept {
+  if (in.empty()) return;
+  const std::uint64_t first = count_;
+  count_ += in.size();
+  if (!input_.empty()) {
+    // Seqlock writer: every position the run rewrites is announced before any is rewritten (a reader may
+    // drop a sample not yet rewritten; it never keeps one that was).
+    touched_.store(count_, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+    for (const double x : in) {
+      newest_ = next_;
+      next_ = next_ + 1 == input_.size() ? 0 : next_ + 1;
+      input_[newest_].store(x, std::memory_order_relaxed);
+      measured_[newest_].store(0.0, std::memory_order_relaxed);
+    }
+  }
+  // As push_input() then set_measured(0) per observed sample: the last pushed sample is final only if observed.
+  final_.store(first + std::min<std::uint64_t>(observed, in.size()), std::memory_order_release);
+}
+
 void HistoryRing::set_measured(double y) noexcept {
   if (count_ == 0) return;
   if (!measured_.empty()) measured_[newest_].store(y, std::memory_order_relaxed);
