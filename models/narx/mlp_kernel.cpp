@@ -117,8 +117,11 @@ double MlpKernel::forward_baseline(std::span<const double> head, std::span<const
       std::copy_n(weights_.data() + layer.bias + r, 4, sum);
       const double* w = weights_.data() + layer.weights + r;
       if (l == 0) {
-        w = accumulate4(sum, w, layer.stride, head);
-        accumulate4(sum, w, layer.stride, tail);
+        // head[0] (a NARX's y(k−1), the newest feedback) last: everything else is summed before it is known.
+        const std::span<const double> newest = head.first(std::min<std::size_t>(1, head.size()));
+        accumulate4(sum, accumulate4(sum, w + newest.size() * layer.stride, layer.stride, head.subspan(newest.size())),
+                    layer.stride, tail);
+        accumulate4(sum, w, layer.stride, newest);
       } else {
         accumulate4(sum, w, layer.stride, previous);
       }

@@ -88,13 +88,17 @@ PANELBASS_AVX2_FMA double forward_avx2_fma(const KernelView& net, std::span<cons
       __m256d sum = _mm256_loadu_pd(net.weights + layer.bias + r);
       __m256d odd = _mm256_setzero_pd();
       const double* w = net.weights + layer.weights + r;
-      if (l == 0) {
-        w = accumulate(sum, odd, w, layer.stride, head);
-        accumulate(sum, odd, w, layer.stride, tail);
+      if (l == 0 && !head.empty()) {
+        // head[0] (a NARX's y(k−1), the newest feedback) last: everything else is summed before it is known,
+        // so in a free run only one multiply-add lies between one output and the next one's tanh.
+        accumulate(sum, odd, w + layer.stride, layer.stride, head.subspan(1));
+        accumulate(sum, odd, w + head.size() * layer.stride, layer.stride, tail);
+        sum = _mm256_fmadd_pd(_mm256_loadu_pd(w), _mm256_set1_pd(head[0]), _mm256_add_pd(sum, odd));
       } else {
-        accumulate(sum, odd, w, layer.stride, previous);
+        accumulate(sum, odd, w, layer.stride, l == 0 ? tail : previous);
+        sum = _mm256_add_pd(sum, odd);
       }
-      const __m256d a = tanh4(_mm256_add_pd(sum, odd));
+      const __m256d a = tanh4(sum);
       // The last layer feeds the linear output node directly: F = w_out·a + b_out (padding: w = 0, a = 0).
       if (last) {
         f4 = _mm256_fmadd_pd(_mm256_loadu_pd(out_w + r), a, f4);
