@@ -31,12 +31,20 @@ void HistoryRing::push_block(std::span<const double> in, std::size_t observed) n
     // drop a sample not yet rewritten; it never keeps one that was).
     touched_.store(count_, std::memory_order_relaxed);
     std::atomic_thread_fence(std::memory_order_release);
-    for (const double x : in) {
-      newest_ = next_;
-      next_ = next_ + 1 == input_.size() ? 0 : next_ + 1;
-      input_[newest_].store(x, std::memory_order_relaxed);
-      measured_[newest_].store(0.0, std::memory_order_relaxed);
+    // In contiguous runs up to the ring's end: no wrap test per sample.
+    const std::size_t size = input_.size();
+    std::size_t pos = next_;
+    for (std::size_t done = 0; done < in.size();) {
+      const std::size_t run = std::min(in.size() - done, size - pos);
+      for (std::size_t i = 0; i < run; ++i) {
+        input_[pos + i].store(in[done + i], std::memory_order_relaxed);
+        measured_[pos + i].store(0.0, std::memory_order_relaxed);
+      }
+      done += run;
+      pos = pos + run == size ? 0 : pos + run;
     }
+    next_ = pos;
+    newest_ = pos == 0 ? size - 1 : pos - 1;
   }
   // As push_input() then set_measured(0) per observed sample: the last pushed sample is final only if observed.
   final_.store(first + std::min<std::uint64_t>(observed, in.size()), std::memory_order_release);
