@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 #include <complex>
+#include <span>
 #include <vector>
 
 namespace panelbass::dsp {
@@ -40,6 +41,10 @@ class SosFilter {
     }
     return v;
   }
+
+  /// out[k] = process(in[k]) over a block (`out` as long as `in`, or `in` itself): the same arithmetic in the
+  /// same order, so the same numbers, with the state held in registers over the block (up to 4 sections).
+  void process_block(std::span<const double> in, std::span<double> out) noexcept;
 
   /// Filters a whole signal from the current state (the state carries over to the next call).
   Eigen::VectorXd process(const Eigen::VectorXd& x);

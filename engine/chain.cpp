@@ -6,8 +6,16 @@
 #include <string>
 
 namespace panelbass::engine {
+namespace {
 
-Chain::Chain(const ChainOptions& options) : options_(options), limiter_(options.limiter) {
+// Inputs beyond this magnitude could drive the band-pass's state towards overflow; block_run() leaves
+// them (and everything after them) to the per-sample path, which restarts an overflowed band-pass at once.
+constexpr double kLargestBlockInput = 1e100;
+
+}  // namespace
+
+Chain::Chain(const ChainOptions& options)
+    : options_(options), limiter_(options.limiter) {
   if (!(options.spec.fs > 0.0) || options.spec.max_block < 1) {
     throw std::invalid_argument("chain: fs must be > 0 and max_block >= 1, got fs = " +
                                 std::to_string(options.spec.fs) + ", max_block = " +
@@ -66,13 +74,78 @@ void Chain::begin_block() noexcept {
   }
 }
 
+void Chain::process_block(std::span<const double> program, std::span<double> drive) noexcept {
+  const auto started = std::chrono::steady_clock::now();
+  begin_block();
+  std::size_t k = 0;
+  while (k < program.size() && block_runs()) {
+    const std::size_t n = std::min(program.size() - k, static_cast<std::size_t>(options_.spec.max_block));
+    const std::size_t done = block_run(program.subspan(k, n), drive.subspan(k, n));
+    k += done;
+    if (done < n) break;
+  }
+  // What the block runs could not take (a swap or fade under way, a fault, a non-finite or huge input):
+  // sample by sample, the plant's output read as 0.
+  for (; k < program.size(); ++k) {
+    drive[k] = process_sample(program[k]);
+    observe(0.0);
+  }
+  end_block(drive, started);
+}
+
+void Chain::end_block(std::span<const double> drive, std::chrono::steady_clock::time_point started) noexcept {
+  double peak = 0.0;
+  // (The limiter's drive is never NaN, so a plain max needs no fmax call per sample.)
+  for (const double d : drive) peak = std::max(peak, std::abs(d));
+  metrics_.record_peak_drive(peak);
+  metrics_.record_limiting(block_limiting_.limited, block_limiting_.over_range, block_limiting_.peak_demand);
+  const auto elapsed = std::chrono::steady_clock::now() - started;
+  metrics_.record_block(static_cast<std::uint64_t>(std::chrono::nanoseconds(elapsed).count()), drive.size());
+}
+
+bool Chain::block_runs() const noexcept {
+  return !safe_bypass_ && !huge_input_seen_ && slots_[0]->steady() && slots_[1]->steady() && slots_[2]->steady();
+}
+
+std::size_t Chain::block_run(std::span<const double> program, std::span<double> drive) noexcept {
+  // Up to the first input the per-sample path must see (non-finite: a fault; huge: a possible overflow).
+  std::size_t n = 0;
+  while (n < program.size() && std::abs(program[n]) <= kLargestBlockInput) ++n;
+  if (n == 0) return 0;
+  const std::span<const double> in = program.first(n);
+  // Each stage over the whole run, then the limiter sample by sample. The band-pass cannot overflow on
+  // these inputs (so it is never restarted inside the run), and it runs on in the safe bypass: all its n
+  // samples count. The model slots' samples count up to the one that tripped the limiter, if any; that
+  // one was processed but, the chain being in its bypass by then, not observed (as process_sample and
+  // observe() per sample would have it). Their states beyond it do not matter: leaving the bypass resets them.
+  // (Each slot's output stays valid until that slot runs its next block.)
+  const std::span<const double> band = band_pass().process_block(in);
+  const std::span<const double> fed = feedforward().process_block(band);
+  const std::span<const double> v = feedback().process_block(fed);
+  std::size_t k = 0;
+  for (; k < n && !safe_bypass_; ++k) drive[k] = limit_sample(band[k], v[k]);
+  const std::size_t modelled = k;
+  for (; k < n; ++k) drive[k] = limit_sample(band[k], band[k]);
+  band_pass().commit_block(in, n, n);
+  const std::size_t observed = safe_bypass_ ? modelled - 1 : modelled;
+  feedforward().commit_block(band, modelled, observed);
+  feedback().commit_block(fed, modelled, observed);
+  return n;
+}
+
 double Chain::process_sample(double x) noexcept {
   if (!std::isfinite(x)) {
     enter_safe_bypass(Fault::non_finite_input);
     x = 0.0;
+  } else if (std::abs(x) > kLargestBlockInput) {
+    huge_input_seen_ = true;
   }
   const double band = band_pass().process(x);
   const double v = safe_bypass_ ? band : feedback().process(feedforward().process(band));
+  return limit_sample(band, v);
+}
+
+double Chain::limit_sample(double band, double v) noexcept {
   const double drive = limiter_.process(v);
   // What the chain asked for against what the limiter let through (a non-finite v is a fault instead).
   const double demand = std::abs(v);

@@ -70,10 +70,10 @@ class Chain {
   /// The options the chain was built with.
   const ChainOptions& options() const { return options_; }
 
-  /// Audio thread: one block of program input into drive (same length); the plant is not observed.
-  void process_block(std::span<const double> program, std::span<double> drive) noexcept {
-    process_block(program, drive, [](double) noexcept { return 0.0; });
-  }
+  /// Audio thread: one block of program input into drive (same length); the plant is not observed (as the
+  /// sensor overload below with a sensor that reads 0, and with the same numbers). With no swap, fade or
+  /// fault under way it runs stage by stage over the block (block_run()), otherwise sample by sample.
+  void process_block(std::span<const double> program, std::span<double> drive) noexcept;
 
   /// Audio thread: one block, sample by sample in a loop with the plant: `sensor(drive)` returns the
   /// measured output for that drive sample, which the stages observe before the next sample.
@@ -81,21 +81,20 @@ class Chain {
   void process_block(std::span<const double> program, std::span<double> drive, Sensor&& sensor) noexcept {
     const auto started = std::chrono::steady_clock::now();
     begin_block();
-    double peak = 0.0;
     for (std::size_t k = 0; k < program.size(); ++k) {
       drive[k] = process_sample(program[k]);
-      peak = std::fmax(peak, std::abs(drive[k]));
       observe(sensor(drive[k]));
     }
-    metrics_.record_peak_drive(peak);
-    metrics_.record_limiting(block_limiting_.limited, block_limiting_.over_range, block_limiting_.peak_demand);
-    const auto elapsed = std::chrono::steady_clock::now() - started;
-    metrics_.record_block(static_cast<std::uint64_t>(std::chrono::nanoseconds(elapsed).count()), program.size());
+    end_block(drive, started);
   }
 
  private:
   void begin_block() noexcept;
+  void end_block(std::span<const double> drive, std::chrono::steady_clock::time_point started) noexcept;
   double process_sample(double x) noexcept;
+  double limit_sample(double band, double v) noexcept;
+  bool block_runs() const noexcept;
+  std::size_t block_run(std::span<const double> program, std::span<double> drive) noexcept;
   void observe(double measured) noexcept;
   void enter_safe_bypass(Fault fault) noexcept;
 
@@ -107,6 +106,9 @@ class Chain {
   LimiterOptions pending_limiter_{};           // written by the control thread while the flag is false
   std::atomic<bool> limiter_request_{false};  // true: pending_limiter_ waits for the audio thread
   bool safe_bypass_ = false;  // audio thread only
+  // An input so large that the band-pass might overflow has been seen: from then on every block runs
+  // sample by sample, where such an overflow is caught at the sample it happens (audio thread only).
+  bool huge_input_seen_ = false;
   // The limiter's work in the current block (audio thread only; reset by begin_block).
   struct BlockLimiting {
     std::uint64_t limited = 0;     // |v| above the knee: the limiter changed the drive

@@ -22,6 +22,12 @@ class StateSpaceStage final : public Stage {
   void prepare(const ProcessSpec& spec) override;
   /// y(k) = C·x(k) + D·u(k), x(k+1) = A·x(k) + B·u(k).
   double process(double x) noexcept override;
+  /// A block of process() (StateSpaceRunner::step_block: the state kept in registers).
+  void process_block(std::span<const double> in, std::span<double> out) noexcept override {
+    runner_.step_block(in, out);
+  }
+  /// Ignores the plant.
+  bool observes() const noexcept override { return false; }
   /// State to zero.
   void reset() noexcept override;
 
@@ -41,6 +47,8 @@ class NeuralFeedbackStage final : public Stage {
   void prepare(const ProcessSpec& spec) override;
   /// v(k) = soft_limit(u(k) + N1(…)); in model mode, also steps the plant model.
   double process(double x) noexcept override;
+  /// True in sensor mode.
+  bool observes() const noexcept override { return source_ == FeedbackSource::sensor; }
   /// In sensor mode, the measured plant output becomes the newest past output — unless the sensor has
   /// gone silent (see SensorWatch), when the plant model's output stands in until it comes back.
   void observe(double measured) noexcept override;

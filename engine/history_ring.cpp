@@ -22,6 +22,34 @@ void HistoryRing::push_input(double x) noexcept {
   final_.store(k, std::memory_order_release);
 }
 
+void HistoryRing::push_block(std::span<const double> in, std::size_t observed) noexcept {
+  if (in.empty()) return;
+  const std::uint64_t first = count_;
+  count_ += in.size();
+  if (!input_.empty()) {
+    // Seqlock writer: every position the run rewrites is announced before any is rewritten (a reader may
+    // drop a sample not yet rewritten; it never keeps one that was).
+    touched_.store(count_, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+    // In contiguous runs up to the ring's end: no wrap test per sample.
+    const std::size_t size = input_.size();
+    std::size_t pos = next_;
+    for (std::size_t done = 0; done < in.size();) {
+      const std::size_t run = std::min(in.size() - done, size - pos);
+      for (std::size_t i = 0; i < run; ++i) {
+        input_[pos + i].store(in[done + i], std::memory_order_relaxed);
+        measured_[pos + i].store(0.0, std::memory_order_relaxed);
+      }
+      done += run;
+      pos = pos + run == size ? 0 : pos + run;
+    }
+    next_ = pos;
+    newest_ = pos == 0 ? size - 1 : pos - 1;
+  }
+  // As push_input() then set_measured(0) per observed sample: the last pushed sample is final only if observed.
+  final_.store(first + std::min<std::uint64_t>(observed, in.size()), std::memory_order_release);
+}
+
 void HistoryRing::set_measured(double y) noexcept {
   if (count_ == 0) return;
   if (!measured_.empty()) measured_[newest_].store(y, std::memory_order_relaxed);

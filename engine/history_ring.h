@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace panelbass::engine {
@@ -35,6 +36,10 @@ class HistoryRing {
   void push_input(double x) noexcept;
   /// The measured output of the newest sample, which is final from now on.
   void set_measured(double y) noexcept;
+  /// A run of samples at once, each as push_input() with measured output 0; the first `observed` of them
+  /// become final as set_measured(0) would make them (all of them, or all but the last when the chain
+  /// stopped observing this slot at its last sample).
+  void push_block(std::span<const double> in, std::size_t observed) noexcept;
   /// Samples pushed so far.
   std::uint64_t count() const noexcept { return count_; }
   /// The input of sample k, count() − length() ≤ k < count().

@@ -12,6 +12,7 @@ ModelSlot::ModelSlot(const ProcessSpec& spec, const SlotOptions& options, Metric
       options_(options),
       metrics_(metrics),
       index_(index),
+      block_out_(static_cast<std::size_t>(std::max(1, spec.max_block)), 0.0),
       history_(static_cast<std::size_t>(std::max(0, options.history.value))) {
   if (options.crossfade.value < 0 || options.history.value < 0) {
     throw std::invalid_argument("model slot: crossfade and history must be >= 0 samples");
@@ -162,6 +163,35 @@ void ModelSlot::observe(double measured) noexcept {
   history_.set_measured(measured);
   if (active_ != nullptr) active_->stage->observe(measured);
   if (incoming_ != nullptr) incoming_->stage->observe(measured);
+}
+
+std::span<const double> ModelSlot::process_block(std::span<const double> in) noexcept {
+  if (active_ == nullptr) {
+    block_y_ = in;
+  } else {
+    // The stage ignores observe() (steady()), so the observe(0) per sample is left out.
+    const std::span<double> y(block_out_.data(), in.size());
+    active_->stage->process_block(in, y);
+    block_y_ = y;
+  }
+  return wet_ == 0.0 ? in : block_y_;
+}
+
+void ModelSlot::commit_block(std::span<const double> in, std::size_t processed, std::size_t observed) noexcept {
+  if (processed == 0) return;
+  history_.push_block(in.first(processed), observed);
+  block_samples_ += processed;
+  // The step peak and the last outputs, as process() keeps them sample by sample.
+  double peak = step_peak_, last = last_mix_;
+  for (std::size_t k = 0; k < processed; ++k) {
+    const double y = block_y_[k];
+    const double step = std::abs(y - last);
+    peak = std::isfinite(step) ? std::max(step, peak * peak_decay_) : 0.0;
+    last = y;
+  }
+  step_peak_ = peak;
+  last_mix_ = last;
+  last_old_ = last;
 }
 
 Fault ModelSlot::take_fault() noexcept {

@@ -23,6 +23,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <span>
+#include <vector>
 
 #include "engine/history_ring.h"
 #include "engine/metrics.h"
@@ -77,6 +79,20 @@ class ModelSlot {
   double process(double x) noexcept;
   /// The measured plant output for the sample just processed: kept in the history, passed to the stages.
   void observe(double measured) noexcept;
+  /// True when a whole block may run at once (process_block): no stage is being taken over or crossfaded,
+  /// no bypass ramp runs, and the active stage ignores the plant's output (Stage::observes() is false).
+  bool steady() const noexcept {
+    return incoming_ == nullptr && wet_ == wet_target_ && (active_ == nullptr || !active_->stage->observes());
+  }
+  /// Only when steady(), at most the spec's max_block samples: the block through the slot with no plant
+  /// observed, as process() then observe(0) per sample would run it; returns the output (valid until the
+  /// next call). What the slot itself records (history, the step peak a later crossfade bounds its steps by)
+  /// waits for commit_block(), so a chain cut short by a fault inside the block records only what counted.
+  std::span<const double> process_block(std::span<const double> in) noexcept;
+  /// After process_block(in): its first `processed` samples count as processed, the first `observed` of
+  /// them as observed (`observed` = `processed`, or one less when the chain stopped observing the slot at
+  /// its last sample).
+  void commit_block(std::span<const double> in, std::size_t processed, std::size_t observed) noexcept;
   /// The stages back to rest (after a fault).
   void reset() noexcept;
   /// A fault the active (or incoming) stage raised since the last call (Stage::take_fault).
@@ -120,6 +136,8 @@ class ModelSlot {
   double wet_target_ = 1.0;
   std::uint64_t block_samples_ = 0;  // samples processed since the last block boundary
   std::uint64_t block_peak_ = 0;     // the longest block so far
+  std::vector<double> block_out_;    // process_block's stage outputs (max_block samples, sized once)
+  std::span<const double> block_y_;  // the stage outputs of the last process_block (block_out_ or its input)
   HistoryRing history_;
 };
 

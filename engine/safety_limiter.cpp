@@ -22,26 +22,6 @@ void SafetyLimiter::validate(const LimiterOptions& options) {
   }
 }
 
-double SafetyLimiter::process(double v) noexcept {
-  if (!std::isfinite(v)) {
-    trip_ = Fault::non_finite_output;
-    pinned_run_ = 0;
-    return 0.0;
-  }
-  if (std::abs(v) >= options_.pinned_level) {
-    if (++pinned_run_ > options_.max_pinned.value) trip_ = Fault::pinned;
-  } else {
-    pinned_run_ = 0;
-  }
-  return soft_limit(v, options_.knee);
-}
-
-Fault SafetyLimiter::take_trip() noexcept {
-  const Fault f = trip_;
-  trip_ = Fault::none;
-  return f;
-}
-
 void SafetyLimiter::reset() noexcept {
   pinned_run_ = 0;
   trip_ = Fault::none;

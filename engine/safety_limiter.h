@@ -2,6 +2,8 @@
 // The safety limiter at the end of the chain: the drive never leaves [−1, 1] (the model's valid range),
 // and a non-finite or runaway controller output is reported so the chain can drop to its safe bypass.
 
+#include <cmath>
+
 #include "dsp/soft_limit.h"
 #include "engine/metrics.h"
 #include "engine/stage.h"
@@ -25,10 +27,29 @@ class SafetyLimiter {
   /// and max_pinned ≥ 0.
   explicit SafetyLimiter(const LimiterOptions& options = {});
 
-  /// The limited drive of `v`; sets tripped() when v is not finite or has been pinned too long.
-  double process(double v) noexcept;
+  /// The limited drive of `v`; sets tripped() when v is not finite or has been pinned too long. Inline: the
+  /// chain calls it once per sample.
+  double process(double v) noexcept {
+    if (!std::isfinite(v)) {
+      trip_ = Fault::non_finite_output;
+      pinned_run_ = 0;
+      return 0.0;
+    }
+    const double magnitude = std::abs(v);
+    if (magnitude >= options_.pinned_level) {
+      if (++pinned_run_ > options_.max_pinned.value) trip_ = Fault::pinned;
+    } else {
+      pinned_run_ = 0;
+    }
+    // soft_limit() passes v unchanged up to the knee; only above it is the call needed.
+    return magnitude <= options_.knee ? v : soft_limit(v, options_.knee);
+  }
   /// What tripped the limiter since the last take_trip() (Fault::none if nothing), and clears it.
-  Fault take_trip() noexcept;
+  Fault take_trip() noexcept {
+    const Fault f = trip_;
+    trip_ = Fault::none;
+    return f;
+  }
   /// Audio thread: replaces the settings (validated by the control thread) and forgets the pinned run.
   void set_options(const LimiterOptions& options) noexcept {
     options_ = options;

@@ -26,6 +26,10 @@ void Stage::process_block(std::span<const double> in, std::span<double> out) noe
   for (std::size_t k = 0; k < in.size(); ++k) out[k] = process(in[k]);
 }
 
+void PassThroughStage::process_block(std::span<const double> in, std::span<double> out) noexcept {
+  if (out.data() != in.data()) std::copy(in.begin(), in.end(), out.begin());
+}
+
 double Stage::warm_up(std::span<const double> input, std::span<const double> measured) noexcept {
   reset();
   double y = 0.0;
@@ -72,6 +76,13 @@ double LinearStage::process(double x) noexcept {
   return runner_.step(u) * s.y_scale + s.y_offset;
 }
 
+void LinearStage::process_block(std::span<const double> in, std::span<double> out) noexcept {
+  const models::Scaling& s = model_.scaling;
+  for (std::size_t k = 0; k < in.size(); ++k) out[k] = (in[k] - s.u_offset) / s.u_scale;
+  runner_.step_block(out, out);
+  for (double& y : out.first(in.size())) y = y * s.y_scale + s.y_offset;
+}
+
 void LinearStage::reset() noexcept { runner_.reset(); }
 
 NarxStage::NarxStage(models::NarxModel model, FeedbackSource source) : model_(std::move(model)), source_(source) {}
@@ -94,6 +105,21 @@ double NarxStage::process(double x) noexcept {
   const double y = network_.forward(history_.past_outputs(), history_.past_inputs());
   if (source_ == FeedbackSource::model) history_.push_output(y);
   return y * s.y_scale + s.y_offset;
+}
+
+void NarxStage::process_block(std::span<const double> in, std::span<double> out) noexcept {
+  if (source_ == FeedbackSource::sensor) {
+    Stage::process_block(in, out);
+    return;
+  }
+  const models::Scaling& s = model_.scaling;
+  for (std::size_t k = 0; k < in.size(); ++k) {
+    history_.push_input((in[k] - s.u_offset) / s.u_scale);
+    // [5G] y(k) = F(y(k−1..k−na), u(k−nk..k−nk−nb)), its own output fed back (model mode)
+    const double y = network_.forward(history_.past_outputs(), history_.past_inputs());
+    history_.push_output(y);
+    out[k] = y * s.y_scale + s.y_offset;
+  }
 }
 
 void NarxStage::observe(double measured) noexcept {

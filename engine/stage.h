@@ -57,8 +57,13 @@ class Stage {
   /// the chain polls it once per block and records it without bypassing anything.
   virtual Fault take_fault() noexcept { return Fault::none; }
 
-  /// A block: out[k] = process(in[k]); `out` as long as `in`.
-  void process_block(std::span<const double> in, std::span<double> out) noexcept;
+  /// A block: out[k] = process(in[k]); `out` as long as `in` (it may be `in` itself). A stage overrides it
+  /// with a loop that makes no call per sample, computing the same numbers within rounding.
+  virtual void process_block(std::span<const double> in, std::span<double> out) noexcept;
+
+  /// True when observe() changes what the stage computes (it reads the plant's output); then a block runs
+  /// as process() and observe() sample by sample. False for a stage that ignores observe().
+  virtual bool observes() const noexcept { return true; }
 
   /// From rest, runs the stage over recent history (inputs and measured outputs, oldest first) so its
   /// state is what it would be had it been running all along; returns its output for the last sample
@@ -81,6 +86,10 @@ class PassThroughStage final : public Stage {
   void prepare(const ProcessSpec&) override {}
   /// Returns x.
   double process(double x) noexcept override { return x; }
+  /// Copies the block.
+  void process_block(std::span<const double> in, std::span<double> out) noexcept override;
+  /// Ignores the plant.
+  bool observes() const noexcept override { return false; }
   /// No state.
   void reset() noexcept override {}
 };
@@ -101,6 +110,12 @@ class BandPassStage final : public Stage {
   void prepare(const ProcessSpec& spec) override;
   /// Filters one sample.
   double process(double x) noexcept override { return filter_.process(x); }
+  /// Filters a block (SosFilter::process_block: the same numbers as sample by sample).
+  void process_block(std::span<const double> in, std::span<double> out) noexcept override {
+    filter_.process_block(in, out);
+  }
+  /// Ignores the plant.
+  bool observes() const noexcept override { return false; }
   /// Clears the filter state.
   void reset() noexcept override { filter_.reset(); }
   /// The design.
@@ -130,6 +145,10 @@ class LinearStage : public Stage {
   void prepare(const ProcessSpec& spec) override;
   /// y(k) = C·x(k) + D·u(k), x(k+1) = A·x(k) + B·u(k), in scaled units.
   double process(double x) noexcept override;
+  /// A block of process() (StateSpaceRunner::step_block: the state kept in registers).
+  void process_block(std::span<const double> in, std::span<double> out) noexcept override;
+  /// Ignores the plant.
+  bool observes() const noexcept override { return false; }
   /// State to zero.
   void reset() noexcept override;
   /// The model.
@@ -157,6 +176,11 @@ class NarxStage : public Stage {
   double process(double x) noexcept override;
   /// In sensor mode, the measured output becomes the newest past output.
   void observe(double measured) noexcept override;
+  /// In model mode, a block of process() without a call per sample; in sensor mode, process() and
+  /// observe(0) per sample are the chain's business (observes() is true).
+  void process_block(std::span<const double> in, std::span<double> out) noexcept override;
+  /// True in sensor mode.
+  bool observes() const noexcept override { return source_ == FeedbackSource::sensor; }
   /// Past inputs and outputs to zero.
   void reset() noexcept override;
   /// The model.

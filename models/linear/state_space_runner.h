@@ -3,6 +3,8 @@
 // engine's LinearStage and its StateSpaceStage all run it, so the three compute the same numbers.
 
 #include <Eigen/Core>
+#include <span>
+#include <vector>
 
 #include "models/linear/state_space.h"
 
@@ -26,6 +28,10 @@ class StateSpaceRunner {
     x_.swap(next_);
     return y;
   }
+  /// out[k] = step(in[k]) over a block (`out` as long as `in`), allocation-free: the same recursion with the
+  /// products written out over a padded copy of [A B] made in the constructor, the state held in registers
+  /// for up to 16 states; within rounding of step() (the sums run in another order).
+  void step_block(std::span<const double> in, std::span<double> out) noexcept;
   /// The state back to zero.
   void reset() noexcept { x_.setZero(); }
 
@@ -40,6 +46,9 @@ class StateSpaceRunner {
   StateSpace system_;
   Eigen::VectorXd c_;  // Cᵀ, so the output is a dot product of two column vectors
   Eigen::VectorXd x_, next_;
+  // step_block's copy: per column j < n, A's column j padded with zeros to stride_ rows, then B, then Cᵀ.
+  std::vector<double> packed_;
+  Eigen::Index stride_ = 0;
 };
 
 }  // namespace panelbass::models

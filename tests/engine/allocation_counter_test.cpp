@@ -253,6 +253,49 @@ TEST(AllocationCounter, TheChainProcessesSwapsAndFaultsWithoutAllocatingOrFreein
   EXPECT_FALSE(chain.in_fault());
 }
 
+TEST(AllocationCounter, TheChainsBlockRunsAllocateNothingThroughSwapsAndFaults) {
+  // Model mode without a plant: process_block(program, drive) runs the stages block by block whenever no
+  // swap, fade or fault is under way, and sample by sample otherwise.
+  ChainOptions options;
+  options.spec.max_block = 64;
+  options.slots = {Samples{48}, Samples{256}};
+  Chain chain(options);
+  chain.feedforward().set_initial(std::make_unique<LinearStage>(testing::example_linear()));
+  chain.feedback().set_initial(std::make_unique<NarxStage>(testing::example_narx(71)));
+  const Eigen::VectorXd program = testing::uniform(64 * 40, 0.5, 72);
+  std::vector<double> drive(64);
+  int block = 0;
+  auto process = [&](int blocks) {
+    for (int b = 0; b < blocks; ++b, ++block) {
+      chain.process_block({program.data() + 64 * (block % 40), 64}, drive);
+    }
+  };
+  process(8);
+  chain.feedback().install(std::make_unique<NarxStage>(testing::example_narx(73)));
+  std::vector<double> bad(64, 0.1);
+  bad[30] = std::numeric_limits<double>::quiet_NaN();
+  long allocated = 0, freed = 0;
+  {
+    Counting c;
+    process(4);  // take-over, crossfade, then block runs again
+    chain.feedforward().set_bypassed(true);
+    process(3);
+    chain.feedforward().set_bypassed(false);
+    process(3);
+    chain.process_block(bad, drive);  // a fault inside a block run
+    process(2);
+    chain.clear_fault();
+    process(4);
+    allocated = allocations;
+    freed = frees;
+  }
+  EXPECT_EQ(allocated, 0);
+  EXPECT_EQ(freed, 0);
+  EXPECT_EQ(chain.metrics().snapshot().swaps, 1u);
+  EXPECT_EQ(chain.metrics().snapshot().faults, 1u);
+  EXPECT_FALSE(chain.in_fault());
+}
+
 TEST(AllocationCounter, AStageCaughtUpOverBlocksOnTheAudioThreadAllocatesNothing) {
   ChainOptions options;
   options.spec.max_block = 64;

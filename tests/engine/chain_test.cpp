@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <span>
 #include <stdexcept>
 #include <vector>
 
@@ -200,6 +201,101 @@ TEST(Chain, ADrivePinnedAtTheRailsDropsTheChainUntilTheFaultIsCleared) {
   for (Eigen::Index k = 0; k < 2; ++k) {
     EXPECT_NEAR(second[k], testing::reference_soft_limit(8.0 * band[600 + k], options.limiter.knee), 1e-12);
   }
+}
+
+// The same chain twice: one run block by block as process_block(program, drive) runs it (stage by stage
+// over a block whenever it can), the other through the sensor overload with a sensor that reads 0, which
+// runs every sample through the whole chain in turn (the straightforward path).
+struct TwinChains {
+  explicit TwinChains(const ChainOptions& options) : blockwise(options), per_sample(options) {}
+  // Both chains: `f(chain)` (an install, a bypass, clearing a fault).
+  template <class F>
+  void both(F&& f) {
+    f(blockwise);
+    f(per_sample);
+  }
+  // One block of `program` through both; the largest difference of their drives.
+  double block(std::span<const double> program) {
+    std::vector<double> a(program.size()), b(program.size());
+    blockwise.process_block(program, a);
+    per_sample.process_block(program, b, [](double) noexcept { return 0.0; });
+    double worst = 0.0;
+    for (std::size_t k = 0; k < a.size(); ++k) worst = std::max(worst, std::abs(a[k] - b[k]));
+    return worst;
+  }
+  Chain blockwise, per_sample;
+};
+
+TEST(Chain, ABlockRunStageByStageGivesThePerSampleNumbersThroughSwapsBypassesAndFaults) {
+  ChainOptions options;
+  options.spec.max_block = 64;
+  options.slots = {Samples{48}, Samples{256}};
+  options.limiter.max_pinned = Samples{3};
+  TwinChains chains(options);
+  chains.both([](Chain& c) {
+    c.feedforward().set_initial(std::make_unique<LinearStage>(testing::example_linear()));
+    c.feedback().set_initial(std::make_unique<NarxStage>(testing::example_narx(41)));
+  });
+  Eigen::VectorXd program = testing::uniform(64 * 60, 0.5, 42);
+  program[64 * 20 + 17] = kNaN;  // a non-finite input inside a block
+  std::size_t pos = 0;
+  double worst = 0.0;
+  // Blocks of uneven lengths, with the control thread's work between them.
+  for (int block = 0; pos < static_cast<std::size_t>(program.size()); ++block) {
+    if (block == 5) {
+      chains.both([](Chain& c) { c.feedback().install(std::make_unique<NarxStage>(testing::example_narx(43))); });
+    }
+    if (block == 12) chains.both([](Chain& c) { c.feedforward().set_bypassed(true); });
+    if (block == 16) chains.both([](Chain& c) { c.feedforward().set_bypassed(false); });
+    if (block == 30) {
+      chains.both([](Chain& c) {
+        c.clear_fault();
+        // A gain that pins the drive: a fault inside the block run, the slots' history cut at it.
+        c.feedforward().install(std::make_unique<LinearStage>(gain_model(30.0)));
+        c.feedback().install(std::make_unique<PassThroughStage>());
+      });
+    }
+    if (block == 40) {
+      chains.both([](Chain& c) {
+        c.feedforward().install(std::make_unique<LinearStage>(testing::example_linear()));
+        c.feedback().install(std::make_unique<NarxStage>(testing::example_narx(43)));
+        c.clear_fault();
+      });
+    }
+    if (block == 45) {
+      // Warmed from the slots' histories, which the two paths must have kept alike.
+      chains.both([](Chain& c) { c.feedback().install(std::make_unique<NarxStage>(testing::example_narx(44))); });
+    }
+    const std::size_t n = std::min<std::size_t>(1 + (block * 37) % 64, static_cast<std::size_t>(program.size()) - pos);
+    worst = std::max(worst, chains.block({program.data() + pos, n}));
+    pos += n;
+  }
+  EXPECT_LE(worst, 1e-12);
+  const MetricsSnapshot a = chains.blockwise.metrics().snapshot(), b = chains.per_sample.metrics().snapshot();
+  // Both faults happened (the scenario did what it says), and the two paths counted alike.
+  EXPECT_GE(a.faults, 2u);
+  EXPECT_GE(a.swaps, 3u);
+  EXPECT_GT(a.limited_samples, 0u);
+  EXPECT_EQ(a.faults, b.faults);
+  EXPECT_EQ(a.swaps, b.swaps);
+  EXPECT_EQ(a.limited_samples, b.limited_samples);
+  EXPECT_EQ(a.over_range_samples, b.over_range_samples);
+  EXPECT_EQ(a.in_fault, b.in_fault);
+}
+
+TEST(Chain, AHugeInputLeavesTheBlockRunsForThePerSamplePathWhereAnOverflowIsCaughtAtOnce) {
+  ChainOptions options;
+  TwinChains chains(options);
+  chains.both([](Chain& c) { c.feedforward().set_initial(std::make_unique<LinearStage>(testing::example_linear())); });
+  Eigen::VectorXd program = testing::uniform(640, 0.5, 45);
+  program[100] = 1e300;  // finite, but the band-pass's state overflows on it
+  double worst = 0.0;
+  for (Eigen::Index pos = 0; pos < program.size(); pos += 64) {
+    const double d = chains.block({program.data() + pos, 64});
+    worst = std::max(worst, std::isnan(d) ? 1.0 : d);
+  }
+  EXPECT_LE(worst, 1e-12);
+  EXPECT_EQ(chains.blockwise.metrics().snapshot().faults, chains.per_sample.metrics().snapshot().faults);
 }
 
 TEST(Chain, CountsBlocksAndSamples) {

@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <thread>
+#include <vector>
 
 namespace panelbass::engine {
 namespace {
@@ -34,6 +35,33 @@ TEST(HistoryRing, ASnapshotHoldsTheNewestFinalSamplesOldestFirst) {
   EXPECT_EQ(ring.count(), 8u);
   EXPECT_EQ(ring.input(7), 7.0);
   EXPECT_EQ(ring.measured(5), 50.0);
+}
+
+TEST(HistoryRing, ABlockPushIsTheSamplesPushedOneByOneWithMeasuredZero) {
+  for (std::size_t length : {0, 5, 16}) {
+    HistoryRing by_sample(length), by_block(length);
+    std::vector<double> x(23);
+    for (std::size_t k = 0; k < x.size(); ++k) x[k] = 1.0 + static_cast<double>(k);
+    // 10 samples observed, then 7 of which the last is not (the chain stopped observing the slot there),
+    // then 6 observed: as push_input() and set_measured(0) would leave the ring.
+    for (std::size_t k = 0; k < 23; ++k) {
+      by_sample.push_input(x[k]);
+      if (k != 16) by_sample.set_measured(0.0);
+    }
+    by_block.push_block({x.data(), 10}, 10);
+    by_block.push_block({x.data() + 10, 7}, 6);
+    HistoryRing::Snapshot mid_block;
+    by_block.snapshot(16, mid_block);
+    EXPECT_EQ(mid_block.end, 16u);
+    by_block.push_block({x.data() + 17, 6}, 6);
+    HistoryRing::Snapshot a, b;
+    by_sample.snapshot(30, a);
+    by_block.snapshot(30, b);
+    EXPECT_EQ(b.end, a.end);
+    EXPECT_EQ(b.input, a.input);
+    EXPECT_EQ(b.measured, a.measured);
+    EXPECT_EQ(by_block.count(), by_sample.count());
+  }
 }
 
 TEST(HistoryRing, WithoutLengthItOnlyCounts) {

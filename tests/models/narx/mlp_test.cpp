@@ -122,6 +122,13 @@ TEST(Mlp, ForwardFollowsDocumentedLayoutForOneAndTwoHiddenLayers) {
   }
 }
 
+// The code paths this CPU runs: the baseline always, AVX2 + FMA where the CPU has them.
+std::vector<SimdLevel> available_levels() {
+  std::vector<SimdLevel> levels = {SimdLevel::baseline};
+  if (avx2_fma_available()) levels.push_back(SimdLevel::avx2_fma);
+  return levels;
+}
+
 TEST(TanhInPlace, IsWithin1e15OfStdTanhAndKeepsTheLimitsAndNaN) {
   // A dense grid over the range a node input takes and beyond, plus the tiny and the special values.
   std::vector<double> x;
@@ -132,17 +139,20 @@ TEST(TanhInPlace, IsWithin1e15OfStdTanhAndKeepsTheLimitsAndNaN) {
   }
   const double inf = std::numeric_limits<double>::infinity();
   x.insert(x.end(), {-0.0, 400.0, -400.0, 1e300, -1e300, inf, -inf});
-  std::vector<double> y = x;
-  tanh_in_place(y);
-  double worst = 0.0;
-  for (std::size_t i = 0; i < x.size(); ++i) worst = std::max(worst, std::abs(y[i] - std::tanh(x[i])));
-  EXPECT_LE(worst, 1e-15);
-  EXPECT_EQ(y[y.size() - 2], 1.0);
-  EXPECT_EQ(y[y.size() - 1], -1.0);
-  std::vector<double> nan = {0.5, std::numeric_limits<double>::quiet_NaN(), 0.25};
-  tanh_in_place(nan);
-  EXPECT_TRUE(std::isnan(nan[1]));
-  EXPECT_NEAR(nan[0], std::tanh(0.5), 1e-15);
+  // Both code paths (AVX2 + FMA only where this CPU has it); an odd count leaves a partial vector.
+  for (const SimdLevel level : available_levels()) {
+    std::vector<double> y = x;
+    tanh_in_place(y, level);
+    double worst = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i) worst = std::max(worst, std::abs(y[i] - std::tanh(x[i])));
+    EXPECT_LE(worst, 1e-15) << static_cast<int>(level);
+    EXPECT_EQ(y[y.size() - 2], 1.0);
+    EXPECT_EQ(y[y.size() - 1], -1.0);
+    std::vector<double> nan = {0.5, std::numeric_limits<double>::quiet_NaN(), 0.25};
+    tanh_in_place(nan, level);
+    EXPECT_TRUE(std::isnan(nan[1]));
+    EXPECT_NEAR(nan[0], std::tanh(0.5), 1e-15);
+  }
 }
 
 TEST(MlpKernel, GivesTheDocumentedLayoutsOutputWithTheInputSplitAnywhere) {
@@ -152,17 +162,24 @@ TEST(MlpKernel, GivesTheDocumentedLayoutsOutputWithTheInputSplitAnywhere) {
   for (const auto& [inputs, hidden] : shapes) {
     Mlp net(inputs, hidden);
     net.initialize(1.0, 7, 3.0);  // weights large enough that every tanh is visibly nonlinear
-    MlpKernel kernel(net);
-    ASSERT_EQ(kernel.inputs(), inputs);
-    dsp::Rng rng(11);
-    for (int t = 0; t < 20; ++t) {
-      Eigen::VectorXd x(inputs);
-      for (double& v : x) v = rng.uniform(-1.0, 1.0);
-      const double expected = plain_forward(net.parameters(), inputs, hidden, x);
-      const auto split = static_cast<std::size_t>(t % (inputs + 1));
-      const std::span<const double> all(x.data(), static_cast<std::size_t>(inputs));
-      EXPECT_NEAR(kernel.forward(all.first(split), all.subspan(split)), expected, 1e-13)
-          << inputs << " inputs, " << hidden.size() << " layers, split " << split;
+    for (const SimdLevel level : available_levels()) {
+      MlpKernel kernel(net, level);
+      ASSERT_EQ(kernel.inputs(), inputs);
+      ASSERT_EQ(kernel.level(), level);
+      const MlpKernel copy = kernel;  // a copy reads its own weights
+      dsp::Rng rng(11);
+      for (int t = 0; t < 20; ++t) {
+        Eigen::VectorXd x(inputs);
+        for (double& v : x) v = rng.uniform(-1.0, 1.0);
+        const double expected = plain_forward(net.parameters(), inputs, hidden, x);
+        const auto split = static_cast<std::size_t>(t % (inputs + 1));
+        const std::span<const double> all(x.data(), static_cast<std::size_t>(inputs));
+        EXPECT_NEAR(kernel.forward(all.first(split), all.subspan(split)), expected, 1e-13)
+            << inputs << " inputs, " << hidden.size() << " layers, split " << split << ", level "
+            << static_cast<int>(level);
+        EXPECT_EQ(MlpKernel(copy).forward(all.first(split), all.subspan(split)),
+                  kernel.forward(all.first(split), all.subspan(split)));
+      }
     }
   }
 }
