@@ -25,7 +25,7 @@ struct IdentifySsOptions {
   int nx = 6, nk = -1, hidden = 20, lags = 50, encoder_hidden = 0;
   long window = 100, batch = 32, init = 50;
   int epochs = 100, patience = 0;
-  double max_seconds = 0.0, learning_rate = 1e-3;
+  double max_seconds = 0.0, learning_rate = 1e-3, final_learning_rate = 0.0;
   std::uint64_t seed = 1;
 };
 
@@ -74,6 +74,7 @@ void run_identify_ss(const IdentifySsOptions& o) {
   options.max_epochs = o.epochs;
   options.patience = o.patience;
   options.adam.learning_rate = o.learning_rate;
+  options.final_learning_rate = o.final_learning_rate;
   options.init = o.init;
   options.seed = o.seed;
   const StopSignals stop;
@@ -140,6 +141,9 @@ void register_identify_ss(CLI::App& identify) {
       ->check(CLI::Range(0, 1000000))
       ->capture_default_str();
   cmd->add_option("--lr", o->learning_rate, "Adam's learning rate")->check(CLI::Range(1e-9, 1.0))->capture_default_str();
+  cmd->add_option("--lr-final", o->final_learning_rate, "Learning rate reached at --epochs, geometric decay (0: constant)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   cmd->add_option("--init", o->init, "Measured samples that set the state before J (the J reported and selected on)")
       ->check(CLI::Range(0L, 100000000L))
       ->capture_default_str();

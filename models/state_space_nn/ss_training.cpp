@@ -97,6 +97,12 @@ SsTraining train_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen:
   Eigen::VectorXd gradient;
   int since_best = 0;
   for (int epoch = 1; epoch <= options.max_epochs; ++epoch) {
+    if (options.final_learning_rate > 0.0) {
+      // α(epoch) = α₀·(α_final/α₀)^((epoch − 1)/max_epochs)
+      const double progress = static_cast<double>(epoch - 1) / options.max_epochs;
+      adam.options().learning_rate =
+          options.adam.learning_rate * std::pow(options.final_learning_rate / options.adam.learning_rate, progress);
+    }
     double loss_sum = 0.0;
     Eigen::Index steps = 0;
     for (Eigen::Index done = 0; done < per_epoch; done += options.batch) {

@@ -35,6 +35,7 @@ struct SsTrainingOptions {
   int max_epochs = 100;       ///< an epoch draws as many windows as the data holds (N/T)
   int patience = 0;           ///< epochs without a better J before stopping (0: never)
   AdamOptions adam;           ///< the learning rate and moments
+  double final_learning_rate = 0.0;  ///< > 0: the rate decays geometrically to this at max_epochs
   Eigen::Index init = 50;     ///< measured samples that set the state before J
   std::uint64_t seed = 1;     ///< window draws
   /// After each epoch; returning false stops training (a time budget, a stop signal).
