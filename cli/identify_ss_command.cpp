@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <variant>
 
 #include "cli/commands.h"
 #include "cli/data_options.h"
@@ -20,11 +21,12 @@ namespace panelbass::cli {
 namespace {
 
 struct IdentifySsOptions {
-  std::string data, val, out, linear, history_out;
+  std::string data, val, out, linear, start_from, history_out;
   DataOptions columns;
   int nx = 6, nk = -1, hidden = 20, lags = 50, encoder_hidden = 0;
   long window = 100, batch = 32, init = 50;
-  int epochs = 100, patience = 0;
+  int epochs = 100, patience = 0, polish_iterations = 0;
+  long polish_window = 0;
   double max_seconds = 0.0, learning_rate = 1e-3, final_learning_rate = 0.0;
   std::uint64_t seed = 1;
 };
@@ -61,12 +63,20 @@ void run_identify_ss(const IdentifySsOptions& o) {
   }
   const auto began = std::chrono::steady_clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count(); };
-  const models::LinearModel linear = starting_linear(o, est, u_val, y_val);
-  models::SsStructure structure;
-  structure.hidden = o.hidden;
-  structure.lags = o.lags;
-  structure.encoder_hidden = o.encoder_hidden;
-  const models::SsModel start = models::ss_initial_model(linear, structure, est.columns[0], est.columns[1], o.seed);
+  models::SsModel start;
+  if (!o.start_from.empty()) {
+    const models::AnyModel any = models::load_model(o.start_from);
+    const auto* ss = std::get_if<models::SsModel>(&any.model);
+    if (ss == nullptr) throw std::invalid_argument("--start-from " + o.start_from + ": expected an ss model, got " + any.kind());
+    if (ss->fs != est.fs) throw std::invalid_argument("--start-from " + o.start_from + ": identified at another sample rate");
+    start = *ss;
+  } else {
+    models::SsStructure structure;
+    structure.hidden = o.hidden;
+    structure.lags = o.lags;
+    structure.encoder_hidden = o.encoder_hidden;
+    start = models::ss_initial_model(starting_linear(o, est, u_val, y_val), structure, est.columns[0], est.columns[1], o.seed);
+  }
 
   models::SsTrainingOptions options;
   options.window = o.window;
@@ -89,16 +99,34 @@ void run_identify_ss(const IdentifySsOptions& o) {
     return !stop_requested() && !(o.max_seconds > 0.0 && seconds() >= o.max_seconds);
   };
   models::SsTraining trained = models::train_ss(start, est.columns[0], est.columns[1], u_val, y_val, options);
+  const double j_start = trained.history.front().j_val_pct;
+  if (o.polish_iterations > 0 && !stop_requested()) {
+    models::SsPolishOptions polish;
+    polish.window = o.polish_window > 0 ? o.polish_window : o.window;
+    polish.iterations = o.polish_iterations;
+    polish.init = o.init;
+    polish.progress = [&](const models::SsTrainingRecord& r) {
+      std::fprintf(stderr, "identify ss: L-BFGS iteration %d: loss %.4g, J_%s %.4g %%, %.1f s\n", r.epoch, r.loss,
+                   u_val.size() ? "val" : "est", r.j_val_pct, seconds());
+      history.push_back({{"lbfgs_iteration", r.epoch},
+                         {"loss", models::number_or_null(r.loss)},
+                         {"J_sel_pct", models::number_or_null(r.j_val_pct)},
+                         {"seconds", seconds()}});
+      return !stop_requested() && !(o.max_seconds > 0.0 && seconds() >= 2.0 * o.max_seconds);
+    };
+    const models::SsTraining polished = models::polish_ss(trained.model, est.columns[0], est.columns[1], u_val, y_val, polish);
+    trained.model = polished.model;
+    trained.j_val_pct = polished.j_val_pct;
+  }
   const double j_est = models::j_percent(trained.model.simulate(est.columns[0], est.columns[1], o.init), est.columns[1], o.init);
   const double j_val = u_val.size() ? trained.j_val_pct : NAN;
-  const double j_linear = trained.history.front().j_val_pct;
   trained.model.meta = {{"data", o.data},
                         {"val", o.val},
                         {"linear", o.linear},
                         {"init", o.init},
                         {"J_est_pct", j_est},
                         {"J_val_pct", models::number_or_null(j_val)},
-                        {"linear_J_pct", j_linear},
+                        {"start_J_pct", j_start},
                         {"epochs", static_cast<int>(trained.history.size()) - 1},
                         {"best_epoch", trained.best_epoch},
                         {"seconds", seconds()}};
@@ -106,7 +134,7 @@ void run_identify_ss(const IdentifySsOptions& o) {
   if (!o.history_out.empty()) models::write_json_file(o.history_out, {{"history", history}});
   print_result({{"J_est_pct", j_est},
                 {"J_val_pct", models::number_or_null(j_val)},
-                {"linear_J_pct", j_linear},
+                {"start_J_pct", j_start},
                 {"states", trained.model.structure.states},
                 {"params", trained.model.theta.size()},
                 {"epochs", static_cast<int>(trained.history.size()) - 1},
@@ -136,13 +164,20 @@ void register_identify_ss(CLI::App& identify) {
   cmd->add_option("--window", o->window, "Samples simulated per training window (T)")->check(CLI::Range(1L, 100000L))->capture_default_str();
   cmd->add_option("--batch", o->batch, "Windows per Adam step")->check(CLI::Range(1L, 100000L))->capture_default_str();
   cmd->add_option("--epochs", o->epochs, "Most epochs (each draws N/T windows)")->check(CLI::Range(0, 1000000))->capture_default_str();
-  cmd->add_option("--max-seconds", o->max_seconds, "Stop after this many seconds (0: no limit)")->check(CLI::Range(0.0, 1e7))->capture_default_str();
+  cmd->add_option("--max-seconds", o->max_seconds, "Stop Adam after this many seconds, the L-BFGS polish at twice that (0: no limit)")->check(CLI::Range(0.0, 1e7))->capture_default_str();
   cmd->add_option("--patience", o->patience, "Epochs without a better J before stopping (0: never)")
       ->check(CLI::Range(0, 1000000))
       ->capture_default_str();
   cmd->add_option("--lr", o->learning_rate, "Adam's learning rate")->check(CLI::Range(1e-9, 1.0))->capture_default_str();
   cmd->add_option("--lr-final", o->final_learning_rate, "Learning rate reached at --epochs, geometric decay (0: constant)")
       ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--start-from", o->start_from, "An ss model file to train on from where it is (its sizes kept)");
+  cmd->add_option("--polish-iter", o->polish_iterations, "L-BFGS iterations on the full batch after Adam (0: none)")
+      ->check(CLI::Range(0, 1000000))
+      ->capture_default_str();
+  cmd->add_option("--polish-window", o->polish_window, "Window of the L-BFGS polish (0: --window)")
+      ->check(CLI::Range(0L, 10000000L))
       ->capture_default_str();
   cmd->add_option("--init", o->init, "Measured samples that set the state before J (the J reported and selected on)")
       ->check(CLI::Range(0L, 100000000L))

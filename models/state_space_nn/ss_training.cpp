@@ -1,6 +1,8 @@
 #include "models/state_space_nn/ss_training.h"
 
 #include <Eigen/Cholesky>
+#include <lbfgs.h>
+
 #include <algorithm>
 #include <cmath>
 #include <chrono>
@@ -127,6 +129,82 @@ SsTraining train_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen:
     if (options.patience > 0 && since_best >= options.patience) break;
   }
   out.seconds = seconds();
+  return out;
+}
+
+namespace {
+
+// What liblbfgs's C callbacks reach through their `instance` pointer.
+struct PolishRun {
+  SsModel model;
+  const Eigen::VectorXd *us, *ys, *u_sel, *y_sel;
+  std::vector<Eigen::Index> starts;
+  const SsPolishOptions* options;
+  SsTraining* out;
+  std::chrono::steady_clock::time_point began;
+  Eigen::VectorXd gradient;
+};
+
+lbfgsfloatval_t polish_evaluate(void* instance, const lbfgsfloatval_t* x, lbfgsfloatval_t* g, int n, lbfgsfloatval_t) {
+  auto& run = *static_cast<PolishRun*>(instance);
+  run.model.theta = Eigen::Map<const Eigen::VectorXd>(x, n);
+  const double loss = ss_window_loss(run.model, *run.us, *run.ys, {run.starts, run.options->window}, &run.gradient);
+  Eigen::Map<Eigen::VectorXd>(g, n) = run.gradient;
+  return loss;
+}
+
+int polish_progress(void* instance, const lbfgsfloatval_t* x, const lbfgsfloatval_t*, lbfgsfloatval_t fx, lbfgsfloatval_t,
+                    lbfgsfloatval_t, lbfgsfloatval_t, int n, int k, int) {
+  auto& run = *static_cast<PolishRun*>(instance);
+  run.model.theta = Eigen::Map<const Eigen::VectorXd>(x, n);
+  const double j = selection_j(run.model, *run.u_sel, *run.y_sel, run.options->init);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run.began).count();
+  run.out->history.push_back({k, fx, j, seconds});
+  if (std::isfinite(j) && j < run.out->j_val_pct) {
+    run.out->j_val_pct = j;
+    run.out->model = run.model;
+    run.out->best_epoch = k;
+  }
+  return run.options->progress && !run.options->progress(run.out->history.back()) ? 1 : 0;
+}
+
+}  // namespace
+
+SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                     const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const SsPolishOptions& options) {
+  if (u.size() != y.size() || u_val.size() != y_val.size()) {
+    throw std::invalid_argument("polish_ss: input and output lengths differ");
+  }
+  const Eigen::Index L = start.structure.lags, T = options.window;
+  if (T < 1 || u.size() < L + T) {
+    throw std::invalid_argument("polish_ss: " + std::to_string(u.size()) + " estimation samples, at least lags + window = " +
+                                std::to_string(L + T) + " needed");
+  }
+  const bool has_val = u_val.size() != 0;
+  if (options.init >= (has_val ? u_val : u).size()) throw std::invalid_argument("polish_ss: init is not shorter than the selection data");
+  const Eigen::VectorXd us = start.scaling.scale_u(u), ys = start.scaling.scale_y(y);
+  SsTraining out;
+  out.model = start;
+  PolishRun run{start, &us, &ys, has_val ? &u_val : &u, has_val ? &y_val : &y, {}, &options, &out,
+                std::chrono::steady_clock::now(), {}};
+  for (Eigen::Index k0 = L; k0 + T <= u.size(); k0 += T) run.starts.push_back(k0);
+  out.j_val_pct = selection_j(start, *run.u_sel, *run.y_sel, options.init);
+  out.history.push_back({0, ss_window_loss(start, us, ys, {run.starts, T}, nullptr), out.j_val_pct, 0.0});
+  if (options.progress && !options.progress(out.history.back())) return out;
+
+  const int n = static_cast<int>(start.theta.size());
+  lbfgsfloatval_t* x = lbfgs_malloc(n);
+  if (x == nullptr) throw std::bad_alloc();
+  Eigen::Map<Eigen::VectorXd>(x, n) = start.theta;
+  lbfgs_parameter_t param;
+  lbfgs_parameter_init(&param);
+  param.max_iterations = options.iterations;
+  param.epsilon = 0.0;  // no gradient-norm stop: the iterations and the selection J decide
+  param.delta = 0.0;
+  lbfgsfloatval_t fx = 0.0;
+  lbfgs(n, x, &fx, polish_evaluate, polish_progress, &run, &param);  // its status: why it stopped, any iterate kept
+  lbfgs_free(x);
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run.began).count();
   return out;
 }
 

@@ -51,6 +51,22 @@ struct SsTraining {
   double seconds = 0.0;
 };
 
+/// How to polish.
+struct SsPolishOptions {
+  Eigen::Index window = 100;  ///< T of the fixed windows tiling the estimation data
+  int iterations = 100;       ///< L-BFGS iterations at most
+  Eigen::Index init = 50;     ///< measured samples that set the state before J
+  /// After each iteration; returning false stops.
+  std::function<bool(const SsTrainingRecord&)> progress;
+};
+
+/// Polishes `start` by L-BFGS (liblbfgs, with its More–Thuente line search) on the full-batch loss of
+/// windows of options.window samples tiling the raw estimation data u, y from sample `lags` on, keeping
+/// the iterate of the lowest selection J (on u_val, y_val, or the estimation data when empty), the
+/// start included. Throws std::invalid_argument for data shorter than lags + window.
+SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                     const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const SsPolishOptions& options);
+
 /// Trains `start` on raw estimation data (u, y), selecting on raw validation data (u_val, y_val; the
 /// estimation data when empty). Throws std::invalid_argument for data shorter than lags + window or
 /// mismatched lengths.

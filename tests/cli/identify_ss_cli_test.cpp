@@ -28,11 +28,11 @@ TEST_F(CliIdentifySs, TrainsAndValidateAndAnalyzeReadItsModel) {
   const json r = expect_result(run("identify ss --data " + est() + " --val " + val() +
                                    " --fs 3000 --nx 4 --hidden 6 --lags 8 --window 40 --epochs 3 --seed 2 --out " +
                                    quoted(model) + " --history-out " + quoted(log)));
-  for (const char* key : {"J_est_pct", "J_val_pct", "linear_J_pct", "states", "params", "epochs", "best_epoch", "seconds"}) {
+  for (const char* key : {"J_est_pct", "J_val_pct", "start_J_pct", "states", "params", "epochs", "best_epoch", "seconds"}) {
     EXPECT_TRUE(r.contains(key)) << key;
   }
   EXPECT_EQ(r["epochs"], 3);
-  EXPECT_LE(r["J_val_pct"].get<double>(), r["linear_J_pct"].get<double>()) << "the start is a candidate";
+  EXPECT_LE(r["J_val_pct"].get<double>(), r["start_J_pct"].get<double>()) << "the start is a candidate";
   EXPECT_EQ(json::parse(text_of(log))["history"].size(), 4u);
   const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
   EXPECT_EQ(v["kind"], "ss");
