@@ -61,6 +61,10 @@ void run_identify_ss(const IdentifySsOptions& o) {
     u_val = val.columns[0];
     y_val = val.columns[1];
   }
+  if (o.start_from.empty() && est.columns[0].size() < o.lags + o.window) {
+    throw std::invalid_argument(o.data + ": " + std::to_string(est.columns[0].size()) + " samples, --lags + --window = " +
+                                std::to_string(o.lags + o.window) + " needed");
+  }
   const auto began = std::chrono::steady_clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count(); };
   models::SsModel start;
