@@ -10,7 +10,8 @@
 # data, Adam on truncated simulation windows) select on the same validation part and J; each trains for at
 # most SS_SECONDS seconds (default 600).
 # Usage: bash bench/benchmark_table.sh [MAX_ITER]   (default 100 iterations per mode)
-#   ONLY=ss runs the SS rows alone; SS_SECONDS, SS_EPOCHS bound their training.
+#   ONLY=ss runs the SS rows alone; SS_SECONDS, SS_EPOCHS bound their training; SS_EXTRA adds options to
+#   every identify ss (e.g. "--polish-iter 2000 --polish-window 200", "--lr-final 1e-5" with SS_EPOCHS=6000).
 #   PANELBASS_BIN (default build/bin/panelbass), PANELBASS_DATA (default ../shared/data)
 #   EXTRA="--weight-decay 1" adds options to every identify narx.
 set -euo pipefail
@@ -35,13 +36,15 @@ narx() {
 }
 ss_seconds=${SS_SECONDS:-600}
 ss_epochs=${SS_EPOCHS:-100000}
+ss_extra=${SS_EXTRA:-}
 # ss NAME FS NX HIDDEN LAGS WINDOW [DATA OPTIONS...]: trains $work/NAME-ss.json on NAME-est/-val, prints "seconds"
 ss() {
   local name=$1 fs=$2 nx=$3 hidden=$4 lags=$5 window=$6
   shift 6
+  # shellcheck disable=SC2086
   "$bin" identify ss --data "$work/$name-est.csv" --val "$work/$name-val.csv" --fs "$fs" "$@" --nx "$nx" \
     --hidden "$hidden" --lags "$lags" --window "$window" --epochs "$ss_epochs" --max-seconds "$ss_seconds" --seed 1 \
-    --out "$work/$name-ss.json" 2>/dev/null | top seconds | awk '{printf "%.0f", $1}'
+    $ss_extra --out "$work/$name-ss.json" 2>/dev/null | top seconds | awk '{printf "%.0f", $1}'
 }
 # rmse MODEL TEST FS INIT SCALE [DATA OPTIONS...]: the test RMSE times SCALE (units)
 rmse() {
@@ -60,9 +63,9 @@ split "$sb/train_val_multisine.csv" 52000 sb
 wh=$data/wiener_hammerstein_2009/splits
 split "$wh/train.csv" 80000 wh
 if [ "${ONLY:-}" = ss ]; then
-  s=$(ss sb $fs_sb 2 20 20 100)
-  for t in multisine arrow_full arrow_no_extrapolation; do
-    echo "| Silverbox | ${t//_/ } | SS nx=2, 20 nodes | 50 | $(rmse "$work/sb-ss.json" "$sb/test_$t.csv" $fs_sb 50 1000) mV | see above | $s |"
+  s=$(ss sb $fs_sb 4 20 20 100)
+  for t in multisine:0.264 arrow_full:0.26 arrow_no_extrapolation:0.307; do
+    echo "| Silverbox | $(echo "${t%:*}" | tr _ ' ') | SS nx=4, 20 nodes | 50 | $(rmse "$work/sb-ss.json" "$sb/test_${t%:*}.csv" $fs_sb 50 1000) mV | ${t#*:} mV | $s |"
   done
   s=$(ss wh 51200 6 20 50 100)
   echo "| Wiener–Hammerstein 2009 | test | SS nx=6, 20 nodes | 50 | $(rmse "$work/wh-ss.json" "$wh/test.csv" 51200 50 1000) mV | 0.241 mV (SUBNET nx=6) | $s |"
@@ -73,10 +76,10 @@ echo "| Silverbox | multisine | NARX 6-6-20 | 50 | $(rmse "$work/sb.json" "$sb/t
 echo "| Silverbox | arrow full | NARX 6-6-20 | 50 | $(rmse "$work/sb.json" "$sb/test_arrow_full.csv" $fs_sb 50 1000) mV | 0.26 mV (PNLSS) | $s |"
 echo "| Silverbox | arrow no extrapolation | NARX 6-6-20 | 50 | $(rmse "$work/sb.json" "$sb/test_arrow_no_extrapolation.csv" $fs_sb 50 1000) mV | 0.307 mV (SS-encoder nx=8) | $s |"
 
-s=$(ss sb $fs_sb 2 20 20 100)
-echo "| Silverbox | multisine | SS nx=2, 20 nodes | 50 | $(rmse "$work/sb-ss.json" "$sb/test_multisine.csv" $fs_sb 50 1000) mV | 0.264 mV | $s |"
-echo "| Silverbox | arrow full | SS nx=2, 20 nodes | 50 | $(rmse "$work/sb-ss.json" "$sb/test_arrow_full.csv" $fs_sb 50 1000) mV | 0.26 mV | $s |"
-echo "| Silverbox | arrow no extrapolation | SS nx=2, 20 nodes | 50 | $(rmse "$work/sb-ss.json" "$sb/test_arrow_no_extrapolation.csv" $fs_sb 50 1000) mV | 0.307 mV | $s |"
+s=$(ss sb $fs_sb 4 20 20 100)
+echo "| Silverbox | multisine | SS nx=4, 20 nodes | 50 | $(rmse "$work/sb-ss.json" "$sb/test_multisine.csv" $fs_sb 50 1000) mV | 0.264 mV | $s |"
+echo "| Silverbox | arrow full | SS nx=4, 20 nodes | 50 | $(rmse "$work/sb-ss.json" "$sb/test_arrow_full.csv" $fs_sb 50 1000) mV | 0.26 mV | $s |"
+echo "| Silverbox | arrow no extrapolation | SS nx=4, 20 nodes | 50 | $(rmse "$work/sb-ss.json" "$sb/test_arrow_no_extrapolation.csv" $fs_sb 50 1000) mV | 0.307 mV | $s |"
 
 s=$(narx wh 51200 10 10 20)
 echo "| Wiener–Hammerstein 2009 | test | NARX 10-10-20 | 50 | $(rmse "$work/wh.json" "$wh/test.csv" 51200 50 1000) mV | 0.241 mV (SUBNET nx=6) | $s |"
