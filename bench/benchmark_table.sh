@@ -6,7 +6,12 @@
 # RMSE taken over the rest. Beside each figure: the best published one (../shared/data/RESULTS.md) and
 # the training time on this machine. NARX models trained pem then oem-d by Levenberg–Marquardt with
 # early stopping on the validation part (the J the model reports, `--init 50`).
+# The neural state-space rows (SS, `identify ss`: SUBNET's linear part plus tanh networks, encoder of past
+# data, Adam on truncated simulation windows) select on the same validation part and J; each trains for at
+# most SS_SECONDS seconds (default 600).
 # Usage: bash bench/benchmark_table.sh [MAX_ITER]   (default 100 iterations per mode)
+#   ONLY=ss runs the SS rows alone; SS_SECONDS, SS_EPOCHS bound their training; SS_EXTRA adds options to
+#   every identify ss (e.g. "--polish-iter 2000 --polish-window 200", "--lr-final 1e-5" with SS_EPOCHS=6000).
 #   PANELBASS_BIN (default build/bin/panelbass), PANELBASS_DATA (default ../shared/data)
 #   EXTRA="--weight-decay 1" adds options to every identify narx.
 set -euo pipefail
@@ -29,6 +34,18 @@ narx() {
     --hidden "$hidden" --train pem,oem-d --optimizer lm --max-iter "$iters" --seed 1 $extra \
     --out "$work/$name.json" 2>/dev/null | top seconds | awk '{printf "%.0f", $1}'
 }
+ss_seconds=${SS_SECONDS:-600}
+ss_epochs=${SS_EPOCHS:-100000}
+ss_extra=${SS_EXTRA:-}
+# ss NAME FS NX HIDDEN LAGS WINDOW [DATA OPTIONS...]: trains $work/NAME-ss.json on NAME-est/-val, prints "seconds"
+ss() {
+  local name=$1 fs=$2 nx=$3 hidden=$4 lags=$5 window=$6
+  shift 6
+  # shellcheck disable=SC2086
+  "$bin" identify ss --data "$work/$name-est.csv" --val "$work/$name-val.csv" --fs "$fs" "$@" --nx "$nx" \
+    --hidden "$hidden" --lags "$lags" --window "$window" --epochs "$ss_epochs" --max-seconds "$ss_seconds" --seed 1 \
+    $ss_extra --out "$work/$name-ss.json" 2>/dev/null | top seconds | awk '{printf "%.0f", $1}'
+}
 # rmse MODEL TEST FS INIT SCALE [DATA OPTIONS...]: the test RMSE times SCALE (units)
 rmse() {
   local model=$1 test=$2 fs=$3 init=$4 scale=$5
@@ -43,15 +60,31 @@ echo "|---|---|---|---:|---:|---:|---:|"
 sb=$data/silverbox/splits
 fs_sb=610.3515625
 split "$sb/train_val_multisine.csv" 52000 sb
+wh=$data/wiener_hammerstein_2009/splits
+split "$wh/train.csv" 80000 wh
+if [ "${ONLY:-}" = ss ]; then
+  s=$(ss sb $fs_sb 4 20 20 100)
+  for t in multisine:0.264 arrow_full:0.26 arrow_no_extrapolation:0.307; do
+    echo "| Silverbox | $(echo "${t%:*}" | tr _ ' ') | SS nx=4, 20 nodes | 50 | $(rmse "$work/sb-ss.json" "$sb/test_${t%:*}.csv" $fs_sb 50 1000) mV | ${t#*:} mV | $s |"
+  done
+  s=$(ss wh 51200 6 20 50 100)
+  echo "| Wiener–Hammerstein 2009 | test | SS nx=6, 20 nodes | 50 | $(rmse "$work/wh-ss.json" "$wh/test.csv" 51200 50 1000) mV | 0.241 mV (SUBNET nx=6) | $s |"
+  exit 0
+fi
 s=$(narx sb $fs_sb 6 6 20)
 echo "| Silverbox | multisine | NARX 6-6-20 | 50 | $(rmse "$work/sb.json" "$sb/test_multisine.csv" $fs_sb 50 1000) mV | 0.264 mV (SS-encoder nx=8, its own validation part) | $s |"
 echo "| Silverbox | arrow full | NARX 6-6-20 | 50 | $(rmse "$work/sb.json" "$sb/test_arrow_full.csv" $fs_sb 50 1000) mV | 0.26 mV (PNLSS) | $s |"
 echo "| Silverbox | arrow no extrapolation | NARX 6-6-20 | 50 | $(rmse "$work/sb.json" "$sb/test_arrow_no_extrapolation.csv" $fs_sb 50 1000) mV | 0.307 mV (SS-encoder nx=8) | $s |"
 
-wh=$data/wiener_hammerstein_2009/splits
-split "$wh/train.csv" 80000 wh
+s=$(ss sb $fs_sb 4 20 20 100)
+echo "| Silverbox | multisine | SS nx=4, 20 nodes | 50 | $(rmse "$work/sb-ss.json" "$sb/test_multisine.csv" $fs_sb 50 1000) mV | 0.264 mV | $s |"
+echo "| Silverbox | arrow full | SS nx=4, 20 nodes | 50 | $(rmse "$work/sb-ss.json" "$sb/test_arrow_full.csv" $fs_sb 50 1000) mV | 0.26 mV | $s |"
+echo "| Silverbox | arrow no extrapolation | SS nx=4, 20 nodes | 50 | $(rmse "$work/sb-ss.json" "$sb/test_arrow_no_extrapolation.csv" $fs_sb 50 1000) mV | 0.307 mV | $s |"
+
 s=$(narx wh 51200 10 10 20)
 echo "| Wiener–Hammerstein 2009 | test | NARX 10-10-20 | 50 | $(rmse "$work/wh.json" "$wh/test.csv" 51200 50 1000) mV | 0.241 mV (SUBNET nx=6) | $s |"
+s=$(ss wh 51200 6 20 50 100)
+echo "| Wiener–Hammerstein 2009 | test | SS nx=6, 20 nodes | 50 | $(rmse "$work/wh-ss.json" "$wh/test.csv" 51200 50 1000) mV | 0.241 mV (SUBNET nx=6) | $s |"
 
 # cascaded tanks: estimation rows [0, 700) of uEst/yEst, validation [700, 1024) (as Champneys et al. 2024)
 ct=$data/cascaded_tanks/dataBenchmark.csv

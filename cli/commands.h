@@ -11,6 +11,8 @@ void register_simulate(CLI::App& app);
 
 /// `panelbass identify linear`: identify a model from measured data.
 void register_identify(CLI::App& app);
+/// `identify ss` under `identify`.
+void register_identify_ss(CLI::App& identify);
 
 /// `panelbass validate`: judge a model on data by simulation and prediction.
 void register_validate(CLI::App& app);

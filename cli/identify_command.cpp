@@ -430,6 +430,8 @@ void register_identify(CLI::App& app) {
     if (!n->gradient_check && n->out.empty()) throw CLI::RequiredError("--out");
     run_identify_narx(*n);
   });
+
+  register_identify_ss(*identify);
 }
 
 }  // namespace panelbass::cli

@@ -13,7 +13,7 @@ case "$1" in run|test) ;; *) usage ;; esac
 
 packages=(
   build-essential cmake ninja-build pkg-config
-  libeigen3-dev nlohmann-json3-dev libcli11-dev libsndfile1-dev
+  libeigen3-dev nlohmann-json3-dev libcli11-dev libsndfile1-dev liblbfgs-dev
   libgtest-dev libasound2-dev libcpp-httplib-dev libsamplerate0-dev
   gnuplot-nox
   jackd2 libasound2-plugins libjack-jackd2-dev

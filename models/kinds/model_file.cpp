@@ -5,7 +5,10 @@
 
 namespace panelbass::models {
 
-std::string AnyModel::kind() const { return std::holds_alternative<LinearModel>(model) ? "linear" : "narx"; }
+std::string AnyModel::kind() const {
+  if (std::holds_alternative<LinearModel>(model)) return "linear";
+  return std::holds_alternative<NarxModel>(model) ? "narx" : "ss";
+}
 
 double AnyModel::fs() const {
   return std::visit([](const auto& m) { return m.fs; }, model);
@@ -22,10 +25,11 @@ Eigen::VectorXd AnyModel::predict(const Eigen::VectorXd& u, const Eigen::VectorX
 AnyModel model_from_json(const nlohmann::json& j) {
   if (!j.is_object()) throw ConfigError("model: expected an object");
   const auto kind = j.find("kind");
-  if (kind == j.end() || !kind->is_string()) throw ConfigError("model.kind: missing (linear or narx)");
+  if (kind == j.end() || !kind->is_string()) throw ConfigError("model.kind: missing (linear, narx or ss)");
   if (*kind == "linear") return AnyModel{linear_model_from_json(j)};
   if (*kind == "narx") return AnyModel{narx_model_from_json(j)};
-  throw ConfigError("model.kind: unknown kind \"" + kind->get<std::string>() + "\" (linear or narx)");
+  if (*kind == "ss") return AnyModel{ss_model_from_json(j)};
+  throw ConfigError("model.kind: unknown kind \"" + kind->get<std::string>() + "\" (linear, narx or ss)");
 }
 
 AnyModel load_model(const std::filesystem::path& path) {
@@ -40,5 +44,7 @@ AnyModel load_model(const std::filesystem::path& path) {
 void save_narx_model(const std::filesystem::path& path, const NarxModel& m) {
   write_json_file(path, narx_model_to_json(m));
 }
+
+void save_ss_model(const std::filesystem::path& path, const SsModel& m) { write_json_file(path, ss_model_to_json(m)); }
 
 }  // namespace panelbass::models

@@ -9,14 +9,15 @@
 
 #include "models/linear/linear_model.h"
 #include "models/narx/narx_model.h"
+#include "models/state_space_nn/ss_model.h"
 
 namespace panelbass::models {
 
 /// A dynamic model of any kind, used through what all kinds can do.
 struct AnyModel {
-  std::variant<LinearModel, NarxModel> model;
+  std::variant<LinearModel, NarxModel, SsModel> model;
 
-  /// "linear" or "narx".
+  /// "linear", "narx" or "ss".
   std::string kind() const;
   /// Sample rate the model was identified at, Hz.
   double fs() const;
@@ -34,5 +35,8 @@ AnyModel load_model(const std::filesystem::path& path);
 
 /// Writes a NARX model file atomically; ConfigError naming the path if it cannot.
 void save_narx_model(const std::filesystem::path& path, const NarxModel& m);
+
+/// Writes a neural state-space model file atomically; ConfigError naming the path if it cannot.
+void save_ss_model(const std::filesystem::path& path, const SsModel& m);
 
 }  // namespace panelbass::models

@@ -1,0 +1,198 @@
+// `panelbass identify ss`: the neural state-space model (SUBNET) from the best linear model.
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <variant>
+
+#include "cli/commands.h"
+#include "cli/data_options.h"
+#include "cli/json_output.h"
+#include "cli/stop_signals.h"
+#include "models/io/json_fields.h"
+#include "models/io/json_file.h"
+#include "models/kinds/model_file.h"
+#include "models/linear/linear_identification.h"
+#include "models/state_space_nn/ss_training.h"
+#include "models/validation/performance.h"
+
+namespace panelbass::cli {
+namespace {
+
+struct IdentifySsOptions {
+  std::string data, val, out, linear, start_from, history_out;
+  DataOptions columns;
+  int nx = 6, nk = -1, hidden = 20, lags = 50, encoder_hidden = 0;
+  long window = 100, batch = 32, init = 50;
+  int epochs = 100, patience = 0, polish_iterations = 0;
+  long polish_window = 0;
+  double max_seconds = 0.0, learning_rate = 1e-3, final_learning_rate = 0.0;
+  std::uint64_t seed = 1;
+};
+
+/// The linear starting model: --linear's file, else OE of order --nx fitted on the same data.
+models::LinearModel starting_linear(const IdentifySsOptions& o, const dsp::Record& est, const Eigen::VectorXd& u_val,
+                                    const Eigen::VectorXd& y_val) {
+  if (!o.linear.empty()) {
+    models::LinearModel lin = models::load_linear_model(o.linear);
+    if (lin.fs != est.fs) {
+      throw std::invalid_argument("--linear " + o.linear + ": identified at " + std::to_string(lin.fs) + " Hz, the data is at " +
+                                  std::to_string(est.fs) + " Hz");
+    }
+    return lin;
+  }
+  models::LinearIdentificationSpec spec;
+  spec.method = models::LinearMethod::oe;
+  spec.order = o.nx;
+  spec.delay = o.nk;
+  spec.init = o.init;
+  spec.fs = est.fs;
+  std::fprintf(stderr, "identify ss: linear start, OE of order %d\n", o.nx);
+  return models::identify_linear(est.columns[0], est.columns[1], u_val, y_val, spec).model;
+}
+
+void run_identify_ss(const IdentifySsOptions& o) {
+  const dsp::Record est = o.columns.read(o.data);
+  Eigen::VectorXd u_val, y_val;
+  if (!o.val.empty()) {
+    const dsp::Record val = o.columns.read(o.val);
+    if (val.fs != est.fs) throw std::invalid_argument(o.val + ": sample rate differs from the estimation data");
+    u_val = val.columns[0];
+    y_val = val.columns[1];
+  }
+  if (o.start_from.empty() && est.columns[0].size() < o.lags + o.window) {
+    throw std::invalid_argument(o.data + ": " + std::to_string(est.columns[0].size()) + " samples, --lags + --window = " +
+                                std::to_string(o.lags + o.window) + " needed");
+  }
+  const auto began = std::chrono::steady_clock::now();
+  auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count(); };
+  models::SsModel start;
+  if (!o.start_from.empty()) {
+    const models::AnyModel any = models::load_model(o.start_from);
+    const auto* ss = std::get_if<models::SsModel>(&any.model);
+    if (ss == nullptr) throw std::invalid_argument("--start-from " + o.start_from + ": expected an ss model, got " + any.kind());
+    if (ss->fs != est.fs) throw std::invalid_argument("--start-from " + o.start_from + ": identified at another sample rate");
+    start = *ss;
+  } else {
+    models::SsStructure structure;
+    structure.hidden = o.hidden;
+    structure.lags = o.lags;
+    structure.encoder_hidden = o.encoder_hidden;
+    start = models::ss_initial_model(starting_linear(o, est, u_val, y_val), structure, est.columns[0], est.columns[1], o.seed);
+  }
+
+  models::SsTrainingOptions options;
+  options.window = o.window;
+  options.batch = o.batch;
+  options.max_epochs = o.epochs;
+  options.patience = o.patience;
+  options.adam.learning_rate = o.learning_rate;
+  options.final_learning_rate = o.final_learning_rate;
+  options.init = o.init;
+  options.seed = o.seed;
+  const StopSignals stop;
+  nlohmann::json history = nlohmann::json::array();
+  options.progress = [&](const models::SsTrainingRecord& r) {
+    std::fprintf(stderr, "identify ss: epoch %d: loss %.4g, J_%s %.4g %%, %.1f s\n", r.epoch, r.loss,
+                 u_val.size() ? "val" : "est", r.j_val_pct, seconds());
+    history.push_back({{"epoch", r.epoch},
+                       {"loss", models::number_or_null(r.loss)},
+                       {"J_sel_pct", models::number_or_null(r.j_val_pct)},
+                       {"seconds", seconds()}});
+    return !stop_requested() && !(o.max_seconds > 0.0 && seconds() >= o.max_seconds);
+  };
+  models::SsTraining trained = models::train_ss(start, est.columns[0], est.columns[1], u_val, y_val, options);
+  const double j_start = trained.history.front().j_val_pct;
+  if (o.polish_iterations > 0 && !stop_requested()) {
+    models::SsPolishOptions polish;
+    polish.window = o.polish_window > 0 ? o.polish_window : o.window;
+    polish.iterations = o.polish_iterations;
+    polish.init = o.init;
+    polish.progress = [&](const models::SsTrainingRecord& r) {
+      std::fprintf(stderr, "identify ss: L-BFGS iteration %d: loss %.4g, J_%s %.4g %%, %.1f s\n", r.epoch, r.loss,
+                   u_val.size() ? "val" : "est", r.j_val_pct, seconds());
+      history.push_back({{"lbfgs_iteration", r.epoch},
+                         {"loss", models::number_or_null(r.loss)},
+                         {"J_sel_pct", models::number_or_null(r.j_val_pct)},
+                         {"seconds", seconds()}});
+      return !stop_requested() && !(o.max_seconds > 0.0 && seconds() >= 2.0 * o.max_seconds);
+    };
+    const models::SsTraining polished = models::polish_ss(trained.model, est.columns[0], est.columns[1], u_val, y_val, polish);
+    trained.model = polished.model;
+    trained.j_val_pct = polished.j_val_pct;
+  }
+  const double j_est = models::j_percent(trained.model.simulate(est.columns[0], est.columns[1], o.init), est.columns[1], o.init);
+  const double j_val = u_val.size() ? trained.j_val_pct : NAN;
+  trained.model.meta = {{"data", o.data},
+                        {"val", o.val},
+                        {"linear", o.linear},
+                        {"init", o.init},
+                        {"J_est_pct", j_est},
+                        {"J_val_pct", models::number_or_null(j_val)},
+                        {"start_J_pct", j_start},
+                        {"epochs", static_cast<int>(trained.history.size()) - 1},
+                        {"best_epoch", trained.best_epoch},
+                        {"seconds", seconds()}};
+  models::save_ss_model(o.out, trained.model);
+  if (!o.history_out.empty()) models::write_json_file(o.history_out, {{"history", history}});
+  print_result({{"J_est_pct", j_est},
+                {"J_val_pct", models::number_or_null(j_val)},
+                {"start_J_pct", j_start},
+                {"states", trained.model.structure.states},
+                {"params", trained.model.theta.size()},
+                {"epochs", static_cast<int>(trained.history.size()) - 1},
+                {"best_epoch", trained.best_epoch},
+                {"seconds", seconds()},
+                {"history_out", o.history_out.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.history_out)},
+                {"out", o.out}});
+}
+
+}  // namespace
+
+void register_identify_ss(CLI::App& identify) {
+  auto o = std::make_shared<IdentifySsOptions>();
+  CLI::App* cmd = identify.add_subcommand(
+      "ss", "Neural state-space model (SUBNET): linear state space plus tanh networks, encoder initial state");
+  cmd->add_option("--data", o->data, "Estimation data, .csv or .wav")->required();
+  cmd->add_option("--val", o->val, "Validation data (selection and J_val)");
+  o->columns.add_to(cmd);
+  cmd->add_option("--linear", o->linear, "Linear model file to start from (default: OE of order --nx on --data)");
+  cmd->add_option("--nx", o->nx, "States: the order of the OE start (without --linear)")->check(CLI::Range(1, 64))->capture_default_str();
+  cmd->add_option("--nk", o->nk, "Input delay of the OE start (-1: estimated)")->check(CLI::Range(-1, 1000))->capture_default_str();
+  cmd->add_option("--hidden", o->hidden, "Tanh nodes of the state/output network")->check(CLI::Range(1, 1000))->capture_default_str();
+  cmd->add_option("--lags", o->lags, "Past inputs and outputs the encoder reads")->check(CLI::Range(1, 1000))->capture_default_str();
+  cmd->add_option("--encoder-hidden", o->encoder_hidden, "Tanh nodes of the encoder (0: affine)")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
+  cmd->add_option("--window", o->window, "Samples simulated per training window (T)")->check(CLI::Range(1L, 100000L))->capture_default_str();
+  cmd->add_option("--batch", o->batch, "Windows per Adam step")->check(CLI::Range(1L, 100000L))->capture_default_str();
+  cmd->add_option("--epochs", o->epochs, "Most epochs (each draws N/T windows)")->check(CLI::Range(0, 1000000))->capture_default_str();
+  cmd->add_option("--max-seconds", o->max_seconds, "Stop Adam after this many seconds, the L-BFGS polish at twice that (0: no limit)")->check(CLI::Range(0.0, 1e7))->capture_default_str();
+  cmd->add_option("--patience", o->patience, "Epochs without a better J before stopping (0: never)")
+      ->check(CLI::Range(0, 1000000))
+      ->capture_default_str();
+  cmd->add_option("--lr", o->learning_rate, "Adam's learning rate")->check(CLI::Range(1e-9, 1.0))->capture_default_str();
+  cmd->add_option("--lr-final", o->final_learning_rate, "Learning rate reached at --epochs, geometric decay (0: constant)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--start-from", o->start_from, "An ss model file to train on from where it is (its sizes kept)");
+  cmd->add_option("--polish-iter", o->polish_iterations, "L-BFGS iterations on the full batch after Adam (0: none)")
+      ->check(CLI::Range(0, 1000000))
+      ->capture_default_str();
+  cmd->add_option("--polish-window", o->polish_window, "Window of the L-BFGS polish (0: --window)")
+      ->check(CLI::Range(0L, 10000000L))
+      ->capture_default_str();
+  cmd->add_option("--init", o->init, "Measured samples that set the state before J (the J reported and selected on)")
+      ->check(CLI::Range(0L, 100000000L))
+      ->capture_default_str();
+  cmd->add_option("--seed", o->seed, "Seed of the initial weights and the window draws")->capture_default_str();
+  cmd->add_option("--history-out", o->history_out, "Write the J of every epoch (JSON) here");
+  cmd->add_option("--out", o->out, "Model file to write")->required();
+  cmd->footer(
+      "Example:\n  panelbass identify ss --data est.csv --val val.csv --fs 51200 --nx 6 --hidden 20 --lags 50 "
+      "--window 100 --epochs 200 --out ss.json");
+  cmd->callback([o] { run_identify_ss(*o); });
+}
+
+}  // namespace panelbass::cli

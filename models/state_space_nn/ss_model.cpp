@@ -1,0 +1,244 @@
+#include "models/state_space_nn/ss_model.h"
+
+#include <random>
+#include <span>
+#include <stdexcept>
+#include <string>
+
+#include "models/io/config_error.h"
+#include "models/io/json_fields.h"
+#include "models/io/model_header.h"
+#include "models/narx/free_run.h"
+#include "models/narx/mlp_kernel.h"
+
+namespace panelbass::models {
+namespace {
+
+constexpr const char* kKind = "ss";
+
+template <class Scalar>
+SsParts<Scalar> parts_of(const SsStructure& s, Scalar* theta) {
+  const Eigen::Index n = s.states, h = s.hidden, l2 = 2 * s.lags, e = s.encoder_hidden;
+  Eigen::Index at = 0;
+  auto take = [&](Eigen::Index rows, Eigen::Index cols) {
+    typename SsParts<Scalar>::Map m(theta + at, rows, cols);
+    at += rows * cols;
+    return m;
+  };
+  // Braced initialisation runs left to right: the parts in θ's order.
+  return SsParts<Scalar>{take(n, n), take(n, 1),  take(1, n),     take(1, 1),  take(h, n + 1), take(h, 1), take(n + 1, h),
+                         take(n + 1, 1), take(n, l2), take(n, 1), take(e, l2), take(e, 1),     take(n, e)};
+}
+
+void tanh_matrix(Eigen::MatrixXd& m) { tanh_in_place(std::span<double>(m.data(), static_cast<std::size_t>(m.size()))); }
+
+}  // namespace
+
+Eigen::Index SsStructure::parameter_count() const {
+  const Eigen::Index n = states, h = hidden, l2 = 2 * static_cast<Eigen::Index>(lags), e = encoder_hidden;
+  return n * n + 2 * n + 1 + h * (n + 1) + h + (n + 1) * h + (n + 1) + n * l2 + n + e * l2 + e + n * e;
+}
+
+void SsStructure::check() const {
+  auto within = [](const char* name, int v, int lo, int hi) {
+    if (v < lo || v > hi) {
+      throw std::invalid_argument(std::string(name) + " must be within [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                                  "], got " + std::to_string(v));
+    }
+  };
+  within("states", states, 1, 64);
+  within("hidden", hidden, 1, 1000);
+  within("lags", lags, 1, 1000);
+  within("encoder_hidden", encoder_hidden, 0, 1000);
+}
+
+SsParts<const double> ss_parts(const SsStructure& s, const double* theta) { return parts_of<const double>(s, theta); }
+SsParts<double> ss_parts(const SsStructure& s, double* theta) { return parts_of<double>(s, theta); }
+
+void ss_step(const SsParts<const double>& p, const Eigen::Ref<const Eigen::MatrixXd>& X,
+             const Eigen::Ref<const Eigen::RowVectorXd>& U, SsStepWork& work, Eigen::Ref<Eigen::RowVectorXd> Y,
+             Eigen::Ref<Eigen::MatrixXd> X_next) {
+  const Eigen::Index n = X.rows();
+  // [f; h] = W2·tanh(W1·[x; u] + b1) + b2
+  work.hidden.noalias() = p.W1.leftCols(n) * X;
+  work.hidden.noalias() += p.W1.col(n) * U;
+  work.hidden.colwise() += p.b1.col(0);
+  tanh_matrix(work.hidden);
+  work.network.noalias() = p.W2 * work.hidden;
+  work.network.colwise() += p.b2.col(0);
+  // y(k) = C·x + D·u + h,   x(k+1) = A·x + B·u + f
+  Y.noalias() = p.C * X;
+  Y += p.D(0, 0) * U + work.network.row(n);
+  X_next.noalias() = p.A * X;
+  X_next.noalias() += p.B * U;
+  X_next += work.network.topRows(n);
+}
+
+void ss_encode(const SsParts<const double>& p, const Eigen::Ref<const Eigen::MatrixXd>& Z, Eigen::MatrixXd& hidden,
+               Eigen::Ref<Eigen::MatrixXd> X0) {
+  // x(k0) = E·z + V2·tanh(V1·z + c1) + c2
+  X0.noalias() = p.E * Z;
+  X0.colwise() += p.c2.col(0);
+  if (p.V1.rows() == 0) return;
+  hidden.noalias() = p.V1 * Z;
+  hidden.colwise() += p.c1.col(0);
+  tanh_matrix(hidden);
+  X0.noalias() += p.V2 * hidden;
+}
+
+void ss_regressor(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index k, int lags,
+                  Eigen::Ref<Eigen::VectorXd> z) {
+  for (int i = 0; i < lags; ++i) {
+    const Eigen::Index at = k - 1 - i;
+    const bool inside = at >= 0;
+    z(i) = inside && at < y.size() ? y(at) : 0.0;
+    z(lags + i) = inside && at < u.size() ? u(at) : 0.0;
+  }
+}
+
+StateSpace SsModel::linear_part() const {
+  const auto p = ss_parts(structure, theta.data());
+  StateSpace ss;
+  ss.A = p.A;
+  ss.B = p.B.col(0);
+  ss.C = p.C.row(0);
+  ss.D = p.D(0, 0);
+  return ss;
+}
+
+Eigen::VectorXd SsModel::simulate_scaled(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) const {
+  if (init > 0 && y.size() < std::min(init, u.size())) {
+    throw std::invalid_argument("SsModel::simulate: " + std::to_string(init) + " measured outputs requested, got " +
+                                std::to_string(y.size()));
+  }
+  const auto p = ss_parts(structure, theta.data());
+  const Eigen::Index n = structure.states, samples = u.size();
+  Eigen::VectorXd out(samples);
+  const Eigen::Index start = std::min(init, samples);
+  if (start > 0) out.head(start) = y.head(start);
+  Eigen::VectorXd z(2 * structure.lags);
+  ss_regressor(u, y.size() != 0 ? y.head(start).eval() : Eigen::VectorXd(), start, structure.lags, z);
+  Eigen::MatrixXd x(n, 1), next(n, 1), encoder_hidden;
+  ss_encode(p, z, encoder_hidden, x);
+  SsStepWork work;
+  Eigen::RowVectorXd uk(1), yk(1);
+  for (Eigen::Index k = start; k < samples; ++k) {
+    uk(0) = u(k);
+    ss_step(p, x, uk, work, yk, next);
+    out(k) = yk(0);
+    x.swap(next);
+  }
+  return out;
+}
+
+Eigen::VectorXd SsModel::predict_scaled(const Eigen::VectorXd& u, const Eigen::VectorXd& y) const {
+  if (y.size() != u.size()) throw std::invalid_argument("SsModel::predict: input and output lengths differ");
+  const auto p = ss_parts(structure, theta.data());
+  const Eigen::Index samples = u.size();
+  Eigen::MatrixXd Z(2 * structure.lags, samples);
+  for (Eigen::Index k = 0; k < samples; ++k) ss_regressor(u, y, k, structure.lags, Z.col(k));
+  Eigen::MatrixXd X(structure.states, samples), next(structure.states, samples), encoder_hidden;
+  ss_encode(p, Z, encoder_hidden, X);
+  SsStepWork work;
+  Eigen::RowVectorXd out(samples);
+  ss_step(p, X, u.transpose(), work, out, next);
+  return out.transpose();
+}
+
+Eigen::VectorXd SsModel::simulate(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) const {
+  const Eigen::VectorXd ys = y.size() != 0 ? scaling.scale_y(y) : Eigen::VectorXd();
+  return scaling.unscale_y(simulate_scaled(scaling.scale_u(u), ys, init));
+}
+
+Eigen::VectorXd SsModel::predict(const Eigen::VectorXd& u, const Eigen::VectorXd& y) const {
+  return scaling.unscale_y(predict_scaled(scaling.scale_u(u), scaling.scale_y(y)));
+}
+
+SsModel ss_model_from_linear(const StateSpace& linear, SsStructure s, const Eigen::VectorXd& state_scale,
+                             const Scaling& scaling, double fs, std::uint64_t seed) {
+  check_shape(linear, "ss_model_from_linear");
+  s.states = linear.order();
+  s.check();
+  if (state_scale.size() != s.states || !(state_scale.array() > 0.0).all() || !state_scale.allFinite()) {
+    throw std::invalid_argument("ss_model_from_linear: state_scale needs " + std::to_string(s.states) +
+                                " finite positive entries");
+  }
+  SsModel m;
+  m.structure = s;
+  m.scaling = scaling;
+  m.fs = fs;
+  m.theta = Eigen::VectorXd::Zero(s.parameter_count());
+  auto p = ss_parts(s, m.theta.data());
+  p.A = linear.A;
+  p.B.col(0) = linear.B;
+  p.C.row(0) = linear.C;
+  p.D(0, 0) = linear.D;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  // Each node's input of typical size ≈ 1 at the start: weights ±1/(scale·√inputs), biases ±0.5.
+  const double per_input = 1.0 / std::sqrt(static_cast<double>(s.states + 1));
+  for (Eigen::Index j = 0; j <= s.states; ++j) {
+    const double scale = j < s.states ? state_scale(j) : 1.0;
+    for (Eigen::Index i = 0; i < s.hidden; ++i) p.W1(i, j) = unit(rng) * per_input / scale;
+  }
+  for (Eigen::Index i = 0; i < s.hidden; ++i) p.b1(i, 0) = 0.5 * unit(rng);
+  const double per_lag = 1.0 / std::sqrt(2.0 * s.lags);
+  for (Eigen::Index j = 0; j < p.V1.cols(); ++j)
+    for (Eigen::Index i = 0; i < p.V1.rows(); ++i) p.V1(i, j) = unit(rng) * per_lag;
+  for (Eigen::Index i = 0; i < p.c1.rows(); ++i) p.c1(i, 0) = 0.5 * unit(rng);
+  return m;
+}
+
+nlohmann::json ss_model_to_json(const SsModel& m) {
+  return {
+      {"format", kModelFormat},
+      {"kind", kKind},
+      {"fs", m.fs},
+      {"scaling", scaling_to_json(m.scaling)},
+      {"params",
+       {{"states", m.structure.states},
+        {"hidden", m.structure.hidden},
+        {"lags", m.structure.lags},
+        {"encoder_hidden", m.structure.encoder_hidden},
+        {"theta", to_array(m.theta)}}},
+      {"meta", m.meta.is_null() ? nlohmann::json::object() : m.meta},
+  };
+}
+
+SsModel ss_model_from_json(const nlohmann::json& j) {
+  JsonFields top(j, "model");
+  SsModel m;
+  m.fs = read_model_header(top, kKind);
+  const nlohmann::json* scaling_json = top.member("scaling");
+  if (scaling_json == nullptr) throw ConfigError("model.scaling: missing");
+  m.scaling = scaling_from_json(*scaling_json, "model.scaling");
+  const nlohmann::json* params = top.member("params");
+  if (params == nullptr) throw ConfigError("model.params: missing");
+  JsonFields p(*params, "model.params");
+  auto size = [&](const char* key, long hi) {
+    if (!params->contains(key)) throw ConfigError(p.path_of(key) + ": missing");
+    return static_cast<int>(p.integer(key, 0, 1, hi));
+  };
+  m.structure.states = size("states", 64);
+  m.structure.hidden = size("hidden", 1000);
+  m.structure.lags = size("lags", 1000);
+  m.structure.encoder_hidden = static_cast<int>(p.integer("encoder_hidden", 0, 0, 1000));
+  const nlohmann::json* theta = p.member("theta");
+  if (theta == nullptr) throw ConfigError(p.path_of("theta") + ": missing");
+  m.theta = read_vector(*theta, p.path_of("theta"));
+  const Eigen::Index count = m.structure.parameter_count();
+  if (m.theta.size() != count) {
+    throw ConfigError(p.path_of("theta") + ": expected " + std::to_string(count) + " numbers for these sizes, got " +
+                      std::to_string(m.theta.size()));
+  }
+  p.finish();
+  m.meta = read_model_meta(top);
+  top.finish();
+  if (const auto r = runaway(m.simulate_scaled(free_run_drive()))) {
+    throw ConfigError("model: free run unbounded: |y| = " + std::to_string(r->magnitude) + " after " +
+                      std::to_string(r->samples) + " samples of full-scale noise (scaled units)");
+  }
+  return m;
+}
+
+}  // namespace panelbass::models

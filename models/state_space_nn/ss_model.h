@@ -1,0 +1,106 @@
+#pragma once
+// The neural state-space model (SUBNET, Beintema et al. 2021/2023): a linear state space plus a small
+// tanh network in the state update and the output, its initial state from an encoder of past data.
+//   x(k+1) = A·x(k) + B·u(k) + f(x(k), u(k)),   y(k) = C·x(k) + D·u(k) + h(x(k), u(k)),
+//   [f; h] = W2·tanh(W1·[x; u] + b1) + b2,      x(k0) = E·z(k0) + V2·tanh(V1·z(k0) + c1) + c2,
+// z(k) = [y(k−1) … y(k−L), u(k−1) … u(k−L)], everything in scaled units.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <type_traits>
+
+#include "models/linear/state_space.h"
+#include "models/preprocess/scaling.h"
+
+namespace panelbass::models {
+
+/// The sizes of a neural state-space model.
+struct SsStructure {
+  int states = 6;          ///< nx
+  int hidden = 20;         ///< tanh nodes of the state/output network [f; h]
+  int lags = 50;           ///< L: past outputs and inputs the encoder reads
+  int encoder_hidden = 0;  ///< tanh nodes of the encoder's network (0: an affine encoder)
+
+  /// Number of parameters P of θ.
+  Eigen::Index parameter_count() const;
+  /// Throws std::invalid_argument naming the size out of range (states 1–64, hidden 1–1000, lags 1–1000,
+  /// encoder_hidden 0–1000).
+  void check() const;
+};
+
+/// The parts of θ as matrices, in the order θ stores them (each column-major): A (nx×nx), B (nx×1),
+/// C (1×nx), D (1×1), W1 (hidden×(nx+1)), b1 (hidden), W2 ((nx+1)×hidden), b2 (nx+1), E (nx×2L),
+/// c2 (nx), V1 (encoder_hidden×2L), c1 (encoder_hidden), V2 (nx×encoder_hidden).
+template <class Scalar>
+struct SsParts {
+  /// A map of a part of θ, writable when Scalar is not const.
+  using Map = Eigen::Map<std::conditional_t<std::is_const_v<Scalar>, const Eigen::MatrixXd, Eigen::MatrixXd>>;
+  Map A, B, C, D, W1, b1, W2, b2, E, c2, V1, c1, V2;
+};
+
+/// The parts of `theta` (size s.parameter_count(), not checked) for structure `s`.
+SsParts<const double> ss_parts(const SsStructure& s, const double* theta);
+/// The writable parts of `theta`.
+SsParts<double> ss_parts(const SsStructure& s, double* theta);
+
+/// The workspace of ss_step and ss_encode for batches of `columns` sequences.
+struct SsStepWork {
+  Eigen::MatrixXd hidden;   ///< tanh(W1·[x; u] + b1), hidden × columns
+  Eigen::MatrixXd network;  ///< [f; h], (nx+1) × columns
+};
+
+/// One step of `columns` sequences at once ([f; h] and the recursion of the header): from states X (nx×B)
+/// and inputs U (1×B), the outputs Y (1×B) and next states X_next (nx×B); work.hidden keeps the tanh
+/// layer for back-propagation.
+void ss_step(const SsParts<const double>& p, const Eigen::Ref<const Eigen::MatrixXd>& X,
+             const Eigen::Ref<const Eigen::RowVectorXd>& U, SsStepWork& work, Eigen::Ref<Eigen::RowVectorXd> Y,
+             Eigen::Ref<Eigen::MatrixXd> X_next);
+
+/// The encoder's states X0 (nx×B) from regressors Z (2L×B); `hidden` receives its tanh layer
+/// (encoder_hidden×B).
+void ss_encode(const SsParts<const double>& p, const Eigen::Ref<const Eigen::MatrixXd>& Z, Eigen::MatrixXd& hidden,
+               Eigen::Ref<Eigen::MatrixXd> X0);
+
+/// The encoder's regressor z(k) = [y(k−1) … y(k−L), u(k−1) … u(k−L)] into `z` (size 2L); samples before
+/// the record count as 0 (the scaled mean).
+void ss_regressor(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index k, int lags,
+                  Eigen::Ref<Eigen::VectorXd> z);
+
+/// A neural state-space model in scaled units, with what it needs for raw data.
+struct SsModel {
+  SsStructure structure;
+  Eigen::VectorXd theta;  ///< parameters, laid out as SsParts says
+  Scaling scaling;
+  double fs = 0.0;
+  nlohmann::json meta = nlohmann::json::object();
+
+  /// The linear part (A, B, C, D).
+  StateSpace linear_part() const;
+
+  /// Free run in scaled units: outputs before `init` are the measured ones, the encoder reads the record
+  /// before `init` (zeros before its start) for x(init), and the recursion runs from there.
+  Eigen::VectorXd simulate_scaled(const Eigen::VectorXd& u, const Eigen::VectorXd& y = {}, Eigen::Index init = 0) const;
+  /// One-step prediction in scaled units: at every k the encoder's state from the measured past, then h.
+  Eigen::VectorXd predict_scaled(const Eigen::VectorXd& u, const Eigen::VectorXd& y) const;
+  /// Free run on raw data, raw units; the first `init` measured outputs (raw) seed it.
+  Eigen::VectorXd simulate(const Eigen::VectorXd& u, const Eigen::VectorXd& y = {}, Eigen::Index init = 0) const;
+  /// One-step prediction on raw data, raw units.
+  Eigen::VectorXd predict(const Eigen::VectorXd& u, const Eigen::VectorXd& y) const;
+};
+
+/// A model of structure `s` that is exactly the linear `linear` (nx = its order, which s.states is set to):
+/// A, B, C, D from it, W1 and b1 uniform random scaled by `state_scale` (the typical size of each state,
+/// nx entries) and the input's 1, W2 = b2 = 0, the encoder zero except V1 and c1, random. Seeded.
+SsModel ss_model_from_linear(const StateSpace& linear, SsStructure s, const Eigen::VectorXd& state_scale,
+                             const Scaling& scaling, double fs, std::uint64_t seed);
+
+/// {"format":"panelbass.model/1","kind":"ss","fs","scaling","params":{"states","hidden","lags",
+/// "encoder_hidden","theta"},"meta"}.
+nlohmann::json ss_model_to_json(const SsModel& m);
+
+/// Reads and validates a neural state-space model object: sizes, θ of exactly P finite entries, fs > 0, and
+/// a bounded free run (free_run_drive() from rest stays within ±kFreeRunBound); ConfigError names the key.
+SsModel ss_model_from_json(const nlohmann::json& j);
+
+}  // namespace panelbass::models

@@ -1,0 +1,211 @@
+#include "models/state_space_nn/ss_training.h"
+
+#include <Eigen/Cholesky>
+#include <lbfgs.h>
+
+#include <algorithm>
+#include <cmath>
+#include <chrono>
+#include <random>
+#include <stdexcept>
+#include <string>
+
+#include "models/linear/state_space_runner.h"
+#include "models/state_space_nn/ss_gradients.h"
+#include "models/validation/performance.h"
+
+namespace panelbass::models {
+namespace {
+
+double selection_j(const SsModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) {
+  return j_percent(m.simulate(u, y, init), y, init);
+}
+
+}  // namespace
+
+SsModel ss_initial_model(const LinearModel& linear, SsStructure structure, const Eigen::VectorXd& u,
+                         const Eigen::VectorXd& y, std::uint64_t seed) {
+  if (u.size() != y.size()) throw std::invalid_argument("ss_initial_model: input and output lengths differ");
+  const StateSpace ss = realize(linear.tf);
+  const Eigen::Index n = ss.order(), L = structure.lags, samples = u.size();
+  if (samples <= L + 2 * L) {
+    throw std::invalid_argument("ss_initial_model: " + std::to_string(samples) + " samples are too few for " +
+                                std::to_string(L) + " encoder lags");
+  }
+  const Eigen::VectorXd us = linear.scaling.scale_u(u), ys = linear.scaling.scale_y(y);
+  // The linear model's state along the data, from rest.
+  Eigen::MatrixXd states(n, samples);
+  StateSpaceRunner runner(ss);
+  for (Eigen::Index k = 0; k < samples; ++k) {
+    states.col(k) = runner.state();
+    runner.step(us(k));
+  }
+  Eigen::VectorXd scale(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double rms = std::sqrt(states.row(i).squaredNorm() / static_cast<double>(samples));
+    scale(i) = rms > 1e-12 ? rms : 1.0;
+  }
+  SsModel m = ss_model_from_linear(ss, structure, scale, linear.scaling, linear.fs, seed);
+  auto p = ss_parts(m.structure, m.theta.data());
+  // The encoder's affine part: least squares of x(k) on [z(k); 1] past the start-up (at most 20000 rows, evenly spread).
+  const Eigen::Index first = 2 * L, rows = std::min<Eigen::Index>(20000, samples - first);
+  const Eigen::Index stride = std::max<Eigen::Index>(1, (samples - first) / rows);
+  Eigen::MatrixXd Z(2 * L + 1, rows), X(n, rows);
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    const Eigen::Index k = first + r * stride;
+    ss_regressor(us, ys, k, static_cast<int>(L), Z.col(r).head(2 * L));
+    Z(2 * L, r) = 1.0;
+    X.col(r) = states.col(k);
+  }
+  Eigen::MatrixXd gram = Z * Z.transpose();
+  gram.diagonal().array() += 1e-9 * gram.diagonal().mean();
+  const Eigen::MatrixXd map = gram.ldlt().solve(Z * X.transpose()).transpose();  // n × (2L + 1)
+  p.E = map.leftCols(2 * L);
+  p.c2.col(0) = map.col(2 * L);
+  return m;
+}
+
+SsTraining train_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                    const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const SsTrainingOptions& options) {
+  if (u.size() != y.size() || u_val.size() != y_val.size()) {
+    throw std::invalid_argument("train_ss: input and output lengths differ");
+  }
+  const Eigen::Index L = start.structure.lags, T = options.window, samples = u.size();
+  if (T < 1 || options.batch < 1) throw std::invalid_argument("train_ss: window and batch must be >= 1");
+  if (samples < L + T) {
+    throw std::invalid_argument("train_ss: " + std::to_string(samples) + " estimation samples, at least lags + window = " +
+                                std::to_string(L + T) + " needed");
+  }
+  const bool has_val = u_val.size() != 0;
+  const Eigen::VectorXd& us_sel = has_val ? u_val : u;
+  const Eigen::VectorXd& ys_sel = has_val ? y_val : y;
+  if (options.init >= us_sel.size()) throw std::invalid_argument("train_ss: init is not shorter than the selection data");
+  const Eigen::VectorXd us = start.scaling.scale_u(u), ys = start.scaling.scale_y(y);
+
+  const auto began = std::chrono::steady_clock::now();
+  auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count(); };
+  SsTraining out;
+  SsModel m = start;
+  out.model = m;
+  out.j_val_pct = selection_j(m, us_sel, ys_sel, options.init);
+  out.history.push_back({0, ss_window_loss(m, us, ys, {std::vector<Eigen::Index>{L}, T}, nullptr), out.j_val_pct, seconds()});
+  if (options.progress && !options.progress(out.history.back())) return out;
+
+  std::mt19937_64 rng(options.seed);
+  std::uniform_int_distribution<Eigen::Index> draw(L, samples - T);
+  const Eigen::Index per_epoch = std::max<Eigen::Index>(options.batch, samples / T);
+  Adam adam(m.theta.size(), options.adam);
+  std::vector<Eigen::Index> starts(static_cast<std::size_t>(options.batch));
+  Eigen::VectorXd gradient;
+  int since_best = 0;
+  for (int epoch = 1; epoch <= options.max_epochs; ++epoch) {
+    if (options.final_learning_rate > 0.0) {
+      // α(epoch) = α₀·(α_final/α₀)^((epoch − 1)/max_epochs)
+      const double progress = static_cast<double>(epoch - 1) / options.max_epochs;
+      adam.options().learning_rate =
+          options.adam.learning_rate * std::pow(options.final_learning_rate / options.adam.learning_rate, progress);
+    }
+    double loss_sum = 0.0;
+    Eigen::Index steps = 0;
+    for (Eigen::Index done = 0; done < per_epoch; done += options.batch) {
+      for (Eigen::Index& k0 : starts) k0 = draw(rng);
+      const double loss = ss_window_loss(m, us, ys, {starts, T}, &gradient);
+      if (!std::isfinite(loss) || !gradient.allFinite()) continue;  // a diverging window: no step from it
+      adam.step(m.theta, gradient);
+      loss_sum += loss;
+      ++steps;
+    }
+    const double j = selection_j(m, us_sel, ys_sel, options.init);
+    out.history.push_back({epoch, steps > 0 ? loss_sum / static_cast<double>(steps) : NAN, j, seconds()});
+    if (std::isfinite(j) && j < out.j_val_pct) {
+      out.j_val_pct = j;
+      out.model = m;
+      out.best_epoch = epoch;
+      since_best = 0;
+    } else {
+      ++since_best;
+    }
+    if (options.progress && !options.progress(out.history.back())) break;
+    if (options.patience > 0 && since_best >= options.patience) break;
+  }
+  out.seconds = seconds();
+  return out;
+}
+
+namespace {
+
+// What liblbfgs's C callbacks reach through their `instance` pointer.
+struct PolishRun {
+  SsModel model;
+  const Eigen::VectorXd *us, *ys, *u_sel, *y_sel;
+  std::vector<Eigen::Index> starts;
+  const SsPolishOptions* options;
+  SsTraining* out;
+  std::chrono::steady_clock::time_point began;
+  Eigen::VectorXd gradient;
+};
+
+lbfgsfloatval_t polish_evaluate(void* instance, const lbfgsfloatval_t* x, lbfgsfloatval_t* g, int n, lbfgsfloatval_t) {
+  auto& run = *static_cast<PolishRun*>(instance);
+  run.model.theta = Eigen::Map<const Eigen::VectorXd>(x, n);
+  const double loss = ss_window_loss(run.model, *run.us, *run.ys, {run.starts, run.options->window}, &run.gradient);
+  Eigen::Map<Eigen::VectorXd>(g, n) = run.gradient;
+  return loss;
+}
+
+int polish_progress(void* instance, const lbfgsfloatval_t* x, const lbfgsfloatval_t*, lbfgsfloatval_t fx, lbfgsfloatval_t,
+                    lbfgsfloatval_t, lbfgsfloatval_t, int n, int k, int) {
+  auto& run = *static_cast<PolishRun*>(instance);
+  run.model.theta = Eigen::Map<const Eigen::VectorXd>(x, n);
+  const double j = selection_j(run.model, *run.u_sel, *run.y_sel, run.options->init);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run.began).count();
+  run.out->history.push_back({k, fx, j, seconds});
+  if (std::isfinite(j) && j < run.out->j_val_pct) {
+    run.out->j_val_pct = j;
+    run.out->model = run.model;
+    run.out->best_epoch = k;
+  }
+  return run.options->progress && !run.options->progress(run.out->history.back()) ? 1 : 0;
+}
+
+}  // namespace
+
+SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                     const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const SsPolishOptions& options) {
+  if (u.size() != y.size() || u_val.size() != y_val.size()) {
+    throw std::invalid_argument("polish_ss: input and output lengths differ");
+  }
+  const Eigen::Index L = start.structure.lags, T = options.window;
+  if (T < 1 || u.size() < L + T) {
+    throw std::invalid_argument("polish_ss: " + std::to_string(u.size()) + " estimation samples, at least lags + window = " +
+                                std::to_string(L + T) + " needed");
+  }
+  const bool has_val = u_val.size() != 0;
+  if (options.init >= (has_val ? u_val : u).size()) throw std::invalid_argument("polish_ss: init is not shorter than the selection data");
+  const Eigen::VectorXd us = start.scaling.scale_u(u), ys = start.scaling.scale_y(y);
+  SsTraining out;
+  out.model = start;
+  PolishRun run{start, &us, &ys, has_val ? &u_val : &u, has_val ? &y_val : &y, {}, &options, &out,
+                std::chrono::steady_clock::now(), {}};
+  for (Eigen::Index k0 = L; k0 + T <= u.size(); k0 += T) run.starts.push_back(k0);
+  out.j_val_pct = selection_j(start, *run.u_sel, *run.y_sel, options.init);
+  out.history.push_back({0, ss_window_loss(start, us, ys, {run.starts, T}, nullptr), out.j_val_pct, 0.0});
+  if (options.progress && !options.progress(out.history.back())) return out;
+
+  const int n = static_cast<int>(start.theta.size());
+  lbfgsfloatval_t* x = lbfgs_malloc(n);
+  if (x == nullptr) throw std::bad_alloc();
+  Eigen::Map<Eigen::VectorXd>(x, n) = start.theta;
+  lbfgs_parameter_t param;
+  lbfgs_parameter_init(&param);
+  param.max_iterations = options.iterations;
+  param.epsilon = 0.0;  // no gradient-norm stop: the iterations and the selection J decide
+  param.delta = 0.0;
+  lbfgsfloatval_t fx = 0.0;
+  lbfgs(n, x, &fx, polish_evaluate, polish_progress, &run, &param);  // its status: why it stopped, any iterate kept
+  lbfgs_free(x);
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run.began).count();
+  return out;
+}
+
+}  // namespace panelbass::models

@@ -1,0 +1,76 @@
+#pragma once
+// Training of the neural state-space model (SUBNET): from the best linear model, Adam on mini-batches of
+// truncated simulation windows with exact gradients, and the model kept whose validation J — the J the
+// model reports, the first `init` measured samples setting its state — is lowest.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "models/linear/linear_model.h"
+#include "models/optimization/adam.h"
+#include "models/state_space_nn/ss_model.h"
+
+namespace panelbass::models {
+
+/// The starting model: `linear`'s balanced realisation (nx = its order) as A, B, C, D and its scaling, the
+/// networks' last layers zero (so it simulates exactly as `linear`), and the encoder's affine part the
+/// least-squares map from z(k) to the linear model's state along the raw estimation data u, y. Seeded.
+SsModel ss_initial_model(const LinearModel& linear, SsStructure structure, const Eigen::VectorXd& u,
+                         const Eigen::VectorXd& y, std::uint64_t seed);
+
+/// One epoch of training.
+struct SsTrainingRecord {
+  int epoch = 0;             ///< 0: the starting model
+  double loss = 0.0;         ///< mean window loss over the epoch (scaled units²)
+  double j_val_pct = 0.0;    ///< J of the selection data (validation, else estimation), `init` protocol
+  double seconds = 0.0;      ///< since training started
+};
+
+/// How to train.
+struct SsTrainingOptions {
+  Eigen::Index window = 100;  ///< T: samples simulated per window
+  Eigen::Index batch = 32;    ///< windows per Adam step
+  int max_epochs = 100;       ///< an epoch draws as many windows as the data holds (N/T)
+  int patience = 0;           ///< epochs without a better J before stopping (0: never)
+  AdamOptions adam;           ///< the learning rate and moments
+  double final_learning_rate = 0.0;  ///< > 0: the rate decays geometrically to this at max_epochs
+  Eigen::Index init = 50;     ///< measured samples that set the state before J
+  std::uint64_t seed = 1;     ///< window draws
+  /// After each epoch; returning false stops training (a time budget, a stop signal).
+  std::function<bool(const SsTrainingRecord&)> progress;
+};
+
+/// What training produced.
+struct SsTraining {
+  SsModel model;                          ///< the model of the lowest selection J
+  std::vector<SsTrainingRecord> history;  ///< every epoch, the start first
+  int best_epoch = 0;
+  double j_val_pct = 0.0;                 ///< its selection J
+  double seconds = 0.0;
+};
+
+/// How to polish.
+struct SsPolishOptions {
+  Eigen::Index window = 100;  ///< T of the fixed windows tiling the estimation data
+  int iterations = 100;       ///< L-BFGS iterations at most
+  Eigen::Index init = 50;     ///< measured samples that set the state before J
+  /// After each iteration; returning false stops.
+  std::function<bool(const SsTrainingRecord&)> progress;
+};
+
+/// Polishes `start` by L-BFGS (liblbfgs, with its More–Thuente line search) on the full-batch loss of
+/// windows of options.window samples tiling the raw estimation data u, y from sample `lags` on, keeping
+/// the iterate of the lowest selection J (on u_val, y_val, or the estimation data when empty), the
+/// start included. Throws std::invalid_argument for data shorter than lags + window.
+SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                     const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const SsPolishOptions& options);
+
+/// Trains `start` on raw estimation data (u, y), selecting on raw validation data (u_val, y_val; the
+/// estimation data when empty). Throws std::invalid_argument for data shorter than lags + window or
+/// mismatched lengths.
+SsTraining train_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                    const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const SsTrainingOptions& options);
+
+}  // namespace panelbass::models

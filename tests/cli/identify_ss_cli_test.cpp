@@ -1,0 +1,57 @@
+// `panelbass identify ss` run as a user runs it: the model file it writes is read by validate (the J it
+// reports is the J it selected on) and analyze; bad options fail naming the problem.
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "tests/support/cli_runner.h"
+
+namespace panelbass {
+namespace {
+
+using namespace testing_support;
+
+class CliIdentifySs : public CliTest {
+ protected:
+  /// 6000 samples of the panel exciter: rows 0..4000 to estimate, the rest to validate.
+  void SetUp() override {
+    expect_result(run("simulate --samples 6000 --seed 5 --out " + quoted(dir_ / "all.csv")));
+    split_csv(dir_ / "all.csv", 4000);
+  }
+  std::string est() const { return quoted(dir_ / "est.csv"); }
+  std::string val() const { return quoted(dir_ / "val.csv"); }
+};
+
+TEST_F(CliIdentifySs, TrainsAndValidateAndAnalyzeReadItsModel) {
+  const fs::path model = dir_ / "ss.json", log = dir_ / "h.json";
+  const json r = expect_result(run("identify ss --data " + est() + " --val " + val() +
+                                   " --fs 3000 --nx 4 --hidden 6 --lags 8 --window 40 --epochs 3 --seed 2 --out " +
+                                   quoted(model) + " --history-out " + quoted(log)));
+  for (const char* key : {"J_est_pct", "J_val_pct", "start_J_pct", "states", "params", "epochs", "best_epoch", "seconds"}) {
+    EXPECT_TRUE(r.contains(key)) << key;
+  }
+  EXPECT_EQ(r["epochs"], 3);
+  EXPECT_LE(r["J_val_pct"].get<double>(), r["start_J_pct"].get<double>()) << "the start is a candidate";
+  EXPECT_EQ(json::parse(text_of(log))["history"].size(), 4u);
+  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
+  EXPECT_EQ(v["kind"], "ss");
+  EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
+  const json a = expect_result(run("analyze --model " + quoted(model) + " --data " + val() + " --out " +
+                                   quoted(dir_ / "a.json")));
+  EXPECT_EQ(a["kind"], "ss");
+}
+
+TEST_F(CliIdentifySs, BadOptionsFailNamingTheProblem) {
+  const RunResult no_linear = run("identify ss --data " + est() + " --fs 3000 --linear " + quoted(dir_ / "none.json") +
+                                  " --out " + quoted(dir_ / "ss.json"));
+  expect_failure(no_linear);
+  EXPECT_TRUE(contains(no_linear.err, "none.json")) << no_linear.err;
+  const RunResult long_window = run("identify ss --data " + est() + " --fs 3000 --nx 2 --window 5000 --out " +
+                                    quoted(dir_ / "ss.json"));
+  expect_failure(long_window);
+  EXPECT_TRUE(contains(long_window.err, "window")) << long_window.err;
+}
+
+}  // namespace
+}  // namespace panelbass
