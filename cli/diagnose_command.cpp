@@ -61,6 +61,8 @@ Baseline load_baseline(const std::string& path) {
   const models::AnyModel model = models::load_model(path);
   if (const auto* linear = std::get_if<models::LinearModel>(&model.model)) {
     b.linear = *linear;
+  } else if (const auto* ss = std::get_if<models::SsModel>(&model.model)) {
+    b.simulation = models::ss_baseline(*ss);
   } else {
     b.simulation = models::narx_baseline(std::get<models::NarxModel>(model.model));
   }

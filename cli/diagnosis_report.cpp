@@ -10,19 +10,18 @@ namespace {
 
 using nlohmann::json;
 
-const json& at(const json& j, const char* key) { return report_field(j, key); }
 
 std::string pct(const json& v) { return v.is_null() ? html_cell(v) : html_cell(v) + " %"; }
 
 void baseline_table(std::ostream& out, const json& baseline) {
   out << "<h2>Baseline</h2>\n<table>\n"
-      << html_row("kind", html_cell(at(baseline, "kind"))) << html_row("source", html_cell(at(baseline, "source")))
-      << html_row("method", html_cell(at(baseline, "method")))
-      << html_row("orders na, nb, nk", html_cell(at(baseline, "na")) + ", " + html_cell(at(baseline, "nb")) + ", " +
-                                           html_cell(at(baseline, "nk")))
-      << html_row("J on the estimation record", pct(at(baseline, "J_est_pct")))
-      << html_row("J on the validation record", pct(at(baseline, "J_val_pct")));
-  if (!at(baseline, "order_rule").is_null()) out << html_row("how it was chosen", html_cell(at(baseline, "order_rule")));
+      << html_row("kind", html_cell(report_field(baseline, "kind"))) << html_row("source", html_cell(report_field(baseline, "source")))
+      << html_row("method", html_cell(report_field(baseline, "method")))
+      << html_row("orders na, nb, nk", html_cell(report_field(baseline, "na")) + ", " + html_cell(report_field(baseline, "nb")) + ", " +
+                                           html_cell(report_field(baseline, "nk")))
+      << html_row("J on the estimation record", pct(report_field(baseline, "J_est_pct")))
+      << html_row("J on the validation record", pct(report_field(baseline, "J_val_pct")));
+  if (!report_field(baseline, "order_rule").is_null()) out << html_row("how it was chosen", html_cell(report_field(baseline, "order_rule")));
   out << "</table>\n";
 }
 
@@ -37,11 +36,11 @@ void findings_table(std::ostream& out, const json& findings) {
          "<th>J after</th><th>parameters added</th><th>BIC score</th><th>how sure</th></tr>\n";
   int step = 0;
   for (const json& f : findings) {
-    out << "<tr><td>" << ++step << "</td><th><code>" << html_cell(at(f, "effect")) << "</code></th><td class=\"text\">"
-        << html_cell(at(f, "explanation")) << "</td><td>" << pct(at(f, "J_val_before_pct")) << "</td><td>"
-        << pct(at(f, "J_val_after_pct")) << "</td><td>" << html_cell(at(at(f, "parameters"), "added")) << "</td><td>"
-        << html_cell(at(at(f, "evidence"), "score_bic"), 3) << "</td><td class=\"text\">"
-        << html_cell(at(at(f, "confidence"), "sentence")) << "</td></tr>\n";
+    out << "<tr><td>" << ++step << "</td><th><code>" << html_cell(report_field(f, "effect")) << "</code></th><td class=\"text\">"
+        << html_cell(report_field(f, "explanation")) << "</td><td>" << pct(report_field(f, "J_val_before_pct")) << "</td><td>"
+        << pct(report_field(f, "J_val_after_pct")) << "</td><td>" << html_cell(report_field(report_field(f, "parameters"), "added")) << "</td><td>"
+        << html_cell(report_field(report_field(f, "evidence"), "score_bic"), 3) << "</td><td class=\"text\">"
+        << html_cell(report_field(report_field(f, "confidence"), "sentence")) << "</td></tr>\n";
   }
   out << "</table>\n";
 }
@@ -49,14 +48,14 @@ void findings_table(std::ostream& out, const json& findings) {
 // The residual against each state (before the diagnosis): how much its bin means depend on the state, its
 // level at large against small values, and its change with the direction of motion.
 void state_table(std::ostream& out, const json& location) {
-  const json& states = at(location, "states");
+  const json& states = report_field(location, "states");
   if (!states.is_array() || states.empty()) return;
   out << "<h3>The residual against the states (baseline, validation record)</h3>\n"
          "<table><tr><th>state</th><th>bin means over their standard error (χ²/dof; ≈ 1: none)</th>"
          "<th>rms at high |state| over low</th><th>rising − falling, in standard errors</th></tr>\n";
   for (const json& p : states) {
-    out << "<tr><th>" << html_cell(at(p, "state")) << "</th><td>" << html_cell(at(p, "shape_chi2"), 3) << "</td><td>"
-        << html_cell(at(p, "level_ratio"), 3) << "</td><td>" << html_cell(at(p, "direction_t"), 3) << "</td></tr>\n";
+    out << "<tr><th>" << html_cell(report_field(p, "state")) << "</th><td>" << html_cell(report_field(p, "shape_chi2"), 3) << "</td><td>"
+        << html_cell(report_field(p, "level_ratio"), 3) << "</td><td>" << html_cell(report_field(p, "direction_t"), 3) << "</td></tr>\n";
   }
   out << "</table>\n";
 }
@@ -74,8 +73,8 @@ const json& location_field(const json& location, const std::string& path) {
 }
 
 void location_table(std::ostream& out, const json& location) {
-  const json& before = at(location, "validation");
-  const json& after = at(location, "validation_after");
+  const json& before = report_field(location, "validation");
+  const json& after = report_field(location, "validation_after");
   struct Row {
     const char* path;
     const char* label;
@@ -121,26 +120,26 @@ void location_table(std::ostream& out, const json& location) {
 
 void write_diagnosis_html(const std::filesystem::path& path, const json& report, const std::vector<ReportFigure>& figures,
                           PlotFormat format) {
-  const std::string data = at(report, "data").is_string() ? at(report, "data").get<std::string>() : "data";
+  const std::string data = report_field(report, "data").is_string() ? report_field(report, "data").get<std::string>() : "data";
   std::ostringstream out;
   out << "<h1>panelbass diagnosis of <code>" << html_escaped(data) << "</code></h1>\n";
   out << "<h2>Result</h2>\n<table>\n"
-      << html_row("estimation data", html_cell(at(report, "data")))
-      << html_row("validation data", html_cell(at(report, "val")));
-  if (!at(report, "model").is_null()) out << html_row("model diagnosed", html_cell(at(report, "model")));
-  out << html_row("sample rate (Hz)", html_cell(at(report, "fs"), 8))
-      << html_row("validation J before (the baseline)", pct(at(report, "J_val_before_pct")))
-      << html_row("validation J after (final model)", pct(at(report, "J_val_after_pct")))
-      << html_row("noise floor (J of a perfect model)", pct(at(report, "noise_floor_pct")))
-      << html_row("findings", std::to_string(at(report, "findings").size())) << "</table>\n";
-  baseline_table(out, at(report, "baseline"));
-  findings_table(out, at(report, "findings"));
-  if (!at(report, "unexplained").is_null()) out << "<p>" << html_cell(at(at(report, "unexplained"), "sentence")) << "</p>\n";
-  location_table(out, at(report, "location"));
+      << html_row("estimation data", html_cell(report_field(report, "data")))
+      << html_row("validation data", html_cell(report_field(report, "val")));
+  if (!report_field(report, "model").is_null()) out << html_row("model diagnosed", html_cell(report_field(report, "model")));
+  out << html_row("sample rate (Hz)", html_cell(report_field(report, "fs"), 8))
+      << html_row("validation J before (the baseline)", pct(report_field(report, "J_val_before_pct")))
+      << html_row("validation J after (final model)", pct(report_field(report, "J_val_after_pct")))
+      << html_row("noise floor (J of a perfect model)", pct(report_field(report, "noise_floor_pct")))
+      << html_row("findings", std::to_string(report_field(report, "findings").size())) << "</table>\n";
+  baseline_table(out, report_field(report, "baseline"));
+  findings_table(out, report_field(report, "findings"));
+  if (!report_field(report, "unexplained").is_null()) out << "<p>" << html_cell(report_field(report_field(report, "unexplained"), "sentence")) << "</p>\n";
+  location_table(out, report_field(report, "location"));
   out << "<h2>Figures</h2>\n" << html_figures(figures, format);
   out << "<p><small>Written by <code>panelbass diagnose</code>. J is [2A] Σ(ŷ−y)²/Σy² in percent, from free-run "
          "simulation. Rule: "
-      << html_cell(at(report, "rule")) << ".</small></p>\n";
+      << html_cell(report_field(report, "rule")) << ".</small></p>\n";
   write_html_page(path, "panelbass diagnosis: " + data, out.str());
 }
 

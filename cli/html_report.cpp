@@ -16,7 +16,6 @@ namespace {
 
 using nlohmann::json;
 
-const json& at(const json& j, const char* key) { return report_field(j, key); }
 
 std::string cell(const json& v, int digits = 4) { return html_cell(v, digits); }
 
@@ -135,92 +134,92 @@ void write_html_page(const std::filesystem::path& path, const std::string& title
 void write_html_report(const std::filesystem::path& path, const json& result, const std::vector<ReportFigure>& figures,
                        PlotFormat format) {
   std::ostringstream out;
-  const std::string model = at(result, "model").is_string() ? at(result, "model").get<std::string>() : "model";
-  const double fs = at(result, "fs").is_number() ? at(result, "fs").get<double>() : 0.0;
+  const std::string model = report_field(result, "model").is_string() ? report_field(result, "model").get<std::string>() : "model";
+  const double fs = report_field(result, "fs").is_number() ? report_field(result, "fs").get<double>() : 0.0;
   out << "<h1>panelbass analysis of <code>" << html_escaped(model) << "</code></h1>\n";
 
   out << "<h2>Performance</h2>\n<table>\n";
-  row(out, "model file", cell(at(result, "model")));
-  row(out, "data file", cell(at(result, "data")));
-  row(out, "kind", cell(at(result, "kind")));
-  row(out, "sample rate (Hz)", cell(at(result, "fs"), 8));
-  row(out, "samples judged (after init)", cell(at(result, "samples")));
-  row(out, "measured outputs that set the state (init)", cell(at(result, "init")));
-  row(out, "J, free-run simulation (%)", cell(at(result, "J_sim_pct")));
-  row(out, "J, one-step prediction (%)", cell(at(result, "J_pred_pct")));
-  row(out, "rms simulation error (raw units)", cell(at(result, "rmse")));
-  row(out, "J of the output not coherent with the input (noise, distortion and spectral leakage; an upper estimate, not a floor a model cannot beat) (%)", cell(at(result, "J_noncoherent_pct")));
-  row(out, "J of the plant's sensor noise (%)", cell(at(result, "J_noise_pct")));
-  const json& spectrum = at(result, "residual_spectrum");
-  row(out, "residual power over the non-coherent floor (dB)", cell(at(spectrum, "residual_over_noncoherent_db"), 3));
-  const json& frf = at(result, "frf");
-  row(out, "mean coherence", cell(at(frf, "mean_coherence"), 3));
-  row(out, "rms model error where γ² ≥ 0.9 (dB)", cell(at(frf, "rms_error_db_where_coherent"), 3));
+  row(out, "model file", cell(report_field(result, "model")));
+  row(out, "data file", cell(report_field(result, "data")));
+  row(out, "kind", cell(report_field(result, "kind")));
+  row(out, "sample rate (Hz)", cell(report_field(result, "fs"), 8));
+  row(out, "samples judged (after init)", cell(report_field(result, "samples")));
+  row(out, "measured outputs that set the state (init)", cell(report_field(result, "init")));
+  row(out, "J, free-run simulation (%)", cell(report_field(result, "J_sim_pct")));
+  row(out, "J, one-step prediction (%)", cell(report_field(result, "J_pred_pct")));
+  row(out, "rms simulation error (raw units)", cell(report_field(result, "rmse")));
+  row(out, "J of the output not coherent with the input (noise, distortion and spectral leakage; an upper estimate, not a floor a model cannot beat) (%)", cell(report_field(result, "J_noncoherent_pct")));
+  row(out, "J of the plant's sensor noise (%)", cell(report_field(result, "J_noise_pct")));
+  const json& spectrum = report_field(result, "residual_spectrum");
+  row(out, "residual power over the non-coherent floor (dB)", cell(report_field(spectrum, "residual_over_noncoherent_db"), 3));
+  const json& frf = report_field(result, "frf");
+  row(out, "mean coherence", cell(report_field(frf, "mean_coherence"), 3));
+  row(out, "rms model error where γ² ≥ 0.9 (dB)", cell(report_field(frf, "rms_error_db_where_coherent"), 3));
   out << "</table>\n";
 
-  const json& tests = at(result, "residual_tests");
+  const json& tests = report_field(result, "residual_tests");
   out << "<h2>Residual correlation tests (Billings–Voon)</h2>\n<p>Overall: "
-      << verdict(at(tests, "passes").is_boolean() && at(tests, "passes").get<bool>()) << ". "
-      << cell(at(tests, "explanation")) << "</p>\n"
+      << verdict(report_field(tests, "passes").is_boolean() && report_field(tests, "passes").get<bool>()) << ". "
+      << cell(report_field(tests, "explanation")) << "</p>\n"
       << "<table><tr><th>test</th><th>verdict</th><th>lags outside the 95 % band</th><th>allowed</th>"
          "<th>peak |φ|</th><th>peak band</th><th>95 % band</th></tr>\n";
-  if (at(tests, "tests").is_array()) {
-    for (const json& t : at(tests, "tests")) {
-      out << "<tr><th>" << cell(at(t, "name")) << "</th><td>" << verdict(at(t, "passes").get<bool>()) << "</td><td>"
-          << cell(at(t, "outside")) << " of " << cell(at(t, "lags")) << "</td><td>" << cell(at(t, "allowed_outside"))
-          << "</td><td>" << cell(at(t, "peak"), 3) << "</td><td>" << cell(at(t, "peak_band"), 3) << "</td><td>"
-          << cell(at(t, "band"), 3) << "</td></tr>\n";
+  if (report_field(tests, "tests").is_array()) {
+    for (const json& t : report_field(tests, "tests")) {
+      out << "<tr><th>" << cell(report_field(t, "name")) << "</th><td>" << verdict(report_field(t, "passes").get<bool>()) << "</td><td>"
+          << cell(report_field(t, "outside")) << " of " << cell(report_field(t, "lags")) << "</td><td>" << cell(report_field(t, "allowed_outside"))
+          << "</td><td>" << cell(report_field(t, "peak"), 3) << "</td><td>" << cell(report_field(t, "peak_band"), 3) << "</td><td>"
+          << cell(report_field(t, "band"), 3) << "</td></tr>\n";
     }
   }
   out << "</table>\n";
 
-  const json& locus = at(result, "root_locus");
+  const json& locus = report_field(result, "root_locus");
   if (!locus.is_null()) {
-    const json& best = at(locus, "best");
-    const json& open = at(locus, "open_loop");
+    const json& best = report_field(locus, "best");
+    const json& open = report_field(locus, "open_loop");
     out << "<h2>Poles, zeros and root locus</h2>\n<table>\n";
-    row(out, "feedback", cell(at(locus, "feedback")));
-    row(out, "gain range searched (raw units)", cell(at(locus, "gain_min")) + " … " + cell(at(locus, "gain_max")));
-    row(out, "open loop: slowest pole |z|", cell(at(open, "max_radius"), 6));
-    row(out, "open loop: impulse length to 1 % (samples)", cell(at(open, "impulse_length")));
-    row(out, "gain with the shortest impulse response (raw units)", cell(at(best, "gain"), 6));
-    row(out, "same gain in the model's scaled units", cell(at(best, "gain_scaled"), 6));
-    row(out, "closed loop: slowest pole |z|", cell(at(best, "max_radius"), 6));
-    row(out, "closed loop: impulse length to 1 % (samples)", cell(at(best, "impulse_length")));
-    row(out, "closed loop stable", cell(at(best, "stable")));
+    row(out, "feedback", cell(report_field(locus, "feedback")));
+    row(out, "gain range searched (raw units)", cell(report_field(locus, "gain_min")) + " … " + cell(report_field(locus, "gain_max")));
+    row(out, "open loop: slowest pole |z|", cell(report_field(open, "max_radius"), 6));
+    row(out, "open loop: impulse length to 1 % (samples)", cell(report_field(open, "impulse_length")));
+    row(out, "gain with the shortest impulse response (raw units)", cell(report_field(best, "gain"), 6));
+    row(out, "same gain in the model's scaled units", cell(report_field(best, "gain_scaled"), 6));
+    row(out, "closed loop: slowest pole |z|", cell(report_field(best, "max_radius"), 6));
+    row(out, "closed loop: impulse length to 1 % (samples)", cell(report_field(best, "impulse_length")));
+    row(out, "closed loop stable", cell(report_field(best, "stable")));
     out << "</table>\n";
-    roots_table(out, "Poles", at(result, "poles"), fs);
-    roots_table(out, "Zeros", at(result, "zeros"), fs);
+    roots_table(out, "Poles", report_field(result, "poles"), fs);
+    roots_table(out, "Zeros", report_field(result, "zeros"), fs);
   }
 
-  const json& history = at(result, "training_history");
-  if (!history.is_null() && at(history, "points").is_array() && !at(history, "points").empty()) {
-    const json& points = at(history, "points");
+  const json& history = report_field(result, "training_history");
+  if (!history.is_null() && report_field(history, "points").is_array() && !report_field(history, "points").empty()) {
+    const json& points = report_field(history, "points");
     out << "<h2>Training</h2>\n<table>\n";
-    row(out, "source", cell(at(history, "source")));
+    row(out, "source", cell(report_field(history, "source")));
     row(out, "iterations recorded", std::to_string(points.size()));
-    row(out, "J at the start (%)", cell(at(points.front(), "J_est_pct")));
-    row(out, "J at the end (%)", cell(at(points.back(), "J_est_pct")));
-    row(out, "validation J at the end (%)", cell(at(points.back(), "J_val_pct")));
+    row(out, "J at the start (%)", cell(report_field(points.front(), "J_est_pct")));
+    row(out, "J at the end (%)", cell(report_field(points.back(), "J_est_pct")));
+    row(out, "validation J at the end (%)", cell(report_field(points.back(), "J_val_pct")));
     out << "</table>\n";
   }
 
-  const json& distortion = at(result, "distortion");
+  const json& distortion = report_field(result, "distortion");
   if (!distortion.is_null()) {
     out << "<h2>Harmonic distortion, plant and model</h2>\n"
            "<table><tr><th>drive</th><th>frequency (Hz)</th><th>THD plant (%)</th><th>THD model (%)</th>"
            "<th>H2 plant (dB)</th><th>H2 model (dB)</th><th>H3 plant (dB)</th><th>H3 model (dB)</th></tr>\n";
-    const json& plant = at(distortion, "plant");
-    const json& modelled = at(distortion, "model");
+    const json& plant = report_field(distortion, "plant");
+    const json& modelled = report_field(distortion, "model");
     for (std::size_t i = 0; i < plant.size() && i < modelled.size(); ++i) {
       const json& p = plant[i];
       const json& m = modelled[i];
       const auto harmonic = [](const json& r, std::size_t h) {
-        const json& list = at(r, "harmonic_db");
+        const json& list = report_field(r, "harmonic_db");
         return h < list.size() ? cell(list[h], 3) : std::string("–");
       };
-      out << "<tr><td>" << cell(at(p, "amplitude")) << "</td><td>" << cell(at(p, "frequency_hz")) << "</td><td>"
-          << cell(at(p, "thd_pct"), 3) << "</td><td>" << cell(at(m, "thd_pct"), 3) << "</td><td>" << harmonic(p, 0)
+      out << "<tr><td>" << cell(report_field(p, "amplitude")) << "</td><td>" << cell(report_field(p, "frequency_hz")) << "</td><td>"
+          << cell(report_field(p, "thd_pct"), 3) << "</td><td>" << cell(report_field(m, "thd_pct"), 3) << "</td><td>" << harmonic(p, 0)
           << "</td><td>" << harmonic(m, 0) << "</td><td>" << harmonic(p, 1) << "</td><td>" << harmonic(m, 1)
           << "</td></tr>\n";
     }

@@ -37,7 +37,7 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
   JobProgress progress(control);
   const SourcedRecord data = acquire_record(params, env, progress, control);
   const ExcitationRecord& r = data.record;
-  // The simulation diagnosed: a stored linear or NARX model, or (without one) the best linear OE model.
+  // The simulation diagnosed: a stored linear, NARX or neural state-space model, or (without one) the best linear OE model.
   std::optional<models::AnyModel> baseline;
   if (params.contains("baseline_model") && params.at("baseline_model").is_string()) {
     baseline = models::model_from_json(stored_model_file(env, params.at("baseline_model").get<std::string>()));
@@ -52,12 +52,13 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
   // The diagnosis names its stages but not how many remain: each one closes part of the gap to the end.
   options.progress = [&](const std::string& stage) { progress.at(1.0 - std::pow(0.8, ++stages), "diagnose: " + stage); };
   const auto* narx = baseline ? std::get_if<models::NarxModel>(&baseline->model) : nullptr;
+  const auto* ss = baseline ? std::get_if<models::SsModel>(&baseline->model) : nullptr;
   const models::Diagnosis d =
-      narx != nullptr
-          ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs, models::narx_baseline(*narx), options)
-          : models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs,
-                             baseline ? std::optional(std::get<models::LinearModel>(baseline->model)) : std::nullopt,
-                             options);
+      narx != nullptr ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs, models::narx_baseline(*narx), options)
+      : ss != nullptr ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs, models::ss_baseline(*ss), options)
+                      : models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs,
+                                         baseline ? std::optional(std::get<models::LinearModel>(baseline->model)) : std::nullopt,
+                                         options);
 
   progress.span(0.95, 1.0);
   json report = models::diagnosis_to_json(d);

@@ -21,7 +21,7 @@
 namespace panelbass::models {
 namespace {
 
-constexpr const char* kKind = "lq_feedforward";
+constexpr const char* kLqFeedforwardKind = "lq_feedforward";
 
 // max_input(): the impulse response is summed until a block of it adds less than this fraction of the
 // sum, each block at least one time constant long (so the rest of the tail is below it as well).
@@ -246,7 +246,7 @@ std::vector<double> unity_gain_hz(const LqFeedforward& ff) {
 nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff) {
   return {
       {"format", kModelFormat},
-      {"kind", kKind},
+      {"kind", kLqFeedforwardKind},
       {"fs", ff.fs},
       {"params",
        {{"A", matrix_to_json(ff.plant.A)},
@@ -263,7 +263,7 @@ nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff) {
 LqFeedforward lq_feedforward_from_json(const nlohmann::json& j) {
   LqFeedforward ff;
   JsonFields top(j, "model");
-  ff.fs = read_model_header(top, kKind);
+  ff.fs = read_model_header(top, kLqFeedforwardKind);
 
   const nlohmann::json* params = top.member("params");
   if (params == nullptr) throw ConfigError("model.params: missing");

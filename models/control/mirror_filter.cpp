@@ -13,7 +13,7 @@
 namespace panelbass::models {
 namespace {
 
-constexpr const char* kKind = "mirror_filter";
+constexpr const char* kMirrorFilterKind = "mirror_filter";
 constexpr double kMmPerM = 1000.0;
 // Friction velocity scales tried by the fit, mm/s.
 constexpr double kFrictionVelocities[] = {5.0, 7.0, 10.0, 14.0, 20.0, 30.0, 50.0, 70.0, 100.0, 140.0, 200.0};
@@ -227,7 +227,7 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
 
 nlohmann::json mirror_model_to_json(const MirrorModel& m, const nlohmann::json& meta) {
   return {{"format", kModelFormat},
-          {"kind", kKind},
+          {"kind", kMirrorFilterKind},
           {"fs", m.fs},
           {"params",
            {{"electrical", m.electrical},
@@ -240,7 +240,7 @@ nlohmann::json mirror_model_to_json(const MirrorModel& m, const nlohmann::json& 
 MirrorModel mirror_model_from_json(const nlohmann::json& j) {
   MirrorModel m;
   JsonFields top(j, "model");
-  m.fs = read_model_header(top, kKind);
+  m.fs = read_model_header(top, kMirrorFilterKind);
   (void)read_model_meta(top);
   const nlohmann::json* params = top.member("params");
   if (params == nullptr) throw ConfigError("model.params: missing");

@@ -15,7 +15,7 @@
 namespace panelbass::models {
 namespace {
 
-constexpr const char* kKind = "neural_feedback";
+constexpr const char* kNeuralFeedbackKind = "neural_feedback";
 // Orders beyond this are a corrupt file, not a controller.
 constexpr long kMaxOrder = 1000;
 
@@ -132,7 +132,7 @@ void FeedbackRunner::reset() noexcept {
 nlohmann::json neural_feedback_to_json(const NeuralFeedback& c) {
   return {
       {"format", kModelFormat},
-      {"kind", kKind},
+      {"kind", kNeuralFeedbackKind},
       {"fs", c.fs},
       {"params",
        {{"nu", c.structure.nu},
@@ -148,7 +148,7 @@ nlohmann::json neural_feedback_to_json(const NeuralFeedback& c) {
 
 NeuralFeedback neural_feedback_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
-  const double fs = read_model_header(top, kKind);
+  const double fs = read_model_header(top, kNeuralFeedbackKind);
 
   const nlohmann::json* params = top.member("params");
   if (params == nullptr) throw ConfigError("model.params: missing");

@@ -64,7 +64,7 @@ using RecordSimulation =
 
 /// A simulation to diagnose that is not a linear model: a NARX model or a virtual-transducer plant.
 struct SimulationBaseline {
-  std::string kind;             ///< "narx" or "plant", as reported
+  std::string kind;             ///< "narx", "ss" or "plant", as reported
   double fs = 0.0;              ///< its sample rate, Hz
   RecordSimulation simulate;    ///< raw units in and out
 };

@@ -9,6 +9,11 @@ SimulationBaseline narx_baseline(const NarxModel& narx) {
           [narx](const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) { return narx.simulate(u, y, init); }};
 }
 
+SimulationBaseline ss_baseline(const SsModel& ss) {
+  return {"ss", ss.fs,
+          [ss](const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) { return ss.simulate(u, y, init); }};
+}
+
 SimulationBaseline plant_baseline(PlantConfig plant) {
   plant.sensor.noise_rms_V = 0.0;
   return {"plant", plant.fs,

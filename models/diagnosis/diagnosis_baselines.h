@@ -1,14 +1,19 @@
 #pragma once
-// The simulations `diagnose` takes that are not linear models: a NARX model and a virtual-transducer plant.
+// The simulations `diagnose` takes that are not linear models: a NARX model, a neural state-space model and a
+// virtual-transducer plant.
 
 #include "models/diagnosis/diagnosis.h"
 #include "models/narx/narx_model.h"
 #include "models/plant/plant_config.h"
+#include "models/state_space_nn/ss_model.h"
 
 namespace panelbass::models {
 
 /// A NARX model's free-run simulation (its state set by the measured outputs it is given) as a baseline.
 SimulationBaseline narx_baseline(const NarxModel& narx);
+
+/// A neural state-space model's free run (its encoder reads the measured outputs it is given) as a baseline.
+SimulationBaseline ss_baseline(const SsModel& ss);
 
 /// A virtual-transducer plant run from rest without sensor noise (what it would record, noiselessly).
 SimulationBaseline plant_baseline(PlantConfig plant);

@@ -17,7 +17,7 @@
 namespace panelbass::models {
 namespace {
 
-constexpr const char* kKind = "narx";
+constexpr const char* kNarxKind = "narx";
 // Network inputs na + nb + 1 beyond this are a corrupt file, not a model.
 constexpr long kMaxInputs = 1000;
 // An input delay beyond a minute at 384 kHz is a corrupt file, not a model.
@@ -157,7 +157,7 @@ Eigen::VectorXd small_signal_response(const NarxModel& m, const Eigen::VectorXd&
 nlohmann::json narx_model_to_json(const NarxModel& m) {
   return {
       {"format", kModelFormat},
-      {"kind", kKind},
+      {"kind", kNarxKind},
       {"fs", m.fs},
       {"scaling", scaling_to_json(m.scaling)},
       {"params",
@@ -172,7 +172,7 @@ nlohmann::json narx_model_to_json(const NarxModel& m) {
 
 NarxModel narx_model_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
-  const double fs = read_model_header(top, kKind);
+  const double fs = read_model_header(top, kNarxKind);
 
   const nlohmann::json* scaling_json = top.member("scaling");
   if (scaling_json == nullptr) throw ConfigError("model.scaling: missing");

@@ -14,7 +14,7 @@
 namespace panelbass::models {
 namespace {
 
-constexpr const char* kKind = "ss";
+constexpr const char* kSsKind = "ss";
 
 template <class Scalar>
 SsParts<Scalar> parts_of(const SsStructure& s, Scalar* theta) {
@@ -192,7 +192,7 @@ SsModel ss_model_from_linear(const StateSpace& linear, SsStructure s, const Eige
 nlohmann::json ss_model_to_json(const SsModel& m) {
   return {
       {"format", kModelFormat},
-      {"kind", kKind},
+      {"kind", kSsKind},
       {"fs", m.fs},
       {"scaling", scaling_to_json(m.scaling)},
       {"params",
@@ -208,7 +208,7 @@ nlohmann::json ss_model_to_json(const SsModel& m) {
 SsModel ss_model_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
   SsModel m;
-  m.fs = read_model_header(top, kKind);
+  m.fs = read_model_header(top, kSsKind);
   const nlohmann::json* scaling_json = top.member("scaling");
   if (scaling_json == nullptr) throw ConfigError("model.scaling: missing");
   m.scaling = scaling_from_json(*scaling_json, "model.scaling");
