@@ -1,6 +1,7 @@
 #include "cli/data_options.h"
 
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 #include "dsp/data_error.h"
@@ -30,6 +31,12 @@ dsp::Record DataOptions::read_at_model_rate(const std::string& path, double mode
                          std::to_string(model_fs) + " Hz");
   }
   return data;
+}
+
+dsp::Record DataOptions::read_validation(const std::string& path, double est_fs) const {
+  dsp::Record val = read(path);
+  if (val.fs != est_fs) throw std::invalid_argument(path + ": sample rate differs from the estimation data");
+  return val;
 }
 
 }  // namespace panelbass::cli

@@ -24,6 +24,10 @@ struct DataOptions {
   /// Reads `path` for a model identified at `model_fs`: a CSV without --fs is taken at that rate, and
   /// any other rate is an error naming both.
   dsp::Record read_at_model_rate(const std::string& path, double model_fs) const;
+
+  /// Reads the validation record `path` for estimation data sampled at `est_fs`; a different rate is an error
+  /// naming the file.
+  dsp::Record read_validation(const std::string& path, double est_fs) const;
 };
 
 }  // namespace panelbass::cli

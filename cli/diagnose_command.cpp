@@ -149,7 +149,7 @@ void register_diagnose(CLI::App& app) {
   cmd->add_option("--val", o->val, "Validation data, .csv or .wav (judges every augmentation)")->required();
   o->columns.add_to(cmd);
   cmd->add_option("--model", o->model,
-                  "Simulation to diagnose: a linear or NARX model file, or a plant JSON (default: the best OE model of the order scan)");
+                  "Simulation to diagnose: a linear, NARX or neural state-space (ss) model file, or a plant JSON (default: the best OE model of the order scan)");
   cmd->add_option("--init", o->init, "Measured outputs that set a simulation's state before J is computed")
       ->check(CLI::Range(0L, 100000000L))
       ->capture_default_str();

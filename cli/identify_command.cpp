@@ -62,8 +62,7 @@ void run_identify_linear(const IdentifyLinearOptions& o) {
   }
   Eigen::VectorXd u_val, y_val;
   if (!o.val.empty()) {
-    const dsp::Record val = o.columns.read(o.val);
-    if (val.fs != est.fs) throw std::invalid_argument(o.val + ": sample rate differs from the estimation data");
+    const dsp::Record val = o.columns.read_validation(o.val, est.fs);
     u_val = val.columns[0];
     y_val = val.columns[1];
   }
@@ -186,8 +185,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   const dsp::Record est = o.columns.read(o.data);
   Eigen::VectorXd u_val, y_val, w_val;
   if (!o.val.empty()) {
-    const dsp::Record val = o.columns.read(o.val);
-    if (val.fs != est.fs) throw std::invalid_argument(o.val + ": sample rate differs from the estimation data");
+    const dsp::Record val = o.columns.read_validation(o.val, est.fs);
     u_val = val.columns[0];
     y_val = val.columns[1];
     w_val = read_weights(o.val, o.weight_col, est.fs);

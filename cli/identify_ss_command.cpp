@@ -56,8 +56,7 @@ void run_identify_ss(const IdentifySsOptions& o) {
   const dsp::Record est = o.columns.read(o.data);
   Eigen::VectorXd u_val, y_val;
   if (!o.val.empty()) {
-    const dsp::Record val = o.columns.read(o.val);
-    if (val.fs != est.fs) throw std::invalid_argument(o.val + ": sample rate differs from the estimation data");
+    const dsp::Record val = o.columns.read_validation(o.val, est.fs);
     u_val = val.columns[0];
     y_val = val.columns[1];
   }

@@ -40,6 +40,12 @@ TEST_F(CliIdentifySs, TrainsAndValidateAndAnalyzeReadItsModel) {
   const json a = expect_result(run("analyze --model " + quoted(model) + " --data " + val() + " --out " +
                                    quoted(dir_ / "a.json")));
   EXPECT_EQ(a["kind"], "ss");
+  // diagnose takes it as its baseline: the baseline's J is the one validate computes for the model.
+  const json d = expect_result(run("diagnose --data " + est() + " --val " + val() + " --fs 3000 --model " +
+                                   quoted(model) + " --max-findings 1 --out " + quoted(dir_ / "d.json")));
+  const json baseline = json::parse(text_of(dir_ / "d.json"))["baseline"];
+  EXPECT_EQ(baseline["kind"], "ss");
+  EXPECT_NEAR(baseline["J_val_pct"].get<double>(), v["J_sim_pct"].get<double>(), 1e-9);
 }
 
 TEST_F(CliIdentifySs, BadOptionsFailNamingTheProblem) {
