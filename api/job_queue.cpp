@@ -1,6 +1,7 @@
 #include "api/job_queue.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <ctime>
 #include <stdexcept>
@@ -25,11 +26,15 @@ constexpr const char* kInterrupted = "interrupted by a restart";
 
 // Niceness of the worker threads: a training job may keep a core busy for minutes, and the audio thread
 // (normal priority) must win every contest for a core against it. Raising one's own niceness needs no
-// privilege; if the system refuses, the job still runs.
+// privilege; if the system refuses, the job still runs. A thread already niced beyond it keeps its niceness
+// (as root, setting 10 would raise the priority of a service started niced).
 constexpr int kWorkerNiceness = 10;
 
 void lower_this_thread_priority() {
   const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
+  errno = 0;
+  const int now = ::getpriority(PRIO_PROCESS, tid);
+  if (errno == 0 && now >= kWorkerNiceness) return;
   (void)::setpriority(PRIO_PROCESS, tid, kWorkerNiceness);
 }
 
