@@ -16,16 +16,8 @@ namespace {
 using namespace testing_support;
 using CliIdentify = CliTest;
 
-class CliIdentifyData : public CliTest {
- protected:
-  /// 6000 samples of the panel exciter: rows 0..4000 to estimate, the rest to validate.
-  void SetUp() override {
-    expect_result(run("simulate --samples 6000 --seed 5 --out " + quoted(dir_ / "all.csv")));
-    split_csv(dir_ / "all.csv", 4000);
-  }
-  std::string est() const { return quoted(dir_ / "est.csv"); }
-  std::string val() const { return quoted(dir_ / "val.csv"); }
-};
+/// 6000 samples of the panel exciter: rows 0..4000 to estimate, the rest to validate.
+using CliIdentifyData = CliExciterSplitTest;
 
 TEST_F(CliIdentifyData, LinearPrintsTheContractAndValidateAgrees) {
   const fs::path model = dir_ / "lin.json";

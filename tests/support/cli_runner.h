@@ -101,4 +101,15 @@ inline void expect_usage_error(const RunResult& r) {
 
 inline bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
+/// A test directory holding 6000 samples of the panel exciter: rows 0..4000 in est.csv, the rest in val.csv.
+class CliExciterSplitTest : public CliTest {
+ protected:
+  void SetUp() override {
+    expect_result(run("simulate --samples 6000 --seed 5 --out " + quoted(dir_ / "all.csv")));
+    split_csv(dir_ / "all.csv", 4000);
+  }
+  std::string est() const { return quoted(dir_ / "est.csv"); }
+  std::string val() const { return quoted(dir_ / "val.csv"); }
+};
+
 }  // namespace panelbass::testing_support
