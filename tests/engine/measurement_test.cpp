@@ -9,23 +9,16 @@
 
 #include <gtest/gtest.h>
 
-#include "dsp/random.h"
 #include "engine/jack_transducer.h"
 #include "models/plant/plant_presets.h"
 #include "models/plant/virtual_transducer.h"
+#include "tests/engine/engine_test_models.h"
 
 namespace panelbass::engine {
 namespace {
 
-Eigen::VectorXd noise(Eigen::Index n, std::uint64_t seed) {
-  dsp::Rng rng(seed);
-  Eigen::VectorXd x(n);
-  for (Eigen::Index k = 0; k < n; ++k) x[k] = rng.uniform(-0.5, 0.5);
-  return x;
-}
-
 TEST(Measurement, TheRoundTripOfADelayedSignalIsItsDelay) {
-  const Eigen::VectorXd u = noise(4000, 1);
+  const Eigen::VectorXd u = testing::uniform(4000, 0.5, 1);
   Eigen::VectorXd heard = Eigen::VectorXd::Zero(4000);
   heard.tail(4000 - 37) = 0.8 * u.head(4000 - 37);
   const RoundTrip trip = find_round_trip(u, heard, 200);
@@ -72,7 +65,7 @@ TEST(Measurement, ThePlantAtACardsRateIsThePlantAtItsOwn) {
   EXPECT_EQ(fast.converters.delay_samples, 16 * plant.converters.delay_samples);
   EXPECT_EQ(fast.oversample, std::max(1, plant.oversample / 16));
   models::VirtualTransducer slow_t(plant, 1), fast_t(fast, 1);
-  const Eigen::VectorXd u = noise(600, 2);
+  const Eigen::VectorXd u = testing::uniform(600, 0.5, 2);
   double worst = 0.0, scale = 0.0;
   for (Eigen::Index k = 0; k < u.size(); ++k) {
     const double y = slow_t.step(u[k]).y;
