@@ -6,14 +6,36 @@
 
 namespace panelbass::engine {
 
-MirrorFilterStage::MirrorFilterStage(const models::MirrorModel& model) : fs_(model.fs), filter_(model) {}
+MirrorFilterStage::MirrorFilterStage(const models::MirrorModel& model) : fs_(model.fs), filter_(model) {
+  if (model.observer.enabled) observer_.emplace(model);
+}
 
 void MirrorFilterStage::prepare(const ProcessSpec& spec) {
   if (std::abs(spec.fs - fs_) > 1e-9 * fs_) {
     throw std::invalid_argument("mirror_filter: the model is for " + std::to_string(fs_) + " Hz, the chain runs at " +
                                 std::to_string(spec.fs) + " Hz");
   }
+  reset();
+}
+
+double MirrorFilterStage::process(double x) noexcept {
+  const double drive = filter_.process(x);
+  if (observer_) observer_->predict(drive);
+  return drive;
+}
+
+void MirrorFilterStage::observe(double measured) noexcept {
+  if (!observer_) return;
+  observer_->update(measured);
+  filter_.set_stiffness_scale(observer_->stiffness_scale());
+}
+
+void MirrorFilterStage::reset() noexcept {
   filter_.reset();
+  if (observer_) {
+    observer_->reset();
+    filter_.set_stiffness_scale(1.0);
+  }
 }
 
 }  // namespace panelbass::engine

@@ -46,6 +46,16 @@ Eigen::VectorXd scaled_least_squares(const Eigen::MatrixXd& a, const Eigen::Vect
   return theta.cwiseQuotient(scale);
 }
 
+/// True when every root of z³ + a1·z² + a2·z + a3 (A(z) = 1 + a1·z⁻¹ + a2·z⁻² + a3·z⁻³) lies inside |z| < 0.95:
+/// 1/A(z) is then a stable filter with some margin.
+bool minimum_phase(const std::array<double, 4>& a) {
+  Eigen::Matrix3d companion = Eigen::Matrix3d::Zero();
+  companion.row(0) << -a[1], -a[2], -a[3];
+  companion(1, 0) = 1.0;
+  companion(2, 1) = 1.0;
+  return companion.eigenvalues().cwiseAbs().maxCoeff() < 0.95;
+}
+
 }  // namespace
 
 MirrorModel MirrorModel::linear() const {
@@ -74,7 +84,10 @@ double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noe
   const double mid = 0.5 * (s.v + v1);
   // [M1] solved for i_{k+1}
   const Electrical el = electrical_terms(m.electrical, s.x, s.i);
-  const double i1 = (drive - el.back_emf * mid + el.inductance * s.i / h) / (el.inductance / h + m.electrical[4]);
+  const std::array<double, 4>& a = m.drive_taps;
+  const double w = a[0] * drive + a[1] * s.past[0] + a[2] * s.past[1] + a[3] * s.past[2];
+  s.past = {drive, s.past[0], s.past[1]};
+  const double i1 = (w - el.back_emf * mid + el.inductance * s.i / h) / (el.inductance / h + m.electrical[4]);
   const double accel = (v1 - s.v) / h;
   s.i = i1;
   s.v = v1;
@@ -82,11 +95,17 @@ double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noe
   return accel;
 }
 
-MirrorFilter::MirrorFilter(const MirrorModel& model) : model_(model), reference_(model.linear()) {}
+MirrorFilter::MirrorFilter(const MirrorModel& model) : base_(model), model_(model), reference_(model.linear()) {}
+
+void MirrorFilter::set_stiffness_scale(double scale) noexcept {
+  for (std::size_t j : {6u, 7u, 8u}) model_.mechanical[j] = scale * base_.mechanical[j];
+  reference_.mechanical[6] = model_.mechanical[6];
+}
 
 void MirrorFilter::reset() noexcept {
   ref_ = {};
   current_ = 0.0;
+  past_ = {};
   saturated_ = false;
 }
 
@@ -116,12 +135,17 @@ double MirrorFilter::process(double program) noexcept {
   }
   // [M1] at k: the drive that takes the current from ĩ_k to ĩ_{k+1} at the reference's motion
   const Electrical el = electrical_terms(model_.electrical, x, current_);
-  const double drive = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * 0.5 * (v + v1);
+  const double w = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * 0.5 * (v + v1);
+  // the drive whose A(z)-filtered value is w: drive_k = (w − Σ_{j≥1} a_j·drive_{k−j}) / a_0
+  const std::array<double, 4>& a = model_.drive_taps;
+  const double drive = (w - a[1] * past_[0] - a[2] * past_[1] - a[3] * past_[2]) / a[0];
   current_ = next;
   if (!std::isfinite(drive)) {
     saturated_ = true;
+    past_ = {};
     return program;
   }
+  past_ = {drive, past_[0], past_[1]};
   return drive;
 }
 
@@ -163,7 +187,7 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
   for (Eigen::Index k = 0; k + 1 < n; ++k) mid[k] = 0.5 * (v[k] + v[k + 1]);
   const Eigen::VectorXd& i = current;
   // rows k = first..n−2 (each needs x_k, v_k, i_k, i_{k+1}, v_{k+1} and the drive max_delay samples back)
-  const Eigen::Index first = 1 + max_delay, rows = n - 1 - first;
+  const Eigen::Index first = 1 + max_delay + 3, rows = n - 1 - first;
 
   MirrorFit fit;
   fit.model.fs = fs;
@@ -188,6 +212,7 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
     }
   }
   fit.mechanical_fit_pct = 100.0 * best / accel.squaredNorm();
+  fit.mechanical_residual_rms = std::sqrt(best / static_cast<double>(rows));
 
   // [M1] for each delay of the drive
   double drive_power = 1.0;
@@ -201,24 +226,35 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
     elec.row(r) << di, xk * di, xk * xk * di, ik * ik * di, i[k + 1], mid[k] * (1.0 + b1 * xk + b2 * xk * xk), 0.0, 0.0,
         ik * mid[k], ik * xk * mid[k];
   }
-  // A negative inductance (the drive's fractional delay absorbed as a lead) would make the reference unstable:
-  // the fit then leaves the inductance out (the electrical time constant is then taken as below a sample).
+  // Each delay of the drive, A(z) of 1 to 4 taps ([M1]: drive_{k−d} = (the terms above) − Σ_{j≥1} a_j·drive_{k−d−j}),
+  // with and without the inductance; the smallest residual wins among the models the filter can run: a negative
+  // inductance (the drive's fractional delay absorbed as a lead) would make the reference unstable, and an A(z)
+  // that is not minimum phase could not be inverted. A longer model must cut the residual by 1 % to be taken.
+  Eigen::MatrixXd regressors(rows, 13);
+  best = std::numeric_limits<double>::infinity();
   for (const bool with_inductance : {true, false}) {
-    if (!with_inductance) elec.leftCols(4).setZero();
-    best = std::numeric_limits<double>::infinity();
     for (int d = 0; d <= max_delay; ++d) {
-      const Eigen::VectorXd target = drive.segment(first - d, rows);
-      double residual = 0.0;
-      const Eigen::VectorXd e = scaled_least_squares(elec, target, residual);
-      if (residual < best) {
+      for (int taps = 1; taps <= 4; ++taps) {
+        regressors.leftCols(10) = elec;
+        if (!with_inductance) regressors.leftCols(4).setZero();
+        for (int j = 1; j < taps; ++j) regressors.col(9 + j) = -drive.segment(first - d - j, rows);
+        const Eigen::MatrixXd used = regressors.leftCols(9 + taps);
+        const Eigen::VectorXd target = drive.segment(first - d, rows);
+        double residual = 0.0;
+        const Eigen::VectorXd e = scaled_least_squares(used, target, residual);
+        if (!(residual < 0.99 * best) || (with_inductance && e[0] < 0.0)) continue;
+        std::array<double, 4> a{1.0, 0.0, 0.0, 0.0};
+        for (int j = 1; j < taps; ++j) a[static_cast<std::size_t>(j)] = e[9 + j];
+        if (!minimum_phase(a)) continue;
         best = residual;
         drive_power = target.squaredNorm();
         fit.model.delay = d;
+        fit.model.drive_taps = a;
         for (int j = 0; j < 10; ++j) fit.model.electrical[static_cast<std::size_t>(j)] = e[j];
       }
     }
-    if (fit.model.electrical[0] >= 0.0) break;
   }
+  if (!std::isfinite(best)) throw std::invalid_argument("mirror fit: no electrical model the filter can invert fits the record");
   fit.model.electrical[6] = fit.model.electrical[5] * b1;
   fit.model.electrical[7] = fit.model.electrical[5] * b2;
   fit.electrical_fit_pct = 100.0 * best / drive_power;
@@ -226,15 +262,24 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
 }
 
 nlohmann::json mirror_model_to_json(const MirrorModel& m, const nlohmann::json& meta) {
-  return {{"format", kModelFormat},
+  nlohmann::json j = {{"format", kModelFormat},
           {"kind", kMirrorFilterKind},
           {"fs", m.fs},
           {"params",
            {{"electrical", m.electrical},
             {"mechanical", m.mechanical},
             {"friction_velocity_mm_per_s", m.friction_velocity},
-            {"delay", m.delay}}},
+            {"delay", m.delay},
+            {"drive_taps", m.drive_taps}}},
           {"meta", meta.is_null() ? nlohmann::json::object() : meta}};
+  if (m.observer.enabled) {
+    j["params"]["observer"] = {{"sensor_taps", m.observer.sensor_taps},
+                               {"sensor_noise", m.observer.sensor_noise},
+                               {"process_noise_mm_per_s2", m.observer.process_noise},
+                               {"stiffness_rate", m.observer.stiffness_rate},
+                               {"stiffness_spread", m.observer.stiffness_spread}};
+  }
+  return j;
 }
 
 MirrorModel mirror_model_from_json(const nlohmann::json& j) {
@@ -259,6 +304,36 @@ MirrorModel mirror_model_from_json(const nlohmann::json& j) {
   m.friction_velocity = p.number("friction_velocity_mm_per_s");
   require_positive(m.friction_velocity, "model.params.friction_velocity_mm_per_s");
   m.delay = static_cast<int>(p.integer("delay", 0, 0, 64));
+  if (const nlohmann::json* taps = p.member("drive_taps")) {
+    const Eigen::VectorXd read = read_vector(*taps, p.path_of("drive_taps"));
+    if (read.size() != 4 || read[0] != 1.0) {
+      throw ConfigError(p.path_of("drive_taps") + ": 4 taps expected, the first 1");
+    }
+    for (int k = 0; k < 4; ++k) m.drive_taps[static_cast<std::size_t>(k)] = read[k];
+    if (!minimum_phase(m.drive_taps)) {
+      throw ConfigError(p.path_of("drive_taps") + ": A(z) must be minimum phase (roots inside |z| < 0.95)");
+    }
+  }
+  if (const nlohmann::json* o = p.member("observer")) {
+    JsonFields f(*o, p.path_of("observer"));
+    MirrorObserverSettings& s = m.observer;
+    s.enabled = true;
+    const nlohmann::json* taps = f.member("sensor_taps");
+    if (taps == nullptr) throw ConfigError(f.path_of("sensor_taps") + ": missing");
+    const Eigen::VectorXd read = read_vector(*taps, f.path_of("sensor_taps"));
+    if (read.size() != 4) throw ConfigError(f.path_of("sensor_taps") + ": 4 taps expected, got " + std::to_string(read.size()));
+    for (int k = 0; k < 4; ++k) s.sensor_taps[static_cast<std::size_t>(k)] = read[k];
+    s.sensor_noise = f.number("sensor_noise");
+    require_positive(s.sensor_noise, f.path_of("sensor_noise"));
+    s.process_noise = f.number("process_noise_mm_per_s2");
+    require_non_negative(s.process_noise, f.path_of("process_noise_mm_per_s2"));
+    s.stiffness_rate = f.number("stiffness_rate", s.stiffness_rate);
+    require_non_negative(s.stiffness_rate, f.path_of("stiffness_rate"));
+    s.stiffness_spread = f.number("stiffness_spread", s.stiffness_spread);
+    require_positive(s.stiffness_spread, f.path_of("stiffness_spread"));
+    f.finish();
+    if (m.delay > 4) throw ConfigError(p.path_of("delay") + ": the observer takes a drive delay up to 4 samples");
+  }
   p.finish();
   top.finish();
   const double denominator = m.electrical[0] * m.fs + m.electrical[4];

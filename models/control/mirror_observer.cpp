@@ -1,0 +1,139 @@
+#include "models/control/mirror_observer.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace panelbass::models {
+namespace {
+
+constexpr double kMmPerM = 1000.0;
+constexpr int kCurrent = 0, kDisplacement = 1, kVelocity = 2;
+constexpr int kStiffness = MirrorObserver::kStates - 1;
+// θ_K is kept within these bounds (a stiffness off by more than this is not a model to adapt from).
+constexpr double kStiffnessMin = 0.25, kStiffnessMax = 4.0;
+// Finite-difference steps of the Jacobian, in each state's units (A, mm, mm/s, 1).
+constexpr double kStep[] = {1e-7, 1e-7, 1e-5};
+constexpr double kStiffnessStep = 1e-7;
+
+void require_record(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double fs, const char* what) {
+  if (a.size() != b.size()) {
+    throw std::invalid_argument(std::string(what) + ": the columns must have the same length (" +
+                                std::to_string(a.size()) + ", " + std::to_string(b.size()) + ")");
+  }
+  if (a.size() < 1000) {
+    throw std::invalid_argument(std::string(what) + ": at least 1000 samples are needed, got " + std::to_string(a.size()));
+  }
+  if (!(fs > 0.0)) throw std::invalid_argument(std::string(what) + ": fs must be > 0");
+  for (Eigen::Index k = 0; k < a.size(); ++k) {
+    if (!std::isfinite(a[k]) || !std::isfinite(b[k])) {
+      throw std::invalid_argument(std::string(what) + ": sample " + std::to_string(k) + " is not finite");
+    }
+  }
+}
+
+}  // namespace
+
+SensorMapFit fit_sensor_map(const Eigen::VectorXd& displacement, const Eigen::VectorXd& measured, double fs) {
+  require_record(displacement, measured, fs, "sensor map fit");
+  const Eigen::Index n = displacement.size();
+  Eigen::VectorXd v = Eigen::VectorXd::Zero(n);  // [M3]: v_k = (x_k − x_{k−1})/h, mm/s
+  for (Eigen::Index k = 1; k < n; ++k) v[k] = (displacement[k] - displacement[k - 1]) * kMmPerM * fs;
+  const Eigen::Index first = 4, rows = n - first;
+  Eigen::MatrixXd a(rows, 4);
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    for (int j = 0; j < 4; ++j) a(r, j) = v[first + r - j];
+  }
+  const Eigen::VectorXd b = measured.tail(rows);
+  const Eigen::VectorXd s = a.colPivHouseholderQr().solve(b);  // [S1]
+  SensorMapFit fit;
+  for (int j = 0; j < 4; ++j) fit.taps[static_cast<std::size_t>(j)] = s[j];
+  fit.noise_rms = std::sqrt((a * s - b).squaredNorm() / static_cast<double>(rows));
+  return fit;
+}
+
+MirrorModel with_stiffness_scale(MirrorModel model, double scale) {
+  for (std::size_t j : {6u, 7u, 8u}) model.mechanical[j] *= scale;
+  return model;
+}
+
+MirrorObserver::MirrorObserver(const MirrorModel& model) : model_(model) {
+  const MirrorObserverSettings& o = model.observer;
+  if (!o.enabled) throw std::invalid_argument("mirror observer: the model has no observer settings (sensor map)");
+  if (model.delay < 0 || model.delay > kMaxDelay) {
+    throw std::invalid_argument("mirror observer: a drive delay of " + std::to_string(model.delay) +
+                                " samples exceeds the " + std::to_string(kMaxDelay) + " it takes");
+  }
+  if (!(o.sensor_noise > 0.0 && o.process_noise >= 0.0 && o.stiffness_rate >= 0.0 && o.stiffness_spread > 0.0)) {
+    throw std::invalid_argument("mirror observer: sensor noise and stiffness spread must be > 0, the rest >= 0");
+  }
+  // [S1] reads rows k..k−3 of the velocity; the newest row kept is k + delay + 1
+  h_.setZero();
+  for (int j = 0; j < 4; ++j) h_[kVelocity + model.delay + 1 + j] = o.sensor_taps[static_cast<std::size_t>(j)];
+  const double h = 1.0 / model.fs;
+  q_.setZero();
+  q_[kVelocity] = std::pow(o.process_noise * h, 2);
+  q_[kDisplacement] = std::pow(o.process_noise * h * h, 2);
+  q_[kStiffness] = o.stiffness_rate * o.stiffness_rate;
+  r_ = o.sensor_noise * o.sensor_noise;
+  reset();
+}
+
+void MirrorObserver::reset() noexcept {
+  z_.setZero();
+  past_ = {};
+  z_[kStiffness] = 1.0;
+  p_.setZero();
+  p_(kStiffness, kStiffness) = model_.observer.stiffness_spread * model_.observer.stiffness_spread;
+}
+
+void MirrorObserver::step_state(const Vector& z, double drive, Vector& out) const noexcept {
+  MirrorModel m = model_;
+  for (std::size_t j : {6u, 7u, 8u}) m.mechanical[j] *= z[kStiffness];
+  MirrorState s{z[kCurrent], z[kDisplacement], z[kVelocity], past_};
+  step_mirror_model(m, s, drive);
+  out[kCurrent] = s.i;
+  out[kDisplacement] = s.x;
+  out[kVelocity] = s.v;
+  for (int j = kHistory - 1; j >= 1; --j) out[kVelocity + j] = z[kVelocity + j - 1];
+  out[kStiffness] = z[kStiffness];
+}
+
+void MirrorObserver::predict(double drive) noexcept {
+  // [EKF] z⁻ = f(z, u), P⁻ = F·P·Fᵀ + Q, F = ∂f/∂z: by finite differences for (i, x, v_0, θ_K), a shift for the
+  // velocity history
+  step_state(z_, drive, base_);
+  f_.setZero();
+  for (int c = 0; c < 3; ++c) {
+    scratch_ = z_;
+    scratch_[c] += kStep[c];
+    step_state(scratch_, drive, gain_);
+    f_.col(c) = (gain_ - base_) / kStep[c];
+  }
+  scratch_ = z_;
+  scratch_[kStiffness] += kStiffnessStep;
+  step_state(scratch_, drive, gain_);
+  f_.col(kStiffness) = (gain_ - base_) / kStiffnessStep;
+  for (int j = 1; j < kHistory; ++j) f_(kVelocity + j, kVelocity + j - 1) = 1.0;
+  fp_.noalias() = f_ * p_;
+  p_.noalias() = fp_ * f_.transpose();
+  p_.diagonal() += q_;
+  z_ = base_;
+  past_ = {drive, past_[0], past_[1]};
+}
+
+void MirrorObserver::update(double measured) noexcept {
+  // [EKF] K = P⁻·hᵀ/(h·P⁻·hᵀ + r), z = z⁻ + K·(y − h·z⁻), P = P⁻ − K·h·P⁻
+  scratch_.noalias() = p_ * h_;
+  const double innovation_variance = h_.dot(scratch_) + r_;
+  gain_ = scratch_ / innovation_variance;
+  z_ += gain_ * (measured - h_.dot(z_));
+  p_.noalias() -= gain_ * scratch_.transpose();
+  p_ = 0.5 * (p_ + p_.transpose()).eval();
+  z_[kStiffness] = std::clamp(z_[kStiffness], kStiffnessMin, kStiffnessMax);
+  if (!z_.allFinite() || !p_.allFinite()) reset();  // a diverged estimate starts over from the model
+}
+
+}  // namespace panelbass::models
