@@ -214,47 +214,46 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
   fit.mechanical_fit_pct = 100.0 * best / accel.squaredNorm();
   fit.mechanical_residual_rms = std::sqrt(best / static_cast<double>(rows));
 
-  // [M1] for each delay of the drive
-  double drive_power = 1.0;
+  // [M1] without the inductance (the coil's time constant, a fraction of a sample, and the DA filter's lag are
+  // A(z)'s), solved for the current: i_{k+1} = (Σ_j a_j·drive_{k−d−j} − E_v(x_k, i_k)·v̄_k) / e_R, linear in
+  // β_j = a_j/e_R and E_v's coefficients over e_R. The current is the regression's target and the drives its
+  // inputs, so a band-limited drive that its own past predicts does not leak into A(z) (as it would with the
+  // drive as the target). Each delay d and 1 to 4 taps are tried; the smallest residual wins among the A(z) that
+  // are minimum phase (1/A(z) is how the filter inverts it), a longer A(z) only if it cuts the residual by 1 %.
   const double b1 = fit.model.mechanical[1] / fit.model.mechanical[0], b2 = fit.model.mechanical[2] / fit.model.mechanical[0];
-  Eigen::MatrixXd elec(rows, 10);
+  Eigen::MatrixXd regressors(rows, 7);
   for (Eigen::Index r = 0; r < rows; ++r) {
     const Eigen::Index k = first + r;
-    const double xk = x[k], ik = i[k], di = (i[k + 1] - i[k]) / h;
+    const double xk = x[k], ik = i[k];
     // the back-EMF's force factor has the shape Bl(x)/Bl0 = 1 + b1·x + b2·x² that [M2] found (one Bl for both
     // equations: the mechanical fit is the better determined one)
-    elec.row(r) << di, xk * di, xk * xk * di, ik * ik * di, i[k + 1], mid[k] * (1.0 + b1 * xk + b2 * xk * xk), 0.0, 0.0,
-        ik * mid[k], ik * xk * mid[k];
+    regressors.block(r, 4, 1, 3) << -mid[k] * (1.0 + b1 * xk + b2 * xk * xk), -ik * mid[k], -ik * xk * mid[k];
   }
-  // Each delay of the drive, A(z) of 1 to 4 taps ([M1]: drive_{k−d} = (the terms above) − Σ_{j≥1} a_j·drive_{k−d−j}),
-  // with and without the inductance; the smallest residual wins among the models the filter can run: a negative
-  // inductance (the drive's fractional delay absorbed as a lead) would make the reference unstable, and an A(z)
-  // that is not minimum phase could not be inverted. A longer model must cut the residual by 1 % to be taken.
-  Eigen::MatrixXd regressors(rows, 13);
+  const Eigen::VectorXd target = current.segment(first + 1, rows);
   best = std::numeric_limits<double>::infinity();
-  for (const bool with_inductance : {true, false}) {
-    for (int d = 0; d <= max_delay; ++d) {
-      for (int taps = 1; taps <= 4; ++taps) {
-        regressors.leftCols(10) = elec;
-        if (!with_inductance) regressors.leftCols(4).setZero();
-        for (int j = 1; j < taps; ++j) regressors.col(9 + j) = -drive.segment(first - d - j, rows);
-        const Eigen::MatrixXd used = regressors.leftCols(9 + taps);
-        const Eigen::VectorXd target = drive.segment(first - d, rows);
-        double residual = 0.0;
-        const Eigen::VectorXd e = scaled_least_squares(used, target, residual);
-        if (!(residual < 0.99 * best) || (with_inductance && e[0] < 0.0)) continue;
-        std::array<double, 4> a{1.0, 0.0, 0.0, 0.0};
-        for (int j = 1; j < taps; ++j) a[static_cast<std::size_t>(j)] = e[9 + j];
-        if (!minimum_phase(a)) continue;
-        best = residual;
-        drive_power = target.squaredNorm();
-        fit.model.delay = d;
-        fit.model.drive_taps = a;
-        for (int j = 0; j < 10; ++j) fit.model.electrical[static_cast<std::size_t>(j)] = e[j];
-      }
+  for (int d = 0; d <= max_delay; ++d) {
+    for (int taps = 1; taps <= 4; ++taps) {
+      for (int j = 0; j < taps; ++j) regressors.col(j) = drive.segment(first - d - j, rows);
+      Eigen::MatrixXd used(rows, taps + 3);
+      used << regressors.leftCols(taps), regressors.rightCols(3);
+      double residual = 0.0;
+      const Eigen::VectorXd beta = scaled_least_squares(used, target, residual);
+      if (!(residual < 0.99 * best) || !(beta[0] != 0.0)) continue;
+      std::array<double, 4> a{1.0, 0.0, 0.0, 0.0};
+      for (int j = 1; j < taps; ++j) a[static_cast<std::size_t>(j)] = beta[j] / beta[0];
+      if (!minimum_phase(a)) continue;
+      best = residual;
+      fit.model.delay = d;
+      fit.model.drive_taps = a;
+      fit.model.electrical = {};
+      fit.model.electrical[4] = 1.0 / beta[0];  // e_R
+      fit.model.electrical[5] = beta[taps] / beta[0];
+      fit.model.electrical[8] = beta[taps + 1] / beta[0];
+      fit.model.electrical[9] = beta[taps + 2] / beta[0];
     }
   }
   if (!std::isfinite(best)) throw std::invalid_argument("mirror fit: no electrical model the filter can invert fits the record");
+  const double drive_power = target.squaredNorm();
   fit.model.electrical[6] = fit.model.electrical[5] * b1;
   fit.model.electrical[7] = fit.model.electrical[5] * b2;
   fit.electrical_fit_pct = 100.0 * best / drive_power;

@@ -96,7 +96,7 @@ Eigen::VectorXd simulate_mirror_model(const MirrorModel& model, const Eigen::Vec
 /// How a gray-box fit went.
 struct MirrorFit {
   MirrorModel model;               ///< the fitted model
-  double electrical_fit_pct = 0.0; ///< residual power of [M1] over the drive's power, percent
+  double electrical_fit_pct = 0.0; ///< residual power of [M1] (solved for the current) over the current's, percent
   double mechanical_fit_pct = 0.0; ///< residual power of [M2] over the acceleration's power, percent
   double mechanical_residual_rms = 0.0;  ///< rms of [M2]'s residual, mm/s²
 };
