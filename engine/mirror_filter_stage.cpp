@@ -1,5 +1,6 @@
 #include "engine/mirror_filter_stage.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -20,21 +21,23 @@ void MirrorFilterStage::prepare(const ProcessSpec& spec) {
 
 double MirrorFilterStage::process(double x) noexcept {
   const double drive = filter_.process(x);
-  if (observer_) observer_->predict(drive);
+  // the observer's model is driven by what the transducer gets: at most full scale (the limiter's bound)
+  if (observer_) observer_->predict(std::clamp(drive, -1.0, 1.0));
   return drive;
 }
 
 void MirrorFilterStage::observe(double measured) noexcept {
   if (!observer_) return;
   observer_->update(measured);
-  filter_.set_stiffness_scale(observer_->stiffness_scale());
+  const models::MirrorScales scales = observer_->scales();
+  filter_.set_scales(scales.stiffness, scales.force, scales.nonlinear);
 }
 
 void MirrorFilterStage::reset() noexcept {
   filter_.reset();
   if (observer_) {
     observer_->reset();
-    filter_.set_stiffness_scale(1.0);
+    filter_.set_scales(1.0, 1.0, 1.0);
   }
 }
 

@@ -2,8 +2,8 @@
 // The mirror filter (models/control/mirror_filter.h) as a feedforward stage of the chain: program in,
 // the drive that makes the identified nonlinear exciter model move as its linear reference would, out.
 // When the model carries observer settings (a sensor map), the stage also watches the sensor: an extended
-// Kalman filter (models/control/mirror_observer.h) adapts the model's stiffness on line, so the filter's
-// model — and its linear reference — follow a resonance that has moved.
+// Kalman filter (models/control/mirror_observer.h) adapts the model's stiffness and the scale of its
+// nonlinearity on line, so the filter's model — and its linear reference — follow a transducer that has moved.
 
 #include <optional>
 
@@ -24,14 +24,14 @@ class MirrorFilterStage final : public Stage {
   /// One program sample in, one drive sample out (the observer's time update with that drive).
   double process(double x) noexcept override;
   /// The sensor's output for the sample just processed: the observer's measurement update, and the filter's
-  /// stiffness set to the observer's estimate.
+  /// stiffness and nonlinearity set to the observer's estimates.
   void observe(double measured) noexcept override;
   /// True when adaptive.
   bool observes() const noexcept override { return observer_.has_value(); }
-  /// Back to rest (the adapted stiffness too).
+  /// Back to rest (the adapted scales too).
   void reset() noexcept override;
-  /// The stiffness scale in use (1 when not adaptive).
-  double stiffness_scale() const { return observer_ ? observer_->stiffness_scale() : 1.0; }
+  /// The observer, when the stage adapts (its estimates: scales(), state()).
+  const models::MirrorObserver* observer() const { return observer_ ? &*observer_ : nullptr; }
 
  private:
   double fs_;

@@ -97,8 +97,14 @@ double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noe
 
 MirrorFilter::MirrorFilter(const MirrorModel& model) : base_(model), model_(model), reference_(model.linear()) {}
 
-void MirrorFilter::set_stiffness_scale(double scale) noexcept {
-  for (std::size_t j : {6u, 7u, 8u}) model_.mechanical[j] = scale * base_.mechanical[j];
+void MirrorFilter::set_scales(double stiffness, double force, double nonlinear) noexcept {
+  model_.mechanical = base_.mechanical;
+  model_.electrical = base_.electrical;
+  for (std::size_t j : {6u, 7u, 8u}) model_.mechanical[j] *= stiffness;
+  model_.mechanical[0] *= force;
+  for (std::size_t j : {1u, 2u, 3u, 4u, 7u, 8u, 9u}) model_.mechanical[j] *= nonlinear;
+  for (std::size_t j : {1u, 2u, 3u, 6u, 7u, 8u, 9u}) model_.electrical[j] *= nonlinear;
+  reference_.mechanical[0] = model_.mechanical[0];
   reference_.mechanical[6] = model_.mechanical[6];
 }
 
@@ -276,7 +282,11 @@ nlohmann::json mirror_model_to_json(const MirrorModel& m, const nlohmann::json& 
                                {"sensor_noise", m.observer.sensor_noise},
                                {"process_noise_mm_per_s2", m.observer.process_noise},
                                {"stiffness_rate", m.observer.stiffness_rate},
-                               {"stiffness_spread", m.observer.stiffness_spread}};
+                               {"stiffness_spread", m.observer.stiffness_spread},
+                               {"force_rate", m.observer.force_rate},
+                               {"force_spread", m.observer.force_spread},
+                               {"nonlinear_rate", m.observer.nonlinear_rate},
+                               {"nonlinear_spread", m.observer.nonlinear_spread}};
   }
   return j;
 }
@@ -330,6 +340,14 @@ MirrorModel mirror_model_from_json(const nlohmann::json& j) {
     require_non_negative(s.stiffness_rate, f.path_of("stiffness_rate"));
     s.stiffness_spread = f.number("stiffness_spread", s.stiffness_spread);
     require_positive(s.stiffness_spread, f.path_of("stiffness_spread"));
+    s.force_rate = f.number("force_rate", s.force_rate);
+    require_non_negative(s.force_rate, f.path_of("force_rate"));
+    s.force_spread = f.number("force_spread", s.force_spread);
+    require_positive(s.force_spread, f.path_of("force_spread"));
+    s.nonlinear_rate = f.number("nonlinear_rate", s.nonlinear_rate);
+    require_non_negative(s.nonlinear_rate, f.path_of("nonlinear_rate"));
+    s.nonlinear_spread = f.number("nonlinear_spread", s.nonlinear_spread);
+    require_positive(s.nonlinear_spread, f.path_of("nonlinear_spread"));
     f.finish();
     if (m.delay > 4) throw ConfigError(p.path_of("delay") + ": the observer takes a drive delay up to 4 samples");
   }

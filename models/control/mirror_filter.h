@@ -39,6 +39,10 @@ struct MirrorObserverSettings {
   double process_noise = 0.0;         ///< the model's acceleration error, rms, mm/s²
   double stiffness_rate = 1e-4;       ///< θ_K's random walk, standard deviation per sample
   double stiffness_spread = 0.3;      ///< θ_K's initial standard deviation (around 1)
+  double force_rate = 1e-4;           ///< θ_F's random walk, standard deviation per sample
+  double force_spread = 0.3;          ///< θ_F's initial standard deviation (around 1)
+  double nonlinear_rate = 1e-4;       ///< θ_N's random walk, standard deviation per sample
+  double nonlinear_spread = 0.3;      ///< θ_N's initial standard deviation (around 1)
 };
 
 /// The identified gray-box exciter model of [M1]–[M3] (x in mm, v in mm/s, i in A, drive dimensionless).
@@ -75,9 +79,11 @@ class MirrorFilter {
   /// True when the last sample's force equation had no real solution (the current was clamped to the
   /// linear one): the program asks for more than the model's force factor can give.
   bool saturated() const { return saturated_; }
-  /// Scales the stiffness K(x) of both the model and its linear reference (the resonance moves with it) by
-  /// `scale` relative to the model the filter was made with; allocation-free.
-  void set_stiffness_scale(double scale) noexcept;
+  /// Scales the stiffness K(x) and the linear force factor c0 of both the model and its linear reference (the
+  /// resonance and the gain move with them) by `stiffness` and `force`, and the model's nonlinear coefficients by
+  /// `nonlinear`, relative to the model the filter was made with (as with_scales of mirror_observer.h);
+  /// allocation-free.
+  void set_scales(double stiffness, double force, double nonlinear) noexcept;
 
  private:
   MirrorModel base_, model_, reference_;

@@ -11,12 +11,13 @@ namespace {
 
 constexpr double kMmPerM = 1000.0;
 constexpr int kCurrent = 0, kDisplacement = 1, kVelocity = 2;
-constexpr int kStiffness = MirrorObserver::kStates - 1;
-// θ_K is kept within these bounds (a stiffness off by more than this is not a model to adapt from).
-constexpr double kStiffnessMin = 0.25, kStiffnessMax = 4.0;
+constexpr int kStiffness = MirrorObserver::kStates - 3, kForce = MirrorObserver::kStates - 2,
+              kNonlinear = MirrorObserver::kStates - 1;
+// The scales are kept within these bounds (a model off by more than this is not one to adapt from).
+constexpr double kScaleMin = 0.4, kScaleMax = 2.5;
 // Finite-difference steps of the Jacobian, in each state's units (A, mm, mm/s, 1).
 constexpr double kStep[] = {1e-7, 1e-7, 1e-5};
-constexpr double kStiffnessStep = 1e-7;
+constexpr double kScaleStep = 1e-7;
 
 void require_record(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double fs, const char* what) {
   if (a.size() != b.size()) {
@@ -54,8 +55,11 @@ SensorMapFit fit_sensor_map(const Eigen::VectorXd& displacement, const Eigen::Ve
   return fit;
 }
 
-MirrorModel with_stiffness_scale(MirrorModel model, double scale) {
-  for (std::size_t j : {6u, 7u, 8u}) model.mechanical[j] *= scale;
+MirrorModel with_scales(MirrorModel model, const MirrorScales& scales) {
+  for (std::size_t j : {6u, 7u, 8u}) model.mechanical[j] *= scales.stiffness;
+  model.mechanical[0] *= scales.force;
+  for (std::size_t j : {1u, 2u, 3u, 4u, 7u, 8u, 9u}) model.mechanical[j] *= scales.nonlinear;
+  for (std::size_t j : {1u, 2u, 3u, 6u, 7u, 8u, 9u}) model.electrical[j] *= scales.nonlinear;
   return model;
 }
 
@@ -66,8 +70,9 @@ MirrorObserver::MirrorObserver(const MirrorModel& model) : model_(model) {
     throw std::invalid_argument("mirror observer: a drive delay of " + std::to_string(model.delay) +
                                 " samples exceeds the " + std::to_string(kMaxDelay) + " it takes");
   }
-  if (!(o.sensor_noise > 0.0 && o.process_noise >= 0.0 && o.stiffness_rate >= 0.0 && o.stiffness_spread > 0.0)) {
-    throw std::invalid_argument("mirror observer: sensor noise and stiffness spread must be > 0, the rest >= 0");
+  if (!(o.sensor_noise > 0.0 && o.process_noise >= 0.0 && o.stiffness_rate >= 0.0 && o.stiffness_spread > 0.0 &&
+        o.nonlinear_rate >= 0.0 && o.nonlinear_spread > 0.0 && o.force_rate >= 0.0 && o.force_spread > 0.0)) {
+    throw std::invalid_argument("mirror observer: sensor noise and the spreads must be > 0, the rates >= 0");
   }
   // [S1] reads rows k..k−3 of the velocity; the newest row kept is k + delay + 1
   h_.setZero();
@@ -77,6 +82,8 @@ MirrorObserver::MirrorObserver(const MirrorModel& model) : model_(model) {
   q_[kVelocity] = std::pow(o.process_noise * h, 2);
   q_[kDisplacement] = std::pow(o.process_noise * h * h, 2);
   q_[kStiffness] = o.stiffness_rate * o.stiffness_rate;
+  q_[kForce] = o.force_rate * o.force_rate;
+  q_[kNonlinear] = o.nonlinear_rate * o.nonlinear_rate;
   r_ = o.sensor_noise * o.sensor_noise;
   reset();
 }
@@ -85,13 +92,16 @@ void MirrorObserver::reset() noexcept {
   z_.setZero();
   past_ = {};
   z_[kStiffness] = 1.0;
+  z_[kForce] = 1.0;
+  z_[kNonlinear] = 1.0;
   p_.setZero();
+  p_(kForce, kForce) = model_.observer.force_spread * model_.observer.force_spread;
   p_(kStiffness, kStiffness) = model_.observer.stiffness_spread * model_.observer.stiffness_spread;
+  p_(kNonlinear, kNonlinear) = model_.observer.nonlinear_spread * model_.observer.nonlinear_spread;
 }
 
 void MirrorObserver::step_state(const Vector& z, double drive, Vector& out) const noexcept {
-  MirrorModel m = model_;
-  for (std::size_t j : {6u, 7u, 8u}) m.mechanical[j] *= z[kStiffness];
+  const MirrorModel m = with_scales(model_, {z[kStiffness], z[kForce], z[kNonlinear]});
   MirrorState s{z[kCurrent], z[kDisplacement], z[kVelocity], past_};
   step_mirror_model(m, s, drive);
   out[kCurrent] = s.i;
@@ -99,10 +109,12 @@ void MirrorObserver::step_state(const Vector& z, double drive, Vector& out) cons
   out[kVelocity] = s.v;
   for (int j = kHistory - 1; j >= 1; --j) out[kVelocity + j] = z[kVelocity + j - 1];
   out[kStiffness] = z[kStiffness];
+  out[kForce] = z[kForce];
+  out[kNonlinear] = z[kNonlinear];
 }
 
 void MirrorObserver::predict(double drive) noexcept {
-  // [EKF] z⁻ = f(z, u), P⁻ = F·P·Fᵀ + Q, F = ∂f/∂z: by finite differences for (i, x, v_0, θ_K), a shift for the
+  // [EKF] z⁻ = f(z, u), P⁻ = F·P·Fᵀ + Q, F = ∂f/∂z: by finite differences for (i, x, v_0 and the scales), a shift for the
   // velocity history
   step_state(z_, drive, base_);
   f_.setZero();
@@ -112,10 +124,12 @@ void MirrorObserver::predict(double drive) noexcept {
     step_state(scratch_, drive, gain_);
     f_.col(c) = (gain_ - base_) / kStep[c];
   }
-  scratch_ = z_;
-  scratch_[kStiffness] += kStiffnessStep;
-  step_state(scratch_, drive, gain_);
-  f_.col(kStiffness) = (gain_ - base_) / kStiffnessStep;
+  for (const int c : {kStiffness, kForce, kNonlinear}) {
+    scratch_ = z_;
+    scratch_[c] += kScaleStep;
+    step_state(scratch_, drive, gain_);
+    f_.col(c) = (gain_ - base_) / kScaleStep;
+  }
   for (int j = 1; j < kHistory; ++j) f_(kVelocity + j, kVelocity + j - 1) = 1.0;
   fp_.noalias() = f_ * p_;
   p_.noalias() = fp_ * f_.transpose();
@@ -132,7 +146,9 @@ void MirrorObserver::update(double measured) noexcept {
   z_ += gain_ * (measured - h_.dot(z_));
   p_.noalias() -= gain_ * scratch_.transpose();
   p_ = 0.5 * (p_ + p_.transpose()).eval();
-  z_[kStiffness] = std::clamp(z_[kStiffness], kStiffnessMin, kStiffnessMax);
+  z_[kStiffness] = std::clamp(z_[kStiffness], kScaleMin, kScaleMax);
+  z_[kForce] = std::clamp(z_[kForce], kScaleMin, kScaleMax);
+  z_[kNonlinear] = std::clamp(z_[kNonlinear], kScaleMin, kScaleMax);
   if (!z_.allFinite() || !p_.allFinite()) reset();  // a diverged estimate starts over from the model
 }
 

@@ -75,14 +75,16 @@ TEST(MirrorObserver, FollowsThePlantsStateOnANoiseFreeExactModel) {
     ASSERT_NEAR(observer.state().v, truth.v, 1e-9 * v_scale) << "sample " << k;
     ASSERT_NEAR(observer.state().x, truth.x, 1e-9 * v_scale / model.fs) << "sample " << k;
   }
-  EXPECT_NEAR(observer.stiffness_scale(), 1.0, 1e-9);
+  EXPECT_NEAR(observer.scales().stiffness, 1.0, 1e-9);
+  EXPECT_NEAR(observer.scales().force, 1.0, 1e-9);
+  EXPECT_NEAR(observer.scales().nonlinear, 1.0, 1e-9);
 }
 
 TEST(MirrorObserver, AdaptsTheStiffnessToAPlantItsModelDescribesExactly) {
   for (const double truth : {0.64, 1.44}) {  // the resonance at 0.8 and 1.2 times the model's
     const MirrorModel model = observed_exciter_model(0.02, 1.0);
     const Eigen::VectorXd drive = observer_test_drive(9000);
-    const ObserverTestRecord rec = observer_test_record(with_stiffness_scale(model, truth), drive, 0.02, 2);
+    const ObserverTestRecord rec = observer_test_record(with_scales(model, {truth, 1.0, 1.0}), drive, 0.02, 2);
     MirrorObserver observer(model);
     double err = 0.0, power = 0.0;
     for (Eigen::Index k = 0; k < drive.size(); ++k) {
@@ -94,7 +96,7 @@ TEST(MirrorObserver, AdaptsTheStiffnessToAPlantItsModelDescribesExactly) {
         power += v * v;
       }
     }
-    EXPECT_NEAR(observer.stiffness_scale(), truth, 0.01 * truth) << "true scale " << truth;
+    EXPECT_NEAR(observer.scales().stiffness, truth, 0.01 * truth) << "true scale " << truth;
     EXPECT_LT(std::sqrt(err / power), 0.02) << "true scale " << truth;
   }
 }
