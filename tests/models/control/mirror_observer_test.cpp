@@ -1,9 +1,11 @@
 // The mirror filter's observer (an extended Kalman filter on the gray-box exciter model, the sensor as its
 // measurement): on a plant its model describes exactly it follows the plant's state, and on a plant whose
-// stiffness is off it finds the true stiffness; the sensor map [S1] is recovered from its own record.
+// stiffness, force factor or nonlinearity is off it finds the true scales; the sensor map [S1] is recovered from
+// its own record.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "dsp/excitation.h"
 #include "dsp/random.h"
@@ -80,11 +82,13 @@ TEST(MirrorObserver, FollowsThePlantsStateOnANoiseFreeExactModel) {
   EXPECT_NEAR(observer.scales().nonlinear, 1.0, 1e-9);
 }
 
-TEST(MirrorObserver, AdaptsTheStiffnessToAPlantItsModelDescribesExactly) {
-  for (const double truth : {0.64, 1.44}) {  // the resonance at 0.8 and 1.2 times the model's
+TEST(MirrorObserver, AdaptsItsScalesToAPlantItsModelDescribesExactly) {
+  // the resonance at 0.8 and 1.2 times the model's, the force factor and the nonlinearity 20 % off, and both
+  const MirrorScales truths[] = {{0.64, 1.0, 1.0}, {1.44, 1.0, 1.0}, {1.0, 0.8, 1.0}, {1.0, 1.0, 1.2}, {1.44, 1.0, 0.8}};
+  for (const MirrorScales& truth : truths) {
     const MirrorModel model = observed_exciter_model(0.02, 1.0);
     const Eigen::VectorXd drive = observer_test_drive(9000);
-    const ObserverTestRecord rec = observer_test_record(with_scales(model, {truth, 1.0, 1.0}), drive, 0.02, 2);
+    const ObserverTestRecord rec = observer_test_record(with_scales(model, truth), drive, 0.02, 2);
     MirrorObserver observer(model);
     double err = 0.0, power = 0.0;
     for (Eigen::Index k = 0; k < drive.size(); ++k) {
@@ -96,8 +100,13 @@ TEST(MirrorObserver, AdaptsTheStiffnessToAPlantItsModelDescribesExactly) {
         power += v * v;
       }
     }
-    EXPECT_NEAR(observer.scales().stiffness, truth, 0.01 * truth) << "true scale " << truth;
-    EXPECT_LT(std::sqrt(err / power), 0.02) << "true scale " << truth;
+    const MirrorScales got = observer.scales();
+    const std::string which = "truth " + std::to_string(truth.stiffness) + ", " + std::to_string(truth.force) + ", " +
+                              std::to_string(truth.nonlinear);
+    EXPECT_NEAR(got.stiffness, truth.stiffness, 0.01 * truth.stiffness) << which;
+    EXPECT_NEAR(got.force, truth.force, 0.01 * truth.force) << which;
+    EXPECT_NEAR(got.nonlinear, truth.nonlinear, 0.03 * truth.nonlinear) << which;
+    EXPECT_LT(std::sqrt(err / power), 0.02) << which;
   }
 }
 
