@@ -40,7 +40,7 @@ struct MirrorObserverSettings {
   double stiffness_rate = 1e-4;       ///< θ_K's random walk, standard deviation per sample
   double stiffness_spread = 0.3;      ///< θ_K's initial standard deviation (around 1)
   double force_rate = 1e-4;           ///< θ_F's random walk, standard deviation per sample
-  double force_spread = 0.3;          ///< θ_F's initial standard deviation (around 1)
+  double force_spread = 0.1;          ///< θ_F's initial standard deviation (around 1)
   double nonlinear_rate = 1e-4;       ///< θ_N's random walk, standard deviation per sample
   double nonlinear_spread = 0.3;      ///< θ_N's initial standard deviation (around 1)
 };
