@@ -33,7 +33,7 @@ namespace panelbass::models {
 
 /// What the on-line observer (mirror_observer.h) needs: the sensor map [S1] and the noise it weighs by.
 struct MirrorObserverSettings {
-  bool enabled = false;               ///< adapt the stiffness on line from the sensor
+  bool enabled = false;               ///< adapt the model on line from the sensor (mirror_observer.h)
   std::array<double, 4> sensor_taps{};  ///< s_0..s_3 of [S1], sensor units per mm/s
   double sensor_noise = 0.0;          ///< the sensor's noise, rms, sensor units
   double process_noise = 0.0;         ///< the model's acceleration error, rms, mm/s²
