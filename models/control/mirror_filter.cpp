@@ -332,22 +332,24 @@ MirrorModel mirror_model_from_json(const nlohmann::json& j) {
     const Eigen::VectorXd read = read_vector(*taps, f.path_of("sensor_taps"));
     if (read.size() != 4) throw ConfigError(f.path_of("sensor_taps") + ": 4 taps expected, got " + std::to_string(read.size()));
     for (int k = 0; k < 4; ++k) s.sensor_taps[static_cast<std::size_t>(k)] = read[k];
-    s.sensor_noise = f.number("sensor_noise");
-    require_positive(s.sensor_noise, f.path_of("sensor_noise"));
-    s.process_noise = f.number("process_noise_mm_per_s2");
-    require_non_negative(s.process_noise, f.path_of("process_noise_mm_per_s2"));
-    s.stiffness_rate = f.number("stiffness_rate", s.stiffness_rate);
-    require_non_negative(s.stiffness_rate, f.path_of("stiffness_rate"));
-    s.stiffness_spread = f.number("stiffness_spread", s.stiffness_spread);
-    require_positive(s.stiffness_spread, f.path_of("stiffness_spread"));
-    s.force_rate = f.number("force_rate", s.force_rate);
-    require_non_negative(s.force_rate, f.path_of("force_rate"));
-    s.force_spread = f.number("force_spread", s.force_spread);
-    require_positive(s.force_spread, f.path_of("force_spread"));
-    s.nonlinear_rate = f.number("nonlinear_rate", s.nonlinear_rate);
-    require_non_negative(s.nonlinear_rate, f.path_of("nonlinear_rate"));
-    s.nonlinear_spread = f.number("nonlinear_spread", s.nonlinear_spread);
-    require_positive(s.nonlinear_spread, f.path_of("nonlinear_spread"));
+    // each setting: its key, where it goes, and whether it must be > 0 (else >= 0); absent keys keep their default,
+    // but for the two noises the fit measured
+    const auto setting = [&f](const char* key, double& out, bool positive, bool required) {
+      out = required ? f.number(key) : f.number(key, out);
+      if (positive) {
+        require_positive(out, f.path_of(key));
+      } else {
+        require_non_negative(out, f.path_of(key));
+      }
+    };
+    setting("sensor_noise", s.sensor_noise, true, true);
+    setting("process_noise_mm_per_s2", s.process_noise, false, true);
+    setting("stiffness_rate", s.stiffness_rate, false, false);
+    setting("stiffness_spread", s.stiffness_spread, true, false);
+    setting("force_rate", s.force_rate, false, false);
+    setting("force_spread", s.force_spread, true, false);
+    setting("nonlinear_rate", s.nonlinear_rate, false, false);
+    setting("nonlinear_spread", s.nonlinear_spread, true, false);
     f.finish();
     if (m.delay > 4) throw ConfigError(p.path_of("delay") + ": the observer takes a drive delay up to 4 samples");
   }

@@ -19,6 +19,23 @@ namespace {
 
 MirrorModel exciter_model() { return testing_support::panel_exciter_mirror_model(); }
 
+/// A record made by `model`: drive in, current (A) and displacement (m) out; index k holds the state at the start
+/// of sample k, before drive[k − delay] acts.
+struct MirrorFilterTestRecord {
+  Eigen::VectorXd current, displacement;
+};
+
+MirrorFilterTestRecord mirror_filter_test_record(const MirrorModel& model, const Eigen::VectorXd& drive, Eigen::Index delay) {
+  MirrorState s;
+  MirrorFilterTestRecord r{Eigen::VectorXd(drive.size()), Eigen::VectorXd(drive.size())};
+  for (Eigen::Index k = 0; k < drive.size(); ++k) {
+    r.current[k] = s.i;
+    r.displacement[k] = s.x / 1000.0;
+    step_mirror_model(model, s, k >= delay ? drive[k - delay] : 0.0);
+  }
+  return r;
+}
+
 Eigen::VectorXd two_tone(Eigen::Index n, double fs) {
   Eigen::VectorXd p(n);
   for (Eigen::Index k = 0; k < n; ++k) {
@@ -58,14 +75,8 @@ TEST(MirrorFilter, FitRecoversTheDrivePathFilter) {
   for (std::size_t j : {0u, 1u, 2u, 3u, 8u}) truth.electrical[j] = 0.0;  // no inductance, no i·dLe/dx back-EMF
   truth.drive_taps = {1.0, -1.1, 0.5, -0.1};
   const Eigen::VectorXd drive = 0.5 * dsp::gaussian_noise(12000, 0.4, 4).cwiseMax(-1.0).cwiseMin(1.0);
-  MirrorState s;
-  Eigen::VectorXd current(drive.size()), displacement(drive.size());
-  for (Eigen::Index k = 0; k < drive.size(); ++k) {
-    current[k] = s.i;
-    displacement[k] = s.x / 1000.0;
-    step_mirror_model(truth, s, k >= 2 ? drive[k - 2] : 0.0);
-  }
-  const MirrorFit fit = fit_mirror_model(drive, current, displacement, truth.fs);
+  const MirrorFilterTestRecord rec = mirror_filter_test_record(truth, drive, 2);
+  const MirrorFit fit = fit_mirror_model(drive, rec.current, rec.displacement, truth.fs);
   EXPECT_EQ(fit.model.delay, 2);
   for (std::size_t j = 0; j < 4; ++j) EXPECT_NEAR(fit.model.drive_taps[j], truth.drive_taps[j], 1e-6) << "a" << j;
   EXPECT_NEAR(fit.model.electrical[4], truth.electrical[4], 1e-6 * truth.electrical[4]);
@@ -87,15 +98,8 @@ TEST(MirrorFilter, FitRecoversTheModelFromItsOwnRecord) {
   for (std::size_t j : {0u, 1u, 2u, 3u}) truth.electrical[j] = 0.0;
   // a record made by the model: drive in, current and displacement (m) out
   const Eigen::VectorXd drive = 0.8 * dsp::gaussian_noise(12000, 0.4, 3).cwiseMax(-1.0).cwiseMin(1.0);
-  MirrorState s;
-  Eigen::VectorXd current(drive.size()), displacement(drive.size());
-  for (Eigen::Index k = 0; k < drive.size(); ++k) {
-    // record index k holds the state at the start of sample k, before drive[k] acts
-    current[k] = s.i;
-    displacement[k] = s.x / 1000.0;
-    step_mirror_model(truth, s, drive[k]);
-  }
-  const MirrorFit fit = fit_mirror_model(drive, current, displacement, truth.fs);
+  const MirrorFilterTestRecord rec = mirror_filter_test_record(truth, drive, 0);
+  const MirrorFit fit = fit_mirror_model(drive, rec.current, rec.displacement, truth.fs);
   EXPECT_EQ(fit.model.delay, 0);  // record[k] is the state drive[k] starts from: no delay
   EXPECT_DOUBLE_EQ(fit.model.friction_velocity, 50.0);
   for (std::size_t j = 0; j < 10; ++j) {
