@@ -89,7 +89,7 @@ CHAINS="$chains" python3 - $plants <<'PY'
 import json, math, os, shutil, sys
 plants = sys.argv[1:]
 chains = os.environ["CHAINS"].split()
-print(f"{'chain':10} {'plant':26} " + " ".join(f"{f'{f} Hz worst (range)':>24}" for f in (40, 80, 160, 320)) + "   IMD cut dB (range)")
+print(f"{'chain':15} {'plant':26} " + " ".join(f"{f'{f} Hz worst (range)':>24}" for f in (40, 80, 160, 320)) + "   IMD cut dB (range)")
 score = {}
 for chain in chains:
     for plant in plants:
@@ -109,9 +109,9 @@ for chain in chains:
                 score[chain] = min(score.get(chain, math.inf), s)
         imd = [p["cut_db"] for p in r["imd"] if p["reachable"]]
         irng = f"{min(imd):.1f}..{max(imd):.1f}" if imd else "-"
-        print(f"{chain:10} {plant:26} " + " ".join(f"{x:>24}" for x in cells) + f"   {irng}")
+        print(f"{chain:15} {plant:26} " + " ".join(f"{x:>24}" for x in cells) + f"   {irng}")
 best = max((c for c in chains if c != "lq-chain"), key=lambda c: score.get(c, -math.inf))
 shutil.copyfile(f"{best}.json", "chain.json")
-print(f"best compensator (worst cut at 40/80/160 Hz over every plant {score[best]:.1f} dB): {best}.json -> chain.json")
+print(f"best compensator (worst cut at 40/80/160 Hz over every plant {score.get(best, float('nan')):.1f} dB): {best}.json -> chain.json")
 PY
 stage "done: $dir/chain.json is the best compensator's chain, the one the figures were measured with"
