@@ -27,7 +27,9 @@ double MirrorFilterStage::process(double x) noexcept {
 }
 
 void MirrorFilterStage::observe(double measured) noexcept {
-  if (!observer_) return;
+  // a chain without a sensor observes exact zeros (Chain::process_block without one): nothing to adapt from, the
+  // observer's model runs on without its measurement update
+  if (!observer_ || measured == 0.0) return;
   observer_->update(measured);
   const models::MirrorScales scales = observer_->scales();
   filter_.set_scales(scales.stiffness, scales.force, scales.nonlinear);

@@ -24,7 +24,8 @@ class MirrorFilterStage final : public Stage {
   /// One program sample in, one drive sample out (the observer's time update with that drive).
   double process(double x) noexcept override;
   /// The sensor's output for the sample just processed: the observer's measurement update, and the filter's
-  /// stiffness and nonlinearity set to the observer's estimates.
+  /// stiffness and nonlinearity set to the observer's estimates. An exact 0 (a chain run without a sensor) is
+  /// no measurement: the filter keeps its scales.
   void observe(double measured) noexcept override;
   /// True when adaptive.
   bool observes() const noexcept override { return observer_.has_value(); }

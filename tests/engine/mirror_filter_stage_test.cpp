@@ -61,6 +61,21 @@ TEST(MirrorFilterStage, AdaptiveStageFindsTheStiffnessOfThePlantItDrives) {
   EXPECT_NEAR(stage.observer()->scales().nonlinear, 1.0, 0.03);
 }
 
+TEST(MirrorFilterStage, AdaptiveStageWithoutASensorKeepsItsModel) {
+  // a chain run without a sensor observes zeros: the adaptive stage then gives what the open-loop filter gives
+  models::MirrorModel model = small_model();
+  model.observer = {true, {2e-3, -2e-3, 0.0, 0.0}, 1e-3, 1.0, 1e-4, 0.3, 1e-4, 0.1, 1e-4, 0.3};
+  MirrorFilterStage stage(model);
+  stage.prepare({3000.0, 64});
+  Eigen::VectorXd program(3000);
+  for (Eigen::Index k = 0; k < program.size(); ++k) program[k] = 0.3 * std::sin(2.0 * std::numbers::pi * 80.0 * k / 3000.0);
+  const Eigen::VectorXd expected = models::mirror_filter(small_model(), program);
+  for (Eigen::Index k = 0; k < program.size(); ++k) {
+    ASSERT_DOUBLE_EQ(stage.process(program[k]), expected[k]) << "sample " << k;
+    stage.observe(0.0);
+  }
+}
+
 TEST(MirrorFilterStage, RefusesAnotherRate) {
   MirrorFilterStage stage(small_model());
   EXPECT_THROW(stage.prepare({48000.0, 64}), std::invalid_argument);
