@@ -9,17 +9,17 @@
 namespace panelbass::models {
 namespace {
 
-constexpr double kMmPerM = 1000.0;
-constexpr int kCurrent = 0, kDisplacement = 1, kVelocity = 2;
-constexpr int kStiffness = MirrorObserver::kStates - 3, kForce = MirrorObserver::kStates - 2,
-              kNonlinear = MirrorObserver::kStates - 1;
+constexpr double kObserverMmPerM = 1000.0;
+constexpr int kObservedCurrent = 0, kObservedDisplacement = 1, kObservedVelocity = 2;
+constexpr int kStiffnessScale = MirrorObserver::kStates - 3, kForceScale = MirrorObserver::kStates - 2,
+              kNonlinearScale = MirrorObserver::kStates - 1;
 // The scales are kept within these bounds (a model off by more than this is not one to adapt from).
-constexpr double kScaleMin = 0.4, kScaleMax = 2.5;
+constexpr double kObserverScaleMin = 0.4, kObserverScaleMax = 2.5;
 // Finite-difference steps of the Jacobian, in each state's units (A, mm, mm/s, 1).
-constexpr double kStep[] = {1e-7, 1e-7, 1e-5};
-constexpr double kScaleStep = 1e-7;
+constexpr double kObserverStep[] = {1e-7, 1e-7, 1e-5};
+constexpr double kObserverScaleStep = 1e-7;
 
-void require_record(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double fs, const char* what) {
+void require_sensor_record(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double fs, const char* what) {
   if (a.size() != b.size()) {
     throw std::invalid_argument(std::string(what) + ": the columns must have the same length (" +
                                 std::to_string(a.size()) + ", " + std::to_string(b.size()) + ")");
@@ -38,10 +38,10 @@ void require_record(const Eigen::VectorXd& a, const Eigen::VectorXd& b, double f
 }  // namespace
 
 SensorMapFit fit_sensor_map(const Eigen::VectorXd& displacement, const Eigen::VectorXd& measured, double fs) {
-  require_record(displacement, measured, fs, "sensor map fit");
+  require_sensor_record(displacement, measured, fs, "sensor map fit");
   const Eigen::Index n = displacement.size();
   Eigen::VectorXd v = Eigen::VectorXd::Zero(n);  // [M3]: v_k = (x_k − x_{k−1})/h, mm/s
-  for (Eigen::Index k = 1; k < n; ++k) v[k] = (displacement[k] - displacement[k - 1]) * kMmPerM * fs;
+  for (Eigen::Index k = 1; k < n; ++k) v[k] = (displacement[k] - displacement[k - 1]) * kObserverMmPerM * fs;
   const Eigen::Index first = 4, rows = n - first;
   Eigen::MatrixXd a(rows, 4);
   for (Eigen::Index r = 0; r < rows; ++r) {
@@ -76,14 +76,14 @@ MirrorObserver::MirrorObserver(const MirrorModel& model) : model_(model) {
   }
   // [S1] reads rows k..k−3 of the velocity; the newest row kept is k + delay + 1
   h_.setZero();
-  for (int j = 0; j < 4; ++j) h_[kVelocity + model.delay + 1 + j] = o.sensor_taps[static_cast<std::size_t>(j)];
+  for (int j = 0; j < 4; ++j) h_[kObservedVelocity + model.delay + 1 + j] = o.sensor_taps[static_cast<std::size_t>(j)];
   const double h = 1.0 / model.fs;
   q_.setZero();
-  q_[kVelocity] = std::pow(o.process_noise * h, 2);
-  q_[kDisplacement] = std::pow(o.process_noise * h * h, 2);
-  q_[kStiffness] = o.stiffness_rate * o.stiffness_rate;
-  q_[kForce] = o.force_rate * o.force_rate;
-  q_[kNonlinear] = o.nonlinear_rate * o.nonlinear_rate;
+  q_[kObservedVelocity] = std::pow(o.process_noise * h, 2);
+  q_[kObservedDisplacement] = std::pow(o.process_noise * h * h, 2);
+  q_[kStiffnessScale] = o.stiffness_rate * o.stiffness_rate;
+  q_[kForceScale] = o.force_rate * o.force_rate;
+  q_[kNonlinearScale] = o.nonlinear_rate * o.nonlinear_rate;
   r_ = o.sensor_noise * o.sensor_noise;
   reset();
 }
@@ -91,26 +91,26 @@ MirrorObserver::MirrorObserver(const MirrorModel& model) : model_(model) {
 void MirrorObserver::reset() noexcept {
   z_.setZero();
   past_ = {};
-  z_[kStiffness] = 1.0;
-  z_[kForce] = 1.0;
-  z_[kNonlinear] = 1.0;
+  z_[kStiffnessScale] = 1.0;
+  z_[kForceScale] = 1.0;
+  z_[kNonlinearScale] = 1.0;
   p_.setZero();
-  p_(kForce, kForce) = model_.observer.force_spread * model_.observer.force_spread;
-  p_(kStiffness, kStiffness) = model_.observer.stiffness_spread * model_.observer.stiffness_spread;
-  p_(kNonlinear, kNonlinear) = model_.observer.nonlinear_spread * model_.observer.nonlinear_spread;
+  p_(kForceScale, kForceScale) = model_.observer.force_spread * model_.observer.force_spread;
+  p_(kStiffnessScale, kStiffnessScale) = model_.observer.stiffness_spread * model_.observer.stiffness_spread;
+  p_(kNonlinearScale, kNonlinearScale) = model_.observer.nonlinear_spread * model_.observer.nonlinear_spread;
 }
 
 void MirrorObserver::step_state(const Vector& z, double drive, Vector& out) const noexcept {
-  const MirrorModel m = with_scales(model_, {z[kStiffness], z[kForce], z[kNonlinear]});
-  MirrorState s{z[kCurrent], z[kDisplacement], z[kVelocity], past_};
+  const MirrorModel m = with_scales(model_, {z[kStiffnessScale], z[kForceScale], z[kNonlinearScale]});
+  MirrorState s{z[kObservedCurrent], z[kObservedDisplacement], z[kObservedVelocity], past_};
   step_mirror_model(m, s, drive);
-  out[kCurrent] = s.i;
-  out[kDisplacement] = s.x;
-  out[kVelocity] = s.v;
-  for (int j = kHistory - 1; j >= 1; --j) out[kVelocity + j] = z[kVelocity + j - 1];
-  out[kStiffness] = z[kStiffness];
-  out[kForce] = z[kForce];
-  out[kNonlinear] = z[kNonlinear];
+  out[kObservedCurrent] = s.i;
+  out[kObservedDisplacement] = s.x;
+  out[kObservedVelocity] = s.v;
+  for (int j = kHistory - 1; j >= 1; --j) out[kObservedVelocity + j] = z[kObservedVelocity + j - 1];
+  out[kStiffnessScale] = z[kStiffnessScale];
+  out[kForceScale] = z[kForceScale];
+  out[kNonlinearScale] = z[kNonlinearScale];
 }
 
 void MirrorObserver::predict(double drive) noexcept {
@@ -120,17 +120,17 @@ void MirrorObserver::predict(double drive) noexcept {
   f_.setZero();
   for (int c = 0; c < 3; ++c) {
     scratch_ = z_;
-    scratch_[c] += kStep[c];
+    scratch_[c] += kObserverStep[c];
     step_state(scratch_, drive, gain_);
-    f_.col(c) = (gain_ - base_) / kStep[c];
+    f_.col(c) = (gain_ - base_) / kObserverStep[c];
   }
-  for (const int c : {kStiffness, kForce, kNonlinear}) {
+  for (const int c : {kStiffnessScale, kForceScale, kNonlinearScale}) {
     scratch_ = z_;
-    scratch_[c] += kScaleStep;
+    scratch_[c] += kObserverScaleStep;
     step_state(scratch_, drive, gain_);
-    f_.col(c) = (gain_ - base_) / kScaleStep;
+    f_.col(c) = (gain_ - base_) / kObserverScaleStep;
   }
-  for (int j = 1; j < kHistory; ++j) f_(kVelocity + j, kVelocity + j - 1) = 1.0;
+  for (int j = 1; j < kHistory; ++j) f_(kObservedVelocity + j, kObservedVelocity + j - 1) = 1.0;
   fp_.noalias() = f_ * p_;
   p_.noalias() = fp_ * f_.transpose();
   p_.diagonal() += q_;
@@ -146,9 +146,9 @@ void MirrorObserver::update(double measured) noexcept {
   z_ += gain_ * (measured - h_.dot(z_));
   p_.noalias() -= gain_ * scratch_.transpose();
   p_ = 0.5 * (p_ + p_.transpose()).eval();
-  z_[kStiffness] = std::clamp(z_[kStiffness], kScaleMin, kScaleMax);
-  z_[kForce] = std::clamp(z_[kForce], kScaleMin, kScaleMax);
-  z_[kNonlinear] = std::clamp(z_[kNonlinear], kScaleMin, kScaleMax);
+  z_[kStiffnessScale] = std::clamp(z_[kStiffnessScale], kObserverScaleMin, kObserverScaleMax);
+  z_[kForceScale] = std::clamp(z_[kForceScale], kObserverScaleMin, kObserverScaleMax);
+  z_[kNonlinearScale] = std::clamp(z_[kNonlinearScale], kObserverScaleMin, kObserverScaleMax);
   if (!z_.allFinite() || !p_.allFinite()) reset();  // a diverged estimate starts over from the model
 }
 
