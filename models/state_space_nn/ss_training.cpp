@@ -26,7 +26,7 @@ double selection_j(const SsModel& m, const Eigen::VectorXd& u, const Eigen::Vect
 SsModel ss_initial_model(const LinearModel& linear, SsStructure structure, const Eigen::VectorXd& u,
                          const Eigen::VectorXd& y, std::uint64_t seed) {
   if (u.size() != y.size()) throw std::invalid_argument("ss_initial_model: input and output lengths differ");
-  const StateSpace ss = realize(linear.tf);
+  StateSpace ss = realize(linear.tf);
   const Eigen::Index n = ss.order(), L = structure.lags, samples = u.size();
   if (samples <= L + 2 * L) {
     throw std::invalid_argument("ss_initial_model: " + std::to_string(samples) + " samples are too few for " +
@@ -44,6 +44,16 @@ SsModel ss_initial_model(const LinearModel& linear, SsStructure structure, const
   for (Eigen::Index i = 0; i < n; ++i) {
     const double rms = std::sqrt(states.row(i).squaredNorm() / static_cast<double>(samples));
     scale(i) = rms > 1e-12 ? rms : 1.0;
+  }
+  if (structure.poly_degree > 0) {
+    // The polynomial's monomials want states of size ≈ 1: x = S·x', S = diag(scale), so A' = S⁻¹·A·S,
+    // B' = S⁻¹·B, C' = C·S (the same input-output map).
+    const Eigen::VectorXd inverse = scale.cwiseInverse();
+    ss.A = inverse.asDiagonal() * ss.A * scale.asDiagonal();
+    ss.B = inverse.asDiagonal() * ss.B;
+    ss.C = ss.C * scale.asDiagonal();
+    states = inverse.asDiagonal() * states;
+    scale.setOnes();
   }
   SsModel m = ss_model_from_linear(ss, structure, scale, linear.scaling, linear.fs, seed);
   auto p = ss_parts(m.structure, m.theta.data());
