@@ -119,6 +119,8 @@ void run_identify_ss(const IdentifySsOptions& o) {
       return !stop_requested() && !(o.max_seconds > 0.0 && seconds() >= 2.0 * o.max_seconds);
     };
     const models::SsTraining polished = models::polish_ss(trained.model, est.columns[0], est.columns[1], u_val, y_val, polish);
+    std::fprintf(stderr, "identify ss: L-BFGS stopped: liblbfgs status %d after %zu iterations\n", polished.status,
+                 polished.history.size() - 1);
     trained.model = polished.model;
     trained.j_val_pct = polished.j_val_pct;
   }

@@ -153,12 +153,19 @@ struct PolishRun {
   SsTraining* out;
   std::chrono::steady_clock::time_point began;
   Eigen::VectorXd gradient;
+  double start_loss = 0.0;  ///< the loss at the start
 };
 
 lbfgsfloatval_t polish_evaluate(void* instance, const lbfgsfloatval_t* x, lbfgsfloatval_t* g, int n, lbfgsfloatval_t) {
   auto& run = *static_cast<PolishRun*>(instance);
   run.model.theta = Eigen::Map<const Eigen::VectorXd>(x, n);
   const double loss = ss_window_loss(run.model, *run.us, *run.ys, {run.starts, run.options->window}, &run.gradient);
+  if (!std::isfinite(loss) || !run.gradient.allFinite()) {
+    // A trial step so long that a window's simulation ran away (a cubic state term grows fast): a finite
+    // loss far above the start's, so that More–Thuente's interpolation stays finite and shortens the step.
+    Eigen::Map<Eigen::VectorXd>(g, n).setZero();
+    return 1e6 * (run.start_loss + 1.0);
+  }
   Eigen::Map<Eigen::VectorXd>(g, n) = run.gradient;
   return loss;
 }
@@ -196,10 +203,11 @@ SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen
   SsTraining out;
   out.model = start;
   PolishRun run{start, &us, &ys, has_val ? &u_val : &u, has_val ? &y_val : &y, {}, &options, &out,
-                std::chrono::steady_clock::now(), {}};
+                std::chrono::steady_clock::now(), {}, 0.0};
   for (Eigen::Index k0 = L; k0 + T <= u.size(); k0 += T) run.starts.push_back(k0);
   out.j_val_pct = selection_j(start, *run.u_sel, *run.y_sel, options.init);
-  out.history.push_back({0, ss_window_loss(start, us, ys, {run.starts, T}, nullptr), out.j_val_pct, 0.0});
+  run.start_loss = ss_window_loss(start, us, ys, {run.starts, T}, nullptr);
+  out.history.push_back({0, run.start_loss, out.j_val_pct, 0.0});
   if (options.progress && !options.progress(out.history.back())) return out;
 
   const int n = static_cast<int>(start.theta.size());
@@ -212,7 +220,7 @@ SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen
   param.epsilon = 0.0;  // no gradient-norm stop: the iterations and the selection J decide
   param.delta = 0.0;
   lbfgsfloatval_t fx = 0.0;
-  lbfgs(n, x, &fx, polish_evaluate, polish_progress, &run, &param);  // its status: why it stopped, any iterate kept
+  out.status = lbfgs(n, x, &fx, polish_evaluate, polish_progress, &run, &param);  // any iterate kept
   lbfgs_free(x);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run.began).count();
   return out;
