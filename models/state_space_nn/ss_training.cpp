@@ -219,6 +219,10 @@ SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen
   param.max_iterations = options.iterations;
   param.epsilon = 0.0;  // no gradient-norm stop: the iterations and the selection J decide
   param.delta = 0.0;
+  // With the polynomial, a long trial step runs a window's simulation away (the loss above): halving the
+  // step until the loss falls (Armijo, then Wolfe's curvature condition) recovers where More–Thuente's
+  // interpolation gives up.
+  if (start.structure.poly_degree > 0) param.linesearch = LBFGS_LINESEARCH_BACKTRACKING_WOLFE;
   lbfgsfloatval_t fx = 0.0;
   out.status = lbfgs(n, x, &fx, polish_evaluate, polish_progress, &run, &param);  // any iterate kept
   lbfgs_free(x);

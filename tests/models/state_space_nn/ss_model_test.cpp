@@ -265,7 +265,8 @@ TEST(SsTraining, ThePolynomialExtrapolatesACubicSpringBeyondTheTrainingAmplitude
   options.init = init;
   const SsTraining polished = polish_ss(start, ue, ye, {}, {}, options);
   const double j_test = j_percent(polished.model.simulate(ut, yt, init), yt, init);
-  EXPECT_LT(j_test, 0.1 * j_start) << "start " << j_start;
+  EXPECT_LT(j_test, 0.1 * j_start) << "start " << j_start << ", liblbfgs status " << polished.status << " after "
+                                    << polished.history.size() - 1 << " iterations";
 }
 
 }  // namespace
