@@ -41,6 +41,16 @@ SsModel random_model(int encoder_hidden, int poly_degree = 0) {
   return m;
 }
 
+// The encoder's regressor written out: [y(k−1) … y(k−L), u(k−1) … u(k−L)] at k = init.
+Eigen::VectorXd ss_test_regressor(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init, int lags) {
+  Eigen::VectorXd z(2 * lags);
+  for (int i = 0; i < lags; ++i) {
+    z(i) = y(init - 1 - i);
+    z(lags + i) = u(init - 1 - i);
+  }
+  return z;
+}
+
 // Wiener–Hammerstein: a first-order low-pass, a saturation, another first-order filter.
 Eigen::VectorXd wiener_hammerstein(const Eigen::VectorXd& u) {
   Eigen::VectorXd y(u.size());
@@ -82,11 +92,7 @@ TEST(SsModel, FreeRunFollowsTheRecursionWrittenOut) {
   const Eigen::VectorXd u = noise(30, 3), y = noise(30, 4);
   const Eigen::Index init = 6;
   // x(init) = E·z + V2·tanh(V1·z + c1) + c2 with z = [y(5..2), u(5..2)]
-  Eigen::VectorXd z(8);
-  for (int i = 0; i < 4; ++i) {
-    z(i) = y(init - 1 - i);
-    z(4 + i) = u(init - 1 - i);
-  }
+  const Eigen::VectorXd z = ss_test_regressor(u, y, init, 4);
   Eigen::VectorXd x = p.E * z + p.c2 + p.V2 * (p.V1 * z + p.c1).array().tanh().matrix();
   const Eigen::VectorXd sim = m.simulate_scaled(u, y, init);
   for (Eigen::Index k = 0; k < init; ++k) EXPECT_EQ(sim(k), y(k));
@@ -112,11 +118,7 @@ TEST(SsModel, PolynomialTermsAreTheMonomialsWrittenOut) {
   p.A << 0.5, 0.2, -0.1, 0.6;
   const Eigen::VectorXd u = noise(25, 12), y = noise(25, 13);
   const Eigen::Index init = 4;
-  Eigen::VectorXd z(6);
-  for (int i = 0; i < 3; ++i) {
-    z(i) = y(init - 1 - i);
-    z(3 + i) = u(init - 1 - i);
-  }
+  const Eigen::VectorXd z = ss_test_regressor(u, y, init, 3);
   Eigen::Vector2d x = p.E * z + p.c2;
   const Eigen::VectorXd sim = m.simulate_scaled(u, y, init);
   for (Eigen::Index k = init; k < u.size(); ++k) {
