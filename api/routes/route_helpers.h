@@ -2,6 +2,8 @@
 // What every route group of the server shares: the API's JSON replies and error object, the guard that
 // turns a handler's exceptions into that object, and the path and query readers.
 
+// Eigen before httplib.h: the latter's <resolv.h> defines _res, a name Eigen's headers use.
+#include <Eigen/Core>
 #include <cstddef>
 #include <functional>
 #include <initializer_list>
