@@ -181,7 +181,7 @@ TEST_F(CardPipelineTest, RunsTheTunePipelineThroughTheCardAsOnTheVirtualBackend)
   const nlohmann::json lq_model = get("/api/models/" + lq_id).body["model"];
   const nlohmann::json nn_model = get("/api/models/" + nn_id).body["model"];
   const nlohmann::json verify_params = {{"feedforward_model", lq_id}, {"feedback_model", nn_id},
-                                        {"frequencies", {80, 160}}, {"level", 0.2}, {"seconds", 1.0}};
+                                        {"frequencies", {80, 160}}, {"level", 0.2}, {"seconds", 2.0}};
   const nlohmann::json card_verify = run_job("verify", verify_params);
   const double pipeline_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
 
@@ -206,10 +206,12 @@ TEST_F(CardPipelineTest, RunsTheTunePipelineThroughTheCardAsOnTheVirtualBackend)
   for (std::size_t p = 0; p < 2; ++p) {
     const nlohmann::json& c = card_verify["result"]["probes"][p];
     const nlohmann::json& v = virtual_verify["result"]["probes"][p];
-    std::printf("[ card ] verify %g Hz: THD %.3f %% -> %.3f %% (%+.2f dB) through the card; %.3f %% -> %.3f %% (%+.2f dB) on the "
-                "virtual backend\n", c["frequency_hz"].get<double>(), c["thd_before_pct"].get<double>(),
-                c["thd_after_pct"].get<double>(), c["thd_change_db"].get<double>(), v["thd_before_pct"].get<double>(),
-                v["thd_after_pct"].get<double>(), v["thd_change_db"].get<double>());
+    std::printf("[ card ] verify %g Hz: THD %.3f %% -> %.3f %% (%+.2f dB, level %.4f -> %.4f) through the card; %.3f %% -> "
+                "%.3f %% (%+.2f dB, level %.4f -> %.4f) on the virtual backend\n", c["frequency_hz"].get<double>(),
+                c["thd_before_pct"].get<double>(), c["thd_after_pct"].get<double>(), c["thd_change_db"].get<double>(),
+                c["level_before"].get<double>(), c["level_after"].get<double>(), v["thd_before_pct"].get<double>(),
+                v["thd_after_pct"].get<double>(), v["thd_change_db"].get<double>(), v["level_before"].get<double>(),
+                v["level_after"].get<double>());
     EXPECT_NEAR(c["thd_change_db"].get<double>(), v["thd_change_db"].get<double>(), 1.5) << c.dump() << "\n" << v.dump();
   }
   std::printf("[ card ] linear OE(8) J_val %.3f %% through the card (process alone %.3f %%), %.3f %% on the virtual "
