@@ -94,9 +94,10 @@ LoopConsistency check_loop(const Eigen::VectorXd& played, const Eigen::VectorXd&
 inline constexpr Eigen::Index kLoopTaps = 48;
 /// The window check_loop compares over, samples (a JACK period is a few samples at the chain's rate).
 inline constexpr Eigen::Index kLoopWindow = 256;
-/// A loopback residual above this over a window is a slip (a clean loop leaves < 1e-4; a shift of one
-/// sample of broadband drive leaves > 0.1).
-inline constexpr double kLoopTolerance = 0.01;
+/// A loopback residual above this over a window is a slip or a gap (the JACK loop with no card leaves ~1e-12,
+/// a card's converters' noise −60 dB or less; one sample of 256 lost or zeroed leaves ~4e-3, a shift of one
+/// sample of broadband drive > 0.1).
+inline constexpr double kLoopTolerance = 1e-4;
 
 /// The lag in [0, max_lag] at which `heard` (same length as `played`) correlates best with `played`
 /// (r(τ) = Σ u(k)·y(k+τ) / (N σ_u σ_y)); throws std::invalid_argument for unequal lengths, a
