@@ -40,8 +40,8 @@ namespace {
 using namespace std::chrono_literals;
 using api_testing::Reply;
 
-constexpr double kDeviceRate = 48000.0;
-constexpr int kPeriod = 64;
+using testing_support::kDeviceRate;
+using testing_support::kPeriod;
 
 // The ALSA configuration: the playback's channel 0 drives the transducer, the capture hears its sensor, the
 // drive itself and its current.

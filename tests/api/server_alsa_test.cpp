@@ -32,8 +32,8 @@ namespace {
 
 using namespace std::chrono_literals;
 
-constexpr double kDeviceRate = 48000.0;
-constexpr int kPeriod = 64;
+using testing_support::kDeviceRate;
+using testing_support::kPeriod;
 
 class ServerOnACardTest : public testing_support::ScratchDirectoryTest {
  protected:

@@ -50,8 +50,8 @@ using testing_support::skip_jack;
 
 using namespace std::chrono_literals;
 
-constexpr double kDeviceRate = 48000.0;
-constexpr int kPeriod = 64;
+using testing_support::kDeviceRate;
+using testing_support::kPeriod;
 // Eight periods (10.7 ms) of slack: jackd without real-time scheduling on a machine busy compiling is
 // sometimes descheduled for several milliseconds and then catches up with a burst of cycles.
 constexpr int kPeriods = 8;

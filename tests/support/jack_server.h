@@ -160,6 +160,11 @@ inline std::string loopback_config(const std::string& tag) {
          "}\n";
 }
 
+/// The card the JACK tests run: 48 kHz, 64-frame periods (a common sound card's set-up).
+inline constexpr double kDeviceRate = 48000.0;
+/// The JACK tests' period, in frames.
+inline constexpr int kPeriod = 64;
+
 /// The ALSA options of the tests' JACK card: the PCMs pb_play and pb_capture of `config_text`
 /// (loopback_config or a test's own), `rate` Hz, `periods` periods of `period` frames, a modest SCHED_FIFO
 /// priority where the machine grants it (root or CAP_SYS_NICE; else the buffer's slack has to do), and as
