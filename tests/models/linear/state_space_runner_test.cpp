@@ -75,7 +75,7 @@ TEST(StateSpaceRunner, StepBlockIsStepSampleBySampleWithinRoundingForEveryOrder)
 
 // An 8th-order system with four resonances (engine_bench's feedforward, radii 0.9..0.97, 50..900 Hz at 3 kHz)
 // and, when `real_poles`, three real poles beside them (an odd count: one modal pair half padding).
-StateSpace resonant_system(bool real_poles) {
+StateSpace runner_resonant_system(bool real_poles) {
   Eigen::VectorXcd poles(real_poles ? 11 : 8);
   const double hz[] = {50.0, 200.0, 500.0, 900.0};
   const double radius[] = {0.97, 0.95, 0.92, 0.9};
@@ -95,7 +95,7 @@ TEST(StateSpaceRunner, TheModalBlockFormIsStepWithinRoundingAndCarriesTheStateOn
   // copy, in uneven blocks, in place, and from a state left by step().
   dsp::Rng rng(41);
   for (const bool real_poles : {false, true}) {
-    const StateSpace ss = resonant_system(real_poles);
+    const StateSpace ss = runner_resonant_system(real_poles);
     StateSpaceRunner by_sample(ss), by_block(ss, {}, BlockForm::modal);
     ASSERT_TRUE(by_block.uses_modal_form()) << real_poles;
     EXPECT_FALSE(by_sample.uses_modal_form());
