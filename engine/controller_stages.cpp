@@ -30,7 +30,7 @@ StateSpaceStage::StateSpaceStage(models::StateSpace system, double fs) : ss_(std
 void StateSpaceStage::prepare(const ProcessSpec& spec) {
   require_rate(fs_, spec.fs, "state-space stage");
   models::check_shape(ss_, "state-space stage");
-  runner_ = models::StateSpaceRunner(ss_, {}, models::BlockForm::modal);
+  runner_ = models::StateSpaceRunner(ss_);
 }
 
 double StateSpaceStage::process(double x) noexcept {

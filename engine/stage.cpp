@@ -67,7 +67,7 @@ LinearStage::LinearStage(models::LinearModel model) : model_(std::move(model)) {
 
 void LinearStage::prepare(const ProcessSpec& spec) {
   require_rate(model_.fs, spec.fs, "linear stage");
-  runner_ = models::StateSpaceRunner(models::realize(model_.tf), {}, models::BlockForm::modal);
+  runner_ = models::StateSpaceRunner(models::realize(model_.tf));
 }
 
 double LinearStage::process(double x) noexcept {

@@ -25,7 +25,7 @@ class StateSpaceRunner {
   /// not n×n, B or C not of length n, or x0 neither empty nor of length n. With BlockForm::modal and up to
   /// 16 states, step_block() runs A's real modal form z = T⁻¹x (2×2 blocks [σ ω; −ω σ] for complex pole
   /// pairs, real poles two to a pair) when T is well conditioned (κ(T) ≤ 100) and the two forms' impulse
-  /// responses agree within 1e-14 of their peak; otherwise, and for step(), the system as given.
+  /// responses differ, summed, by ≤ 1e-13 of the response's own sum; otherwise, and for step(), as given.
   explicit StateSpaceRunner(StateSpace system, const Eigen::VectorXd& x0 = {},
                             BlockForm block_form = BlockForm::as_given);
 
