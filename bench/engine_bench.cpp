@@ -369,7 +369,7 @@ int main(int argc, char** argv) {
   // One line for bench/engine_compare.py, which sets two builds' figures side by side (medians, ns).
   std::printf("\nsummary band_pass_stage=%.2f band_pass=%.2f full_chain=%.2f device48_bridge=%.2f device48_full=%.2f "
               "latency48_ms=%.2f\n",
-              rows[0].r.median_ns_per_sample, rows[1].r.median_ns_per_sample, rows[3].r.median_ns_per_sample,
+              rows[0].r.median_ns_per_sample, rows[2].r.median_ns_per_sample, rows[4].r.median_ns_per_sample,
               device_rows[0].r.median_ns_per_frame, device_rows[1].r.median_ns_per_frame, device_rows[0].r.latency_ms);
   return 0;
 }
