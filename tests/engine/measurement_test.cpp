@@ -90,7 +90,7 @@ struct SlippedLoop {
 };
 SlippedLoop measurement_loop(Eigen::Index slip_from, Eigen::Index slip_to, Eigen::Index slip) {
   const Eigen::Index n = 9000;
-  SlippedLoop loop{noise(n, 3), Eigen::VectorXd::Zero(n)};
+  SlippedLoop loop{testing::uniform(n, 0.5, 3), Eigen::VectorXd::Zero(n)};
   loop.played.segment(2000, 300).setZero();
   loop.played.tail(400).setZero();
   Eigen::VectorXd clean = Eigen::VectorXd::Zero(n);
