@@ -11,7 +11,7 @@
 #include "api/jobs/stored_models.h"
 #include "api/model_store.h"
 #include "dsp/excitation.h"
-#include "engine/converter_loop.h"
+#include "models/plant/converter_loop.h"
 #include "models/control/feedback_design.h"
 #include "models/control/lq_feedforward.h"
 #include "models/control/model_probes.h"
@@ -59,7 +59,7 @@ Eigen::VectorXd play(const JobEnvironment& env, const Eigen::VectorXd& drive, Ex
     record.card.push_back(std::move(measured.report));
   } else {
     response = env.excite(drive);
-    if (env.plant) loopback = engine::converters_alone(*env.plant, drive);
+    if (env.plant) loopback = models::converters_alone(*env.plant, drive);
   }
   if (response.size() != drive.size()) {
     throw std::runtime_error("the backend recorded " + std::to_string(response.size()) + " samples for a drive of " +

@@ -13,10 +13,10 @@
 
 #include "models/plant/plant_config.h"
 
-namespace panelbass::engine {
+namespace panelbass::models {
 
 /// `drive` through `plant`'s converters alone (its mechanics and sensor left out), from rest. Throws
 /// std::invalid_argument for a non-finite drive sample.
-Eigen::VectorXd converters_alone(const models::PlantConfig& plant, const Eigen::VectorXd& drive);
+Eigen::VectorXd converters_alone(const PlantConfig& plant, const Eigen::VectorXd& drive);
 
-}  // namespace panelbass::engine
+}  // namespace panelbass::models

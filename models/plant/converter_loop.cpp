@@ -1,4 +1,4 @@
-#include "engine/converter_loop.h"
+#include "models/plant/converter_loop.h"
 
 #include <cmath>
 #include <stdexcept>
@@ -8,7 +8,7 @@
 
 #include "dsp/butterworth.h"
 
-namespace panelbass::engine {
+namespace panelbass::models {
 namespace {
 
 // The continuous-time cascade of `filters` in state-space form (the sections' states in order, each fed by
@@ -19,9 +19,9 @@ struct Cascade {
   Eigen::VectorXd b, c;
 };
 
-Cascade analog_cascade(const std::vector<models::AnalogFilter>& filters) {
+Cascade analog_cascade(const std::vector<AnalogFilter>& filters) {
   std::vector<dsp::AnalogSection> sections;
-  for (const models::AnalogFilter& f : filters) {
+  for (const AnalogFilter& f : filters) {
     if (f.order == 0) continue;
     for (const dsp::AnalogSection& s : dsp::analog_butterworth_lowpass(f.order, f.cutoff_hz)) sections.push_back(s);
   }
@@ -58,7 +58,7 @@ Cascade analog_cascade(const std::vector<models::AnalogFilter>& filters) {
 
 }  // namespace
 
-Eigen::VectorXd converters_alone(const models::PlantConfig& plant, const Eigen::VectorXd& drive) {
+Eigen::VectorXd converters_alone(const PlantConfig& plant, const Eigen::VectorXd& drive) {
   for (Eigen::Index k = 0; k < drive.size(); ++k) {
     if (!std::isfinite(drive[k])) throw std::invalid_argument("converters: drive sample " + std::to_string(k) + " is not finite");
   }
@@ -89,4 +89,4 @@ Eigen::VectorXd converters_alone(const models::PlantConfig& plant, const Eigen::
   return out;
 }
 
-}  // namespace panelbass::engine
+}  // namespace panelbass::models

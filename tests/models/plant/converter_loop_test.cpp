@@ -1,10 +1,10 @@
-// The virtual transducer's converters alone (engine/converter_loop.h), the input of the process alone.
+// The virtual transducer's converters alone (models/plant/converter_loop.h), the input of the process alone.
 //
 // Independent expectation: a sine's steady state through them has the closed-form response of a zero-order
 // hold (gain sinc(f/fs), half a sample of delay), the converters' whole-sample delay, and the two analog
 // Butterworth low-passes written from their poles (s_k = ωc·exp(jπ(2k + n − 1)/(2n)), H = Π −s_k/(s − s_k)),
 // the output sampled at the end of each sample period as the plant samples its sensor.
-#include "engine/converter_loop.h"
+#include "models/plant/converter_loop.h"
 
 #include <gtest/gtest.h>
 
@@ -15,7 +15,7 @@
 
 #include "models/plant/plant_presets.h"
 
-namespace panelbass::engine {
+namespace panelbass::models {
 namespace {
 
 std::complex<double> butterworth_from_poles(int order, double cutoff_hz, double f) {
@@ -66,4 +66,4 @@ TEST(ConverterLoop, ASineComesOutAsTheHoldTheDelayAndBothFiltersSay) {
 }
 
 }  // namespace
-}  // namespace panelbass::engine
+}  // namespace panelbass::models
