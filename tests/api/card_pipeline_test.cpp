@@ -80,6 +80,43 @@ double best_lag(const Eigen::VectorXd& x, const Eigen::VectorXd& y, int max_lag)
   return curvature < 0.0 ? best + 0.5 * (a - d) / curvature : best;
 }
 
+// A verify probe's THD before and after, each a number or the floor it lies under, and the change.
+std::string probe_text(const nlohmann::json& probe) {
+  const auto side = [&](const std::string& s) {
+    char text[96];
+    if (probe["thd_" + s + "_at_floor"].get<bool>()) {
+      std::snprintf(text, sizeof text, "at the floor %.3f %%", probe["thd_" + s + "_floor_pct"].get<double>());
+    } else {
+      std::snprintf(text, sizeof text, "%.3f %% (±%.2f dB, %.1f s)", probe["thd_" + s + "_pct"].get<double>(),
+                    probe["thd_" + s + "_uncertainty_db"].get<double>(), probe["seconds_" + s].get<double>());
+    }
+    return std::string(text);
+  };
+  char change[64];
+  if (probe["thd_change_db"].is_number()) {
+    std::snprintf(change, sizeof change, "%+.2f dB", probe["thd_change_db"].get<double>());
+  } else if (probe.contains("thd_change_at_most_db")) {
+    std::snprintf(change, sizeof change, "<= %+.2f dB", probe["thd_change_at_most_db"].get<double>());
+  } else {
+    std::snprintf(change, sizeof change, "unknown");
+  }
+  return side("before") + " -> " + side("after") + ": " + change;
+}
+
+// Whether two verify probes' THD changes agree within `db`: both measured, within db of each other; one a bound
+// (its THD after at the noise floor), the other's change below the bound + db; both bounds, within db.
+bool changes_agree(const nlohmann::json& a, const nlohmann::json& b, double db) {
+  const auto measured = [](const nlohmann::json& p) { return p["thd_change_db"].is_number(); };
+  const auto bound = [](const nlohmann::json& p) { return p.contains("thd_change_at_most_db"); };
+  if (measured(a) && measured(b)) return std::abs(a["thd_change_db"].get<double>() - b["thd_change_db"].get<double>()) <= db;
+  if (bound(a) && bound(b)) {
+    return std::abs(a["thd_change_at_most_db"].get<double>() - b["thd_change_at_most_db"].get<double>()) <= db;
+  }
+  if (measured(a) && bound(b)) return a["thd_change_db"].get<double>() <= b["thd_change_at_most_db"].get<double>() + db;
+  if (bound(a) && measured(b)) return b["thd_change_db"].get<double>() <= a["thd_change_at_most_db"].get<double>() + db;
+  return false;  // a THD before at the floor: nothing verified
+}
+
 class CardPipelineTest : public api_testing::ServerTest {
  protected:
   // Submits a job of `kind` with `params`, waits for it and expects it to succeed; returns its record.
@@ -100,11 +137,9 @@ TEST_F(CardPipelineTest, RunsTheTunePipelineThroughTheCardAsOnTheVirtualBackend)
   const std::string started = jack.start_as_default();
   ASSERT_EQ(started, "") << started;
 
-  // The sensor noise a fiftieth of the preset's: the controllers lower the probes' level by up to 20 dB, and the
-  // THD after them must stand well above the noise floor for the card and the virtual backend to be compared
-  // (at a tenth, the noise still moved a 1 % THD by ±1 dB).
-  models::PlantConfig plant = models::plant_preset("panel-exciter");
-  plant.sensor.noise_rms_V *= 0.02;
+  // The preset as it is, its sensor noise included: verify reads each THD with the noise it stands on, plays
+  // longer where that noise moves it, and says when a THD is at the floor.
+  const models::PlantConfig plant = models::plant_preset("panel-exciter");
   engine::JackTransducerOptions t;
   t.plant = plant;
   t.client_name = tag + "t";
@@ -217,13 +252,9 @@ TEST_F(CardPipelineTest, RunsTheTunePipelineThroughTheCardAsOnTheVirtualBackend)
   for (std::size_t p = 0; p < 2; ++p) {
     const nlohmann::json& c = card_verify["result"]["probes"][p];
     const nlohmann::json& v = virtual_verify["result"]["probes"][p];
-    std::printf("[ card ] verify %g Hz: THD %.3f %% -> %.3f %% (%+.2f dB, level %.4f -> %.4f) through the card; %.3f %% -> "
-                "%.3f %% (%+.2f dB, level %.4f -> %.4f) on the virtual backend\n", c["frequency_hz"].get<double>(),
-                c["thd_before_pct"].get<double>(), c["thd_after_pct"].get<double>(), c["thd_change_db"].get<double>(),
-                c["level_before"].get<double>(), c["level_after"].get<double>(), v["thd_before_pct"].get<double>(),
-                v["thd_after_pct"].get<double>(), v["thd_change_db"].get<double>(), v["level_before"].get<double>(),
-                v["level_after"].get<double>());
-    EXPECT_NEAR(c["thd_change_db"].get<double>(), v["thd_change_db"].get<double>(), 1.5) << c.dump() << "\n" << v.dump();
+    std::printf("[ card ] verify %g Hz: through the card %s; on the virtual backend %s\n", c["frequency_hz"].get<double>(),
+                probe_text(c).c_str(), probe_text(v).c_str());
+    EXPECT_TRUE(changes_agree(c, v, 1.5)) << c.dump() << "\n" << v.dump();
   }
   std::printf("[ card ] linear OE(8) J_val %.3f %% through the card (process alone %.3f %%), %.3f %% on the virtual "
               "backend; the whole pipeline on the card path %.1f s\n",
@@ -232,7 +263,7 @@ TEST_F(CardPipelineTest, RunsTheTunePipelineThroughTheCardAsOnTheVirtualBackend)
   // from the drive (J_val 0.67 % against 0.22 %); the process alone leaves them out and identifies what the
   // virtual backend's identification sees: the plant with its own converters.
   EXPECT_NEAR(alone_job["result"]["j_val_pct"].get<double>(), j_virtual, 0.2 * j_virtual);
-  EXPECT_LT(j_card, 5.0 * j_virtual);
+  EXPECT_NEAR(j_card, j_virtual, 0.2 * j_virtual) << "the plain model through the card";
 }
 
 }  // namespace
