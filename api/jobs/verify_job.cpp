@@ -77,8 +77,8 @@ struct ProbeReading {
 };
 
 // Plays `drive_of(samples)` for `seconds`, then again longer while its THD is read with more than
-// kThdUncertaintyDb of noise and is not at the noise floor, the length grown as the noise's share falls
-// (∝ 1/N) and capped at `max_seconds`. Throws when no THD can be read.
+// kThdUncertaintyDb of noise (the length grown as the noise's share falls, ∝ 1/N) or is at the noise floor
+// (then for `max_seconds`), never longer than `max_seconds`. Throws when no THD can be read.
 ProbeReading read_probe(const JobEnvironment& env, const std::function<Eigen::VectorXd(std::size_t)>& drive_of,
                         double frequency, double seconds, double max_seconds, const std::string& what) {
   ProbeReading r;
@@ -92,8 +92,9 @@ ProbeReading read_probe(const JobEnvironment& env, const std::function<Eigen::Ve
                                models::number_text(s) + " s (params.seconds)");
     }
     r.thd = *thd;
-    if (r.thd.at_floor || r.thd.uncertainty_db <= kThdUncertaintyDb || s >= max_seconds) return r;
-    const double grow = r.thd.uncertainty_db / kThdUncertaintyDb;
+    if ((!r.thd.at_floor && r.thd.uncertainty_db <= kThdUncertaintyDb) || s >= max_seconds) return r;
+    // At the floor: as long as allowed (the floor falls as 1/√N, and the THD may stand above it then).
+    const double grow = r.thd.at_floor ? max_seconds / s : r.thd.uncertainty_db / kThdUncertaintyDb;
     s = std::min(max_seconds, s * std::max(1.5, 1.2 * grow * grow));
   }
 }
