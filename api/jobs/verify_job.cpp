@@ -31,6 +31,8 @@ constexpr double kDefaultMaxSeconds = 8.0;
 // A THD read within this (one standard deviation of the sensor noise's share, dB) is kept; a noisier one is
 // measured again, longer, up to max_seconds: the card and the virtual backend then agree well within 1 dB.
 constexpr double kThdUncertaintyDb = 0.2;
+// A THD the noise still moves by more than this at max_seconds is given as a bound, not a number.
+constexpr double kMaxUncertaintyDb = 1.0;
 
 json verify_params(const json& params, const JobEnvironment& env) {
   if (!env.excite && !env.measure) refuse("params", "this server has no backend to play the probe tones through");
@@ -99,11 +101,22 @@ ProbeReading read_probe(const JobEnvironment& env, const std::function<Eigen::Ve
   }
 }
 
-// A reading's THD (null at the noise floor) and what stands beside it, under `side` ("before"/"after").
+// Whether a reading is the noise's rather than the THD's: within 3 dB of its floor, or moved by the noise by
+// more than kMaxUncertaintyDb even at max_seconds.
+bool noise_bound(const ProbeReading& r) { return r.thd.at_floor || r.thd.uncertainty_db > kMaxUncertaintyDb; }
+
+// What a noise-bound reading's THD is at most: √2 times its floor (within 3 dB of it), or two standard
+// deviations of its noise above what it read.
+double thd_at_most(const ProbeReading& r) {
+  return r.thd.at_floor ? std::sqrt(2.0) * r.thd.floor_pct : r.thd.thd_pct * std::pow(10.0, 2.0 * r.thd.uncertainty_db / 20.0);
+}
+
+// A reading's THD (null when noise-bound) and what stands beside it, under `side` ("before"/"after").
 void put_reading(json& row, const std::string& side, const ProbeReading& r) {
-  row["thd_" + side + "_pct"] = r.thd.at_floor ? json(nullptr) : json(r.thd.thd_pct);
+  row["thd_" + side + "_pct"] = noise_bound(r) ? json(nullptr) : json(r.thd.thd_pct);
   row["thd_" + side + "_floor_pct"] = r.thd.floor_pct;
-  row["thd_" + side + "_at_floor"] = r.thd.at_floor;
+  row["thd_" + side + "_at_floor"] = noise_bound(r);
+  if (noise_bound(r)) row["thd_" + side + "_at_most_pct"] = thd_at_most(r);
   row["thd_" + side + "_uncertainty_db"] = models::number_or_null(r.thd.uncertainty_db);
   row["seconds_" + side] = r.seconds;
 }
@@ -146,17 +159,17 @@ json verify_work(const json& params, const JobEnvironment& env, JobControl& cont
                 {"drive_peak_after", drive_peak}};
     put_reading(row, "before", before);
     put_reading(row, "after", after);
-    // A THD at the noise floor is not a number to compare: the change is then bounded by the floor (within
-    // 3 dB of it, at most √2 times it), or unknown when the THD before is there too.
+    // A noise-bound THD is not a number to compare: the change is then a bound (thd_at_most), or unknown when
+    // the THD before is noise-bound too.
     const double thd_before = before.thd.thd_pct, thd_after = after.thd.thd_pct;
-    if (!before.thd.at_floor && !after.thd.at_floor && thd_after > 0.0) {
+    if (!noise_bound(before) && !noise_bound(after) && thd_after > 0.0) {
       row["thd_change_db"] = 20.0 * std::log10(thd_after / thd_before);
-    } else if (!before.thd.at_floor) {
-      const double bound = 20.0 * std::log10(std::sqrt(2.0) * after.thd.floor_pct / thd_before);
+    } else if (!noise_bound(before)) {
+      const double bound = 20.0 * std::log10(thd_at_most(after) / thd_before);
       row["thd_change_db"] = nullptr;
       row["thd_change_at_most_db"] = bound;
-      row["note"] = "the THD through the chain is at the sensor's noise floor (" + models::number_text(after.thd.floor_pct) +
-                    " %): a cut of at least " + models::number_text(-bound) + " dB";
+      row["note"] = "the THD through the chain is at the sensor's noise floor (at most " +
+                    models::number_text(thd_at_most(after)) + " %): a change of at most " + models::number_text(bound) + " dB";
     } else {
       row["thd_change_db"] = nullptr;
       row["note"] = "the THD without the chain is at the sensor's noise floor (" + models::number_text(before.thd.floor_pct) +

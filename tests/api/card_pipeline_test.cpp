@@ -86,7 +86,7 @@ std::string probe_text(const nlohmann::json& probe) {
   const auto side = [&](const std::string& s) {
     char text[96];
     if (probe["thd_" + s + "_at_floor"].get<bool>()) {
-      std::snprintf(text, sizeof text, "at the floor %.3f %%", probe["thd_" + s + "_floor_pct"].get<double>());
+      std::snprintf(text, sizeof text, "at the floor, <= %.3f %%", probe["thd_" + s + "_at_most_pct"].get<double>());
     } else {
       std::snprintf(text, sizeof text, "%.3f %% (±%.2f dB, %.1f s)", probe["thd_" + s + "_pct"].get<double>(),
                     probe["thd_" + s + "_uncertainty_db"].get<double>(), probe["seconds_" + s].get<double>());
@@ -105,7 +105,7 @@ std::string probe_text(const nlohmann::json& probe) {
 }
 
 // Whether two verify probes' THD changes agree within `db`: both measured, within db of each other; one a bound
-// (its THD after at the noise floor), the other's change below the bound + db; both bounds, within db.
+// (its THD after noise-bound), the other's change below the bound + db; both bounds, within db.
 bool changes_agree(const nlohmann::json& a, const nlohmann::json& b, double db) {
   const auto measured = [](const nlohmann::json& p) { return p["thd_change_db"].is_number(); };
   const auto bound = [](const nlohmann::json& p) { return p.contains("thd_change_at_most_db"); };

@@ -37,7 +37,7 @@ const fixed = (x, digits) => (typeof x === 'number' && Number.isFinite(x) ? x.to
 /** The verify step's probes: THD and level of the response without and with the chain, per tone. */
 function showProbes(result) {
   // A THD at the sensor's noise floor is shown as the floor it lies under, and the change as the bound it gives.
-  const thd = (p, side) => (p[`thd_${side}_at_floor`] ? `≤ ${fixed(Math.SQRT2 * p[`thd_${side}_floor_pct`], 2)} % (noise floor)`
+  const thd = (p, side) => (p[`thd_${side}_at_floor`] ? `≤ ${fixed(p[`thd_${side}_at_most_pct`], 2)} % (noise floor)`
     : `${fixed(p[`thd_${side}_pct`], 2)} %`);
   const change = (p) => (typeof p.thd_change_at_most_db === 'number' ? `≤ ${fixed(p.thd_change_at_most_db, 1)} dB`
     : `${fixed(p.thd_change_db, 1)} dB`);
