@@ -105,12 +105,16 @@ for t in "${sb_published[@]}"; do
     ss sb $fs_sb 4 20 20 100 --polish-iter 2000 --polish-window 200
   row Silverbox "$set_name" "PNLSS nx=2, degree 3" sb-pnlss "$sb/test_${t%%:*}.csv" $fs_sb 50 1000 mV "${t#*:}" \
     ss sb $fs_sb 2 0 20 100 --poly-degree 3 --polish-iter 2000 --polish-window 500
+  row Silverbox "$set_name" "PNLSS nx=2, degree 3, states-only monomials" sb-pnlss-x "$sb/test_${t%%:*}.csv" $fs_sb 50 1000 mV \
+    "${t#*:}" ss sb $fs_sb 2 0 20 100 --poly-degree 3 --poly-states-only --polish-iter 2000 --polish-window 500
 done
 
 row "Wiener–Hammerstein 2009" test "NARX 10-10-20" wh-narx "$wh/test.csv" 51200 50 1000 mV "0.241 mV (SUBNET nx=6)" \
   narx wh 51200 10 10 20
 row "Wiener–Hammerstein 2009" test "SS nx=6, 20 nodes, 50 lags" wh-ss "$wh/test.csv" 51200 50 1000 mV "0.241 mV (SUBNET nx=6)" \
   ss wh 51200 6 20 50 100 --polish-iter 2000 --polish-window 200
+row "Wiener–Hammerstein 2009" test "SS nx=6 from a Wiener–Hammerstein start, 20 nodes, 50 lags" wh-block "$wh/test.csv" 51200 50 \
+  1000 mV "0.241 mV (SUBNET nx=6)" ss wh 51200 6 20 50 100 --wiener-hammerstein --epochs 0 --polish-iter 3000 --polish-window 400
 
 # cascaded tanks: estimation rows [0, 700) of uEst/yEst, validation [700, 1024) (as Champneys et al. 2024)
 ct=$data/cascaded_tanks/dataBenchmark.csv
