@@ -26,7 +26,7 @@ struct IdentifySsOptions {
   DataOptions columns;
   int nx = 6, nk = -1, hidden = 20, lags = 50, encoder_hidden = 0, poly_degree = 0;
   long window = 100, batch = 32, init = 50;
-  int epochs = 100, patience = 0, polish_iterations = 0;
+  int epochs = 100, patience = 0, polish_iterations = 0, wh_iterations = 200;
   long polish_window = 0;
   double max_seconds = 0.0, learning_rate = 1e-3, final_learning_rate = 0.0;
   std::uint64_t seed = 1;
@@ -86,17 +86,21 @@ void run_identify_ss(const IdentifySsOptions& o) {
     const models::LinearModel linear = starting_linear(o, est, u_val, y_val);
     if (o.wiener_hammerstein) {
       const models::SsWienerHammerstein wh =
-          models::ss_wiener_hammerstein_start(linear, structure, est.columns[0], est.columns[1], u_val, y_val, o.seed);
+          models::ss_wiener_hammerstein_start(linear, structure, est.columns[0], est.columns[1], u_val, y_val,
+                                                o.wh_iterations, o.seed);
       std::fprintf(stderr,
                    "identify ss: Wiener-Hammerstein start: %d splits, front %d poles and %d zeros (%d states), "
-                   "J from rest %.4g %% (linear %.4g %%), %.1f s\n",
-                   wh.splits, wh.front_poles, wh.front_zeros, wh.front_states, wh.j_pct, wh.linear_j_pct, seconds());
+                   "J from rest %.4g %% (linear %.4g %%), after Levenberg-Marquardt %.4g %%, %.1f s\n",
+                   wh.splits, wh.front_poles, wh.front_zeros, wh.front_states, wh.search_j_pct, wh.linear_j_pct, wh.j_pct,
+                   seconds());
       start = wh.model;
       wh_start = {{"splits", wh.splits},
                   {"front_poles", wh.front_poles},
                   {"front_zeros", wh.front_zeros},
                   {"front_states", wh.front_states},
+                  {"search_J_from_rest_pct", wh.search_j_pct},
                   {"J_from_rest_pct", wh.j_pct},
+                  {"iterations", o.wh_iterations},
                   {"linear_J_from_rest_pct", wh.linear_j_pct}};
     } else {
       start = models::ss_initial_model(linear, structure, est.columns[0], est.columns[1], o.seed);
@@ -196,6 +200,10 @@ void register_identify_ss(CLI::App& identify) {
   cmd->add_flag("--wiener-hammerstein", o->wiener_hammerstein,
                "Start from a Wiener-Hammerstein model: the linear start's poles and zeros split between two filters, "
                "--hidden tanh nodes between them (the split of the lowest J_val kept)");
+  cmd->add_option("--wh-iter", o->wh_iterations,
+                  "Levenberg-Marquardt iterations refining the Wiener-Hammerstein start's blocks jointly (0: none)")
+      ->check(CLI::Range(0, 100000))
+      ->capture_default_str();
   cmd->add_option("--lags", o->lags, "Past inputs and outputs the encoder reads")->check(CLI::Range(1, 1000))->capture_default_str();
   cmd->add_option("--encoder-hidden", o->encoder_hidden, "Tanh nodes of the encoder (0: affine)")
       ->check(CLI::Range(0, 1000))

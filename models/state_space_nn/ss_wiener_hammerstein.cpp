@@ -10,7 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "models/linear/oe_estimator.h"
 #include "models/linear/state_space.h"
+#include "models/optimization/levenberg_marquardt.h"
 #include "models/state_space_nn/ss_training.h"
 #include "models/validation/performance.h"
 
@@ -54,12 +56,12 @@ TransferFunction factor_filter(const Eigen::VectorXcd& poles, const Eigen::Vecto
   return tf;
 }
 
-/// The static nonlinearity's basis at v: [1, v, tanh(w·(v − c₁)), …].
-Eigen::MatrixXd basis(const Eigen::VectorXd& v, const Eigen::VectorXd& centres, double slope) {
+/// The static nonlinearity's basis at v: [1, v, tanh(w₁·(v − c₁)), …].
+Eigen::MatrixXd basis(const Eigen::VectorXd& v, const Eigen::VectorXd& centres, const Eigen::VectorXd& slopes) {
   Eigen::MatrixXd phi(v.size(), centres.size() + 2);
   phi.col(0).setOnes();
   phi.col(1) = v;
-  for (Eigen::Index i = 0; i < centres.size(); ++i) phi.col(i + 2) = (slope * (v.array() - centres(i))).tanh();
+  for (Eigen::Index i = 0; i < centres.size(); ++i) phi.col(i + 2) = (slopes(i) * (v.array() - centres(i))).tanh();
   return phi;
 }
 
@@ -74,7 +76,7 @@ Eigen::MatrixXd filter_columns(const StateSpace& filter, const Eigen::MatrixXd& 
 struct SplitFit {
   TransferFunction front, back;
   Eigen::VectorXd centres, coefficients;
-  double slope = 1.0;  ///< w
+  Eigen::VectorXd slopes;  ///< wᵢ
   double j_pct = std::numeric_limits<double>::infinity();
 };
 
@@ -94,9 +96,9 @@ SplitFit fit_split(TransferFunction front, const TransferFunction& back, int hid
   const auto quantile = [&](double q) { return sorted(static_cast<Eigen::Index>(q * static_cast<double>(sorted.size() - 1))); };
   const double low = quantile(kTail), high = quantile(1.0 - kTail), spacing = (high - low) / hidden;
   fit.centres = Eigen::VectorXd::LinSpaced(hidden, low + 0.5 * spacing, high - 0.5 * spacing);
-  fit.slope = 1.0 / spacing;
+  fit.slopes = Eigen::VectorXd::Constant(hidden, 1.0 / spacing);
   const StateSpace back_ss = realize(back);
-  const Eigen::MatrixXd M = filter_columns(back_ss, basis(v, fit.centres, fit.slope)).bottomRows(v.size() - skip);
+  const Eigen::MatrixXd M = filter_columns(back_ss, basis(v, fit.centres, fit.slopes)).bottomRows(v.size() - skip);
   // Ridge least squares on columns of unit norm (the tanh nodes overlap: their columns are nearly dependent).
   const Eigen::VectorXd norms = M.colwise().norm().transpose().cwiseMax(1e-300);
   const Eigen::MatrixXd Mn = M * norms.cwiseInverse().asDiagonal();
@@ -105,11 +107,97 @@ SplitFit fit_split(TransferFunction front, const TransferFunction& back, int hid
   fit.coefficients = gram.ldlt().solve(Mn.transpose() * ys.tail(v.size() - skip)).cwiseQuotient(norms);
   if (!fit.coefficients.allFinite()) return fit;
   const Eigen::VectorXd v_sel = simulate(realize(front), us_sel);
-  const Eigen::VectorXd y_hat = filter_columns(back_ss, basis(v_sel, fit.centres, fit.slope)) * fit.coefficients;
+  const Eigen::VectorXd y_hat = filter_columns(back_ss, basis(v_sel, fit.centres, fit.slopes)) * fit.coefficients;
   fit.j_pct = j_percent(y_hat, ys_sel, skip);
   fit.front = std::move(front);
   fit.back = back;
   return fit;
+}
+
+/// θ = [front a, front b, back a, back b, p, c, w] of a split's fit.
+Eigen::VectorXd pack(const SplitFit& f) {
+  Eigen::VectorXd theta(f.front.na() + f.front.nb() + f.back.na() + f.back.nb() + f.coefficients.size() +
+                        f.centres.size() + f.slopes.size());
+  theta << f.front.a, f.front.b, f.back.a, f.back.b, f.coefficients, f.centres, f.slopes;
+  return theta;
+}
+
+/// The fit of θ, the shapes those of `like`.
+SplitFit unpack(const Eigen::VectorXd& theta, const SplitFit& like) {
+  SplitFit f = like;
+  Eigen::Index at = 0;
+  for (Eigen::VectorXd* part : {&f.front.a, &f.front.b, &f.back.a, &f.back.b, &f.coefficients, &f.centres, &f.slopes}) {
+    *part = theta.segment(at, part->size());
+    at += part->size();
+  }
+  return f;
+}
+
+/// The block model's output from rest: y = G2·g(G1·u); `v` and `w` receive G1·u and g(v).
+Eigen::VectorXd block_output(const SplitFit& f, const Eigen::VectorXd& us, Eigen::VectorXd* v_out = nullptr,
+                             Eigen::VectorXd* w_out = nullptr) {
+  const Eigen::VectorXd v = simulate(realize(f.front), us);
+  const Eigen::VectorXd w = basis(v, f.centres, f.slopes) * f.coefficients;
+  if (v_out != nullptr) *v_out = v;
+  if (w_out != nullptr) *w_out = w;
+  return simulate(realize(f.back), w);
+}
+
+/// ∂y/∂θ (N×P, θ as pack() lays it out), exact: the back filter's by its OE sensitivities to w; the
+/// nonlinearity's and the front filter's through G2, the front's times g'(v) (the chain rule sample by sample).
+Eigen::MatrixXd block_jacobian(const SplitFit& f, const Eigen::VectorXd& us) {
+  Eigen::VectorXd v, w;
+  block_output(f, us, &v, &w);
+  const Eigen::Index N = us.size(), H = f.centres.size();
+  const Eigen::Index n_front = f.front.na() + f.front.nb(), n_back = f.back.na() + f.back.nb();
+  Eigen::MatrixXd J(N, n_front + n_back + 3 * H + 2);
+  const StateSpace g2 = realize(f.back);
+  J.middleCols(n_front, n_back) = oe_jacobian(w, f.back);
+  // g'(v) = p₁ + Σ pᵢ·wᵢ·sech²(wᵢ·(v − cᵢ)); the nodes' own columns before G2: ∂g/∂p, ∂g/∂c, ∂g/∂w
+  Eigen::ArrayXd slope_of_g = Eigen::ArrayXd::Constant(N, f.coefficients(1));
+  Eigen::MatrixXd inner(N, 3 * H + 2);
+  inner.leftCols(H + 2) = basis(v, f.centres, f.slopes);
+  for (Eigen::Index i = 0; i < H; ++i) {
+    const Eigen::ArrayXd offset = v.array() - f.centres(i);
+    const Eigen::ArrayXd sech2 = 1.0 - (f.slopes(i) * offset).tanh().square();
+    const double p = f.coefficients(i + 2);
+    slope_of_g += p * f.slopes(i) * sech2;
+    inner.col(H + 2 + i) = -p * f.slopes(i) * sech2;
+    inner.col(2 * H + 2 + i) = p * offset * sech2;
+  }
+  for (Eigen::Index j = 0; j < inner.cols(); ++j) J.col(n_front + n_back + j) = simulate(g2, inner.col(j));
+  const Eigen::MatrixXd dv = oe_jacobian(us, f.front);
+  for (Eigen::Index j = 0; j < n_front; ++j) J.col(j) = simulate(g2, (dv.col(j).array() * slope_of_g).matrix());
+  return J;
+}
+
+/// Levenberg–Marquardt on the block model's simulation error (from rest, rows from `skip` on) over the
+/// estimation data, keeping the iterate of the lowest J on the selection data; `iterations` steps at most.
+SplitFit refine_split(const SplitFit& start, const Eigen::VectorXd& us, const Eigen::VectorXd& ys,
+                      const Eigen::VectorXd& us_sel, const Eigen::VectorXd& ys_sel, Eigen::Index skip, int iterations) {
+  const Eigen::Index rows = us.size() - skip;
+  auto loss_of = [&](const SplitFit& f) {
+    if (!f.front.is_stable() || !f.back.is_stable()) return std::numeric_limits<double>::infinity();
+    const Eigen::VectorXd e = block_output(f, us).tail(rows) - ys.tail(rows);
+    return e.allFinite() ? 0.5 * e.squaredNorm() : std::numeric_limits<double>::infinity();
+  };
+  SplitFit best = start, current = start;
+  Eigen::VectorXd theta = pack(start);
+  LevenbergMarquardt lm({.damping = LmDamping::relative_to_mean}, theta.size());
+  double V = loss_of(current);
+  for (int it = 0; it < iterations && std::isfinite(V); ++it) {
+    const Eigen::MatrixXd J = block_jacobian(current, us).bottomRows(rows);
+    const Eigen::VectorXd e = block_output(current, us).tail(rows) - ys.tail(rows);
+    const Eigen::MatrixXd H = J.transpose() * J;
+    const Eigen::VectorXd g = J.transpose() * e;
+    const LmStep step = lm.step(H, g, V, theta, [&](const Eigen::VectorXd& candidate) { return loss_of(unpack(candidate, start)); });
+    if (!step.accepted || V - step.loss <= 1e-12 * V) break;
+    V = step.loss;
+    current = unpack(theta, start);
+    current.j_pct = j_percent(block_output(current, us_sel), ys_sel, skip);
+    if (current.j_pct < best.j_pct) best = current;
+  }
+  return best;
 }
 
 /// The block model of `fit` written as an SsModel of structure `s` (hidden = the fit's nodes).
@@ -133,9 +221,9 @@ SsModel block_model(const SplitFit& fit, SsStructure s, const Scaling& scaling, 
   parts.W2.setZero();
   for (Eigen::Index i = 0; i < s.hidden; ++i) {
     // tanh(w·(v − cᵢ)) with v = C1·x1 + D1·u
-    parts.W1.row(i).head(n1) = fit.slope * g1.C;
-    parts.W1(i, n) = fit.slope * g1.D;
-    parts.b1(i, 0) = -fit.slope * fit.centres(i);
+    parts.W1.row(i).head(n1) = fit.slopes(i) * g1.C;
+    parts.W1(i, n) = fit.slopes(i) * g1.D;
+    parts.b1(i, 0) = -fit.slopes(i) * fit.centres(i);
     parts.W2.col(i).segment(n1, n2) = p(i + 2) * g2.B;
     parts.W2(n, i) = p(i + 2) * g2.D;
   }
@@ -149,7 +237,7 @@ SsModel block_model(const SplitFit& fit, SsStructure s, const Scaling& scaling, 
 
 SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStructure structure, const Eigen::VectorXd& u,
                                                 const Eigen::VectorXd& y, const Eigen::VectorXd& u_val,
-                                                const Eigen::VectorXd& y_val, std::uint64_t seed) {
+                                                const Eigen::VectorXd& y_val, int iterations, std::uint64_t seed) {
   if (structure.hidden < 1) throw std::invalid_argument("ss_wiener_hammerstein_start: the nonlinearity needs hidden >= 1 tanh nodes");
   if (bla.tf.na() < 1) throw std::invalid_argument("ss_wiener_hammerstein_start: the linear model has no pole to split");
   if (u.size() != y.size() || u_val.size() != y_val.size()) {
@@ -198,6 +286,13 @@ SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStruct
     }
   }
   if (!std::isfinite(best.j_pct)) throw std::invalid_argument("ss_wiener_hammerstein_start: no split could be fitted");
+  out.search_j_pct = best.j_pct;
+  if (iterations > 0) {
+    // The kept split refined jointly on the whole records (its J first on them, from rest).
+    best.j_pct = j_percent(block_output(best, us_sel_all), ys_sel_all, skip);
+    const SplitFit refined = refine_split(best, us_all, ys_all, us_sel_all, ys_sel_all, skip, iterations);
+    best = refined;
+  }
   out.j_pct = best.j_pct;
   out.model = block_model(best, structure, bla.scaling, bla.fs, seed);
   out.front_states = realize(best.front).order();

@@ -20,7 +20,8 @@ struct SsWienerHammerstein {
   int front_zeros = 0;      ///< zeros given to the front filter (the input delay always goes there)
   int front_states = 0;     ///< states of the front filter's realisation
   int splits = 0;           ///< splits tried
-  double j_pct = 0.0;       ///< the kept split's J on the selection data, simulated from rest
+  double search_j_pct = 0.0;  ///< the kept split's J on (the first 20000 samples of) the selection data, from rest
+  double j_pct = 0.0;       ///< its J on the selection data from rest after the joint refinement
   double linear_j_pct = 0.0;  ///< the best linear approximation's J there, from rest
 };
 
@@ -31,10 +32,13 @@ struct SsWienerHammerstein {
 /// by (ridge) least squares; the split of the lowest J on u_val, y_val (the estimation data when empty) is
 /// written as an SsModel: A = [A1 0; p₁B2C1 A2], W1's rows w·[C1 0 D1], W2's columns p₁₊ᵢ·[0; B2; D2], and the
 /// encoder's affine part the least-squares map to its states along the estimation data. At most 20000
-/// estimation samples take part in the search. Throws std::invalid_argument when structure.hidden is 0,
+/// estimation samples take part in the search. Before it is written, the kept split's every parameter (both
+/// filters' coefficients, g's coefficients, centres and slopes) is refined jointly by Levenberg–Marquardt on
+/// the simulation error over the whole estimation data, exact Jacobian, at most `iterations` steps, the
+/// iterate of the lowest selection J kept (0: no refinement). Throws std::invalid_argument when structure.hidden is 0,
 /// `bla` has no pole, or the data are too short for the encoder's lags.
 SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStructure structure, const Eigen::VectorXd& u,
                                                 const Eigen::VectorXd& y, const Eigen::VectorXd& u_val,
-                                                const Eigen::VectorXd& y_val, std::uint64_t seed);
+                                                const Eigen::VectorXd& y_val, int iterations, std::uint64_t seed);
 
 }  // namespace panelbass::models
