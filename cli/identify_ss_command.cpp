@@ -90,9 +90,9 @@ void run_identify_ss(const IdentifySsOptions& o) {
                                                 o.wh_iterations, o.seed);
       std::fprintf(stderr,
                    "identify ss: Wiener-Hammerstein start: %d splits, front %d poles and %d zeros (%d states), "
-                   "J from rest %.4g %% (linear %.4g %%), after Levenberg-Marquardt %.4g %%, %.1f s\n",
-                   wh.splits, wh.front_poles, wh.front_zeros, wh.front_states, wh.search_j_pct, wh.linear_j_pct, wh.j_pct,
-                   seconds());
+                   "J from rest %.4g %% (linear %.4g %%), after %d Levenberg-Marquardt steps %.4g %%, %.1f s\n",
+                   wh.splits, wh.front_poles, wh.front_zeros, wh.front_states, wh.search_j_pct, wh.linear_j_pct,
+                   wh.iterations, wh.j_pct, seconds());
       start = wh.model;
       wh_start = {{"splits", wh.splits},
                   {"front_poles", wh.front_poles},
@@ -100,7 +100,7 @@ void run_identify_ss(const IdentifySsOptions& o) {
                   {"front_states", wh.front_states},
                   {"search_J_from_rest_pct", wh.search_j_pct},
                   {"J_from_rest_pct", wh.j_pct},
-                  {"iterations", o.wh_iterations},
+                  {"iterations", wh.iterations},
                   {"linear_J_from_rest_pct", wh.linear_j_pct}};
     } else {
       start = models::ss_initial_model(linear, structure, est.columns[0], est.columns[1], o.seed);

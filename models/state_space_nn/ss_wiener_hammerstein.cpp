@@ -174,7 +174,8 @@ Eigen::MatrixXd block_jacobian(const SplitFit& f, const Eigen::VectorXd& us) {
 /// Levenberg–Marquardt on the block model's simulation error (from rest, rows from `skip` on) over the
 /// estimation data, keeping the iterate of the lowest J on the selection data; `iterations` steps at most.
 SplitFit refine_split(const SplitFit& start, const Eigen::VectorXd& us, const Eigen::VectorXd& ys,
-                      const Eigen::VectorXd& us_sel, const Eigen::VectorXd& ys_sel, Eigen::Index skip, int iterations) {
+                      const Eigen::VectorXd& us_sel, const Eigen::VectorXd& ys_sel, Eigen::Index skip, int iterations,
+                      int& steps) {
   const Eigen::Index rows = us.size() - skip;
   auto loss_of = [&](const SplitFit& f) {
     if (!f.front.is_stable() || !f.back.is_stable()) return std::numeric_limits<double>::infinity();
@@ -193,6 +194,7 @@ SplitFit refine_split(const SplitFit& start, const Eigen::VectorXd& us, const Ei
     const LmStep step = lm.step(H, g, V, theta, [&](const Eigen::VectorXd& candidate) { return loss_of(unpack(candidate, start)); });
     if (!step.accepted || V - step.loss <= 1e-12 * V) break;
     V = step.loss;
+    steps = it + 1;
     current = unpack(theta, start);
     current.j_pct = j_percent(block_output(current, us_sel), ys_sel, skip);
     if (current.j_pct < best.j_pct) best = current;
@@ -290,7 +292,7 @@ SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStruct
   if (iterations > 0) {
     // The kept split refined jointly on the whole records (its J first on them, from rest).
     best.j_pct = j_percent(block_output(best, us_sel_all), ys_sel_all, skip);
-    const SplitFit refined = refine_split(best, us_all, ys_all, us_sel_all, ys_sel_all, skip, iterations);
+    const SplitFit refined = refine_split(best, us_all, ys_all, us_sel_all, ys_sel_all, skip, iterations, out.iterations);
     best = refined;
   }
   out.j_pct = best.j_pct;

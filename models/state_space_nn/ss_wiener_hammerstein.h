@@ -22,6 +22,7 @@ struct SsWienerHammerstein {
   int splits = 0;           ///< splits tried
   double search_j_pct = 0.0;  ///< the kept split's J on (the first 20000 samples of) the selection data, from rest
   double j_pct = 0.0;       ///< its J on the selection data from rest after the joint refinement
+  int iterations = 0;       ///< Levenberg–Marquardt steps taken (it stops early when the loss stalls)
   double linear_j_pct = 0.0;  ///< the best linear approximation's J there, from rest
 };
 
