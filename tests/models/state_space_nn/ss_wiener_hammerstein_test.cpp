@@ -6,21 +6,24 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <random>
 
 #include "models/linear/state_space.h"
 #include "models/state_space_nn/ss_wiener_hammerstein.h"
 #include "models/validation/performance.h"
+#include "tests/support/noise.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd wh_test_noise(Eigen::Index n, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> d(-1.0, 1.0);
-  Eigen::VectorXd x(n);
-  for (auto& v : x) v = d(rng);
-  return x;
+// The best linear approximation of wh_test_system stood in for by its small-signal linearisation (g'(0) = 1):
+// 0.2·q⁻¹·(1 − 0.9q⁻¹) / ((1 − 1.6q⁻¹ + 0.8q⁻²)(1 − 0.5q⁻¹)).
+LinearModel wh_test_bla() {
+  LinearModel bla;
+  bla.fs = 1000.0;
+  bla.tf.a = Eigen::Vector3d(-2.1, 1.6, -0.4);
+  bla.tf.b = Eigen::Vector2d(0.2, -0.18);
+  bla.tf.nk = 1;
+  return bla;
 }
 
 // Front: v(k) = 1.6·v(k−1) − 0.8·v(k−2) + 0.2·u(k−1) (poles 0.8 ± 0.4j, DC gain 1); an asymmetric
@@ -42,15 +45,9 @@ Eigen::VectorXd wh_test_system(const Eigen::VectorXd& u) {
 }
 
 TEST(SsWienerHammerstein, FindsTheTrueSplitAndStartsFarBelowTheLinearModel) {
-  const Eigen::VectorXd u = 2.0 * wh_test_noise(6000, 21), y = wh_test_system(u);
+  const Eigen::VectorXd u = 2.0 * testing_support::uniform_noise(6000, 21), y = wh_test_system(u);
   const Eigen::VectorXd ue = u.head(4000), ye = y.head(4000), uv = u.tail(2000), yv = y.tail(2000);
-  // The best linear approximation stood in for by the small-signal linearisation (g'(0) = 1):
-  // 0.2·q⁻¹·(1 − 0.9q⁻¹) / ((1 − 1.6q⁻¹ + 0.8q⁻²)(1 − 0.5q⁻¹)).
-  LinearModel bla;
-  bla.fs = 1000.0;
-  bla.tf.a = Eigen::Vector3d(-2.1, 1.6, -0.4);
-  bla.tf.b = Eigen::Vector2d(0.2, -0.18);
-  bla.tf.nk = 1;
+  const LinearModel bla = wh_test_bla();
   const SsWienerHammerstein wh = ss_wiener_hammerstein_start(bla, {3, 12, 8, 0}, ue, ye, uv, yv, 0, 1);
   EXPECT_EQ(wh.front_poles, 2);
   EXPECT_EQ(wh.front_zeros, 0);
@@ -65,12 +62,8 @@ TEST(SsWienerHammerstein, FindsTheTrueSplitAndStartsFarBelowTheLinearModel) {
 }
 
 TEST(SsWienerHammerstein, TheStateSpaceFormSimulatesAsTheBlocksWrittenOut) {
-  const Eigen::VectorXd u = 2.0 * wh_test_noise(3000, 22), y = wh_test_system(u);
-  LinearModel bla;
-  bla.fs = 1000.0;
-  bla.tf.a = Eigen::Vector3d(-2.1, 1.6, -0.4);
-  bla.tf.b = Eigen::Vector2d(0.2, -0.18);
-  bla.tf.nk = 1;
+  const Eigen::VectorXd u = 2.0 * testing_support::uniform_noise(3000, 22), y = wh_test_system(u);
+  const LinearModel bla = wh_test_bla();
   const SsWienerHammerstein wh = ss_wiener_hammerstein_start(bla, {3, 6, 8, 0}, u, y, {}, {}, 0, 1);
   ASSERT_EQ(wh.front_states, 2);
   // The state-space form's recursion written out from rest (the encoder bypassed): the J the split search
@@ -93,13 +86,9 @@ TEST(SsWienerHammerstein, TheStateSpaceFormSimulatesAsTheBlocksWrittenOut) {
 
 TEST(SsWienerHammerstein, LevenbergMarquardtRefinesTheBlocksJointly) {
   // The search's nodes are fixed in slope and centre; the refinement moves them, the filters and g together.
-  const Eigen::VectorXd u = 2.0 * wh_test_noise(4000, 23), y = wh_test_system(u);
+  const Eigen::VectorXd u = 2.0 * testing_support::uniform_noise(4000, 23), y = wh_test_system(u);
   const Eigen::VectorXd ue = u.head(3000), ye = y.head(3000), uv = u.tail(1000), yv = y.tail(1000);
-  LinearModel bla;
-  bla.fs = 1000.0;
-  bla.tf.a = Eigen::Vector3d(-2.1, 1.6, -0.4);
-  bla.tf.b = Eigen::Vector2d(0.2, -0.18);
-  bla.tf.nk = 1;
+  const LinearModel bla = wh_test_bla();
   const SsWienerHammerstein wh = ss_wiener_hammerstein_start(bla, {3, 4, 8, 0}, ue, ye, uv, yv, 30, 1);
   EXPECT_LT(wh.j_pct, 0.1 * wh.search_j_pct);
   const Eigen::Index init = 20;
