@@ -3,7 +3,6 @@
 
 #include <Eigen/Core>
 #include <cstdint>
-#include <random>
 
 #include "dsp/random.h"
 
@@ -14,15 +13,6 @@ inline Eigen::VectorXd gaussian(Eigen::Index n, double sigma, std::uint64_t seed
   dsp::Rng rng(seed);
   Eigen::VectorXd x(n);
   for (Eigen::Index i = 0; i < n; ++i) x[i] = sigma * rng.gaussian();
-  return x;
-}
-
-/// n samples of white noise uniform on [−1, 1], from std::mt19937_64(seed).
-inline Eigen::VectorXd uniform_noise(Eigen::Index n, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> d(-1.0, 1.0);
-  Eigen::VectorXd x(n);
-  for (auto& v : x) v = d(rng);
   return x;
 }
 

@@ -18,12 +18,17 @@
 #include "models/state_space_nn/ss_model.h"
 #include "models/state_space_nn/ss_training.h"
 #include "models/validation/performance.h"
-#include "tests/support/noise.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd noise(Eigen::Index n, std::uint64_t seed) { return testing_support::uniform_noise(n, seed); }
+Eigen::VectorXd noise(Eigen::Index n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> d(-1.0, 1.0);
+  Eigen::VectorXd x(n);
+  for (auto& v : x) v = d(rng);
+  return x;
+}
 
 // A small model with every part of θ non-zero (random, seeded), a stable A.
 SsModel random_model(int encoder_hidden, int poly_degree = 0, bool poly_input = true) {

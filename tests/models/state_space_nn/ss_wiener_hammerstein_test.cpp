@@ -7,10 +7,10 @@
 
 #include <cmath>
 
+#include "dsp/excitation.h"
 #include "models/linear/state_space.h"
 #include "models/state_space_nn/ss_wiener_hammerstein.h"
 #include "models/validation/performance.h"
-#include "tests/support/noise.h"
 
 namespace panelbass::models {
 namespace {
@@ -45,7 +45,7 @@ Eigen::VectorXd wh_test_system(const Eigen::VectorXd& u) {
 }
 
 TEST(SsWienerHammerstein, FindsTheTrueSplitAndStartsFarBelowTheLinearModel) {
-  const Eigen::VectorXd u = 2.0 * testing_support::uniform_noise(6000, 21), y = wh_test_system(u);
+  const Eigen::VectorXd u = dsp::uniform_noise(6000, 2.0, 21), y = wh_test_system(u);
   const Eigen::VectorXd ue = u.head(4000), ye = y.head(4000), uv = u.tail(2000), yv = y.tail(2000);
   const LinearModel bla = wh_test_bla();
   const SsWienerHammerstein wh = ss_wiener_hammerstein_start(bla, {3, 12, 8, 0}, ue, ye, uv, yv, 0, 1);
@@ -62,7 +62,7 @@ TEST(SsWienerHammerstein, FindsTheTrueSplitAndStartsFarBelowTheLinearModel) {
 }
 
 TEST(SsWienerHammerstein, TheStateSpaceFormSimulatesAsTheBlocksWrittenOut) {
-  const Eigen::VectorXd u = 2.0 * testing_support::uniform_noise(3000, 22), y = wh_test_system(u);
+  const Eigen::VectorXd u = dsp::uniform_noise(3000, 2.0, 22), y = wh_test_system(u);
   const LinearModel bla = wh_test_bla();
   const SsWienerHammerstein wh = ss_wiener_hammerstein_start(bla, {3, 6, 8, 0}, u, y, {}, {}, 0, 1);
   ASSERT_EQ(wh.front_states, 2);
@@ -86,7 +86,7 @@ TEST(SsWienerHammerstein, TheStateSpaceFormSimulatesAsTheBlocksWrittenOut) {
 
 TEST(SsWienerHammerstein, LevenbergMarquardtRefinesTheBlocksJointly) {
   // The search's nodes are fixed in slope and centre; the refinement moves them, the filters and g together.
-  const Eigen::VectorXd u = 2.0 * testing_support::uniform_noise(4000, 23), y = wh_test_system(u);
+  const Eigen::VectorXd u = dsp::uniform_noise(4000, 2.0, 23), y = wh_test_system(u);
   const Eigen::VectorXd ue = u.head(3000), ye = y.head(3000), uv = u.tail(1000), yv = y.tail(1000);
   const LinearModel bla = wh_test_bla();
   const SsWienerHammerstein wh = ss_wiener_hammerstein_start(bla, {3, 4, 8, 0}, ue, ye, uv, yv, 30, 1);
