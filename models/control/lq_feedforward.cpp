@@ -13,6 +13,7 @@
 
 #include "dsp/butterworth.h"
 #include "dsp/frequency_grid.h"
+#include "dsp/leaky_integral.h"
 #include "dsp/random.h"
 #include "models/io/config_error.h"
 #include "models/io/json_fields.h"
@@ -330,6 +331,18 @@ InputLimits max_input(const LqFeedforward& ff, const std::vector<dsp::Biquad>& b
   for (Eigen::Index k = 0; k < samples; ++k) peak = std::max(peak, std::abs(step(rng.uniform(-1.0, 1.0))));
   limits.noise = peak > 0.0 ? 1.0 / peak : std::numeric_limits<double>::infinity();
   return limits;
+}
+
+double noise_excursion(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass, Eigen::Index samples,
+                       std::uint64_t seed) {
+  if (samples < 1) throw std::invalid_argument("noise_excursion: samples must be >= 1, got " + std::to_string(samples));
+  // max_input()'s noise: uniform in [−1, 1] from dsp::Rng(seed), band-passed, from rest.
+  dsp::SosFilter filter(band_pass);
+  dsp::Rng rng(seed);
+  Eigen::VectorXd program(samples);
+  for (Eigen::Index k = 0; k < samples; ++k) program[k] = filter.process(rng.uniform(-1.0, 1.0));
+  const Eigen::VectorXd y_lin = simulate(ff.desired(), program);
+  return dsp::leaky_integral(dsp::leaky_integral(y_lin, ff.fs), ff.fs).cwiseAbs().maxCoeff();
 }
 
 namespace {

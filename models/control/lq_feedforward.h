@@ -90,6 +90,13 @@ struct InputLimits {
 InputLimits max_input(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
                       Eigen::Index samples = 100000, std::uint64_t seed = 1);
 
+/// The estimated peak excursion for the noise of max_input() at program peak 1: the desired response
+/// y_lin (the model's output, acceleration) to the band-passed noise, integrated twice by
+/// dsp::leaky_integral (an integrator above fs/500), its largest magnitude, in the model output's units × s².
+/// The linear model scales it with the program's level. Throws std::invalid_argument for samples < 1.
+double noise_excursion(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
+                       Eigen::Index samples = 100000, std::uint64_t seed = 1);
+
 /// Where the drive u* = (controller · band-pass)(program) is loudest for a sine: its gain's peak.
 struct DrivePeak {
   double frequency_hz = 0.0;  ///< where |band-pass · controller| is largest

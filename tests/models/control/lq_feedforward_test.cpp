@@ -516,6 +516,14 @@ double controlled_gain(const LinearModel& m, const LqFeedforward& ff, double f) 
   return std::abs(model * response(ff.controller(), f, m.fs));
 }
 
+// `n` samples uniform in [−1, 1] from dsp::Rng(seed): the noise max_input() and noise_excursion() use.
+Eigen::VectorXd target_test_noise(Eigen::Index n, std::uint64_t seed) {
+  dsp::Rng rng(seed);
+  Eigen::VectorXd u(n);
+  for (Eigen::Index k = 0; k < n; ++k) u[k] = rng.uniform(-1.0, 1.0);
+  return u;
+}
+
 TEST(LqTarget, CheapControlFollowsTheTargetBand) {
   // R → 0: y/u = the model's gain at mid band × the Butterworth high-pass (its own biquads), within 0.5 dB
   // from the corner to 1200 Hz; the design without a target instead lifts 10 Hz (relative to 300 Hz) far
@@ -558,9 +566,7 @@ TEST(LqTarget, ControllerIsTheLoopOnTheAugmentedState) {
   // run sample by sample against controller() and desired() simulated as state spaces.
   const LinearModel m = acceleration_model();
   const LqFeedforward ff = design_lq(m, {1e-3, 20.0}, {40.0, 3, 300.0});
-  dsp::Rng rng(3);
-  Eigen::VectorXd u(400);
-  for (Eigen::Index k = 0; k < u.size(); ++k) u[k] = rng.uniform(-1.0, 1.0);
+  const Eigen::VectorXd u = target_test_noise(400, 3);
   const Eigen::VectorXd drive = simulate(ff.controller(), u), y_lin = simulate(ff.desired(), u);
   Eigen::VectorXd x = Eigen::VectorXd::Zero(ff.plant.order()), xr = Eigen::VectorXd::Zero(ff.target.model.order());
   for (Eigen::Index k = 0; k < u.size(); ++k) {
@@ -571,6 +577,28 @@ TEST(LqTarget, ControllerIsTheLoopOnTheAugmentedState) {
     x = ff.plant.A * x + ff.plant.B * u_star;
     xr = ff.target.model.A * xr + ff.target.model.B * u[k];
   }
+}
+
+TEST(LqTarget, ExcursionFallsAsTheCornerRisesAndIsTheDoubleIntegralOfTheDesiredResponse) {
+  // The same noise and the same double leaky integral written out here: the estimate is max|∫∫ y_lin|.
+  const LinearModel m = acceleration_model();
+  const LqFeedforward ff = design_lq(m, {1e-4, 20.0}, {40.0, 2, 300.0});
+  const Eigen::VectorXd y = simulate(ff.desired(), target_test_noise(5000, 7));
+  const double lambda = std::exp(-2.0 * std::numbers::pi / 500.0);
+  double v = 0.0, x = 0.0, peak = 0.0;
+  for (Eigen::Index k = 0; k < y.size(); ++k) {
+    v = lambda * v + y[k] / m.fs;
+    x = lambda * x + v / m.fs;
+    peak = std::max(peak, std::abs(x));
+  }
+  EXPECT_NEAR(noise_excursion(ff, {}, 5000, 7), peak, 1e-9 * peak);
+  double previous = noise_excursion(design_lq(m, {1e-4, 20.0}), {}, 5000, 7);
+  for (const double hz : {40.0, 80.0, 160.0}) {
+    const double e = noise_excursion(design_lq(m, {1e-4, 20.0}, {hz, 2, 400.0}), {}, 5000, 7);
+    EXPECT_LT(e, previous) << hz << " Hz";
+    previous = e;
+  }
+  expect_invalid([&] { noise_excursion(ff, {}, 0, 7); }, "samples must be >= 1");
 }
 
 TEST(LqTarget, RefusesACornerOutsideTheBandAndBadOrders) {
