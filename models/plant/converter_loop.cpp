@@ -14,7 +14,7 @@ std::vector<ConverterSection> converter_sections(const AnalogFilter& filter, int
   std::vector<ConverterSection> out;
   if (filter.order == 0) return out;
   for (const dsp::AnalogSection& s : dsp::analog_butterworth_lowpass(filter.order, filter.cutoff_hz)) {
-    out.push_back(ConverterSection{s.omega, s.q, s.first_order, next});
+    out.push_back(ConverterSection{s, next});
     next += s.first_order ? 1 : 2;
   }
   return out;

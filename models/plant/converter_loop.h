@@ -12,17 +12,15 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "dsp/butterworth.h"
 #include "models/plant/plant_config.h"
 
 namespace panelbass::models {
 
 /// One analog Butterworth section of a converter filter and where its states sit in a state vector:
 /// ω/(s+ω) (one state, its output) or ω²/(s² + (ω/q)s + ω²) (two: its output and the output's derivative).
-struct ConverterSection {
-  double omega = 0.0;        ///< rad/s
-  double q = 0.0;            ///< quality factor (unused for a first-order section)
-  bool first_order = false;
-  int state = 0;             ///< index of its first state
+struct ConverterSection : dsp::AnalogSection {
+  int state = 0;  ///< index of its first state
 };
 
 /// The sections of `filter` (none for order 0), their states laid out from `next` on; `next` is moved past
