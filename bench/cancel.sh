@@ -26,8 +26,10 @@ dir=$(realpath -m "$1")
 seed=${2:-1}
 if [ -n "${PANELBASS_BIN:-}" ]; then PANELBASS_BIN=$(realpath "$PANELBASS_BIN"); fi
 cd "$(dirname "$0")/.."
+here=$(pwd)
 bin=$(realpath "${PANELBASS_BIN:-build/bin/panelbass}")
 levels=${LEVELS:-0.1,0.2,0.3,0.4,0.5}
+NN_RECORDS=${NN_RECORDS:-6}
 mkdir -p "$dir"
 cd "$dir"
 stage() { echo "cancel: $(date +%H:%M:%S) $*" >&2; }
@@ -47,6 +49,28 @@ head -n 12001 noise.csv > est.csv
 "$bin" identify linear --data est.csv --val val.csv --fs 3000 --method oe --scan 1:16 --out lin.json > /dev/null 2>&1
 "$bin" design lq --model lin.json --R 1e-5 --R0 20 --bandpass 20,1200 --out ff.json > /dev/null 2>&1
 "$bin" chain --bandpass 20,1200 --ff ff.json --out lq-chain.json > /dev/null
+if [ "${NN:-1}" = 1 ]; then
+  # the neural feedback controller behind band-pass + LQ, made as a user would: the plant recorded where the
+  # feedforward drives it, a NARX model of those records with their harmonic weights, the controller trained
+  # through the loop on that model to remove the harmonics of the uncorrected loop (bench/control_table.sh's
+  # design settings, bench/design_nn_flags.sh); its chains read the plant output from the sensor (true
+  # feedback) and from its own plant model (model mode)
+  stage "neural feedback: $NN_RECORDS regime records behind band-pass + LQ"
+  source "$here/bench/regime_records.sh"
+  regime_records "$bin" reg_est.csv "$NN_RECORDS" $((seed * 1000 + 10)) --ff ff.json
+  "$bin" simulate --signal control --ff ff.json --samples 10000 --seed $((seed * 1000 + 999)) --sine-peak 0.65 \
+    --out reg_val.csv > /dev/null 2>&1
+  stage "neural feedback: NARX plant model (10/10/20, weighted by the harmonics)"
+  "$bin" identify narx --data reg_est.csv --val reg_val.csv --fs 3000 --na 10 --nb 10 --hidden 20 --train pem,oem-d \
+    --weight-col w --max-iter 60 --seed "$seed" --out narx.json > narx-fit.json
+  stage "neural feedback: the controller trained through the loop (design nn --desired plant-fundamental)"
+  source "$here/bench/design_nn_flags.sh"
+  "$bin" design nn --plant narx.json --ff ff.json "${design_nn_flags[@]}" --hidden "$design_nn_hidden" \
+    --iterations "$design_nn_iterations" --samples "$design_nn_samples" --desired plant-fundamental \
+    --seed "$seed" --out fb.json > fb-fit.json
+  "$bin" chain --bandpass 20,1200 --ff ff.json --fb fb.json --source sensor --out nn-sensor-chain.json > /dev/null
+  "$bin" chain --bandpass 20,1200 --ff ff.json --fb fb.json --source model --out nn-model-chain.json > /dev/null
+fi
 
 stage "variants: nonlinear coefficients and main resonance at ±20 %"
 "$bin" plant show panel-exciter > panel-exciter.json
@@ -70,7 +94,9 @@ plants="panel-exciter"
 for nl in 0.8 1.2; do plants="$plants panel-exciter-nl$nl-f1.0"; done
 for f in 0.8 1.2; do plants="$plants panel-exciter-nl1.0-f$f"; done
 for nl in 0.8 1.2; do for f in 0.8 1.2; do plants="$plants panel-exciter-nl$nl-f$f"; done; done
-chains=${CHAINS:-adaptive-chain mirror-chain lq-chain}
+default_chains="adaptive-chain mirror-chain lq-chain"
+if [ "${NN:-1}" = 1 ]; then default_chains="$default_chains nn-sensor-chain nn-model-chain"; fi
+chains=${CHAINS:-$default_chains}
 for chain in $chains; do
   for plant in $plants; do
     # band-pass + LQ is the comparison on the plant it was designed on
