@@ -29,7 +29,12 @@ cd "$(dirname "$0")/.."
 here=$(pwd)
 bin=$(realpath "${PANELBASS_BIN:-build/bin/panelbass}")
 levels=${LEVELS:-0.1,0.2,0.3,0.4,0.5}
-NN_RECORDS=${NN_RECORDS:-6}
+# the neural feedback controller's training sizes (bench/control_table.sh uses 24 records, 60 NARX iterations per
+# mode, 150 design iterations on 48 000-sample records: about an hour of CPU; these take a quarter of it)
+NN_RECORDS=${NN_RECORDS:-3}
+NN_NARX_ITER=${NN_NARX_ITER:-30}
+NN_ITER=${NN_ITER:-50}
+NN_SAMPLES=${NN_SAMPLES:-24000}
 mkdir -p "$dir"
 cd "$dir"
 stage() { echo "cancel: $(date +%H:%M:%S) $*" >&2; }
@@ -62,11 +67,11 @@ if [ "${NN:-1}" = 1 ]; then
     --out reg_val.csv > /dev/null 2>&1
   stage "neural feedback: NARX plant model (10/10/20, weighted by the harmonics)"
   "$bin" identify narx --data reg_est.csv --val reg_val.csv --fs 3000 --na 10 --nb 10 --hidden 20 --train pem,oem-d \
-    --weight-col w --max-iter 60 --seed "$seed" --out narx.json > narx-fit.json
+    --weight-col w --max-iter "$NN_NARX_ITER" --seed "$seed" --out narx.json > narx-fit.json
   stage "neural feedback: the controller trained through the loop (design nn --desired plant-fundamental)"
   source "$here/bench/design_nn_flags.sh"
   "$bin" design nn --plant narx.json --ff ff.json "${design_nn_flags[@]}" --hidden "$design_nn_hidden" \
-    --iterations "$design_nn_iterations" --samples "$design_nn_samples" --desired plant-fundamental \
+    --iterations "$NN_ITER" --samples "$NN_SAMPLES" --desired plant-fundamental \
     --seed "$seed" --out fb.json > fb-fit.json
   "$bin" chain --bandpass 20,1200 --ff ff.json --fb fb.json --source sensor --out nn-sensor-chain.json > /dev/null
   "$bin" chain --bandpass 20,1200 --ff ff.json --fb fb.json --source model --out nn-model-chain.json > /dev/null
