@@ -196,8 +196,12 @@ TEST_F(CliRender, AProgramPastTheChainsSafeAmplitudeIsReportedAndOneBelowIsNot) 
   const json q = expect_result(under);
   EXPECT_EQ(q["drive_demand"]["needs_more_drive"], false) << q;
   EXPECT_EQ(q["drive_demand"]["over_range_samples"], 0);
-  EXPECT_EQ(q["drive_demand"]["limited_samples"], 0);
-  EXPECT_NEAR(q["drive_demand"]["peak_demand"].get<double>(), asked(quiet).cwiseAbs().maxCoeff(), 1e-9);
+  // (the band-pass's start may overshoot the knee for a few samples: the limiter compresses them, below full scale)
+  const Eigen::VectorXd b = asked(quiet);
+  EXPECT_EQ(q["drive_demand"]["limited_samples"].get<std::uint64_t>(),
+            static_cast<std::uint64_t>((b.array().abs() > 0.8).count()));
+  EXPECT_NEAR(q["drive_demand"]["peak_demand"].get<double>(), b.cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT(b.cwiseAbs().maxCoeff(), 1.0);
   EXPECT_FALSE(contains(under.err, "needs more drive")) << under.err;
 }
 
