@@ -6,7 +6,10 @@
 #      observer that adapts its stiffness on line from the sensor (an extended Kalman filter)  design mirror [--adapt]
 #   3. their chains (low-pass 1200 Hz, mirror filter as the feedforward) → DIR/mirror-chain.json,
 #      DIR/adaptive-chain.json                                                    chain
-#   4. band-pass + LQ for comparison (OE model from noise, R = 1e-5, band 20-1200 Hz) → DIR/lq-chain.json
+#   4. band-pass + LQ for comparison (OE model from noise, R = 1e-5, band 20-1200 Hz) → DIR/lq-chain.json, and
+#      the neural feedback controller behind it as a user makes it (regime records behind the LQ feedforward →
+#      NARX model weighted by the harmonics → design nn --desired plant-fundamental) → DIR/nn-sensor-chain.json,
+#      DIR/nn-model-chain.json (NN=0: left out)        simulate --signal control, identify narx, design nn
 #   5. THD/H2/H3 against the sensor's fundamental at 40/80/160/320 Hz and two-tone IMD, each chain beside the
 #      plant driven alone at the drive that gives the same fundamental, on panel-exciter (sensor noise on) and
 #      on eight variants the design never saw: every nonlinear coefficient, the main resonance, and both, moved by
@@ -19,9 +22,11 @@
 #   panelbass evaluate --plant PLANT.json --chain DIR/chain.json --html thd.html
 # or render a program through it: panelbass render --chain DIR/chain.json --plant PLANT.json --in x.wav --out y.wav
 # PANELBASS_BIN overrides the binary; LEVELS the program amplitudes (default 0.1,0.2,0.3,0.4,0.5); CHAINS the chains
-# evaluated (default "adaptive-chain mirror-chain lq-chain").
+# evaluated (default "adaptive-chain mirror-chain lq-chain nn-sensor-chain nn-model-chain"); NN_RECORDS,
+# NN_NARX_ITER, NN_ITER, NN_SAMPLES the neural feedback controller's training (below). About 22 minutes on a
+# shared 2-core machine, 15 of them the NARX model's training (NN=0: about 2 minutes).
 set -euo pipefail
-if [ $# -lt 1 ]; then sed -n '2,23p' "$0" >&2; exit 2; fi
+if [ $# -lt 1 ]; then sed -n '2,27p' "$0" >&2; exit 2; fi
 dir=$(realpath -m "$1")
 seed=${2:-1}
 if [ -n "${PANELBASS_BIN:-}" ]; then PANELBASS_BIN=$(realpath "$PANELBASS_BIN"); fi
