@@ -32,6 +32,7 @@
 #include "engine/controller_stages.h"
 #include "engine/mirror_filter_stage.h"
 #include "engine/rate_bridge.h"
+#include "models/control/feedback_training.h"
 #include "models/control/neural_feedback.h"
 #include "models/linear/linear_model.h"
 #include "models/narx/narx_model.h"
@@ -69,20 +70,12 @@ models::LinearModel feedforward_model() {
 /// The neural feedback controller as bench/cancel.sh designs it (N1 8 hidden, nu 6, nv 2, ny 4, on a NARX plant
 /// model 10/10/20) with random weights: the cost is the shape's, not the weights'.
 models::NeuralFeedback neural_feedback_controller() {
-  models::NarxStructure narx;
-  narx.na = 10;
-  narx.nb = 10;
-  narx.nk = 1;
-  narx.hidden = {20};
-  models::NarxModel plant = models::NarxModel::with_structure(narx, {}, kFs);
+  models::NarxModel plant =
+      models::NarxModel::with_structure(models::NarxStructure{.na = 10, .nb = 10, .nk = 1, .hidden = {20}}, {}, kFs);
   plant.net.initialize(1.0, 7);
-  models::FeedbackStructure structure;
-  structure.nu = 6;
-  structure.nv = 2;
-  structure.ny = 4;
-  structure.hidden = {8};
-  models::NeuralFeedback c = models::NeuralFeedback::with_structure(structure, plant);
-  c.net.initialize(1.0, 8, 0.1);
+  models::NeuralFeedback c = models::NeuralFeedback::with_structure(
+      models::FeedbackStructure{.nu = 6, .nv = 2, .ny = 4, .hidden = {8}}, plant);
+  models::initialize_feedback(c, 8, 0.1);
   return c;
 }
 
