@@ -23,7 +23,7 @@
 # or render a program through it: panelbass render --chain DIR/chain.json --plant PLANT.json --in x.wav --out y.wav
 # PANELBASS_BIN overrides the binary; LEVELS the program amplitudes (default 0.1,0.2,0.3,0.4,0.5); CHAINS the chains
 # evaluated (default "adaptive-chain mirror-chain lq-chain nn-sensor-chain nn-model-chain"); NN_RECORDS,
-# NN_NARX_ITER, NN_ITER, NN_SAMPLES the neural feedback controller's training (below). About 22 minutes on a
+# NN_NARX_ITER, NN_ITER, NN_SAMPLES the neural feedback controller's training (below). About 22–25 minutes on a
 # shared 2-core machine, 15 of them the NARX model's training (NN=0: about 2 minutes).
 set -euo pipefail
 if [ $# -lt 1 ]; then sed -n '2,27p' "$0" >&2; exit 2; fi
