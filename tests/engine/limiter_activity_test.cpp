@@ -19,6 +19,16 @@ namespace {
 
 using testing::kFs;
 
+/// `program` through `chain` in blocks of 1 to 109 samples.
+void run_in_varied_blocks(Chain& chain, const Eigen::VectorXd& program) {
+  std::vector<double> drive(static_cast<std::size_t>(program.size()));
+  for (Eigen::Index pos = 0, block = 1; pos < program.size(); pos += block, block = block % 97 + 13) {
+    const Eigen::Index n = std::min(block, program.size() - pos);
+    chain.process_block({program.data() + pos, static_cast<std::size_t>(n)},
+                        {drive.data() + pos, static_cast<std::size_t>(n)});
+  }
+}
+
 TEST(ChainLimiterActivity, CountsWhatTheDirectEvaluationAsksOfTheLimiter) {
   const double gain = 4.0;
   const Eigen::VectorXd program = testing::uniform(3000, 0.3, 41);
@@ -35,12 +45,7 @@ TEST(ChainLimiterActivity, CountsWhatTheDirectEvaluationAsksOfTheLimiter) {
 
   Chain chain(options);
   chain.feedforward().set_initial(std::make_unique<LinearStage>(testing::gain_model(gain)));
-  std::vector<double> drive(static_cast<std::size_t>(program.size()));
-  for (Eigen::Index pos = 0, block = 1; pos < program.size(); pos += block, block = block % 97 + 13) {
-    const Eigen::Index n = std::min(block, program.size() - pos);
-    chain.process_block({program.data() + pos, static_cast<std::size_t>(n)},
-                        {drive.data() + pos, static_cast<std::size_t>(n)});
-  }
+  run_in_varied_blocks(chain, program);
   const MetricsSnapshot m = chain.metrics().snapshot();
   EXPECT_EQ(m.faults, 0u);
   EXPECT_EQ(m.limited_samples, limited);
@@ -77,12 +82,7 @@ TEST(ChainLimiterActivity, WhatANeuralFeedbackStageAskedBeforeItsOwnSoftLimitCou
     chain.feedforward().set_initial(std::make_unique<LinearStage>(testing::gain_model(gain)));
     chain.feedback().set_initial(std::make_unique<NeuralFeedbackStage>(
         models::NeuralFeedback::with_structure(models::FeedbackStructure{}, testing::example_narx(5)), source));
-    std::vector<double> drive(static_cast<std::size_t>(program.size()));
-    for (Eigen::Index pos = 0, block = 1; pos < program.size(); pos += block, block = block % 89 + 11) {
-      const Eigen::Index n = std::min(block, program.size() - pos);
-      chain.process_block({program.data() + pos, static_cast<std::size_t>(n)},
-                          {drive.data() + pos, static_cast<std::size_t>(n)});
-    }
+    run_in_varied_blocks(chain, program);
     const MetricsSnapshot m = chain.metrics().snapshot();
     EXPECT_FALSE(m.in_fault);  // (in sensor mode the silent sensor is reported, nothing bypassed)
     EXPECT_EQ(m.over_range_samples, over_range);
