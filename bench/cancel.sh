@@ -6,7 +6,10 @@
 #      observer that adapts its stiffness on line from the sensor (an extended Kalman filter)  design mirror [--adapt]
 #   3. their chains (low-pass 1200 Hz, mirror filter as the feedforward) → DIR/mirror-chain.json,
 #      DIR/adaptive-chain.json                                                    chain
-#   4. band-pass + LQ for comparison (OE model from noise, R = 1e-5, band 20-1200 Hz) → DIR/lq-chain.json
+#   4. band-pass + LQ for comparison (OE model from noise, R = 1e-5, band 20-1200 Hz) → DIR/lq-chain.json, and
+#      the neural feedback controller behind it as a user makes it (regime records behind the LQ feedforward →
+#      NARX model weighted by the harmonics → design nn --desired plant-fundamental) → DIR/nn-sensor-chain.json,
+#      DIR/nn-model-chain.json (NN=0: left out)        simulate --signal control, identify narx, design nn
 #   5. THD/H2/H3 against the sensor's fundamental at 40/80/160/320 Hz and two-tone IMD, each chain beside the
 #      plant driven alone at the drive that gives the same fundamental, on panel-exciter (sensor noise on) and
 #      on eight variants the design never saw: every nonlinear coefficient, the main resonance, and both, moved by
@@ -19,15 +22,24 @@
 #   panelbass evaluate --plant PLANT.json --chain DIR/chain.json --html thd.html
 # or render a program through it: panelbass render --chain DIR/chain.json --plant PLANT.json --in x.wav --out y.wav
 # PANELBASS_BIN overrides the binary; LEVELS the program amplitudes (default 0.1,0.2,0.3,0.4,0.5); CHAINS the chains
-# evaluated (default "adaptive-chain mirror-chain lq-chain").
+# evaluated (default "adaptive-chain mirror-chain lq-chain nn-sensor-chain nn-model-chain"); NN_RECORDS,
+# NN_NARX_ITER, NN_ITER, NN_SAMPLES the neural feedback controller's training (below). About 22–25 minutes on a
+# shared 2-core machine, 15 of them the NARX model's training (NN=0: about 2 minutes).
 set -euo pipefail
-if [ $# -lt 1 ]; then sed -n '2,23p' "$0" >&2; exit 2; fi
+if [ $# -lt 1 ]; then sed -n '2,27p' "$0" >&2; exit 2; fi
 dir=$(realpath -m "$1")
 seed=${2:-1}
 if [ -n "${PANELBASS_BIN:-}" ]; then PANELBASS_BIN=$(realpath "$PANELBASS_BIN"); fi
 cd "$(dirname "$0")/.."
+here=$(pwd)
 bin=$(realpath "${PANELBASS_BIN:-build/bin/panelbass}")
 levels=${LEVELS:-0.1,0.2,0.3,0.4,0.5}
+# the neural feedback controller's training sizes (bench/control_table.sh uses 24 records, 60 NARX iterations per
+# mode, 150 design iterations on 48 000-sample records: about an hour of CPU; these take a quarter of it)
+NN_RECORDS=${NN_RECORDS:-3}
+NN_NARX_ITER=${NN_NARX_ITER:-30}
+NN_ITER=${NN_ITER:-50}
+NN_SAMPLES=${NN_SAMPLES:-24000}
 mkdir -p "$dir"
 cd "$dir"
 stage() { echo "cancel: $(date +%H:%M:%S) $*" >&2; }
@@ -47,6 +59,28 @@ head -n 12001 noise.csv > est.csv
 "$bin" identify linear --data est.csv --val val.csv --fs 3000 --method oe --scan 1:16 --out lin.json > /dev/null 2>&1
 "$bin" design lq --model lin.json --R 1e-5 --R0 20 --bandpass 20,1200 --out ff.json > /dev/null 2>&1
 "$bin" chain --bandpass 20,1200 --ff ff.json --out lq-chain.json > /dev/null
+if [ "${NN:-1}" = 1 ]; then
+  # the neural feedback controller behind band-pass + LQ, made as a user would: the plant recorded where the
+  # feedforward drives it, a NARX model of those records with their harmonic weights, the controller trained
+  # through the loop on that model to remove the harmonics of the uncorrected loop (bench/control_table.sh's
+  # design settings, bench/design_nn_flags.sh); its chains read the plant output from the sensor (true
+  # feedback) and from its own plant model (model mode)
+  stage "neural feedback: $NN_RECORDS regime records behind band-pass + LQ"
+  source "$here/bench/regime_records.sh"
+  regime_records "$bin" reg_est.csv "$NN_RECORDS" $((seed * 1000 + 10)) --ff ff.json
+  "$bin" simulate --signal control --ff ff.json --samples 10000 --seed $((seed * 1000 + 999)) --sine-peak 0.65 \
+    --out reg_val.csv > /dev/null 2>&1
+  stage "neural feedback: NARX plant model (10/10/20, weighted by the harmonics)"
+  "$bin" identify narx --data reg_est.csv --val reg_val.csv --fs 3000 --na 10 --nb 10 --hidden 20 --train pem,oem-d \
+    --weight-col w --max-iter "$NN_NARX_ITER" --seed "$seed" --out narx.json > narx-fit.json
+  stage "neural feedback: the controller trained through the loop (design nn --desired plant-fundamental)"
+  source "$here/bench/design_nn_flags.sh"
+  "$bin" design nn --plant narx.json --ff ff.json "${design_nn_flags[@]}" --hidden "$design_nn_hidden" \
+    --iterations "$NN_ITER" --samples "$NN_SAMPLES" --desired plant-fundamental \
+    --seed "$seed" --out fb.json > fb-fit.json
+  "$bin" chain --bandpass 20,1200 --ff ff.json --fb fb.json --source sensor --out nn-sensor-chain.json > /dev/null
+  "$bin" chain --bandpass 20,1200 --ff ff.json --fb fb.json --source model --out nn-model-chain.json > /dev/null
+fi
 
 stage "variants: nonlinear coefficients and main resonance at ±20 %"
 "$bin" plant show panel-exciter > panel-exciter.json
@@ -70,7 +104,9 @@ plants="panel-exciter"
 for nl in 0.8 1.2; do plants="$plants panel-exciter-nl$nl-f1.0"; done
 for f in 0.8 1.2; do plants="$plants panel-exciter-nl1.0-f$f"; done
 for nl in 0.8 1.2; do for f in 0.8 1.2; do plants="$plants panel-exciter-nl$nl-f$f"; done; done
-chains=${CHAINS:-adaptive-chain mirror-chain lq-chain}
+default_chains="adaptive-chain mirror-chain lq-chain"
+if [ "${NN:-1}" = 1 ]; then default_chains="$default_chains nn-sensor-chain nn-model-chain"; fi
+chains=${CHAINS:-$default_chains}
 for chain in $chains; do
   for plant in $plants; do
     # band-pass + LQ is the comparison on the plant it was designed on

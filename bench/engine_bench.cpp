@@ -23,13 +23,17 @@
 #include <cstdlib>
 #include <functional>
 #include <memory>
+#include <string_view>
 #include <vector>
 
 #include "dsp/random.h"
 #include "engine/chain.h"
 #include "engine/closed_loop.h"
+#include "engine/controller_stages.h"
 #include "engine/mirror_filter_stage.h"
 #include "engine/rate_bridge.h"
+#include "models/control/feedback_training.h"
+#include "models/control/neural_feedback.h"
 #include "models/linear/linear_model.h"
 #include "models/narx/narx_model.h"
 #include "models/plant/plant_presets.h"
@@ -61,6 +65,18 @@ models::LinearModel feedforward_model() {
   m.tf.b = Eigen::VectorXd::Constant(8, 0.01);
   m.fs = kFs;
   return m;
+}
+
+/// The neural feedback controller as bench/cancel.sh designs it (N1 8 hidden, nu 6, nv 2, ny 4, on a NARX plant
+/// model 10/10/20) with random weights: the cost is the shape's, not the weights'.
+models::NeuralFeedback neural_feedback_controller() {
+  models::NarxModel plant =
+      models::NarxModel::with_structure(models::NarxStructure{.na = 10, .nb = 10, .nk = 1, .hidden = {20}}, {}, kFs);
+  plant.net.initialize(1.0, 7);
+  models::NeuralFeedback c = models::NeuralFeedback::with_structure(
+      models::FeedbackStructure{.nu = 6, .nv = 2, .ny = 4, .hidden = {8}}, plant);
+  models::initialize_feedback(c, 8, 0.1);
+  return c;
 }
 
 /// The thesis's NARX size with random weights.
@@ -301,12 +317,34 @@ int main(int argc, char** argv) {
       stage.observe(0.5 * in[k]);
     }
   };
+  // Issue #34's other compensator: the neural feedback controller stage by itself (fig. 7.10), reading the plant's
+  // output from the sensor (process and observe per sample; the sensor read as a scaled copy of the program) —
+  // its NARX plant model runs in both modes (the stand-in for a lost sensor) — and in model mode.
+  auto neural_stage = [&](FeedbackSource source) {
+    return [&, source](Chain&, std::span<const double> in, std::span<double> out, int block) {
+      static NeuralFeedbackStage sensor_stage(neural_feedback_controller(), FeedbackSource::sensor);
+      static NeuralFeedbackStage model_stage(neural_feedback_controller(), FeedbackSource::model);
+      NeuralFeedbackStage& stage = source == FeedbackSource::sensor ? sensor_stage : model_stage;
+      if (block == 0) {
+        stage.prepare(options.spec);
+        stage.reset();
+      }
+      for (std::size_t k = 0; k < in.size(); ++k) {
+        out[k] = stage.process(in[k]);
+        stage.observe(0.5 * in[k]);
+      }
+    };
+  };
   const Row rows[] = {
       {"band-pass stage alone (Butterworth 2+2: two second-order sections, no chain around it)",
        measure(band_pass, band_pass_stage, program)},
       {"mirror filter stage alone (gray-box exciter model's inverse, issue #34)", measure(band_pass, mirror_stage, program)},
       {"adaptive mirror filter stage alone (+ its stiffness observer, issue #34)",
        measure(band_pass, adaptive_mirror_stage, program)},
+      {"neural feedback stage alone, sensor mode (N1 13-8-1 + its NARX plant model 21-20-1, issue #34)",
+       measure(band_pass, neural_stage(FeedbackSource::sensor), program)},
+      {"neural feedback stage alone, model mode (the same, its plant model's output fed back)",
+       measure(band_pass, neural_stage(FeedbackSource::model), program)},
       {"band-pass (Butterworth 2+2, 20-1200 Hz)", measure(band_pass, plain, program)},
       {"+ linear feedforward (8th order)", measure(with_ff, plain, program)},
       {"+ NARX feedback, model mode (17-17-1) + limiter = full chain", measure(full, plain, program)},
@@ -366,10 +404,18 @@ int main(int argc, char** argv) {
                 row.r.median_ns_per_frame, row.r.ns_per_frame, rtf, row.r.p99_us, row.r.max_us,
                 row.r.latency_samples, row.r.latency_ms);
   }
+  // The row whose name starts with `prefix` (the table's order may grow).
+  auto row = [&](const char* prefix) -> const Result& {
+    for (const Row& r : rows) {
+      if (std::string_view(r.name).starts_with(prefix)) return r.r;
+    }
+    std::abort();
+  };
   // One line for bench/engine_compare.py, which sets two builds' figures side by side (medians, ns).
   std::printf("\nsummary band_pass_stage=%.2f band_pass=%.2f full_chain=%.2f device48_bridge=%.2f device48_full=%.2f "
               "latency48_ms=%.2f\n",
-              rows[0].r.median_ns_per_sample, rows[2].r.median_ns_per_sample, rows[4].r.median_ns_per_sample,
+              rows[0].r.median_ns_per_sample, row("band-pass (").median_ns_per_sample,
+              row("+ NARX feedback").median_ns_per_sample,
               device_rows[0].r.median_ns_per_frame, device_rows[1].r.median_ns_per_frame, device_rows[0].r.latency_ms);
   return 0;
 }

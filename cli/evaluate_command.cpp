@@ -43,9 +43,13 @@ void print_level_sweep(const evaluation::LevelSweep& sweep) {
                "cut dB", "floor %", "drive");
   for (const evaluation::LevelCurve& c : sweep.curves) {
     for (const evaluation::LevelPoint& p : c.points) {
-      std::fprintf(stderr, "%7.0f %8.3f %10.4f %10.3f %10.3f %9.1f %9.3f %8.3f%s\n", c.frequency_hz, p.program_amplitude,
+      std::fprintf(stderr, "%7.0f %8.3f %10.4f %10.3f %10.3f %9.1f %9.3f %8.3f%s", c.frequency_hz, p.program_amplitude,
                    p.chain.fundamental, p.chain.thd_pct, p.plant.thd_pct, p.cut_db, p.noise_floor_pct, p.chain.drive_peak,
                    p.reachable ? "" : "  (not reachable)");
+      if (p.needs_more_drive) {
+        std::fprintf(stderr, "  needs more drive than the chain can give (asked %.3f)", p.peak_demand);
+      }
+      std::fprintf(stderr, "\n");
     }
     std::fprintf(stderr, "%7.0f worst cut over the reachable levels: %.1f dB\n", c.frequency_hz,
                  sweep.worst_cut_db(c.frequency_hz));

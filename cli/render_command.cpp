@@ -143,6 +143,19 @@ void run_render(const RenderOptions& o) {
   result["faults"] = m.faults;
   result["in_fault"] = m.in_fault;
   result["last_fault"] = engine::fault_name(m.last_fault);
+  // What the chain asked of the limiter over the whole program: a sample at or beyond full scale is one
+  // the chain could not give (the limiter squeezed it below the rails).
+  const bool needs_more_drive = m.over_range_samples > 0;
+  result["drive_demand"] = {{"peak_demand", m.peak_demand},
+                            {"limited_samples", m.limited_samples},
+                            {"over_range_samples", m.over_range_samples},
+                            {"needs_more_drive", needs_more_drive}};
+  if (needs_more_drive) {
+    std::cerr << "render: warning: the program needs more drive than the chain can give: " << m.over_range_samples
+              << " of " << m.samples << " samples asked for full scale or more (peak " << m.peak_demand
+              << "); the limiter kept the drive inside [-1, 1] and the output distorts there. Lower the program "
+                 "or design the controllers for its level (design lq --max-input)\n";
+  }
 
   if (plant) {
     std::cerr << "render: simulating the transducer for the bare program\n";
@@ -197,7 +210,9 @@ void register_render(CLI::App& app) {
   cmd->footer(
       "Example:\n  panelbass render --chain chain.json --in music-48k.wav --out rendered.wav --plant panel-exciter\n"
       "Prints one JSON object; with --plant, J_c of [2C] (percent) for the chained and the bare drive, and\n"
-      "their THD at the program's frequency when the program is a sine.");
+      "their THD at the program's frequency when the program is a sine. drive_demand says what the chain asked\n"
+      "of its limiter (peak_demand, over_range_samples); needs_more_drive (and a warning on stderr): some\n"
+      "sample asked for full scale or more, more drive than the chain can give.");
   cmd->callback([o] { run_render(*o); });
 }
 

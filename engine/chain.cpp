@@ -98,6 +98,13 @@ void Chain::end_block(std::span<const double> drive, std::chrono::steady_clock::
   // (The limiter's drive is never NaN, so a plain max needs no fmax call per sample.)
   for (const double d : drive) peak = std::max(peak, std::abs(d));
   metrics_.record_peak_drive(peak);
+  // A stage that limits its own output (the neural feedback's soft limit) hides from the limiter what it asked
+  // for: its own count joins the chain's (its output stays below full scale, so no sample counts twice).
+  for (auto& slot : slots_) {
+    const StageDemand d = slot->take_demand();
+    block_limiting_.over_range += d.over_range;
+    block_limiting_.peak_demand = std::max(block_limiting_.peak_demand, d.peak);
+  }
   metrics_.record_limiting(block_limiting_.limited, block_limiting_.over_range, block_limiting_.peak_demand);
   const auto elapsed = std::chrono::steady_clock::now() - started;
   metrics_.record_block(static_cast<std::uint64_t>(std::chrono::nanoseconds(elapsed).count()), drive.size());

@@ -52,6 +52,11 @@ void NeuralFeedbackStage::prepare(const ProcessSpec& spec) {
 
 double NeuralFeedbackStage::process(double x) noexcept {
   const double v = runner_->control(x);
+  const double asked = std::abs(runner_->asked());
+  if (std::isfinite(asked)) {
+    demand_.peak = std::max(demand_.peak, asked);
+    if (asked >= 1.0) ++demand_.over_range;
+  }
   // The plant model runs in both modes: it is the output in model mode, and the stand-in for a lost sensor.
   predicted_ = runner_->plant_model_output();
   if (source_ == FeedbackSource::model) runner_->push_output(predicted_);
@@ -68,6 +73,13 @@ void NeuralFeedbackStage::reset() noexcept {
   if (runner_) runner_->reset();
   watch_.reset();
   predicted_ = 0.0;
+  demand_ = {};
+}
+
+StageDemand NeuralFeedbackStage::take_demand() noexcept {
+  const StageDemand d = demand_;
+  demand_ = {};
+  return d;
 }
 
 Fault NeuralFeedbackStage::take_fault() noexcept {

@@ -56,6 +56,8 @@ class NeuralFeedbackStage final : public Stage {
   void reset() noexcept override;
   /// Fault::sensor_lost once when the sensor went silent (the stage then runs on its plant model).
   Fault take_fault() noexcept override;
+  /// The samples whose u + N1 was at or beyond full scale before the stage's soft limit, and the peak.
+  StageDemand take_demand() noexcept override;
   /// True while a silent sensor is replaced by the plant model.
   bool on_model_fallback() const noexcept { return watch_.lost(); }
 
@@ -66,6 +68,7 @@ class NeuralFeedbackStage final : public Stage {
   SensorWatch watch_;
   double predicted_ = 0.0;     // the plant model's output for the sample just processed
   bool fault_pending_ = false;
+  StageDemand demand_;         // since the last take_demand()
 };
 
 }  // namespace panelbass::engine

@@ -229,6 +229,11 @@ Fault ModelSlot::take_fault() noexcept {
   return active != Fault::none ? active : incoming;
 }
 
+StageDemand ModelSlot::take_demand() noexcept {
+  if (incoming_ != nullptr) (void)incoming_->stage->take_demand();
+  return active_ != nullptr ? active_->stage->take_demand() : StageDemand{};
+}
+
 void ModelSlot::reset() noexcept {
   if (active_ != nullptr) active_->stage->reset();
   if (incoming_ != nullptr) incoming_->stage->reset();

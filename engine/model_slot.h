@@ -97,6 +97,9 @@ class ModelSlot {
   void reset() noexcept;
   /// A fault the active (or incoming) stage raised since the last call (Stage::take_fault).
   Fault take_fault() noexcept;
+  /// What the active stage asked for before its own limit since the last call (Stage::take_demand); an
+  /// incoming stage's is cleared, not counted (during a fade the active one's output is what the chain asked).
+  StageDemand take_demand() noexcept;
 
  private:
   // A stage as the slot holds it: warmed over the history up to sample `warmed_through`.

@@ -35,6 +35,12 @@ struct ProcessSpec {
   int max_block = 1024; ///< longest block process_block() will be given
 };
 
+/// What a stage that limits its own output asked for before that limit, since it was last asked.
+struct StageDemand {
+  std::uint64_t over_range = 0;  ///< samples whose unlimited output was at or beyond full scale (|·| ≥ 1)
+  double peak = 0.0;             ///< the largest |unlimited output|
+};
+
 /// One stage of the chain. Every method but prepare() and the constructor is for the thread that owns the
 /// stage: the control thread until ModelSlot::install() publishes it (which warms it there), then the
 /// audio thread.
@@ -56,6 +62,9 @@ class Stage {
   /// A fault the stage raised since the last call (e.g. its sensor went silent), Fault::none if none;
   /// the chain polls it once per block and records it without bypassing anything.
   virtual Fault take_fault() noexcept { return Fault::none; }
+  /// What the stage asked for before its own output limit since the last call, and clears it (nothing for a
+  /// stage without one); the chain adds it to its needs-more-drive count once per block.
+  virtual StageDemand take_demand() noexcept { return {}; }
 
   /// A block: out[k] = process(in[k]); `out` as long as `in` (it may be `in` itself). A stage overrides it
   /// with a loop that makes no call per sample, computing the same numbers within rounding.

@@ -59,6 +59,8 @@ nlohmann::json level_sweep_to_json(const LevelSweep& sweep) {
     for (const LevelPoint& p : c.points) {
       points.push_back({{"program_amplitude", p.program_amplitude},
                         {"reachable", p.reachable},
+                        {"needs_more_drive", p.needs_more_drive},
+                        {"peak_demand", models::number_or_null(p.peak_demand)},
                         {"cut_db", models::number_or_null(p.cut_db)},
                         {"noise_floor_pct", models::number_or_null(p.noise_floor_pct)},
                         {"plant_drive", models::number_or_null(p.plant_drive)},

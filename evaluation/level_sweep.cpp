@@ -23,6 +23,8 @@ constexpr int kMaxLevelIterations = 12;
 struct Record {
   Eigen::VectorXd measured, drive;
   bool limited = false;  // the chain's limiter changed a sample (the program needs more than the chain gives)
+  bool over_range = false;  // a sample asked for full scale or more (the engine's needs-more-drive count)
+  double peak_demand = 0.0;  // the largest |drive| the chain asked for before its limiter
 };
 
 Record render_chain(const engine::ChainConfig& config, const models::PlantConfig& plant, const Eigen::VectorXd& program,
@@ -33,13 +35,14 @@ Record render_chain(const engine::ChainConfig& config, const models::PlantConfig
   ro.plant = plant;
   ro.noise_seed = seed;
   engine::Rendering r = engine::render(*chain, program, ro);
-  const bool limited = chain->metrics().snapshot().limited_samples > 0;
-  return {std::move(r.measured), std::move(r.drive), limited};
+  const engine::MetricsSnapshot m = chain->metrics().snapshot();
+  return {std::move(r.measured), std::move(r.drive), m.limited_samples > 0, m.over_range_samples > 0, m.peak_demand};
 }
 
 Record render_plant(const models::PlantConfig& plant, const Eigen::VectorXd& drive, std::uint64_t seed) {
   const Eigen::VectorXd clamped = drive.cwiseMax(-1.0).cwiseMin(1.0);
-  return {models::simulate(plant, clamped, seed).y, clamped, (clamped - drive).cwiseAbs().maxCoeff() > 0.0};
+  const bool clamped_any = (clamped - drive).cwiseAbs().maxCoeff() > 0.0;
+  return {models::simulate(plant, clamped, seed).y, clamped, clamped_any, clamped_any, drive.cwiseAbs().maxCoeff()};
 }
 
 HarmonicFigures figures_of(const Record& r, Eigen::Index n, double fs, double f, int harmonics) {
@@ -145,6 +148,8 @@ LevelSweep sweep_levels(const engine::ChainConfig& config, const models::PlantCo
       p.cut_db = 20.0 * std::log10(p.plant.thd_pct / p.chain.thd_pct);
       p.noise_floor_pct = noise_floor_pct(sigma, n, p.chain.fundamental, count);
       p.reachable = !chained.limited && std::isfinite(p.plant_drive);
+      p.needs_more_drive = chained.over_range;
+      p.peak_demand = chained.peak_demand;
       curve.points.push_back(p);
       if (progress) progress(++done, total);
     }

@@ -47,6 +47,8 @@ struct LevelPoint {
   double cut_db = 0.0;             ///< 20·log10(plant THD / chain THD): > 0 when the chain cuts distortion
   double noise_floor_pct = 0.0;    ///< the THD the sensor noise alone shows at this fundamental
   bool reachable = false;          ///< the chain's limiter left the drive unchanged and the plant reached the level
+  bool needs_more_drive = false;   ///< the chain asked for full scale or more at some sample (more than it can give)
+  double peak_demand = 0.0;        ///< the largest |drive| the chain asked for before its limiter
 };
 
 /// The sweep at one probe frequency.

@@ -146,6 +146,17 @@ json evaluate_work(const json& params, const JobEnvironment& env, JobControl& co
           progress.at(static_cast<double>(done) / static_cast<double>(total), "THD against output level");
         });
     result["level_sweep"] = evaluation::level_sweep_to_json(sweep);
+    // where the program needs more drive than the chain can give: per probe, the program amplitudes whose drive
+    // asked for full scale or more (the web shows them as a warning)
+    json needs = json::object();
+    for (const evaluation::LevelCurve& c : sweep.curves) {
+      json levels = json::array();
+      for (const evaluation::LevelPoint& p : c.points) {
+        if (p.needs_more_drive) levels.push_back(p.program_amplitude);
+      }
+      if (!levels.empty()) needs[std::to_string(static_cast<int>(std::lround(c.frequency_hz))) + " Hz"] = levels;
+    }
+    result["summary"]["needs_more_drive"] = needs.empty() ? json(false) : needs;
     // one plot per probe, its columns equally long: the levels the chain reached, THD of each there
     for (const evaluation::LevelCurve& c : sweep.curves) {
       json chain_level = json::array(), chain_thd = json::array(), plant_thd = json::array();

@@ -103,7 +103,8 @@ double FeedbackRunner::control(double u) noexcept {
   u_hist_.copy_to(r_, 0);
   v_hist_.copy_to(r_, static_cast<Eigen::Index>(u_hist_.size()));
   y_hist_.copy_to(r_, static_cast<Eigen::Index>(u_hist_.size() + v_hist_.size()));
-  const double v = dsp::soft_limit(u + c_.net.forward_unchecked(r_, ws_), c_.knee);
+  asked_ = u + c_.net.forward_unchecked(r_, ws_);
+  const double v = dsp::soft_limit(asked_, c_.knee);
   v_hist_.push(v);
   const Scaling& sc = c_.plant.scaling;
   plant_.push_input((v - sc.u_offset) / sc.u_scale);
@@ -127,6 +128,7 @@ void FeedbackRunner::reset() noexcept {
   v_hist_.reset();
   y_hist_.reset();
   plant_.reset();
+  asked_ = 0.0;
 }
 
 nlohmann::json neural_feedback_to_json(const NeuralFeedback& c) {

@@ -71,6 +71,8 @@ class FeedbackRunner {
   void push_output(double y) noexcept;
   /// Every history back to 0.
   void reset() noexcept;
+  /// u(k) + N1 of the last control(), before the soft limit: the drive the controller asked for.
+  double asked() const noexcept { return asked_; }
 
  private:
   const NeuralFeedback& c_;
@@ -78,6 +80,7 @@ class FeedbackRunner {
   Eigen::VectorXd r_;
   SignalHistory u_hist_, v_hist_, y_hist_;  // newest first: u(k..), v(k−1..), y_s(k−1..)
   NarxHistory plant_;                       // the plant model's own: u_s(k..), ŷ_s(k−1..)
+  double asked_ = 0.0;                      // u(k) + N1 before the soft limit
 };
 
 /// {"format":"panelbass.model/1","kind":"neural_feedback","fs",

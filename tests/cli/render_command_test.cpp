@@ -15,6 +15,7 @@
 #include "models/io/json_file.h"
 #include "models/control/lq_feedforward.h"
 #include "models/plant/plant_presets.h"
+#include "models/linear/linear_model.h"
 #include "models/linear/state_space.h"
 #include "models/linear/transfer_function.h"
 #include "models/plant/virtual_transducer.h"
@@ -163,6 +164,45 @@ TEST_F(CliRender, WithAnLqFeedforwardTheDesiredResponseIsItsControlledLinearMode
   const Eigen::VectorXd desired = models::simulate(ff.desired(), band);
   const Eigen::VectorXd written = dsp::read_wav(dir_ / "lq.wav", {"y_desired"}).columns.front();
   EXPECT_LE((written - desired).cwiseAbs().maxCoeff(), 1e-6 * desired.cwiseAbs().maxCoeff());
+}
+
+TEST_F(CliRender, AProgramPastTheChainsSafeAmplitudeIsReportedAndOneBelowIsNot) {
+  // A feedforward of gain 3 behind the band-pass: the chain's safe amplitude at 100 Hz is 1 / (3·|H(100)|).
+  models::LinearModel gain;
+  gain.tf.b = Eigen::VectorXd::Constant(1, 3.0);
+  gain.fs = 3000.0;
+  models::write_json_file(dir_ / "gain.json", models::linear_model_to_json(gain));
+  const fs::path chain = file("gain-chain.json", R"({"format":"panelbass.chain/1","fs":3000,
+      "band_pass":{"low_hz":20,"high_hz":1200},"feedforward":{"model":"gain.json"}})");
+  const auto asked = [](const fs::path& in) {  // what the chain asks for, evaluated here
+    const Eigen::VectorXd program = dsp::read_wav(in, {"program"}).columns.front();
+    return Eigen::VectorXd(3.0 * dsp::SosFilter(dsp::butterworth_bandpass(2, 20.0, 1200.0, 3000.0)).process(program));
+  };
+  // 0.4 asks ≈ 1.2: past full scale.
+  const fs::path loud = wav("loud.wav", dsp::sine(3000, 3000.0, 100.0, 0.4), 3000.0);
+  const RunResult over = run("render --chain " + quoted(chain) + " --in " + quoted(loud) + " --out " + quoted(dir_ / "l.wav"));
+  const json r = expect_result(over);
+  const Eigen::VectorXd a = asked(loud);
+  const auto over_range = static_cast<std::uint64_t>((a.array().abs() >= 1.0).count());
+  ASSERT_GT(over_range, 100u);
+  EXPECT_EQ(r["drive_demand"]["needs_more_drive"], true) << r;
+  EXPECT_EQ(r["drive_demand"]["over_range_samples"].get<std::uint64_t>(), over_range);
+  EXPECT_NEAR(r["drive_demand"]["peak_demand"].get<double>(), a.cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LE(r["drive_peak"].get<double>(), 1.0);
+  EXPECT_TRUE(contains(over.err, "needs more drive")) << over.err;
+  // 0.25 asks ≈ 0.75: inside the limiter's knee.
+  const fs::path quiet = wav("quiet.wav", dsp::sine(3000, 3000.0, 100.0, 0.25), 3000.0);
+  const RunResult under = run("render --chain " + quoted(chain) + " --in " + quoted(quiet) + " --out " + quoted(dir_ / "q.wav"));
+  const json q = expect_result(under);
+  EXPECT_EQ(q["drive_demand"]["needs_more_drive"], false) << q;
+  EXPECT_EQ(q["drive_demand"]["over_range_samples"], 0);
+  // (the band-pass's start may overshoot the knee for a few samples: the limiter compresses them, below full scale)
+  const Eigen::VectorXd b = asked(quiet);
+  EXPECT_EQ(q["drive_demand"]["limited_samples"].get<std::uint64_t>(),
+            static_cast<std::uint64_t>((b.array().abs() > 0.8).count()));
+  EXPECT_NEAR(q["drive_demand"]["peak_demand"].get<double>(), b.cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT(b.cwiseAbs().maxCoeff(), 1.0);
+  EXPECT_FALSE(contains(under.err, "needs more drive")) << under.err;
 }
 
 TEST_F(CliRender, BadInputFailsNamingWhatIsWrong) {

@@ -7,15 +7,27 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "dsp/butterworth.h"
 #include "engine/chain.h"
+#include "engine/controller_stages.h"
 #include "tests/engine/engine_test_models.h"
 
 namespace panelbass::engine {
 namespace {
 
 using testing::kFs;
+
+/// `program` through `chain` in blocks of 1 to 109 samples.
+void run_in_varied_blocks(Chain& chain, const Eigen::VectorXd& program) {
+  std::vector<double> drive(static_cast<std::size_t>(program.size()));
+  for (Eigen::Index pos = 0, block = 1; pos < program.size(); pos += block, block = block % 97 + 13) {
+    const Eigen::Index n = std::min(block, program.size() - pos);
+    chain.process_block({program.data() + pos, static_cast<std::size_t>(n)},
+                        {drive.data() + pos, static_cast<std::size_t>(n)});
+  }
+}
 
 TEST(ChainLimiterActivity, CountsWhatTheDirectEvaluationAsksOfTheLimiter) {
   const double gain = 4.0;
@@ -33,12 +45,7 @@ TEST(ChainLimiterActivity, CountsWhatTheDirectEvaluationAsksOfTheLimiter) {
 
   Chain chain(options);
   chain.feedforward().set_initial(std::make_unique<LinearStage>(testing::gain_model(gain)));
-  std::vector<double> drive(static_cast<std::size_t>(program.size()));
-  for (Eigen::Index pos = 0, block = 1; pos < program.size(); pos += block, block = block % 97 + 13) {
-    const Eigen::Index n = std::min(block, program.size() - pos);
-    chain.process_block({program.data() + pos, static_cast<std::size_t>(n)},
-                        {drive.data() + pos, static_cast<std::size_t>(n)});
-  }
+  run_in_varied_blocks(chain, program);
   const MetricsSnapshot m = chain.metrics().snapshot();
   EXPECT_EQ(m.faults, 0u);
   EXPECT_EQ(m.limited_samples, limited);
@@ -59,6 +66,36 @@ TEST(ChainLimiterActivity, AProgramWithinTheKneeIsNeverLimited) {
   const Eigen::VectorXd band = dsp::SosFilter(dsp::butterworth_bandpass(2, 20.0, 1200.0, kFs)).process(program);
   EXPECT_NEAR(m.peak_demand, band.cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_DOUBLE_EQ(m.peak_drive, m.peak_demand);  // below the knee the limiter passes the drive unchanged
+}
+
+TEST(ChainLimiterActivity, WhatANeuralFeedbackStageAskedBeforeItsOwnSoftLimitCounts) {
+  // N1 = 0 (zero weights): the stage's unlimited output u + N1 is its input, the band-passed program × 3, which
+  // asks for more than full scale; its soft limit keeps the drive below 1, so only the stage can tell
+  const double gain = 3.0;
+  const Eigen::VectorXd program = testing::uniform(3000, 0.3, 43);
+  const Eigen::VectorXd asked =
+      gain * dsp::SosFilter(dsp::butterworth_bandpass(2, 20.0, 1200.0, kFs)).process(program);
+  const auto over_range = static_cast<std::uint64_t>((asked.array().abs() >= 1.0).count());
+  ASSERT_GT(over_range, 10u);
+  for (const FeedbackSource source : {FeedbackSource::model, FeedbackSource::sensor}) {
+    Chain chain(ChainOptions{});
+    chain.feedforward().set_initial(std::make_unique<LinearStage>(testing::gain_model(gain)));
+    chain.feedback().set_initial(std::make_unique<NeuralFeedbackStage>(
+        models::NeuralFeedback::with_structure(models::FeedbackStructure{}, testing::example_narx(5)), source));
+    run_in_varied_blocks(chain, program);
+    const MetricsSnapshot m = chain.metrics().snapshot();
+    EXPECT_FALSE(m.in_fault);  // (in sensor mode the silent sensor is reported, nothing bypassed)
+    EXPECT_EQ(m.over_range_samples, over_range);
+    EXPECT_NEAR(m.peak_demand, asked.cwiseAbs().maxCoeff(), 1e-12);
+    EXPECT_LT(m.peak_drive, 1.0);
+  }
+  // below full scale nothing counts
+  Chain quiet(ChainOptions{});
+  quiet.feedback().set_initial(std::make_unique<NeuralFeedbackStage>(
+      models::NeuralFeedback::with_structure(models::FeedbackStructure{}, testing::example_narx(5)), FeedbackSource::model));
+  std::vector<double> drive(3000);
+  quiet.process_block({program.data(), 3000}, drive);
+  EXPECT_EQ(quiet.metrics().snapshot().over_range_samples, 0u);
 }
 
 }  // namespace

@@ -2,11 +2,16 @@
 // the plant alone's output (the same drive, the same sensor noise seed), so the equal-level match finds the
 // program's own amplitude and the cut is 0 dB; on the linear preset the only "distortion" is the sensor noise,
 // whose THD the closed-form floor predicts.
+// A chain with a gain asks for more than full scale at the louder level, which the sweep reports (needs_more_drive).
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
+#include <vector>
 
+#include "evaluation/evaluation_json.h"
 #include "evaluation/level_sweep.h"
+#include "models/linear/linear_model.h"
 #include "models/plant/plant_presets.h"
 
 namespace panelbass::evaluation {
@@ -50,6 +55,34 @@ TEST(LevelSweep, LinearPlantShowsTheSensorNoiseFloor) {
     EXPECT_LT(p.chain.thd_pct, 2.5 * p.noise_floor_pct);
   }
   EXPECT_GT(sweep.curves[0].points[0].noise_floor_pct, 2.0 * sweep.curves[0].points[1].noise_floor_pct);
+}
+
+TEST(LevelSweep, SaysWhereTheProgramNeedsMoreDriveThanTheChainCanGive) {
+  // a feedforward of gain 3 and nothing else: program 0.2 asks for 0.6 (inside the limiter's knee), 0.4 for 1.2
+  models::LinearModel gain;
+  gain.tf.b = Eigen::VectorXd::Constant(1, 3.0);
+  gain.fs = 3000.0;
+  engine::ChainConfig chain = pass_through_chain();
+  chain.feedforward = engine::SlotConfig{};
+  chain.feedforward->model = models::linear_model_to_json(gain);
+  LevelSweepOptions o = short_sweep();
+  o.program_amplitudes = {0.2, 0.4};
+  const LevelSweep sweep = sweep_levels(chain, models::plant_preset("panel-exciter"), o);
+  const std::vector<LevelPoint>& points = sweep.curves.at(0).points;
+  ASSERT_EQ(points.size(), 2u);
+  // the peak asked is 3 × the sampled sine's: between 3a·cos(π·80/3000) and 3a
+  for (const LevelPoint& p : points) {
+    EXPECT_LE(p.peak_demand, 3.0 * p.program_amplitude + 1e-12);
+    EXPECT_GE(p.peak_demand, 3.0 * p.program_amplitude * std::cos(std::numbers::pi * 80.0 / 3000.0));
+  }
+  EXPECT_FALSE(points[0].needs_more_drive);
+  EXPECT_TRUE(points[0].reachable);
+  EXPECT_TRUE(points[1].needs_more_drive);
+  EXPECT_FALSE(points[1].reachable);
+  EXPECT_LE(points[1].chain.drive_peak, 1.0);  // what the limiter let through
+  const nlohmann::json j = level_sweep_to_json(sweep);
+  EXPECT_EQ(j["curves"][0]["points"][1]["needs_more_drive"], true);
+  EXPECT_EQ(j["curves"][0]["points"][0]["needs_more_drive"], false);
 }
 
 TEST(LevelSweep, BadOptionsAreNamed) {

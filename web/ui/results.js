@@ -14,6 +14,17 @@ export function clearPlots() {
   $('#plots').replaceChildren();
 }
 
+/** An evaluation's warning where the program needs more drive than the chain can give: `needs` maps a probe
+ *  ("160 Hz") to the program amplitudes whose drive asked for full scale or more (false or absent: none). */
+export function driveNote(needs) {
+  if (!needs || typeof needs !== 'object') return '';
+  const where = Object.entries(needs).map(([probe, levels]) => `${probe} at program ${levels.join(', ')}`);
+  if (where.length === 0) return '';
+  return `The program needs more drive than the chain can give (${where.join('; ')}): the drive asked for full scale `
+    + 'or more there, which the limiter squeezes below the rails. Those levels are left out of the cuts; lower the '
+    + 'program, or design the controller for its level.';
+}
+
 /** Shows a succeeded job's result: figures, model, summary and plots. */
 export function renderResult(job) {
   const r = job.result;
@@ -49,6 +60,7 @@ export function renderResult(job) {
   const rows = flatten(summary).map(([k, v]) => [el('dt', {}, k), el('dd', { class: 'mono' }, fmtValue(v))]).flat();
   $('#result-summary').replaceChildren(...rows);
   $('#result-summary-box').hidden = rows.length === 0;
+  showMessage('#result-drive-note', driveNote(r.summary && r.summary.needs_more_drive));
 
   clearPlots();
   const plots = r.plots || {};
