@@ -18,6 +18,8 @@
 #include "cli/gnuplot.h"
 #include "cli/json_output.h"
 #include "cli/report_output.h"
+#include "dsp/data_error.h"
+#include "dsp/data_file.h"
 #include "dsp/sample_rate.h"
 #include "models/diagnosis/diagnosis.h"
 #include "models/diagnosis/diagnosis_baselines.h"
@@ -40,7 +42,23 @@ struct DiagnoseOptions {
   int max_findings = 4;
   long window = 300;
   models::OutputQuantity sensor = models::OutputQuantity::unknown;
+  std::string current_col = "auto";
 };
+
+// The current column of `path` (samples at the record's rate), when --current-col names one or, with "auto", when
+// the file has a column "i" or "current" (the virtual transducer writes u,y,i,x); empty with "none" or none found.
+Eigen::VectorXd read_current(const std::string& path, const DataOptions& columns, double fs, const std::string& which) {
+  if (which == "none") return {};
+  const std::vector<std::string> names = which == "auto" ? std::vector<std::string>{"i", "current"} : std::vector<std::string>{which};
+  for (const auto& name : names) {
+    try {
+      return dsp::read_data_file(path, {columns.input_col, name}, fs).columns[1];
+    } catch (const dsp::DataError&) {
+      if (which != "auto") throw;
+    }
+  }
+  return {};
+}
 
 // The simulation --model names: a linear model, or a simulation that is not linear (a NARX model, a
 // virtual-transducer plant JSON run without sensor noise).
@@ -90,6 +108,10 @@ void run_diagnose(const DiagnoseOptions& o) {
   options.scan_to = o.scan_to;
   options.max_findings = o.max_findings;
   options.output = o.sensor;
+  options.current_est = read_current(o.data, columns, est.fs, o.current_col);
+  if (options.current_est.size() > 0) options.current_val = read_current(o.val, columns, val.fs, o.current_col);
+  if ((options.current_est.size() > 0) != (options.current_val.size() > 0))
+    throw dsp::DataError(o.val + ": has no current column while " + o.data + " has one (give --current-col none to leave it out)");
   options.progress = [](const std::string& stage) { std::cerr << "diagnose: " << stage << std::endl; };
   const models::Diagnosis d =
       baseline && baseline->simulation
@@ -115,6 +137,7 @@ void run_diagnose(const DiagnoseOptions& o) {
   models::write_json_file(o.outputs.out, report);
   // stdout: the summary (the report file holds the evidence in full).
   nlohmann::json summary = {{"baseline", report["baseline"]},
+                            {"channels", report["channels"]["used"]},
                             {"J_val_before_pct", d.j_val_before_pct},
                             {"J_val_after_pct", d.j_val_after_pct},
                             {"noise_floor_pct", d.noise_floor_pct},
@@ -160,6 +183,10 @@ void register_diagnose(CLI::App& app) {
                   "What the output measures: displacement, velocity or acceleration (a spring and a damping then act on "
                   "the displacement and its rate of change, not on the cube of one signal); unknown tries every state")
       ->transform(CLI::CheckedTransformer(output_quantities()))
+      ->capture_default_str();
+  cmd->add_option("--current-col", o->current_col,
+                  "The coil current's column: it tells apart effects that look alike from the drive (a spring from a "
+                  "damping, a coil offset from an asymmetric spring); auto: \"i\" or \"current\" when the file has one; none: leave it out")
       ->capture_default_str();
   o->outputs.add_to(cmd, "Report to write (JSON)", "Self-contained HTML report (findings, J per step, figures embedded)");
   cmd->add_option("--window", o->window, "Samples shown in the fit plot")->check(CLI::Range(2L, 100000000L))->capture_default_str();

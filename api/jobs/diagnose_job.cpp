@@ -47,6 +47,7 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
   options.max_findings = params.at("max_findings").get<int>();
   for (auto q : models::all_output_quantities())
     if (models::to_string(q) == params.value("sensor", "unknown")) options.output = q;
+  if (r.i_est.size() > 0) options.current_est = r.i_est, options.current_val = r.i_val;  // the force channel
   int stages = 0;
   progress.span(kExcitationShare, 0.95);
   // The diagnosis names its stages but not how many remain: each one closes part of the gap to the end.

@@ -35,10 +35,14 @@ struct Diagnosed {
   Diagnosis diagnosis;
 };
 
-Diagnosed diagnose_scenario(const DiagnosisScenario& s, std::uint64_t seed, int max_findings) {
-  Diagnosed d{scenario_records(s, seed, kEstimation, kValidation), {}};
+// The scenario diagnosed from `seed`'s records (n_est + n_val samples), with the coil current when `current`.
+Diagnosed diagnose_scenario(const DiagnosisScenario& s, std::uint64_t seed, int max_findings, bool current = false,
+                            Eigen::Index n_est = kEstimation, Eigen::Index n_val = kValidation) {
+  Diagnosed d{scenario_records(s, seed, n_est, n_val), {}};
   const ScenarioRecords& r = d.records;
-  d.diagnosis = diagnose(r.u_est, r.y_est, r.u_val, r.y_val, r.fs, scenario_baseline(s), options(max_findings));
+  DiagnosisOptions o = options(max_findings);
+  if (current) o.current_est = r.i_est, o.current_val = r.i_val;
+  d.diagnosis = diagnose(r.u_est, r.y_est, r.u_val, r.y_val, r.fs, scenario_baseline(s), o);
   return d;
 }
 
@@ -58,7 +62,11 @@ TEST_P(ConcealedEffect, IsNamedFirstAndImprovesValidation) {
   EXPECT_LT(concealment_ratio(run.records, d.baseline_model.linear, kInit), 1.0);
   ASSERT_FALSE(d.findings.empty()) << diagnosis_to_json(d)["rounds"].dump(1);
   const Finding& first = d.findings.front();
-  EXPECT_EQ(to_string(first.effect), to_string(effect)) << first.explanation;
+  // From the drive alone an effect with a look-alike (a spring's x³ and a damping's v³) may be reported as
+  // ambiguous between the two, naming both; otherwise it is named first.
+  const bool named_in_ambiguity = first.confidence["word"] == "ambiguous" && first.confidence["runner_up"].is_string() &&
+                                  first.confidence["runner_up"].get<std::string>().find(to_string(effect)) != std::string::npos;
+  if (!named_in_ambiguity) EXPECT_EQ(to_string(first.effect), to_string(effect)) << first.explanation;
   EXPECT_LT(first.j_val_after_pct, first.j_val_before_pct);
   EXPECT_LT(d.j_val_after_pct, d.j_val_before_pct);
   // What is left is close to the sensor noise: the final J lies nearer the noise's own J than the baseline's.
@@ -74,7 +82,8 @@ INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, ConcealedEffect,
                          testing::Values(Effect::resonance, Effect::antiresonance, Effect::delay,
                                          Effect::cubic_stiffness, Effect::asymmetric_stiffness, Effect::force_factor,
                                          Effect::inductance, Effect::hysteresis, Effect::saturation,
-                                         Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity),
+                                         Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity,
+                                         Effect::creep),
                          [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
 
 // The fitted parameters of the effects that have a value to compare with the plant's.
@@ -100,18 +109,52 @@ TEST(DiagnosisScenarios, FittedParametersMatchThePlant) {
   }
 }
 
-// Two effects at once: both are found, each named.
+// Two effects at once: both are found, each named (at twice the concealed size, from records half as long:
+// the same evidence in less time).
 TEST(DiagnosisScenarios, TwoEffectsAreBothFound) {
   for (const auto& [a, b] : {std::pair{Effect::cubic_stiffness, Effect::hysteresis},
                              std::pair{Effect::resonance, Effect::dc_offset}}) {
-    const DiagnosisScenario s = combined_scenario(concealed_scenario(a), concealed_scenario(b));
+    const DiagnosisScenario s = combined_scenario(concealed_scenario(a, 2.0), concealed_scenario(b, 2.0));
     SCOPED_TRACE(s.name);
-    const Diagnosis d = diagnose_scenario(s, 2, 3).diagnosis;
+    const Diagnosis d = diagnose_scenario(s, 2, 3, false, kEstimation / 2, kValidation / 2).diagnosis;
     EXPECT_TRUE(found(d, a)) << diagnosis_to_json(d)["findings"].dump(1);
     EXPECT_TRUE(found(d, b)) << diagnosis_to_json(d)["findings"].dump(1);
     EXPECT_LT(d.j_val_after_pct, d.j_val_before_pct);
   }
 }
+
+// The effects that look alike from the drive: a spring's x³ and a damping's v³ near one resonance, a coil
+// offset's x·i and a spring's x² or an inductance's Le(x). With the coil current each is named first, and the
+// finding says the current decided; without it, each is named first or reported ambiguous with the right one —
+// never named wrong with confidence.
+class LookAlikeEffect : public testing::TestWithParam<Effect> {};
+
+TEST_P(LookAlikeEffect, TheCurrentTellsItFromItsLookAlike) {
+  const Effect effect = GetParam();
+  const Diagnosis d = diagnose_scenario(concealed_scenario(effect), 1, 1, true).diagnosis;
+  ASSERT_FALSE(d.findings.empty()) << diagnosis_to_json(d)["rounds"].dump(1);
+  EXPECT_EQ(d.channels.back(), "current");
+  const Finding& first = d.findings.front();
+  EXPECT_EQ(to_string(first.effect), to_string(effect)) << first.confidence.dump(1) << first.evidence["current_channel"].dump(1);
+  EXPECT_NE(first.confidence["word"].get<std::string>(), "ambiguous") << first.confidence.dump(1);
+}
+
+TEST_P(LookAlikeEffect, WithoutTheCurrentIsNeverMisnamedWithConfidence) {
+  const Effect effect = GetParam();
+  const Diagnosis d = diagnose_scenario(concealed_scenario(effect), 1, 1).diagnosis;
+  ASSERT_FALSE(d.findings.empty()) << diagnosis_to_json(d)["rounds"].dump(1);
+  const Finding& first = d.findings.front();
+  if (first.effect != effect) {
+    EXPECT_EQ(first.confidence["word"].get<std::string>(), "ambiguous") << first.confidence.dump(1);
+    EXPECT_NE(first.confidence["runner_up"].get<std::string>().find(to_string(effect)), std::string::npos)
+        << first.confidence.dump(1);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, LookAlikeEffect,
+                         testing::Values(Effect::nonlinear_damping, Effect::cubic_stiffness, Effect::asymmetric_force_factor,
+                                         Effect::asymmetric_stiffness, Effect::inductance),
+                         [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
 
 // No effect: no finding, over several seeds, and nothing changed.
 TEST(DiagnosisScenarios, NoEffectGivesNoFinding) {

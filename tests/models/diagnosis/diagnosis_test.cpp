@@ -264,7 +264,8 @@ TEST(Diagnosis, EffectIdsAreTheVocabulary) {
   // The ids of issue #9, in the order docs/diagnosis.md lists them.
   const std::vector<std::string> expected = {"resonance",  "antiresonance", "delay",      "cubic_stiffness",
                                              "asymmetric_stiffness", "force_factor", "inductance", "hysteresis",
-                                             "saturation", "thermal_compression", "dc_offset", "static_nonlinearity"};
+                                             "saturation", "thermal_compression", "dc_offset", "static_nonlinearity",
+                                             "nonlinear_damping", "asymmetric_force_factor", "creep"};
   std::vector<std::string> ids;
   for (Effect e : all_effects()) ids.push_back(to_string(e));
   EXPECT_EQ(ids, expected);
