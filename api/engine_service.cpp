@@ -135,6 +135,12 @@ std::optional<ModelSlotName> default_slot(const std::string& kind) {
   return slots.front();
 }
 
+ModelSlotName slot_for(const std::string& id, const std::string& kind) {
+  if (const std::optional<ModelSlotName> slot = default_slot(kind)) return *slot;
+  require_slot_accepts(ModelSlotName::feedforward, id, kind);  // throws, naming the kind and what slots take
+  return ModelSlotName::feedforward;
+}
+
 void require_slot_accepts(ModelSlotName slot, const std::string& id, const std::string& kind) {
   if (auto refusal = slot_refusal(static_cast<std::size_t>(slot), id, kind)) {
     throw EngineRequestError(409, "conflict", *refusal);
@@ -439,16 +445,20 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
   const bool loopback = card.loopback_channel != engine::kNoChannel;
   const auto began = std::chrono::steady_clock::now();
   // The round trip is found on the sweep before the drive (unambiguous, whatever the drive). A loop that
-  // slips inside the device's server (JACK on a loaded machine) shifts part of a measurement without an
-  // xrun: the round trip found on the sweep after the drive must agree, else the measurement is played
-  // again (at most three times in all).
+  // slips inside the device's server (JACK on a loaded machine: a period dropped or repeated, no xrun
+  // counted) shifts part of a measurement: the loopback, when captured, must be explained by the drive
+  // sample by sample (engine::check_loop), and the round trips found on the sweep after the drive (on the
+  // loopback and on the sensor) must agree with the one before; else the measurement is played again (at
+  // most three times in all).
   std::unique_ptr<engine::Measurement> m;
   engine::RoundTrip trip;
+  engine::LoopConsistency loop;
+  std::string slip;
   int attempts = 0;
   for (bool consistent = false; !consistent;) {
     if (++attempts > 3) {
-      throw std::runtime_error("excite: the card's round trip changed during each of 3 measurements (the loop slips: "
-                               "is the machine overloaded?)");
+      throw std::runtime_error("excite: the capture slipped against the playback in each of 3 measurements (" + slip +
+                               "): is the machine overloaded?");
     }
     m = std::make_unique<engine::Measurement>(played, static_cast<std::size_t>(std::max<Eigen::Index>(1, samples(options_.measurement_fade_s))));
     if (alsa_->measure(*m, duration + std::chrono::seconds(10)) != engine::Measurement::State::finished) {
@@ -456,20 +466,37 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
                                "no device streaming: see GET /api/status, engine.device)");
     }
     const Eigen::VectorXd sent = as_vector(m->drive());
-    const Eigen::VectorXd reference =
-        as_vector(m->captured(loopback ? engine::MeasuredChannel::loopback : engine::MeasuredChannel::sensor));
+    const Eigen::VectorXd sensor = as_vector(m->captured(engine::MeasuredChannel::sensor));
+    const Eigen::VectorXd reference = loopback ? as_vector(m->captured(engine::MeasuredChannel::loopback)) : sensor;
     if (reference.cwiseAbs().maxCoeff() == 0.0) {
       throw std::runtime_error(std::string("excite: the card's ") + (loopback ? "loopback" : "sensor") +
                                " channel stayed silent: nothing of the drive came back (is the transducer connected?)");
     }
-    const auto over = [&](Eigen::Index start) {
+    const auto over = [&](const Eigen::VectorXd& heard, Eigen::Index start) {
       // The sweep alone against what came back while it and the round trip after it lasted.
       Eigen::VectorXd alone = Eigen::VectorXd::Zero(sweep_n + tail);
       alone.head(sweep_n) = sent.segment(start, sweep_n);
-      return engine::find_round_trip(alone, reference.segment(start, sweep_n + tail), tail);
+      return engine::find_round_trip(alone, heard.segment(start, sweep_n + tail), tail);
     };
-    trip = over(0);
-    consistent = std::abs(over(second).samples - trip.samples) <= 1;
+    trip = over(reference, 0);
+    // Moved by more than `tolerance` samples between the sweeps. The sensor (a resonant transducer, noise) gets
+    // two: a slip is a whole device period (4 samples of a 64-frame period at 48 kHz, for a 3000 Hz chain).
+    const auto moved = [&](const Eigen::VectorXd& heard, int tolerance) {
+      return std::abs(over(heard, second).samples - over(heard, 0).samples) > tolerance;
+    };
+    if (moved(reference, loopback ? 1 : 2) || (loopback && moved(sensor, 2))) {
+      slip = "the round trip differed between the sweeps before and after the drive";
+      continue;
+    }
+    if (loopback) {
+      loop = engine::check_loop(sent, reference, trip.samples, engine::kLoopTolerance);
+      if (loop.slipped) {
+        slip = "the loopback departed from the drive at " + models::number_text(static_cast<double>(loop.worst_at) / fs) +
+               " s (residual " + models::number_text(loop.worst_residual) + ")";
+        continue;
+      }
+    }
+    consistent = true;
   }
   const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
   const Eigen::VectorXd heard_sensor = as_vector(m->captured(engine::MeasuredChannel::sensor));
@@ -478,6 +505,9 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
   if (card.current_channel != engine::kNoChannel) {
     out.i = as_vector(m->captured(engine::MeasuredChannel::current)).segment(offset + trip.samples, drive.size());
   }
+  if (loopback) {
+    out.loopback = as_vector(m->captured(engine::MeasuredChannel::loopback)).segment(offset + trip.samples, drive.size());
+  }
   out.report = {{"calibrated_on", loopback ? "loopback" : "sensor"},
                 {"round_trip_samples", trip.samples},
                 {"round_trip_fractional", trip.fractional},
@@ -485,6 +515,7 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
                 {"peak_correlation", trip.peak},
                 {"safe_level", safe},
                 {"attempts", attempts},
+                {"loop_residual", loopback ? nlohmann::json(loop.worst_residual) : nlohmann::json(nullptr)},
                 {"played_s", static_cast<double>(played.size()) / fs},
                 {"took_s", took}};
   return out;

@@ -72,6 +72,8 @@ ModelSlotName parse_slot_name(const std::string& name);
 std::vector<ModelSlotName> slots_accepting(const std::string& kind);
 /// The slot a model of `kind` goes to unless a client names one (nullopt: no slot runs it).
 std::optional<ModelSlotName> default_slot(const std::string& kind);
+/// The slot model `id` of `kind` goes to when a client names none; EngineRequestError (409) if none runs it.
+ModelSlotName slot_for(const std::string& id, const std::string& kind);
 /// Throws EngineRequestError (409) naming model `id`'s kind and what `slot` takes, unless `slot` runs `kind`.
 void require_slot_accepts(ModelSlotName slot, const std::string& id, const std::string& kind);
 

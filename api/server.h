@@ -87,9 +87,13 @@ class Server {
   std::string address() const;
 
  private:
+  // The server's settings, then every route group (api/routes/: a file per group).
   void register_routes();
-  // The routes of uploaded records (/api/records…), called by register_routes().
-  void register_record_routes();
+  void register_service_routes();  // health, status, openapi, metrics
+  void register_config_routes();   // /api/config
+  void register_model_routes();    // /api/models…
+  void register_record_routes();   // /api/records…
+  void register_job_routes();      // /api/jobs…
   void on_job_finished(JobRecord& job);
   nlohmann::json status_json() const;
   std::string metrics_text() const;

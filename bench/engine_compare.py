@@ -3,7 +3,7 @@
 
 Runs OLD and NEW engine_bench binaries alternately (so a shared machine's load falls on both alike),
 ROUNDS times each, keeps each figure's best (lowest) over the rounds, and prints a markdown table of the
-median-block figures engine_bench's "summary" line reports.
+median-block figures of engine_bench's tables.
 
 Example (the old build: this bench compiled against main's libraries, see docs/engine.md):
   bench/engine_compare.py --old /tmp/engine_bench_main --new build/bin/engine_bench --seconds 10 --rounds 3
@@ -13,13 +13,33 @@ import subprocess
 import sys
 
 
+# The figures compared, each the median column of the engine_bench table row whose name starts so. Read from
+# the tables rather than the summary line: a build whose table gained rows (whose summary indices went
+# stale, as main's did when the mirror filter row was added) still compares like for like.
+ROWS = {
+    "band_pass_stage": "band-pass stage alone",
+    "band_pass": "band-pass (Butterworth",
+    "full_chain": "+ NARX feedback, model mode",
+    "device48_bridge": "48 kHz: decimate → identity",
+    "device48_full": "48 kHz: decimate → full chain (model mode)",
+}
+
+
 def summary(binary, seconds, runs):
-    """The figures of one engine_bench run's summary line, as a dict of floats."""
+    """The figures of one engine_bench run (ROWS' medians, the bridge's latency in ms), as a dict of floats."""
     out = subprocess.run([binary, str(seconds), str(runs)], check=True, capture_output=True, text=True).stdout
+    figures = {}
     for line in out.splitlines():
-        if line.startswith("summary "):
-            return {k: float(v) for k, v in (item.split("=") for item in line.split()[1:])}
-    sys.exit(f"{binary}: no summary line in its output")
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        for key, prefix in ROWS.items():
+            if key not in figures and cells[0].startswith(prefix):
+                figures[key] = float(cells[1])
+                if key == "device48_bridge":
+                    figures["latency48_ms"] = float(cells[-1].split("(")[1].split()[0])
+    missing = [k for k in ROWS if k not in figures]
+    if missing:
+        sys.exit(f"{binary}: no table row for {', '.join(ROWS[k] for k in missing)}")
+    return figures
 
 
 def main():

@@ -6,6 +6,7 @@
 # Prints the noise floor (J of the noise-free output on the validation part, from sample 50) and
 # `validate --init 50`'s J_sim with and without --val.
 # Usage: bash bench/selection_repro.sh [SEED]   (default 1: the seed of the input and of the noise)
+#   EXTRA="--restarts 3" adds options to both trainings (--restarts needs --val, so it goes to the first only).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${PANELBASS_BIN:-build/bin/panelbass}
@@ -32,13 +33,15 @@ head -n 3001 "$work/all.csv" > "$work/est.csv"
 
 floor=$(tail -n +52 "$work/val.csv" | awk -F, '{ e += ($3 - $2)^2; s += $2^2 } END { printf "%.3g", 100 * e / s }')
 j_sim() { sed -n 's/.*"J_sim_pct": \([-0-9.e+]*\).*/\1/p' | awk '{printf "%.3g", $1}'; }
+extra=${EXTRA:-}
 train() {
   "$bin" identify narx --data "$work/est.csv" "$@" --fs 1000 --na 2 --nb 0 --hidden 5 --train pem,oem-d \
     --optimizer lm --max-iter 200 --seed 1 --out "$work/nn.json" 2>/dev/null > "$work/out.json"
   echo "$(sed -n 's/^  "seconds": \([-0-9.e+]*\).*/\1/p' "$work/out.json" | awk '{printf "%.1f", $1}')"
 }
 echo "noise floor (J of the noise-free output, validation k >= 50): $floor %"
-secs=$(train --val "$work/val.csv")
+# shellcheck disable=SC2086
+secs=$(train --val "$work/val.csv" $extra)
 echo "with --val:    J_sim (validate --init 50) $("$bin" validate --model "$work/nn.json" --data "$work/val.csv" --fs 1000 --init 50 2>/dev/null | j_sim) %, $secs s"
 secs=$(train)
 echo "without --val: J_sim (validate --init 50) $("$bin" validate --model "$work/nn.json" --data "$work/val.csv" --fs 1000 --init 50 2>/dev/null | j_sim) %, $secs s"

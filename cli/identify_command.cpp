@@ -128,6 +128,7 @@ struct IdentifyNarxOptions {
   long parameter = 0;
   long init = 50;
   int grow = 0;
+  int restarts = 1;  ///< --restarts: trainings from seeds seed … seed + restarts − 1, the lowest J_val kept
   bool prune = false;
   std::string weight_col;
   std::vector<double> friction_gains;
@@ -191,6 +192,10 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
     w_val = read_weights(o.val, o.weight_col, est.fs);
   }
   const Eigen::VectorXd w_est = read_weights(o.data, o.weight_col, est.fs);
+  if (o.restarts > 1 && (o.val.empty() || !o.start_from.empty() || o.grow > 0 || !o.friction_gains.empty())) {
+    throw std::invalid_argument("--restarts needs --val (it keeps the lowest J_val) and a fresh start (not with "
+                                "--start-from, --grow or --friction-units)");
+  }
   models::NarxModel model = o.start_from.empty() ? fresh_narx_model(o, est) : start_narx_model(o, est.fs);
   const models::Scaling& scaling = model.scaling;
   const models::NarxStructure& structure = model.structure;
@@ -237,7 +242,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
     return;
   }
   ProgressBar bar("identify narx");
-  const int total = std::max(1, o.max_iterations * static_cast<int>(options.modes.size()));  // --max-iter 0: no 0/0
+  const int total = std::max(1, o.max_iterations * static_cast<int>(options.modes.size()) * o.restarts);  // no 0/0
   int done = 0;
   options.progress = [&](const models::TrainingRecord& r) {
     if (r.iteration > 0) ++done;
@@ -259,6 +264,32 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
     structure_report["growth"] = {{"chosen_hidden", grown.chosen_hidden}, {"rule", grown.rule}, {"steps", steps}};
   } else {
     result = models::train_narx(model, us, ys, uv, yv, options);
+  }
+  std::uint64_t chosen_seed = o.seed;
+  if (o.restarts > 1) {
+    // The same training from other seeds' initial weights ([5F]); the model of the lowest J_val is kept.
+    // the J reported below (raw units)
+    const auto j_val_of = [&](const models::NarxModel& m) { return models::j_percent(m.simulate(u_val, y_val, init), y_val, init); };
+    double best = j_val_of(result.model);
+    nlohmann::json tried = nlohmann::json::array({{{"seed", o.seed}, {"J_val_pct", models::number_or_null(best)}}});
+    for (int r = 1; r < o.restarts; ++r) {
+      models::NarxModel restart = model;
+      restart.net.initialize(1.0, o.seed + static_cast<std::uint64_t>(r));
+      models::TrainingResult other = models::train_narx(restart, us, ys, uv, yv, options);
+      const double j = j_val_of(other.model);
+      tried.push_back({{"seed", o.seed + static_cast<std::uint64_t>(r)}, {"J_val_pct", models::number_or_null(j)}});
+      other.seconds += result.seconds;
+      other.iterations += result.iterations;
+      if (j < best) {
+        best = j;
+        chosen_seed = o.seed + static_cast<std::uint64_t>(r);
+        result = std::move(other);
+      } else {
+        result.seconds = other.seconds;
+        result.iterations = other.iterations;
+      }
+    }
+    structure_report["restarts"] = {{"tried", tried}, {"chosen_seed", chosen_seed}};
   }
   if (o.prune) {
     if (uv.size() == 0) throw std::invalid_argument("--prune needs validation data (--val)");
@@ -290,7 +321,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   const double j_est = judged(est.columns[0], est.columns[1]);
   const double j_val = u_val.size() ? judged(u_val, y_val) : std::numeric_limits<double>::quiet_NaN();
   result.model.meta = {{"data", o.data}, {"val", o.val}, {"train", o.train}, {"optimizer", o.optimizer},
-                       {"J_est_pct", j_est}, {"J_val_pct", models::number_or_null(j_val)}, {"seed", o.seed}};
+                       {"J_est_pct", j_est}, {"J_val_pct", models::number_or_null(j_val)}, {"seed", chosen_seed}};
   if (!o.start_from.empty()) result.model.meta["start_from"] = o.start_from;
   if (!friction_report.is_null()) {
     result.model.meta["friction_units"] = friction_report;
@@ -394,6 +425,11 @@ void register_identify(CLI::App& app) {
       ->capture_default_str();
   narx->add_option("--grow", n->grow, "Grow the hidden layer from 1 node up to N by the thesis's dX/N rule")
       ->check(CLI::Range(1, 1000));
+  narx->add_option("--restarts", n->restarts,
+                   "Train from N seeds' initial weights (--seed, --seed + 1, ...) and keep the model of the lowest J_val "
+                   "(needs --val); seconds and iterations are the total")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
   narx->add_flag("--prune", n->prune, "Prune redundant weights by Optimal Brain Surgeon with retraining (needs --val)");
   narx->add_flag("--gradient-check", n->gradient_check,
                  "Print the static, dynamic and finite-difference gradients of one parameter (fig. 5.16)");

@@ -23,7 +23,7 @@ namespace {
 struct IdentifySsOptions {
   std::string data, val, out, linear, start_from, history_out;
   DataOptions columns;
-  int nx = 6, nk = -1, hidden = 20, lags = 50, encoder_hidden = 0;
+  int nx = 6, nk = -1, hidden = 20, lags = 50, encoder_hidden = 0, poly_degree = 0;
   long window = 100, batch = 32, init = 50;
   int epochs = 100, patience = 0, polish_iterations = 0;
   long polish_window = 0;
@@ -78,6 +78,7 @@ void run_identify_ss(const IdentifySsOptions& o) {
     structure.hidden = o.hidden;
     structure.lags = o.lags;
     structure.encoder_hidden = o.encoder_hidden;
+    structure.poly_degree = o.poly_degree;
     start = models::ss_initial_model(starting_linear(o, est, u_val, y_val), structure, est.columns[0], est.columns[1], o.seed);
   }
 
@@ -118,6 +119,8 @@ void run_identify_ss(const IdentifySsOptions& o) {
       return !stop_requested() && !(o.max_seconds > 0.0 && seconds() >= 2.0 * o.max_seconds);
     };
     const models::SsTraining polished = models::polish_ss(trained.model, est.columns[0], est.columns[1], u_val, y_val, polish);
+    std::fprintf(stderr, "identify ss: L-BFGS stopped: liblbfgs status %d after %zu iterations\n", polished.status,
+                 polished.history.size() - 1);
     trained.model = polished.model;
     trained.j_val_pct = polished.j_val_pct;
   }
@@ -159,7 +162,13 @@ void register_identify_ss(CLI::App& identify) {
   cmd->add_option("--linear", o->linear, "Linear model file to start from (default: OE of order --nx on --data)");
   cmd->add_option("--nx", o->nx, "States: the order of the OE start (without --linear)")->check(CLI::Range(1, 64))->capture_default_str();
   cmd->add_option("--nk", o->nk, "Input delay of the OE start (-1: estimated)")->check(CLI::Range(-1, 1000))->capture_default_str();
-  cmd->add_option("--hidden", o->hidden, "Tanh nodes of the state/output network")->check(CLI::Range(1, 1000))->capture_default_str();
+  cmd->add_option("--hidden", o->hidden, "Tanh nodes of the state/output network (0: none, with --poly-degree)")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
+  cmd->add_option("--poly-degree", o->poly_degree,
+                  "Add PNLSS's polynomial: monomials of [x; u] of degree 2 to this (0: none, else 2-5)")
+      ->check(CLI::IsMember({0, 2, 3, 4, 5}))
+      ->capture_default_str();
   cmd->add_option("--lags", o->lags, "Past inputs and outputs the encoder reads")->check(CLI::Range(1, 1000))->capture_default_str();
   cmd->add_option("--encoder-hidden", o->encoder_hidden, "Tanh nodes of the encoder (0: affine)")
       ->check(CLI::Range(0, 1000))
@@ -190,7 +199,8 @@ void register_identify_ss(CLI::App& identify) {
   cmd->add_option("--out", o->out, "Model file to write")->required();
   cmd->footer(
       "Example:\n  panelbass identify ss --data est.csv --val val.csv --fs 51200 --nx 6 --hidden 20 --lags 50 "
-      "--window 100 --epochs 200 --out ss.json");
+      "--window 100 --epochs 200 --out ss.json\n"
+      "  panelbass identify ss --data est.csv --val val.csv --fs 610.35 --nx 2 --hidden 0 --poly-degree 3 --out pnlss.json");
   cmd->callback([o] { run_identify_ss(*o); });
 }
 

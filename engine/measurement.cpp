@@ -1,11 +1,13 @@
 #include "engine/measurement.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 #include <utility>
 
 #include "dsp/correlation.h"
+#include "models/linear/fir_estimator.h"
 
 namespace panelbass::engine {
 
@@ -56,6 +58,39 @@ RoundTrip find_round_trip(const Eigen::VectorXd& played, const Eigen::VectorXd& 
     if (curvature < 0.0) trip.fractional += 0.5 * (a - c) / curvature;
   }
   return trip;
+}
+
+LoopConsistency check_loop(const Eigen::VectorXd& played, const Eigen::VectorXd& heard, int round_trip, double tolerance) {
+  const Eigen::Index n = played.size();
+  if (heard.size() != n) throw std::invalid_argument("loop check: the played and heard signals differ in length");
+  if (round_trip < 0 || round_trip >= n) {
+    throw std::invalid_argument("loop check: round trip " + std::to_string(round_trip) + " outside the record of " +
+                                std::to_string(n) + " samples");
+  }
+  // The FIR starts a few samples before the correlation's peak: the converters' filters answer before it.
+  const Eigen::Index lead = std::min<Eigen::Index>(8, round_trip), shift = round_trip - lead, m = n - shift;
+  if (m < 4 * kLoopTaps) throw std::invalid_argument("loop check: the record is too short for the loop's FIR");
+  const Eigen::VectorXd x = played.head(m), z = heard.segment(shift, m);
+  // y(k) = Σ_j b_j·x(k−j), least squares over the whole record; a ridge keeps bands the drive leaves
+  // unexcited at no response.
+  const Eigen::VectorXd b = models::estimate_fir(x, z, kLoopTaps, 1e-9);
+  const Eigen::VectorXd residual = z - models::simulate_fir(b, x);
+  double loudest = 0.0;
+  for (Eigen::Index k = kLoopTaps; k + kLoopWindow <= m; k += kLoopWindow) {
+    loudest = std::max(loudest, z.segment(k, kLoopWindow).squaredNorm());
+  }
+  LoopConsistency out;
+  for (Eigen::Index k = kLoopTaps; k + kLoopWindow <= m; k += kLoopWindow) {
+    const double energy = z.segment(k, kLoopWindow).squaredNorm();
+    if (!(energy > 1e-3 * loudest)) continue;
+    const double r = residual.segment(k, kLoopWindow).squaredNorm() / energy;
+    if (r > out.worst_residual) {
+      out.worst_residual = r;
+      out.worst_at = k + shift;
+    }
+  }
+  out.slipped = !(out.worst_residual <= tolerance);
+  return out;
 }
 
 }  // namespace panelbass::engine

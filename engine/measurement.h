@@ -74,6 +74,31 @@ struct RoundTrip {
   double peak = 0.0;        ///< the normalised cross-correlation at the peak (1: the drive came back unchanged)
 };
 
+/// How well the drive explains, sample by sample, a channel that hears it through a linear loop (the drive
+/// looped back on a capture channel): a slip of the capture against the playback (a period dropped or
+/// repeated inside the device's server, which no xrun counter sees) leaves a window the drive no longer
+/// explains.
+struct LoopConsistency {
+  double worst_residual = 0.0;  ///< the largest Σ(heard − predicted)² / Σ heard² over a window
+  Eigen::Index worst_at = 0;    ///< the first sample of that window
+  bool slipped = false;         ///< worst_residual exceeded the tolerance
+};
+
+/// Fits an FIR (kLoopTaps taps, starting a few samples before `round_trip`) from `played` to `heard` over the
+/// whole record, predicts `heard` with it and compares them window by window (kLoopWindow samples; windows
+/// whose energy is below 1e-3 of the loudest window's are skipped). Throws std::invalid_argument for
+/// unequal lengths, a round trip outside the record, or a record too short for the fit.
+LoopConsistency check_loop(const Eigen::VectorXd& played, const Eigen::VectorXd& heard, int round_trip, double tolerance);
+
+/// The FIR's length in check_loop, samples at the chain's rate (the card's converters ring well within it).
+inline constexpr Eigen::Index kLoopTaps = 48;
+/// The window check_loop compares over, samples (a JACK period is a few samples at the chain's rate).
+inline constexpr Eigen::Index kLoopWindow = 256;
+/// A loopback residual above this over a window is a slip or a gap (the JACK loop with no card leaves ~1e-12,
+/// a card's converters' noise −60 dB or less; one sample of 256 lost or zeroed leaves ~4e-3, a shift of one
+/// sample of broadband drive > 0.1).
+inline constexpr double kLoopTolerance = 1e-4;
+
 /// The lag in [0, max_lag] at which `heard` (same length as `played`) correlates best with `played`
 /// (r(τ) = Σ u(k)·y(k+τ) / (N σ_u σ_y)); throws std::invalid_argument for unequal lengths, a
 /// max_lag not below the length, or a silent signal.

@@ -1,9 +1,15 @@
 #pragma once
 // The mirror filter (models/control/mirror_filter.h) as a feedforward stage of the chain: program in,
 // the drive that makes the identified nonlinear exciter model move as its linear reference would, out.
+// When the model carries observer settings (a sensor map), the stage also watches the sensor: an extended
+// Kalman filter (models/control/mirror_observer.h) adapts the model's stiffness and the scale of its
+// nonlinearity on line, so the filter's model — and its linear reference — follow a transducer that has moved.
+
+#include <optional>
 
 #include "engine/stage.h"
 #include "models/control/mirror_filter.h"
+#include "models/control/mirror_observer.h"
 
 namespace panelbass::engine {
 
@@ -11,18 +17,27 @@ namespace panelbass::engine {
 /// report (its activity counters): the program needs more drive than the chain can give.
 class MirrorFilterStage final : public Stage {
  public:
-  /// The stage of `model`.
+  /// The stage of `model` (adaptive when the model has observer settings).
   explicit MirrorFilterStage(const models::MirrorModel& model);
   /// Throws std::invalid_argument if spec.fs differs from the model's rate.
   void prepare(const ProcessSpec& spec) override;
-  /// One program sample in, one drive sample out.
-  double process(double x) noexcept override { return filter_.process(x); }
-  /// Back to rest.
-  void reset() noexcept override { filter_.reset(); }
+  /// One program sample in, one drive sample out (the observer's time update with that drive).
+  double process(double x) noexcept override;
+  /// The sensor's output for the sample just processed: the observer's measurement update, and the filter's
+  /// stiffness and nonlinearity set to the observer's estimates. An exact 0 (a chain run without a sensor) is
+  /// no measurement: the filter keeps its scales.
+  void observe(double measured) noexcept override;
+  /// True when adaptive.
+  bool observes() const noexcept override { return observer_.has_value(); }
+  /// Back to rest (the adapted scales too).
+  void reset() noexcept override;
+  /// The observer, when the stage adapts (its estimates: scales(), state()).
+  const models::MirrorObserver* observer() const { return observer_ ? &*observer_ : nullptr; }
 
  private:
   double fs_;
   models::MirrorFilter filter_;
+  std::optional<models::MirrorObserver> observer_;
 };
 
 }  // namespace panelbass::engine

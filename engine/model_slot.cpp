@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <utility>
 
@@ -19,6 +20,9 @@ ModelSlot::ModelSlot(const ProcessSpec& spec, const SlotOptions& options, Metric
   }
   const auto h = static_cast<std::size_t>(options.history.value);
   peak_decay_ = h > 0 ? std::exp(-1.0 / static_cast<double>(h)) : 0.0;
+  // decay^i for the longest block commit_block() is given (decay^0 = 1, then a product per power).
+  decay_powers_.assign(block_out_.size() + 1, 1.0);
+  for (std::size_t i = 1; i < decay_powers_.size(); ++i) decay_powers_[i] = decay_powers_[i - 1] * peak_decay_;
   crossfade_ = options.crossfade.value;
   crossfade_request_.store(crossfade_, std::memory_order_relaxed);
 }
@@ -181,15 +185,40 @@ void ModelSlot::commit_block(std::span<const double> in, std::size_t processed, 
   if (processed == 0) return;
   history_.push_block(in.first(processed), observed);
   block_samples_ += processed;
-  // The step peak and the last outputs, as process() keeps them sample by sample.
-  double peak = step_peak_, last = last_mix_;
-  for (std::size_t k = 0; k < processed; ++k) {
-    const double y = block_y_[k];
-    const double step = std::abs(y - last);
-    peak = std::isfinite(step) ? std::max(step, peak * peak_decay_) : 0.0;
-    last = y;
+  // The step peak as process() keeps it sample by sample, peak ← max(step(k), peak·decay), in its closed form
+  // max(peak·decay^n, max_k step(k)·decay^(n−1−k)): the same up to rounding, without a chain of dependent
+  // multiplications and comparisons through the block (four running maxima). A non-finite step restarts the
+  // peak at 0; for such a block the recursion itself runs.
+  const double* decay = decay_powers_.data();
+  double peak[4] = {0.0, 0.0, 0.0, 0.0};
+  bool finite = true;
+  double last = last_mix_;
+  std::size_t k = 0;
+  for (; k + 4 <= processed; k += 4) {
+    for (std::size_t i = 0; i < 4; ++i) {
+      const double step = std::abs(block_y_[k + i] - (i == 0 ? last : block_y_[k + i - 1]));
+      finite &= step <= std::numeric_limits<double>::max();
+      peak[i] = std::max(peak[i], step * decay[processed - 1 - k - i]);
+    }
+    last = block_y_[k + 3];
   }
-  step_peak_ = peak;
+  for (; k < processed; ++k) {
+    const double step = std::abs(block_y_[k] - last);
+    finite &= step <= std::numeric_limits<double>::max();
+    peak[0] = std::max(peak[0], step * decay[processed - 1 - k]);
+    last = block_y_[k];
+  }
+  if (finite) {
+    step_peak_ = std::max({step_peak_ * decay[processed], peak[0], peak[1], peak[2], peak[3]});
+  } else {
+    double p = step_peak_, previous = last_mix_;
+    for (std::size_t j = 0; j < processed; ++j) {
+      const double step = std::abs(block_y_[j] - previous);
+      p = std::isfinite(step) ? std::max(step, p * peak_decay_) : 0.0;
+      previous = block_y_[j];
+    }
+    step_peak_ = p;
+  }
   last_mix_ = last;
   last_old_ = last;
 }

@@ -137,6 +137,7 @@ class ModelSlot {
   std::uint64_t block_samples_ = 0;  // samples processed since the last block boundary
   std::uint64_t block_peak_ = 0;     // the longest block so far
   std::vector<double> block_out_;    // process_block's stage outputs (max_block samples, sized once)
+  std::vector<double> decay_powers_; // peak_decay_^i, i = 0..max_block (commit_block's step peak)
   std::span<const double> block_y_;  // the stage outputs of the last process_block (block_out_ or its input)
   HistoryRing history_;
 };

@@ -113,13 +113,10 @@ void NarxStage::process_block(std::span<const double> in, std::span<double> out)
     return;
   }
   const models::Scaling& s = model_.scaling;
-  for (std::size_t k = 0; k < in.size(); ++k) {
-    history_.push_input((in[k] - s.u_offset) / s.u_scale);
-    // [5G] y(k) = F(y(k−1..k−na), u(k−nk..k−nk−nb)), its own output fed back (model mode)
-    const double y = network_.forward(history_.past_outputs(), history_.past_inputs());
-    history_.push_output(y);
-    out[k] = y * s.y_scale + s.y_offset;
-  }
+  for (std::size_t k = 0; k < in.size(); ++k) out[k] = (in[k] - s.u_offset) / s.u_scale;
+  // [5G] y(k) = F(y(k−1..k−na), u(k−nk..k−nk−nb)), its own output fed back (model mode)
+  network_.free_run(history_, out.first(in.size()), out);
+  for (double& y : out.first(in.size())) y = y * s.y_scale + s.y_offset;
 }
 
 void NarxStage::observe(double measured) noexcept {

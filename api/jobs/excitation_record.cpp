@@ -45,6 +45,10 @@ json excitation_record_to_json(const ExcitationRecord& record) {
     out["i_est"] = models::to_array(record.i_est);
     out["i_val"] = models::to_array(record.i_val);
   }
+  if (record.l_est.size() > 0) {
+    out["l_est"] = models::to_array(record.l_est);
+    out["l_val"] = models::to_array(record.l_val);
+  }
   return out;
 }
 
@@ -71,13 +75,17 @@ ExcitationRecord excitation_record_from_result(const json& result, double fs, co
       fail_after(where, "has a record with a negative weight");
     }
   }
-  if (record.contains("i_est")) {
-    out.i_est = numbers_of(record, "i_est", where);
-    out.i_val = numbers_of(record, "i_val", where);
-    if (out.i_est.size() != out.u_est.size() || out.i_val.size() != out.u_val.size()) {
-      fail_after(where, "has a record whose current and drive differ in length");
+  // Channels beside the drive, each as long as it: the current, the converters' output.
+  const auto beside = [&](const char* est, const char* val, const char* what, Eigen::VectorXd& e, Eigen::VectorXd& v) {
+    if (!record.contains(est)) return;
+    e = numbers_of(record, est, where);
+    v = numbers_of(record, val, where);
+    if (e.size() != out.u_est.size() || v.size() != out.u_val.size()) {
+      fail_after(where, std::string("has a record whose ") + what + " and drive differ in length");
     }
-  }
+  };
+  beside("i_est", "i_val", "current", out.i_est, out.i_val);
+  beside("l_est", "l_val", "loopback", out.l_est, out.l_val);
   if (out.u_est.size() < kMinSamples) {
     fail_after(where, "has a record of " + std::to_string(out.u_est.size()) + " estimation samples, fewer than " +
                           std::to_string(kMinSamples));

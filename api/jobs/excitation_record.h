@@ -14,6 +14,9 @@ struct ExcitationRecord {
   Eigen::VectorXd u_est, y_est, u_val, y_val;
   Eigen::VectorXd w_est, w_val;  ///< per-sample harmonic weights of a control excitation; empty otherwise
   Eigen::VectorXd i_est, i_val;  ///< the transducer's current, when an uploaded record has it; empty otherwise
+  /// The drive as the converters delivered it (a sound card's loopback channel, the virtual transducer's
+  /// converters alone), aligned like the response: the input of the process alone; empty otherwise.
+  Eigen::VectorXd l_est, l_val;
   nlohmann::json card;  ///< measured through a sound card: each part's calibration report (null otherwise)
 };
 
@@ -22,11 +25,12 @@ struct ExcitationRecord {
 struct MeasuredResponse {
   Eigen::VectorXd y;       ///< the sensor, aligned to the drive (the card's round trip removed)
   Eigen::VectorXd i;       ///< the coil current, aligned likewise; empty when the card captures none
+  Eigen::VectorXd loopback;  ///< the drive looped back, aligned likewise; empty when the card captures none
   nlohmann::json report;   ///< the calibration's figures
 };
 
 /// {"u_est":[…],"y_est":[…],"u_val":[…],"y_val":[…]}, "w_est", "w_val" when the record has weights, and
-/// "i_est", "i_val" when it has the current.
+/// "i_est", "i_val" when it has the current, "l_est", "l_val" when it has the converters' output.
 nlohmann::json excitation_record_to_json(const ExcitationRecord& record);
 
 /// The record in an excite job's result ({"fs", "record":{…}}), checked: four arrays of finite numbers,

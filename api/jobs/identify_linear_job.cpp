@@ -1,6 +1,7 @@
 #include "api/jobs/identify_linear_job.h"
 
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -44,7 +45,21 @@ json identify_linear_params(const json& params, const JobEnvironment& env) {
     if (validation == 0) refuse(r.path_of("scan"), "an order scan needs validation data (" + validation_path + " has none)");
   }
   r.integer("max_iterations", 100, 1, kMaxIterations);
+  r.choice("process", "with_converters", {"with_converters", "alone"});
   return r.finish();
+}
+
+// The record with the converters' output as its drive (ExcitationRecord::l_est/l_val); throws naming what is
+// missing when the record has none.
+ExcitationRecord process_record(const SourcedRecord& data) {
+  ExcitationRecord r = data.record;
+  if (r.l_est.size() == 0) {
+    throw std::runtime_error("params.process: \"alone\" needs the drive as the converters delivered it, and " +
+                             data.source + " has none (on a sound card: serve --loopback-channel)");
+  }
+  r.u_est = r.l_est;
+  r.u_val = r.l_val;
+  return r;
 }
 
 // What to try when a linear fit is no better than an output of zero.
@@ -56,7 +71,10 @@ std::string linear_advice(const models::LinearIdentification& id) {
 json identify_linear_work(const json& params, const JobEnvironment& env, JobControl& control) {
   JobProgress progress(control);
   const SourcedRecord data = acquire_record(params, env, progress, control);
-  const ExcitationRecord& r = data.record;
+  // The process alone (the thesis's fig. 3.6, §4): its input is the drive as the converters delivered it —
+  // the drive prefiltered by the converters' response, which the loopback channel measured.
+  const bool alone = params.at("process").get<std::string>() == "alone";
+  const ExcitationRecord r = alone ? process_record(data) : data.record;
 
   models::LinearIdentificationSpec spec;
   spec.method = models::parse_linear_method(params.at("method").get<std::string>());
@@ -100,7 +118,10 @@ json identify_linear_work(const json& params, const JobEnvironment& env, JobCont
                    {"nb", id.model.tf.nb()},
                    {"nk", id.model.tf.nk},
                    {"J_est_pct", id.j_est_pct},
-                   {"J_val_pct", models::number_or_null(id.j_val_pct)}};
+                   {"J_val_pct", models::number_or_null(id.j_val_pct)},
+                   {"process", alone ? "alone: the input is the drive as the converters delivered it (loopback), the "
+                                       "converters left out"
+                                     : "with_converters: the input is the drive, the converters included"}};
   const int order = id.model.tf.na() > 0 ? id.model.tf.na() : id.model.tf.nb();
   const std::string model_id = store_model(env, models::linear_model_to_json(id.model),
                                            method + " order " + std::to_string(order) + " (" + control.job_id() + ")", control);
@@ -118,6 +139,7 @@ json identify_linear_work(const json& params, const JobEnvironment& env, JobCont
                   {"zeros", models::roots_json(id.model.tf.zeros())},
                   {"survey", models::data_survey_to_json(id.survey)},
                   {"data", data.source},
+                  {"process", params.at("process")},
                   {"history_source", history_source}};
   if (!id.scan.empty()) {
     json scan = json::array();

@@ -11,6 +11,7 @@
 #include "api/jobs/stored_models.h"
 #include "api/model_store.h"
 #include "dsp/excitation.h"
+#include "models/plant/converter_loop.h"
 #include "models/control/feedback_design.h"
 #include "models/control/lq_feedforward.h"
 #include "models/control/model_probes.h"
@@ -43,19 +44,22 @@ Eigen::VectorXd excitation_signal(const std::string& signal, Eigen::Index sample
 }
 
 // Plays `drive` through the backend; the response must be as long and finite. On a sound card, the part's
-// calibration report goes to `record.card` and the current, when captured, to `current`.
+// calibration report goes to `record.card`, the current, when captured, to `current` and the loopback, when
+// captured, to `loopback`; on the virtual transducer `loopback` is the drive through its converters alone.
 Eigen::VectorXd play(const JobEnvironment& env, const Eigen::VectorXd& drive, ExcitationRecord& record,
-                     Eigen::VectorXd& current) {
+                     Eigen::VectorXd& current, Eigen::VectorXd& loopback) {
   if (!env.excite && !env.measure) throw std::runtime_error("no backend to excite");
   Eigen::VectorXd response;
   if (env.measure) {
     MeasuredResponse measured = env.measure(drive);
     response = std::move(measured.y);
     current = std::move(measured.i);
+    loopback = std::move(measured.loopback);
     if (record.card.is_null()) record.card = nlohmann::json::array();
     record.card.push_back(std::move(measured.report));
   } else {
     response = env.excite(drive);
+    if (env.plant) loopback = models::converters_alone(*env.plant, drive);
   }
   if (response.size() != drive.size()) {
     throw std::runtime_error("the backend recorded " + std::to_string(response.size()) + " samples for a drive of " +
@@ -189,7 +193,7 @@ ExcitationRecord run_excitation(const json& excite, const JobEnvironment& env, J
     design.program_share = excite.at("program_share").get<double>();
     // One part: the chain's drive for the design's program, played, and its steps' harmonic weights.
     const auto control_part = [&](Eigen::Index n, std::uint64_t part_seed, Eigen::VectorXd& u, Eigen::VectorXd& y,
-                                  Eigen::VectorXd& w) {
+                                  Eigen::VectorXd& w, Eigen::VectorXd& loopback) {
       design.samples = n;
       const models::ControlRecord part = models::control_record(ff, band_pass, design, part_seed);
       if (!part.u.allFinite()) throw std::runtime_error("the control excitation has a non-finite sample");
@@ -197,23 +201,23 @@ ExcitationRecord run_excitation(const json& excite, const JobEnvironment& env, J
       const double cap = std::min(1.0, env.safe_level);
       u = part.u.cwiseMax(-cap).cwiseMin(cap);
       Eigen::VectorXd current;
-      y = play(env, u, record, current);
+      y = play(env, u, record, current, loopback);
       w = models::harmonic_weights(part, y, env.fs);
     };
-    control_part(samples, seed, record.u_est, record.y_est, record.w_est);
+    control_part(samples, seed, record.u_est, record.y_est, record.w_est, record.l_est);
     if (validation > 0) {
       progress.at(samples / total, "excitation: " + std::to_string(validation) + " validation samples");
-      control_part(validation, seed + 1, record.u_val, record.y_val, record.w_val);
+      control_part(validation, seed + 1, record.u_val, record.y_val, record.w_val, record.l_val);
     }
     progress.at(1.0, "excitation recorded");
     return record;
   }
   record.u_est = excitation_signal(signal, samples, amplitude, seed, env.fs);
-  record.y_est = play(env, record.u_est, record, record.i_est);
+  record.y_est = play(env, record.u_est, record, record.i_est, record.l_est);
   if (validation > 0) {
     progress.at(samples / total, "excitation: " + std::to_string(validation) + " validation samples");
     record.u_val = excitation_signal(signal, validation, amplitude, seed + 1, env.fs);
-    record.y_val = play(env, record.u_val, record, record.i_val);
+    record.y_val = play(env, record.u_val, record, record.i_val, record.l_val);
   }
   progress.at(1.0, "excitation recorded");
   return record;

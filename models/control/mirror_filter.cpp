@@ -46,6 +46,16 @@ Eigen::VectorXd scaled_least_squares(const Eigen::MatrixXd& a, const Eigen::Vect
   return theta.cwiseQuotient(scale);
 }
 
+/// True when every root of z³ + a1·z² + a2·z + a3 (A(z) = 1 + a1·z⁻¹ + a2·z⁻² + a3·z⁻³) lies inside |z| < 0.95:
+/// 1/A(z) is then a stable filter with some margin.
+bool minimum_phase(const std::array<double, 4>& a) {
+  Eigen::Matrix3d companion = Eigen::Matrix3d::Zero();
+  companion.row(0) << -a[1], -a[2], -a[3];
+  companion(1, 0) = 1.0;
+  companion(2, 1) = 1.0;
+  return companion.eigenvalues().cwiseAbs().maxCoeff() < 0.95;
+}
+
 }  // namespace
 
 MirrorModel MirrorModel::linear() const {
@@ -74,7 +84,10 @@ double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noe
   const double mid = 0.5 * (s.v + v1);
   // [M1] solved for i_{k+1}
   const Electrical el = electrical_terms(m.electrical, s.x, s.i);
-  const double i1 = (drive - el.back_emf * mid + el.inductance * s.i / h) / (el.inductance / h + m.electrical[4]);
+  const std::array<double, 4>& a = m.drive_taps;
+  const double w = a[0] * drive + a[1] * s.past[0] + a[2] * s.past[1] + a[3] * s.past[2];
+  s.past = {drive, s.past[0], s.past[1]};
+  const double i1 = (w - el.back_emf * mid + el.inductance * s.i / h) / (el.inductance / h + m.electrical[4]);
   const double accel = (v1 - s.v) / h;
   s.i = i1;
   s.v = v1;
@@ -82,11 +95,23 @@ double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noe
   return accel;
 }
 
-MirrorFilter::MirrorFilter(const MirrorModel& model) : model_(model), reference_(model.linear()) {}
+MirrorFilter::MirrorFilter(const MirrorModel& model) : base_(model), model_(model), reference_(model.linear()) {}
+
+void MirrorFilter::set_scales(double stiffness, double force, double nonlinear) noexcept {
+  model_.mechanical = base_.mechanical;
+  model_.electrical = base_.electrical;
+  for (std::size_t j : {6u, 7u, 8u}) model_.mechanical[j] *= stiffness;
+  model_.mechanical[0] *= force;
+  for (std::size_t j : {1u, 2u, 3u, 4u, 7u, 8u, 9u}) model_.mechanical[j] *= nonlinear;
+  for (std::size_t j : {1u, 2u, 3u, 6u, 7u, 8u, 9u}) model_.electrical[j] *= nonlinear;
+  reference_.mechanical[0] = model_.mechanical[0];
+  reference_.mechanical[6] = model_.mechanical[6];
+}
 
 void MirrorFilter::reset() noexcept {
   ref_ = {};
   current_ = 0.0;
+  past_ = {};
   saturated_ = false;
 }
 
@@ -116,12 +141,17 @@ double MirrorFilter::process(double program) noexcept {
   }
   // [M1] at k: the drive that takes the current from ĩ_k to ĩ_{k+1} at the reference's motion
   const Electrical el = electrical_terms(model_.electrical, x, current_);
-  const double drive = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * 0.5 * (v + v1);
+  const double w = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * 0.5 * (v + v1);
+  // the drive whose A(z)-filtered value is w: drive_k = (w − Σ_{j≥1} a_j·drive_{k−j}) / a_0
+  const std::array<double, 4>& a = model_.drive_taps;
+  const double drive = (w - a[1] * past_[0] - a[2] * past_[1] - a[3] * past_[2]) / a[0];
   current_ = next;
   if (!std::isfinite(drive)) {
     saturated_ = true;
+    past_ = {};
     return program;
   }
+  past_ = {drive, past_[0], past_[1]};
   return drive;
 }
 
@@ -163,7 +193,7 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
   for (Eigen::Index k = 0; k + 1 < n; ++k) mid[k] = 0.5 * (v[k] + v[k + 1]);
   const Eigen::VectorXd& i = current;
   // rows k = first..n−2 (each needs x_k, v_k, i_k, i_{k+1}, v_{k+1} and the drive max_delay samples back)
-  const Eigen::Index first = 1 + max_delay, rows = n - 1 - first;
+  const Eigen::Index first = 1 + max_delay + 3, rows = n - 1 - first;
 
   MirrorFit fit;
   fit.model.fs = fs;
@@ -188,37 +218,48 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
     }
   }
   fit.mechanical_fit_pct = 100.0 * best / accel.squaredNorm();
+  fit.mechanical_residual_rms = std::sqrt(best / static_cast<double>(rows));
 
-  // [M1] for each delay of the drive
-  double drive_power = 1.0;
+  // [M1] without the inductance (the coil's time constant, a fraction of a sample, and the DA filter's lag are
+  // A(z)'s), solved for the current: i_{k+1} = (Σ_j a_j·drive_{k−d−j} − E_v(x_k, i_k)·v̄_k) / e_R, linear in
+  // β_j = a_j/e_R and E_v's coefficients over e_R. The current is the regression's target and the drives its
+  // inputs, so a band-limited drive that its own past predicts does not leak into A(z) (as it would with the
+  // drive as the target). Each delay d and 1 to 4 taps are tried; the smallest residual wins among the A(z) that
+  // are minimum phase (1/A(z) is how the filter inverts it), a longer A(z) only if it cuts the residual by 1 %.
   const double b1 = fit.model.mechanical[1] / fit.model.mechanical[0], b2 = fit.model.mechanical[2] / fit.model.mechanical[0];
-  Eigen::MatrixXd elec(rows, 10);
+  Eigen::MatrixXd regressors(rows, 7);
   for (Eigen::Index r = 0; r < rows; ++r) {
     const Eigen::Index k = first + r;
-    const double xk = x[k], ik = i[k], di = (i[k + 1] - i[k]) / h;
+    const double xk = x[k], ik = i[k];
     // the back-EMF's force factor has the shape Bl(x)/Bl0 = 1 + b1·x + b2·x² that [M2] found (one Bl for both
     // equations: the mechanical fit is the better determined one)
-    elec.row(r) << di, xk * di, xk * xk * di, ik * ik * di, i[k + 1], mid[k] * (1.0 + b1 * xk + b2 * xk * xk), 0.0, 0.0,
-        ik * mid[k], ik * xk * mid[k];
+    regressors.block(r, 4, 1, 3) << -mid[k] * (1.0 + b1 * xk + b2 * xk * xk), -ik * mid[k], -ik * xk * mid[k];
   }
-  // A negative inductance (the drive's fractional delay absorbed as a lead) would make the reference unstable:
-  // the fit then leaves the inductance out (the electrical time constant is then taken as below a sample).
-  for (const bool with_inductance : {true, false}) {
-    if (!with_inductance) elec.leftCols(4).setZero();
-    best = std::numeric_limits<double>::infinity();
-    for (int d = 0; d <= max_delay; ++d) {
-      const Eigen::VectorXd target = drive.segment(first - d, rows);
+  const Eigen::VectorXd target = current.segment(first + 1, rows);
+  best = std::numeric_limits<double>::infinity();
+  for (int d = 0; d <= max_delay; ++d) {
+    for (int taps = 1; taps <= 4; ++taps) {
+      for (int j = 0; j < taps; ++j) regressors.col(j) = drive.segment(first - d - j, rows);
+      Eigen::MatrixXd used(rows, taps + 3);
+      used << regressors.leftCols(taps), regressors.rightCols(3);
       double residual = 0.0;
-      const Eigen::VectorXd e = scaled_least_squares(elec, target, residual);
-      if (residual < best) {
-        best = residual;
-        drive_power = target.squaredNorm();
-        fit.model.delay = d;
-        for (int j = 0; j < 10; ++j) fit.model.electrical[static_cast<std::size_t>(j)] = e[j];
-      }
+      const Eigen::VectorXd beta = scaled_least_squares(used, target, residual);
+      if (!(residual < 0.99 * best) || !(beta[0] != 0.0)) continue;
+      std::array<double, 4> a{1.0, 0.0, 0.0, 0.0};
+      for (int j = 1; j < taps; ++j) a[static_cast<std::size_t>(j)] = beta[j] / beta[0];
+      if (!minimum_phase(a)) continue;
+      best = residual;
+      fit.model.delay = d;
+      fit.model.drive_taps = a;
+      fit.model.electrical = {};
+      fit.model.electrical[4] = 1.0 / beta[0];  // e_R
+      fit.model.electrical[5] = beta[taps] / beta[0];
+      fit.model.electrical[8] = beta[taps + 1] / beta[0];
+      fit.model.electrical[9] = beta[taps + 2] / beta[0];
     }
-    if (fit.model.electrical[0] >= 0.0) break;
   }
+  if (!std::isfinite(best)) throw std::invalid_argument("mirror fit: no electrical model the filter can invert fits the record");
+  const double drive_power = target.squaredNorm();
   fit.model.electrical[6] = fit.model.electrical[5] * b1;
   fit.model.electrical[7] = fit.model.electrical[5] * b2;
   fit.electrical_fit_pct = 100.0 * best / drive_power;
@@ -226,15 +267,28 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
 }
 
 nlohmann::json mirror_model_to_json(const MirrorModel& m, const nlohmann::json& meta) {
-  return {{"format", kModelFormat},
+  nlohmann::json j = {{"format", kModelFormat},
           {"kind", kMirrorFilterKind},
           {"fs", m.fs},
           {"params",
            {{"electrical", m.electrical},
             {"mechanical", m.mechanical},
             {"friction_velocity_mm_per_s", m.friction_velocity},
-            {"delay", m.delay}}},
+            {"delay", m.delay},
+            {"drive_taps", m.drive_taps}}},
           {"meta", meta.is_null() ? nlohmann::json::object() : meta}};
+  if (m.observer.enabled) {
+    j["params"]["observer"] = {{"sensor_taps", m.observer.sensor_taps},
+                               {"sensor_noise", m.observer.sensor_noise},
+                               {"process_noise_mm_per_s2", m.observer.process_noise},
+                               {"stiffness_rate", m.observer.stiffness_rate},
+                               {"stiffness_spread", m.observer.stiffness_spread},
+                               {"force_rate", m.observer.force_rate},
+                               {"force_spread", m.observer.force_spread},
+                               {"nonlinear_rate", m.observer.nonlinear_rate},
+                               {"nonlinear_spread", m.observer.nonlinear_spread}};
+  }
+  return j;
 }
 
 MirrorModel mirror_model_from_json(const nlohmann::json& j) {
@@ -259,6 +313,46 @@ MirrorModel mirror_model_from_json(const nlohmann::json& j) {
   m.friction_velocity = p.number("friction_velocity_mm_per_s");
   require_positive(m.friction_velocity, "model.params.friction_velocity_mm_per_s");
   m.delay = static_cast<int>(p.integer("delay", 0, 0, 64));
+  if (const nlohmann::json* taps = p.member("drive_taps")) {
+    const Eigen::VectorXd read = read_vector(*taps, p.path_of("drive_taps"));
+    if (read.size() != 4 || read[0] != 1.0) {
+      throw ConfigError(p.path_of("drive_taps") + ": 4 taps expected, the first 1");
+    }
+    for (int k = 0; k < 4; ++k) m.drive_taps[static_cast<std::size_t>(k)] = read[k];
+    if (!minimum_phase(m.drive_taps)) {
+      throw ConfigError(p.path_of("drive_taps") + ": A(z) must be minimum phase (roots inside |z| < 0.95)");
+    }
+  }
+  if (const nlohmann::json* o = p.member("observer")) {
+    JsonFields f(*o, p.path_of("observer"));
+    MirrorObserverSettings& s = m.observer;
+    s.enabled = true;
+    const nlohmann::json* taps = f.member("sensor_taps");
+    if (taps == nullptr) throw ConfigError(f.path_of("sensor_taps") + ": missing");
+    const Eigen::VectorXd read = read_vector(*taps, f.path_of("sensor_taps"));
+    if (read.size() != 4) throw ConfigError(f.path_of("sensor_taps") + ": 4 taps expected, got " + std::to_string(read.size()));
+    for (int k = 0; k < 4; ++k) s.sensor_taps[static_cast<std::size_t>(k)] = read[k];
+    // each setting: its key, where it goes, and whether it must be > 0 (else >= 0); absent keys keep their default,
+    // but for the two noises the fit measured
+    const auto setting = [&f](const char* key, double& out, bool positive, bool required) {
+      out = required ? f.number(key) : f.number(key, out);
+      if (positive) {
+        require_positive(out, f.path_of(key));
+      } else {
+        require_non_negative(out, f.path_of(key));
+      }
+    };
+    setting("sensor_noise", s.sensor_noise, true, true);
+    setting("process_noise_mm_per_s2", s.process_noise, false, true);
+    setting("stiffness_rate", s.stiffness_rate, false, false);
+    setting("stiffness_spread", s.stiffness_spread, true, false);
+    setting("force_rate", s.force_rate, false, false);
+    setting("force_spread", s.force_spread, true, false);
+    setting("nonlinear_rate", s.nonlinear_rate, false, false);
+    setting("nonlinear_spread", s.nonlinear_spread, true, false);
+    f.finish();
+    if (m.delay > 4) throw ConfigError(p.path_of("delay") + ": the observer takes a drive delay up to 4 samples");
+  }
   p.finish();
   top.finish();
   const double denominator = m.electrical[0] * m.fs + m.electrical[4];

@@ -10,7 +10,9 @@
 // and displacement in mm, so that it can be fitted by linear least squares to a record of drive, coil
 // current and displacement alone (fit_mirror_model), with no knowledge of the amplifier's gain or of
 // the moving mass:
-//   [M1] drive_k = E_L(x_k, i_k)·(i_{k+1} − i_k)/h + e_R·i_{k+1} + E_v(x_k, i_k)·v̄_k
+//   [M1] w_k = E_L(x_k, i_k)·(i_{k+1} − i_k)/h + e_R·i_{k+1} + E_v(x_k, i_k)·v̄_k,
+//        w_k = Σ_{j<4} a_j·drive_{k−j}, a_0 = 1 (the DA path: its filter and the fraction of a sample of delay
+//        that the whole-sample delay leaves, as a short minimum-phase FIR, so that the filter can invert it)
 //        E_L = e0 + e1·x + e2·x² + e3·i²          (Le(x, i) / gain)
 //        E_v = e5 + e6·x + e7·x² + e8·i + e9·i·x  (Bl(x)/gain and i·dLe/dx / gain)
 //   [M2] v_{k+1} = v_k + h·M(x_k, v̄_k, i_k),  v̄_k = (v_k + v_{k+1})/2 the velocity at the sample instant
@@ -19,7 +21,7 @@
 //   [M3] x_{k+1} = x_k + h·v_{k+1}
 // The mirror runs the reference one step ahead: at k it knows the reference's state at k+1 (and, its [M2] being
 // linear, its velocity at k+2), solves [M2] at k+1 for the current ĩ_{k+1} that gives the reference's next
-// acceleration, and [M1] at k for the drive that makes it.
+// acceleration, [M1] at k for the w that makes it, and the drive from w by 1/A(z).
 // The linear reference keeps e0, e_R, e5, c0, c5, c6 and drops every other coefficient.
 
 #include <Eigen/Core>
@@ -29,6 +31,20 @@
 
 namespace panelbass::models {
 
+/// What the on-line observer (mirror_observer.h) needs: the sensor map [S1] and the noise it weighs by.
+struct MirrorObserverSettings {
+  bool enabled = false;               ///< adapt the model on line from the sensor (mirror_observer.h)
+  std::array<double, 4> sensor_taps{};  ///< s_0..s_3 of [S1], sensor units per mm/s
+  double sensor_noise = 0.0;          ///< the sensor's noise, rms, sensor units
+  double process_noise = 0.0;         ///< the model's acceleration error, rms, mm/s²
+  double stiffness_rate = 1e-4;       ///< θ_K's random walk, standard deviation per sample
+  double stiffness_spread = 0.3;      ///< θ_K's initial standard deviation (around 1)
+  double force_rate = 1e-4;           ///< θ_F's random walk, standard deviation per sample
+  double force_spread = 0.1;          ///< θ_F's initial standard deviation (around 1)
+  double nonlinear_rate = 1e-4;       ///< θ_N's random walk, standard deviation per sample
+  double nonlinear_spread = 0.3;      ///< θ_N's initial standard deviation (around 1)
+};
+
 /// The identified gray-box exciter model of [M1]–[M3] (x in mm, v in mm/s, i in A, drive dimensionless).
 struct MirrorModel {
   double fs = 3000.0;                ///< sample rate, Hz
@@ -36,6 +52,8 @@ struct MirrorModel {
   std::array<double, 10> mechanical{};  ///< c0..c9 of [M2]
   double friction_velocity = 50.0;   ///< v0 of the friction term, mm/s
   int delay = 0;                     ///< samples between the drive and the coil voltage found by the fit
+  std::array<double, 4> drive_taps{1.0, 0.0, 0.0, 0.0};  ///< a_0..a_3 of [M1]'s A(z) (a_0 = 1, minimum phase)
+  MirrorObserverSettings observer;   ///< the on-line stiffness adaptation (off unless fitted with a sensor)
   /// The same model with every nonlinear coefficient zero: the linear reference.
   MirrorModel linear() const;
 };
@@ -43,6 +61,7 @@ struct MirrorModel {
 /// One step of the model's state (current A, displacement mm, velocity mm/s).
 struct MirrorState {
   double i = 0.0, x = 0.0, v = 0.0;
+  std::array<double, 3> past{};  ///< drive_{k−1..k−3}, for [M1]'s A(z)
 };
 
 /// Steps [M1]–[M3] once with `drive` held; returns the acceleration (v_{k+1} − v_k)/h, mm/s².
@@ -60,11 +79,17 @@ class MirrorFilter {
   /// True when the last sample's force equation had no real solution (the current was clamped to the
   /// linear one): the program asks for more than the model's force factor can give.
   bool saturated() const { return saturated_; }
+  /// Scales the stiffness K(x) and the linear force factor c0 of both the model and its linear reference (the
+  /// resonance and the gain move with them) by `stiffness` and `force`, and the model's nonlinear coefficients by
+  /// `nonlinear`, relative to the model the filter was made with (as with_scales of mirror_observer.h);
+  /// allocation-free.
+  void set_scales(double stiffness, double force, double nonlinear) noexcept;
 
  private:
-  MirrorModel model_, reference_;
+  MirrorModel base_, model_, reference_;
   MirrorState ref_;
   double current_ = 0.0;  // the nonlinear model's current, ĩ_k
+  std::array<double, 3> past_{};  // the filter's drive_{k−1..k−3}, for 1/A(z)
   bool saturated_ = false;
 };
 
@@ -77,13 +102,15 @@ Eigen::VectorXd simulate_mirror_model(const MirrorModel& model, const Eigen::Vec
 /// How a gray-box fit went.
 struct MirrorFit {
   MirrorModel model;               ///< the fitted model
-  double electrical_fit_pct = 0.0; ///< residual power of [M1] over the drive's power, percent
+  double electrical_fit_pct = 0.0; ///< residual power of [M1] (solved for the current) over the current's, percent
   double mechanical_fit_pct = 0.0; ///< residual power of [M2] over the acceleration's power, percent
+  double mechanical_residual_rms = 0.0;  ///< rms of [M2]'s residual, mm/s²
 };
 
 /// Fits [M1]–[M3] to a record of `drive`, coil `current` (A) and `displacement` (m) at `fs` by linear least
 /// squares (velocity from the displacement's differences, as [M3] has it), choosing the drive's delay in
-/// 0..max_delay samples and the friction velocity scale on a grid by the smallest residual. Throws
+/// 0..max_delay samples, the length of A(z) (1–4 taps, kept only when minimum phase) and the friction velocity
+/// scale on a grid by the smallest residual. Throws
 /// std::invalid_argument naming the problem for columns of unequal length, fewer than 1000 samples or a
 /// non-finite sample.
 MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& current,

@@ -99,6 +99,18 @@ const double* accumulate4(double (&sum)[4], const double* w, std::size_t stride,
 
 }  // namespace
 
+void MlpKernel::free_run(NarxHistory& history, std::span<const double> u, std::span<double> y) noexcept {
+  if (level_ == SimdLevel::avx2_fma) {
+    detail::free_run_avx2_fma(view_, history, u, y);
+    return;
+  }
+  for (std::size_t k = 0; k < u.size(); ++k) {
+    history.push_input(u[k]);
+    y[k] = forward_baseline(history.past_outputs(), history.past_inputs());
+    history.push_output(y[k]);
+  }
+}
+
 double MlpKernel::forward_baseline(std::span<const double> head, std::span<const double> tail) noexcept {
   if (layers_.empty()) {
     // No hidden layer: F = w_out·x + b_out.

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "models/narx/mlp.h"
+#include "models/narx/narx_history.h"
 
 namespace panelbass::models {
 
@@ -50,6 +51,9 @@ struct KernelView {
 };
 /// The forward pass with AVX2 and FMA (mlp_kernel_avx2.cpp); only where avx2_fma_available().
 double forward_avx2_fma(const KernelView& net, std::span<const double> head, std::span<const double> tail) noexcept;
+/// MlpKernel::free_run with AVX2 and FMA; only where avx2_fma_available().
+void free_run_avx2_fma(const KernelView& net, NarxHistory& history, std::span<const double> u,
+                       std::span<double> y) noexcept;
 /// tanh_in_place with AVX2 and FMA; only where avx2_fma_available().
 void tanh_avx2_fma(std::span<double> x) noexcept;
 }  // namespace detail
@@ -78,6 +82,11 @@ class MlpKernel {
   double forward(std::span<const double> head, std::span<const double> tail) noexcept {
     return level_ == SimdLevel::avx2_fma ? detail::forward_avx2_fma(view_, head, tail) : forward_baseline(head, tail);
   }
+  /// [5G] A NARX free run over a block, the network's output fed back: for each k, u[k] becomes the newest
+  /// input of `history`, y[k] = forward(past outputs, past inputs) and y[k] the newest past output. The same
+  /// numbers as that loop of forward() (bit for bit), the feedback kept in registers. `y` as long as `u`
+  /// (it may be `u` itself); `history` of a structure whose na + nb + 1 is inputs().
+  void free_run(NarxHistory& history, std::span<const double> u, std::span<double> y) noexcept;
 
  private:
   double forward_baseline(std::span<const double> head, std::span<const double> tail) noexcept;

@@ -44,7 +44,7 @@ double ss_window_loss(const SsModel& m, const Eigen::VectorXd& u, const Eigen::V
   // Backward through time: Λ(t) = dV/dx(t), from Λ(T) = 0.
   gradient->setZero(s.parameter_count());
   auto g = ss_parts(s, gradient->data());
-  Eigen::MatrixXd lambda = Eigen::MatrixXd::Zero(n, B), dnet(n + 1, B), dhidden(s.hidden, B);
+  Eigen::MatrixXd lambda = Eigen::MatrixXd::Zero(n, B), dnet(n + 1, B), dhidden(s.hidden, B), monomials, dmonomials;
   Eigen::RowVectorXd e(B);
   for (Eigen::Index t = T - 1; t >= 0; --t) {
     const auto Xt = X.middleCols(t * B, B);
@@ -70,6 +70,13 @@ double ss_window_loss(const SsModel& m, const Eigen::VectorXd& u, const Eigen::V
     Eigen::MatrixXd next = p.A.transpose() * lambda;
     next.noalias() += p.C.transpose() * e;
     next.noalias() += p.W1.leftCols(n).transpose() * dhidden;
+    if (p.P.cols() > 0) {
+      // the polynomial: ∂V/∂P = ∂[f; h]·ζᵀ, and Λ(t) gains (∂ζ/∂x)ᵀ·Pᵀ·∂[f; h]
+      ss_monomials(work.factors, Xt, Ut, monomials);
+      g.P.noalias() += dnet * monomials.transpose();
+      dmonomials.noalias() = p.P.transpose() * dnet;
+      ss_monomials_backward(work.factors, Xt, Ut, dmonomials, next);
+    }
     lambda.swap(next);
   }
   // Into the encoder: x(k0) = E·z + V2·tanh(V1·z + c1) + c2.

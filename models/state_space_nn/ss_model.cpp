@@ -26,8 +26,22 @@ SsParts<Scalar> parts_of(const SsStructure& s, Scalar* theta) {
     return m;
   };
   // Braced initialisation runs left to right: the parts in θ's order.
-  return SsParts<Scalar>{take(n, n), take(n, 1),  take(1, n),     take(1, 1),  take(h, n + 1), take(h, 1), take(n + 1, h),
-                         take(n + 1, 1), take(n, l2), take(n, 1), take(e, l2), take(e, 1),     take(n, e)};
+  return SsParts<Scalar>{take(n, n),     take(n, 1),  take(1, n),  take(1, 1),  take(h, n + 1),
+                         take(h, 1),     take(n + 1, h), take(n + 1, 1), take(n, l2), take(n, 1),
+                         take(e, l2),    take(e, 1),  take(n, e),  take(n + 1, s.monomial_count()), s.poly_degree};
+}
+
+// Appends to `out` every non-decreasing index list of length `degree` from `first` on, after `prefix`.
+void append_monomials(int variables, int degree, int first, std::vector<int>& prefix, std::vector<std::vector<int>>& out) {
+  if (degree == 0) {
+    out.push_back(prefix);
+    return;
+  }
+  for (int i = first; i < variables; ++i) {
+    prefix.push_back(i);
+    append_monomials(variables, degree - 1, i, prefix, out);
+    prefix.pop_back();
+  }
 }
 
 void tanh_matrix(Eigen::MatrixXd& m) { tanh_in_place(std::span<double>(m.data(), static_cast<std::size_t>(m.size()))); }
@@ -36,7 +50,18 @@ void tanh_matrix(Eigen::MatrixXd& m) { tanh_in_place(std::span<double>(m.data(),
 
 Eigen::Index SsStructure::parameter_count() const {
   const Eigen::Index n = states, h = hidden, l2 = 2 * static_cast<Eigen::Index>(lags), e = encoder_hidden;
-  return n * n + 2 * n + 1 + h * (n + 1) + h + (n + 1) * h + (n + 1) + n * l2 + n + e * l2 + e + n * e;
+  return n * n + 2 * n + 1 + h * (n + 1) + h + (n + 1) * h + (n + 1) + n * l2 + n + e * l2 + e + n * e +
+         (n + 1) * monomial_count();
+}
+
+Eigen::Index SsStructure::monomial_count() const {
+  // monomials of v variables of degree exactly d: C(v + d − 1, d)
+  Eigen::Index count = 0, of_degree = states + 1;  // degree 1
+  for (int d = 2; d <= poly_degree; ++d) {
+    of_degree = of_degree * (states + d) / d;
+    count += of_degree;
+  }
+  return count;
 }
 
 void SsStructure::check() const {
@@ -47,9 +72,51 @@ void SsStructure::check() const {
     }
   };
   within("states", states, 1, 64);
-  within("hidden", hidden, 1, 1000);
+  within("hidden", hidden, poly_degree > 0 ? 0 : 1, 1000);
   within("lags", lags, 1, 1000);
   within("encoder_hidden", encoder_hidden, 0, 1000);
+  if (poly_degree != 0) within("poly_degree", poly_degree, 2, 5);
+}
+
+std::vector<std::vector<int>> ss_monomial_factors(int variables, int degree) {
+  std::vector<std::vector<int>> out;
+  std::vector<int> prefix;
+  for (int d = 2; d <= degree; ++d) append_monomials(variables, d, 0, prefix, out);
+  return out;
+}
+
+void ss_monomials(const std::vector<std::vector<int>>& factors, const Eigen::Ref<const Eigen::MatrixXd>& X,
+                  const Eigen::Ref<const Eigen::RowVectorXd>& U, Eigen::MatrixXd& out) {
+  const Eigen::Index n = X.rows(), columns = X.cols();
+  out.resize(static_cast<Eigen::Index>(factors.size()), columns);
+  for (Eigen::Index b = 0; b < columns; ++b) {
+    for (std::size_t m = 0; m < factors.size(); ++m) {
+      double product = 1.0;
+      for (const int i : factors[m]) product *= i < n ? X(i, b) : U(b);
+      out(static_cast<Eigen::Index>(m), b) = product;
+    }
+  }
+}
+
+void ss_monomials_backward(const std::vector<std::vector<int>>& factors, const Eigen::Ref<const Eigen::MatrixXd>& X,
+                           const Eigen::Ref<const Eigen::RowVectorXd>& U, const Eigen::MatrixXd& Q,
+                           Eigen::Ref<Eigen::MatrixXd> dX) {
+  const Eigen::Index n = X.rows(), columns = X.cols();
+  for (Eigen::Index b = 0; b < columns; ++b) {
+    for (std::size_t m = 0; m < factors.size(); ++m) {
+      const double q = Q(static_cast<Eigen::Index>(m), b);
+      const std::vector<int>& f = factors[m];
+      // ∂(v_f0·v_f1·…)/∂v_f[j] = the product of the other factors, summed over the positions j of x_i
+      for (std::size_t j = 0; j < f.size(); ++j) {
+        if (f[j] >= n) continue;
+        double others = q;
+        for (std::size_t r = 0; r < f.size(); ++r) {
+          if (r != j) others *= f[r] < n ? X(f[r], b) : U(b);
+        }
+        dX(f[j], b) += others;
+      }
+    }
+  }
 }
 
 SsParts<const double> ss_parts(const SsStructure& s, const double* theta) { return parts_of<const double>(s, theta); }
@@ -66,6 +133,12 @@ void ss_step(const SsParts<const double>& p, const Eigen::Ref<const Eigen::Matri
   tanh_matrix(work.hidden);
   work.network.noalias() = p.W2 * work.hidden;
   work.network.colwise() += p.b2.col(0);
+  if (p.P.cols() > 0) {
+    // + P·ζ(x, u)
+    if (static_cast<Eigen::Index>(work.factors.size()) != p.P.cols()) work.factors = ss_monomial_factors(n + 1, p.poly_degree);
+    ss_monomials(work.factors, X, U, work.monomials);
+    work.network.noalias() += p.P * work.monomials;
+  }
   // y(k) = C·x + D·u + h,   x(k+1) = A·x + B·u + f
   Y.noalias() = p.C * X;
   Y += p.D(0, 0) * U + work.network.row(n);
@@ -200,6 +273,7 @@ nlohmann::json ss_model_to_json(const SsModel& m) {
         {"hidden", m.structure.hidden},
         {"lags", m.structure.lags},
         {"encoder_hidden", m.structure.encoder_hidden},
+        {"poly_degree", m.structure.poly_degree},
         {"theta", to_array(m.theta)}}},
       {"meta", m.meta.is_null() ? nlohmann::json::object() : m.meta},
   };
@@ -215,14 +289,20 @@ SsModel ss_model_from_json(const nlohmann::json& j) {
   const nlohmann::json* params = top.member("params");
   if (params == nullptr) throw ConfigError("model.params: missing");
   JsonFields p(*params, "model.params");
-  auto size = [&](const char* key, long hi) {
+  auto size = [&](const char* key, long lo, long hi) {
     if (!params->contains(key)) throw ConfigError(p.path_of(key) + ": missing");
-    return static_cast<int>(p.integer(key, 0, 1, hi));
+    return static_cast<int>(p.integer(key, 0, lo, hi));
   };
-  m.structure.states = size("states", 64);
-  m.structure.hidden = size("hidden", 1000);
-  m.structure.lags = size("lags", 1000);
+  m.structure.states = size("states", 1, 64);
+  m.structure.hidden = size("hidden", 0, 1000);
+  m.structure.lags = size("lags", 1, 1000);
   m.structure.encoder_hidden = static_cast<int>(p.integer("encoder_hidden", 0, 0, 1000));
+  m.structure.poly_degree = static_cast<int>(p.integer("poly_degree", 0, 0, 5));
+  try {
+    m.structure.check();  // poly_degree 1, or hidden 0 without the polynomial
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError("model.params: " + std::string(e.what()));
+  }
   const nlohmann::json* theta = p.member("theta");
   if (theta == nullptr) throw ConfigError(p.path_of("theta") + ": missing");
   m.theta = read_vector(*theta, p.path_of("theta"));

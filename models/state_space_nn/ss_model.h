@@ -2,13 +2,15 @@
 // The neural state-space model (SUBNET, Beintema et al. 2021/2023): a linear state space plus a small
 // tanh network in the state update and the output, its initial state from an encoder of past data.
 //   x(k+1) = A·x(k) + B·u(k) + f(x(k), u(k)),   y(k) = C·x(k) + D·u(k) + h(x(k), u(k)),
-//   [f; h] = W2·tanh(W1·[x; u] + b1) + b2,      x(k0) = E·z(k0) + V2·tanh(V1·z(k0) + c1) + c2,
-// z(k) = [y(k−1) … y(k−L), u(k−1) … u(k−L)], everything in scaled units.
+//   [f; h] = W2·tanh(W1·[x; u] + b1) + b2 + P·ζ(x, u),   x(k0) = E·z(k0) + V2·tanh(V1·z(k0) + c1) + c2,
+// z(k) = [y(k−1) … y(k−L), u(k−1) … u(k−L)], everything in scaled units; ζ the monomials of [x; u] of
+// total degree 2 … poly_degree (PNLSS, Paduart et al. 2010; none when poly_degree is 0).
 
 #include <Eigen/Core>
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <type_traits>
+#include <vector>
 
 #include "models/linear/state_space.h"
 #include "models/preprocess/scaling.h"
@@ -21,22 +23,26 @@ struct SsStructure {
   int hidden = 20;         ///< tanh nodes of the state/output network [f; h]
   int lags = 50;           ///< L: past outputs and inputs the encoder reads
   int encoder_hidden = 0;  ///< tanh nodes of the encoder's network (0: an affine encoder)
+  int poly_degree = 0;     ///< highest total degree of the polynomial ζ(x, u) in [f; h] (0: none, else 2–5)
 
   /// Number of parameters P of θ.
   Eigen::Index parameter_count() const;
-  /// Throws std::invalid_argument naming the size out of range (states 1–64, hidden 1–1000, lags 1–1000,
-  /// encoder_hidden 0–1000).
+  /// Number of monomials of ζ: those of nx + 1 variables of total degree 2 … poly_degree.
+  Eigen::Index monomial_count() const;
+  /// Throws std::invalid_argument naming the size out of range (states 1–64, hidden 0–1000 and at least 1
+  /// without the polynomial, lags 1–1000, encoder_hidden 0–1000, poly_degree 0 or 2–5).
   void check() const;
 };
 
 /// The parts of θ as matrices, in the order θ stores them (each column-major): A (nx×nx), B (nx×1),
 /// C (1×nx), D (1×1), W1 (hidden×(nx+1)), b1 (hidden), W2 ((nx+1)×hidden), b2 (nx+1), E (nx×2L),
-/// c2 (nx), V1 (encoder_hidden×2L), c1 (encoder_hidden), V2 (nx×encoder_hidden).
+/// c2 (nx), V1 (encoder_hidden×2L), c1 (encoder_hidden), V2 (nx×encoder_hidden), P ((nx+1)×monomials).
 template <class Scalar>
 struct SsParts {
   /// A map of a part of θ, writable when Scalar is not const.
   using Map = Eigen::Map<std::conditional_t<std::is_const_v<Scalar>, const Eigen::MatrixXd, Eigen::MatrixXd>>;
-  Map A, B, C, D, W1, b1, W2, b2, E, c2, V1, c1, V2;
+  Map A, B, C, D, W1, b1, W2, b2, E, c2, V1, c1, V2, P;
+  int poly_degree = 0;  ///< ζ's highest degree (the structure's)
 };
 
 /// The parts of `theta` (size s.parameter_count(), not checked) for structure `s`.
@@ -46,9 +52,24 @@ SsParts<double> ss_parts(const SsStructure& s, double* theta);
 
 /// The workspace of ss_step and ss_encode for batches of `columns` sequences.
 struct SsStepWork {
-  Eigen::MatrixXd hidden;   ///< tanh(W1·[x; u] + b1), hidden × columns
-  Eigen::MatrixXd network;  ///< [f; h], (nx+1) × columns
+  Eigen::MatrixXd hidden;     ///< tanh(W1·[x; u] + b1), hidden × columns
+  Eigen::MatrixXd network;    ///< [f; h], (nx+1) × columns
+  Eigen::MatrixXd monomials;  ///< ζ(x, u), monomials × columns
+  std::vector<std::vector<int>> factors;  ///< ζ's monomials, each as the indices into [x; u] of its factors
 };
+
+/// The monomials of `variables` variables of total degree 2 … `degree`, each as the (non-decreasing)
+/// indices of its factors, degree by degree; empty for degree 0.
+std::vector<std::vector<int>> ss_monomial_factors(int variables, int degree);
+
+/// ζ of the columns of [X; U] (X nx×B, U 1×B) into `out` (monomials×B).
+void ss_monomials(const std::vector<std::vector<int>>& factors, const Eigen::Ref<const Eigen::MatrixXd>& X,
+                  const Eigen::Ref<const Eigen::RowVectorXd>& U, Eigen::MatrixXd& out);
+
+/// Back-propagation through ζ: adds Σ_m Q(m, b)·∂ζ_m/∂x_i at column b of [X; U] to dX(i, b), i < nx.
+void ss_monomials_backward(const std::vector<std::vector<int>>& factors, const Eigen::Ref<const Eigen::MatrixXd>& X,
+                           const Eigen::Ref<const Eigen::RowVectorXd>& U, const Eigen::MatrixXd& Q,
+                           Eigen::Ref<Eigen::MatrixXd> dX);
 
 /// One step of `columns` sequences at once ([f; h] and the recursion of the header): from states X (nx×B)
 /// and inputs U (1×B), the outputs Y (1×B) and next states X_next (nx×B); work.hidden keeps the tanh
@@ -96,7 +117,7 @@ SsModel ss_model_from_linear(const StateSpace& linear, SsStructure s, const Eige
                              const Scaling& scaling, double fs, std::uint64_t seed);
 
 /// {"format":"panelbass.model/1","kind":"ss","fs","scaling","params":{"states","hidden","lags",
-/// "encoder_hidden","theta"},"meta"}.
+/// "encoder_hidden","poly_degree","theta"},"meta"} (poly_degree optional on reading, 0 when absent).
 nlohmann::json ss_model_to_json(const SsModel& m);
 
 /// Reads and validates a neural state-space model object: sizes, θ of exactly P finite entries, fs > 0, and

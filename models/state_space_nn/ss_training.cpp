@@ -26,7 +26,7 @@ double selection_j(const SsModel& m, const Eigen::VectorXd& u, const Eigen::Vect
 SsModel ss_initial_model(const LinearModel& linear, SsStructure structure, const Eigen::VectorXd& u,
                          const Eigen::VectorXd& y, std::uint64_t seed) {
   if (u.size() != y.size()) throw std::invalid_argument("ss_initial_model: input and output lengths differ");
-  const StateSpace ss = realize(linear.tf);
+  StateSpace ss = realize(linear.tf);
   const Eigen::Index n = ss.order(), L = structure.lags, samples = u.size();
   if (samples <= L + 2 * L) {
     throw std::invalid_argument("ss_initial_model: " + std::to_string(samples) + " samples are too few for " +
@@ -44,6 +44,16 @@ SsModel ss_initial_model(const LinearModel& linear, SsStructure structure, const
   for (Eigen::Index i = 0; i < n; ++i) {
     const double rms = std::sqrt(states.row(i).squaredNorm() / static_cast<double>(samples));
     scale(i) = rms > 1e-12 ? rms : 1.0;
+  }
+  if (structure.poly_degree > 0) {
+    // The polynomial's monomials want states of size ≈ 1: x = S·x', S = diag(scale), so A' = S⁻¹·A·S,
+    // B' = S⁻¹·B, C' = C·S (the same input-output map).
+    const Eigen::VectorXd inverse = scale.cwiseInverse();
+    ss.A = inverse.asDiagonal() * ss.A * scale.asDiagonal();
+    ss.B = inverse.asDiagonal() * ss.B;
+    ss.C = ss.C * scale.asDiagonal();
+    states = inverse.asDiagonal() * states;
+    scale.setOnes();
   }
   SsModel m = ss_model_from_linear(ss, structure, scale, linear.scaling, linear.fs, seed);
   auto p = ss_parts(m.structure, m.theta.data());
@@ -143,12 +153,19 @@ struct PolishRun {
   SsTraining* out;
   std::chrono::steady_clock::time_point began;
   Eigen::VectorXd gradient;
+  double start_loss = 0.0;  ///< the loss at the start
 };
 
 lbfgsfloatval_t polish_evaluate(void* instance, const lbfgsfloatval_t* x, lbfgsfloatval_t* g, int n, lbfgsfloatval_t) {
   auto& run = *static_cast<PolishRun*>(instance);
   run.model.theta = Eigen::Map<const Eigen::VectorXd>(x, n);
   const double loss = ss_window_loss(run.model, *run.us, *run.ys, {run.starts, run.options->window}, &run.gradient);
+  if (!std::isfinite(loss) || !run.gradient.allFinite()) {
+    // A trial step so long that a window's simulation ran away (a cubic state term grows fast): a finite
+    // loss far above the start's, so that More–Thuente's interpolation stays finite and shortens the step.
+    Eigen::Map<Eigen::VectorXd>(g, n).setZero();
+    return 1e6 * (run.start_loss + 1.0);
+  }
   Eigen::Map<Eigen::VectorXd>(g, n) = run.gradient;
   return loss;
 }
@@ -186,10 +203,11 @@ SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen
   SsTraining out;
   out.model = start;
   PolishRun run{start, &us, &ys, has_val ? &u_val : &u, has_val ? &y_val : &y, {}, &options, &out,
-                std::chrono::steady_clock::now(), {}};
+                std::chrono::steady_clock::now(), {}, 0.0};
   for (Eigen::Index k0 = L; k0 + T <= u.size(); k0 += T) run.starts.push_back(k0);
   out.j_val_pct = selection_j(start, *run.u_sel, *run.y_sel, options.init);
-  out.history.push_back({0, ss_window_loss(start, us, ys, {run.starts, T}, nullptr), out.j_val_pct, 0.0});
+  run.start_loss = ss_window_loss(start, us, ys, {run.starts, T}, nullptr);
+  out.history.push_back({0, run.start_loss, out.j_val_pct, 0.0});
   if (options.progress && !options.progress(out.history.back())) return out;
 
   const int n = static_cast<int>(start.theta.size());
@@ -201,8 +219,12 @@ SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen
   param.max_iterations = options.iterations;
   param.epsilon = 0.0;  // no gradient-norm stop: the iterations and the selection J decide
   param.delta = 0.0;
+  // With the polynomial, a long trial step runs a window's simulation away (the loss above): halving the
+  // step until the loss falls (Armijo, then Wolfe's curvature condition) recovers where More–Thuente's
+  // interpolation gives up.
+  if (start.structure.poly_degree > 0) param.linesearch = LBFGS_LINESEARCH_BACKTRACKING_WOLFE;
   lbfgsfloatval_t fx = 0.0;
-  lbfgs(n, x, &fx, polish_evaluate, polish_progress, &run, &param);  // its status: why it stopped, any iterate kept
+  out.status = lbfgs(n, x, &fx, polish_evaluate, polish_progress, &run, &param);  // any iterate kept
   lbfgs_free(x);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run.began).count();
   return out;

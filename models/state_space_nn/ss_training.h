@@ -49,6 +49,7 @@ struct SsTraining {
   int best_epoch = 0;
   double j_val_pct = 0.0;                 ///< its selection J
   double seconds = 0.0;
+  int status = 0;                         ///< polish_ss: liblbfgs's return code (why it stopped; 0 = converged)
 };
 
 /// How to polish.

@@ -22,16 +22,16 @@ namespace {
 
 using nlohmann::json;
 
-constexpr double kFs = 3000.0;
+constexpr double kModelFs = 3000.0;
 
-// A linear model with the given poles and a short numerator, at kFs.
+// A linear model with the given poles and a short numerator, at kModelFs.
 models::LinearModel linear_with_poles(const Eigen::VectorXcd& poles) {
   models::LinearModel m;
   const Eigen::VectorXd a = models::polynomial_from_roots(poles);
   m.tf.a = a.tail(a.size() - 1);
   m.tf.b = Eigen::Vector2d(0.05, 0.02);
   m.tf.nk = 1;
-  m.fs = kFs;
+  m.fs = kModelFs;
   m.scaling = {0.1, 0.5, -0.2, 3.0};
   m.method = "oe";
   return m;
@@ -50,7 +50,7 @@ models::NarxModel small_narx() {
   s.nb = 1;
   s.nk = 1;
   s.hidden = {4};
-  models::NarxModel m = models::NarxModel::with_structure(s, {0.0, 1.2, 0.01, 0.7}, kFs);
+  models::NarxModel m = models::NarxModel::with_structure(s, {0.0, 1.2, 0.01, 0.7}, kModelFs);
   m.net.initialize(1.0, 3);
   return m;
 }
@@ -63,7 +63,7 @@ models::NarxModel exploding_narx() {
   s.nb = 0;
   s.nk = 1;
   s.hidden = {1};
-  models::NarxModel m = models::NarxModel::with_structure(s, {}, kFs);
+  models::NarxModel m = models::NarxModel::with_structure(s, {}, kModelFs);
   // layer 1: row [w_y, w_u], bias; output: [w], bias
   Eigen::VectorXd theta(5);
   theta << 1.0, 1.0, 0.0, 500.0, 0.0;
@@ -109,7 +109,7 @@ TEST(ModelValidation, AcceptsEachKindAndReturnsKindAndRate) {
     SCOPED_TRACE(kind);
     const ValidatedModel valid = validate_model(model);
     EXPECT_EQ(valid.kind, kind);
-    EXPECT_EQ(valid.fs, kFs);
+    EXPECT_EQ(valid.fs, kModelFs);
   }
 }
 

@@ -32,8 +32,8 @@ namespace {
 
 using namespace std::chrono_literals;
 
-constexpr double kDeviceRate = 48000.0;
-constexpr int kPeriod = 64;
+using testing_support::kDeviceRate;
+using testing_support::kPeriod;
 
 class ServerOnACardTest : public testing_support::ScratchDirectoryTest {
  protected:
@@ -74,16 +74,9 @@ TEST_F(ServerOnACardTest, TheCardGoingAwayShowsInStatusAndMetricsAndItComesBackB
   o.store = dir_ / "store";
   o.engine.plant = models::plant_preset("panel-exciter");
   o.engine.chain.fs = o.engine.plant.fs;
-  engine::AlsaOptions card;
-  card.config_text = testing_support::loopback_config(tag);
-  card.playback_device = "pb_play";
-  card.capture_device = "pb_capture";
-  card.rate = engine::Hertz{kDeviceRate};
-  card.period = engine::Samples{kPeriod};
-  card.periods = 8;
+  engine::AlsaOptions card = testing_support::jack_card(testing_support::loopback_config(tag), kDeviceRate, kPeriod, 8, 0.4);
+  card.realtime_priority = 0;  // as before: at normal priority, the buffer's slack has to do
   card.sensor_channel = 1;
-  card.program.assign(static_cast<std::size_t>(kDeviceRate), 0.0);
-  for (std::size_t k = 0; k < card.program.size(); ++k) card.program[k] = 0.4 * std::sin(2.0 * M_PI * 60.0 * k / kDeviceRate);
   card.reopen_min = 50ms;
   card.reopen_max = 400ms;
   o.engine.alsa = card;

@@ -30,6 +30,18 @@ TEST_F(CliDesignMirror, FitsARecordAndItsChainCutsDistortionAtEqualOutputLevel) 
   EXPECT_TRUE(e["rows"].empty());  // the Control table needs an LQ feedforward: a mirror chain gets the sweep alone
 }
 
+TEST_F(CliDesignMirror, AdaptWritesTheObserverWithTheSensorMapOfTheRecord) {
+  expect_result(run("simulate --plant panel-exciter --signal multisine --f-min 10 --f-max 300 --amplitude 0.5 "
+                    "--samples 6000 --seed 2 --out " + quoted(dir_ / "ident.csv")));
+  const json fit = expect_result(run("design mirror --data " + quoted(dir_ / "ident.csv") + " --fs 3000 --adapt --out " +
+                                     quoted(dir_ / "mirror.json")));
+  EXPECT_TRUE(fit["adaptive"].get<bool>());
+  const models::MirrorModel model = models::mirror_model_from_json(json::parse(text_of(dir_ / "mirror.json")));
+  ASSERT_TRUE(model.observer.enabled);
+  // [S1]'s residual is the sensor's noise: panel-exciter's sensor adds 0.07 V rms
+  EXPECT_NEAR(model.observer.sensor_noise, 0.07, 0.007);
+}
+
 TEST_F(CliDesignMirror, NamesAMissingColumn) {
   expect_result(run("simulate --plant linear --signal noise --samples 2000 --seed 1 --out " + quoted(dir_ / "r.csv")));
   const RunResult r = run("design mirror --data " + quoted(dir_ / "r.csv") + " --fs 3000 --current-col amps --out " +

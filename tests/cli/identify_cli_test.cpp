@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 #include <string>
 
@@ -123,6 +124,37 @@ TEST_F(CliIdentifyData, NarxTrainsAndValidateReadsItsModel) {
   const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
   EXPECT_EQ(v["kind"], "narx");
   EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
+}
+
+TEST_F(CliIdentifyData, NarxRestartsKeepTheLowestValidationJ) {
+  // --restarts 3: three trainings from seeds 4, 5, 6; the model kept is the one of the lowest J_val, which is
+  // the J_val printed, validate's J for the file, and the single-seed run of the chosen seed's.
+  const fs::path model = dir_ / "restarts.json";
+  const std::string common = "identify narx --data " + est() + " --val " + val() +
+                             " --fs 3000 --na 3 --nb 3 --hidden 4 --max-iter 4 ";
+  const json r = expect_result(run(common + "--seed 4 --restarts 3 --out " + quoted(model)));
+  const json& tried = r["structure"]["restarts"]["tried"];
+  ASSERT_EQ(tried.size(), 3u) << r;
+  double lowest = 1e300;
+  std::uint64_t lowest_seed = 0;
+  for (const auto& t : tried) {
+    if (t["J_val_pct"].get<double>() < lowest) {
+      lowest = t["J_val_pct"].get<double>();
+      lowest_seed = t["seed"].get<std::uint64_t>();
+    }
+  }
+  EXPECT_EQ(r["structure"]["restarts"]["chosen_seed"].get<std::uint64_t>(), lowest_seed);
+  EXPECT_EQ(tried[0]["seed"], 4);
+  EXPECT_EQ(tried[2]["seed"], 6);
+  EXPECT_NEAR(r["J_val_pct"].get<double>(), lowest, 1e-12 * lowest);
+  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
+  EXPECT_NEAR(v["J_sim_pct"].get<double>(), lowest, 1e-9 * lowest);
+  const json single = expect_result(
+      run(common + "--seed " + std::to_string(lowest_seed) + " --out " + quoted(dir_ / "single.json")));
+  EXPECT_NEAR(single["J_val_pct"].get<double>(), lowest, 1e-9 * lowest);
+  // without --val there is nothing to choose by
+  expect_failure(run("identify narx --data " + est() + " --fs 3000 --na 2 --nb 2 --hidden 2 --restarts 2 --out " +
+                     quoted(dir_ / "no.json")));
 }
 
 TEST_F(CliIdentifyData, NarxWeightColumnWeighsTheLoss) {

@@ -16,11 +16,13 @@
 
 #include "dsp/random.h"
 #include "tests/support/expect_error.h"
+#include "tests/support/noise.h"
 
 namespace panelbass::dsp {
 namespace {
 
 using testing_support::expect_invalid;
+using testing_support::gaussian;
 using Complex = std::complex<double>;
 
 constexpr std::size_t kPeriod = 512;
@@ -47,13 +49,6 @@ struct Filter {
     return (b0 + b1 * z1) / (1.0 + a1 * z1 + a2 * z1 * z1);
   }
 };
-
-Eigen::VectorXd white(Eigen::Index n, double sigma, std::uint64_t seed) {
-  Rng rng(seed);
-  Eigen::VectorXd e(n);
-  for (Eigen::Index i = 0; i < n; ++i) e[i] = sigma * rng.gaussian();
-  return e;
-}
 
 // |U(k)|² of the first period of n samples, by the DFT sum written out.
 double line_power(const Eigen::VectorXd& u, std::size_t k, std::size_t n = kPeriod) {
@@ -92,7 +87,7 @@ Experiment run(MultisineLines lines, std::size_t realisations, std::size_t perio
     const Eigen::VectorXd& u = e.excitation.signals[m];
     Eigen::VectorXd x = filter.run(u);
     Eigen::VectorXd y = x.unaryExpr(shape);
-    if (sigma > 0.0) y += white(y.size(), sigma, 100 + m);
+    if (sigma > 0.0) y += gaussian(y.size(), sigma, 100 + m);
     e.u.push_back(u);
     e.x.push_back(x);
     e.y.push_back(y);

@@ -19,7 +19,7 @@
 namespace panelbass::dsp {
 namespace {
 
-constexpr double pi = std::numbers::pi;
+using std::numbers::pi;
 
 // Bilinear Butterworth magnitudes: with Ω = tan(πf/fs) the design is the analog prototype at Ω, so
 // |H_lp| = 1/sqrt(1 + (Ω/Ωc)^(2n)) and |H_hp| = 1/sqrt(1 + (Ωc/Ω)^(2n)).

@@ -11,17 +11,12 @@
 
 #include "dsp/excitation.h"
 #include "dsp/random.h"
+#include "tests/support/noise.h"
 
 namespace panelbass::dsp {
 namespace {
 
-Eigen::VectorXd white(Eigen::Index n, std::uint64_t seed) {
-  Rng rng(seed);
-  Eigen::VectorXd x(n);
-  for (Eigen::Index i = 0; i < n; ++i) x[i] = rng.gaussian();
-  return x;
-}
-
+using testing_support::gaussian;
 /// r(τ) = Σ_{k=0}^{N−1−τ} (u(k)−ū)(y(k+τ)−ȳ) / sqrt(Σ(u−ū)² Σ(y−ȳ)²), written out plainly.
 std::vector<double> brute_xcorr(const Eigen::VectorXd& u, const Eigen::VectorXd& y, int max_lag) {
   const int n = static_cast<int>(u.size());
@@ -75,7 +70,7 @@ TEST(CorrelationTest, AutocorrelationAtZeroIsOne) {
 
 TEST(CorrelationTest, DelayedCopyPeaksAtItsDelay) {
   const Eigen::Index n = 10000;
-  const Eigen::VectorXd u = white(n, 25);
+  const Eigen::VectorXd u = gaussian(n, 1.0, 25);
   Eigen::VectorXd y = Eigen::VectorXd::Zero(n);
   y.tail(n - 3) = u.head(n - 3);
   const Eigen::VectorXd r = cross_correlation(u, y, 20);
@@ -108,8 +103,8 @@ TEST(CorrelationTest, IndependentWhiteSignalsStayInsideTheBand) {
   expected /= static_cast<double>(max_lag + 1);
   int inside = 0, total = 0;
   for (int p = 0; p < pairs; ++p) {
-    const Eigen::VectorXd u = white(n, 1000 + 2 * p);
-    const Eigen::VectorXd y = white(n, 1001 + 2 * p);
+    const Eigen::VectorXd u = gaussian(n, 1.0, 1000 + 2 * p);
+    const Eigen::VectorXd y = gaussian(n, 1.0, 1001 + 2 * p);
     const Eigen::VectorXd r = cross_correlation(u, y, max_lag);
     for (Eigen::Index t = 0; t <= max_lag; ++t) {
       inside += std::abs(r[t]) <= band ? 1 : 0;

@@ -15,6 +15,7 @@
 #include <string>
 
 #include "dsp/data_error.h"
+#include "tests/dsp/data_error_message.h"
 #include "tests/support/expect_error.h"
 #include "tests/support/scratch_directory.h"
 
@@ -26,11 +27,7 @@ namespace fs = std::filesystem;
 /// A fresh directory for one test, removed afterwards.
 class CsvTableTest : public testing_support::ScratchDirectoryTest {};
 
-/// The message of the DataError that `action` throws (a failure if it throws none); it must be one line.
-template <class Action>
-std::string data_error(Action action) {
-  return testing_support::one_line_error<DataError>(action);
-}
+using testing::data_error;
 
 std::uint64_t bits(double value) { return std::bit_cast<std::uint64_t>(value); }
 

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "dsp/data_error.h"
+#include "tests/dsp/data_error_message.h"
 #include "dsp/record.h"
 #include "dsp/wav_file.h"
 #include "tests/support/expect_error.h"
@@ -24,11 +25,7 @@ namespace fs = std::filesystem;
 /// A fresh directory for one test, removed afterwards.
 class DataFileTest : public testing_support::ScratchDirectoryTest {};
 
-/// The message of the DataError that `action` throws (a failure if it throws none); it must be one line.
-template <class Action>
-std::string data_error(Action action) {
-  return testing_support::one_line_error<DataError>(action);
-}
+using testing::data_error;
 
 Record sample_record(double fs) {
   Record record;

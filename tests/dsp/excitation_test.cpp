@@ -21,7 +21,7 @@
 namespace panelbass::dsp {
 namespace {
 
-constexpr double pi = std::numbers::pi;
+using std::numbers::pi;
 
 std::vector<std::complex<double>> fft_of(const Eigen::VectorXd& x) {
   std::vector<double> in(x.data(), x.data() + x.size());

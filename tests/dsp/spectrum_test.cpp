@@ -11,21 +11,14 @@
 
 #include "dsp/biquad.h"
 #include "dsp/random.h"
+#include "tests/support/noise.h"
 
 namespace panelbass::dsp {
 namespace {
 
-Eigen::VectorXd white(Eigen::Index n, double sigma, std::uint64_t seed) {
-  Rng rng(seed);
-  Eigen::VectorXd x(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    x[i] = sigma * rng.gaussian();
-  }
-  return x;
-}
-
+using testing_support::gaussian;
 TEST(SpectrumWelchTest, FrequencyAxisIsBins) {
-  const PowerSpectrum p = welch_psd(white(1000, 1.0, 1), 3000.0, WelchSpec{256, 0.5, Window::hann});
+  const PowerSpectrum p = welch_psd(gaussian(1000, 1.0, 1), 3000.0, WelchSpec{256, 0.5, Window::hann});
   ASSERT_EQ(p.frequency.size(), 129);
   ASSERT_EQ(p.psd.size(), 129);
   for (Eigen::Index k = 0; k < 129; ++k) {
@@ -38,7 +31,7 @@ TEST(SpectrumWelchTest, WhiteNoiseIsFlatAtVarianceOverHalfFs) {
   // a per-bin relative standard error of sqrt(1.06/1000) ≈ 0.033 (Welch's overlap correction).
   const double sigma = 0.3;
   const double fs = 3000.0;
-  const Eigen::VectorXd x = white(1 << 17, sigma, 5);
+  const Eigen::VectorXd x = gaussian(1 << 17, sigma, 5);
   const PowerSpectrum p = welch_psd(x, fs, WelchSpec{256, 0.5, Window::hann});
   const double level = sigma * sigma / (fs / 2.0);
   double mean = 0.0;
@@ -59,7 +52,7 @@ TEST(SpectrumWelchTest, RectangularWindowObeysParsevalExactly) {
   // Non-overlapping rectangular segments tiling x: Σ psd·df equals the mean square exactly, for
   // both an even and an odd segment length (the Nyquist bin exists only for even lengths).
   for (const std::size_t segment : {128u, 125u}) {
-    const Eigen::VectorXd x = white(static_cast<Eigen::Index>(segment) * 40, 1.7, 9).array() + 0.2;
+    const Eigen::VectorXd x = gaussian(static_cast<Eigen::Index>(segment) * 40, 1.7, 9).array() + 0.2;
     const PowerSpectrum p = welch_psd(x, 1000.0, WelchSpec{segment, 0.0, Window::rectangular});
     const double df = 1000.0 / static_cast<double>(segment);
     EXPECT_NEAR(p.psd.sum() * df, x.squaredNorm() / static_cast<double>(x.size()), 1e-12)
@@ -95,7 +88,7 @@ TEST(SpectrumFrfTest, H1OfBiquadMatchesItsResponse) {
   const double theta = 2.0 * std::numbers::pi * 400.0 / fs;
   Biquad b{1.0, -1.0, 0.25, -2.0 * r * std::cos(theta), r * r};
   SosFilter filter({b});
-  const Eigen::VectorXd u = white(1 << 16, 1.0, 3);
+  const Eigen::VectorXd u = gaussian(1 << 16, 1.0, 3);
   const Eigen::VectorXd y = filter.process(u);
   const FrequencyResponse frf = h1_frf(u, y, fs, WelchSpec{512, 0.5, Window::hann});
   ASSERT_EQ(frf.h.size(), 257);
@@ -118,8 +111,8 @@ TEST(SpectrumFrfTest, CoherenceDropsWithOutputNoise) {
   const double sigma_u = 0.4;
   const double noise_to_signal = 0.5;
   const double sigma_n = std::sqrt(noise_to_signal) * std::abs(g) * sigma_u;
-  const Eigen::VectorXd u = white(1 << 17, sigma_u, 31);
-  const Eigen::VectorXd y = g * u + white(1 << 17, sigma_n, 32);
+  const Eigen::VectorXd u = gaussian(1 << 17, sigma_u, 31);
+  const Eigen::VectorXd y = g * u + gaussian(1 << 17, sigma_n, 32);
   const FrequencyResponse frf = h1_frf(u, y, 1000.0, WelchSpec{256, 0.5, Window::hann});
   const double expected = 1.0 / (1.0 + noise_to_signal);
   double mean_coherence = 0.0;
@@ -135,11 +128,11 @@ TEST(SpectrumFrfTest, CoherenceDropsWithOutputNoise) {
 }
 
 TEST(SpectrumTest, InvalidInputsThrow) {
-  const Eigen::VectorXd x = white(100, 1.0, 1);
+  const Eigen::VectorXd x = gaussian(100, 1.0, 1);
   EXPECT_THROW(welch_psd(x, 1000.0, WelchSpec{128, 0.5, Window::hann}), std::invalid_argument);
   EXPECT_THROW(welch_psd(x, 1000.0, WelchSpec{64, 1.0, Window::hann}), std::invalid_argument);
   EXPECT_THROW(welch_psd(x, 0.0, WelchSpec{64, 0.5, Window::hann}), std::invalid_argument);
-  EXPECT_THROW(h1_frf(x, white(99, 1.0, 2), 1000.0, WelchSpec{64, 0.5, Window::hann}),
+  EXPECT_THROW(h1_frf(x, gaussian(99, 1.0, 2), 1000.0, WelchSpec{64, 0.5, Window::hann}),
                std::invalid_argument);
   EXPECT_THROW(h1_frf(x, x, 1000.0, WelchSpec{128, 0.5, Window::hann}), std::invalid_argument);
   EXPECT_NO_THROW(welch_psd(x, 1000.0, WelchSpec{100, 0.5, Window::hann}));

@@ -18,6 +18,7 @@
 #include <type_traits>
 
 #include "dsp/data_error.h"
+#include "tests/dsp/data_error_message.h"
 #include "tests/support/expect_error.h"
 #include "tests/support/scratch_directory.h"
 
@@ -108,11 +109,7 @@ class WavFileTest : public testing_support::ScratchDirectoryTest {
   }
 };
 
-/// The message of the DataError that `action` throws (a failure if it throws none); it must be one line.
-template <class Action>
-std::string data_error(Action action) {
-  return testing_support::one_line_error<DataError>(action);
-}
+using testing::data_error;
 
 Record two_columns(const Eigen::VectorXd& u, const Eigen::VectorXd& y, double fs) {
   Record record;

@@ -43,14 +43,15 @@
 namespace panelbass::engine {
 namespace {
 
+using testing_support::jack_card;
 using testing_support::JackServer;
 using testing_support::loopback_config;
 using testing_support::skip_jack;
 
 using namespace std::chrono_literals;
 
-constexpr double kDeviceRate = 48000.0;
-constexpr int kPeriod = 64;
+using testing_support::kDeviceRate;
+using testing_support::kPeriod;
 // Eight periods (10.7 ms) of slack: jackd without real-time scheduling on a machine busy compiling is
 // sometimes descheduled for several milliseconds and then catches up with a burst of cycles.
 constexpr int kPeriods = 8;
@@ -180,13 +181,7 @@ TEST(AlsaBackend, JackLoopbackRunsWithoutXrunsAndSurvivesAServerRestart) {
 
   Chain chain(chain_options(3000.0, 64));
   Recording rec(static_cast<std::size_t>(12 * kDeviceRate / kPeriod));
-  AlsaOptions o;
-  o.playback_device = "pb_play";
-  o.capture_device = "pb_capture";
-  o.config_text = loopback_config(tag);
-  o.rate = Hertz{kDeviceRate};
-  o.period = Samples{kPeriod};
-  o.periods = kPeriods;
+  AlsaOptions o = jack_card(loopback_config(tag), kDeviceRate, kPeriod, kPeriods, 0.0);
   o.playback_channels = 2;
   o.drive_channel = 0;
   o.capture_channels = 2;
@@ -195,11 +190,7 @@ TEST(AlsaBackend, JackLoopbackRunsWithoutXrunsAndSurvivesAServerRestart) {
   o.reopen_min = 20ms;
   o.reopen_max = 200ms;
   o.device_timeout = 300ms;
-  // A modest SCHED_FIFO priority where the machine grants it (root or CAP_SYS_NICE); without it the
-  // device thread runs at normal priority and the buffer's slack has to do.
-  o.realtime_priority = 20;
-  dsp::Rng rng(7);
-  o.program.resize(static_cast<std::size_t>(kDeviceRate));  // 1 s of noise, looped
+  dsp::Rng rng(7);  // 1 s of noise, looped
   for (double& x : o.program) x = rng.uniform(-0.9, 0.9);
   o.on_block = [&rec](const AlsaBlockView& v) { rec.record(v); };
   {
@@ -298,18 +289,9 @@ TEST(AlsaBackend, JackMeasurementPlaysInPlaceOfTheChainAndFindsTheRoundTrip) {
 
   Chain chain(chain_options(3000.0, 64));
   Recording rec(static_cast<std::size_t>(6 * kDeviceRate / kPeriod));
-  AlsaOptions o;
-  o.playback_device = "pb_play";
-  o.capture_device = "pb_capture";
-  o.config_text = loopback_config(tag);
-  o.rate = Hertz{kDeviceRate};
-  o.period = Samples{kPeriod};
-  o.periods = kPeriods;
+  AlsaOptions o = jack_card(loopback_config(tag), kDeviceRate, kPeriod, kPeriods, 0.3);
   o.sensor_channel = 1;
   o.loopback_channel = 1;
-  o.realtime_priority = 20;  // where granted, as in the loopback test above
-  o.program.resize(static_cast<std::size_t>(kDeviceRate));
-  for (std::size_t k = 0; k < o.program.size(); ++k) o.program[k] = 0.3 * std::sin(2.0 * M_PI * 60.0 * k / kDeviceRate);
   // The chain-rate drive, as the device thread produced it, in a buffer sized before the run.
   std::vector<double> model_drive(static_cast<std::size_t>(6 * 3000), 0.0);
   std::atomic<std::size_t> model_n{0};
@@ -372,16 +354,9 @@ TEST(AlsaBackend, PlaybackOnlyAtTheChainsOwnRateIsPacedByTheDevice) {
   ASSERT_EQ(started, "") << "the JACK dummy server could not be started: " << started;
   Chain chain(chain_options(kDeviceRate, kPeriod));
   const std::string tag = "pq" + std::to_string(::getpid());
-  AlsaOptions o;
-  o.playback_device = "pb_play";
+  AlsaOptions o = jack_card(loopback_config(tag), kDeviceRate, kPeriod, kPeriods, 0.5, 100.0);
   o.capture_device = "";
-  o.config_text = loopback_config(tag);
-  o.period = Samples{kPeriod};
-  o.periods = kPeriods;
   o.drive_channel = 1;
-  o.realtime_priority = 20;
-  o.program.assign(4800, 0.0);
-  for (std::size_t k = 0; k < o.program.size(); ++k) o.program[k] = 0.5 * std::sin(2.0 * 3.141592653589793 * 100.0 * k / kDeviceRate);
   std::atomic<double> max_abs{0.0};
   std::atomic<std::size_t> model_samples{0};
   o.on_block = [&](const AlsaBlockView& v) {

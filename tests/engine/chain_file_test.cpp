@@ -40,14 +40,6 @@ json example_json() {
     "crossfade_ms":20,"history":512,"limiter":{"knee":0.8,"pinned_level":1.0,"max_pinned_ms":100}})");
 }
 
-// A pure gain as a linear model: B(q) = gain, A(q) = 1.
-models::LinearModel gain_model(double gain) {
-  models::LinearModel m;
-  m.tf.b = Eigen::VectorXd::Constant(1, gain);
-  m.fs = kFs;
-  return m;
-}
-
 // `x` through a cascade of `sections`, from rest.
 Eigen::VectorXd filtered(const std::vector<dsp::Biquad>& sections, const Eigen::VectorXd& x) {
   return dsp::SosFilter(sections).process(x);
@@ -123,12 +115,12 @@ TEST_F(ChainFile, FillsDefaultsAndTakesInlineModelsAndTheSensorSource) {
   EXPECT_FALSE(minimal.feedback.has_value());
 
   json j = example_json();
-  j["feedforward"]["model"] = models::linear_model_to_json(gain_model(0.5));
+  j["feedforward"]["model"] = models::linear_model_to_json(testing::gain_model(0.5));
   j["feedback"]["source"] = "sensor";
   j["feedback"]["bypass"] = true;
   const ChainConfig c = load(j);
   EXPECT_EQ(c.feedforward->path, "");
-  EXPECT_EQ(c.feedforward->model, models::linear_model_to_json(gain_model(0.5)));
+  EXPECT_EQ(c.feedforward->model, models::linear_model_to_json(testing::gain_model(0.5)));
   EXPECT_EQ(c.feedback->source, FeedbackSource::sensor);
   EXPECT_TRUE(c.feedback->bypass);
 }
@@ -261,7 +253,7 @@ TEST_F(ChainFile, RoundTripsThroughJson) {
   EXPECT_EQ(chain_config_to_json(chain_config_from_json(written, dir_)), written);
 
   json j = example_json();
-  j["feedforward"]["model"] = models::linear_model_to_json(gain_model(0.5));
+  j["feedforward"]["model"] = models::linear_model_to_json(testing::gain_model(0.5));
   j["band_pass"] = {{"low_hz", 0}, {"high_hz", 900}, {"order", 4}, {"bypass", true}};
   j["feedback"]["source"] = "sensor";
   const ChainConfig inline_model = load(j);
@@ -300,7 +292,7 @@ TEST_F(ChainFile, ClassifiesEachKindOfChange) {
   expect_class([](ChainConfig& c) { c.band_pass.design.low = Hertz{50}; }, rebuild, "band_pass.low_hz");
   expect_class([](ChainConfig& c) { c.band_pass.design.high = Hertz{1000}; }, rebuild, "band_pass.high_hz");
   expect_class([](ChainConfig& c) { c.band_pass.design.order = 4; }, rebuild, "band_pass.order");
-  expect_class([](ChainConfig& c) { c.feedforward->model = models::linear_model_to_json(gain_model(0.5)); }, rebuild,
+  expect_class([](ChainConfig& c) { c.feedforward->model = models::linear_model_to_json(testing::gain_model(0.5)); }, rebuild,
                "feedforward.model");
   expect_class([](ChainConfig& c) { c.feedback->source = FeedbackSource::sensor; }, rebuild, "feedback.source");
   expect_class([](ChainConfig& c) { c.feedforward.reset(); }, rebuild, "feedforward");
@@ -360,7 +352,7 @@ TEST_F(ChainFile, ApplyChangeSwapsModelsAndFlagsAndRefusesWhatNeedsARestart) {
   run(*chain, program);
 
   ChainConfig after = before;
-  after.feedforward->model = models::linear_model_to_json(gain_model(0.5));
+  after.feedforward->model = models::linear_model_to_json(testing::gain_model(0.5));
   after.feedback->bypass = true;
   const ConfigChange change = apply_change(*chain, before, after);
   EXPECT_EQ(change.kind, ChangeClass::rebuild_with_crossfade);

@@ -26,14 +26,6 @@ using testing::kFs;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// A pure gain as a linear model: B(q) = gain, A(q) = 1.
-models::LinearModel gain_model(double gain) {
-  models::LinearModel m;
-  m.tf.b = Eigen::VectorXd::Constant(1, gain);
-  m.fs = kFs;
-  return m;
-}
-
 // Processes `program` in blocks of `block`.
 Eigen::VectorXd run(Chain& chain, const Eigen::VectorXd& program, Eigen::Index block) {
   Eigen::VectorXd drive(program.size());
@@ -82,7 +74,7 @@ TEST(Chain, TheDriveNeverLeavesTheUnitRangeWhateverTheInput) {
     for (double amplitude : {1e-3, 1.0, 1e3, 1e150, 1e300}) {
       for (bool non_finite : {false, true}) {
         Chain chain(options);
-        chain.feedforward().set_initial(std::make_unique<LinearStage>(gain_model(40.0)));
+        chain.feedforward().set_initial(std::make_unique<LinearStage>(testing::gain_model(40.0)));
         if (narx) chain.feedback().set_initial(std::make_unique<NarxStage>(testing::example_narx(32)));
         std::vector<double> program(3000), drive(3000);
         for (double& x : program) {
@@ -174,7 +166,7 @@ TEST(Chain, ADrivePinnedAtTheRailsDropsTheChainUntilTheFaultIsCleared) {
   ChainOptions options;
   options.limiter.max_pinned = Samples{3};
   Chain chain(options);
-  chain.feedforward().set_initial(std::make_unique<LinearStage>(gain_model(8.0)));
+  chain.feedforward().set_initial(std::make_unique<LinearStage>(testing::gain_model(8.0)));
   const Eigen::VectorXd program = testing::uniform(900, 0.5, 34);
   const Eigen::VectorXd band = dsp::SosFilter(dsp::butterworth_bandpass(2, 20.0, 1200.0, kFs)).process(program);
   // Where the direct evaluation first has more than 3 consecutive samples with |8·band| ≥ 1.
@@ -251,7 +243,7 @@ TEST(Chain, ABlockRunStageByStageGivesThePerSampleNumbersThroughSwapsBypassesAnd
       chains.both([](Chain& c) {
         c.clear_fault();
         // A gain that pins the drive: a fault inside the block run, the slots' history cut at it.
-        c.feedforward().install(std::make_unique<LinearStage>(gain_model(30.0)));
+        c.feedforward().install(std::make_unique<LinearStage>(testing::gain_model(30.0)));
         c.feedback().install(std::make_unique<PassThroughStage>());
       });
     }

@@ -16,14 +16,8 @@ namespace {
 
 using testing::kFs;
 
-Eigen::VectorXd noise(Eigen::Index n, double amplitude, std::uint64_t seed) {
-  dsp::Rng rng(seed);
-  Eigen::VectorXd u(n);
-  for (Eigen::Index k = 0; k < n; ++k) u[k] = rng.uniform(-amplitude, amplitude);
-  return u;
-}
-
-Eigen::VectorXd run(Stage& stage, const Eigen::VectorXd& u) {
+// `u` through `stage` prepared at the model rate, sample by sample.
+Eigen::VectorXd run_prepared(Stage& stage, const Eigen::VectorXd& u) {
   stage.prepare(ProcessSpec{kFs, 64});
   Eigen::VectorXd y(u.size());
   for (Eigen::Index k = 0; k < u.size(); ++k) y[k] = stage.process(u[k]);
@@ -43,8 +37,8 @@ models::NeuralFeedback example_feedback() {
 TEST(ControllerStagesTest, LqFeedforwardStageIsTheStateSpaceOf7B) {
   const models::LqFeedforward ff = models::design_lq(testing::example_linear(), {1e-3, 20.0});
   const std::unique_ptr<Stage> stage = make_stage(models::lq_feedforward_to_json(ff));
-  const Eigen::VectorXd u = noise(500, 0.5, 1);
-  const Eigen::VectorXd out = run(*stage, u);
+  const Eigen::VectorXd u = testing::uniform(500, 0.5, 1);
+  const Eigen::VectorXd out = run_prepared(*stage, u);
   // [7B] written out: x(k+1) = (A − BL)x(k) + Bu(k), u*(k) = −Lx(k) + u(k), with the plant's A, B and L
   const models::StateSpace& p = ff.plant;
   Eigen::VectorXd x = Eigen::VectorXd::Zero(p.order());
@@ -74,8 +68,8 @@ TEST(ControllerStagesTest, AStateSpaceStageHasTheLinearStagesStateCap) {
 TEST(ControllerStagesTest, NeuralFeedbackStageInModelModeIsTheClosedLoopOfItsPlantModel) {
   const models::NeuralFeedback c = example_feedback();
   NeuralFeedbackStage stage(c, FeedbackSource::model);
-  const Eigen::VectorXd u = noise(800, 0.9, 2);
-  const Eigen::VectorXd v = run(stage, u);
+  const Eigen::VectorXd u = testing::uniform(800, 0.9, 2);
+  const Eigen::VectorXd v = run_prepared(stage, u);
   const models::ClosedLoopRun expected = models::simulate_closed_loop(c, u);
   EXPECT_LT((v - expected.v).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_LE(v.cwiseAbs().maxCoeff(), 1.0);
@@ -83,7 +77,7 @@ TEST(ControllerStagesTest, NeuralFeedbackStageInModelModeIsTheClosedLoopOfItsPla
 
 TEST(ControllerStagesTest, SensorModeFedThePlantModelsOutputMatchesModelMode) {
   const models::NeuralFeedback c = example_feedback();
-  const Eigen::VectorXd u = noise(600, 0.7, 3);
+  const Eigen::VectorXd u = testing::uniform(600, 0.7, 3);
   const models::ClosedLoopRun loop = models::simulate_closed_loop(c, u);
   NeuralFeedbackStage stage(c, FeedbackSource::sensor);
   stage.prepare(ProcessSpec{kFs, 64});
@@ -104,10 +98,10 @@ TEST(ControllerStagesTest, SensorModeFedThePlantModelsOutputMatchesModelMode) {
 TEST(ControllerStagesTest, FactoryBuildsEveryKindAndRefusesOthers) {
   const models::NeuralFeedback c = example_feedback();
   const std::unique_ptr<Stage> fb = make_stage(models::neural_feedback_to_json(c), FeedbackSource::model);
-  const Eigen::VectorXd u = noise(200, 0.5, 4);
-  EXPECT_LT((run(*fb, u) - models::simulate_closed_loop(c, u).v).cwiseAbs().maxCoeff(), 1e-12);
+  const Eigen::VectorXd u = testing::uniform(200, 0.5, 4);
+  EXPECT_LT((run_prepared(*fb, u) - models::simulate_closed_loop(c, u).v).cwiseAbs().maxCoeff(), 1e-12);
   const std::unique_ptr<Stage> linear = make_stage(models::linear_model_to_json(testing::example_linear()));
-  EXPECT_LT((run(*linear, u) - testing::example_linear().simulate(u)).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((run_prepared(*linear, u) - testing::example_linear().simulate(u)).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_THROW(make_stage(nlohmann::json{{"kind", "pid"}}), std::invalid_argument);
   EXPECT_THROW(make_stage(nlohmann::json{{"fs", 3000}}), models::ConfigError);
   nlohmann::json wrong_rate = models::neural_feedback_to_json(c);
@@ -117,7 +111,7 @@ TEST(ControllerStagesTest, FactoryBuildsEveryKindAndRefusesOthers) {
 
 TEST(ControllerStagesTest, ASilentSensorIsReplacedByThePlantModelAndReportedOnce) {
   const models::NeuralFeedback c = example_feedback();
-  const Eigen::VectorXd u = noise(2400, 0.7, 5);
+  const Eigen::VectorXd u = testing::uniform(2400, 0.7, 5);
   const models::ClosedLoopRun loop = models::simulate_closed_loop(c, u);
   NeuralFeedbackStage stage(c, FeedbackSource::sensor);
   stage.prepare(ProcessSpec{kFs, 64});
@@ -148,7 +142,7 @@ TEST(ControllerStagesTest, TheChainRecordsALostSensorWithoutBypassingAnything) {
   ChainOptions options;
   Chain chain(options);
   chain.feedback().set_initial(std::make_unique<NeuralFeedbackStage>(c, FeedbackSource::sensor));
-  const Eigen::VectorXd u = noise(3000, 0.5, 6);
+  const Eigen::VectorXd u = testing::uniform(3000, 0.5, 6);
   std::vector<double> drive(64);
   // A sensor that reads a scaled copy of the drive for 0.5 s, then nothing.
   std::size_t sample = 0;

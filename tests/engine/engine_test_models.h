@@ -35,6 +35,14 @@ inline models::LinearModel resonant_linear(double r, double theta, Eigen::Vector
   return m;
 }
 
+/// A pure gain as a linear model: B(q) = gain, A(q) = 1.
+inline models::LinearModel gain_model(double gain) {
+  models::LinearModel m;
+  m.tf.b = Eigen::VectorXd::Constant(1, gain);
+  m.fs = kFs;
+  return m;
+}
+
 /// A 4th-order linear model with delay and scaling, as an identification would store it.
 inline models::LinearModel example_linear() {
   models::LinearModel m;

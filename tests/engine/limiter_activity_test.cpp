@@ -17,13 +17,6 @@ namespace {
 
 using testing::kFs;
 
-models::LinearModel gain_model(double gain) {
-  models::LinearModel m;
-  m.tf.b = Eigen::VectorXd::Constant(1, gain);
-  m.fs = kFs;
-  return m;
-}
-
 TEST(ChainLimiterActivity, CountsWhatTheDirectEvaluationAsksOfTheLimiter) {
   const double gain = 4.0;
   const Eigen::VectorXd program = testing::uniform(3000, 0.3, 41);
@@ -39,7 +32,7 @@ TEST(ChainLimiterActivity, CountsWhatTheDirectEvaluationAsksOfTheLimiter) {
   ASSERT_GT(limited, over_range);
 
   Chain chain(options);
-  chain.feedforward().set_initial(std::make_unique<LinearStage>(gain_model(gain)));
+  chain.feedforward().set_initial(std::make_unique<LinearStage>(testing::gain_model(gain)));
   std::vector<double> drive(static_cast<std::size_t>(program.size()));
   for (Eigen::Index pos = 0, block = 1; pos < program.size(); pos += block, block = block % 97 + 13) {
     const Eigen::Index n = std::min(block, program.size() - pos);

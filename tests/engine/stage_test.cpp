@@ -15,6 +15,16 @@ namespace {
 
 using testing::kFs;
 
+// A NARX structure with an input delay and two hidden layers: na = 3, nb = 5, nk = 2, 9 and 6 nodes.
+models::NarxStructure delayed_two_layer_structure() {
+  models::NarxStructure st;
+  st.na = 3;
+  st.nb = 5;
+  st.nk = 2;
+  st.hidden = {9, 6};
+  return st;
+}
+
 // out[k] = stage.process(u[k]), observing measured[k] after each sample when given.
 Eigen::VectorXd run(Stage& stage, const Eigen::VectorXd& u, const Eigen::VectorXd& measured = {}) {
   Eigen::VectorXd y(u.size());
@@ -92,11 +102,7 @@ TEST(NarxStage, TheThesisSizeAndTwoHiddenLayersEqualTheModelsOwnSimulationInBoth
   // NN 17-17-1 (na = nb = 8) and a two-layer net with a delay, large weights so every tanh bends: the
   // stage's kernel (padded column-major weights, vectorised tanh) and ring histories against
   // NarxModel::simulate and ::predict, which run Mlp::forward on regressors built from the whole record.
-  models::NarxStructure two_layers;
-  two_layers.na = 3;
-  two_layers.nb = 5;
-  two_layers.nk = 2;
-  two_layers.hidden = {9, 6};
+  const models::NarxStructure two_layers = delayed_two_layer_structure();
   for (const models::NarxStructure& st : {models::NarxStructure{}, two_layers}) {
     models::NarxModel m = models::NarxModel::with_structure(st, {0.01, 0.9, -0.02, 0.8}, kFs);
     m.net.initialize(1.0, 17, 2.0);
@@ -109,6 +115,35 @@ TEST(NarxStage, TheThesisSizeAndTwoHiddenLayersEqualTheModelsOwnSimulationInBoth
     EXPECT_LE((run(model_mode, u) - simulated).cwiseAbs().maxCoeff(), 1e-12 * simulated.cwiseAbs().maxCoeff());
     EXPECT_LE((run(sensor_mode, u, measured) - predicted).cwiseAbs().maxCoeff(),
               1e-12 * predicted.cwiseAbs().maxCoeff());
+  }
+}
+
+TEST(NarxStage, ABlockInModelModeIsProcessSampleBySampleToTheBit) {
+  // process_block's free run (the feedback kept in registers) against process() per sample on a copy, for
+  // the thesis's NN 17-17-1, a delay with a two-layer net, and a net without a hidden layer, in uneven blocks.
+  const models::NarxStructure two_layers = delayed_two_layer_structure();
+  models::NarxStructure linear;
+  linear.na = 2;
+  linear.nb = 1;
+  linear.hidden = {};
+  for (const models::NarxStructure& st : {models::NarxStructure{}, two_layers, linear}) {
+    models::NarxModel m = models::NarxModel::with_structure(st, {0.01, 0.9, -0.02, 0.8}, kFs);
+    m.net.initialize(1.0, 23, 2.0);
+    const Eigen::VectorXd u = testing::uniform(1000, 1.0, 24);
+    NarxStage by_sample(m, FeedbackSource::model), by_block(m, FeedbackSource::model);
+    by_sample.prepare({kFs, 128});
+    by_block.prepare({kFs, 128});
+    const Eigen::VectorXd expected = run(by_sample, u);
+    std::vector<double> y(u.data(), u.data() + u.size());
+    std::size_t pos = 0;
+    for (std::size_t block : {1, 64, 7, 128, 100, 64, 128, 128, 128, 128, 124}) {
+      by_block.process_block({y.data() + pos, block}, {y.data() + pos, block});  // in place
+      pos += block;
+    }
+    ASSERT_EQ(pos, y.size());
+    for (Eigen::Index k = 0; k < u.size(); ++k) ASSERT_EQ(y[static_cast<std::size_t>(k)], expected[k]) << k;
+    // The state goes on from the block: the next sample equals the per-sample stage's.
+    EXPECT_EQ(by_block.process(0.3), by_sample.process(0.3));
   }
 }
 

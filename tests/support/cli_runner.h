@@ -13,6 +13,7 @@
 #include <string>
 
 #include "tests/support/scratch_directory.h"
+#include "tests/support/text.h"
 
 namespace panelbass::testing_support {
 
@@ -98,8 +99,6 @@ inline void expect_usage_error(const RunResult& r) {
   EXPECT_EQ(r.out, "") << "bad usage printed a result";
   EXPECT_FALSE(r.err.empty()) << "bad usage said nothing";
 }
-
-inline bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 /// A test directory holding 6000 samples of the panel exciter: rows 0..4000 in est.csv, the rest in val.csv.
 class CliExciterSplitTest : public CliTest {

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -20,6 +21,8 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include "engine/alsa_backend.h"
 
 extern char** environ;
 
@@ -155,6 +158,32 @@ inline std::string loopback_config(const std::string& tag) {
          "  name \"" + tag + "c\"\n"
          "  capture_ports { 0 \"system:capture_1\" 1 \"" + tag + "p:out_000\" }\n"
          "}\n";
+}
+
+/// The card the JACK tests run: 48 kHz, 64-frame periods (a common sound card's set-up).
+inline constexpr double kDeviceRate = 48000.0;
+/// The JACK tests' period, in frames.
+inline constexpr int kPeriod = 64;
+
+/// The ALSA options of the tests' JACK card: the PCMs pb_play and pb_capture of `config_text`
+/// (loopback_config or a test's own), `rate` Hz, `periods` periods of `period` frames, a modest SCHED_FIFO
+/// priority where the machine grants it (root or CAP_SYS_NICE; else the buffer's slack has to do), and as
+/// the program one second of a `sine_hz` sine at `level`, looped. A test sets its channels.
+inline engine::AlsaOptions jack_card(std::string config_text, double rate, int period, int periods, double level,
+                                     double sine_hz = 60.0) {
+  engine::AlsaOptions o;
+  o.config_text = std::move(config_text);
+  o.playback_device = "pb_play";
+  o.capture_device = "pb_capture";
+  o.rate = engine::Hertz{rate};
+  o.period = engine::Samples{period};
+  o.periods = periods;
+  o.realtime_priority = 20;
+  o.program.assign(static_cast<std::size_t>(rate), 0.0);
+  for (std::size_t k = 0; k < o.program.size(); ++k) {
+    o.program[k] = level * std::sin(2.0 * 3.141592653589793 * sine_hz * static_cast<double>(k) / rate);
+  }
+  return o;
 }
 
 }  // namespace panelbass::testing_support

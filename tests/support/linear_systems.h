@@ -5,17 +5,15 @@
 #include <Eigen/Core>
 #include <cstdint>
 
-#include "dsp/random.h"
 #include "models/linear/transfer_function.h"
+#include "tests/support/noise.h"
 
 namespace panelbass::testing_support {
 
-/// n samples of white Gaussian noise of standard deviation `sigma`, from dsp::Rng(seed).
-inline Eigen::VectorXd gaussian(Eigen::Index n, double sigma, std::uint64_t seed) {
-  dsp::Rng rng(seed);
-  Eigen::VectorXd x(n);
-  for (Eigen::Index i = 0; i < n; ++i) x[i] = sigma * rng.gaussian();
-  return x;
+/// A(q) from its poles: the monic polynomial's coefficients without its leading 1.
+inline Eigen::VectorXd denominator(const Eigen::VectorXcd& poles) {
+  const Eigen::VectorXd p = models::polynomial_from_roots(poles);
+  return p.tail(p.size() - 1);
 }
 
 /// The difference equation A(q)y = B(q)u + e from rest, written as plain loops (e empty: no noise).

@@ -44,12 +44,6 @@ double spectral_radius(const Eigen::MatrixXd& A) {
   return Eigen::EigenSolver<Eigen::MatrixXd>(A, false).eigenvalues().cwiseAbs().maxCoeff();
 }
 
-// A(q) without its leading 1, from poles.
-Eigen::VectorXd denominator(const Eigen::VectorXcd& poles) {
-  const Eigen::VectorXd p = polynomial_from_roots(poles);
-  return p.tail(p.size() - 1);
-}
-
 // A transducer-like model: three resonances (one badly damped), a two-sample delay, a zero outside
 // the unit circle; scaled units differ from raw ones so that the folding of the scaling is exercised.
 LinearModel transducer_model(int nk = 2) {
@@ -57,7 +51,7 @@ LinearModel transducer_model(int nk = 2) {
   Eigen::VectorXcd poles(6);
   poles << std::polar(0.995, 0.08), std::polar(0.995, -0.08), std::polar(0.95, 0.6), std::polar(0.95, -0.6),
       std::polar(0.85, 1.7), std::polar(0.85, -1.7);
-  m.tf.a = denominator(poles);
+  m.tf.a = testing_support::denominator(poles);
   m.tf.b = vec({0.02, 0.05, -0.03, 0.01, 0.015});
   m.tf.nk = nk;
   m.fs = 3000.0;
@@ -148,7 +142,7 @@ TEST(SolveDare, SatisfiesItsEquationForA30thOrderPolynomialModel) {
     poles[i + 1] = std::conj(poles[i]);
   }
   TransferFunction tf;
-  tf.a = denominator(poles);
+  tf.a = testing_support::denominator(poles);
   tf.b = Eigen::VectorXd::NullaryExpr(30, [&] { return unit(rng) - 0.5; });
   tf.nk = 1;
   const StateSpace ss = realize(tf);
@@ -343,7 +337,7 @@ TEST(LqFeedforward, DesignRefusesBadWeightsAndUnstableModels) {
   expect_invalid([&] { design_lq(m, {1.0, -1.0}); }, "R0 must be >= 0");
   expect_invalid([&] { design_lq(m, {std::numeric_limits<double>::quiet_NaN(), 20.0}); }, "R must be > 0");
   LinearModel unstable = m;
-  unstable.tf.a = denominator(vec({1.05, 0.5}).cast<std::complex<double>>());
+  unstable.tf.a = testing_support::denominator(vec({1.05, 0.5}).cast<std::complex<double>>());
   expect_invalid([&] { design_lq(unstable, {1.0, 20.0}); }, "unstable");
 }
 

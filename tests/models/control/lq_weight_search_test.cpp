@@ -19,12 +19,12 @@ namespace {
 using testing_support::expect_invalid;
 using testing_support::vec;
 
-constexpr Eigen::Index kSamples = 20000;
+constexpr Eigen::Index kSearchSamples = 20000;
 constexpr std::uint64_t kSeed = 3;
 
 // An acceleration-like transducer model: one badly damped resonance at about 150 Hz (3 kHz), the
 // output's double zero near DC, a two-sample delay.
-LinearModel resonant_model() {
+LinearModel acceleration_like_model() {
   LinearModel m;
   const std::complex<double> p = std::polar(0.985, 0.314);
   m.tf.a = vec({-2.0 * p.real(), std::norm(p)});
@@ -37,17 +37,17 @@ LinearModel resonant_model() {
 }
 
 double safe_noise_amplitude(const LinearModel& m, double R, const std::vector<dsp::Biquad>& band) {
-  return max_input(design_lq(m, {R, 20.0}), band, kSamples, kSeed).noise;
+  return max_input(design_lq(m, {R, 20.0}), band, kSearchSamples, kSeed).noise;
 }
 
 TEST(LqWeightSearch, FindsTheSmallestWeightThatMeetsTheTarget) {
-  const LinearModel m = resonant_model();
+  const LinearModel m = acceleration_like_model();
   const std::vector<dsp::Biquad> band = dsp::butterworth_bandpass(2, 20.0, 1200.0, m.fs);
   // The target sits between what cheap and expensive control allow, so the search has work to do.
   const double cheap = safe_noise_amplitude(m, 1e-5, band), expensive = safe_noise_amplitude(m, 10.0, band);
   ASSERT_LT(cheap, expensive);
   const double target = 0.5 * (cheap + expensive);
-  const LqWeightSearch found = design_lq_for_input(m, 20.0, target, band, kSamples, kSeed);
+  const LqWeightSearch found = design_lq_for_input(m, 20.0, target, band, kSearchSamples, kSeed);
   const double R = found.ff.weights.R;
   EXPECT_FALSE(found.at_lower_bound);
   EXPECT_GT(R, 1e-5);
@@ -72,25 +72,25 @@ TEST(LqWeightSearch, FindsTheSmallestWeightThatMeetsTheTarget) {
 }
 
 TEST(LqWeightSearch, AModestTargetIsMetByTheCheapestControlSearched) {
-  const LinearModel m = resonant_model();
+  const LinearModel m = acceleration_like_model();
   const std::vector<dsp::Biquad> band = dsp::butterworth_bandpass(2, 50.0, 1200.0, m.fs);
   const double cheapest = safe_noise_amplitude(m, kMinSearchR, band);
-  const LqWeightSearch found = design_lq_for_input(m, 20.0, 0.5 * cheapest, band, kSamples, kSeed);
+  const LqWeightSearch found = design_lq_for_input(m, 20.0, 0.5 * cheapest, band, kSearchSamples, kSeed);
   EXPECT_TRUE(found.at_lower_bound);
   EXPECT_EQ(found.ff.weights.R, kMinSearchR);
   EXPECT_EQ(found.limits.noise, cheapest);
 }
 
 TEST(LqWeightSearch, RefusesTargetsOutOfRangeOrOutOfReach) {
-  const LinearModel m = resonant_model();
+  const LinearModel m = acceleration_like_model();
   const std::vector<dsp::Biquad> band = dsp::butterworth_bandpass(2, 20.0, 1200.0, m.fs);
   for (const double bad : {0.0, -0.1, 1.5, std::numeric_limits<double>::quiet_NaN()}) {
-    expect_invalid([&] { design_lq_for_input(m, 20.0, bad, band, kSamples, kSeed); }, "must be in (0, 1]");
+    expect_invalid([&] { design_lq_for_input(m, 20.0, bad, band, kSearchSamples, kSeed); }, "must be in (0, 1]");
   }
   // A "band-pass" of gain 3: with the feedback off the drive is 3× the program, so 0.5 is out of reach.
   const std::vector<dsp::Biquad> loud = {dsp::Biquad{3.0, 0.0, 0.0, 0.0, 0.0}};
   ASSERT_LT(safe_noise_amplitude(m, kMaxSearchR, loud), 0.5);
-  expect_invalid([&] { design_lq_for_input(m, 20.0, 0.5, loud, kSamples, kSeed); }, "no R reaches the target input amplitude 0.5");
+  expect_invalid([&] { design_lq_for_input(m, 20.0, 0.5, loud, kSearchSamples, kSeed); }, "no R reaches the target input amplitude 0.5");
 }
 
 }  // namespace

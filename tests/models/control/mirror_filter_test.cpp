@@ -12,25 +12,28 @@
 #include "models/plant/plant_presets.h"
 #include "models/plant/virtual_transducer.h"
 #include "tests/support/expect_error.h"
+#include "tests/support/mirror_models.h"
 
 namespace panelbass::models {
 namespace {
 
-// panel-exciter's physics written in [M1]–[M3]'s units (drive, A, mm, mm/s): amplifier gain G = 20 V, Re = 4 Ω,
-// Le = 0.3 mH, m = 10 g, K0 = 8880 N/m, Rm = 0.4 Ns/m, Bl0 = 1.5 Tm, K(x) = K0(1 + 0.03x + 0.06x²),
-// Bl(x) = Bl0(1 − 0.45x²), Le(x, i) = Le0(1 − 0.1x − 0.02i²), Coulomb friction 0.05 N at 50 mm/s.
-MirrorModel exciter_model() {
-  const double g = 20.0, re = 4.0, le = 3e-4, m = 0.01, k0 = 8880.0, rm = 0.4, bl = 1.5;
-  MirrorModel model;
-  model.fs = 3000.0;
-  const double e5 = bl / g / 1000.0;  // V per mm/s over the gain
-  model.electrical = {le / g, le / g * -0.1, 0.0, le / g * -0.02, re / g, e5, 0.0, e5 * -0.45, le * -0.1 / g, 0.0};
-  const double c0 = 1000.0 * bl / m, c6 = -k0 / m;
-  // reluctance force ½·i²·dLe/dx over the mass, in mm/s²: ½·Le0·l1 [H/mm]·1000 [mm/m]·1000 / m
-  const double c3 = 0.5 * le * -0.1 * 1000.0 * 1000.0 / m;
-  model.mechanical = {c0, 0.0, c0 * -0.45, c3, 0.0, -rm / m, c6, c6 * 0.03, c6 * 0.06, -1000.0 * 0.05 / m};
-  model.friction_velocity = 50.0;
-  return model;
+MirrorModel exciter_model() { return testing_support::panel_exciter_mirror_model(); }
+
+/// A record made by `model`: drive in, current (A) and displacement (m) out; index k holds the state at the start
+/// of sample k, before drive[k − delay] acts.
+struct MirrorFilterTestRecord {
+  Eigen::VectorXd current, displacement;
+};
+
+MirrorFilterTestRecord mirror_filter_test_record(const MirrorModel& model, const Eigen::VectorXd& drive, Eigen::Index delay) {
+  MirrorState s;
+  MirrorFilterTestRecord r{Eigen::VectorXd(drive.size()), Eigen::VectorXd(drive.size())};
+  for (Eigen::Index k = 0; k < drive.size(); ++k) {
+    r.current[k] = s.i;
+    r.displacement[k] = s.x / 1000.0;
+    step_mirror_model(model, s, k >= delay ? drive[k - delay] : 0.0);
+  }
+  return r;
 }
 
 Eigen::VectorXd two_tone(Eigen::Index n, double fs) {
@@ -55,6 +58,32 @@ TEST(MirrorFilter, CompensatedOutputEqualsTheLinearTargetOnAPlantItsModelDescrib
   EXPECT_LT((compensated - target).cwiseAbs().maxCoeff() / scale, 1e-6);
 }
 
+TEST(MirrorFilter, ExactThroughADrivePathFilter) {
+  // the DA path as A(z) = 1 − 0.6·z⁻¹ + 0.2·z⁻² + 0.05·z⁻³ (minimum phase): the filter inverts it by 1/A(z)
+  MirrorModel model = exciter_model();
+  model.drive_taps = {1.0, -0.6, 0.2, 0.05};
+  const Eigen::VectorXd program = two_tone(6000, model.fs);
+  const Eigen::VectorXd target = simulate_mirror_model(model.linear(), program);
+  const Eigen::VectorXd compensated = simulate_mirror_model(model, mirror_filter(model, program));
+  EXPECT_LT((compensated - target).cwiseAbs().maxCoeff() / target.cwiseAbs().maxCoeff(), 1e-6);
+}
+
+TEST(MirrorFilter, FitRecoversTheDrivePathFilter) {
+  // a model without inductance whose drive reaches the coil through A(z), two samples late: the fit finds
+  // the delay, A(z) and the coefficients from the record the model makes
+  MirrorModel truth = exciter_model();
+  for (std::size_t j : {0u, 1u, 2u, 3u, 8u}) truth.electrical[j] = 0.0;  // no inductance, no i·dLe/dx back-EMF
+  truth.drive_taps = {1.0, -1.1, 0.5, -0.1};
+  const Eigen::VectorXd drive = 0.5 * dsp::gaussian_noise(12000, 0.4, 4).cwiseMax(-1.0).cwiseMin(1.0);
+  const MirrorFilterTestRecord rec = mirror_filter_test_record(truth, drive, 2);
+  const MirrorFit fit = fit_mirror_model(drive, rec.current, rec.displacement, truth.fs);
+  EXPECT_EQ(fit.model.delay, 2);
+  for (std::size_t j = 0; j < 4; ++j) EXPECT_NEAR(fit.model.drive_taps[j], truth.drive_taps[j], 1e-6) << "a" << j;
+  EXPECT_NEAR(fit.model.electrical[4], truth.electrical[4], 1e-6 * truth.electrical[4]);
+  EXPECT_NEAR(fit.model.electrical[5], truth.electrical[5], 1e-6 * truth.electrical[5]);
+  EXPECT_LT(fit.electrical_fit_pct, 1e-8);
+}
+
 TEST(MirrorFilter, LinearModelPassesTheProgramUnchanged) {
   // on a linear model the mirror's current equation gives back the reference's current, so its drive is the
   // program itself: u = E_L·Δi/h + e_R·i + E_v·v is [M1] solved back for the drive
@@ -64,18 +93,13 @@ TEST(MirrorFilter, LinearModelPassesTheProgramUnchanged) {
 }
 
 TEST(MirrorFilter, FitRecoversTheModelFromItsOwnRecord) {
-  const MirrorModel truth = exciter_model();
+  // the fit leaves the inductance to A(z) (a time constant below a sample): a model without one is recovered
+  MirrorModel truth = exciter_model();
+  for (std::size_t j : {0u, 1u, 2u, 3u}) truth.electrical[j] = 0.0;
   // a record made by the model: drive in, current and displacement (m) out
   const Eigen::VectorXd drive = 0.8 * dsp::gaussian_noise(12000, 0.4, 3).cwiseMax(-1.0).cwiseMin(1.0);
-  MirrorState s;
-  Eigen::VectorXd current(drive.size()), displacement(drive.size());
-  for (Eigen::Index k = 0; k < drive.size(); ++k) {
-    // record index k holds the state at the start of sample k, before drive[k] acts
-    current[k] = s.i;
-    displacement[k] = s.x / 1000.0;
-    step_mirror_model(truth, s, drive[k]);
-  }
-  const MirrorFit fit = fit_mirror_model(drive, current, displacement, truth.fs);
+  const MirrorFilterTestRecord rec = mirror_filter_test_record(truth, drive, 0);
+  const MirrorFit fit = fit_mirror_model(drive, rec.current, rec.displacement, truth.fs);
   EXPECT_EQ(fit.model.delay, 0);  // record[k] is the state drive[k] starts from: no delay
   EXPECT_DOUBLE_EQ(fit.model.friction_velocity, 50.0);
   for (std::size_t j = 0; j < 10; ++j) {

@@ -14,10 +14,10 @@
 namespace panelbass::models {
 namespace {
 
-constexpr double kFs = 3000.0;
+constexpr double kProbeFs = 3000.0;
 
 // y(k) = tanh(0.5·y(k−1) + 1.5·u(k)): a saturating plant with odd harmonics.
-NarxModel tanh_plant() { return testing_support::one_node_narx(0.5, 1.5, 0.0, 1.0, 0.0, Scaling{}, kFs); }
+NarxModel tanh_plant() { return testing_support::one_node_narx(0.5, 1.5, 0.0, 1.0, 0.0, Scaling{}, kProbeFs); }
 
 // A feedforward that passes its input unchanged (L = 0 on a first-order plant), so the probe's drive is the
 // probe sine itself.
@@ -28,7 +28,7 @@ LqFeedforward pass_through_feedforward() {
   ff.plant.C = Eigen::RowVectorXd::Ones(1);
   ff.plant.D = 0.0;
   ff.L = Eigen::RowVectorXd::Zero(1);
-  ff.fs = kFs;
+  ff.fs = kProbeFs;
   return ff;
 }
 
@@ -37,7 +37,7 @@ double thd_by_dft(const Eigen::VectorXd& x, double f) {
   auto level = [&](int h) {
     std::complex<double> sum = 0.0;
     for (Eigen::Index k = 0; k < x.size(); ++k) {
-      sum += x[k] * std::polar(1.0, -2.0 * std::numbers::pi * h * f * static_cast<double>(k) / kFs);
+      sum += x[k] * std::polar(1.0, -2.0 * std::numbers::pi * h * f * static_cast<double>(k) / kProbeFs);
     }
     return std::abs(sum);
   };
@@ -47,11 +47,11 @@ double thd_by_dft(const Eigen::VectorXd& x, double f) {
 }
 
 TEST(ModelProbes, TheProbeSineFadesInThenHoldsItsAmplitude) {
-  const Eigen::VectorXd s = probe_sine(100.0, 0.4, kFs);
+  const Eigen::VectorXd s = probe_sine(100.0, 0.4, kProbeFs);
   ASSERT_EQ(s.size(), 6000);  // 1 s to settle, 1 s analysed
   const double fade_at_300 = 0.5 - 0.5 * std::cos(std::numbers::pi * 300.0 / 600.0);  // half way through 0.2 s
-  EXPECT_NEAR(s[300], fade_at_300 * 0.4 * std::sin(2.0 * std::numbers::pi * 100.0 * 300.0 / kFs), 1e-15);
-  EXPECT_NEAR(s[4000 + 7], 0.4 * std::sin(2.0 * std::numbers::pi * 100.0 * 4007.0 / kFs), 1e-12);
+  EXPECT_NEAR(s[300], fade_at_300 * 0.4 * std::sin(2.0 * std::numbers::pi * 100.0 * 300.0 / kProbeFs), 1e-15);
+  EXPECT_NEAR(s[4000 + 7], 0.4 * std::sin(2.0 * std::numbers::pi * 100.0 * 4007.0 / kProbeFs), 1e-12);
   // 30 samples a period: the sampled peak is at 7 of them, sin(2π·7/30)
   EXPECT_NEAR(s.tail(3000).cwiseAbs().maxCoeff(), 0.4 * std::sin(2.0 * std::numbers::pi * 7.0 / 30.0), 1e-12);
 }
@@ -59,23 +59,23 @@ TEST(ModelProbes, TheProbeSineFadesInThenHoldsItsAmplitude) {
 TEST(ModelProbes, AmplitudeReachesThePeakBehindTheChainsGainAndNeverExceedsIt) {
   const LqFeedforward ff = pass_through_feedforward();
   // unit gain: the peak itself
-  EXPECT_NEAR(probe_amplitude({}, ff.controller(), 100.0, kFs, 0.6), 0.6, 1e-12);
+  EXPECT_NEAR(probe_amplitude({}, ff.controller(), 100.0, kProbeFs, 0.6), 0.6, 1e-12);
   // a band-pass whose gain at 5 Hz is far below 1: still the peak, not more
-  const std::vector<dsp::Biquad> bp = dsp::butterworth_bandpass(2, 100.0, 1200.0, kFs);
-  EXPECT_NEAR(probe_amplitude(bp, ff.controller(), 5.0, kFs, 0.6), 0.6, 1e-12);
+  const std::vector<dsp::Biquad> bp = dsp::butterworth_bandpass(2, 100.0, 1200.0, kProbeFs);
+  EXPECT_NEAR(probe_amplitude(bp, ff.controller(), 5.0, kProbeFs, 0.6), 0.6, 1e-12);
   // a louder controller: A = BL = −2, so x(k+1) = u(k) and u*(k) = u(k) + 2·u(k−1), of gain |1 + 2e^{−jω}|
   LqFeedforward loud = ff;
   loud.plant.A = Eigen::MatrixXd::Constant(1, 1, -2.0);
   loud.L = Eigen::RowVectorXd::Constant(1, -2.0);
-  const double w = 2.0 * std::numbers::pi * 100.0 / kFs;
+  const double w = 2.0 * std::numbers::pi * 100.0 / kProbeFs;
   const double gain = std::abs(1.0 + 2.0 * std::polar(1.0, -w));
-  EXPECT_NEAR(probe_amplitude({}, loud.controller(), 100.0, kFs, 0.6), 0.6 / gain, 1e-12);
+  EXPECT_NEAR(probe_amplitude({}, loud.controller(), 100.0, kProbeFs, 0.6), 0.6 / gain, 1e-12);
 }
 
 TEST(ModelProbes, ThePlantModelsThdIsTheDftOfItsOwnOutput) {
   const NarxModel plant = tanh_plant();
   const NeuralFeedback fb = NeuralFeedback::with_structure(FeedbackStructure{}, plant);
-  const Eigen::VectorXd u = probe_sine(100.0, 0.6, kFs);
+  const Eigen::VectorXd u = probe_sine(100.0, 0.6, kProbeFs);
   Eigen::VectorXd y(u.size());
   double previous = 0.0;
   for (Eigen::Index k = 0; k < u.size(); ++k) previous = y[k] = std::tanh(0.5 * previous + 1.5 * u[k]);

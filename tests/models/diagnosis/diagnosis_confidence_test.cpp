@@ -3,6 +3,7 @@
 // Kass and Raftery's thresholds, and what is left above the noise floor is reported with where it lies.
 
 #include "models/diagnosis/diagnosis_confidence.h"
+#include "tests/support/text.h"
 
 #include <gtest/gtest.h>
 
@@ -22,7 +23,7 @@ Candidate candidate(Effect effect, const std::string& variant, int parameters, d
   return c;
 }
 
-bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+using testing_support::contains;
 
 TEST(DiagnosisConfidence, TheRunnerUpIsTheBestOfAnotherEffectAndTheMarginIsTheirBicDifference) {
   const double n = 400.0, j0 = 2.0;
@@ -38,7 +39,7 @@ TEST(DiagnosisConfidence, TheRunnerUpIsTheBestOfAnotherEffectAndTheMarginIsTheir
   EXPECT_NEAR(c.margin_bic, expected, 1e-9);
   EXPECT_EQ(c.word, "clear");  // ≈ 44
   EXPECT_NEAR(c.explained_share, (2.0 - 1.0) / (2.0 - 0.5), 1e-12);
-  EXPECT_TRUE(has(c.sentence, "clear: cubic_stiffness fits better than the runner-up, force_factor")) << c.sentence;
+  EXPECT_TRUE(contains(c.sentence, "clear: cubic_stiffness fits better than the runner-up, force_factor")) << c.sentence;
 }
 
 TEST(DiagnosisConfidence, CloseRivalsAreAmbiguousAndAModestMarginIsLikely) {
@@ -51,7 +52,7 @@ TEST(DiagnosisConfidence, CloseRivalsAreAmbiguousAndAModestMarginIsLikely) {
   };
   const FindingConfidence tie = margin_for(1.0005);  // margin 0.5
   EXPECT_EQ(tie.word, "ambiguous");
-  EXPECT_TRUE(has(tie.sentence, "ambiguous between inductance and asymmetric_stiffness")) << tie.sentence;
+  EXPECT_TRUE(contains(tie.sentence, "ambiguous between inductance and asymmetric_stiffness")) << tie.sentence;
   EXPECT_EQ(margin_for(std::exp(5.0 / n)).word, "likely");   // margin 5
   EXPECT_EQ(margin_for(std::exp(12.0 / n)).word, "clear");   // margin 12
 }
@@ -63,7 +64,7 @@ TEST(DiagnosisConfidence, AFindingThatDoesNotEarnItsParametersOnTheEffectiveSamp
   EXPECT_TRUE(c.runner_up.empty());
   EXPECT_NEAR(c.margin_bic, 50.0 * std::log(1.0 / 0.99) - std::log(50.0), 1e-9);
   EXPECT_EQ(c.word, "ambiguous");
-  EXPECT_TRUE(has(c.sentence, "and no effect")) << c.sentence;
+  EXPECT_TRUE(contains(c.sentence, "and no effect")) << c.sentence;
 }
 
 TEST(DiagnosisConfidence, WhatIsLeftAboveTheFloorIsUnexplainedWithWhereItLies) {
@@ -85,7 +86,7 @@ TEST(DiagnosisConfidence, WhatIsLeftAboveTheFloorIsUnexplainedWithWhereItLies) {
   EXPECT_EQ(u["where"]["state"].get<std::string>(), "integral");
   EXPECT_FALSE(u["where"].contains("input_level_ratio"));
   const std::string sentence = u["sentence"].get<std::string>();
-  EXPECT_TRUE(has(sentence, "152 Hz") && has(sentence, "follows the integral")) << sentence;
+  EXPECT_TRUE(contains(sentence, "152 Hz") && contains(sentence, "follows the integral")) << sentence;
 }
 
 }  // namespace

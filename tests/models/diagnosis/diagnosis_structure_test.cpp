@@ -16,7 +16,7 @@ namespace {
 
 using testing_support::gaussian;
 
-constexpr double kFs = 1000.0;
+constexpr double kStructureFs = 1000.0;
 constexpr Eigen::Index kEst = 8000, kVal = 6000;
 
 TransferFunction two_pole(double a1, double a2) {
@@ -57,7 +57,7 @@ DiagnosisOptions small_scan(int order) {
 
 TEST(DiagnosisStructure, ADiodeBetweenTwoFiltersIsASaturatingStaticNonlinearityBetweenThem) {
   const Records r = block_records(true, 3);
-  const Diagnosis d = diagnose(r.u_est, r.y_est, r.u_val, r.y_val, kFs, std::nullopt, small_scan(4));
+  const Diagnosis d = diagnose(r.u_est, r.y_est, r.u_val, r.y_val, kStructureFs, std::nullopt, small_scan(4));
   ASSERT_FALSE(d.findings.empty()) << diagnosis_to_json(d)["rounds"].dump(1);
   const Finding& f = d.findings.front();
   EXPECT_EQ(to_string(f.effect), "static_nonlinearity") << f.explanation;
@@ -69,7 +69,7 @@ TEST(DiagnosisStructure, ADiodeBetweenTwoFiltersIsASaturatingStaticNonlinearityB
 
 TEST(DiagnosisStructure, ADiodeAfterTheDynamicsIsAWienerStaticNonlinearity) {
   const Records r = block_records(false, 5);
-  const Diagnosis d = diagnose(r.u_est, r.y_est, r.u_val, r.y_val, kFs, std::nullopt, small_scan(2));
+  const Diagnosis d = diagnose(r.u_est, r.y_est, r.u_val, r.y_val, kStructureFs, std::nullopt, small_scan(2));
   ASSERT_FALSE(d.findings.empty()) << diagnosis_to_json(d)["rounds"].dump(1);
   const Finding& f = d.findings.front();
   EXPECT_EQ(to_string(f.effect), "static_nonlinearity") << f.explanation;
@@ -84,7 +84,7 @@ TEST(DiagnosisStructure, ADiodeAfterTheDynamicsIsAWienerStaticNonlinearity) {
 TEST(DiagnosisStructure, NewFeaturesAddOnlyWhatALinearModelOfTheStateCannot) {
   const Eigen::VectorXd u = gaussian(4000, 1.0, 7);
   const Eigen::VectorXd y = filter_through(two_pole(-1.2, 0.5), u);
-  const StateSignals s = state_signals(u, y, kFs);
+  const StateSignals s = state_signals(u, y, kStructureFs);
   for (Effect e : {Effect::nonlinear_damping, Effect::asymmetric_force_factor}) {
     DiagnosisTerm t;
     t.effect = e;

@@ -27,7 +27,6 @@ namespace panelbass::models {
 namespace {
 
 using Complex = std::complex<double>;
-constexpr double kPi = std::numbers::pi;
 
 // simulate: y(k) = −Σ a_i y(k−i) + Σ b_j u(k−nk−j), the difference equation written out.
 using testing_support::gaussian;
@@ -63,7 +62,7 @@ TransferFunction tf_from(const std::vector<Complex>& poles, const Eigen::VectorX
 
 /// C·(zI − A)⁻¹·B + D at z = e^{jω}: the state-space response by a linear solve.
 Complex ss_response(const StateSpace& ss, double frequency, double fs) {
-  const Complex z = std::polar(1.0, 2.0 * kPi * frequency / fs);
+  const Complex z = std::polar(1.0, 2.0 * std::numbers::pi * frequency / fs);
   const Eigen::Index n = ss.A.rows();
   const Eigen::MatrixXcd M = z * Eigen::MatrixXcd::Identity(n, n) - ss.A.cast<Complex>();
   const Eigen::VectorXcd x = M.partialPivLu().solve(ss.B.cast<Complex>());
@@ -83,14 +82,14 @@ double nearest(Complex p, const Eigen::VectorXcd& set) {
 // Hankel reduction
 
 /// A 4th-order system: resonances at 0.3 and 1.1 rad/sample, radii 0.95 and 0.9, and a direct term.
-TransferFunction fourth_order() {
+TransferFunction two_resonance_system() {
   Eigen::VectorXd b(5);
   b << 0.2, 0.5, -0.3, 0.1, 0.05;
   return tf_from({std::polar(0.95, 0.3), std::polar(0.95, -0.3), std::polar(0.9, 1.1), std::polar(0.9, -1.1)}, b);
 }
 
 TEST(HankelReductionTest, ExactMarkovParametersGiveBackTheFrequencyResponse) {
-  const TransferFunction tf = fourth_order();
+  const TransferFunction tf = two_resonance_system();
   const Eigen::VectorXd h = impulse_of(tf, 121);  // h[0] = D, then 120 Markov parameters
   Eigen::VectorXd sv;
   const StateSpace ss = hankel_reduction(h, 4, &sv);
@@ -131,7 +130,7 @@ TEST(HankelReductionTest, TruncationKeepsTheDominantMode) {
 }
 
 TEST(HankelReductionTest, RejectsBadArguments) {
-  const Eigen::VectorXd h = impulse_of(fourth_order(), 20);
+  const Eigen::VectorXd h = impulse_of(two_resonance_system(), 20);
   EXPECT_THROW(hankel_reduction(h, 0, nullptr), std::invalid_argument);
   EXPECT_THROW(hankel_reduction(h.head(9), 4, nullptr), std::invalid_argument);  // 8 Markov parameters < 9
   EXPECT_NO_THROW(hankel_reduction(h.head(10), 4, nullptr));                     // exactly 2·4 + 1
@@ -149,7 +148,7 @@ struct ContinuousSystem {
   std::vector<Complex> s, R;
 
   ContinuousSystem() {
-    const double w = 2.0 * kPi * 150.0, zeta = 0.05, p = 2.0 * kPi * 60.0;
+    const double w = 2.0 * std::numbers::pi * 150.0, zeta = 0.05, p = 2.0 * std::numbers::pi * 60.0;
     const double wd = w * std::sqrt(1.0 - zeta * zeta);
     s = {Complex(-zeta * w, wd), Complex(-zeta * w, -wd), Complex(-p, 0.0)};
     for (std::size_t i = 0; i < s.size(); ++i) {
@@ -250,7 +249,7 @@ TEST(RateConversionTest, DirectTermAndDelayAreKept) {
 }
 
 TEST(RateConversionTest, RoundTripGivesBackTheModel) {
-  const TransferFunction tf = fourth_order();
+  const TransferFunction tf = two_resonance_system();
   const TransferFunction back = convert_rate(convert_rate(tf, 1000.0, 3000.0), 3000.0, 1000.0);
   ASSERT_EQ(back.na(), 4);
   ASSERT_EQ(back.nb(), 5);
@@ -269,8 +268,8 @@ TEST(RateConversionTest, RejectsPolesWithoutContinuousEquivalent) {
   repeated.a = Eigen::Vector2d(-1.0, 0.25);
   repeated.b = Eigen::VectorXd::Ones(1);
   EXPECT_THROW(convert_rate(repeated, 1000.0, 3000.0), std::invalid_argument);
-  EXPECT_THROW(convert_rate(fourth_order(), 0.0, 3000.0), std::invalid_argument);
-  EXPECT_THROW(convert_rate(fourth_order(), 1000.0, -1.0), std::invalid_argument);
+  EXPECT_THROW(convert_rate(two_resonance_system(), 0.0, 3000.0), std::invalid_argument);
+  EXPECT_THROW(convert_rate(two_resonance_system(), 1000.0, -1.0), std::invalid_argument);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -333,11 +332,11 @@ TEST(BackxEstimatorTest, DecimatedByThreeOnALowPassSystem) {
   // anti-alias cutoff 0.8·3000/6 = 400 Hz, and a real pole at 300 Hz: the energy sits below 400 Hz.
   const double fs = 3000.0;
   const auto mode = [&](double f, double zeta) {
-    const double w = 2.0 * kPi * f;
+    const double w = 2.0 * std::numbers::pi * f;
     return std::exp(Complex(-zeta * w, w * std::sqrt(1.0 - zeta * zeta)) / fs);
   };
   const Complex p1 = mode(80.0, 0.08), p2 = mode(250.0, 0.06);
-  const Complex p3 = std::exp(-2.0 * kPi * 300.0 / fs);
+  const Complex p3 = std::exp(-2.0 * std::numbers::pi * 300.0 / fs);
   Eigen::VectorXd b(3);
   b << 0.0, 0.02, 0.015;
   const TransferFunction truth = tf_from({p1, std::conj(p1), p2, std::conj(p2), p3}, b);

@@ -12,7 +12,7 @@
 namespace panelbass::models {
 namespace {
 
-constexpr double kFs = 1000.0;
+constexpr double kResponseFs = 1000.0;
 constexpr double kPole = 0.8;
 
 TransferFunction first_order() {
@@ -25,7 +25,7 @@ TransferFunction first_order() {
 void expect_first_order(const Eigen::VectorXcd& h, const Eigen::VectorXd& f) {
   ASSERT_EQ(h.size(), f.size());
   for (Eigen::Index k = 0; k < f.size(); ++k) {
-    const double w = 2.0 * std::numbers::pi * f[k] / kFs;
+    const double w = 2.0 * std::numbers::pi * f[k] / kResponseFs;
     const double magnitude = (1.0 - kPole) / std::sqrt(1.0 - 2.0 * kPole * std::cos(w) + kPole * kPole);
     const double phase = -std::atan2(kPole * std::sin(w), 1.0 - kPole * std::cos(w));
     EXPECT_NEAR(std::abs(h[k]), magnitude, 1e-12) << f[k] << " Hz";
@@ -35,7 +35,7 @@ void expect_first_order(const Eigen::VectorXcd& h, const Eigen::VectorXd& f) {
 
 TEST(FrequencyResponse, ATransferFunctionMatchesTheFirstOrderClosedForm) {
   const Eigen::VectorXd f = Eigen::VectorXd::LinSpaced(9, 0.0, 480.0);
-  expect_first_order(frequency_response(first_order(), f, kFs), f);
+  expect_first_order(frequency_response(first_order(), f, kResponseFs), f);
 }
 
 TEST(FrequencyResponse, AStateSpaceMatchesTheFirstOrderClosedForm) {
@@ -46,11 +46,11 @@ TEST(FrequencyResponse, AStateSpaceMatchesTheFirstOrderClosedForm) {
   ss.C = Eigen::RowVectorXd::Constant(1, kPole * (1.0 - kPole));
   ss.D = 1.0 - kPole;
   const Eigen::VectorXd f = Eigen::VectorXd::LinSpaced(9, 0.0, 480.0);
-  expect_first_order(frequency_response(ss, f, kFs), f);
+  expect_first_order(frequency_response(ss, f, kResponseFs), f);
 }
 
 TEST(FrequencyResponse, AnEmptyGridGivesAnEmptyResponse) {
-  EXPECT_EQ(frequency_response(first_order(), Eigen::VectorXd(), kFs).size(), 0);
+  EXPECT_EQ(frequency_response(first_order(), Eigen::VectorXd(), kResponseFs).size(), 0);
 }
 
 }  // namespace

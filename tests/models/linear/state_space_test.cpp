@@ -18,6 +18,7 @@
 
 #include "dsp/excitation.h"
 #include "tests/support/vectors.h"
+#include "tests/support/linear_systems.h"
 
 namespace panelbass::models {
 namespace {
@@ -38,18 +39,12 @@ Eigen::VectorXcd conjugate_pairs(int count, double r_min, double r_max, double t
   return roots;
 }
 
-// A(q) from its poles: the monic polynomial without its leading 1.
-Eigen::VectorXd denominator(const Eigen::VectorXcd& poles) {
-  const Eigen::VectorXd p = polynomial_from_roots(poles);
-  return p.tail(p.size() - 1);
-}
-
 // The 4th-order example used by several tests: poles 0.9∠±0.3 and 0.7∠±1.2, a direct term b_0 ≠ 0.
 TransferFunction fourth_order(int nk = 0) {
   TransferFunction tf;
   Eigen::VectorXcd poles(4);
   poles << std::polar(0.9, 0.3), std::polar(0.9, -0.3), std::polar(0.7, 1.2), std::polar(0.7, -1.2);
-  tf.a = denominator(poles);
+  tf.a = testing_support::denominator(poles);
   tf.b = vec({0.5, -0.2, 0.3, 0.1});
   tf.nk = nk;
   return tf;
@@ -108,7 +103,7 @@ TEST(StateSpaceTest, ThirtiethOrderResponseMatchesTransferFunction) {
   // Random stable poles up to radius 0.99; zeros well inside the circle so that |H| has no deep
   // notches, where any relative comparison would measure rounding of the reference itself.
   TransferFunction tf;
-  tf.a = denominator(conjugate_pairs(30, 0.2, 0.99, 0.0, 1.0, 21));
+  tf.a = testing_support::denominator(conjugate_pairs(30, 0.2, 0.99, 0.0, 1.0, 21));
   tf.b = 0.01 * polynomial_from_roots(conjugate_pairs(28, 0.0, 0.5, 0.0, 1.0, 22));
   tf.nk = 1;
   ASSERT_TRUE(tf.is_stable());
@@ -185,7 +180,7 @@ TEST(StateSpaceTest, UnstableModelIsRealisedWithoutBalancing) {
   TransferFunction tf;
   Eigen::VectorXcd poles(2);
   poles << std::polar(1.05, 0.4), std::polar(1.05, -0.4);
-  tf.a = denominator(poles);
+  tf.a = testing_support::denominator(poles);
   tf.b = vec({1.0, 0.5});
   const StateSpace ss = realize(tf);
   EXPECT_EQ(ss.order(), 2);
@@ -228,7 +223,7 @@ TEST(StateSpaceTest, HighOrderSimulationStaysAccurateWhereDirectFormDrifts) {
     poles[i + 1] = std::conj(poles[i]);
   }
   TransferFunction tf;
-  tf.a = denominator(poles);
+  tf.a = testing_support::denominator(poles);
   tf.b = vec({1.0});
   ASSERT_GT(tf.a.cwiseAbs().sum(), 1e5);
 
@@ -262,7 +257,7 @@ TEST(StateSpaceTest, PolynomialTooIllConditionedToBalanceIsNoWorseThanDirectForm
     poles[i + 1] = std::conj(poles[i]);
   }
   TransferFunction tf;
-  tf.a = denominator(poles);
+  tf.a = testing_support::denominator(poles);
   tf.b = vec({1.0});
   ASSERT_GT(tf.a.cwiseAbs().sum(), 1e7);
 
@@ -363,7 +358,7 @@ TEST(StateSpaceTest, ToTransferFunctionOfClosedFormExample) {
 
 TEST(StateSpaceTest, ToTransferFunctionRecoversCoefficients) {
   TransferFunction tf;
-  tf.a = denominator(conjugate_pairs(6, 0.4, 0.95, 0.05, 0.95, 41));
+  tf.a = testing_support::denominator(conjugate_pairs(6, 0.4, 0.95, 0.05, 0.95, 41));
   tf.b = vec({0.4, -0.3, 0.2, 0.5, -0.1, 0.05, 0.3});
   const TransferFunction back = to_transfer_function(realize(tf));
   ASSERT_EQ(back.na(), 6);
@@ -388,7 +383,7 @@ TEST(StateSpaceTest, ToTransferFunctionKeepsDelayAsLeadingZeros) {
 
 TEST(StateSpaceTest, InitialStateRecoversKnownState) {
   TransferFunction tf;
-  tf.a = denominator(conjugate_pairs(6, 0.5, 0.95, 0.05, 0.95, 51));
+  tf.a = testing_support::denominator(conjugate_pairs(6, 0.5, 0.95, 0.05, 0.95, 51));
   tf.b = vec({0.2, 0.4, -0.3});
   tf.nk = 1;
   const StateSpace ss = realize(tf);

@@ -3,6 +3,8 @@
 // every gradient, and the [5F] bound on the initial node inputs checked analytically.
 #include "models/narx/mlp.h"
 #include "models/narx/mlp_kernel.h"
+#include "models/narx/narx_history.h"
+#include "models/narx/narx_model.h"
 
 #include <gtest/gtest.h>
 
@@ -180,6 +182,47 @@ TEST(MlpKernel, GivesTheDocumentedLayoutsOutputWithTheInputSplitAnywhere) {
         EXPECT_EQ(MlpKernel(copy).forward(all.first(split), all.subspan(split)),
                   kernel.forward(all.first(split), all.subspan(split)));
       }
+    }
+  }
+}
+
+TEST(MlpKernel, FreeRunIsForwardSampleBySampleToTheBit) {
+  // free_run keeps the newest output in a register: the same arithmetic as forward() on the histories,
+  // so the same bits, for every code path and shape (one layer: the register path; others: forward per sample).
+  const std::vector<std::pair<models::NarxStructure, int>> shapes = [] {
+    models::NarxStructure thesis, delayed, layers, none;
+    delayed.na = 3;
+    delayed.nb = 2;
+    delayed.nk = 2;
+    delayed.hidden = {5};
+    layers.na = 2;
+    layers.nb = 3;
+    layers.hidden = {7, 3};
+    none.na = 2;
+    none.nb = 1;
+    none.hidden = {};
+    return std::vector<std::pair<models::NarxStructure, int>>{{thesis, 17}, {delayed, 6}, {layers, 6}, {none, 4}};
+  }();
+  for (const auto& [st, inputs] : shapes) {
+    Mlp net(inputs, st.hidden);
+    net.initialize(1.0, 29, 2.0);
+    for (const SimdLevel level : available_levels()) {
+      MlpKernel kernel(net, level);
+      NarxHistory by_sample(st), by_block(st);
+      dsp::Rng rng(31);
+      std::vector<double> u(300), expected(300), y(300);
+      for (double& v : u) v = rng.uniform(-1.0, 1.0);
+      for (std::size_t k = 0; k < u.size(); ++k) {
+        by_sample.push_input(u[k]);
+        expected[k] = kernel.forward(by_sample.past_outputs(), by_sample.past_inputs());
+        by_sample.push_output(expected[k]);
+      }
+      kernel.free_run(by_block, std::span<const double>(u).first(37), std::span<double>(y).first(37));
+      kernel.free_run(by_block, std::span<const double>(u).subspan(37), std::span<double>(y).subspan(37));
+      for (std::size_t k = 0; k < u.size(); ++k) {
+        ASSERT_EQ(y[k], expected[k]) << inputs << " inputs, level " << static_cast<int>(level) << ", sample " << k;
+      }
+      EXPECT_EQ(by_block.past_outputs()[0], by_sample.past_outputs()[0]);
     }
   }
 }
