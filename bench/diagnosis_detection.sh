@@ -5,24 +5,33 @@
 # that look alike from the drive; and the scenario with no effect (false positives). Runs niced, JOBS
 # processes side by side; prints the tables and the time taken.
 # Usage: bash bench/diagnosis_detection.sh [BUILD_DIR] [SEEDS] [JOBS]   (defaults: build 6 2)
+# PANELBASS_WORK=DIR keeps each run's table and log in DIR (read them while it runs); otherwise a temporary folder.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${1:-build}/bin/diagnosis_detection_bench
 seeds=${2:-6}
 jobs=${3:-2}
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+if [ -n "${PANELBASS_WORK:-}" ]; then
+  work=$PANELBASS_WORK
+  mkdir -p "$work"
+else
+  work=$(mktemp -d)
+  trap 'rm -rf "$work"' EXIT
+fi
 start=$(date +%s)
 
 all="resonance antiresonance delay cubic_stiffness asymmetric_stiffness force_factor inductance hysteresis saturation
 thermal_compression dc_offset static_nonlinearity nonlinear_damping asymmetric_force_factor creep"
 look_alikes="nonlinear_damping cubic_stiffness hysteresis force_factor asymmetric_force_factor asymmetric_stiffness inductance"
 
-# One process per effect (and channel set), JOBS at a time.
+# One process per effect (and channel set), JOBS at a time: the look-alikes with and without the current and the
+# effect-free runs first, then the rest of the vocabulary.
 runs=()
-for e in $all; do runs+=("drive $e"); done
-for e in $look_alikes; do runs+=("current $e"); done
+for e in $look_alikes; do runs+=("current $e" "drive $e"); done
 runs+=("plain none")
+for e in $all; do
+  case " $look_alikes " in *" $e "*) ;; *) runs+=("drive $e") ;; esac
+done
 printf '%s\n' "${runs[@]}" | xargs -P "$jobs" -I{} bash -c '
   set -- {}
   out="'"$work"'/$1-$2"

@@ -23,6 +23,7 @@
 #include "dsp/sample_rate.h"
 #include "models/diagnosis/diagnosis.h"
 #include "models/diagnosis/diagnosis_baselines.h"
+#include "models/diagnosis/gray_box_model.h"
 #include "models/io/json_file.h"
 #include "models/linear/linear_model.h"
 #include "models/kinds/model_file.h"
@@ -43,6 +44,7 @@ struct DiagnoseOptions {
   long window = 300;
   models::OutputQuantity sensor = models::OutputQuantity::unknown;
   std::string current_col = "auto";
+  std::string model_out;  ///< the diagnosed model as a gray_box model file (empty: not written)
 };
 
 // The current column of `path` (samples at the record's rate), when --current-col names one or, with "auto", when
@@ -81,6 +83,9 @@ Baseline load_baseline(const std::string& path) {
     b.linear = *linear;
   } else if (const auto* ss = std::get_if<models::SsModel>(&model.model)) {
     b.simulation = models::ss_baseline(*ss);
+  } else if (const auto* gray = std::get_if<models::GrayBoxModel>(&model.model)) {
+    b.simulation = models::SimulationBaseline{"gray_box", gray->fs, [m = *gray](const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                                                                             Eigen::Index init) { return m.simulate(u, y, init); }};
   } else {
     b.simulation = models::narx_baseline(std::get<models::NarxModel>(model.model));
   }
@@ -101,6 +106,9 @@ void run_diagnose(const DiagnoseOptions& o) {
                                 std::to_string(est.fs) + " Hz");
   // Everything that can be refused is refused before the work starts.
   const PlotFormat format = o.outputs.prepare();
+  if (!o.model_out.empty() && baseline && baseline->simulation)
+    throw std::invalid_argument("--model-out: the baseline " + o.model +
+                                " is not a linear model; only a linear baseline with its gray-box terms is written as a model file");
 
   models::DiagnosisOptions options;
   options.init = o.init;
@@ -134,6 +142,10 @@ void run_diagnose(const DiagnoseOptions& o) {
         return plot_diagnosis(d, DiagnosisValidation{val.columns[0], val.columns[1], o.init}, dir, plot_options);
       },
       [&](const std::vector<ReportFigure>& figures) { write_diagnosis_html(o.outputs.html, report, figures, format); });
+  if (!o.model_out.empty()) {
+    models::write_json_file(o.model_out, models::gray_box_model_to_json(models::gray_box_model_of(d)));
+    report["model_out"] = o.model_out;
+  }
   models::write_json_file(o.outputs.out, report);
   // stdout: the summary (the report file holds the evidence in full).
   nlohmann::json summary = {{"baseline", report["baseline"]},
@@ -144,6 +156,7 @@ void run_diagnose(const DiagnoseOptions& o) {
                             {"at_noise_floor", report["at_noise_floor"]},
                             {"unexplained", report["unexplained"]},
                             {"out", o.outputs.out},
+                            {"model_out", o.model_out.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.model_out)},
                             {"html", report["html"]},
                             {"plots", report["plots"]}};
   summary["baseline"].erase("scan");
@@ -188,6 +201,9 @@ void register_diagnose(CLI::App& app) {
                   "The coil current's column: it tells apart effects that look alike from the drive (a spring from a "
                   "damping, a coil offset from an asymmetric spring); auto: \"i\" or \"current\" when the file has one; none: leave it out")
       ->capture_default_str();
+  cmd->add_option("--model-out", o->model_out,
+                  "Write the diagnosed model (the linear baseline with its gray-box terms) as a model file of kind gray_box, "
+                  "which validate, simulate and analyze read (a linear baseline only)");
   o->outputs.add_to(cmd, "Report to write (JSON)", "Self-contained HTML report (findings, J per step, figures embedded)");
   cmd->add_option("--window", o->window, "Samples shown in the fit plot")->check(CLI::Range(2L, 100000000L))->capture_default_str();
   cmd->footer(
@@ -196,7 +212,7 @@ void register_diagnose(CLI::App& app) {
       "N·ln(J_before/J_after) > p·ln(N) (BIC, N validation samples, p added parameters).\n"
       "Example:\n"
       "  panelbass diagnose --data est.csv --val val.csv --fs 3000 --sensor acceleration --out report.json \\\n"
-      "      --html report.html --plots plots/");
+      "      --html report.html --plots plots/ --model-out diagnosed.json");
   cmd->callback([o] {
     if (o->scan_from > o->scan_to)
       throw CLI::ValidationError("--scan-from", std::to_string(o->scan_from) + " is above --scan-to " +

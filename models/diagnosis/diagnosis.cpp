@@ -1,5 +1,6 @@
 #include "models/diagnosis/diagnosis.h"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -247,18 +248,28 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
       chosen = decided_by_current(chosen, alikes, *force, r, current, kept, current_verdict, c);
       alike_confidence = c;
     } else if (!alikes.empty()) {
-      diagnosis_detail::FindingConfidence c;
+      // Without the current: ambiguous unless the finding beats its best look-alike by a clear margin on the
+      // validation residual's effective samples (as judge_finding counts them), e.g. Silverbox's spring, far
+      // ahead of a damping. The margin that the data cannot settle is reported, not a name.
+      const double n_eff = std::max(where_val.effective_samples, 2.0);
+      const auto bic_eff = [&](const Candidate& c) {
+        return n_eff * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_eff);
+      };
       const Candidate* rival = alikes.front();
       for (const Candidate* a : alikes)
-        if (y_score(*a) > y_score(*rival)) rival = a;
-      c.word = "ambiguous";
-      c.runner_up = to_string(rival->effect);
-      c.runner_up_variant = rival->variant;
-      c.margin_bic = y_score(*chosen) - y_score(*rival);
-      c.sentence = "ambiguous between " + to_string(chosen->effect) + " and " + c.runner_up +
-                   ": they look alike from the drive (BIC margin " + fixed(c.margin_bic, 1) +
-                   "); a record with the coil current tells them apart.";
-      alike_confidence = c;
+        if (bic_eff(*a) > bic_eff(*rival)) rival = a;
+      const double margin = bic_eff(*chosen) - bic_eff(*rival);
+      if (margin < diagnosis_detail::kClearMargin) {
+        diagnosis_detail::FindingConfidence c;
+        c.word = "ambiguous";
+        c.runner_up = to_string(rival->effect);
+        c.runner_up_variant = rival->variant;
+        c.margin_bic = margin;
+        c.sentence = "ambiguous between " + to_string(chosen->effect) + " and " + c.runner_up +
+                     ": they look alike from the drive (BIC margin " + fixed(c.margin_bic, 1) +
+                     "); a record with the coil current tells them apart.";
+        alike_confidence = c;
+      }
     }
     const double correlation = added_correlation(r, current, chosen->fit);
     Finding f;

@@ -1,4 +1,5 @@
 #include "models/diagnosis/diagnosis_explanations.h"
+#include "models/diagnosis/gray_box_model.h"
 
 #include <cmath>
 #include <vector>
@@ -132,15 +133,7 @@ std::string explain(const Candidate& c, const ResidualLocation& where, double co
 
 nlohmann::json terms_json(const AugmentedModel& m) {
   nlohmann::json out = nlohmann::json::array();
-  for (const auto& t : m.terms)
-    out.push_back({{"effect", to_string(t.effect)},
-                   {"state", to_string(t.proxy)},
-                   {"threshold", t.threshold},
-                   {"time_constant_s", t.time_constant_s},
-                   {"one_sided", t.one_sided},
-                   {"position", to_string(t.position)},
-                   {"shape", t.shape == Shape::knee ? "knee" : "polynomial"},
-                   {"coefficients", std::vector<double>(t.coefficients.data(), t.coefficients.data() + t.coefficients.size())}});
+  for (const auto& t : m.terms) out.push_back(term_to_json(t));
   return out;
 }
 

@@ -150,6 +150,41 @@ TEST_F(CliDiagnose, ANarxBaselineStartsFromItsOwnSimulation) {
   EXPECT_LE(r["J_val_after_pct"].get<double>(), r["J_val_before_pct"].get<double>());
 }
 
+// --model-out: the diagnosed model (the linear baseline and its gray-box terms) as a model file that validate and
+// analyze read; its J on the validation record is the diagnosis's J after (the same simulation, the same init).
+TEST_F(CliDiagnose, ModelOutWritesTheDiagnosedModelThatValidateReads) {
+  const fs::path model = dir_ / "diagnosed.json";
+  const json r = expect_result(run("diagnose --data " + est() + " --val " + val() + " --fs 3000 --scan-from 12 --scan-to 13 " +
+                                   "--max-findings 1 --out " + quoted(dir_ / "report.json") + " --model-out " + quoted(model)));
+  ASSERT_FALSE(r["findings"].empty()) << r.dump(1);
+  EXPECT_EQ(r["model_out"], model.string());
+  const json file_json = json::parse(text_of(model));
+  EXPECT_EQ(file_json["kind"], "gray_box");
+  EXPECT_EQ(file_json["terms"].size(), 1u) << file_json["terms"].dump(1);
+  EXPECT_EQ(file_json["terms"][0]["effect"], r["findings"][0]["effect"]);
+  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
+  EXPECT_EQ(v["kind"], "gray_box");
+  const double j_after = r["J_val_after_pct"].get<double>();
+  EXPECT_NEAR(v["J_sim_pct"].get<double>(), j_after, 1e-9 * j_after);
+  const json a = expect_result(run("analyze --model " + quoted(model) + " --data " + val() + " --init 50 --out " +
+                                   quoted(dir_ / "analysis.json")));
+  EXPECT_NEAR(a["J_sim_pct"].get<double>(), j_after, 1e-9 * j_after) << a.dump(1).substr(0, 2000);
+  // The controller design takes its linear part.
+  expect_result(run("design lq --model " + quoted(model) + " --R 1e-3 --R0 20 --out " + quoted(dir_ / "ff.json")));
+  EXPECT_TRUE(fs::exists(dir_ / "ff.json"));
+}
+
+// Only a linear baseline's diagnosis is a model file: another baseline is refused before the work.
+TEST_F(CliDiagnose, ModelOutOfANonLinearBaselineIsRefusedBeforeTheWork) {
+  file("plain.json", models::plant_to_json(models::plant_preset("linear")).dump());
+  const RunResult r = run("diagnose --data " + est() + " --val " + val() + " --model " + quoted(dir_ / "plain.json") +
+                          " --out " + quoted(dir_ / "r.json") + " --model-out " + quoted(dir_ / "m.json"));
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "--model-out")) << r.err;
+  EXPECT_FALSE(contains(r.err, "diagnose: simulating")) << "refused only after the work: " << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "m.json"));
+}
+
 TEST_F(CliDiagnose, HtmlIntoAMissingFolderIsRefusedBeforeTheWork) {
   const fs::path missing = dir_ / "no-such-folder" / "r.html";
   const RunResult r = run("diagnose --data " + est() + " --val " + val() + " --fs 3000 --out " +

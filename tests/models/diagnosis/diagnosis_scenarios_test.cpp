@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <utility>
 
 #include "models/diagnosis/diagnosis.h"
 #include "tests/support/diagnosis_scenarios.h"
@@ -66,7 +67,9 @@ TEST_P(ConcealedEffect, IsNamedFirstAndImprovesValidation) {
   // ambiguous between the two, naming both; otherwise it is named first.
   const bool named_in_ambiguity = first.confidence["word"] == "ambiguous" && first.confidence["runner_up"].is_string() &&
                                   first.confidence["runner_up"].get<std::string>().find(to_string(effect)) != std::string::npos;
-  if (!named_in_ambiguity) EXPECT_EQ(to_string(first.effect), to_string(effect)) << first.explanation;
+  if (!named_in_ambiguity) {
+    EXPECT_EQ(to_string(first.effect), to_string(effect)) << first.explanation;
+  }
   EXPECT_LT(first.j_val_after_pct, first.j_val_before_pct);
   EXPECT_LT(d.j_val_after_pct, d.j_val_before_pct);
   // What is left is close to the sensor noise: the final J lies nearer the noise's own J than the baseline's.
@@ -86,42 +89,54 @@ INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, ConcealedEffect,
                                          Effect::creep),
                          [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
 
-// The fitted parameters of the effects that have a value to compare with the plant's.
-TEST(DiagnosisScenarios, FittedParametersMatchThePlant) {
-  {
-    const Diagnosis d = diagnose_scenario(concealed_scenario(Effect::dc_offset), 1, 1).diagnosis;
-    ASSERT_FALSE(d.findings.empty());
-    // The sensor offset, 3.5 mV, in raw units: the coefficient times the output scale; its standard error
-    // over 40 000 samples of 70 mV noise is 0.35 mV.
-    EXPECT_NEAR(d.model.terms.front().coefficients[0] * d.baseline_model.linear.scaling.y_scale, 0.0035, 0.0012);
-  }
-  {
-    const Diagnosis d = diagnose_scenario(concealed_scenario(Effect::delay), 1, 1).diagnosis;
-    ASSERT_FALSE(d.findings.empty());
-    EXPECT_EQ(d.findings[0].parameters["nk_before"].get<int>(), 2);
-    EXPECT_EQ(d.findings[0].parameters["nk_after"].get<int>(), 1);  // the converters' true latency
-  }
-  for (Effect e : {Effect::resonance, Effect::antiresonance}) {
-    const Diagnosis d = diagnose_scenario(concealed_scenario(e), 1, 1).diagnosis;
-    ASSERT_FALSE(d.findings.empty());
-    // The mode at 450 Hz; the cancelling pair at 440 and 460 Hz dips in between.
-    EXPECT_NEAR(d.findings[0].parameters["frequency_hz"].get<double>(), 450.0, 15.0) << to_string(e);
-  }
+// The fitted parameters of the effects that have a value to compare with the plant's (one test each: each
+// diagnosis takes seconds).
+TEST(DiagnosisScenarios, FittedSensorOffsetMatchesThePlant) {
+  const Diagnosis d = diagnose_scenario(concealed_scenario(Effect::dc_offset), 1, 1).diagnosis;
+  ASSERT_FALSE(d.findings.empty());
+  // The sensor offset, 3.5 mV, in raw units: the coefficient times the output scale; its standard error
+  // over 40 000 samples of 70 mV noise is 0.35 mV.
+  EXPECT_NEAR(d.model.terms.front().coefficients[0] * d.baseline_model.linear.scaling.y_scale, 0.0035, 0.0012);
 }
 
-// Two effects at once: both are found, each named (at twice the concealed size, from records half as long:
-// the same evidence in less time).
-TEST(DiagnosisScenarios, TwoEffectsAreBothFound) {
-  for (const auto& [a, b] : {std::pair{Effect::cubic_stiffness, Effect::hysteresis},
-                             std::pair{Effect::resonance, Effect::dc_offset}}) {
-    const DiagnosisScenario s = combined_scenario(concealed_scenario(a, 2.0), concealed_scenario(b, 2.0));
-    SCOPED_TRACE(s.name);
-    const Diagnosis d = diagnose_scenario(s, 2, 3, false, kEstimation / 2, kValidation / 2).diagnosis;
-    EXPECT_TRUE(found(d, a)) << diagnosis_to_json(d)["findings"].dump(1);
-    EXPECT_TRUE(found(d, b)) << diagnosis_to_json(d)["findings"].dump(1);
-    EXPECT_LT(d.j_val_after_pct, d.j_val_before_pct);
-  }
+TEST(DiagnosisScenarios, FittedDelayMatchesTheConverters) {
+  const Diagnosis d = diagnose_scenario(concealed_scenario(Effect::delay), 1, 1).diagnosis;
+  ASSERT_FALSE(d.findings.empty());
+  EXPECT_EQ(d.findings[0].parameters["nk_before"].get<int>(), 2);
+  EXPECT_EQ(d.findings[0].parameters["nk_after"].get<int>(), 1);  // the converters' true latency
 }
+
+class FittedMode : public testing::TestWithParam<Effect> {};
+
+TEST_P(FittedMode, FrequencyMatchesThePlant) {
+  const Diagnosis d = diagnose_scenario(concealed_scenario(GetParam()), 1, 1).diagnosis;
+  ASSERT_FALSE(d.findings.empty());
+  // The mode at 450 Hz; the cancelling pair at 440 and 460 Hz dips in between.
+  EXPECT_NEAR(d.findings[0].parameters["frequency_hz"].get<double>(), 450.0, 15.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, FittedMode, testing::Values(Effect::resonance, Effect::antiresonance),
+                         [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
+
+// Two effects at once: both are found, each named (at twice the concealed size, from records half as long:
+// the same evidence in less time). One test per pair.
+class TwoEffects : public testing::TestWithParam<std::pair<Effect, Effect>> {};
+
+TEST_P(TwoEffects, AreBothFound) {
+  const auto [a, b] = GetParam();
+  const DiagnosisScenario s = combined_scenario(concealed_scenario(a, 2.0), concealed_scenario(b, 2.0));
+  const Diagnosis d = diagnose_scenario(s, 2, 3, false, kEstimation / 2, kValidation / 2).diagnosis;
+  EXPECT_TRUE(found(d, a)) << diagnosis_to_json(d)["findings"].dump(1);
+  EXPECT_TRUE(found(d, b)) << diagnosis_to_json(d)["findings"].dump(1);
+  EXPECT_LT(d.j_val_after_pct, d.j_val_before_pct);
+}
+
+INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, TwoEffects,
+                         testing::Values(std::pair{Effect::cubic_stiffness, Effect::hysteresis},
+                                         std::pair{Effect::resonance, Effect::dc_offset}),
+                         [](const testing::TestParamInfo<std::pair<Effect, Effect>>& info) {
+                           return to_string(info.param.first) + "_and_" + to_string(info.param.second);
+                         });
 
 // The effects that look alike from the drive: a spring's x³ and a damping's v³ near one resonance, a coil
 // offset's x·i and a spring's x² or an inductance's Le(x). With the coil current each is named first, and the
@@ -156,15 +171,17 @@ INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, LookAlikeEffect,
                                          Effect::asymmetric_stiffness, Effect::inductance),
                          [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
 
-// No effect: no finding, over several seeds, and nothing changed.
-TEST(DiagnosisScenarios, NoEffectGivesNoFinding) {
-  for (std::uint64_t seed : {11u, 12u, 13u, 14u}) {
-    SCOPED_TRACE("seed " + std::to_string(seed));
-    const Diagnosis d = diagnose_scenario(plain_scenario(), seed, 2).diagnosis;
-    EXPECT_TRUE(d.findings.empty()) << diagnosis_to_json(d)["findings"].dump(1);
-    EXPECT_EQ(d.j_val_after_pct, d.j_val_before_pct);
-  }
+// No effect: no finding, over several seeds (one test each), and nothing changed.
+class NoEffect : public testing::TestWithParam<std::uint64_t> {};
+
+TEST_P(NoEffect, GivesNoFinding) {
+  const Diagnosis d = diagnose_scenario(plain_scenario(), GetParam(), 2).diagnosis;
+  EXPECT_TRUE(d.findings.empty()) << diagnosis_to_json(d)["findings"].dump(1);
+  EXPECT_EQ(d.j_val_after_pct, d.j_val_before_pct);
 }
+
+INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, NoEffect, testing::Values(11u, 12u, 13u, 14u),
+                         [](const testing::TestParamInfo<std::uint64_t>& info) { return "seed" + std::to_string(info.param); });
 
 // A baseline that is not a linear model: the virtual transducer without the effect (no sensor noise) as the
 // simulation, the data from the plant with a cubic spring (three times the concealed size). The terms act
