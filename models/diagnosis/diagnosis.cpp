@@ -243,33 +243,46 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     const std::vector<const Candidate*> alikes = look_alikes_of(*chosen, scored, y_score);
     std::optional<diagnosis_detail::FindingConfidence> alike_confidence;
     nlohmann::json current_verdict;
-    if (!alikes.empty() && force) {
+    // The drive's own margin over the best look-alike, on the validation residual's effective samples (as
+    // judge_finding counts them): a clear one settles the name without the current (Silverbox's spring, far
+    // ahead of a damping).
+    const double n_eff = std::max(where_val.effective_samples, 2.0);
+    const auto bic_eff = [&](const Candidate& c) {
+      return n_eff * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_eff);
+    };
+    const Candidate* rival = alikes.empty() ? nullptr : alikes.front();
+    for (const Candidate* a : alikes)
+      if (bic_eff(*a) > bic_eff(*rival)) rival = a;
+    const double drive_margin = rival != nullptr ? bic_eff(*chosen) - bic_eff(*rival) : 0.0;
+    const bool drive_settles = rival == nullptr || drive_margin >= diagnosis_detail::kClearMargin;
+    if (rival != nullptr && force) {
       diagnosis_detail::FindingConfidence c;
-      chosen = decided_by_current(chosen, alikes, *force, r, current, kept, current_verdict, c);
-      alike_confidence = c;
-    } else if (!alikes.empty()) {
-      // Without the current: ambiguous unless the finding beats its best look-alike by a clear margin on the
-      // validation residual's effective samples (as judge_finding counts them), e.g. Silverbox's spring, far
-      // ahead of a damping. The margin that the data cannot settle is reported, not a name.
-      const double n_eff = std::max(where_val.effective_samples, 2.0);
-      const auto bic_eff = [&](const Candidate& c) {
-        return n_eff * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_eff);
-      };
-      const Candidate* rival = alikes.front();
-      for (const Candidate* a : alikes)
-        if (bic_eff(*a) > bic_eff(*rival)) rival = a;
-      const double margin = bic_eff(*chosen) - bic_eff(*rival);
-      if (margin < diagnosis_detail::kClearMargin) {
-        diagnosis_detail::FindingConfidence c;
+      const Candidate* pick = decided_by_current(chosen, alikes, *force, r, current, kept, current_verdict, c);
+      if (!drive_settles) {
+        chosen = pick;  // the drive cannot tell them apart: the current decides
+        alike_confidence = c;
+      } else if (pick != chosen) {
+        // The drive clearly says one, the current another: what the data cannot settle is not named.
         c.word = "ambiguous";
-        c.runner_up = to_string(rival->effect);
-        c.runner_up_variant = rival->variant;
-        c.margin_bic = margin;
-        c.sentence = "ambiguous between " + to_string(chosen->effect) + " and " + c.runner_up +
-                     ": they look alike from the drive (BIC margin " + fixed(c.margin_bic, 1) +
-                     "); a record with the coil current tells them apart.";
+        c.runner_up = to_string(pick->effect);
+        c.runner_up_variant = pick->variant;
+        c.margin_bic = 0.0;
+        c.sentence = "ambiguous between " + to_string(chosen->effect) + " and " + c.runner_up + ": the drive favours " +
+                     to_string(chosen->effect) + " (BIC margin " + fixed(drive_margin, 1) +
+                     "), the output explained from the current " + c.runner_up + ".";
         alike_confidence = c;
       }
+    } else if (rival != nullptr && !drive_settles) {
+      // Without the current the margin that the data cannot settle is reported, not a name.
+      diagnosis_detail::FindingConfidence c;
+      c.word = "ambiguous";
+      c.runner_up = to_string(rival->effect);
+      c.runner_up_variant = rival->variant;
+      c.margin_bic = drive_margin;
+      c.sentence = "ambiguous between " + to_string(chosen->effect) + " and " + c.runner_up +
+                   ": they look alike from the drive (BIC margin " + fixed(c.margin_bic, 1) +
+                   "); a record with the coil current tells them apart.";
+      alike_confidence = c;
     }
     const double correlation = added_correlation(r, current, chosen->fit);
     Finding f;
