@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <utility>
+#include <vector>
+
 #include <cmath>
 #include <complex>
 #include <numbers>
@@ -67,28 +70,37 @@ cd single_bin(const Eigen::VectorXd& x, double f, double fs) {
   return sum;
 }
 
-TEST(VirtualTransducer, LinearPlantMatchesClosedFormFrequencyResponse) {
-  const PlantConfig plant = quiet(plant_preset("linear"));
+// The plant's response (output over drive, one bin) at each frequency, measured from a stepped sine of
+// amplitude 0.5 that settles 3000 samples and measures 3000 at every step.
+std::vector<std::pair<double, cd>> stepped_sine_response(const PlantConfig& plant, const std::vector<double>& frequencies) {
   dsp::SteppedSineSpec spec;
-  spec.frequencies = {30, 80, 150, 160, 300, 500, 800, 900, 1000, 1100};
+  spec.frequencies = frequencies;
   spec.fs = plant.fs;
   spec.amplitude = 0.5;
   spec.settle = 3000;  // the main resonance has decayed by > 100 dB
   spec.measure = 3000;
   const dsp::SteppedSine sine = dsp::stepped_sine(spec);
   const PlantRecord r = simulate(plant, sine.signal, 1);
+  std::vector<std::pair<double, cd>> out;
   for (const dsp::SineStep& step : sine.steps) {
     const auto start = static_cast<Eigen::Index>(step.measure_start);
     const auto n = static_cast<Eigen::Index>(step.measure_length);
-    const cd measured = single_bin(r.y.segment(start, n), step.frequency, plant.fs) /
-                        single_bin(sine.signal.segment(start, n), step.frequency, plant.fs);
-    const cd expected = expected_discrete_response(plant, step.frequency);
+    out.emplace_back(step.frequency, single_bin(r.y.segment(start, n), step.frequency, plant.fs) /
+                                         single_bin(sine.signal.segment(start, n), step.frequency, plant.fs));
+  }
+  return out;
+}
+
+TEST(VirtualTransducer, LinearPlantMatchesClosedFormFrequencyResponse) {
+  const PlantConfig plant = quiet(plant_preset("linear"));
+  for (const auto& [frequency, measured] : stepped_sine_response(plant, {30, 80, 150, 160, 300, 500, 800, 900, 1000, 1100})) {
+    const cd expected = expected_discrete_response(plant, frequency);
     // Up to 800 Hz the converter images folded back by sampling are below −60 dB; near 1000 Hz the
     // image at fs − f passes both 4th-order filters at about −40 dB.
-    const double tolerance_db = step.frequency <= 800 ? 0.02 : 0.15;
+    const double tolerance_db = frequency <= 800 ? 0.02 : 0.15;
     EXPECT_NEAR(20 * std::log10(std::abs(measured)), 20 * std::log10(std::abs(expected)), tolerance_db)
-        << "at " << step.frequency << " Hz";
-    EXPECT_NEAR(std::arg(measured / expected), 0.0, tolerance_db / 8.7 * 2) << "at " << step.frequency << " Hz";
+        << "at " << frequency << " Hz";
+    EXPECT_NEAR(std::arg(measured / expected), 0.0, tolerance_db / 8.7 * 2) << "at " << frequency << " Hz";
   }
 }
 
@@ -98,22 +110,9 @@ TEST(VirtualTransducer, CreepMatchesTheClosedFormOfARelaxingSpring) {
   PlantConfig plant = quiet(plant_preset("linear"));
   plant.creep.fraction = 0.3;
   plant.creep.time_constant_s = 0.01;
-  dsp::SteppedSineSpec spec;
-  spec.frequencies = {10, 20, 40, 80, 150, 400};
-  spec.fs = plant.fs;
-  spec.amplitude = 0.5;
-  spec.settle = 3000;
-  spec.measure = 3000;
-  const dsp::SteppedSine sine = dsp::stepped_sine(spec);
-  const PlantRecord r = simulate(plant, sine.signal, 1);
-  for (const dsp::SineStep& step : sine.steps) {
-    const auto start = static_cast<Eigen::Index>(step.measure_start);
-    const auto n = static_cast<Eigen::Index>(step.measure_length);
-    const cd measured = single_bin(r.y.segment(start, n), step.frequency, plant.fs) /
-                        single_bin(sine.signal.segment(start, n), step.frequency, plant.fs);
-    EXPECT_NEAR(20 * std::log10(std::abs(measured / expected_discrete_response(plant, step.frequency))), 0.0, 0.02)
-        << "at " << step.frequency << " Hz";
-  }
+  for (const auto& [frequency, measured] : stepped_sine_response(plant, {10, 20, 40, 80, 150, 400}))
+    EXPECT_NEAR(20 * std::log10(std::abs(measured / expected_discrete_response(plant, frequency))), 0.0, 0.02)
+        << "at " << frequency << " Hz";
   const Eigen::VectorXd held = Eigen::VectorXd::Constant(6000, 0.1);  // 2 s: 200 time constants
   const PlantRecord still = simulate(plant, held, 1);
   const double current = 0.1 * plant.amplifier_gain_V / plant.Re_ohm;
