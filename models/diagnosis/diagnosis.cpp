@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <stdexcept>
+#include <utility>
 
 #include "dsp/excitation.h"
 #include "models/diagnosis/diagnosis_candidates.h"
@@ -254,7 +255,10 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     for (const Candidate* a : alikes)
       if (bic_eff(*a) > bic_eff(*rival)) rival = a;
     const double drive_margin = rival != nullptr ? bic_eff(*chosen) - bic_eff(*rival) : 0.0;
-    const bool drive_settles = rival == nullptr || drive_margin >= diagnosis_detail::kClearMargin;
+    // Rms(v) and a coil offset have no drive signature of their own (near one resonance v³ is x³ with a phase, x·u
+    // is x² times the drive): from the drive alone they are never named over a look-alike that earns.
+    const bool needs_current = chosen->effect == Effect::nonlinear_damping || chosen->effect == Effect::asymmetric_force_factor;
+    const bool drive_settles = rival == nullptr || (!needs_current && drive_margin >= diagnosis_detail::kClearMargin);
     if (rival != nullptr && force) {
       diagnosis_detail::FindingConfidence c;
       const Candidate* pick = decided_by_current(chosen, alikes, *force, r, current, kept, current_verdict, c);
@@ -273,7 +277,10 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
         alike_confidence = c;
       }
     } else if (rival != nullptr && !drive_settles) {
-      // Without the current the margin that the data cannot settle is reported, not a name.
+      // Without the current the margin that the data cannot settle is reported, not a name; of a new force that
+      // needs the current and its established look-alike, the look-alike's term is the one applied.
+      if (needs_current && !(rival->effect == Effect::nonlinear_damping || rival->effect == Effect::asymmetric_force_factor))
+        std::swap(chosen, rival);
       diagnosis_detail::FindingConfidence c;
       c.word = "ambiguous";
       c.runner_up = to_string(rival->effect);
