@@ -8,7 +8,9 @@
 # Levenberg–Marquardt with early stopping on the validation part (the J the model reports, `--init 50`).
 # The neural state-space rows (`identify ss`: SUBNET's linear part plus tanh networks, encoder of past
 # data, Adam on truncated simulation windows; PNLSS: the same linear part plus cubic monomials of the
-# state and input, no tanh layer) select on the same validation part and J.
+# state and input, no tanh layer; or of the states alone) select on the same validation part and J. The
+# Wiener–Hammerstein start (`--wiener-hammerstein`: the linear model's poles and zeros split between two
+# filters, tanh nodes between them, refined jointly by Levenberg–Marquardt) is written as an ss model.
 #
 # Trained models are kept in MODELS (default bench/benchmark_models, in the repository): a row whose
 # model file KEY.json is there is not retrained — the table is printed from the file, with the training
@@ -105,12 +107,16 @@ for t in "${sb_published[@]}"; do
     ss sb $fs_sb 4 20 20 100 --polish-iter 2000 --polish-window 200
   row Silverbox "$set_name" "PNLSS nx=2, degree 3" sb-pnlss "$sb/test_${t%%:*}.csv" $fs_sb 50 1000 mV "${t#*:}" \
     ss sb $fs_sb 2 0 20 100 --poly-degree 3 --polish-iter 2000 --polish-window 500
+  row Silverbox "$set_name" "PNLSS nx=2, degree 3, states-only monomials" sb-pnlss-x "$sb/test_${t%%:*}.csv" $fs_sb 50 1000 mV \
+    "${t#*:}" ss sb $fs_sb 2 0 20 100 --poly-degree 3 --poly-states-only --polish-iter 2000 --polish-window 500
 done
 
 row "Wiener–Hammerstein 2009" test "NARX 10-10-20" wh-narx "$wh/test.csv" 51200 50 1000 mV "0.241 mV (SUBNET nx=6)" \
   narx wh 51200 10 10 20
 row "Wiener–Hammerstein 2009" test "SS nx=6, 20 nodes, 50 lags" wh-ss "$wh/test.csv" 51200 50 1000 mV "0.241 mV (SUBNET nx=6)" \
   ss wh 51200 6 20 50 100 --polish-iter 2000 --polish-window 200
+row "Wiener–Hammerstein 2009" test "SS nx=6 from a Wiener–Hammerstein start, 20 nodes, 50 lags" wh-block "$wh/test.csv" 51200 50 \
+  1000 mV "0.241 mV (SUBNET nx=6)" ss wh 51200 6 20 50 100 --wiener-hammerstein --wh-iter 1000 --epochs 0
 
 # cascaded tanks: estimation rows [0, 700) of uEst/yEst, validation [700, 1024) (as Champneys et al. 2024)
 ct=$data/cascaded_tanks/dataBenchmark.csv

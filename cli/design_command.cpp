@@ -1,5 +1,6 @@
 // `panelbass design …`: controllers designed on identified models (thesis ch. 7). One helper per
-// subcommand; `design lq` is the LQ feedforward controller of [7A]/[7B] behind a Butterworth band-pass.
+// subcommand; `design lq` is the LQ feedforward controller of [7A]/[7B] behind a Butterworth band-pass,
+// tracking a flat response or a target band (--target-highpass).
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -47,6 +48,7 @@ struct DesignLqOptions {
   double max_input = 0.0;  // > 0: search R for this safe noise amplitude instead
   double R0 = 20.0;
   std::string bandpass = "20,1200";
+  std::string target_highpass;  // "HZ[,ORDER]": the desired response's band (empty: flat, the thesis's)
   int order = 2;
   long samples = 100000;
   std::uint64_t seed = 1;
@@ -71,6 +73,24 @@ CLI::Validator at_least(double bound, bool inclusive) {
         return "must be " + relation + " " + gnuplot_number(bound) + ", got " + text;
       },
       "NUMBER " + relation + " " + gnuplot_number(bound), "at_least");
+}
+
+// The program levels the design's report gives the drive and excursion at.
+constexpr double kReportLevels[] = {0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0};
+
+// "HZ[,ORDER]" → the target band's corner and Butterworth order (2 when left out); the range of HZ is
+// checked by models::design_lq, which knows fs.
+std::pair<double, int> parse_target_highpass(const std::string& text) {
+  const std::string what = "--target-highpass: expected HZ or HZ,ORDER (ORDER 1..8), got \"" + text + "\"";
+  const std::size_t comma = text.find(',');
+  double hz = 0.0;
+  int order = 2;
+  if (!CLI::detail::lexical_cast(text.substr(0, comma), hz) || !std::isfinite(hz)) throw std::invalid_argument(what);
+  if (comma != std::string::npos &&
+      (!CLI::detail::lexical_cast(text.substr(comma + 1), order) || order < 1 || order > 8)) {
+    throw std::invalid_argument(what);
+  }
+  return {hz, order};
 }
 
 // Throws unless the file `path` could be created: its directory exists and it is not a directory.
@@ -180,7 +200,21 @@ void run_design_lq(const DesignLqOptions& o) {
   models::LqFeedforward ff;
   models::InputLimits limits;
   nlohmann::json search = nullptr;
-  if (o.max_input > 0.0) {
+  if (!o.target_highpass.empty()) {
+    // The target's gain is the model's at the geometric middle of the corner and the band's top.
+    const auto [hz, hp_order] = parse_target_highpass(o.target_highpass);
+    if (!(hz > 0.0 && hz < hi)) {
+      throw std::invalid_argument("--target-highpass " + o.target_highpass + ": HZ must be in (0, " + gnuplot_number(hi) +
+                                  ") Hz, below the band-pass's top (--bandpass)");
+    }
+    const double mid_hz = std::sqrt(hz * hi);
+    try {
+      ff = models::design_lq(model, {o.R, o.R0}, {hz, hp_order, mid_hz});
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("--target-highpass ") + o.target_highpass + ": " + e.what());
+    }
+    limits = models::max_input(ff, band, o.samples, o.seed);
+  } else if (o.max_input > 0.0) {
     models::LqWeightSearch found = models::design_lq_for_input(model, o.R0, o.max_input, band, o.samples, o.seed);
     ff = std::move(found.ff);
     limits = found.limits;
@@ -213,6 +247,35 @@ void run_design_lq(const DesignLqOptions& o) {
              {"bandpass_order", o.order},
              {"max_input", {{"worst", limits.worst}, {"noise", limits.noise}, {"samples", o.samples}, {"seed", o.seed}}}};
   if (!search.is_null()) ff.meta["R_search"] = search;
+  nlohmann::json target = nullptr;
+  if (ff.has_target()) {
+    const models::LqTarget& t = ff.target;
+    target = {{"highpass_hz", t.band.highpass_hz}, {"order", t.band.order}, {"mid_hz", t.band.mid_hz},
+              {"gain", t.gain},                    {"delay", t.delay}};
+    // How far the controlled response is from the target over [corner, band top], dB.
+    const Eigen::VectorXd f = dsp::log_spaced(t.band.highpass_hz, hi, 400);
+    const Eigen::VectorXd off = magnitude_db(ff.desired(), f, ff.fs) - magnitude_db(t.model, f, ff.fs);
+    Eigen::Index worst = 0;
+    off.cwiseAbs().maxCoeff(&worst);
+    target["deviation_db"] = {{"band", {t.band.highpass_hz, hi}}, {"max", std::abs(off[worst])}, {"at_hz", f[worst]},
+                              {"at_mid", off[f.size() / 2]}};
+    ff.meta["target"] = target;
+  }
+
+  // Per program level: the noise's peak drive and estimated excursion scale with it (a linear model).
+  const double unit_excursion = models::noise_excursion(ff, band, o.samples, o.seed);
+  nlohmann::json levels = nlohmann::json::array();
+  for (const double level : kReportLevels) {
+    const double drive = level / limits.noise;
+    levels.push_back({{"level", level}, {"drive_peak", drive}, {"drive_within_limits", drive <= 1.0},
+                      {"excursion_peak", level * unit_excursion}});
+  }
+  if (limits.noise < 1.0) {
+    std::fprintf(stderr,
+                 "design lq: a band-limited noise program above peak %.3g needs more drive than [-1, 1] gives "
+                 "(the drive's peak at level 1 is %.3g)\n",
+                 limits.noise, 1.0 / limits.noise);
+  }
   models::write_json_file(o.out, models::lq_feedforward_to_json(ff));
 
   const Eigen::VectorXcd poles = ff.poles();
@@ -231,6 +294,13 @@ void run_design_lq(const DesignLqOptions& o) {
                            {"bandpass_order", o.order},
                            {"max_input_worst", limits.worst},
                            {"max_input_noise", limits.noise},
+                           {"target", target},
+                           {"safe_amplitude", limits.noise},
+                           {"levels", levels},
+                           {"excursion",
+                            {{"estimate", "the desired response y_lin (the model's output, acceleration) to the "
+                                          "band-passed noise, integrated twice by a leaky integrator (corner fs/500)"},
+                             {"unit", "model output x s^2 (sensor volts: divide by its V/(m/s^2) for metres)"}}},
                            {"noise_samples", o.samples},
                            {"drive_peak", {{"frequency_hz", peak.frequency_hz}, {"gain_db", peak.gain_db}}},
                            {"unity_gain_hz", models::unity_gain_hz(ff)},
@@ -262,6 +332,21 @@ void add_design_lq(CLI::App* design) {
       ->excludes(r_option);
   lq->add_option("--R0", o->R0, "Weight on the model output y (>= 0)")->check(at_least(0.0, true))->capture_default_str();
   add_bandpass_option(lq, o->bandpass, "Band-pass corners LO,HI in Hz before the controller (LO = 0: low-pass only)");
+  lq->add_option("--target-highpass", o->target_highpass,
+                 "HZ[,ORDER]: the desired response is the model's gain at mid band times a Butterworth high-pass at HZ "
+                 "(0 < HZ < the band-pass's top; ORDER 1..8, default 2), flat above; without it the design regulates to a flat "
+                 "response (the thesis's [7A])")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            try {
+              parse_target_highpass(text);
+              return std::string();
+            } catch (const std::invalid_argument& e) {
+              return std::string(e.what());
+            }
+          },
+          "HZ[,ORDER]", "target_highpass"))
+      ->excludes("--max-input");
   lq->add_option("--order", o->order, "Butterworth order of the high-pass and of the low-pass")
       ->check(CLI::Range(1, 16))
       ->capture_default_str();
@@ -279,7 +364,11 @@ void add_design_lq(CLI::App* design) {
       "  panelbass design lq --model lin.json --R 3 --R0 20 --bandpass 20,1200 --out ff.json --plot plots/\n"
       "  panelbass design lq --model lin.json --R 1e-5 --R0 20 --bandpass 0,1200 --out ff-cheap.json\n"
       "The flattest design that still takes a program peak of 1/3 (R searched):\n"
-      "  panelbass design lq --model lin.json --max-input 0.33 --R0 20 --bandpass 20,1200 --out ff-third.json");
+      "  panelbass design lq --model lin.json --max-input 0.33 --R0 20 --bandpass 20,1200 --out ff-third.json\n"
+      "A desired response flat above an 80 Hz 2nd-order high-pass instead of flat to DC:\n"
+      "  panelbass design lq --model lin.json --R 0.1 --R0 20 --bandpass 20,1200 --target-highpass 80,2 --out ff-80.json\n"
+      "The result gives safe_amplitude (the largest noise program peak keeping the drive within [-1, 1]) and, per\n"
+      "program level 0.1..1, the drive's peak and the estimated peak excursion.");
   lq->callback([o] { run_design_lq(*o); });
 }
 

@@ -15,6 +15,7 @@
 #include "models/kinds/model_file.h"
 #include "models/linear/linear_identification.h"
 #include "models/state_space_nn/ss_training.h"
+#include "models/state_space_nn/ss_wiener_hammerstein.h"
 #include "models/validation/performance.h"
 
 namespace panelbass::cli {
@@ -25,10 +26,11 @@ struct IdentifySsOptions {
   DataOptions columns;
   int nx = 6, nk = -1, hidden = 20, lags = 50, encoder_hidden = 0, poly_degree = 0;
   long window = 100, batch = 32, init = 50;
-  int epochs = 100, patience = 0, polish_iterations = 0;
+  int epochs = 100, patience = 0, polish_iterations = 0, wh_iterations = 200;
   long polish_window = 0;
   double max_seconds = 0.0, learning_rate = 1e-3, final_learning_rate = 0.0;
   std::uint64_t seed = 1;
+  bool wiener_hammerstein = false, poly_states_only = false;
 };
 
 /// The linear starting model: --linear's file, else OE of order --nx fitted on the same data.
@@ -67,6 +69,7 @@ void run_identify_ss(const IdentifySsOptions& o) {
   const auto began = std::chrono::steady_clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count(); };
   models::SsModel start;
+  nlohmann::json wh_start = nullptr;
   if (!o.start_from.empty()) {
     const models::AnyModel any = models::load_model(o.start_from);
     const auto* ss = std::get_if<models::SsModel>(&any.model);
@@ -79,7 +82,29 @@ void run_identify_ss(const IdentifySsOptions& o) {
     structure.lags = o.lags;
     structure.encoder_hidden = o.encoder_hidden;
     structure.poly_degree = o.poly_degree;
-    start = models::ss_initial_model(starting_linear(o, est, u_val, y_val), structure, est.columns[0], est.columns[1], o.seed);
+    structure.poly_input = !o.poly_states_only;
+    const models::LinearModel linear = starting_linear(o, est, u_val, y_val);
+    if (o.wiener_hammerstein) {
+      const models::SsWienerHammerstein wh =
+          models::ss_wiener_hammerstein_start(linear, structure, est.columns[0], est.columns[1], u_val, y_val,
+                                                o.wh_iterations, o.seed);
+      std::fprintf(stderr,
+                   "identify ss: Wiener-Hammerstein start: %d splits, front %d poles and %d zeros (%d states), "
+                   "J from rest %.4g %% (linear %.4g %%), after %d Levenberg-Marquardt steps %.4g %%, %.1f s\n",
+                   wh.splits, wh.front_poles, wh.front_zeros, wh.front_states, wh.search_j_pct, wh.linear_j_pct,
+                   wh.iterations, wh.j_pct, seconds());
+      start = wh.model;
+      wh_start = {{"splits", wh.splits},
+                  {"front_poles", wh.front_poles},
+                  {"front_zeros", wh.front_zeros},
+                  {"front_states", wh.front_states},
+                  {"search_J_from_rest_pct", wh.search_j_pct},
+                  {"J_from_rest_pct", wh.j_pct},
+                  {"iterations", wh.iterations},
+                  {"linear_J_from_rest_pct", wh.linear_j_pct}};
+    } else {
+      start = models::ss_initial_model(linear, structure, est.columns[0], est.columns[1], o.seed);
+    }
   }
 
   models::SsTrainingOptions options;
@@ -133,6 +158,7 @@ void run_identify_ss(const IdentifySsOptions& o) {
                         {"J_est_pct", j_est},
                         {"J_val_pct", models::number_or_null(j_val)},
                         {"start_J_pct", j_start},
+                        {"wiener_hammerstein_start", wh_start},
                         {"epochs", static_cast<int>(trained.history.size()) - 1},
                         {"best_epoch", trained.best_epoch},
                         {"seconds", seconds()}};
@@ -169,6 +195,15 @@ void register_identify_ss(CLI::App& identify) {
                   "Add PNLSS's polynomial: monomials of [x; u] of degree 2 to this (0: none, else 2-5)")
       ->check(CLI::IsMember({0, 2, 3, 4, 5}))
       ->capture_default_str();
+  cmd->add_flag("--poly-states-only", o->poly_states_only,
+               "The polynomial's monomials of the states alone, none of the input (PNLSS's states-only form)");
+  cmd->add_flag("--wiener-hammerstein", o->wiener_hammerstein,
+               "Start from a Wiener-Hammerstein model: the linear start's poles and zeros split between two filters, "
+               "--hidden tanh nodes between them (the split of the lowest J_val kept)");
+  cmd->add_option("--wh-iter", o->wh_iterations,
+                  "Levenberg-Marquardt iterations refining the Wiener-Hammerstein start's blocks jointly (0: none)")
+      ->check(CLI::Range(0, 100000))
+      ->capture_default_str();
   cmd->add_option("--lags", o->lags, "Past inputs and outputs the encoder reads")->check(CLI::Range(1, 1000))->capture_default_str();
   cmd->add_option("--encoder-hidden", o->encoder_hidden, "Tanh nodes of the encoder (0: affine)")
       ->check(CLI::Range(0, 1000))
@@ -200,7 +235,9 @@ void register_identify_ss(CLI::App& identify) {
   cmd->footer(
       "Example:\n  panelbass identify ss --data est.csv --val val.csv --fs 51200 --nx 6 --hidden 20 --lags 50 "
       "--window 100 --epochs 200 --out ss.json\n"
-      "  panelbass identify ss --data est.csv --val val.csv --fs 610.35 --nx 2 --hidden 0 --poly-degree 3 --out pnlss.json");
+      "  panelbass identify ss --data est.csv --val val.csv --fs 610.35 --nx 2 --hidden 0 --poly-degree 3 --out pnlss.json\n"
+      "  panelbass identify ss --data est.csv --val val.csv --fs 51200 --nx 6 --hidden 20 --lags 50 --wiener-hammerstein "
+      "--epochs 0 --polish-iter 2000 --polish-window 400 --out wh.json");
   cmd->callback([o] { run_identify_ss(*o); });
 }
 

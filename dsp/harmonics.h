@@ -33,4 +33,19 @@ HarmonicLevels harmonic_levels(const Eigen::VectorXd& x, double fs, double frequ
 /// than 4 periods are left or the THD is not finite.
 std::optional<double> steady_thd_percent(const Eigen::VectorXd& y, double fs, double frequency, int max_order = 5);
 
+/// A steady sine response's THD and the noise it stands on, over steady_thd_percent's stretch.
+struct SteadyThd {
+  double thd_pct = 0.0;          ///< the harmonics' THD with the noise's expected share taken out (≥ 0)
+  double measured_thd_pct = 0.0; ///< the THD as the single-bin DFTs read it (steady_thd_percent), noise included
+  double floor_pct = 0.0;        ///< the THD the noise alone shows: sqrt(count·4σ²/N)/a₁, σ from the residual
+  double uncertainty_db = 0.0;   ///< one standard deviation of thd_pct from that noise, dB (inf when thd_pct = 0)
+  bool at_floor = false;         ///< the measured THD within 3 dB of the floor: what it reads is the noise's
+  Eigen::Index samples = 0;      ///< the stretch's length N
+};
+
+/// steady_thd_percent with the noise measured: the residual of the stretch after its mean and its harmonics
+/// (each bin's sine) gives the noise's σ², each harmonic's single-bin amplitude carries 4σ²/N of it in mean
+/// square, and that much is taken out of each. Empty when steady_thd_percent is.
+std::optional<SteadyThd> steady_thd(const Eigen::VectorXd& y, double fs, double frequency, int max_order = 5);
+
 }  // namespace panelbass::dsp

@@ -11,7 +11,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "dsp/butterworth.h"
 #include "dsp/frequency_grid.h"
+#include "dsp/leaky_integral.h"
 #include "dsp/random.h"
 #include "models/io/config_error.h"
 #include "models/io/json_fields.h"
@@ -70,41 +72,38 @@ Eigen::Index block_length(const StateSpace& ss, const std::vector<dsp::Biquad>& 
   return std::clamp<Eigen::Index>(static_cast<Eigen::Index>(std::ceil(time_constant)), kMinBlock, kMaxImpulseSamples);
 }
 
-}  // namespace
-
-StateSpace LqFeedforward::controller() const {
-  // [7B] x(k+1) = (A − BL)·x(k) + B·u(k),  u*(k) = −L·x(k) + u(k)
-  StateSpace ss;
-  ss.A = plant.A - plant.B * L;
-  ss.B = plant.B;
-  ss.C = -L;
-  ss.D = 1.0;
-  return ss;
+// The transfer function of cascaded biquads: numerator and denominator multiplied out, exact trailing
+// zeros (a first-order section's) dropped.
+TransferFunction cascade_transfer_function(const std::vector<dsp::Biquad>& sections) {
+  const auto times = [](const Eigen::VectorXd& p, double c0, double c1, double c2) {
+    Eigen::VectorXd out = Eigen::VectorXd::Zero(p.size() + 2);
+    for (Eigen::Index i = 0; i < p.size(); ++i) {
+      out[i] += c0 * p[i];
+      out[i + 1] += c1 * p[i];
+      out[i + 2] += c2 * p[i];
+    }
+    return out;
+  };
+  Eigen::VectorXd num = Eigen::VectorXd::Ones(1), den = Eigen::VectorXd::Ones(1);
+  for (const dsp::Biquad& s : sections) {
+    num = times(num, s.b0, s.b1, s.b2);
+    den = times(den, 1.0, s.a1, s.a2);
+  }
+  const auto trimmed = [](const Eigen::VectorXd& p) {
+    Eigen::Index n = p.size();
+    while (n > 1 && p[n - 1] == 0.0) --n;
+    return Eigen::VectorXd(p.head(n));
+  };
+  TransferFunction tf;
+  num = trimmed(num);
+  den = trimmed(den);
+  tf.b = num;
+  tf.a = den.tail(den.size() - 1);
+  return tf;
 }
 
-StateSpace LqFeedforward::desired() const {
-  // [7B] x(k+1) = (A − BL)·x(k) + B·u(k),  y_lin(k) = (C − D·L)·x(k) + D·u(k)  (the thesis's D = 0)
-  StateSpace ss;
-  ss.A = plant.A - plant.B * L;
-  ss.B = plant.B;
-  ss.C = plant.C - plant.D * L;
-  ss.D = plant.D;
-  return ss;
-}
-
-Eigen::VectorXcd LqFeedforward::poles() const {
-  if (plant.order() == 0) return Eigen::VectorXcd(0);
-  return Eigen::EigenSolver<Eigen::MatrixXd>(plant.A - plant.B * L, false).eigenvalues();
-}
-
-Eigen::VectorXcd LqFeedforward::zeros() const {
-  if (plant.order() == 0) return Eigen::VectorXcd(0);
-  // The zeros of (Ac, Bc, Cc, Dc) with Dc = 1 are the eigenvalues of Ac − Bc·Dc⁻¹·Cc = A − BL + BL = A.
-  const StateSpace c = controller();
-  return Eigen::EigenSolver<Eigen::MatrixXd>(c.A - c.B * c.C / c.D, false).eigenvalues();
-}
-
-LqFeedforward design_lq(const LinearModel& model, const LqWeights& weights) {
+// design_lq()'s checks of the weights and the model.
+void check_design_inputs(const LinearModel& model, const LqWeights& weights) {
   if (!std::isfinite(weights.R) || !(weights.R > 0.0)) {
     throw std::invalid_argument("design_lq: R must be > 0, got " + number_text(weights.R));
   }
@@ -129,16 +128,14 @@ LqFeedforward design_lq(const LinearModel& model, const LqWeights& weights) {
     throw std::invalid_argument("design_lq: model is unstable (pole of radius " + number_text(std::abs(p[worst])) + " at " +
                                 number_text(std::abs(std::arg(p[worst])) * model.fs / (2.0 * std::numbers::pi)) + " Hz)");
   }
+}
 
-  // Design in the model's scaled units (the thesis's units): [7A] with Q = Cᵀ·R0·C, which weights
-  // y = C·x (exact for the thesis's D = 0; a model without delay adds D·u* to y, unweighted here).
-  const StateSpace scaled = realize(model.tf);
-  const Eigen::MatrixXd Q = weights.R0 * scaled.C.transpose() * scaled.C;
-  const Eigen::MatrixXd P = solve_dare(scaled.A, scaled.B, Q, weights.R);
-  const Eigen::RowVectorXd L = lq_gain(scaled.A, scaled.B, P, weights.R);
-
-  // Raw units: u_raw = u_scale·u, y_raw = y_scale·y (offsets left out), so B·u = (B/u_scale)·u_raw and
-  // u*_raw = u_scale·(−L·x + u) = −(L·u_scale)·x + u_raw, which leaves A − B_raw·L_raw = A − B·L.
+// The controller in raw units from the scaled realisation and its scaled gain: u_raw = u_scale·u,
+// y_raw = y_scale·y (offsets left out), so B·u = (B/u_scale)·u_raw and u*_raw = u_scale·(−L·x + u) =
+// −(L·u_scale)·x + u_raw, which leaves A − B_raw·L_raw = A − B·L.
+LqFeedforward raw_units(const LinearModel& model, const StateSpace& scaled, const Eigen::RowVectorXd& L,
+                        const LqWeights& weights) {
+  const Scaling& s = model.scaling;
   LqFeedforward ff;
   ff.plant.A = scaled.A;
   ff.plant.B = scaled.B / s.u_scale;
@@ -148,6 +145,139 @@ LqFeedforward design_lq(const LinearModel& model, const LqWeights& weights) {
   ff.weights = weights;
   ff.fs = model.fs;
   ff.meta = {{"model_method", model.method}, {"order", scaled.order()}};
+  return ff;
+}
+
+// The samples before u* first reaches the model's output: nk plus the leading zero numerator coefficients.
+int model_delay(const TransferFunction& tf) {
+  int d = tf.nk;
+  for (Eigen::Index i = 0; i < tf.b.size() && tf.b[i] == 0.0; ++i) ++d;
+  return d;
+}
+
+}  // namespace
+
+StateSpace LqFeedforward::controller() const {
+  // [7B] x(k+1) = (A − BL)·x(k) + B·u(k),  u*(k) = −L·x(k) + u(k); a target adds the reference model's
+  // states x_r(k+1) = A_r·x_r(k) + B_r·u(k), u*(k) = −L·x(k) − L_r·x_r(k) + l·u(k).
+  const Eigen::Index n = plant.order(), m = target.model.order();
+  const double l = has_target() ? target.feedthrough : 1.0;
+  StateSpace ss;
+  ss.A = Eigen::MatrixXd::Zero(n + m, n + m);
+  ss.A.topLeftCorner(n, n) = plant.A - plant.B * L;
+  ss.B = Eigen::VectorXd(n + m);
+  ss.B.head(n) = plant.B * l;
+  ss.C = Eigen::RowVectorXd(n + m);
+  ss.C.head(n) = -L;
+  if (m > 0) {
+    ss.A.topRightCorner(n, m) = -plant.B * target.L;
+    ss.A.bottomRightCorner(m, m) = target.model.A;
+    ss.B.tail(m) = target.model.B;
+    ss.C.tail(m) = -target.L;
+  }
+  ss.D = l;
+  return ss;
+}
+
+StateSpace LqFeedforward::desired() const {
+  // [7B] x(k+1) = (A − BL)·x(k) + B·u(k),  y_lin(k) = (C − D·L)·x(k) + D·u(k)  (the thesis's D = 0): the
+  // model driven by controller()'s u*, so y_lin = C·x + D·u*.
+  StateSpace ss = controller();
+  const Eigen::Index n = plant.order();
+  Eigen::RowVectorXd C = plant.D * ss.C;
+  C.head(n) += plant.C;
+  ss.C = C;
+  ss.D = plant.D * ss.D;
+  return ss;
+}
+
+Eigen::VectorXcd LqFeedforward::poles() const {
+  const StateSpace c = controller();
+  if (c.order() == 0) return Eigen::VectorXcd(0);
+  return Eigen::EigenSolver<Eigen::MatrixXd>(c.A, false).eigenvalues();
+}
+
+Eigen::VectorXcd LqFeedforward::zeros() const {
+  const StateSpace c = controller();
+  if (c.order() == 0) return Eigen::VectorXcd(0);
+  // The zeros of (Ac, Bc, Cc, Dc) with Dc ≠ 0 are the eigenvalues of Ac − Bc·Dc⁻¹·Cc; without a target
+  // Dc = 1 and that is A − BL + BL = A.
+  if (c.D != 0.0) return Eigen::EigenSolver<Eigen::MatrixXd>(c.A - c.B * c.C / c.D, false).eigenvalues();
+  return to_transfer_function(c).zeros();
+}
+
+LqFeedforward design_lq(const LinearModel& model, const LqWeights& weights) {
+  check_design_inputs(model, weights);
+  // Design in the model's scaled units (the thesis's units): [7A] with Q = Cᵀ·R0·C, which weights
+  // y = C·x (exact for the thesis's D = 0; a model without delay adds D·u* to y, unweighted here).
+  const StateSpace scaled = realize(model.tf);
+  const Eigen::MatrixXd Q = weights.R0 * scaled.C.transpose() * scaled.C;
+  const Eigen::MatrixXd P = solve_dare(scaled.A, scaled.B, Q, weights.R);
+  return raw_units(model, scaled, lq_gain(scaled.A, scaled.B, P, weights.R), weights);
+}
+
+LqFeedforward design_lq(const LinearModel& model, const LqWeights& weights, const LqTargetBand& band) {
+  check_design_inputs(model, weights);
+  const double nyquist = model.fs / 2.0;
+  const auto check_hz = [nyquist](double hz, const char* what) {
+    if (!std::isfinite(hz) || !(hz > 0.0 && hz < nyquist)) {
+      throw std::invalid_argument(std::string("design_lq: the target's ") + what + " must be in (0, fs/2 = " +
+                                  number_text(nyquist) + ") Hz, got " + number_text(hz));
+    }
+  };
+  check_hz(band.highpass_hz, "high-pass corner");
+  check_hz(band.mid_hz, "mid-band frequency");
+  if (band.order < 1 || band.order > 8) {
+    throw std::invalid_argument("design_lq: the target's high-pass order must be in 1…8, got " + std::to_string(band.order));
+  }
+
+  // The reference model in scaled units: gain·z^−d·HP(z), HP's gain at mid band that of the model there, its
+  // sign the one nearer the model's phase; d the model's delay (≥ 1, so y_r(k) depends on u up to k − d).
+  const std::vector<dsp::Biquad> highpass = dsp::butterworth_highpass(band.order, band.highpass_hz, model.fs);
+  const int delay = std::max(1, model_delay(model.tf));
+  const double w_mid = 2.0 * std::numbers::pi * band.mid_hz / model.fs;
+  const std::complex<double> hp_mid = dsp::SosFilter(highpass).response(band.mid_hz, model.fs) *
+                                      std::polar(1.0, -w_mid * delay);
+  const std::complex<double> model_mid = model.tf.response(band.mid_hz, model.fs);
+  const double sign = (model_mid * std::conj(hp_mid)).real() >= 0.0 ? 1.0 : -1.0;
+  const double gain = sign * std::abs(model_mid) / std::abs(hp_mid);
+  TransferFunction reference_tf = cascade_transfer_function(highpass);
+  reference_tf.b *= gain;
+  reference_tf.nk = delay;
+  const StateSpace reference = realize(reference_tf);
+
+  // [7A] on the augmented state ξ = [x; x_r]: ξ(k+1) = Ã·ξ(k) + B̃·u*(k) + Ẽ·u(k), the tracking error
+  // e = C·x − C_r·x_r (D_r = 0 by the delay; a model without delay adds D·u*, unweighted as in design_lq),
+  // Q = R0·[C, −C_r]ᵀ·[C, −C_r]. With u(k) known and the later program white (zero mean), the cost to go
+  // is ξᵀPξ + const and u*(k) = −(R + B̃ᵀPB̃)⁻¹·B̃ᵀP·(Ã·ξ(k) + Ẽ·u(k)) = −L̃·ξ(k) + l·u(k).
+  const StateSpace scaled = realize(model.tf);
+  const Eigen::Index n = scaled.order(), m = reference.order();
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n + m, n + m);
+  A.topLeftCorner(n, n) = scaled.A;
+  A.bottomRightCorner(m, m) = reference.A;
+  Eigen::VectorXd B = Eigen::VectorXd::Zero(n + m), E = Eigen::VectorXd::Zero(n + m);
+  B.head(n) = scaled.B;
+  E.tail(m) = reference.B;
+  Eigen::RowVectorXd H(n + m);
+  H << scaled.C, -reference.C;
+  const Eigen::MatrixXd Q = weights.R0 * H.transpose() * H;
+  const Eigen::MatrixXd P = solve_dare(A, B, Q, weights.R);
+  const Eigen::RowVectorXd L = lq_gain(A, B, P, weights.R);
+  const Eigen::VectorXd PB = P * B;
+  const double feedthrough = -PB.dot(E) / (weights.R + B.dot(PB));
+
+  // Raw units as in design_lq; the program enters the reference scaled (w = u_raw/u_scale) and y_r leaves raw.
+  const Scaling& s = model.scaling;
+  LqFeedforward ff = raw_units(model, scaled, L.head(n), weights);
+  ff.target.band = band;
+  ff.target.gain = gain * s.y_scale / s.u_scale;
+  ff.target.delay = delay;
+  ff.target.model.A = reference.A;
+  ff.target.model.B = reference.B / s.u_scale;
+  ff.target.model.C = reference.C * s.y_scale;
+  ff.target.model.D = reference.D * s.y_scale / s.u_scale;
+  ff.target.L = L.tail(m) * s.u_scale;
+  ff.target.feedthrough = feedthrough;
   return ff;
 }
 
@@ -203,6 +333,18 @@ InputLimits max_input(const LqFeedforward& ff, const std::vector<dsp::Biquad>& b
   return limits;
 }
 
+double noise_excursion(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass, Eigen::Index samples,
+                       std::uint64_t seed) {
+  if (samples < 1) throw std::invalid_argument("noise_excursion: samples must be >= 1, got " + std::to_string(samples));
+  // max_input()'s noise: uniform in [−1, 1] from dsp::Rng(seed), band-passed, from rest.
+  dsp::SosFilter filter(band_pass);
+  dsp::Rng rng(seed);
+  Eigen::VectorXd program(samples);
+  for (Eigen::Index k = 0; k < samples; ++k) program[k] = filter.process(rng.uniform(-1.0, 1.0));
+  const Eigen::VectorXd y_lin = simulate(ff.desired(), program);
+  return dsp::leaky_integral(dsp::leaky_integral(y_lin, ff.fs), ff.fs).cwiseAbs().maxCoeff();
+}
+
 namespace {
 // drive_peak's and unity_gain_hz's grid: 2000 frequencies, logarithmic from 1 Hz to just below Nyquist.
 Eigen::VectorXd response_grid(double fs) {
@@ -244,7 +386,7 @@ std::vector<double> unity_gain_hz(const LqFeedforward& ff) {
 }
 
 nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff) {
-  return {
+  nlohmann::json j = {
       {"format", kModelFormat},
       {"kind", kLqFeedforwardKind},
       {"fs", ff.fs},
@@ -258,7 +400,50 @@ nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff) {
         {"R0", ff.weights.R0}}},
       {"meta", ff.meta.is_null() ? nlohmann::json::object() : ff.meta},
   };
+  if (ff.has_target()) {
+    const LqTarget& t = ff.target;
+    j["params"]["target"] = {{"highpass_hz", t.band.highpass_hz},
+                             {"order", t.band.order},
+                             {"mid_hz", t.band.mid_hz},
+                             {"gain", t.gain},
+                             {"delay", t.delay},
+                             {"A", matrix_to_json(t.model.A)},
+                             {"B", to_array(t.model.B)},
+                             {"C", to_array(t.model.C.transpose())},
+                             {"D", t.model.D},
+                             {"L", to_array(t.L.transpose())},
+                             {"feedthrough", t.feedthrough}};
+  }
+  return j;
 }
+
+namespace {
+
+// Reads A (square), B, C, D and L of `f` into `ss` and `L`, checking that B, C and L have A's size;
+// ConfigError names the key ("model.params.L: 7 entries, A has 8 states").
+void read_feedback_system(JsonFields& f, StateSpace& ss, Eigen::RowVectorXd& L) {
+  const auto required = [&f](const char* key) -> const nlohmann::json& {
+    const nlohmann::json* v = f.member(key);
+    if (v == nullptr) throw ConfigError(f.path_of(key) + ": missing");
+    return *v;
+  };
+  ss.A = read_matrix(required("A"), f.path_of("A"));
+  const Eigen::Index n = ss.A.rows();
+  const auto states = [&f, n](const Eigen::Index size, const char* key) {
+    if (size != n) {
+      throw ConfigError(f.path_of(key) + ": " + std::to_string(size) + " entries, A has " + std::to_string(n) + " states");
+    }
+  };
+  ss.B = read_vector(required("B"), f.path_of("B"));
+  states(ss.B.size(), "B");
+  ss.C = read_vector(required("C"), f.path_of("C")).transpose();
+  states(ss.C.size(), "C");
+  ss.D = f.number("D");
+  L = read_vector(required("L"), f.path_of("L")).transpose();
+  states(L.size(), "L");
+}
+
+}  // namespace
 
 LqFeedforward lq_feedforward_from_json(const nlohmann::json& j) {
   LqFeedforward ff;
@@ -268,36 +453,32 @@ LqFeedforward lq_feedforward_from_json(const nlohmann::json& j) {
   const nlohmann::json* params = top.member("params");
   if (params == nullptr) throw ConfigError("model.params: missing");
   JsonFields p(*params, "model.params");
-  const auto required = [&p](const char* key) -> const nlohmann::json& {
-    const nlohmann::json* v = p.member(key);
-    if (v == nullptr) throw ConfigError(p.path_of(key) + ": missing");
-    return *v;
-  };
-  ff.plant.A = read_matrix(required("A"), "model.params.A");
-  const Eigen::Index n = ff.plant.A.rows();
-  const auto states = [n](const Eigen::Index size, const char* key) {
-    if (size != n) {
-      throw ConfigError(std::string("model.params.") + key + ": " + std::to_string(size) + " entries, A has " +
-                        std::to_string(n) + " states");
-    }
-  };
-  ff.plant.B = read_vector(required("B"), "model.params.B");
-  states(ff.plant.B.size(), "B");
-  ff.plant.C = read_vector(required("C"), "model.params.C").transpose();
-  states(ff.plant.C.size(), "C");
-  ff.plant.D = p.number("D");
-  ff.L = read_vector(required("L"), "model.params.L").transpose();
-  states(ff.L.size(), "L");
+  read_feedback_system(p, ff.plant, ff.L);
   ff.weights.R = p.number("R");
   require_positive(ff.weights.R, "model.params.R");
   ff.weights.R0 = p.number("R0");
   require_non_negative(ff.weights.R0, "model.params.R0");
+  if (const nlohmann::json* target = p.member("target")) {
+    JsonFields t(*target, "model.params.target");
+    LqTarget& r = ff.target;
+    read_feedback_system(t, r.model, r.L);
+    r.band.highpass_hz = t.number("highpass_hz");
+    require_positive(r.band.highpass_hz, "model.params.target.highpass_hz");
+    r.band.order = static_cast<int>(t.integer("order", 2, 1, 8));
+    r.band.mid_hz = t.number("mid_hz");
+    require_positive(r.band.mid_hz, "model.params.target.mid_hz");
+    r.gain = t.number("gain");
+    r.delay = static_cast<int>(t.integer("delay", 1, 0, 1000000));
+    r.feedthrough = t.number("feedthrough");
+    t.finish();
+    if (r.model.order() == 0) throw ConfigError("model.params.target.A: the reference model has no states");
+  }
   p.finish();
 
   ff.meta = read_model_meta(top);
   top.finish();
 
-  if (n > 0) {
+  if (ff.plant.order() > 0) {
     const Eigen::VectorXcd poles = ff.poles();
     Eigen::Index worst = 0;
     for (Eigen::Index i = 1; i < poles.size(); ++i) {

@@ -25,6 +25,23 @@ struct LqWeights {
   double R0 = 20.0;  ///< weight on the model output y (R0 ≥ 0)
 };
 
+/// A target band for the desired response (fig. 7.10's y_desired): a Butterworth high-pass, flat above.
+struct LqTargetBand {
+  double highpass_hz = 0.0;  ///< the high-pass corner, Hz, in (0, fs/2)
+  int order = 2;             ///< its Butterworth order, 1…8
+  double mid_hz = 0.0;       ///< where the target's gain is set to the model's (in (0, fs/2))
+};
+
+/// The reference model the LQ design tracks instead of regulating y to 0 (empty: the thesis's [7A]).
+struct LqTarget {
+  LqTargetBand band;         ///< what the user asked for
+  double gain = 0.0;         ///< signed: the model's gain at band.mid_hz, raw units (the sign keeps its phase)
+  int delay = 0;             ///< samples: the model's delay (nk plus leading zero coefficients), at least 1
+  StateSpace model;          ///< program (raw) → y_r (raw): gain·z^−delay·high-pass, realised
+  Eigen::RowVectorXd L;      ///< feedback on the reference model's states, raw drive units per state
+  double feedthrough = 1.0;  ///< u*(k)'s term in the program u(k)
+};
+
 /// An LQ feedforward controller designed on a linear model.
 struct LqFeedforward {
   StateSpace plant;        ///< the linear model realised in raw units: u (drive) → y (raw output)
@@ -32,21 +49,33 @@ struct LqFeedforward {
   LqWeights weights;       ///< the weights it was designed with
   double fs = 0.0;         ///< sample rate, Hz
   nlohmann::json meta = nlohmann::json::object();  ///< provenance (model file, band-pass, …)
+  LqTarget target;         ///< the tracked target band (target.model.order() == 0: none, flat [7A]/[7B])
 
-  /// [7B] u → u*:  x(k+1) = (A − BL)·x(k) + B·u(k),  u*(k) = −L·x(k) + u(k).
+  /// True when the design tracks a target band (target.model has states).
+  bool has_target() const { return target.model.order() > 0; }
+  /// [7B] u → u*:  x(k+1) = (A − BL)·x(k) + B·u(k),  u*(k) = −L·x(k) + u(k); with a target, the state is
+  /// [x; x_r], x_r(k+1) = A_r·x_r(k) + B_r·u(k) and u*(k) = −L·x(k) − L_r·x_r(k) + l·u(k).
   StateSpace controller() const;
   /// [7B] u → y_lin: x(k+1) = (A − BL)·x(k) + B·u(k),  y_lin(k) = (C − D·L)·x(k) + D·u(k): the desired
-  /// response (the model driven by u*; the thesis's D = 0 makes it C·x(k)).
+  /// response (the model driven by u*; the thesis's D = 0 makes it C·x(k)); with a target, the model
+  /// driven by controller()'s u*.
   StateSpace desired() const;
-  /// Poles of the controlled system: eigenvalues of A − BL.
+  /// Poles of the controlled system: eigenvalues of A − BL (and, with a target, the reference model's).
   Eigen::VectorXcd poles() const;
-  /// Finite zeros of the controller u*/u (the poles of the plant model, which it cancels).
+  /// Finite zeros of the controller u*/u (without a target: the poles of the plant model, which it cancels).
   Eigen::VectorXcd zeros() const;
 };
 
 /// Designs the controller of [7A]/[7B] on `model` (balanced realisation in scaled units, Q = Cᵀ·R0·C);
 /// throws std::invalid_argument for R ≤ 0, R0 < 0, non-finite weights or an unstable model.
 LqFeedforward design_lq(const LinearModel& model, const LqWeights& weights);
+
+/// [7A] as a tracking problem: the model's output y follows y_r = gain·z^−delay·HP(z)·u, HP the Butterworth
+/// high-pass of `band` (dsp::butterworth_highpass), gain the model's at band.mid_hz (signed to the nearer
+/// phase), delay the model's. The augmented state [x; x_r] with the program u(k) known when u*(k) is chosen:
+/// minimises Σ R0·(y − y_r)² + R·u*² for a white program. Throws std::invalid_argument as design_lq does,
+/// and for a corner or mid frequency outside (0, fs/2) or an order outside 1…8.
+LqFeedforward design_lq(const LinearModel& model, const LqWeights& weights, const LqTargetBand& band);
 
 /// The largest program amplitudes that keep u* within [−1, 1] behind `band_pass` (empty: none).
 struct InputLimits {
@@ -60,6 +89,13 @@ struct InputLimits {
 /// rest. Throws std::invalid_argument for samples < 1, an unstable controller or band-pass section.
 InputLimits max_input(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
                       Eigen::Index samples = 100000, std::uint64_t seed = 1);
+
+/// The estimated peak excursion for the noise of max_input() at program peak 1: the desired response
+/// y_lin (the model's output, acceleration) to the band-passed noise, integrated twice by
+/// dsp::leaky_integral (an integrator above fs/500), its largest magnitude, in the model output's units × s².
+/// The linear model scales it with the program's level. Throws std::invalid_argument for samples < 1.
+double noise_excursion(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
+                       Eigen::Index samples = 100000, std::uint64_t seed = 1);
 
 /// Where the drive u* = (controller · band-pass)(program) is loudest for a sine: its gain's peak.
 struct DrivePeak {
@@ -78,7 +114,8 @@ DrivePeak drive_peak(const LqFeedforward& ff, const std::vector<dsp::Biquad>& ba
 std::vector<double> unity_gain_hz(const LqFeedforward& ff);
 
 /// {"format":"panelbass.model/1","kind":"lq_feedforward","fs",
-///  "params":{"A":[[…]],"B":[…],"C":[…],"D","L":[…],"R","R0"},"meta"}.
+///  "params":{"A":[[…]],"B":[…],"C":[…],"D","L":[…],"R","R0"[,"target":{"highpass_hz","order","mid_hz",
+///  "gain","delay","A","B","C","D","L","feedthrough"}]},"meta"}.
 nlohmann::json lq_feedforward_to_json(const LqFeedforward& ff);
 /// Reads and validates an LQ feedforward object: shapes, finite entries, fs > 0 and a stable A − BL;
 /// ConfigError names the key ("model.params.L: 7 entries, A has 8 states").

@@ -14,6 +14,9 @@ namespace panelbass::models {
 namespace {
 
 constexpr const char* kMirrorFilterKind = "mirror_filter";
+// The model's structure in files: 2 takes [M1]'s back-EMF at the end of the sample (1, before issue #34's last
+// session, at its middle; such a file is refused rather than run with another meaning).
+constexpr long kMirrorStructure = 2;
 constexpr double kMmPerM = 1000.0;
 // Friction velocity scales tried by the fit, mm/s.
 constexpr double kFrictionVelocities[] = {5.0, 7.0, 10.0, 14.0, 20.0, 30.0, 50.0, 70.0, 100.0, 140.0, 200.0};
@@ -81,13 +84,12 @@ double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noe
     v1 -= step;
     if (std::abs(step) <= 1e-15 * (1.0 + std::abs(v1))) break;
   }
-  const double mid = 0.5 * (s.v + v1);
-  // [M1] solved for i_{k+1}
-  const Electrical el = electrical_terms(m.electrical, s.x, s.i);
+  // [M1] solved for i_{k+1}, the back-EMF at x_{k+1}, v_{k+1}
+  const Electrical el = electrical_terms(m.electrical, s.x + h * v1, s.i);
   const std::array<double, 4>& a = m.drive_taps;
   const double w = a[0] * drive + a[1] * s.past[0] + a[2] * s.past[1] + a[3] * s.past[2];
   s.past = {drive, s.past[0], s.past[1]};
-  const double i1 = (w - el.back_emf * mid + el.inductance * s.i / h) / (el.inductance / h + m.electrical[4]);
+  const double i1 = (w - el.back_emf * v1 + el.inductance * s.i / h) / (el.inductance / h + m.electrical[4]);
   const double accel = (v1 - s.v) / h;
   s.i = i1;
   s.v = v1;
@@ -117,7 +119,6 @@ void MirrorFilter::reset() noexcept {
 
 double MirrorFilter::process(double program) noexcept {
   const double h = 1.0 / model_.fs;
-  const double x = ref_.x, v = ref_.v;  // the reference's motion at k, which the nonlinear model shares
   step_mirror_model(reference_, ref_, program);  // the reference at k+1
   const std::array<double, 10>& c = model_.mechanical;
   const std::array<double, 10>& r = reference_.mechanical;
@@ -140,8 +141,8 @@ double MirrorFilter::process(double program) noexcept {
     next = c[0] * ref_.i / (qb != 0.0 ? qb : c[0]);
   }
   // [M1] at k: the drive that takes the current from ĩ_k to ĩ_{k+1} at the reference's motion
-  const Electrical el = electrical_terms(model_.electrical, x, current_);
-  const double w = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * 0.5 * (v + v1);
+  const Electrical el = electrical_terms(model_.electrical, x1, current_);
+  const double w = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * v1;
   // the drive whose A(z)-filtered value is w: drive_k = (w − Σ_{j≥1} a_j·drive_{k−j}) / a_0
   const std::array<double, 4>& a = model_.drive_taps;
   const double drive = (w - a[1] * past_[0] - a[2] * past_[1] - a[3] * past_[2]) / a[0];
@@ -170,7 +171,7 @@ Eigen::VectorXd simulate_mirror_model(const MirrorModel& model, const Eigen::Vec
 }
 
 MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& current,
-                           const Eigen::VectorXd& displacement, double fs, int max_delay) {
+                           const Eigen::VectorXd& displacement, double fs, int max_delay, MirrorRecordKind kind) {
   const Eigen::Index n = drive.size();
   if (current.size() != n || displacement.size() != n) {
     throw std::invalid_argument("mirror fit: drive, current and displacement must have the same length (" +
@@ -206,19 +207,35 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
     accel[r] = (v[k + 1] - v[k]) / h;
     mech.row(r) << ik, ik * xk, ik * xk * xk, ik * ik, ik * ik * xk, mid[k], xk, xk * xk, xk * xk * xk, 0.0;
   }
+  // a sampled plant: Numerov's weights on the rows (the model's docs), one row fewer at each end
+  const bool sampled = kind == MirrorRecordKind::sampled_plant;
+  const Eigen::Index used_rows = sampled ? rows - 2 : rows;
+  const Eigen::VectorXd accel_target = sampled ? Eigen::VectorXd(accel.segment(1, used_rows)) : accel;
+  Eigen::MatrixXd weighted(used_rows, 10);
   double best = std::numeric_limits<double>::infinity();
   for (double v0 : kFrictionVelocities) {
     for (Eigen::Index r = 0; r < rows; ++r) mech(r, 9) = std::tanh(mid[first + r] / v0);
+    if (sampled) {
+      weighted = (mech.topRows(used_rows) + 10.0 * mech.middleRows(1, used_rows) + mech.bottomRows(used_rows)) / 12.0;
+    } else {
+      weighted = mech;
+    }
     double residual = 0.0;
-    const Eigen::VectorXd c = scaled_least_squares(mech, accel, residual);
+    const Eigen::VectorXd c = scaled_least_squares(weighted, accel_target, residual);
     if (residual < best) {
       best = residual;
       fit.model.friction_velocity = v0;
       for (int j = 0; j < 10; ++j) fit.model.mechanical[static_cast<std::size_t>(j)] = c[j];
     }
   }
-  fit.mechanical_fit_pct = 100.0 * best / accel.squaredNorm();
-  fit.mechanical_residual_rms = std::sqrt(best / static_cast<double>(rows));
+  fit.mechanical_fit_pct = 100.0 * best / accel_target.squaredNorm();
+  fit.mechanical_residual_rms = std::sqrt(best / static_cast<double>(used_rows));
+  if (sampled && fit.model.mechanical[6] < 0.0) {
+    // the one-step recursion's resonance put where the plant's is: 2 − 2·cos θ = −h²·c6 with θ = ω₀h
+    const double wh = std::sqrt(-fit.model.mechanical[6]) * h;
+    const double warp = (2.0 - 2.0 * std::cos(wh)) / (wh * wh);
+    for (double& c : fit.model.mechanical) c *= warp;
+  }
 
   // [M1] without the inductance (the coil's time constant, a fraction of a sample, and the DA filter's lag are
   // A(z)'s), solved for the current: i_{k+1} = (Σ_j a_j·drive_{k−d−j} − E_v(x_k, i_k)·v̄_k) / e_R, linear in
@@ -230,10 +247,11 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
   Eigen::MatrixXd regressors(rows, 7);
   for (Eigen::Index r = 0; r < rows; ++r) {
     const Eigen::Index k = first + r;
-    const double xk = x[k], ik = i[k];
+    // [M1]'s back-EMF at the end of the sample: x_{k+1}, v_{k+1}
+    const double xk = x[k + 1], ik = i[k], vk = v[k + 1];
     // the back-EMF's force factor has the shape Bl(x)/Bl0 = 1 + b1·x + b2·x² that [M2] found (one Bl for both
     // equations: the mechanical fit is the better determined one)
-    regressors.block(r, 4, 1, 3) << -mid[k] * (1.0 + b1 * xk + b2 * xk * xk), -ik * mid[k], -ik * xk * mid[k];
+    regressors.block(r, 4, 1, 3) << -vk * (1.0 + b1 * xk + b2 * xk * xk), -ik * vk, -ik * xk * vk;
   }
   const Eigen::VectorXd target = current.segment(first + 1, rows);
   best = std::numeric_limits<double>::infinity();
@@ -274,6 +292,7 @@ nlohmann::json mirror_model_to_json(const MirrorModel& m, const nlohmann::json& 
            {{"electrical", m.electrical},
             {"mechanical", m.mechanical},
             {"friction_velocity_mm_per_s", m.friction_velocity},
+            {"structure", kMirrorStructure},
             {"delay", m.delay},
             {"drive_taps", m.drive_taps}}},
           {"meta", meta.is_null() ? nlohmann::json::object() : meta}};
@@ -308,6 +327,10 @@ MirrorModel mirror_model_from_json(const nlohmann::json& j) {
     }
     for (int k = 0; k < 10; ++k) out[static_cast<std::size_t>(k)] = read[k];
   };
+  if (p.member("structure") == nullptr || p.integer("structure", 0, 0, 1000) != kMirrorStructure) {
+    throw ConfigError(p.path_of("structure") + ": " + std::to_string(kMirrorStructure) +
+                      " expected (a mirror filter fitted by an older panelbass: fit it again with `design mirror`)");
+  }
   coefficients("electrical", m.electrical);
   coefficients("mechanical", m.mechanical);
   m.friction_velocity = p.number("friction_velocity_mm_per_s");

@@ -113,26 +113,38 @@ void MirrorObserver::step_state(const Vector& z, double drive, Vector& out) cons
   out[kNonlinearScale] = z[kNonlinearScale];
 }
 
+void MirrorObserver::propagate(const MirrorJacobianBlock& jacobian, Matrix& p, Matrix& scratch) noexcept {
+  constexpr int kShifted = kHistory - 1;
+  // F·P: rows i, x, v_0 from the block on P's rows (i, x, v_0, θ…); the history's rows are P's one row up; the scales'
+  // rows are P's
+  Eigen::Matrix<double, 6, kStates> rows;
+  rows << p.topRows<3>(), p.bottomRows<3>();
+  scratch.topRows<3>().noalias() = jacobian * rows;
+  scratch.middleRows<kShifted>(3) = p.middleRows<kShifted>(2);
+  scratch.bottomRows<3>() = p.bottomRows<3>();
+  // (F·P)·Fᵀ the same way on the columns
+  Eigen::Matrix<double, kStates, 6> cols;
+  cols << scratch.leftCols<3>(), scratch.rightCols<3>();
+  p.leftCols<3>().noalias() = cols * jacobian.transpose();
+  p.middleCols<kShifted>(3) = scratch.middleCols<kShifted>(2);
+  p.rightCols<3>() = scratch.rightCols<3>();
+}
+
 void MirrorObserver::predict(double drive) noexcept {
   // [EKF] z⁻ = f(z, u), P⁻ = F·P·Fᵀ + Q, F = ∂f/∂z: by finite differences for (i, x, v_0 and the scales), a shift for the
   // velocity history
   step_state(z_, drive, base_);
-  f_.setZero();
-  for (int c = 0; c < 3; ++c) {
+  constexpr int kColumns[] = {kObservedCurrent, kObservedDisplacement, kObservedVelocity, kStiffnessScale, kForceScale,
+                              kNonlinearScale};
+  for (int j = 0; j < 6; ++j) {
+    const int c = kColumns[j];
+    const double step = j < 3 ? kObserverStep[j] : kObserverScaleStep;
     scratch_ = z_;
-    scratch_[c] += kObserverStep[c];
+    scratch_[c] += step;
     step_state(scratch_, drive, gain_);
-    f_.col(c) = (gain_ - base_) / kObserverStep[c];
+    jacobian_.col(j) = (gain_.head<3>() - base_.head<3>()) / step;
   }
-  for (const int c : {kStiffnessScale, kForceScale, kNonlinearScale}) {
-    scratch_ = z_;
-    scratch_[c] += kObserverScaleStep;
-    step_state(scratch_, drive, gain_);
-    f_.col(c) = (gain_ - base_) / kObserverScaleStep;
-  }
-  for (int j = 1; j < kHistory; ++j) f_(kObservedVelocity + j, kObservedVelocity + j - 1) = 1.0;
-  fp_.noalias() = f_ * p_;
-  p_.noalias() = fp_ * f_.transpose();
+  propagate(jacobian_, p_, fp_);
   p_.diagonal() += q_;
   z_ = base_;
   past_ = {drive, past_[0], past_[1]};

@@ -43,6 +43,10 @@ struct MirrorScales {
 /// The model with its coefficients scaled by `scales`.
 MirrorModel with_scales(MirrorModel model, const MirrorScales& scales);
 
+/// The observer's Jacobian ∂f/∂z by its structure: rows i, x, v_0 depend on (i, x, v_0, θ_K, θ_F, θ_N) alone (this
+/// 3×6 block, columns in that order), the velocity history is a shift (v_j ← v_{j−1}) and the scales are held.
+using MirrorJacobianBlock = Eigen::Matrix<double, 3, 6>;
+
 /// The extended Kalman filter that estimates the exciter's state (current, displacement, velocity) and the scales
 /// θ_K, θ_F, θ_N from the drive it is given and the sensor's output. The model's `observer` must be set.
 class MirrorObserver {
@@ -56,6 +60,10 @@ class MirrorObserver {
   static constexpr int kStates = 2 + kHistory + 3;
   using Vector = Eigen::Matrix<double, kStates, 1>;
   using Matrix = Eigen::Matrix<double, kStates, kStates>;
+
+  /// [EKF] P ← F·P·Fᵀ for the F that `jacobian` and the shift structure make (about a tenth of the dense product's
+  /// work); `scratch` holds F·P. Allocation-free.
+  static void propagate(const MirrorJacobianBlock& jacobian, Matrix& p, Matrix& scratch) noexcept;
 
   /// An observer at rest, every scale 1. Throws std::invalid_argument when the model has no observer settings or its
   /// delay exceeds kMaxDelay.
@@ -81,7 +89,8 @@ class MirrorObserver {
 
   MirrorModel model_;
   Vector z_, h_, q_, scratch_, base_, gain_;
-  Matrix p_, f_, fp_;
+  Matrix p_, fp_;
+  MirrorJacobianBlock jacobian_;
   std::array<double, 3> past_{};  // drive_{k−1..k−3}, the model's A(z) history
   double r_ = 1.0;
 };

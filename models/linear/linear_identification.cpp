@@ -115,9 +115,9 @@ LinearIdentification identify_linear(const Eigen::VectorXd& u_est, const Eigen::
   out.nk_source = spec.delay >= 0 ? "given" : delay_finding(out.survey);
   const Eigen::VectorXd us = scaling.scale_u(u_est), ys = scaling.scale_y(y_est);
 
-  auto make_model = [&](int order) {
+  auto make_model = [&](int order, int delay) {
     LinearModel m;
-    m.tf = estimate_scaled(us, ys, order, nk, spec);
+    m.tf = estimate_scaled(us, ys, order, delay, spec);
     if (!m.tf.all_finite()) throw EstimationError(to_string(spec.method) + ": the fit produced non-finite coefficients");
     if (!m.tf.is_stable()) {
       throw EstimationError(to_string(spec.method) + " at order " + std::to_string(order) +
@@ -135,7 +135,7 @@ LinearIdentification identify_linear(const Eigen::VectorXd& u_est, const Eigen::
       if (spec.progress) spec.progress("scan", static_cast<double>(n - spec.scan_from) / (spec.scan_to - spec.scan_from + 1));
       LinearModel m;
       try {
-        m = make_model(n);
+        m = make_model(n, nk);
       } catch (const EstimationError& e) {
         // An order the data cannot support: skipped, unless none can be fitted at all.
         if (out.scan.empty() && n == spec.scan_to) throw;
@@ -156,8 +156,26 @@ LinearIdentification identify_linear(const Eigen::VectorXd& u_est, const Eigen::
     out.order_rule = "smallest order whose validation J is within 5 % of the best (" + std::to_string(best) + " %)";
   }
   if (spec.progress) spec.progress("fit", 0.0);
-  out.model = make_model(order);
+  out.model = make_model(order, nk);
   const Eigen::Index init_est = std::min<Eigen::Index>(spec.init, u_est.size() / 10);
+  // The first significant tap sits at a threshold: record noise can move a slow rise's onset one lag early,
+  // and a local fit (OE) from there may stop worse than from the true dead time. So an estimated delay is
+  // fitted one lag later too, and the fit with the lower J (validation, else estimation) is kept.
+  if (spec.delay < 0 && out.survey.delay_found) {
+    auto j_of = [&](const LinearModel& m) {
+      return have_val ? simulation_j_percent(m, u_val, y_val, spec.init) : simulation_j_percent(m, u_est, y_est, init_est);
+    };
+    try {
+      LinearModel later = make_model(order, nk + 1);
+      const double j_first = j_of(out.model), j_later = j_of(later);
+      const bool keep_later = j_later < j_first;
+      out.nk_source += "; lag " + std::to_string(nk + 1) + " fitted too (J " + std::to_string(j_later) + " % against " +
+                       std::to_string(j_first) + " %), " + (keep_later ? "kept" : "not kept");
+      if (keep_later) out.model = std::move(later);
+    } catch (const EstimationError& e) {
+      out.nk_source += "; lag " + std::to_string(nk + 1) + " could not be fitted (" + e.what() + ")";
+    }
+  }
   out.j_est_pct = simulation_j_percent(out.model, u_est, y_est, init_est);
   out.j_pred_est_pct = j_percent(out.model.predict(u_est, y_est), y_est, init_est);
   if (have_val) out.j_val_pct = simulation_j_percent(out.model, u_val, y_val, spec.init);

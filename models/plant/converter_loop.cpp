@@ -9,50 +9,57 @@
 #include "dsp/butterworth.h"
 
 namespace panelbass::models {
+
+std::vector<ConverterSection> converter_sections(const AnalogFilter& filter, int& next) {
+  std::vector<ConverterSection> out;
+  if (filter.order == 0) return out;
+  for (const dsp::AnalogSection& s : dsp::analog_butterworth_lowpass(filter.order, filter.cutoff_hz)) {
+    out.push_back(ConverterSection{s, next});
+    next += s.first_order ? 1 : 2;
+  }
+  return out;
+}
+
+double converter_derivatives(const std::vector<ConverterSection>& sections, const Eigen::VectorXd& s, double in,
+                             Eigen::VectorXd& ds) noexcept {
+  double signal = in;
+  for (const ConverterSection& sec : sections) {
+    const int p = sec.state;
+    if (sec.first_order) {
+      ds[p] = sec.omega * (signal - s[p]);
+    } else {
+      ds[p] = s[p + 1];
+      ds[p + 1] = sec.omega * sec.omega * (signal - s[p]) - sec.omega / sec.q * s[p + 1];
+    }
+    signal = s[p];
+  }
+  return signal;
+}
+
 namespace {
 
-// The continuous-time cascade of `filters` in state-space form (the sections' states in order, each fed by
-// the previous section's output): ω/(s+ω) as x' = ω(in − x); ω²/(s² + (ω/q)s + ω²) as x1' = x2,
-// x2' = ω²(in − x1) − (ω/q)·x2; the output is the last section's x (x1).
+// The continuous-time cascade of the DA and AD filters in state-space form, x' = A·x + b·u, output c·x: the
+// columns of converter_derivatives (which is linear in the state and the input) at each unit state and input.
 struct Cascade {
   Eigen::MatrixXd a;
   Eigen::VectorXd b, c;
 };
 
-Cascade analog_cascade(const std::vector<AnalogFilter>& filters) {
-  std::vector<dsp::AnalogSection> sections;
-  for (const AnalogFilter& f : filters) {
-    if (f.order == 0) continue;
-    for (const dsp::AnalogSection& s : dsp::analog_butterworth_lowpass(f.order, f.cutoff_hz)) sections.push_back(s);
-  }
+Cascade analog_cascade(const PlantConfig& plant) {
   int n = 0;
-  for (const dsp::AnalogSection& s : sections) n += s.first_order ? 1 : 2;
+  std::vector<ConverterSection> sections = converter_sections(plant.converters.da_filter, n);
+  for (const ConverterSection& s : converter_sections(plant.converters.ad_filter, n)) sections.push_back(s);
   Cascade out{Eigen::MatrixXd::Zero(n, n), Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n)};
-  int p = 0, input = -1;  // input: the state feeding this section (−1: the drive)
-  for (const dsp::AnalogSection& s : sections) {
-    const auto feed = [&](int row, double gain) {
-      if (input < 0) {
-        out.b[row] += gain;
-      } else {
-        out.a(row, input) += gain;
-      }
-    };
-    if (s.first_order) {
-      out.a(p, p) = -s.omega;
-      feed(p, s.omega);
-      input = p;
-      p += 1;
-    } else {
-      const double w2 = s.omega * s.omega;
-      out.a(p, p + 1) = 1.0;
-      out.a(p + 1, p) = -w2;
-      out.a(p + 1, p + 1) = -s.omega / s.q;
-      feed(p + 1, w2);
-      input = p;
-      p += 2;
-    }
+  Eigen::VectorXd unit = Eigen::VectorXd::Zero(n), ds = Eigen::VectorXd::Zero(n);
+  for (int j = 0; j < n; ++j) {
+    unit.setZero();
+    unit[j] = 1.0;
+    out.c[j] = converter_derivatives(sections, unit, 0.0, ds);
+    out.a.col(j) = ds;
   }
-  if (input >= 0) out.c[input] = 1.0;
+  unit.setZero();
+  converter_derivatives(sections, unit, 1.0, ds);
+  out.b = ds;
   return out;
 }
 
@@ -62,7 +69,7 @@ Eigen::VectorXd converters_alone(const PlantConfig& plant, const Eigen::VectorXd
   for (Eigen::Index k = 0; k < drive.size(); ++k) {
     if (!std::isfinite(drive[k])) throw std::invalid_argument("converters: drive sample " + std::to_string(k) + " is not finite");
   }
-  const Cascade cascade = analog_cascade({plant.converters.da_filter, plant.converters.ad_filter});
+  const Cascade cascade = analog_cascade(plant);
   const auto delay = static_cast<Eigen::Index>(plant.converters.delay_samples);
   Eigen::VectorXd out = Eigen::VectorXd::Zero(drive.size());
   const Eigen::Index n = cascade.a.rows();

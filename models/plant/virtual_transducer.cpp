@@ -5,7 +5,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "dsp/butterworth.h"
 
 namespace panelbass::models {
 namespace {
@@ -32,15 +31,8 @@ double soft_clip(double u, double level, double knee) noexcept {
 VirtualTransducer::VirtualTransducer(PlantConfig config, std::uint64_t noise_seed)
     : config_(std::move(config)), noise_seed_(noise_seed), noise_(noise_seed) {
   int next = mode_state_ + 2 * static_cast<int>(config_.panel_modes.size());
-  auto layout = [&next](const AnalogFilter& f, std::vector<Section>& out) {
-    if (f.order == 0) return;
-    for (const dsp::AnalogSection& s : dsp::analog_butterworth_lowpass(f.order, f.cutoff_hz)) {
-      out.push_back(Section{s.omega, s.q, s.first_order, next});
-      next += s.first_order ? 1 : 2;
-    }
-  };
-  layout(config_.converters.da_filter, da_sections_);
-  layout(config_.converters.ad_filter, ad_sections_);
+  da_sections_ = converter_sections(config_.converters.da_filter, next);
+  ad_sections_ = converter_sections(config_.converters.ad_filter, next);
   if (config_.creep.fraction > 0.0) creep_state_ = next++;
   for (Eigen::VectorXd* v : {&state_, &k1_, &k2_, &k3_, &k4_, &trial_}) v->setZero(next);
   delay_line_.assign(static_cast<std::size_t>(config_.converters.delay_samples), 0.0);
@@ -54,28 +46,12 @@ void VirtualTransducer::reset() noexcept {
 }
 
 // A cascade of analog Butterworth sections: ω/(s+ω) or ω²/(s² + (ω/q)s + ω²). Returns its output.
-double VirtualTransducer::filter_derivatives(const std::vector<Section>& sections, const Eigen::VectorXd& s,
-                                             double in, Eigen::VectorXd& ds) const noexcept {
-  double signal = in;
-  for (const Section& sec : sections) {
-    const int p = sec.state;
-    if (sec.first_order) {
-      ds[p] = sec.omega * (signal - s[p]);
-    } else {
-      ds[p] = s[p + 1];
-      ds[p + 1] = sec.omega * sec.omega * (signal - s[p]) - sec.omega / sec.q * s[p + 1];
-    }
-    signal = s[p];
-  }
-  return signal;
-}
-
 void VirtualTransducer::derivatives(const Eigen::VectorXd& s, double drive, Eigen::VectorXd& ds,
                                     double& accel) const noexcept {
   const PlantConfig& c = config_;
   const NonlinearTerms& n = c.nonlinear;
 
-  double u = filter_derivatives(da_sections_, s, drive, ds);
+  double u = converter_derivatives(da_sections_, s, drive, ds);
   if (const double g = n.clipping.gain(); g != 0.0) u += g * (soft_clip(u, n.clipping.level, n.clipping.knee) - u);
   const double volts = c.amplifier_gain_V * u + c.amplifier_offset_V;
 
@@ -130,7 +106,7 @@ void VirtualTransducer::derivatives(const Eigen::VectorXd& s, double drive, Eige
     const double limit = clip_V / c.sensor.sensitivity_V_per_mps2;
     accel = limit * std::tanh(accel / limit);
   }
-  filter_derivatives(ad_sections_, s, accel, ds);
+  converter_derivatives(ad_sections_, s, accel, ds);
 }
 
 PlantSample VirtualTransducer::step(double drive) noexcept {

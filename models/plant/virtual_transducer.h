@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "dsp/random.h"
+#include "models/plant/converter_loop.h"
 #include "models/plant/plant_config.h"
 
 namespace panelbass::models {
@@ -47,21 +48,12 @@ class VirtualTransducer {
   const PlantConfig& config() const { return config_; }
 
  private:
-  struct Section {
-    double omega;
-    double q;
-    bool first_order;
-    int state;  // index of the section's first state
-  };
-
   void derivatives(const Eigen::VectorXd& s, double drive, Eigen::VectorXd& ds, double& accel) const noexcept;
-  double filter_derivatives(const std::vector<Section>& sections, const Eigen::VectorXd& s, double in,
-                            Eigen::VectorXd& ds) const noexcept;
 
   PlantConfig config_;
   std::uint64_t noise_seed_;
   dsp::Rng noise_;
-  std::vector<Section> da_sections_, ad_sections_;
+  std::vector<ConverterSection> da_sections_, ad_sections_;  // the converters' filters (converter_loop.h)
   int mode_state_ = 4;
   int creep_state_ = -1;  // the suspension's relaxed displacement z, when the plant has creep
   Eigen::VectorXd state_, k1_, k2_, k3_, k4_, trial_;

@@ -28,7 +28,8 @@ SsParts<Scalar> parts_of(const SsStructure& s, Scalar* theta) {
   // Braced initialisation runs left to right: the parts in θ's order.
   return SsParts<Scalar>{take(n, n),     take(n, 1),  take(1, n),  take(1, 1),  take(h, n + 1),
                          take(h, 1),     take(n + 1, h), take(n + 1, 1), take(n, l2), take(n, 1),
-                         take(e, l2),    take(e, 1),  take(n, e),  take(n + 1, s.monomial_count()), s.poly_degree};
+                         take(e, l2),    take(e, 1),  take(n, e),  take(n + 1, s.monomial_count()), s.poly_degree,
+                         s.states + (s.poly_input ? 1 : 0)};
 }
 
 // Appends to `out` every non-decreasing index list of length `degree` from `first` on, after `prefix`.
@@ -56,9 +57,9 @@ Eigen::Index SsStructure::parameter_count() const {
 
 Eigen::Index SsStructure::monomial_count() const {
   // monomials of v variables of degree exactly d: C(v + d − 1, d)
-  Eigen::Index count = 0, of_degree = states + 1;  // degree 1
+  Eigen::Index count = 0, of_degree = states + (poly_input ? 1 : 0);  // degree 1
   for (int d = 2; d <= poly_degree; ++d) {
-    of_degree = of_degree * (states + d) / d;
+    of_degree = of_degree * (states + (poly_input ? 1 : 0) + d - 1) / d;
     count += of_degree;
   }
   return count;
@@ -135,7 +136,7 @@ void ss_step(const SsParts<const double>& p, const Eigen::Ref<const Eigen::Matri
   work.network.colwise() += p.b2.col(0);
   if (p.P.cols() > 0) {
     // + P·ζ(x, u)
-    if (static_cast<Eigen::Index>(work.factors.size()) != p.P.cols()) work.factors = ss_monomial_factors(n + 1, p.poly_degree);
+    if (static_cast<Eigen::Index>(work.factors.size()) != p.P.cols()) work.factors = ss_monomial_factors(p.poly_variables, p.poly_degree);
     ss_monomials(work.factors, X, U, work.monomials);
     work.network.noalias() += p.P * work.monomials;
   }
@@ -274,6 +275,7 @@ nlohmann::json ss_model_to_json(const SsModel& m) {
         {"lags", m.structure.lags},
         {"encoder_hidden", m.structure.encoder_hidden},
         {"poly_degree", m.structure.poly_degree},
+        {"poly_input", m.structure.poly_input},
         {"theta", to_array(m.theta)}}},
       {"meta", m.meta.is_null() ? nlohmann::json::object() : m.meta},
   };
@@ -298,6 +300,7 @@ SsModel ss_model_from_json(const nlohmann::json& j) {
   m.structure.lags = size("lags", 1, 1000);
   m.structure.encoder_hidden = static_cast<int>(p.integer("encoder_hidden", 0, 0, 1000));
   m.structure.poly_degree = static_cast<int>(p.integer("poly_degree", 0, 0, 5));
+  m.structure.poly_input = p.boolean("poly_input", true);
   try {
     m.structure.check();  // poly_degree 1, or hidden 0 without the polynomial
   } catch (const std::invalid_argument& e) {

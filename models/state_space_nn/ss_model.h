@@ -24,10 +24,11 @@ struct SsStructure {
   int lags = 50;           ///< L: past outputs and inputs the encoder reads
   int encoder_hidden = 0;  ///< tanh nodes of the encoder's network (0: an affine encoder)
   int poly_degree = 0;     ///< highest total degree of the polynomial ζ(x, u) in [f; h] (0: none, else 2–5)
+  bool poly_input = true;  ///< ζ's monomials include the input (false: monomials of the states alone)
 
   /// Number of parameters P of θ.
   Eigen::Index parameter_count() const;
-  /// Number of monomials of ζ: those of nx + 1 variables of total degree 2 … poly_degree.
+  /// Number of monomials of ζ: those of nx + 1 variables (nx without poly_input) of total degree 2 … poly_degree.
   Eigen::Index monomial_count() const;
   /// Throws std::invalid_argument naming the size out of range (states 1–64, hidden 0–1000 and at least 1
   /// without the polynomial, lags 1–1000, encoder_hidden 0–1000, poly_degree 0 or 2–5).
@@ -43,6 +44,7 @@ struct SsParts {
   using Map = Eigen::Map<std::conditional_t<std::is_const_v<Scalar>, const Eigen::MatrixXd, Eigen::MatrixXd>>;
   Map A, B, C, D, W1, b1, W2, b2, E, c2, V1, c1, V2, P;
   int poly_degree = 0;  ///< ζ's highest degree (the structure's)
+  int poly_variables = 0;  ///< ζ's variables: nx + 1 ([x; u]) or nx (the states alone)
 };
 
 /// The parts of `theta` (size s.parameter_count(), not checked) for structure `s`.
@@ -117,7 +119,8 @@ SsModel ss_model_from_linear(const StateSpace& linear, SsStructure s, const Eige
                              const Scaling& scaling, double fs, std::uint64_t seed);
 
 /// {"format":"panelbass.model/1","kind":"ss","fs","scaling","params":{"states","hidden","lags",
-/// "encoder_hidden","poly_degree","theta"},"meta"} (poly_degree optional on reading, 0 when absent).
+/// "encoder_hidden","poly_degree","poly_input","theta"},"meta"} (poly_degree optional on reading, 0 when
+/// absent; poly_input optional, true when absent).
 nlohmann::json ss_model_to_json(const SsModel& m);
 
 /// Reads and validates a neural state-space model object: sizes, θ of exactly P finite entries, fs > 0, and

@@ -23,6 +23,30 @@ double selection_j(const SsModel& m, const Eigen::VectorXd& u, const Eigen::Vect
 
 }  // namespace
 
+void ss_fit_encoder(SsModel& m, const Eigen::VectorXd& us, const Eigen::VectorXd& ys, const Eigen::MatrixXd& states) {
+  const Eigen::Index n = m.structure.states, L = m.structure.lags, samples = us.size();
+  if (ys.size() != samples || states.rows() != n || states.cols() != samples || samples <= 3 * L) {
+    throw std::invalid_argument("ss_fit_encoder: " + std::to_string(samples) + " samples of input, output and " +
+                                std::to_string(n) + " states needed, more than 3 × " + std::to_string(L) + " lags");
+  }
+  auto p = ss_parts(m.structure, m.theta.data());
+  // Least squares of x(k) on [z(k); 1] past the start-up (at most 20000 rows, evenly spread).
+  const Eigen::Index first = 2 * L, rows = std::min<Eigen::Index>(20000, samples - first);
+  const Eigen::Index stride = std::max<Eigen::Index>(1, (samples - first) / rows);
+  Eigen::MatrixXd Z(2 * L + 1, rows), X(n, rows);
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    const Eigen::Index k = first + r * stride;
+    ss_regressor(us, ys, k, static_cast<int>(L), Z.col(r).head(2 * L));
+    Z(2 * L, r) = 1.0;
+    X.col(r) = states.col(k);
+  }
+  Eigen::MatrixXd gram = Z * Z.transpose();
+  gram.diagonal().array() += 1e-9 * gram.diagonal().mean();
+  const Eigen::MatrixXd map = gram.ldlt().solve(Z * X.transpose()).transpose();  // n × (2L + 1)
+  p.E = map.leftCols(2 * L);
+  p.c2.col(0) = map.col(2 * L);
+}
+
 SsModel ss_initial_model(const LinearModel& linear, SsStructure structure, const Eigen::VectorXd& u,
                          const Eigen::VectorXd& y, std::uint64_t seed) {
   if (u.size() != y.size()) throw std::invalid_argument("ss_initial_model: input and output lengths differ");
@@ -56,22 +80,7 @@ SsModel ss_initial_model(const LinearModel& linear, SsStructure structure, const
     scale.setOnes();
   }
   SsModel m = ss_model_from_linear(ss, structure, scale, linear.scaling, linear.fs, seed);
-  auto p = ss_parts(m.structure, m.theta.data());
-  // The encoder's affine part: least squares of x(k) on [z(k); 1] past the start-up (at most 20000 rows, evenly spread).
-  const Eigen::Index first = 2 * L, rows = std::min<Eigen::Index>(20000, samples - first);
-  const Eigen::Index stride = std::max<Eigen::Index>(1, (samples - first) / rows);
-  Eigen::MatrixXd Z(2 * L + 1, rows), X(n, rows);
-  for (Eigen::Index r = 0; r < rows; ++r) {
-    const Eigen::Index k = first + r * stride;
-    ss_regressor(us, ys, k, static_cast<int>(L), Z.col(r).head(2 * L));
-    Z(2 * L, r) = 1.0;
-    X.col(r) = states.col(k);
-  }
-  Eigen::MatrixXd gram = Z * Z.transpose();
-  gram.diagonal().array() += 1e-9 * gram.diagonal().mean();
-  const Eigen::MatrixXd map = gram.ldlt().solve(Z * X.transpose()).transpose();  // n × (2L + 1)
-  p.E = map.leftCols(2 * L);
-  p.c2.col(0) = map.col(2 * L);
+  ss_fit_encoder(m, us, ys, states);
   return m;
 }
 

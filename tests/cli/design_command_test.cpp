@@ -169,6 +169,50 @@ TEST_F(CliDesignModel, BadWeightsAndBandPassAreRefusedNamingThem) {
   EXPECT_FALSE(fs::exists(dir_ / "ff.json"));
 }
 
+TEST_F(CliDesignModel, TargetHighpassIsRecordedAndTheReportGivesEachLevel) {
+  const fs::path out = dir_ / "ff.json";
+  const json r = expect_result(run("design lq --model " + quoted(model()) +
+                                   " --R 0.1 --R0 20 --bandpass 20,1200 --target-highpass 80,3 --samples 20000 --out " +
+                                   quoted(out)));
+  EXPECT_EQ(r["target"]["highpass_hz"], 80.0);
+  EXPECT_EQ(r["target"]["order"], 3);
+  EXPECT_NEAR(r["target"]["mid_hz"].get<double>(), std::sqrt(80.0 * 1200.0), 1e-9);
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(json::parse(text_of(out)));
+  ASSERT_TRUE(ff.has_target());
+  EXPECT_EQ(ff.target.band.highpass_hz, 80.0);
+  EXPECT_EQ(ff.target.band.order, 3);
+  // The safe amplitude is the noise limit of the file's controller; each level's drive and excursion
+  // scale from it and from the excursion of a unit program, computed here from the file.
+  const auto band = dsp::butterworth_bandpass(2, 20.0, 1200.0, 3000.0);
+  const double safe = models::max_input(ff, band, 20000, 1).noise;
+  const double unit_excursion = models::noise_excursion(ff, band, 20000, 1);
+  EXPECT_NEAR(r["safe_amplitude"].get<double>(), safe, 1e-12 * safe);
+  ASSERT_EQ(r["levels"].size(), 10u);
+  for (const json& row : r["levels"]) {
+    const double level = row["level"];
+    EXPECT_NEAR(row["drive_peak"].get<double>(), level / safe, 1e-9 * level / safe);
+    EXPECT_EQ(row["drive_within_limits"].get<bool>(), level / safe <= 1.0);
+    EXPECT_NEAR(row["excursion_peak"].get<double>(), level * unit_excursion, 1e-9 * unit_excursion);
+  }
+  EXPECT_GT(unit_excursion, 0.0);
+}
+
+TEST_F(CliDesignModel, BadTargetHighpassIsRefusedNamingIt) {
+  const std::string base = "design lq --model " + quoted(model()) + " --out " + quoted(dir_ / "ff.json");
+  for (const char* bad : {"abc", "80,0", "80,9", "80,x"}) {
+    const RunResult r = run(base + " --target-highpass " + quoted(std::string(bad)));
+    expect_usage_error(r);
+    EXPECT_TRUE(contains(r.err, "--target-highpass")) << bad << ": " << r.err;
+  }
+  for (const char* bad : {"0", "-10", "1300"}) {
+    const RunResult r = run(base + " --bandpass 20,1200 --target-highpass " + quoted(std::string(bad)));
+    expect_failure(r);
+    EXPECT_TRUE(contains(r.err, "--target-highpass")) << bad << ": " << r.err;
+  }
+  expect_usage_error(run(base + " --max-input 0.3 --target-highpass 80"));
+  EXPECT_FALSE(fs::exists(dir_ / "ff.json"));
+}
+
 TEST_F(CliDesign, MissingOrWrongModelIsRefusedNamingIt) {
   RunResult r = run("design lq --model " + quoted(dir_ / "nope.json") + " --out " + quoted(dir_ / "ff.json"));
   expect_failure(r);
@@ -190,6 +234,7 @@ TEST_F(CliDesign, HelpShowsAnExample) {
   EXPECT_EQ(r.status, 0);
   EXPECT_TRUE(contains(r.out, "Example")) << r.out;
   EXPECT_TRUE(contains(r.out, "--bandpass")) << r.out;
+  EXPECT_TRUE(contains(r.out, "--target-highpass 80,2")) << r.out;
 }
 
 }  // namespace

@@ -9,8 +9,11 @@
 #include <complex>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <vector>
+
+#include "tests/support/noise.h"
 
 namespace panelbass::dsp {
 namespace {
@@ -167,6 +170,51 @@ TEST(HarmonicLevelsTest, InvalidFrequencyThrows) {
   EXPECT_THROW(harmonic_levels(x, fs, 30000.0), std::invalid_argument);
   EXPECT_THROW(harmonic_levels(x, fs, std::numeric_limits<double>::quiet_NaN()), std::invalid_argument);
   EXPECT_THROW(harmonic_levels(Eigen::VectorXd::Zero(1), fs, 1000.0), std::invalid_argument);
+}
+
+// steady_thd on a sum of sines with white Gaussian noise of known σ: the floor is its closed form
+// 100·sqrt(count·4σ²/N)/a₁ (σ read back from the residual), the THD with the noise taken out comes back to the
+// clean THD, and the stated uncertainty is the spread over seeds.
+TEST(SteadyThdTest, ReadsTheNoiseFloorAndTakesTheNoiseOut) {
+  const double fs = 3000.0, f = 80.0, sigma = 0.01;
+  const std::vector<double> a = {0.5, 0.004, 0.003, 0.0, 0.0}, phase = {0.1, 0.7, -1.2, 0.0, 0.0};
+  const double clean = 100.0 * std::hypot(0.004, 0.003) / 0.5;  // 1 %
+  const Eigen::Index samples = 12000;
+  std::vector<double> db;
+  double mean_measured = 0.0;
+  constexpr int kSeeds = 60;
+  for (int seed = 1; seed <= kSeeds; ++seed) {
+    const Eigen::VectorXd y = sum_of_sines(samples, fs, f, a, phase, 0.2) + testing_support::gaussian(samples, sigma, seed);
+    const std::optional<SteadyThd> t = steady_thd(y, fs, f);
+    ASSERT_TRUE(t.has_value());
+    const double floor = 100.0 * std::sqrt(4.0 * 4.0 * sigma * sigma / static_cast<double>(t->samples)) / 0.5;
+    EXPECT_NEAR(t->floor_pct, floor, 0.1 * floor);
+    EXPECT_FALSE(t->at_floor);
+    EXPECT_NEAR(t->measured_thd_pct, *steady_thd_percent(y, fs, f), 1e-12);
+    db.push_back(20.0 * std::log10(t->thd_pct / clean));
+    mean_measured += 20.0 * std::log10(t->measured_thd_pct / clean) / kSeeds;
+    if (seed == 1) {
+      // (10/ln 10)·sqrt(2P·F + 4F²)/P with F = 4σ²/N, P = clean power
+      const double f_bin = 4.0 * sigma * sigma / static_cast<double>(t->samples), p = 0.004 * 0.004 + 0.003 * 0.003;
+      EXPECT_NEAR(t->uncertainty_db, 10.0 / std::numbers::ln10 * std::sqrt(2.0 * p * f_bin + 4.0 * f_bin * f_bin) / p, 0.1);
+    }
+  }
+  double mean = 0.0, spread = 0.0;
+  for (double d : db) mean += d / kSeeds;
+  for (double d : db) spread += (d - mean) * (d - mean) / (kSeeds - 1);
+  spread = std::sqrt(spread);
+  EXPECT_NEAR(mean, 0.0, 0.1) << "the noise's share taken out: unbiased";
+  EXPECT_GT(mean_measured, mean) << "the raw reading carries the noise's share";
+  const Eigen::VectorXd y1 = sum_of_sines(samples, fs, f, a, phase, 0.2) + testing_support::gaussian(samples, sigma, 1);
+  EXPECT_NEAR(spread, steady_thd(y1, fs, f)->uncertainty_db, 0.5 * spread) << "the stated uncertainty is the spread";
+
+  // A pure sine in the same noise: at the floor.
+  const Eigen::VectorXd pure = sum_of_sines(samples, fs, f, {0.5}, {0.3}) + testing_support::gaussian(samples, sigma, 7);
+  const std::optional<SteadyThd> t = steady_thd(pure, fs, f);
+  ASSERT_TRUE(t.has_value());
+  EXPECT_TRUE(t->at_floor);
+  EXPECT_LT(t->measured_thd_pct, std::sqrt(2.0) * t->floor_pct);
+  EXPECT_FALSE(steady_thd(pure.head(100), fs, f).has_value()) << "fewer than 4 periods";
 }
 
 }  // namespace

@@ -194,6 +194,8 @@ async function main() {
   const probes = await page.$$eval('#tune-probes tbody tr', (rows) => rows.map((r) => r.textContent));
   check(probes.length === 3 && probes[0].includes('4.10 %') && probes[0].includes('1.30 %') && probes[0].includes('-10.0 dB'),
         `the verify step's probes are not shown: ${JSON.stringify(probes)}`);
+  check(probes[2].includes('≤ 0.71 % (noise floor)') && probes[2].includes('≤ -15.3 dB'),
+        `a THD at the noise floor is not shown as the floor it lies under: ${JSON.stringify(probes[2])}`);
 
   run.step = 'no page errors';
   check(run.pageErrors.length === 0, `${run.pageErrors.length} error(s) in the page`);

@@ -36,9 +36,14 @@ const fixed = (x, digits) => (typeof x === 'number' && Number.isFinite(x) ? x.to
 
 /** The verify step's probes: THD and level of the response without and with the chain, per tone. */
 function showProbes(result) {
-  const rows = (result.probes || []).map((p) => el('tr', {},
-    el('td', {}, `${p.frequency_hz} Hz`), el('td', {}, `${fixed(p.thd_before_pct, 2)} %`), el('td', {}, `${fixed(p.thd_after_pct, 2)} %`),
-    el('td', {}, `${fixed(p.thd_change_db, 1)} dB`), el('td', {}, fixed(p.level_before, 4)), el('td', {}, fixed(p.level_after, 4))));
+  // A THD at the sensor's noise floor is shown as the floor it lies under, and the change as the bound it gives.
+  const thd = (p, side) => (p[`thd_${side}_at_floor`] ? `≤ ${fixed(p[`thd_${side}_at_most_pct`], 2)} % (noise floor)`
+    : `${fixed(p[`thd_${side}_pct`], 2)} %`);
+  const change = (p) => (typeof p.thd_change_at_most_db === 'number' ? `≤ ${fixed(p.thd_change_at_most_db, 1)} dB`
+    : `${fixed(p.thd_change_db, 1)} dB`);
+  const rows = (result.probes || []).map((p) => el('tr', { title: p.note || '' },
+    el('td', {}, `${p.frequency_hz} Hz`), el('td', {}, thd(p, 'before')), el('td', {}, thd(p, 'after')),
+    el('td', {}, change(p)), el('td', {}, fixed(p.level_before, 4)), el('td', {}, fixed(p.level_after, 4))));
   $('#tune-probes').replaceChildren(el('thead', {}, el('tr', {}, ...['probe', 'THD before', 'THD after', 'change', 'level before',
     'level after'].map((h) => el('th', {}, h)))), el('tbody', {}, ...rows));
   $('#tune-probes').hidden = false;

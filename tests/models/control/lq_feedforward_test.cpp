@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "dsp/butterworth.h"
+#include "dsp/frequency_grid.h"
 #include "dsp/random.h"
 #include "models/io/config_error.h"
 #include "tests/support/expect_error.h"
@@ -494,6 +495,141 @@ TEST(LqFeedforward, JsonValidationNamesTheKey) {
   for (Eigen::Index i = 0; i < L.size(); ++i) j["params"]["L"][static_cast<std::size_t>(i)] = L[i];
   ASSERT_GE(spectral_radius(ff.plant.A - ff.plant.B * L), 1.0);
   expect_names(j, "model.params.L: A − B·L is unstable");
+}
+
+// An acceleration-like minimum-phase model: the three resonances of transducer_model(), a double zero
+// near z = 1 (the response falls 12 dB/octave towards DC) and one at −0.5, a one-sample delay.
+LinearModel acceleration_model() {
+  LinearModel m = transducer_model(1);
+  Eigen::VectorXcd zeros(3);
+  zeros << 0.995, 0.995, -0.5;
+  Eigen::VectorXd b(4);
+  b[0] = 1.0;
+  b.tail(3) = testing_support::denominator(zeros);
+  m.tf.b = 0.01 * b;
+  return m;
+}
+
+// |y/u| of the controlled model, computed as the raw model's transfer function times the controller's.
+double controlled_gain(const LinearModel& m, const LqFeedforward& ff, double f) {
+  const std::complex<double> model = m.tf.response(f, m.fs) * m.scaling.y_scale / m.scaling.u_scale;
+  return std::abs(model * response(ff.controller(), f, m.fs));
+}
+
+// `n` samples uniform in [−1, 1] from dsp::Rng(seed): the noise max_input() and noise_excursion() use.
+Eigen::VectorXd target_test_noise(Eigen::Index n, std::uint64_t seed) {
+  dsp::Rng rng(seed);
+  Eigen::VectorXd u(n);
+  for (Eigen::Index k = 0; k < n; ++k) u[k] = rng.uniform(-1.0, 1.0);
+  return u;
+}
+
+TEST(LqTarget, CheapControlFollowsTheTargetBand) {
+  // R → 0: y/u = the model's gain at mid band × the Butterworth high-pass (its own biquads), within 0.5 dB
+  // from the corner to 1200 Hz; the design without a target instead lifts 10 Hz (relative to 300 Hz) far
+  // above the band's shape.
+  const LinearModel m = acceleration_model();
+  const LqTargetBand band{40.0, 2, 300.0};
+  const LqFeedforward ff = design_lq(m, {1e-7, 20.0}, band);
+  ASSERT_TRUE(ff.has_target());
+  EXPECT_EQ(ff.target.delay, 1);
+  const dsp::SosFilter hp(dsp::butterworth_highpass(2, 40.0, m.fs));
+  const double model_mid = std::abs(m.tf.response(300.0, m.fs)) * m.scaling.y_scale / m.scaling.u_scale;
+  const auto target = [&](double f) { return model_mid * std::abs(hp.response(f, m.fs)) / std::abs(hp.response(300.0, m.fs)); };
+  EXPECT_NEAR(std::abs(ff.target.gain), model_mid / std::abs(hp.response(300.0, m.fs)), 1e-9 * model_mid);
+  double worst_db = 0.0;
+  for (const double f : dsp::log_spaced(40.0, 1200.0, 200)) {
+    worst_db = std::max(worst_db, std::abs(20.0 * std::log10(controlled_gain(m, ff, f) / target(f))));
+    EXPECT_NEAR(std::abs(response(ff.desired(), f, m.fs)), controlled_gain(m, ff, f), 1e-9 * target(f));
+  }
+  EXPECT_LT(worst_db, 0.5);
+  const LqFeedforward flat = design_lq(m, {1e-7, 20.0});
+  const double flat_lift_db = 20.0 * std::log10(controlled_gain(m, flat, 10.0) / controlled_gain(m, flat, 300.0) /
+                                                (target(10.0) / target(300.0)));
+  EXPECT_GT(flat_lift_db, 20.0);
+  EXPECT_LT(controlled_gain(m, ff, 10.0), 1.5 * target(10.0));
+}
+
+TEST(LqTarget, HigherCornerAsksLessDriveAtLowFrequencies) {
+  const LinearModel m = acceleration_model();
+  double previous = std::abs(response(design_lq(m, {1e-4, 20.0}).controller(), 10.0, m.fs));
+  for (const double hz : {20.0, 40.0, 80.0, 160.0}) {
+    const LqFeedforward ff = design_lq(m, {1e-4, 20.0}, {hz, 2, 400.0});
+    const double gain = std::abs(response(ff.controller(), 10.0, m.fs));
+    EXPECT_LT(gain, previous) << hz << " Hz";
+    previous = gain;
+  }
+}
+
+TEST(LqTarget, ControllerIsTheLoopOnTheAugmentedState) {
+  // u*(k) = −L·x(k) − L_r·x_r(k) + l·u(k), x(k+1) = A·x(k) + B·u*(k), x_r(k+1) = A_r·x_r(k) + B_r·u(k),
+  // run sample by sample against controller() and desired() simulated as state spaces.
+  const LinearModel m = acceleration_model();
+  const LqFeedforward ff = design_lq(m, {1e-3, 20.0}, {40.0, 3, 300.0});
+  const Eigen::VectorXd u = target_test_noise(400, 3);
+  const Eigen::VectorXd drive = simulate(ff.controller(), u), y_lin = simulate(ff.desired(), u);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(ff.plant.order()), xr = Eigen::VectorXd::Zero(ff.target.model.order());
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    const double u_star = -ff.L.dot(x) - ff.target.L.dot(xr) + ff.target.feedthrough * u[k];
+    EXPECT_NEAR(drive[k], u_star, 1e-9 * (1.0 + std::abs(u_star))) << k;
+    const double y = ff.plant.C.dot(x) + ff.plant.D * u_star;
+    EXPECT_NEAR(y_lin[k], y, 1e-9 * (1.0 + std::abs(y))) << k;
+    x = ff.plant.A * x + ff.plant.B * u_star;
+    xr = ff.target.model.A * xr + ff.target.model.B * u[k];
+  }
+}
+
+TEST(LqTarget, ExcursionFallsAsTheCornerRisesAndIsTheDoubleIntegralOfTheDesiredResponse) {
+  // The same noise and the same double leaky integral written out here: the estimate is max|∫∫ y_lin|.
+  const LinearModel m = acceleration_model();
+  const LqFeedforward ff = design_lq(m, {1e-4, 20.0}, {40.0, 2, 300.0});
+  const Eigen::VectorXd y = simulate(ff.desired(), target_test_noise(5000, 7));
+  const double lambda = std::exp(-2.0 * std::numbers::pi / 500.0);
+  double v = 0.0, x = 0.0, peak = 0.0;
+  for (Eigen::Index k = 0; k < y.size(); ++k) {
+    v = lambda * v + y[k] / m.fs;
+    x = lambda * x + v / m.fs;
+    peak = std::max(peak, std::abs(x));
+  }
+  EXPECT_NEAR(noise_excursion(ff, {}, 5000, 7), peak, 1e-9 * peak);
+  double previous = noise_excursion(design_lq(m, {1e-4, 20.0}), {}, 5000, 7);
+  for (const double hz : {40.0, 80.0, 160.0}) {
+    const double e = noise_excursion(design_lq(m, {1e-4, 20.0}, {hz, 2, 400.0}), {}, 5000, 7);
+    EXPECT_LT(e, previous) << hz << " Hz";
+    previous = e;
+  }
+  expect_invalid([&] { noise_excursion(ff, {}, 0, 7); }, "samples must be >= 1");
+}
+
+TEST(LqTarget, RefusesACornerOutsideTheBandAndBadOrders) {
+  const LinearModel m = acceleration_model();
+  expect_invalid([&] { design_lq(m, {1.0, 20.0}, {0.0, 2, 300.0}); }, "high-pass corner must be in (0, fs/2 = 1500) Hz, got 0");
+  expect_invalid([&] { design_lq(m, {1.0, 20.0}, {1500.0, 2, 300.0}); }, "high-pass corner");
+  expect_invalid([&] { design_lq(m, {1.0, 20.0}, {40.0, 2, 2000.0}); }, "mid-band frequency");
+  expect_invalid([&] { design_lq(m, {1.0, 20.0}, {40.0, 0, 300.0}); }, "order must be in 1…8, got 0");
+  expect_invalid([&] { design_lq(m, {1.0, 20.0}, {40.0, 9, 300.0}); }, "got 9");
+  expect_invalid([&] { design_lq(m, {0.0, 20.0}, {40.0, 2, 300.0}); }, "R must be > 0");
+}
+
+TEST(LqTarget, JsonRecordsTheTargetAndReadsItBack) {
+  const LinearModel m = acceleration_model();
+  const LqFeedforward ff = design_lq(m, {1e-3, 20.0}, {40.0, 3, 300.0});
+  const nlohmann::json j = lq_feedforward_to_json(ff);
+  EXPECT_EQ(j["params"]["target"]["highpass_hz"], 40.0);
+  EXPECT_EQ(j["params"]["target"]["order"], 3);
+  const LqFeedforward back = lq_feedforward_from_json(nlohmann::json::parse(j.dump()));
+  EXPECT_EQ(back.target.model.A, ff.target.model.A);
+  EXPECT_EQ(back.target.L, ff.target.L);
+  EXPECT_EQ(back.target.feedthrough, ff.target.feedthrough);
+  EXPECT_EQ(back.target.gain, ff.target.gain);
+  for (const double f : {10.0, 100.0, 1000.0}) {
+    EXPECT_EQ(response(back.controller(), f, m.fs), response(ff.controller(), f, m.fs));
+  }
+  nlohmann::json bad = j;
+  bad["params"]["target"]["L"].erase(0);
+  const std::string message = one_line_error<ConfigError>([&] { lq_feedforward_from_json(bad); });
+  EXPECT_NE(message.find("model.params.target.L:"), std::string::npos) << message;
+  EXPECT_FALSE(lq_feedforward_to_json(design_lq(m, {1e-3, 20.0}))["params"].contains("target"));
 }
 
 }  // namespace

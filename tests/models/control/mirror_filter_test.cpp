@@ -76,7 +76,7 @@ TEST(MirrorFilter, FitRecoversTheDrivePathFilter) {
   truth.drive_taps = {1.0, -1.1, 0.5, -0.1};
   const Eigen::VectorXd drive = 0.5 * dsp::gaussian_noise(12000, 0.4, 4).cwiseMax(-1.0).cwiseMin(1.0);
   const MirrorFilterTestRecord rec = mirror_filter_test_record(truth, drive, 2);
-  const MirrorFit fit = fit_mirror_model(drive, rec.current, rec.displacement, truth.fs);
+  const MirrorFit fit = fit_mirror_model(drive, rec.current, rec.displacement, truth.fs, 4, MirrorRecordKind::discrete_model);
   EXPECT_EQ(fit.model.delay, 2);
   for (std::size_t j = 0; j < 4; ++j) EXPECT_NEAR(fit.model.drive_taps[j], truth.drive_taps[j], 1e-6) << "a" << j;
   EXPECT_NEAR(fit.model.electrical[4], truth.electrical[4], 1e-6 * truth.electrical[4]);
@@ -99,7 +99,7 @@ TEST(MirrorFilter, FitRecoversTheModelFromItsOwnRecord) {
   // a record made by the model: drive in, current and displacement (m) out
   const Eigen::VectorXd drive = 0.8 * dsp::gaussian_noise(12000, 0.4, 3).cwiseMax(-1.0).cwiseMin(1.0);
   const MirrorFilterTestRecord rec = mirror_filter_test_record(truth, drive, 0);
-  const MirrorFit fit = fit_mirror_model(drive, rec.current, rec.displacement, truth.fs);
+  const MirrorFit fit = fit_mirror_model(drive, rec.current, rec.displacement, truth.fs, 4, MirrorRecordKind::discrete_model);
   EXPECT_EQ(fit.model.delay, 0);  // record[k] is the state drive[k] starts from: no delay
   EXPECT_DOUBLE_EQ(fit.model.friction_velocity, 50.0);
   for (std::size_t j = 0; j < 10; ++j) {
@@ -108,6 +108,33 @@ TEST(MirrorFilter, FitRecoversTheModelFromItsOwnRecord) {
   }
   EXPECT_LT(fit.electrical_fit_pct, 1e-8);
   EXPECT_LT(fit.mechanical_fit_pct, 1e-8);
+}
+
+TEST(MirrorFilter, FitOfASampledPlantFindsItsPhysics) {
+  // panel-exciter without sensor noise, driven as bench/cancel.sh identifies it (a 10-300 Hz multisine at peak
+  // 0.5): the fit finds the plant file's K0/m, Bl0/m and the shapes of K(x) and Bl(x), and its one-step
+  // recursion resonates where the plant does, √(K0/m)/2π; the plain least-squares fit of the discrete equations
+  // misses Bl0/m and b2 by 1-2 % (the sampled acceleration's sinc² shrinkage)
+  PlantConfig plant = plant_preset("panel-exciter");
+  plant.sensor.noise_rms_V = 0.0;
+  dsp::MultisineSpec spec;
+  spec.period = 30000;
+  spec.f_min = 10.0;
+  spec.f_max = 300.0;
+  spec.amplitude = 0.5;
+  const Eigen::VectorXd drive = dsp::multisine(spec).signal;
+  const PlantRecord rec = simulate(plant, drive, 1);
+  const MirrorFit fit = fit_mirror_model(drive, rec.i, rec.x, plant.fs);
+  const std::array<double, 10>& c = fit.model.mechanical;
+  const double h = 1.0 / plant.fs, k_over_m = plant.stiffness_N_per_m / plant.mass_kg;
+  const double resonance = std::acos(1.0 + 0.5 * h * h * c[6]) / (2.0 * std::numbers::pi * h);
+  EXPECT_NEAR(resonance, std::sqrt(k_over_m) / (2.0 * std::numbers::pi), 0.02);  // Hz, of 150
+  EXPECT_NEAR(c[0] / c[6], -1000.0 * plant.Bl_Tm / plant.stiffness_N_per_m, 5e-4 * 1000.0 * plant.Bl_Tm / plant.stiffness_N_per_m);
+  EXPECT_NEAR(c[7] / c[6], plant.nonlinear.stiffness.k1_per_mm, 0.005 * plant.nonlinear.stiffness.k1_per_mm);
+  EXPECT_NEAR(c[8] / c[6], plant.nonlinear.stiffness.k2_per_mm2, 0.005 * plant.nonlinear.stiffness.k2_per_mm2);
+  EXPECT_NEAR(c[2] / c[0], plant.nonlinear.force_factor.b2_per_mm2, 0.005 * std::abs(plant.nonlinear.force_factor.b2_per_mm2));
+  const MirrorFit plain = fit_mirror_model(drive, rec.i, rec.x, plant.fs, 4, MirrorRecordKind::discrete_model);
+  EXPECT_GT(std::abs(plain.model.mechanical[2] / plain.model.mechanical[0] / plant.nonlinear.force_factor.b2_per_mm2 - 1.0), 0.01);
 }
 
 TEST(MirrorFilter, ModelFileRoundTripsAndNamesBadInput) {
@@ -122,6 +149,9 @@ TEST(MirrorFilter, ModelFileRoundTripsAndNamesBadInput) {
   bad = mirror_model_to_json(model);
   bad["params"].erase("electrical");
   EXPECT_NE(testing_support::one_line_error<ConfigError>([&] { (void)mirror_model_from_json(bad); }).find("model.params.electrical: missing"), std::string::npos);
+  bad = mirror_model_to_json(model);
+  bad["params"].erase("structure");  // a file of the model before the back-EMF moved to the sample's end
+  EXPECT_NE(testing_support::one_line_error<ConfigError>([&] { (void)mirror_model_from_json(bad); }).find("model.params.structure: 2 expected"), std::string::npos);
   bad = mirror_model_to_json(model);
   bad["params"]["friction_velocity_mm_per_s"] = -1.0;
   EXPECT_NE(testing_support::one_line_error<ConfigError>([&] { (void)mirror_model_from_json(bad); }).find("friction_velocity_mm_per_s"), std::string::npos);

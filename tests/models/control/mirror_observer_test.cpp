@@ -110,6 +110,32 @@ TEST(MirrorObserver, AdaptsItsScalesToAPlantItsModelDescribesExactly) {
   }
 }
 
+TEST(MirrorObserver, StructuredCovarianceUpdateEqualsTheDenseProduct) {
+  // F written out densely (the 3×6 block on rows i, x, v_0, the history's shift, the scales held) and F·P·Fᵀ by
+  // Eigen's dense products: the structured update gives the same to rounding
+  constexpr int n = MirrorObserver::kStates;
+  dsp::Rng rng(7);
+  MirrorJacobianBlock block;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 6; ++c) block(r, c) = rng.gaussian();
+  }
+  MirrorObserver::Matrix root, p, scratch;
+  for (int r = 0; r < n; ++r) {
+    for (int c = 0; c < n; ++c) root(r, c) = rng.gaussian();
+  }
+  p = root * root.transpose();
+  MirrorObserver::Matrix f = MirrorObserver::Matrix::Zero();
+  const int columns[] = {0, 1, 2, n - 3, n - 2, n - 1};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 6; ++c) f(r, columns[c]) = block(r, c);
+  }
+  for (int r = 3; r < n - 3; ++r) f(r, r - 1) = 1.0;
+  for (int r = n - 3; r < n; ++r) f(r, r) = 1.0;
+  const MirrorObserver::Matrix dense = f * p * f.transpose();
+  MirrorObserver::propagate(block, p, scratch);
+  EXPECT_LT((p - dense).cwiseAbs().maxCoeff(), 1e-12 * dense.cwiseAbs().maxCoeff());
+}
+
 TEST(MirrorObserver, SensorMapFitRecoversTheTapsFromItsOwnRecord) {
   const MirrorModel model = observed_exciter_model(1e-6, 0.0);
   const Eigen::VectorXd drive = observer_test_drive(3000);

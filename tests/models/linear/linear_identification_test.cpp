@@ -6,7 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "dsp/excitation.h"
 #include "dsp/spectrum.h"
@@ -83,6 +85,24 @@ TEST(LinearIdentification, OeZhuAndBackxRecoverTheLinearPlant) {
     EXPECT_TRUE(id.model.tf.is_stable());
     EXPECT_EQ(id.survey.delay, 2) << "the visible delay estimated from the data";
   }
+}
+
+TEST(LinearIdentification, AnEstimatedDelayIsFittedOneLagLaterTooAndTheLowerJKept) {
+  // The rule against independent fits: the same data identified with the delay given as the survey's
+  // estimate and as one lag more; the automatic run keeps the one whose validation J is lower.
+  const Split d = make_data("panel-exciter", 3, 4000);
+  LinearIdentificationSpec spec = spec_for(LinearMethod::oe, 8);
+  const LinearIdentification automatic = identify_linear(d.u_est, d.y_est, d.u_val, d.y_val, spec);
+  ASSERT_TRUE(automatic.survey.delay_found);
+  const int estimated = automatic.survey.delay;
+  spec.delay = estimated;
+  const double j_first = identify_linear(d.u_est, d.y_est, d.u_val, d.y_val, spec).j_val_pct;
+  spec.delay = estimated + 1;
+  const double j_later = identify_linear(d.u_est, d.y_est, d.u_val, d.y_val, spec).j_val_pct;
+  EXPECT_EQ(automatic.model.tf.nk, j_later < j_first ? estimated + 1 : estimated);
+  EXPECT_DOUBLE_EQ(automatic.j_val_pct, std::min(j_first, j_later));
+  EXPECT_NE(automatic.nk_source.find("lag " + std::to_string(estimated + 1) + " fitted too"), std::string::npos)
+      << automatic.nk_source;
 }
 
 TEST(LinearIdentification, PanelExciterOrderScanShowsItsKnee) {

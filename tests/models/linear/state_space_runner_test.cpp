@@ -5,9 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cmath>
-#include <complex>
 #include <stdexcept>
 #include <vector>
 
@@ -70,72 +68,6 @@ TEST(StateSpaceRunner, StepBlockIsStepSampleBySampleWithinRoundingForEveryOrder)
     by_block.step_block(again, again);
     by_sample.reset();
     for (std::size_t k = 0; k < u.size(); ++k) ASSERT_NEAR(again[k], by_sample.step(u[k]), 1e-13) << n << " states";
-  }
-}
-
-// An 8th-order system with four resonances (engine_bench's feedforward, radii 0.9..0.97, 50..900 Hz at 3 kHz)
-// and, when `real_poles`, three real poles beside them (an odd count: one modal pair half padding).
-StateSpace runner_resonant_system(bool real_poles) {
-  Eigen::VectorXcd poles(real_poles ? 11 : 8);
-  const double hz[] = {50.0, 200.0, 500.0, 900.0};
-  const double radius[] = {0.97, 0.95, 0.92, 0.9};
-  for (int i = 0; i < 4; ++i) {
-    poles[2 * i] = std::polar(radius[i], 2.0 * 3.141592653589793 * hz[i] / 3000.0);
-    poles[2 * i + 1] = std::conj(poles[2 * i]);
-  }
-  if (real_poles) poles.tail(3) << 0.5, -0.3, 0.8;
-  TransferFunction tf;
-  tf.a = polynomial_from_roots(poles).tail(poles.size()).real();
-  tf.b = Eigen::VectorXd::LinSpaced(poles.size(), 0.01, -0.02);
-  return realize(tf);
-}
-
-TEST(StateSpaceRunner, TheModalBlockFormIsStepWithinRoundingAndCarriesTheStateOn) {
-  // Complex pole pairs, and real poles beside them: step_block in modal coordinates against step() on a
-  // copy, in uneven blocks, in place, and from a state left by step().
-  dsp::Rng rng(41);
-  for (const bool real_poles : {false, true}) {
-    const StateSpace ss = runner_resonant_system(real_poles);
-    StateSpaceRunner by_sample(ss), by_block(ss, {}, BlockForm::modal);
-    ASSERT_TRUE(by_block.uses_modal_form()) << real_poles;
-    EXPECT_FALSE(by_sample.uses_modal_form());
-    std::vector<double> u(3000), y(u.size()), expected(u.size());
-    for (double& v : u) v = rng.uniform(-1.0, 1.0);
-    for (std::size_t k = 0; k < u.size(); ++k) expected[k] = by_sample.step(u[k]);
-    y = u;
-    std::size_t pos = 0;
-    for (std::size_t block : {1, 7, 64, 100, 128, 3, 1697, 1000}) {
-      by_block.step_block({y.data() + pos, block}, {y.data() + pos, block});
-      pos += block;
-    }
-    ASSERT_EQ(pos, u.size());
-    double peak = 0.0, worst = 0.0;
-    for (std::size_t k = 0; k < u.size(); ++k) {
-      peak = std::max(peak, std::abs(expected[k]));
-      worst = std::max(worst, std::abs(y[k] - expected[k]));
-    }
-    EXPECT_LE(worst, 1e-12 * peak) << real_poles;
-    // The state comes back from modal coordinates: the next steps agree too.
-    for (int k = 0; k < 10; ++k) EXPECT_NEAR(by_block.step(0.5), by_sample.step(0.5), 1e-12 * peak);
-  }
-}
-
-TEST(StateSpaceRunner, ADefectiveOrIllConditionedSystemKeepsItsOwnCoordinates) {
-  // A Jordan block (a double pole with one eigenvector) has no modal form; two almost equal poles have one
-  // too ill conditioned to trust. Both run as given, still equal to step().
-  StateSpace jordan;
-  jordan.A = (Eigen::Matrix2d() << 0.5, 1.0, 0.0, 0.5).finished();
-  jordan.B = Eigen::Vector2d(0.0, 1.0);
-  jordan.C = Eigen::RowVector2d(1.0, 0.0);
-  StateSpace close = jordan;
-  close.A(1, 1) = 0.5 + 1e-9;
-  for (const StateSpace& ss : {jordan, close}) {
-    StateSpaceRunner by_sample(ss), by_block(ss, {}, BlockForm::modal);
-    EXPECT_FALSE(by_block.uses_modal_form());
-    std::vector<double> y(50, 0.0);
-    y[0] = 1.0;
-    by_block.step_block(y, y);
-    for (std::size_t k = 0; k < y.size(); ++k) EXPECT_NEAR(y[k], by_sample.step(k == 0 ? 1.0 : 0.0), 1e-14) << k;
   }
 }
 

@@ -65,5 +65,34 @@ TEST(ConverterLoop, ASineComesOutAsTheHoldTheDelayAndBothFiltersSay) {
   EXPECT_THROW(converters_alone(plant, bad), std::invalid_argument);
 }
 
+// The sections' layout and equations, written out by hand for a 3rd-order filter after 5 states of something else:
+// a second-order section (ω, q = 1) on states 5–6 then a first-order one (ω) on state 7, ω = 2π·1000.
+TEST(ConverterLoop, SectionsLayTheirStatesOutInOrderAndFollowTheirEquations) {
+  int next = 5;
+  const std::vector<ConverterSection> sections = converter_sections({3, 1000.0}, next);
+  EXPECT_EQ(next, 8);
+  ASSERT_EQ(sections.size(), 2u);
+  const double w = 2.0 * std::numbers::pi * 1000.0;
+  const ConverterSection &second = sections[0], &first = sections[1];
+  EXPECT_FALSE(second.first_order);
+  EXPECT_TRUE(first.first_order);
+  EXPECT_EQ(second.state, 5);
+  EXPECT_EQ(first.state, 7);
+  EXPECT_NEAR(second.omega, w, 1e-9 * w);
+  EXPECT_NEAR(second.q, 1.0, 1e-12);
+  EXPECT_NEAR(first.omega, w, 1e-9 * w);
+  Eigen::VectorXd s = Eigen::VectorXd::Zero(8), ds = Eigen::VectorXd::Zero(8);
+  s << 9.0, 9.0, 9.0, 9.0, 9.0, 0.3, -0.2, 0.1;
+  const double in = 0.7;
+  const double out = converter_derivatives(sections, s, in, ds);
+  // The second-order section takes the input, the first-order one its output.
+  EXPECT_DOUBLE_EQ(ds[5], -0.2);
+  EXPECT_NEAR(ds[6], w * w * (in - 0.3) - w * -0.2, 1e-9 * w * w);
+  EXPECT_NEAR(ds[7], w * (0.3 - 0.1), 1e-9 * w);
+  EXPECT_DOUBLE_EQ(out, 0.1);
+  EXPECT_EQ(ds.head(5), Eigen::VectorXd::Zero(5)) << "another's states untouched";
+  EXPECT_DOUBLE_EQ(converter_derivatives({}, s, in, ds), in);  // no filter: the input through
+}
+
 }  // namespace
 }  // namespace panelbass::models

@@ -31,9 +31,9 @@ Eigen::VectorXd noise(Eigen::Index n, std::uint64_t seed) {
 }
 
 // A small model with every part of θ non-zero (random, seeded), a stable A.
-SsModel random_model(int encoder_hidden, int poly_degree = 0) {
+SsModel random_model(int encoder_hidden, int poly_degree = 0, bool poly_input = true) {
   SsModel m;
-  m.structure = {3, 5, 4, encoder_hidden, poly_degree};
+  m.structure = {3, 5, 4, encoder_hidden, poly_degree, poly_input};
   m.fs = 1000.0;
   m.theta = 0.3 * noise(m.structure.parameter_count(), 7);
   auto p = ss_parts(m.structure, m.theta.data());
@@ -64,8 +64,9 @@ Eigen::VectorXd wiener_hammerstein(const Eigen::VectorXd& u) {
 }
 
 TEST(SsGradients, EqualCentralFiniteDifferences) {
-  for (const auto& [encoder_hidden, poly_degree] : {std::pair{0, 0}, std::pair{4, 0}, std::pair{2, 3}}) {
-    SsModel m = random_model(encoder_hidden, poly_degree);
+  for (const auto& [encoder_hidden, poly_degree] : {std::pair{0, 0}, std::pair{4, 0}, std::pair{2, 3}, std::pair{1, -3}}) {
+    // poly_degree −3: degree 3 in the states alone (no monomial of the input)
+    SsModel m = random_model(encoder_hidden, std::abs(poly_degree), poly_degree >= 0);
     if (poly_degree > 0) ss_parts(m.structure, m.theta.data()).P *= 0.3;  // a bounded run over the windows
     const Eigen::VectorXd u = noise(60, 1), y = 0.5 * noise(60, 2);
     const std::vector<Eigen::Index> starts{0, 5, 17, 40};
@@ -166,6 +167,32 @@ TEST(SsModel, FileRoundTripsAndRefusesBadInput) {
   p.A = 1.5 * Eigen::MatrixXd::Identity(3, 3);
   runaway["params"]["theta"] = ss_model_to_json(m)["params"]["theta"];
   EXPECT_THROW(ss_model_from_json(runaway), ConfigError);
+}
+TEST(SsModel, StatesOnlyPolynomialTermsAreTheStatesMonomialsWrittenOut) {
+  // nx = 2, degree 3, poly_input false: ζ(x) = x0², x0·x1, x1², x0³, x0²·x1, x0·x1², x1³ (no input factor).
+  SsModel m;
+  m.structure = {2, 0, 3, 0, 3, false};
+  m.fs = 1000.0;
+  EXPECT_EQ(m.structure.monomial_count(), 7);
+  m.theta = 0.2 * noise(m.structure.parameter_count(), 31);
+  auto p = ss_parts(m.structure, m.theta.data());
+  p.A << 0.5, 0.2, -0.1, 0.6;
+  const Eigen::VectorXd u = noise(25, 32), y = noise(25, 33);
+  const Eigen::Index init = 4;
+  Eigen::Vector2d x = p.E * ss_test_regressor(u, y, init, 3) + p.c2;
+  const Eigen::VectorXd sim = m.simulate_scaled(u, y, init);
+  for (Eigen::Index k = init; k < u.size(); ++k) {
+    const double a = x(0), b = x(1), c = u(k);
+    Eigen::VectorXd zeta(7);
+    zeta << a * a, a * b, b * b, a * a * a, a * a * b, a * b * b, b * b * b;
+    const Eigen::VectorXd out = p.b2 + p.P * zeta;
+    EXPECT_NEAR(sim(k), (p.C * x)(0) + p.D(0, 0) * c + out(2), 1e-12) << k;
+    x = p.A * x + p.B * c + out.head(2);
+  }
+  // the file keeps the choice
+  const SsModel back = ss_model_from_json(ss_model_to_json(m));
+  EXPECT_FALSE(back.structure.poly_input);
+  EXPECT_EQ(back.simulate_scaled(u, y, init), sim);
 }
 
 TEST(SsModel, PolynomialFileRoundTripsAndRefusesBadDegrees) {
