@@ -4,13 +4,16 @@
 # from the drive and the acceleration alone, then with the coil current (the force channel) for the effects
 # that look alike from the drive; and the scenario with no effect (false positives). Runs niced, JOBS
 # processes side by side; prints the tables and the time taken.
-# Usage: bash bench/diagnosis_detection.sh [BUILD_DIR] [SEEDS] [JOBS]   (defaults: build 6 2)
+# Usage: bash bench/diagnosis_detection.sh [BUILD_DIR] [SEEDS] [JOBS] [PLAIN]   (defaults: build 6 2 20)
 # PANELBASS_WORK=DIR keeps each run's table and log in DIR (read them while it runs); otherwise a temporary folder.
+# N_EST / N_VAL set the records' lengths (defaults 60000 / 40000 samples, the tests' concealed scenarios).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${1:-build}/bin/diagnosis_detection_bench
 seeds=${2:-6}
 jobs=${3:-2}
+plain=${4:-20}
+lengths="--n-est ${N_EST:-60000} --n-val ${N_VAL:-40000}"
 if [ -n "${PANELBASS_WORK:-}" ]; then
   work=$PANELBASS_WORK
   mkdir -p "$work"
@@ -36,11 +39,11 @@ printf '%s\n' "${runs[@]}" | xargs -P "$jobs" -I{} bash -c '
   set -- {}
   out="'"$work"'/$1-$2"
   if [ "$1" = plain ]; then
-    nice -n 15 "'"$bin"'" --seeds 1 --effects dc_offset --sizes 1 --plain 20 > "$out.md" 2> "$out.log"
+    nice -n 15 "'"$bin"'" --seeds 1 --effects dc_offset --sizes 1 --plain '"$plain"' '"$lengths"' > "$out.md" 2> "$out.log"
   elif [ "$1" = current ]; then
-    nice -n 15 "'"$bin"'" --seeds '"$seeds"' --sizes 1 --effects "$2" --plain 0 --current > "$out.md" 2> "$out.log"
+    nice -n 15 "'"$bin"'" --seeds '"$seeds"' --sizes 1 --effects "$2" --plain 0 --current '"$lengths"' > "$out.md" 2> "$out.log"
   else
-    nice -n 15 "'"$bin"'" --seeds '"$seeds"' --sizes 1 --effects "$2" --plain 0 > "$out.md" 2> "$out.log"
+    nice -n 15 "'"$bin"'" --seeds '"$seeds"' --sizes 1 --effects "$2" --plain 0 '"$lengths"' > "$out.md" 2> "$out.log"
   fi'
 
 table() {  # table CHANNEL EFFECTS...: the rows of each effect's run, then the totals
@@ -68,7 +71,7 @@ if runs:
 PY
 }
 
-echo "## diagnose detection: drive and acceleration ($seeds seeds per effect, concealed size, 60000 + 40000 samples)"
+echo "## diagnose detection: drive and acceleration ($seeds seeds per effect, concealed size, ${N_EST:-60000} + ${N_VAL:-40000} samples)"
 echo
 table drive $all
 echo

@@ -43,7 +43,7 @@ struct DiagnoseOptions {
   int max_findings = 4;
   long window = 300;
   models::OutputQuantity sensor = models::OutputQuantity::unknown;
-  std::string current_col = "auto";
+  std::string current_col = "none";  ///< opt-in: the force channel does not yet tell a visible x³ from v³ reliably
   std::string model_out;  ///< the diagnosed model as a gray_box model file (empty: not written)
 };
 
@@ -84,8 +84,7 @@ Baseline load_baseline(const std::string& path) {
   } else if (const auto* ss = std::get_if<models::SsModel>(&model.model)) {
     b.simulation = models::ss_baseline(*ss);
   } else if (const auto* gray = std::get_if<models::GrayBoxModel>(&model.model)) {
-    b.simulation = models::SimulationBaseline{"gray_box", gray->fs, [m = *gray](const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                                                                             Eigen::Index init) { return m.simulate(u, y, init); }};
+    b.simulation = models::gray_box_baseline(*gray);
   } else {
     b.simulation = models::narx_baseline(std::get<models::NarxModel>(model.model));
   }
@@ -198,8 +197,9 @@ void register_diagnose(CLI::App& app) {
       ->transform(CLI::CheckedTransformer(output_quantities()))
       ->capture_default_str();
   cmd->add_option("--current-col", o->current_col,
-                  "The coil current's column: it tells apart effects that look alike from the drive (a spring from a "
-                  "damping, a coil offset from an asymmetric spring); auto: \"i\" or \"current\" when the file has one; none: leave it out")
+                  "The coil current's column, opt-in: it tells apart effects that look alike from the drive (a spring from a "
+                  "damping, a coil offset from an asymmetric spring); auto: \"i\" or \"current\" when the file has one; none "
+                  "(the default: on a visible spring the force channel may still favour a damping): leave it out")
       ->capture_default_str();
   cmd->add_option("--model-out", o->model_out,
                   "Write the diagnosed model (the linear baseline with its gray-box terms) as a model file of kind gray_box, "
@@ -212,7 +212,8 @@ void register_diagnose(CLI::App& app) {
       "N·ln(J_before/J_after) > p·ln(N) (BIC, N validation samples, p added parameters).\n"
       "Example:\n"
       "  panelbass diagnose --data est.csv --val val.csv --fs 3000 --sensor acceleration --out report.json \\\n"
-      "      --html report.html --plots plots/ --model-out diagnosed.json");
+      "      --html report.html --plots plots/ --model-out diagnosed.json\n"
+      "  panelbass diagnose --data est.csv --val val.csv --fs 3000 --current-col i --out report.json");
   cmd->callback([o] {
     if (o->scan_from > o->scan_to)
       throw CLI::ValidationError("--scan-from", std::to_string(o->scan_from) + " is above --scan-to " +

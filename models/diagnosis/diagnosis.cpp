@@ -259,7 +259,10 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     // is x² times the drive): from the drive alone they are never named over a look-alike that earns.
     const bool needs_current = chosen->effect == Effect::nonlinear_damping || chosen->effect == Effect::asymmetric_force_factor;
     const bool drive_settles = rival == nullptr || (!needs_current && drive_margin >= diagnosis_detail::kClearMargin);
-    if (rival != nullptr && force) {
+    // The current tells apart forces of the motion; a linear look-alike pair (creep and a mode) its path absorbs.
+    const bool force_pair =
+        rival != nullptr && (diagnosis_detail::acts_as_force(chosen->effect) || diagnosis_detail::acts_as_force(rival->effect));
+    if (rival != nullptr && force && force_pair) {
       diagnosis_detail::FindingConfidence c;
       const Candidate* pick = decided_by_current(chosen, alikes, *force, r, current, kept, current_verdict, c);
       if (!drive_settles) {
@@ -287,8 +290,10 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
       c.runner_up_variant = rival->variant;
       c.margin_bic = drive_margin;
       c.sentence = "ambiguous between " + to_string(chosen->effect) + " and " + c.runner_up +
-                   ": they look alike from the drive (BIC margin " + fixed(c.margin_bic, 1) +
-                   "); a record with the coil current tells them apart.";
+                   ": they look alike from the drive (BIC margin " + fixed(c.margin_bic, 1) + "); " +
+                   (force_pair ? "a record with the coil current tells them apart."
+                               : "both are linear: a creeping suspension shows far below the resonance, where an "
+                                 "accelerometer sees little; a displacement sensor or more drive there tells them apart.");
       alike_confidence = c;
     }
     const double correlation = added_correlation(r, current, chosen->fit);

@@ -65,7 +65,7 @@ std::vector<Candidate> candidates(const Records& r, const Fit& current, const Re
     add_term(term_of(Effect::asymmetric_force_factor, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
     add_term(term_of(Effect::nonlinear_damping, p, 0.0), to_string(p), 1, {{"state", to_string(p)}});
     // Creep: the displacement relaxed over τ (seconds, well below the record's length).
-    for (double tau : {0.005, 0.02, 0.08})
+    for (double tau : {0.005, 0.01, 0.02, 0.04, 0.08})
       if (20.0 * tau * r.fs <= static_cast<double>(r.u_est.size()))
         add_term(term_of(Effect::creep, p, 0.0, tau), to_string(p) + ", tau " + fixed(tau * 1000.0, 0) + " ms", 2,
                  {{"state", to_string(p)}, {"time_constant_s", tau}});

@@ -137,7 +137,8 @@ bool look_alike(Effect a, Effect b) {
   return pair(Effect::nonlinear_damping, Effect::cubic_stiffness) || pair(Effect::nonlinear_damping, Effect::hysteresis) ||
          pair(Effect::nonlinear_damping, Effect::force_factor) ||
          pair(Effect::asymmetric_force_factor, Effect::asymmetric_stiffness) ||
-         pair(Effect::asymmetric_force_factor, Effect::inductance);
+         pair(Effect::asymmetric_force_factor, Effect::inductance) || pair(Effect::creep, Effect::resonance) ||
+         pair(Effect::creep, Effect::antiresonance);
 }
 
 ForceScore force_score(const ForceChannel& channel, const Records& r, const Fit& current, Effect effect,
@@ -147,10 +148,12 @@ ForceScore force_score(const ForceChannel& channel, const Records& r, const Fit&
   for (Effect e : kept)
     if (acts_as_force(e)) base.push_back(e);
   const bool already = std::find(base.begin(), base.end(), effect) != base.end();
-  // The states of the model as it stands, simulated from rest (as the gray-box terms' are).
+  // The states of the motion the current explains: the force channel's path simulated from the measured current
+  // (from rest). Not the drive's model (`current`): on a visible spring its linear resonance lies where the spring
+  // at rest puts it, and the phase error near resonance made v³ fit the spring's force better than x³.
   const LinearModel& linear = current.model.linear;
-  const Eigen::VectorXd ys_est = linear.scaling.scale_y(simulate_augmented(current.model, r.u_est, {}, 0));
-  const Eigen::VectorXd ys_val = linear.scaling.scale_y(simulate_augmented(current.model, r.u_val, {}, 0));
+  const Eigen::VectorXd ys_est = linear.scaling.scale_y(channel.path.simulate(*channel.i_est, r.y_est, 0));
+  const Eigen::VectorXd ys_val = linear.scaling.scale_y(channel.path.simulate(*channel.i_val, r.y_val, 0));
   const StateSignals s_est = state_signals(linear.scaling.scale_u(r.u_est), ys_est, r.fs);
   const StateSignals s_val = state_signals(linear.scaling.scale_u(r.u_val), ys_val, r.fs, &s_est);
   const Motion m_est = motion_of(s_est, r.output, *channel.i_est, *channel.i_est);

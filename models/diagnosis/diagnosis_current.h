@@ -37,7 +37,8 @@ bool acts_as_force(Effect effect);
 
 /// Whether `a` and `b` look alike in the drive-to-output residual (a known pair that only another channel
 /// separates): nonlinear_damping with cubic_stiffness, hysteresis or force_factor; asymmetric_force_factor
-/// with asymmetric_stiffness or inductance.
+/// with asymmetric_stiffness or inductance; and creep with resonance or antiresonance — all three linear, which
+/// no channel separates once the force channel's own linear path absorbs them (the drive's margin decides).
 bool look_alike(Effect a, Effect b);
 
 /// The force channel's verdict on one effect: the BIC of its features on the channel's validation residual
@@ -48,8 +49,9 @@ struct ForceScore {
   int parameters = 0;
 };
 
-/// The force-channel score of `effect` given the findings `kept`; the states (x, v) are those of `current`'s
-/// simulation from rest, the displacement's proxy chosen by `r.output` (unknown: an accelerometer's).
+/// The force-channel score of `effect` given the findings `kept`; the states (x, v) are those of the channel's path
+/// simulated from the measured current (from rest, in `current`'s output scaling), the displacement's proxy chosen
+/// by `r.output` (unknown: an accelerometer's).
 ForceScore force_score(const ForceChannel& channel, const Records& r, const Fit& current, Effect effect,
                        const std::vector<Effect>& kept);
 

@@ -56,8 +56,8 @@ TEST_F(CliDiagnose, FindsTheCubicSpringAndWritesTheReport) {
   }
   EXPECT_LT(r["J_val_after_pct"].get<double>(), r["J_val_before_pct"].get<double>());
   EXPECT_EQ(r["baseline"]["kind"], "linear");
-  // `simulate` writes the coil current (column i): the diagnosis used it, and says so.
-  EXPECT_EQ(r["channels"], json::parse(R"(["drive", "output", "current"])")) << r.dump(1);
+  // `simulate` writes the coil current (column i), but the current is opt-in (--current-col): not used.
+  EXPECT_EQ(r["channels"], json::parse(R"(["drive", "output"])")) << r.dump(1);
   // The report file: the contract's keys, and the same figures as stdout.
   const json report = json::parse(text_of(out));
   for (const char* key : {"baseline", "findings", "J_val_before_pct", "J_val_after_pct", "noise_floor_pct"})
@@ -112,7 +112,7 @@ TEST_F(CliDiagnose, HtmlReportShowsTheFindingsAndEmbedsEveryFigure) {
   EXPECT_EQ(page.rfind("<!DOCTYPE html>", 0), 0u);
   EXPECT_FALSE(contains(page, "src=\"http")) << "the page must not load external assets";
   for (const char* part : {"<h2>Baseline</h2>", "<h2>Findings</h2>", "noise floor", "J before", "J after",
-                           "channels used</th><td>drive, output, current"})
+                           "channels used</th><td>drive, output<"})
     EXPECT_TRUE(contains(page, part)) << part;
   EXPECT_TRUE(contains(page, "<code>" + r["findings"][0]["effect"].get<std::string>() + "</code>"));
   std::size_t images = 0;
@@ -123,15 +123,27 @@ TEST_F(CliDiagnose, HtmlReportShowsTheFindingsAndEmbedsEveryFigure) {
   for (const std::string& name : plotted) EXPECT_TRUE(contains(page, "<figure id=\"" + name + "\"")) << name;
 }
 
+// With --current-col the force channel is used (the file's column i) and says so; on this visible spring the
+// states of its force features come from the output the current explains (not from the drive's linear model, whose
+// phase near the shifted resonance made v³ look better than x³): the spring is still named, and not ambiguous.
+TEST_F(CliDiagnose, TheCurrentOptedInStillNamesAVisibleCubicSpring) {
+  const json r = expect_result(run("diagnose --data " + est() + " --val " + val() +
+                                   " --fs 3000 --scan-from 12 --scan-to 13 --max-findings 1 --current-col auto --out " +
+                                   quoted(dir_ / "report.json")));
+  EXPECT_EQ(r["channels"], json::parse(R"(["drive", "output", "current"])")) << r.dump(1);
+  ASSERT_FALSE(r["findings"].empty()) << r.dump(1);
+  const json& first = r["findings"][0];
+  EXPECT_EQ(first["effect"], "cubic_stiffness") << first["confidence"].dump(1);
+  EXPECT_NE(first["confidence"]["word"], "ambiguous") << first["confidence"].dump(1) << first["evidence"]["current_channel"].dump(1);
+}
+
 // --model may name a simulation that is not linear: here the virtual transducer without the spring. Against
 // a fixed baseline the hardening spring also raises the resonance at this drive level, so a linear refit of
 // the resonance may come first; the cubic spring must be among the findings.
-// (Without the current: on this visible spring the force channel names Rms(v) instead — a known defect of the
-// current channel, issue #35.)
 TEST_F(CliDiagnose, APlantBaselineIsDiagnosedThroughItsLinearisation) {
   file("plain.json", models::plant_to_json(models::plant_preset("linear")).dump());
   const json r = expect_result(run("diagnose --data " + est() + " --val " + val() + " --model " +
-                                   quoted(dir_ / "plain.json") + " --current-col none --max-findings 3 --out " +
+                                   quoted(dir_ / "plain.json") + " --max-findings 3 --out " +
                                    quoted(dir_ / "report.json")));
   EXPECT_EQ(r["baseline"]["kind"], "plant");
   EXPECT_TRUE(r["baseline"].contains("linearisation")) << r["baseline"].dump(1);

@@ -81,13 +81,12 @@ TEST_P(ConcealedEffect, IsNamedFirstAndImprovesValidation) {
   EXPECT_FALSE(first.explanation.empty());
 }
 
-// Not yet `creep` (issue #35): at the scenario's size (4 % of the stiffness relaxing over 10 ms) it is not concealed
-// (ratio 14) and is named antiresonance; its concealed size and its naming are still to be found.
 INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, ConcealedEffect,
                          testing::Values(Effect::resonance, Effect::antiresonance, Effect::delay,
                                          Effect::cubic_stiffness, Effect::asymmetric_stiffness, Effect::force_factor,
                                          Effect::inductance, Effect::hysteresis, Effect::saturation,
-                                         Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity),
+                                         Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity,
+                                         Effect::creep),
                          [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
 
 // The fitted parameters of the effects that have a value to compare with the plant's (one test each: each
