@@ -254,14 +254,17 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     const Candidate* rival = alikes.empty() ? nullptr : alikes.front();
     for (const Candidate* a : alikes)
       if (bic_eff(*a) > bic_eff(*rival)) rival = a;
+    // The current tells apart forces of the motion; a linear look-alike pair (creep and a mode) its path absorbs.
+    const bool force_pair =
+        rival != nullptr && (diagnosis_detail::acts_as_force(chosen->effect) || diagnosis_detail::acts_as_force(rival->effect));
     const double drive_margin = rival != nullptr ? bic_eff(*chosen) - bic_eff(*rival) : 0.0;
     // Rms(v) and a coil offset have no drive signature of their own (near one resonance v³ is x³ with a phase, x·u
     // is x² times the drive): from the drive alone they are never named over a look-alike that earns.
     const bool needs_current = chosen->effect == Effect::nonlinear_damping || chosen->effect == Effect::asymmetric_force_factor;
-    const bool drive_settles = rival == nullptr || (!needs_current && drive_margin >= diagnosis_detail::kClearMargin);
-    // The current tells apart forces of the motion; a linear look-alike pair (creep and a mode) its path absorbs.
-    const bool force_pair =
-        rival != nullptr && (diagnosis_detail::acts_as_force(chosen->effect) || diagnosis_detail::acts_as_force(rival->effect));
+    // Nor is creep over a mode, or a mode over creep, when both earn: each is a change of the same linear dynamics,
+    // and the mode's refit (every coefficient moved) fits concealed creep better than creep's own term does.
+    const bool drive_settles =
+        rival == nullptr || (!needs_current && force_pair && drive_margin >= diagnosis_detail::kClearMargin);
     if (rival != nullptr && force && force_pair) {
       diagnosis_detail::FindingConfidence c;
       const Candidate* pick = decided_by_current(chosen, alikes, *force, r, current, kept, current_verdict, c);
