@@ -127,12 +127,14 @@ TEST_F(CliDiagnose, HtmlReportShowsTheFindingsAndEmbedsEveryFigure) {
 // states of its force features come from the output the current explains (not from the drive's linear model, whose
 // phase near the shifted resonance made v³ look better than x³): the spring is still named, and not ambiguous.
 TEST_F(CliDiagnose, TheCurrentOptedInStillNamesAVisibleCubicSpring) {
+  const fs::path out = dir_ / "report.json";
   const json r = expect_result(run("diagnose --data " + est() + " --val " + val() +
                                    " --fs 3000 --scan-from 12 --scan-to 13 --max-findings 1 --current-col auto --out " +
-                                   quoted(dir_ / "report.json")));
+                                   quoted(out)));
   EXPECT_EQ(r["channels"], json::parse(R"(["drive", "output", "current"])")) << r.dump(1);
-  ASSERT_FALSE(r["findings"].empty()) << r.dump(1);
-  const json& first = r["findings"][0];
+  const json report = json::parse(text_of(out));
+  ASSERT_FALSE(report["findings"].empty()) << r.dump(1);
+  const json& first = report["findings"][0];
   EXPECT_EQ(first["effect"], "cubic_stiffness") << first["confidence"].dump(1);
   EXPECT_NE(first["confidence"]["word"], "ambiguous") << first["confidence"].dump(1) << first["evidence"]["current_channel"].dump(1);
 }
