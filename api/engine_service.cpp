@@ -45,6 +45,7 @@ constexpr std::array<const char*, 2> kSlotKinds = {"lq_feedforward", "neural_fee
 std::string kind_in_words(const std::string& kind) {
   if (kind == "linear") return "a linear plant model";
   if (kind == "narx") return "a NARX plant model";
+  if (kind == "gray_box") return "a diagnosed gray-box plant model";
   if (kind == "lq_feedforward") return "an LQ feedforward controller";
   if (kind == "neural_feedback") return "a neural feedback controller";
   return "a model of kind \"" + kind + "\"";

@@ -20,6 +20,7 @@
 #include "models/narx/narx_model.h"
 #include "models/io/network_fields.h"
 #include "models/control/neural_feedback.h"
+#include "models/diagnosis/gray_box_model.h"
 #include "models/preprocess/scaling.h"
 #include "models/io/number_text.h"
 
@@ -61,11 +62,11 @@ std::string read_kind(const json& model) {
     throw ModelRejected(kBadRequest, std::string("model.kind: expected a string, got ") + it->type_name());
   }
   const std::string kind = it->get<std::string>();
-  for (const char* known : {"linear", "narx", "lq_feedforward", "neural_feedback"}) {
+  for (const char* known : {"linear", "narx", "lq_feedforward", "neural_feedback", "gray_box"}) {
     if (kind == known) return kind;
   }
   throw ModelRejected(kBadRequest, "model.kind: unknown kind \"" + kind +
-                                       "\" (expected linear, narx, lq_feedforward or neural_feedback)");
+                                       "\" (expected linear, narx, lq_feedforward, neural_feedback or gray_box)");
 }
 
 // The key path of the first non-finite number in `root` (depth first, object keys in their stored
@@ -208,6 +209,7 @@ double load(const std::string& kind, const json& model) {
     return m.fs;
   }
   if (kind == "narx") return models::narx_model_from_json(model).fs;
+  if (kind == "gray_box") return models::gray_box_model_from_json(model).fs;  // its linear part's stability checked
   if (kind == "lq_feedforward") return models::lq_feedforward_from_json(model).fs;
   const models::NeuralFeedback c = models::neural_feedback_from_json(model);
   require_bounded_closed_loop(c);

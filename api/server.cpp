@@ -38,6 +38,7 @@ std::string model_kind_made_by(const std::string& job_kind) {
   if (job_kind == "identify-narx") return "narx";
   if (job_kind == "design-lq") return "lq_feedforward";
   if (job_kind == "design-nn") return "neural_feedback";
+  if (job_kind == "diagnose") return "gray_box";
   return "";
 }
 

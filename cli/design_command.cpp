@@ -14,6 +14,7 @@
 #include <numbers>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "cli/band_pass_option.h"
@@ -24,6 +25,7 @@
 #include "dsp/decibels.h"
 #include "dsp/frequency_grid.h"
 #include "models/io/json_file.h"
+#include "models/kinds/model_file.h"
 #include "models/io/roots_json.h"
 #include "models/linear/frequency_response.h"
 #include "models/linear/linear_model.h"
@@ -175,9 +177,18 @@ fs::path plot_lq_magnitude(const models::LqFeedforward& ff, double lo, double hi
   return fig.render(dir, format);
 }
 
+// The plant of an LQ design: a linear model file, or the linear part of a diagnosed model (kind gray_box: the
+// controller is linear; the gray-box terms stay with the model).
+models::LinearModel design_plant(const std::string& path) {
+  const nlohmann::json j = models::read_json_file(path);
+  if (j.is_object() && j.contains("kind") && j["kind"] == "gray_box")
+    return std::get<models::GrayBoxModel>(models::load_model(path).model).augmented.linear;
+  return models::load_linear_model(path);
+}
+
 void run_design_lq(const DesignLqOptions& o) {
   const auto [lo, hi] = parse_bandpass(o.bandpass);
-  const models::LinearModel model = models::load_linear_model(o.model);
+  const models::LinearModel model = design_plant(o.model);
   const std::vector<dsp::Biquad> band = band_pass_sections(lo, hi, o.order, model.fs);
   check_output_file("--out", o.out);
   const PlotFormat format = parse_plot_format(o.plot_format);

@@ -116,6 +116,14 @@ void location_table(std::ostream& out, const json& location) {
   state_table(out, before);
 }
 
+// The channels a diagnosis used, joined ("drive, output, current").
+std::string channels_text(const json& used) {
+  if (!used.is_array()) return html_cell(used);
+  std::string text;
+  for (const auto& c : used) text += (text.empty() ? "" : ", ") + html_cell(c);
+  return text;
+}
+
 }  // namespace
 
 void write_diagnosis_html(const std::filesystem::path& path, const json& report, const std::vector<ReportFigure>& figures,
@@ -131,6 +139,7 @@ void write_diagnosis_html(const std::filesystem::path& path, const json& report,
       << html_row("validation J before (the baseline)", pct(report_field(report, "J_val_before_pct")))
       << html_row("validation J after (final model)", pct(report_field(report, "J_val_after_pct")))
       << html_row("noise floor (J of a perfect model)", pct(report_field(report, "noise_floor_pct")))
+      << html_row("channels used", channels_text(report_field(report_field(report, "channels"), "used")))
       << html_row("findings", std::to_string(report_field(report, "findings").size())) << "</table>\n";
   baseline_table(out, report_field(report, "baseline"));
   findings_table(out, report_field(report, "findings"));

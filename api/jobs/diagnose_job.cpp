@@ -13,6 +13,7 @@
 #include "api/jobs/stored_models.h"
 #include "models/diagnosis/diagnosis.h"
 #include "models/diagnosis/diagnosis_baselines.h"
+#include "models/diagnosis/gray_box_model.h"
 #include "models/kinds/model_file.h"
 
 namespace panelbass::api {
@@ -25,11 +26,13 @@ json diagnose_params(const json& params, const JobEnvironment& env) {
   std::string validation_path;
   const long long validation = record_source(r, env, validation_path);
   if (validation == 0) refuse(validation_path, "diagnose needs validation data (it judges every augmentation on it)");
-  require_stored_model(r, "baseline_model", false, {"linear", "narx"}, env);
+  require_stored_model(r, "baseline_model", false, {"linear", "narx", "ss", "gray_box"}, env);
   r.integer("max_findings", 4, 0, 20);
   std::vector<std::string> quantities;
   for (auto q : models::all_output_quantities()) quantities.push_back(models::to_string(q));
   r.choice("sensor", "unknown", quantities);
+  // Opt-in, as diagnose --current-col: on a visible spring the force channel may still favour a damping.
+  r.boolean("use_current", false);
   return r.finish();
 }
 
@@ -37,7 +40,8 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
   JobProgress progress(control);
   const SourcedRecord data = acquire_record(params, env, progress, control);
   const ExcitationRecord& r = data.record;
-  // The simulation diagnosed: a stored linear, NARX or neural state-space model, or (without one) the best linear OE model.
+  // The simulation diagnosed: a stored linear, NARX, neural state-space or gray-box model, or (without one) the best
+  // linear OE model.
   std::optional<models::AnyModel> baseline;
   if (params.contains("baseline_model") && params.at("baseline_model").is_string()) {
     baseline = models::model_from_json(stored_model_file(env, params.at("baseline_model").get<std::string>()));
@@ -47,21 +51,30 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
   options.max_findings = params.at("max_findings").get<int>();
   for (auto q : models::all_output_quantities())
     if (models::to_string(q) == params.value("sensor", "unknown")) options.output = q;
+  if (params.value("use_current", false) && r.i_est.size() > 0)
+    options.current_est = r.i_est, options.current_val = r.i_val;  // the force channel
   int stages = 0;
   progress.span(kExcitationShare, 0.95);
   // The diagnosis names its stages but not how many remain: each one closes part of the gap to the end.
   options.progress = [&](const std::string& stage) { progress.at(1.0 - std::pow(0.8, ++stages), "diagnose: " + stage); };
   const auto* narx = baseline ? std::get_if<models::NarxModel>(&baseline->model) : nullptr;
   const auto* ss = baseline ? std::get_if<models::SsModel>(&baseline->model) : nullptr;
+  const auto* gray = baseline ? std::get_if<models::GrayBoxModel>(&baseline->model) : nullptr;
   const models::Diagnosis d =
       narx != nullptr ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs, models::narx_baseline(*narx), options)
       : ss != nullptr ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs, models::ss_baseline(*ss), options)
+      : gray != nullptr ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs, models::gray_box_baseline(*gray), options)
                       : models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs,
                                          baseline ? std::optional(std::get<models::LinearModel>(baseline->model)) : std::nullopt,
                                          options);
 
   progress.span(0.95, 1.0);
   json report = models::diagnosis_to_json(d);
+  // The diagnosed model (a linear baseline and the terms found) is stored as a gray_box model, as diagnose
+  // --model-out writes it; a baseline that is not linear has no such file.
+  if (env.store != nullptr && !d.findings.empty() && !d.model.simulate_baseline)
+    report["model_id"] = store_model(env, models::gray_box_model_to_json(models::gray_box_model_of(d)),
+                                     "gray box (" + control.job_id() + ")", control);
   report["fs"] = env.fs;
   report["data"] = data.source;
   report["j_val_pct"] = d.j_val_after_pct;

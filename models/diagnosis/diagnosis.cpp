@@ -1,13 +1,18 @@
 #include "models/diagnosis/diagnosis.h"
 
+#include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <stdexcept>
+#include <utility>
 
 #include "dsp/excitation.h"
 #include "models/diagnosis/diagnosis_candidates.h"
 #include "models/diagnosis/diagnosis_confidence.h"
+#include "models/diagnosis/diagnosis_current.h"
 #include "models/diagnosis/diagnosis_explanations.h"
 #include "models/linear/linear_identification.h"
 #include "models/validation/performance.h"
@@ -23,6 +28,7 @@ using diagnosis_detail::confidence_to_json;
 using diagnosis_detail::judge_finding;
 using diagnosis_detail::unexplained_residual;
 using diagnosis_detail::Fit;
+using diagnosis_detail::ForceChannel;
 using diagnosis_detail::fit_terms;
 using diagnosis_detail::fixed;
 using diagnosis_detail::Records;
@@ -76,6 +82,111 @@ void check_arguments(const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est,
   if (options.lags < 1) throw std::invalid_argument("diagnose: lags must be at least 1");
   check_record(u_est, y_est, "estimation", options.init);
   check_record(u_val, y_val, "validation", options.init);
+  if (options.current_est.size() > 0 || options.current_val.size() > 0) {
+    if (options.current_est.size() != u_est.size() || options.current_val.size() != u_val.size())
+      throw std::invalid_argument("diagnose: the current has " + std::to_string(options.current_est.size()) + " + " +
+                                  std::to_string(options.current_val.size()) + " samples, the records " +
+                                  std::to_string(u_est.size()) + " + " + std::to_string(u_val.size()));
+    if (!options.current_est.allFinite() || !options.current_val.allFinite())
+      throw std::invalid_argument("diagnose: a sample of the current is not finite");
+    if (!(options.current_est.cwiseAbs().maxCoeff() > 0.0))
+      throw std::invalid_argument("diagnose: the current of the estimation record is zero throughout");
+  }
+}
+
+// With the current: the force channel, its path identified as the baseline is (OE, lowest validation J over
+// orders up to the drive's scan: the path from the current lacks the converters and the electrical pole).
+std::optional<ForceChannel> force_channel_of(const Records& r, const DiagnosisOptions& options, Diagnosis& d) {
+  if (options.current_est.size() == 0) return std::nullopt;
+  if (options.progress) options.progress("identifying the force channel: the output from the current (OE)");
+  DiagnosisOptions scan = options;
+  scan.scan_from = std::max(2, options.scan_from - 6);
+  scan.scan_to = std::max(scan.scan_from, options.scan_to - 2);
+  const auto fitted = best_linear(options.current_est, r.y_est, options.current_val, r.y_val, r.fs, scan);
+  ForceChannel c = diagnosis_detail::force_channel(r, fitted.first, options.current_est, options.current_val);
+  d.channels.push_back("current");
+  d.current_channel = {{"path", {{"method", "oe"}, {"na", c.path.tf.na()}, {"nb", c.path.tf.nb()}, {"nk", c.path.tf.nk}}},
+                       {"J_val_pct", c.j_val_pct},
+                       {"scan", fitted.second},
+                       {"rule", "look-alike effects are told apart by their force features on the output explained from "
+                                "the current (BIC on its validation residual)"}};
+  return c;
+}
+
+// The look-alikes of `chosen` among `scored` that earned their parameters (BIC score > 0).
+std::vector<const Candidate*> look_alikes_of(const Candidate& chosen, const std::vector<Candidate>& scored,
+                                             const std::function<double(const Candidate&)>& score) {
+  std::vector<const Candidate*> out;
+  for (const Candidate& c : scored)
+    if (diagnosis_detail::look_alike(chosen.effect, c.effect) && score(c) > 0.0) out.push_back(&c);
+  return out;
+}
+
+// Between `chosen` and its look-alikes the force channel decides: the best force score of the effects that act as
+// a force of the motion, if it clearly earns its parameters; otherwise an effect of the look-alikes that is no
+// such force (the channel shows none missing: inductance); otherwise `chosen`. The verdict as JSON in `verdict`,
+// the confidence in `confidence`.
+const Candidate* decided_by_current(const Candidate* chosen, const std::vector<const Candidate*>& alikes,
+                                    const ForceChannel& channel, const Records& r, const Fit& current,
+                                    const std::vector<Effect>& kept, nlohmann::json& verdict,
+                                    diagnosis_detail::FindingConfidence& confidence) {
+  std::vector<const Candidate*> group{chosen};
+  group.insert(group.end(), alikes.begin(), alikes.end());
+  std::vector<double> scores;
+  verdict = nlohmann::json::array();
+  for (const Candidate* c : group) {
+    const diagnosis_detail::ForceScore f = diagnosis_detail::force_score(channel, r, current, c->effect, kept);
+    const bool force = diagnosis_detail::acts_as_force(c->effect) && c->effect != Effect::inductance;
+    scores.push_back(force ? f.score : -std::numeric_limits<double>::infinity());
+    verdict.push_back({{"effect", to_string(c->effect)}, {"force", force}, {"force_score_bic", f.score},
+                       {"J_before_pct", f.j_before_pct}, {"J_after_pct", f.j_after_pct}});
+  }
+  std::size_t best = 0;
+  for (std::size_t k = 1; k < group.size(); ++k)
+    if (scores[k] > scores[best]) best = k;
+  double second = -std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < group.size(); ++k)
+    if (k != best) second = std::max(second, scores[k]);
+  const Candidate* pick = nullptr;
+  double margin = 0.0;
+  std::string why;
+  if (scores[best] >= diagnosis_detail::kLikelyMargin) {
+    pick = group[best];
+    margin = std::isfinite(second) ? scores[best] - std::max(second, 0.0) : scores[best];
+    why = "its force on the output explained from the current earns BIC " + fixed(scores[best], 1);
+  } else {
+    for (const Candidate* c : group)
+      if (!diagnosis_detail::acts_as_force(c->effect) || c->effect == Effect::inductance) pick = c;
+    if (pick != nullptr) {
+      margin = -std::max(scores[best], -1e300);
+      margin = std::isfinite(margin) ? std::max(margin, 0.0) + diagnosis_detail::kLikelyMargin : diagnosis_detail::kClearMargin;
+      why = "the output explained from the current shows no missing force (the best, " + to_string(group[best]->effect) +
+            ", earns BIC " + fixed(scores[best], 1) + "): the effect acts in the electrical loop, which the measured current absorbs";
+    } else {
+      pick = chosen;
+      margin = 0.0;
+      why = "no force of the motion earns its parameters on the output explained from the current";
+    }
+  }
+  std::string rivals;
+  for (const Candidate* c : group)
+    if (c != pick) rivals += (rivals.empty() ? "" : " and ") + to_string(c->effect);
+  confidence.runner_up = rivals;
+  confidence.runner_up_variant.clear();
+  confidence.margin_bic = margin;
+  const std::string name = to_string(pick->effect);
+  if (margin >= diagnosis_detail::kClearMargin) {
+    confidence.word = "clear";
+    confidence.sentence = "clear: the current tells " + name + " from its look-alike " + rivals + ": " + why + ".";
+  } else if (margin >= diagnosis_detail::kLikelyMargin) {
+    confidence.word = "likely";
+    confidence.sentence = "likely: the current favours " + name + " over its look-alike " + rivals + ": " + why +
+                          ", but not by a margin that settles it.";
+  } else {
+    confidence.word = "ambiguous";
+    confidence.sentence = "ambiguous between " + name + " and " + rivals + ": even with the current, " + why + ".";
+  }
+  return pick;
 }
 
 // The rounds of a diagnosis from the baseline r.base: locate, score the candidates, keep the best while
@@ -96,6 +207,8 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
   d.located_val = locate_residual(u_val, y_val, simulate_augmented(current.model, u_val, y_val, r.init), fs, r.init);
   d.noise_floor_pct = d.located_val.noise_floor_pct;
   const double n_val = static_cast<double>(u_val.size() - r.init);
+  const std::optional<ForceChannel> force = force_channel_of(r, options, d);
+  std::vector<Effect> kept;
   for (int round = 0; round < options.max_findings; ++round) {
     progress("round " + std::to_string(round + 1) + ": scoring candidate effects");
     const ResidualLocation where_est =
@@ -123,6 +236,69 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     }
     d.rounds.push_back(round_json);
     if (chosen == nullptr) break;
+    // Effects that look alike from the drive: the current decides between them; without it they are reported
+    // as ambiguous, not named.
+    const auto y_score = [&](const Candidate& c) {
+      return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val);
+    };
+    const std::vector<const Candidate*> alikes = look_alikes_of(*chosen, scored, y_score);
+    std::optional<diagnosis_detail::FindingConfidence> alike_confidence;
+    nlohmann::json current_verdict;
+    // The drive's own margin over the best look-alike, on the validation residual's effective samples (as
+    // judge_finding counts them): a clear one settles the name without the current (Silverbox's spring, far
+    // ahead of a damping).
+    const double n_eff = std::max(where_val.effective_samples, 2.0);
+    const auto bic_eff = [&](const Candidate& c) {
+      return n_eff * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_eff);
+    };
+    const Candidate* rival = alikes.empty() ? nullptr : alikes.front();
+    for (const Candidate* a : alikes)
+      if (bic_eff(*a) > bic_eff(*rival)) rival = a;
+    // The current tells apart forces of the motion; a linear look-alike pair (creep and a mode) its path absorbs.
+    const bool force_pair =
+        rival != nullptr && (diagnosis_detail::acts_as_force(chosen->effect) || diagnosis_detail::acts_as_force(rival->effect));
+    const double drive_margin = rival != nullptr ? bic_eff(*chosen) - bic_eff(*rival) : 0.0;
+    // Rms(v) and a coil offset have no drive signature of their own (near one resonance v³ is x³ with a phase, x·u
+    // is x² times the drive): from the drive alone they are never named over a look-alike that earns.
+    const bool needs_current = chosen->effect == Effect::nonlinear_damping || chosen->effect == Effect::asymmetric_force_factor;
+    // Nor is creep over a mode, or a mode over creep, when both earn: each is a change of the same linear dynamics,
+    // and the mode's refit (every coefficient moved) fits concealed creep better than creep's own term does.
+    const bool drive_settles =
+        rival == nullptr || (!needs_current && force_pair && drive_margin >= diagnosis_detail::kClearMargin);
+    if (rival != nullptr && force && force_pair) {
+      diagnosis_detail::FindingConfidence c;
+      const Candidate* pick = decided_by_current(chosen, alikes, *force, r, current, kept, current_verdict, c);
+      if (!drive_settles) {
+        chosen = pick;  // the drive cannot tell them apart: the current decides
+        alike_confidence = c;
+      } else if (pick != chosen) {
+        // The drive clearly says one, the current another: what the data cannot settle is not named.
+        c.word = "ambiguous";
+        c.runner_up = to_string(pick->effect);
+        c.runner_up_variant = pick->variant;
+        c.margin_bic = 0.0;
+        c.sentence = "ambiguous between " + to_string(chosen->effect) + " and " + c.runner_up + ": the drive favours " +
+                     to_string(chosen->effect) + " (BIC margin " + fixed(drive_margin, 1) +
+                     "), the output explained from the current " + c.runner_up + ".";
+        alike_confidence = c;
+      }
+    } else if (rival != nullptr && !drive_settles) {
+      // Without the current the margin that the data cannot settle is reported, not a name; of a new force that
+      // needs the current and its established look-alike, the look-alike's term is the one applied.
+      if (needs_current && !(rival->effect == Effect::nonlinear_damping || rival->effect == Effect::asymmetric_force_factor))
+        std::swap(chosen, rival);
+      diagnosis_detail::FindingConfidence c;
+      c.word = "ambiguous";
+      c.runner_up = to_string(rival->effect);
+      c.runner_up_variant = rival->variant;
+      c.margin_bic = drive_margin;
+      c.sentence = "ambiguous between " + to_string(chosen->effect) + " and " + c.runner_up +
+                   ": they look alike from the drive (BIC margin " + fixed(c.margin_bic, 1) + "); " +
+                   (force_pair ? "a record with the coil current tells them apart."
+                               : "both are linear: a creeping suspension shows far below the resonance, where an "
+                                 "accelerometer sees little; a displacement sensor or more drive there tells them apart.");
+      alike_confidence = c;
+    }
     const double correlation = added_correlation(r, current, chosen->fit);
     Finding f;
     f.effect = chosen->effect;
@@ -136,14 +312,23 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
                   {"J_est_after_pct", chosen->fit.j_est},
                   {"residual_estimation", location_to_json(where_est)},
                   {"residual_validation", location_to_json(where_val)}};
-    f.confidence = confidence_to_json(
-        judge_finding(*chosen, scored, current.j_val, where_val.effective_samples, d.noise_floor_pct));
+    diagnosis_detail::FindingConfidence confidence =
+        judge_finding(*chosen, scored, current.j_val, where_val.effective_samples, d.noise_floor_pct);
+    if (alike_confidence) {
+      const double share = confidence.explained_share;
+      confidence = *alike_confidence;
+      confidence.explained_share = share;
+      confidence.sentence += " It explains " + fixed(100.0 * share, 0) + " % of J above the noise floor.";
+    }
+    f.confidence = confidence_to_json(confidence);
+    if (!current_verdict.is_null()) f.evidence["current_channel"] = current_verdict;
     f.parameters = chosen->parameters_json;
     f.parameters["added"] = chosen->parameters;
     f.parameters["terms"] = terms_json(chosen->fit.model);
     progress("found " + to_string(f.effect) + ": validation J " + fixed(f.j_val_before_pct, 3) + " % → " +
              fixed(f.j_val_after_pct, 3) + " %");
     d.findings.push_back(std::move(f));
+    kept.push_back(chosen->effect);
     current = chosen->fit;
   }
   d.j_val_after_pct = current.j_val;
@@ -293,7 +478,9 @@ nlohmann::json diagnosis_to_json(const Diagnosis& d) {
   baseline["J_val_pct"] = d.baseline_j_val_pct;
   baseline["J_est_pct"] = d.baseline_j_est_pct;
   baseline["output_quantity"] = to_string(d.output_quantity);
+  nlohmann::json channels = {{"used", d.channels}, {"current", d.current_channel}};
   return {{"baseline", baseline},
+          {"channels", channels},
           {"findings", findings},
           {"J_val_before_pct", d.j_val_before_pct},
           {"J_val_after_pct", d.j_val_after_pct},

@@ -44,6 +44,9 @@ struct DiagnosisOptions {
   int max_findings = 4;     ///< augmentation rounds at most
   int oe_iterations = 30;   ///< Levenberg–Marquardt iterations of a refit (delay, resonance)
   std::function<void(const std::string& stage)> progress;  ///< told what is being done
+  /// The coil current of the estimation and validation records, when the record carries it (both empty: it
+  /// does not). It is the force channel's input: it tells apart the effects that look alike from the drive.
+  Eigen::VectorXd current_est, current_val;
 };
 
 /// One augmentation kept: the physics, why, and what it did to validation J.
@@ -85,6 +88,8 @@ struct AugmentedModel {
 /// The result of a diagnosis.
 struct Diagnosis {
   std::string baseline_kind = "linear";
+  std::vector<std::string> channels{"drive", "output"};  ///< the record's channels the diagnosis used
+  nlohmann::json current_channel;           ///< with the current: the force channel's path and J (null without)
   OutputQuantity output_quantity = OutputQuantity::unknown;  ///< what the output measures, as told
   nlohmann::json baseline_info = nlohmann::json::object();  ///< method, orders, how it was chosen
   double baseline_j_val_pct = 0.0;

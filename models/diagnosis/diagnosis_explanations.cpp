@@ -1,4 +1,5 @@
 #include "models/diagnosis/diagnosis_explanations.h"
+#include "models/diagnosis/gray_box_model.h"
 
 #include <cmath>
 #include <vector>
@@ -21,7 +22,7 @@ constexpr double kLevelRatioShown = 1.2;
 
 bool acts_on_displacement(Effect e) {
   return e == Effect::cubic_stiffness || e == Effect::asymmetric_stiffness || e == Effect::force_factor ||
-         e == Effect::asymmetric_force_factor;
+         e == Effect::asymmetric_force_factor || e == Effect::creep;
 }
 
 // The physical quantity a state proxy estimates, for the sensors the plant may have (this project's transducer
@@ -105,6 +106,11 @@ std::string explain(const Candidate& c, const ResidualLocation& where, double co
       return "The model leaves out a mechanical resistance that rises with velocity (nonlinear damping, Rms(v)): the "
              "residual follows the cube of the rate of change of the estimated " + state +
              " (odd, strongest at resonance where the velocity peaks; correlation " + r + ").";
+    case Effect::creep:
+      return "The model leaves out creep of the suspension (a viscoelastic spring that relaxes over " +
+             fixed(c.parameters_json["time_constant_s"].get<double>() * 1000.0, 0) +
+             " ms): the residual follows the estimated " + state + " averaged over that time, a softer spring far below "
+             "the resonance where the displacement rises (linear: no harmonics; correlation " + r + ").";
     case Effect::static_nonlinearity: {
       const nlohmann::json& p = c.parameters_json;
       const bool wiener = p.value("position", "") == "output";
@@ -127,15 +133,7 @@ std::string explain(const Candidate& c, const ResidualLocation& where, double co
 
 nlohmann::json terms_json(const AugmentedModel& m) {
   nlohmann::json out = nlohmann::json::array();
-  for (const auto& t : m.terms)
-    out.push_back({{"effect", to_string(t.effect)},
-                   {"state", to_string(t.proxy)},
-                   {"threshold", t.threshold},
-                   {"time_constant_s", t.time_constant_s},
-                   {"one_sided", t.one_sided},
-                   {"position", to_string(t.position)},
-                   {"shape", t.shape == Shape::knee ? "knee" : "polynomial"},
-                   {"coefficients", std::vector<double>(t.coefficients.data(), t.coefficients.data() + t.coefficients.size())}});
+  for (const auto& t : m.terms) out.push_back(term_to_json(t));
   return out;
 }
 

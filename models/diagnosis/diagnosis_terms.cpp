@@ -107,6 +107,7 @@ std::string to_string(Effect effect) {
     case Effect::static_nonlinearity: return "static_nonlinearity";
     case Effect::nonlinear_damping: return "nonlinear_damping";
     case Effect::asymmetric_force_factor: return "asymmetric_force_factor";
+    case Effect::creep: return "creep";
   }
   return "unknown";
 }
@@ -114,7 +115,8 @@ std::string to_string(Effect effect) {
 std::vector<Effect> all_effects() {
   return {Effect::resonance,  Effect::antiresonance, Effect::delay,      Effect::cubic_stiffness,
           Effect::asymmetric_stiffness, Effect::force_factor, Effect::inductance, Effect::hysteresis,
-          Effect::saturation, Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity};
+          Effect::saturation, Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity,
+          Effect::nonlinear_damping, Effect::asymmetric_force_factor, Effect::creep};
 }
 
 std::string vocabulary_text() {
@@ -203,6 +205,13 @@ Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& stat
       const Eigen::VectorXd p = slow_power(u, term.time_constant_s * states.fs);
       Eigen::VectorXd g = (u.array() * (p.array() - p.mean())).matrix();
       return orthogonal_to(g, u);
+    }
+    case Effect::creep: {  // F = K0·(x − c·z), τ·dz/dt = x − z: the relaxed displacement z, beyond x itself
+      const double lambda = std::exp(-1.0 / (term.time_constant_s * states.fs));
+      Eigen::VectorXd relaxed(z.size());
+      double state = 0.0;
+      for (Eigen::Index k = 0; k < z.size(); ++k) relaxed[k] = state = lambda * state + (1.0 - lambda) * z[k];
+      return orthogonal_to(relaxed, z);
     }
     case Effect::dc_offset: return Eigen::VectorXd::Ones(z.size());
     default: throw std::invalid_argument("term_feature: no static term for effect " + to_string(term.effect));

@@ -26,9 +26,9 @@ enum class Effect {
   thermal_compression,
   dc_offset,
   static_nonlinearity,
-  nonlinear_damping,  ///< its term and scenario exist, but it is not offered yet (all_effects() leaves it out): at
-                      ///< one resonance v³ and x³ differ by a phase the term's leads absorb, and it took the cubic spring's place
-  asymmetric_force_factor,  ///< not offered yet either: without the current channel it took a visible asymmetric spring's place
+  nonlinear_damping,        ///< Rms(v): near one resonance v³ looks like x³ from the drive; the current tells them apart
+  asymmetric_force_factor,  ///< a coil offset, Bl(x) with an odd term: looks like x² or Le(x) from the drive; the current tells
+  creep,                    ///< a viscoelastic suspension: the spring relaxes, the displacement rises far below resonance
 };
 
 /// The effect's id ("cubic_stiffness", …).
@@ -72,7 +72,7 @@ struct DiagnosisTerm {
   Effect effect = Effect::dc_offset;
   StateProxy proxy = StateProxy::output;
   double threshold = 0.0;   ///< saturation: the knee, in units of the normalised input
-  double time_constant_s = 0.0;  ///< thermal_compression: the time constant of the power-driven state
+  double time_constant_s = 0.0;  ///< thermal_compression: the time constant of the power-driven state; creep: of the relaxation
   bool one_sided = false;   ///< saturation, static_nonlinearity: each side of the knee fitted on its own (a diode), not alike
   Position position = Position::input;  ///< static_nonlinearity: where it sits
   Shape shape = Shape::knee;            ///< static_nonlinearity: its static function

@@ -7,6 +7,7 @@ namespace panelbass::models {
 
 std::string AnyModel::kind() const {
   if (std::holds_alternative<LinearModel>(model)) return "linear";
+  if (std::holds_alternative<GrayBoxModel>(model)) return "gray_box";
   return std::holds_alternative<NarxModel>(model) ? "narx" : "ss";
 }
 
@@ -25,11 +26,12 @@ Eigen::VectorXd AnyModel::predict(const Eigen::VectorXd& u, const Eigen::VectorX
 AnyModel model_from_json(const nlohmann::json& j) {
   if (!j.is_object()) throw ConfigError("model: expected an object");
   const auto kind = j.find("kind");
-  if (kind == j.end() || !kind->is_string()) throw ConfigError("model.kind: missing (linear, narx or ss)");
+  if (kind == j.end() || !kind->is_string()) throw ConfigError("model.kind: missing (linear, narx, ss or gray_box)");
   if (*kind == "linear") return AnyModel{linear_model_from_json(j)};
   if (*kind == "narx") return AnyModel{narx_model_from_json(j)};
   if (*kind == "ss") return AnyModel{ss_model_from_json(j)};
-  throw ConfigError("model.kind: unknown kind \"" + kind->get<std::string>() + "\" (linear, narx or ss)");
+  if (*kind == "gray_box") return AnyModel{gray_box_model_from_json(j)};
+  throw ConfigError("model.kind: unknown kind \"" + kind->get<std::string>() + "\" (linear, narx, ss or gray_box)");
 }
 
 AnyModel load_model(const std::filesystem::path& path) {

@@ -7,6 +7,7 @@
 #include <string>
 #include <variant>
 
+#include "models/diagnosis/gray_box_model.h"
 #include "models/linear/linear_model.h"
 #include "models/narx/narx_model.h"
 #include "models/state_space_nn/ss_model.h"
@@ -15,9 +16,9 @@ namespace panelbass::models {
 
 /// A dynamic model of any kind, used through what all kinds can do.
 struct AnyModel {
-  std::variant<LinearModel, NarxModel, SsModel> model;
+  std::variant<LinearModel, NarxModel, SsModel, GrayBoxModel> model;
 
-  /// "linear", "narx" or "ss".
+  /// "linear", "narx", "ss" or "gray_box" (a diagnosed linear model with gray-box terms).
   std::string kind() const;
   /// Sample rate the model was identified at, Hz.
   double fs() const;

@@ -33,8 +33,6 @@ constexpr Real kMinimalTolerance = 1e-16L;
 // to its peak); a well-conditioned 30th-order model lands near 1e-10.
 constexpr double kFaithfulResponse = 1e-8;
 
-std::string show(double v) { return number_text(v); }
-
 
 // A square root L (L·Lᵀ = W) of a positive semidefinite W; eigenvalues that rounding made negative are
 // taken as zero, so a singular Gramian gives a rank-deficient factor rather than a failure.
@@ -182,7 +180,7 @@ StateSpace balance(const StateSpace& ss, Eigen::VectorXd* hankel_singular_values
   const MatrixL A = ss.A.cast<Real>();
   const Real radius = spectral_radius(A);
   if (!(radius < 1.0L)) {
-    throw std::invalid_argument("balance: not stable (pole radius " + show(static_cast<double>(radius)) + ")");
+    throw std::invalid_argument("balance: not stable (pole radius " + number_text(static_cast<double>(radius)) + ")");
   }
   if (ss.order() == 0) {
     if (hankel_singular_values != nullptr) hankel_singular_values->resize(0);
@@ -192,8 +190,8 @@ StateSpace balance(const StateSpace& ss, Eigen::VectorXd* hankel_singular_values
   Eigen::Index kept = 0;
   StateSpace out = balance_long(A, ss.B.cast<Real>(), ss.C.cast<Real>(), ss.D, kMinimalTolerance, &sigma, &kept);
   if (kept < ss.order()) {
-    throw std::invalid_argument("balance: not minimal (Hankel singular value " + show(sigma[ss.order() - 1]) +
-                                " against largest " + show(sigma[0]) + ": a Gramian is not positive definite)");
+    throw std::invalid_argument("balance: not minimal (Hankel singular value " + number_text(sigma[ss.order() - 1]) +
+                                " against largest " + number_text(sigma[0]) + ": a Gramian is not positive definite)");
   }
   if (hankel_singular_values != nullptr) *hankel_singular_values = sigma;
   return out;

@@ -66,6 +66,7 @@ double fastest_rate(const PlantConfig& c) {
   double rate = std::max(c.Re_ohm / c.Le_H, std::sqrt(c.stiffness_N_per_m / c.mass_kg));
   rate = std::max(rate, (c.damping_Ns_per_m + c.Bl_Tm * c.Bl_Tm / c.Re_ohm) / c.mass_kg);
   for (const auto& m : c.panel_modes) rate = std::max(rate, two_pi * m.frequency_hz);
+  if (c.creep.fraction > 0.0) rate = std::max(rate, 1.0 / c.creep.time_constant_s);
   if (c.converters.da_filter.order > 0) rate = std::max(rate, two_pi * c.converters.da_filter.cutoff_hz);
   if (c.converters.ad_filter.order > 0) rate = std::max(rate, two_pi * c.converters.ad_filter.cutoff_hz);
   return rate;
@@ -109,6 +110,14 @@ PlantConfig plant_from_json(const nlohmann::json& json) {
     require_non_negative(c.damping_Ns_per_m, f.path_of("damping_Ns_per_m"));
     c.Bl_Tm = f.number("Bl_Tm", c.Bl_Tm);
     require_positive(c.Bl_Tm, f.path_of("Bl_Tm"));
+    if (const nlohmann::json* w = f.member("creep")) {
+      JsonFields g(*w, f.path_of("creep"));
+      c.creep.fraction = g.number("fraction", c.creep.fraction);
+      require_within(c.creep.fraction, 0.0, 0.95, g.path_of("fraction"));
+      c.creep.time_constant_s = g.number("time_constant_s", c.creep.time_constant_s);
+      require_within(c.creep.time_constant_s, 1e-4, 1e4, g.path_of("time_constant_s"));
+      g.finish();
+    }
     f.finish();
   }
   if (const nlohmann::json* v = top.member("nonlinear")) {
@@ -263,6 +272,8 @@ nlohmann::json plant_to_json(const PlantConfig& c) {
     out["nonlinear"]["damping"] = damping;
   }
   if (c.sensor.preamp_clip_V != 0.0) out["sensor"]["preamp_clip_V"] = c.sensor.preamp_clip_V;
+  if (c.creep.fraction != 0.0)
+    out["mechanical"]["creep"] = {{"fraction", c.creep.fraction}, {"time_constant_s", c.creep.time_constant_s}};
   return out;
 }
 

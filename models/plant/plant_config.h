@@ -61,6 +61,13 @@ struct DampingTerm : NonlinearSwitch {
   double r2_per_m2ps2 = 0.0;
 };
 
+/// Creep of a viscoelastic suspension (linear): the spring relaxes towards a softer one, F = K0·(x − c·z) with
+/// τ·dz/dt = x − z, so that far below 1/(2πτ) the stiffness is K0·(1 − c) and the displacement rises. Off at c = 0.
+struct CreepTerm {
+  double fraction = 0.0;          ///< c, the share of K0 that relaxes (0 ≤ c < 1; 0: no creep)
+  double time_constant_s = 0.01;  ///< τ
+};
+
 /// All nonlinear terms of the plant.
 struct NonlinearTerms {
   StiffnessTerm stiffness;
@@ -114,6 +121,7 @@ struct PlantConfig {
   double stiffness_N_per_m = 4.4e4;  ///< suspension stiffness K0
   double damping_Ns_per_m = 8.0;     ///< mechanical resistance Rm
   double Bl_Tm = 3.0;          ///< force factor Bl0
+  CreepTerm creep;             ///< the suspension's creep (off unless a plant file sets it: presets do not change)
   NonlinearTerms nonlinear;
   std::vector<PanelMode> panel_modes;
   Converters converters;

@@ -10,7 +10,7 @@ namespace panelbass::models {
 namespace {
 
 // State layout: coil current, displacement, velocity, voice-coil temperature rise, then two states per
-// panel mode, then the analog filters' states.
+// panel mode, then the analog filters' states, then (with creep) the suspension's relaxed displacement.
 constexpr int kCurrent = 0;
 constexpr int kDisplacement = 1;
 constexpr int kVelocity = 2;
@@ -33,6 +33,7 @@ VirtualTransducer::VirtualTransducer(PlantConfig config, std::uint64_t noise_see
   int next = mode_state_ + 2 * static_cast<int>(config_.panel_modes.size());
   da_sections_ = converter_sections(config_.converters.da_filter, next);
   ad_sections_ = converter_sections(config_.converters.ad_filter, next);
+  if (config_.creep.fraction > 0.0) creep_state_ = next++;
   for (Eigen::VectorXd* v : {&state_, &k1_, &k2_, &k3_, &k4_, &trial_}) v->setZero(next);
   delay_line_.assign(static_cast<std::size_t>(config_.converters.delay_samples), 0.0);
 }
@@ -60,8 +61,14 @@ void VirtualTransducer::derivatives(const Eigen::VectorXd& s, double drive, Eige
   // Large-signal element values (docs/transducer.md): polynomials in displacement (mm) and current.
   const double bl = c.Bl_Tm * (1.0 + n.force_factor.gain() * (n.force_factor.b1_per_mm * xm +
                                                                n.force_factor.b2_per_mm2 * xm * xm));
-  const double spring = c.stiffness_N_per_m * x *
-                        (1.0 + n.stiffness.gain() * (n.stiffness.k1_per_mm * xm + n.stiffness.k2_per_mm2 * xm * xm));
+  double spring = c.stiffness_N_per_m * x *
+                  (1.0 + n.stiffness.gain() * (n.stiffness.k1_per_mm * xm + n.stiffness.k2_per_mm2 * xm * xm));
+  if (creep_state_ >= 0) {
+    // Creep: F = K0·(x − c·z), τ·dz/dt = x − z (the share c of the spring relaxes).
+    const double z = s[creep_state_];
+    spring -= c.stiffness_N_per_m * c.creep.fraction * z;
+    ds[creep_state_] = (x - z) / c.creep.time_constant_s;
+  }
   const double gl = n.inductance.gain();
   const double le = c.Le_H * std::max(kMinInductanceFraction,
                                       1.0 + gl * (n.inductance.l1_per_mm * xm + n.inductance.l2_per_mm2 * xm * xm +

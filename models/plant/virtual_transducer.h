@@ -55,6 +55,7 @@ class VirtualTransducer {
   dsp::Rng noise_;
   std::vector<ConverterSection> da_sections_, ad_sections_;  // the converters' filters (converter_loop.h)
   int mode_state_ = 4;
+  int creep_state_ = -1;  // the suspension's relaxed displacement z, when the plant has creep
   Eigen::VectorXd state_, k1_, k2_, k3_, k4_, trial_;
   std::vector<double> delay_line_;
   std::size_t delay_pos_ = 0;

@@ -56,6 +56,8 @@ TEST_F(CliDiagnose, FindsTheCubicSpringAndWritesTheReport) {
   }
   EXPECT_LT(r["J_val_after_pct"].get<double>(), r["J_val_before_pct"].get<double>());
   EXPECT_EQ(r["baseline"]["kind"], "linear");
+  // `simulate` writes the coil current (column i), but the current is opt-in (--current-col): not used.
+  EXPECT_EQ(r["channels"], json::parse(R"(["drive", "output"])")) << r.dump(1);
   // The report file: the contract's keys, and the same figures as stdout.
   const json report = json::parse(text_of(out));
   for (const char* key : {"baseline", "findings", "J_val_before_pct", "J_val_after_pct", "noise_floor_pct"})
@@ -109,7 +111,8 @@ TEST_F(CliDiagnose, HtmlReportShowsTheFindingsAndEmbedsEveryFigure) {
   const std::string page = text_of(html);
   EXPECT_EQ(page.rfind("<!DOCTYPE html>", 0), 0u);
   EXPECT_FALSE(contains(page, "src=\"http")) << "the page must not load external assets";
-  for (const char* part : {"<h2>Baseline</h2>", "<h2>Findings</h2>", "noise floor", "J before", "J after"})
+  for (const char* part : {"<h2>Baseline</h2>", "<h2>Findings</h2>", "noise floor", "J before", "J after",
+                           "channels used</th><td>drive, output<"})
     EXPECT_TRUE(contains(page, part)) << part;
   EXPECT_TRUE(contains(page, "<code>" + r["findings"][0]["effect"].get<std::string>() + "</code>"));
   std::size_t images = 0;
@@ -120,13 +123,30 @@ TEST_F(CliDiagnose, HtmlReportShowsTheFindingsAndEmbedsEveryFigure) {
   for (const std::string& name : plotted) EXPECT_TRUE(contains(page, "<figure id=\"" + name + "\"")) << name;
 }
 
+// With --current-col the force channel is used (the file's column i) and says so; on this visible spring the
+// states of its force features come from the output the current explains (not from the drive's linear model, whose
+// phase near the shifted resonance made v³ look better than x³): the spring is still named, and not ambiguous.
+TEST_F(CliDiagnose, TheCurrentOptedInStillNamesAVisibleCubicSpring) {
+  const fs::path out = dir_ / "report.json";
+  const json r = expect_result(run("diagnose --data " + est() + " --val " + val() +
+                                   " --fs 3000 --scan-from 12 --scan-to 13 --max-findings 1 --current-col auto --out " +
+                                   quoted(out)));
+  EXPECT_EQ(r["channels"], json::parse(R"(["drive", "output", "current"])")) << r.dump(1);
+  const json report = json::parse(text_of(out));
+  ASSERT_FALSE(report["findings"].empty()) << r.dump(1);
+  const json& first = report["findings"][0];
+  EXPECT_EQ(first["effect"], "cubic_stiffness") << first["confidence"].dump(1);
+  EXPECT_NE(first["confidence"]["word"], "ambiguous") << first["confidence"].dump(1) << first["evidence"]["current_channel"].dump(1);
+}
+
 // --model may name a simulation that is not linear: here the virtual transducer without the spring. Against
 // a fixed baseline the hardening spring also raises the resonance at this drive level, so a linear refit of
 // the resonance may come first; the cubic spring must be among the findings.
 TEST_F(CliDiagnose, APlantBaselineIsDiagnosedThroughItsLinearisation) {
   file("plain.json", models::plant_to_json(models::plant_preset("linear")).dump());
   const json r = expect_result(run("diagnose --data " + est() + " --val " + val() + " --model " +
-                                   quoted(dir_ / "plain.json") + " --max-findings 3 --out " + quoted(dir_ / "report.json")));
+                                   quoted(dir_ / "plain.json") + " --max-findings 3 --out " +
+                                   quoted(dir_ / "report.json")));
   EXPECT_EQ(r["baseline"]["kind"], "plant");
   EXPECT_TRUE(r["baseline"].contains("linearisation")) << r["baseline"].dump(1);
   std::set<std::string> effects;
@@ -145,6 +165,41 @@ TEST_F(CliDiagnose, ANarxBaselineStartsFromItsOwnSimulation) {
   EXPECT_EQ(r["baseline"]["kind"], "narx");
   EXPECT_NEAR(r["J_val_before_pct"].get<double>(), v["J_sim_pct"].get<double>(), 1e-6 * v["J_sim_pct"].get<double>());
   EXPECT_LE(r["J_val_after_pct"].get<double>(), r["J_val_before_pct"].get<double>());
+}
+
+// --model-out: the diagnosed model (the linear baseline and its gray-box terms) as a model file that validate and
+// analyze read; its J on the validation record is the diagnosis's J after (the same simulation, the same init).
+TEST_F(CliDiagnose, ModelOutWritesTheDiagnosedModelThatValidateReads) {
+  const fs::path model = dir_ / "diagnosed.json";
+  const json r = expect_result(run("diagnose --data " + est() + " --val " + val() + " --fs 3000 --scan-from 12 --scan-to 13 " +
+                                   "--max-findings 1 --out " + quoted(dir_ / "report.json") + " --model-out " + quoted(model)));
+  ASSERT_FALSE(r["findings"].empty()) << r.dump(1);
+  EXPECT_EQ(r["model_out"], model.string());
+  const json file_json = json::parse(text_of(model));
+  EXPECT_EQ(file_json["kind"], "gray_box");
+  EXPECT_EQ(file_json["terms"].size(), 1u) << file_json["terms"].dump(1);
+  EXPECT_EQ(file_json["terms"][0]["effect"], r["findings"][0]["effect"]);
+  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
+  EXPECT_EQ(v["kind"], "gray_box");
+  const double j_after = r["J_val_after_pct"].get<double>();
+  EXPECT_NEAR(v["J_sim_pct"].get<double>(), j_after, 1e-9 * j_after);
+  const json a = expect_result(run("analyze --model " + quoted(model) + " --data " + val() + " --init 50 --out " +
+                                   quoted(dir_ / "analysis.json")));
+  EXPECT_NEAR(a["J_sim_pct"].get<double>(), j_after, 1e-9 * j_after) << a.dump(1).substr(0, 2000);
+  // The controller design takes its linear part.
+  expect_result(run("design lq --model " + quoted(model) + " --R 1e-3 --R0 20 --out " + quoted(dir_ / "ff.json")));
+  EXPECT_TRUE(fs::exists(dir_ / "ff.json"));
+}
+
+// Only a linear baseline's diagnosis is a model file: another baseline is refused before the work.
+TEST_F(CliDiagnose, ModelOutOfANonLinearBaselineIsRefusedBeforeTheWork) {
+  file("plain.json", models::plant_to_json(models::plant_preset("linear")).dump());
+  const RunResult r = run("diagnose --data " + est() + " --val " + val() + " --model " + quoted(dir_ / "plain.json") +
+                          " --out " + quoted(dir_ / "r.json") + " --model-out " + quoted(dir_ / "m.json"));
+  expect_failure(r);
+  EXPECT_TRUE(contains(r.err, "--model-out")) << r.err;
+  EXPECT_FALSE(contains(r.err, "diagnose: simulating")) << "refused only after the work: " << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "m.json"));
 }
 
 TEST_F(CliDiagnose, HtmlIntoAMissingFolderIsRefusedBeforeTheWork) {

@@ -79,6 +79,11 @@ DiagnosisScenario concealed_scenario(Effect effect, double size) {
       p.nonlinear.damping.r2_per_m2ps2 = 1.0;
       p.nonlinear.damping.scale = 0.06 * size;
       break;
+    case Effect::creep:  // the suspension relaxes by 0.7 % of its stiffness over 10 ms (4 %: visible, ratio 14)
+      p.creep.fraction = 0.007 * size;
+      p.creep.time_constant_s = 0.01;
+      s.baseline = ScenarioBaseline::given_reference;
+      break;
     case Effect::thermal_compression:
       p.nonlinear.thermal.enabled = true;
       p.nonlinear.thermal.scale = 0.05 * size;
@@ -122,6 +127,7 @@ DiagnosisScenario combined_scenario(const DiagnosisScenario& first, const Diagno
   if (q.nonlinear.clipping.enabled) p.nonlinear.clipping = q.nonlinear.clipping;
   if (q.nonlinear.thermal.enabled) p.nonlinear.thermal = q.nonlinear.thermal;
   if (q.nonlinear.damping.enabled) p.nonlinear.damping = q.nonlinear.damping;
+  if (q.creep.fraction != plain.creep.fraction) p.creep = q.creep;
   if (q.sensor.offset_V != plain.sensor.offset_V) p.sensor.offset_V = q.sensor.offset_V;
   if (q.sensor.preamp_clip_V != plain.sensor.preamp_clip_V) p.sensor.preamp_clip_V = q.sensor.preamp_clip_V;
   for (std::size_t k = plain.panel_modes.size(); k < q.panel_modes.size(); ++k) p.panel_modes.push_back(q.panel_modes[k]);
@@ -143,9 +149,10 @@ ScenarioRecords scenario_records(const DiagnosisScenario& scenario, std::uint64_
   }
   PlantConfig quiet = scenario.plant;
   quiet.sensor.noise_rms_V = 0.0;
-  const Eigen::VectorXd y = simulate(scenario.plant, u, seed + 100).y;
+  const PlantRecord record = simulate(scenario.plant, u, seed + 100);
   const Eigen::VectorXd y_clean = simulate(quiet, u, seed + 100).y;
-  return {u.head(n_est), y.head(n_est), u.tail(n_val), y.tail(n_val), y_clean.tail(n_val), scenario.plant.fs};
+  return {u.head(n_est),           record.y.head(n_est),    u.tail(n_val),        record.y.tail(n_val),
+          y_clean.tail(n_val),     record.i.head(n_est),    record.i.tail(n_val), scenario.plant.fs};
 }
 
 std::optional<LinearModel> scenario_baseline(const DiagnosisScenario& scenario) {

@@ -47,6 +47,7 @@ DiagnosisScenario combined_scenario(const DiagnosisScenario& first, const Diagno
 struct ScenarioRecords {
   Eigen::VectorXd u_est, y_est, u_val, y_val;
   Eigen::VectorXd y_val_clean;  ///< the validation output without sensor noise
+  Eigen::VectorXd i_est, i_val;  ///< the coil current (A), as the virtual transducer writes it
   double fs = 0.0;
 };
 

@@ -147,6 +147,7 @@ function plots(kind) {
 const diagnosisReport = (params) => ({
   baseline: { kind: 'linear', source: params.baseline_model ? 'given' : 'identified', method: 'oe', na: 8, nb: 8, nk: 1,
               J_val_pct: 4.6, J_est_pct: 5.4 },
+  channels: { used: ['drive', 'output', 'current'], current: { path: { method: 'oe', na: 8, nb: 8, nk: 0 }, J_val_pct: 1.9 } },
   findings: [{ effect: 'cubic_stiffness', J_val_before_pct: 4.6, J_val_after_pct: 2.5,
                explanation: 'The model leaves out a cubic stiffness (a spring that hardens or softens with excursion): '
                  + 'the residual follows the cube of the estimated output (odd and level-dependent; correlation 0.54).',

@@ -207,6 +207,7 @@ async function main() {
     before: document.querySelector('#diag-j-before').textContent.trim(),
     after: document.querySelector('#diag-j-after').textContent.trim(),
     floor: document.querySelector('#diag-noise-floor').textContent.trim(),
+    channels: document.querySelector('#diag-channels').textContent.trim(),
     verdict: document.querySelector('#diag-verdict').textContent.trim(),
     findings: Array.from(document.querySelectorAll('#diag-findings tbody tr'))
       .map((tr) => Array.from(tr.children).map((td) => td.textContent.trim())),
@@ -220,6 +221,7 @@ async function main() {
   check(diagnosis.baseline.startsWith('linear'), `baseline not shown (got "${diagnosis.baseline}")`);
   for (const k of ['before', 'after', 'floor']) check(/\d/.test(diagnosis[k]), `J ${k} not shown (got "${diagnosis[k]}")`);
   check(diagnosis.verdict !== '', 'no verdict on the final J against the noise floor');
+  check(diagnosis.channels.startsWith('drive, output'), `the channels used not shown (got "${diagnosis.channels}")`);
   check(diagnosis.genericHidden, 'the J estimation/validation figures of other kinds are shown for a diagnosis');
   // At drive 0.8 the exciter's nonlinearity is well above the noise: the linear baseline leaves something out.
   check(diagnosis.findings.length >= 1 && diagnosis.tableShown && !diagnosis.noneShown,

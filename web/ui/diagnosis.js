@@ -61,6 +61,8 @@ export function renderDiagnosis(r) {
   setText('#diag-j-before', fmtPct(baseline.J_val_pct ?? r.J_val_before_pct));
   setText('#diag-j-after', fmtPct(r.J_val_after_pct));
   setText('#diag-noise-floor', fmtPct(r.noise_floor_pct));
+  const channels = r.channels && Array.isArray(r.channels.used) ? r.channels.used : [];
+  setText('#diag-channels', channels.length ? channels.join(', ') : '—');
   const ratio = num(r.J_val_after_pct) && num(r.noise_floor_pct) && r.noise_floor_pct > 0
     ? r.J_val_after_pct / r.noise_floor_pct : null;
   setText('#diag-verdict', ratio === null ? ''

@@ -204,6 +204,24 @@ TEST_F(JobKindsTest, DiagnoseANarxBaselineStartsFromTheJTheAnalyzeJobGivesIt) {
   expect_plot(result.at("plots").at("residual_spectrum"), {"frequency_hz", "before_db", "after_db", "noise_floor_db"});
 }
 
+// The diagnosed model is stored (kind gray_box, as diagnose --model-out writes it), and a diagnosis takes it as its
+// baseline: on the same record its J before is the first diagnosis's J after (the same simulation, the same init).
+TEST_F(JobKindsTest, DiagnoseStoresAGrayBoxModelThatADiagnosisTakesAsItsBaseline) {
+  use_plant("panel-exciter");
+  run("excite", {{"samples", 3000}, {"validation_samples", 2000}, {"amplitude", 0.8}}, "j1");
+  const json first = run("diagnose", {{"record", "j1"}, {"max_findings", 1}}, "j2");
+  ASSERT_FALSE(first.at("findings").empty()) << first.dump(1);
+  ASSERT_TRUE(first.contains("model_id")) << first.dump(1);
+  FakeControl control("j3");
+  const json second =
+      run("diagnose", {{"record", "j1"}, {"baseline_model", first.at("model_id")}, {"max_findings", 1}}, control);
+  expect_progress(control);
+  EXPECT_EQ(second.at("baseline").at("kind"), "gray_box");
+  const double j_after = first.at("J_val_after_pct").get<double>();
+  EXPECT_NEAR(second.at("J_val_before_pct").get<double>(), j_after, 1e-6 * j_after);
+  EXPECT_LE(second.at("J_val_after_pct").get<double>(), second.at("J_val_before_pct").get<double>());
+}
+
 TEST_F(JobKindsTest, DiagnoseRefusesABaselineThatIsNotASimulation) {
   const std::string lq = run("design-lq", {{"plant_model", store_reference_model()}, {"r", 3.0}}, "j1").at("model_id");
   try {

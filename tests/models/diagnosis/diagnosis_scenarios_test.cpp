@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <utility>
 
 #include "models/diagnosis/diagnosis.h"
 #include "tests/support/diagnosis_scenarios.h"
@@ -35,10 +36,14 @@ struct Diagnosed {
   Diagnosis diagnosis;
 };
 
-Diagnosed diagnose_scenario(const DiagnosisScenario& s, std::uint64_t seed, int max_findings) {
-  Diagnosed d{scenario_records(s, seed, kEstimation, kValidation), {}};
+// The scenario diagnosed from `seed`'s records (n_est + n_val samples), with the coil current when `current`.
+Diagnosed diagnose_scenario(const DiagnosisScenario& s, std::uint64_t seed, int max_findings, bool current = false,
+                            Eigen::Index n_est = kEstimation, Eigen::Index n_val = kValidation) {
+  Diagnosed d{scenario_records(s, seed, n_est, n_val), {}};
   const ScenarioRecords& r = d.records;
-  d.diagnosis = diagnose(r.u_est, r.y_est, r.u_val, r.y_val, r.fs, scenario_baseline(s), options(max_findings));
+  DiagnosisOptions o = options(max_findings);
+  if (current) o.current_est = r.i_est, o.current_val = r.i_val;
+  d.diagnosis = diagnose(r.u_est, r.y_est, r.u_val, r.y_val, r.fs, scenario_baseline(s), o);
   return d;
 }
 
@@ -58,7 +63,13 @@ TEST_P(ConcealedEffect, IsNamedFirstAndImprovesValidation) {
   EXPECT_LT(concealment_ratio(run.records, d.baseline_model.linear, kInit), 1.0);
   ASSERT_FALSE(d.findings.empty()) << diagnosis_to_json(d)["rounds"].dump(1);
   const Finding& first = d.findings.front();
-  EXPECT_EQ(to_string(first.effect), to_string(effect)) << first.explanation;
+  // From the drive alone an effect with a look-alike (a spring's x³ and a damping's v³) may be reported as
+  // ambiguous between the two, naming both; otherwise it is named first.
+  const bool named_in_ambiguity = first.confidence["word"] == "ambiguous" && first.confidence["runner_up"].is_string() &&
+                                  first.confidence["runner_up"].get<std::string>().find(to_string(effect)) != std::string::npos;
+  if (!named_in_ambiguity) {
+    EXPECT_EQ(to_string(first.effect), to_string(effect)) << first.explanation;
+  }
   EXPECT_LT(first.j_val_after_pct, first.j_val_before_pct);
   EXPECT_LT(d.j_val_after_pct, d.j_val_before_pct);
   // What is left is close to the sensor noise: the final J lies nearer the noise's own J than the baseline's.
@@ -74,54 +85,103 @@ INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, ConcealedEffect,
                          testing::Values(Effect::resonance, Effect::antiresonance, Effect::delay,
                                          Effect::cubic_stiffness, Effect::asymmetric_stiffness, Effect::force_factor,
                                          Effect::inductance, Effect::hysteresis, Effect::saturation,
-                                         Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity),
+                                         Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity,
+                                         Effect::creep),
                          [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
 
-// The fitted parameters of the effects that have a value to compare with the plant's.
-TEST(DiagnosisScenarios, FittedParametersMatchThePlant) {
-  {
-    const Diagnosis d = diagnose_scenario(concealed_scenario(Effect::dc_offset), 1, 1).diagnosis;
-    ASSERT_FALSE(d.findings.empty());
-    // The sensor offset, 3.5 mV, in raw units: the coefficient times the output scale; its standard error
-    // over 40 000 samples of 70 mV noise is 0.35 mV.
-    EXPECT_NEAR(d.model.terms.front().coefficients[0] * d.baseline_model.linear.scaling.y_scale, 0.0035, 0.0012);
-  }
-  {
-    const Diagnosis d = diagnose_scenario(concealed_scenario(Effect::delay), 1, 1).diagnosis;
-    ASSERT_FALSE(d.findings.empty());
-    EXPECT_EQ(d.findings[0].parameters["nk_before"].get<int>(), 2);
-    EXPECT_EQ(d.findings[0].parameters["nk_after"].get<int>(), 1);  // the converters' true latency
-  }
-  for (Effect e : {Effect::resonance, Effect::antiresonance}) {
-    const Diagnosis d = diagnose_scenario(concealed_scenario(e), 1, 1).diagnosis;
-    ASSERT_FALSE(d.findings.empty());
-    // The mode at 450 Hz; the cancelling pair at 440 and 460 Hz dips in between.
-    EXPECT_NEAR(d.findings[0].parameters["frequency_hz"].get<double>(), 450.0, 15.0) << to_string(e);
+// The fitted parameters of the effects that have a value to compare with the plant's (one test each: each
+// diagnosis takes seconds).
+TEST(DiagnosisScenarios, FittedSensorOffsetMatchesThePlant) {
+  const Diagnosis d = diagnose_scenario(concealed_scenario(Effect::dc_offset), 1, 1).diagnosis;
+  ASSERT_FALSE(d.findings.empty());
+  // The sensor offset, 3.5 mV, in raw units: the coefficient times the output scale; its standard error
+  // over 40 000 samples of 70 mV noise is 0.35 mV.
+  EXPECT_NEAR(d.model.terms.front().coefficients[0] * d.baseline_model.linear.scaling.y_scale, 0.0035, 0.0012);
+}
+
+TEST(DiagnosisScenarios, FittedDelayMatchesTheConverters) {
+  const Diagnosis d = diagnose_scenario(concealed_scenario(Effect::delay), 1, 1).diagnosis;
+  ASSERT_FALSE(d.findings.empty());
+  EXPECT_EQ(d.findings[0].parameters["nk_before"].get<int>(), 2);
+  EXPECT_EQ(d.findings[0].parameters["nk_after"].get<int>(), 1);  // the converters' true latency
+}
+
+class FittedMode : public testing::TestWithParam<Effect> {};
+
+TEST_P(FittedMode, FrequencyMatchesThePlant) {
+  const Diagnosis d = diagnose_scenario(concealed_scenario(GetParam()), 1, 1).diagnosis;
+  ASSERT_FALSE(d.findings.empty());
+  // The mode at 450 Hz; the cancelling pair at 440 and 460 Hz dips in between.
+  EXPECT_NEAR(d.findings[0].parameters["frequency_hz"].get<double>(), 450.0, 15.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, FittedMode, testing::Values(Effect::resonance, Effect::antiresonance),
+                         [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
+
+// Two effects at once: both are found, each named (at twice the concealed size, from records half as long:
+// the same evidence in less time). One test per pair.
+class TwoEffects : public testing::TestWithParam<std::pair<Effect, Effect>> {};
+
+TEST_P(TwoEffects, AreBothFound) {
+  const auto [a, b] = GetParam();
+  const DiagnosisScenario s = combined_scenario(concealed_scenario(a, 2.0), concealed_scenario(b, 2.0));
+  const Diagnosis d = diagnose_scenario(s, 2, 3, false, kEstimation / 2, kValidation / 2).diagnosis;
+  EXPECT_TRUE(found(d, a)) << diagnosis_to_json(d)["findings"].dump(1);
+  EXPECT_TRUE(found(d, b)) << diagnosis_to_json(d)["findings"].dump(1);
+  EXPECT_LT(d.j_val_after_pct, d.j_val_before_pct);
+}
+
+INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, TwoEffects,
+                         testing::Values(std::pair{Effect::cubic_stiffness, Effect::hysteresis},
+                                         std::pair{Effect::resonance, Effect::dc_offset}),
+                         [](const testing::TestParamInfo<std::pair<Effect, Effect>>& info) {
+                           return to_string(info.param.first) + "_and_" + to_string(info.param.second);
+                         });
+
+// The effects that look alike from the drive: a spring's x³ and a damping's v³ near one resonance, a coil
+// offset's x·i and a spring's x² or an inductance's Le(x). With the coil current each is named first, and the
+// finding says the current decided; without it, each is named first or reported ambiguous with the right one —
+// never named wrong with confidence.
+class LookAlikeEffect : public testing::TestWithParam<Effect> {};
+
+TEST_P(LookAlikeEffect, TheCurrentTellsItFromItsLookAlike) {
+  const Effect effect = GetParam();
+  const Diagnosis d = diagnose_scenario(concealed_scenario(effect), 1, 1, true).diagnosis;
+  ASSERT_FALSE(d.findings.empty()) << diagnosis_to_json(d)["rounds"].dump(1);
+  EXPECT_EQ(d.channels.back(), "current");
+  const Finding& first = d.findings.front();
+  EXPECT_EQ(to_string(first.effect), to_string(effect)) << first.confidence.dump(1) << first.evidence["current_channel"].dump(1);
+  EXPECT_NE(first.confidence["word"].get<std::string>(), "ambiguous") << first.confidence.dump(1);
+}
+
+TEST_P(LookAlikeEffect, WithoutTheCurrentIsNeverMisnamedWithConfidence) {
+  const Effect effect = GetParam();
+  const Diagnosis d = diagnose_scenario(concealed_scenario(effect), 1, 1).diagnosis;
+  ASSERT_FALSE(d.findings.empty()) << diagnosis_to_json(d)["rounds"].dump(1);
+  const Finding& first = d.findings.front();
+  if (first.effect != effect) {
+    EXPECT_EQ(first.confidence["word"].get<std::string>(), "ambiguous") << first.confidence.dump(1);
+    EXPECT_NE(first.confidence["runner_up"].get<std::string>().find(to_string(effect)), std::string::npos)
+        << first.confidence.dump(1);
   }
 }
 
-// Two effects at once: both are found, each named.
-TEST(DiagnosisScenarios, TwoEffectsAreBothFound) {
-  for (const auto& [a, b] : {std::pair{Effect::cubic_stiffness, Effect::hysteresis},
-                             std::pair{Effect::resonance, Effect::dc_offset}}) {
-    const DiagnosisScenario s = combined_scenario(concealed_scenario(a), concealed_scenario(b));
-    SCOPED_TRACE(s.name);
-    const Diagnosis d = diagnose_scenario(s, 2, 3).diagnosis;
-    EXPECT_TRUE(found(d, a)) << diagnosis_to_json(d)["findings"].dump(1);
-    EXPECT_TRUE(found(d, b)) << diagnosis_to_json(d)["findings"].dump(1);
-    EXPECT_LT(d.j_val_after_pct, d.j_val_before_pct);
-  }
+INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, LookAlikeEffect,
+                         testing::Values(Effect::nonlinear_damping, Effect::cubic_stiffness, Effect::asymmetric_force_factor,
+                                         Effect::asymmetric_stiffness, Effect::inductance),
+                         [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
+
+// No effect: no finding, over several seeds (one test each), and nothing changed.
+class NoEffect : public testing::TestWithParam<std::uint64_t> {};
+
+TEST_P(NoEffect, GivesNoFinding) {
+  const Diagnosis d = diagnose_scenario(plain_scenario(), GetParam(), 2).diagnosis;
+  EXPECT_TRUE(d.findings.empty()) << diagnosis_to_json(d)["findings"].dump(1);
+  EXPECT_EQ(d.j_val_after_pct, d.j_val_before_pct);
 }
 
-// No effect: no finding, over several seeds, and nothing changed.
-TEST(DiagnosisScenarios, NoEffectGivesNoFinding) {
-  for (std::uint64_t seed : {11u, 12u, 13u, 14u}) {
-    SCOPED_TRACE("seed " + std::to_string(seed));
-    const Diagnosis d = diagnose_scenario(plain_scenario(), seed, 2).diagnosis;
-    EXPECT_TRUE(d.findings.empty()) << diagnosis_to_json(d)["findings"].dump(1);
-    EXPECT_EQ(d.j_val_after_pct, d.j_val_before_pct);
-  }
-}
+INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, NoEffect, testing::Values(11u, 12u, 13u, 14u),
+                         [](const testing::TestParamInfo<std::uint64_t>& info) { return "seed" + std::to_string(info.param); });
 
 // A baseline that is not a linear model: the virtual transducer without the effect (no sensor noise) as the
 // simulation, the data from the plant with a cubic spring (three times the concealed size). The terms act

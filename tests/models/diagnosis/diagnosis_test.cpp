@@ -77,7 +77,7 @@ TEST(Diagnosis, LocateFindsTheNoiseFloorAnOffsetAndALine) {
 }
 
 // Not concealed (their residual peaks 8–15 times the noise near the main resonance): the even-order
-// spring and the clipping amplifier are named first and validation J improves. The gray-box terms explain
+// spring (or its look-alike, reported ambiguous with it) and the clipping amplifier are named first and validation J improves. The gray-box terms explain
 // only part of what the baseline misses here (see the report), so only the id and the direction are
 // asserted.
 TEST(Diagnosis, VisibleAsymmetricStiffnessIsNamedFirst) {
@@ -88,8 +88,14 @@ TEST(Diagnosis, VisibleAsymmetricStiffnessIsNamedFirst) {
   const ScenarioRecords s = make_scenario(plant, 2, 30000, 20000);
   const Diagnosis d = diagnose(s.u_est, s.y_est, s.u_val, s.y_val, kFs, std::nullopt, narrow_scan());
   ASSERT_FALSE(d.findings.empty());
-  EXPECT_EQ(d.findings[0].effect, Effect::asymmetric_stiffness) << d.findings[0].explanation;
-  EXPECT_LT(d.findings[0].j_val_after_pct, 0.97 * d.findings[0].j_val_before_pct);
+  // From the drive alone a coil offset (x·u) looks like it: the spring is named first, or the finding is
+  // ambiguous between the two, naming it (the current tells them apart: diagnosis_scenarios_test.cpp).
+  const Finding& first = d.findings[0];
+  if (first.effect != Effect::asymmetric_stiffness) {
+    EXPECT_EQ(first.confidence["word"], "ambiguous") << first.explanation;
+    EXPECT_EQ(first.confidence["runner_up"], "asymmetric_stiffness") << first.confidence.dump(1);
+  }
+  EXPECT_LT(first.j_val_after_pct, 0.97 * first.j_val_before_pct);
 }
 
 TEST(Diagnosis, VisibleClippingIsNamedSaturationFirst) {
@@ -264,7 +270,8 @@ TEST(Diagnosis, EffectIdsAreTheVocabulary) {
   // The ids of issue #9, in the order docs/diagnosis.md lists them.
   const std::vector<std::string> expected = {"resonance",  "antiresonance", "delay",      "cubic_stiffness",
                                              "asymmetric_stiffness", "force_factor", "inductance", "hysteresis",
-                                             "saturation", "thermal_compression", "dc_offset", "static_nonlinearity"};
+                                             "saturation", "thermal_compression", "dc_offset", "static_nonlinearity",
+                                             "nonlinear_damping", "asymmetric_force_factor", "creep"};
   std::vector<std::string> ids;
   for (Effect e : all_effects()) ids.push_back(to_string(e));
   EXPECT_EQ(ids, expected);

@@ -239,6 +239,22 @@ TEST(PlantConfigRoundTrip, DampingAndPreampSaturationAreWrittenWhenUsed) {
   EXPECT_EQ(back.sensor.preamp_clip_V, 1.75);
 }
 
+// Creep is written when used (under "mechanical"), comes back as written, and is refused out of range.
+TEST(PlantConfigRoundTrip, CreepIsWrittenWhenUsed) {
+  PlantConfig c = unusual_plant();
+  EXPECT_FALSE(plant_to_json(c)["mechanical"].contains("creep"));
+  c.creep.fraction = 0.25;
+  c.creep.time_constant_s = 0.02;
+  const json j = plant_to_json(c);
+  EXPECT_EQ(j["mechanical"]["creep"], json::parse(R"({"fraction": 0.25, "time_constant_s": 0.02})"));
+  const PlantConfig back = plant_from_json(json::parse(j.dump()));
+  EXPECT_EQ(back.creep.fraction, 0.25);
+  EXPECT_EQ(back.creep.time_constant_s, 0.02);
+  json bad = j;
+  bad["mechanical"]["creep"]["fraction"] = 1.5;
+  EXPECT_NE(parse_error(bad).find("plant.mechanical.creep.fraction"), std::string::npos) << parse_error(bad);
+}
+
 TEST(PlantConfigRoundTrip, JsonWritesEveryFieldOfTheUnusualPlant) {
   const json expected = json::parse(R"json({
     "format": "panelbass.plant/1", "name": "round-trip", "fs": 4000, "oversample": 20,

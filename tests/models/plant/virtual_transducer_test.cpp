@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <utility>
+#include <vector>
+
 #include <cmath>
 #include <complex>
 #include <numbers>
@@ -35,11 +38,13 @@ cd butterworth(int order, double cutoff_hz, cd s) {
 }
 
 // Drive (dimensionless) to sensor volts of the linear lumped model of docs/transducer.md, in continuous time:
-// i = V/(Ze + Bl²/Zm), v = Bl·i/Zm, a = s·v + Σ g_k·s²/(s² + 2ζω_k s + ω_k²)·Bl·i/m.
+// i = V/(Ze + Bl²/Zm), v = Bl·i/Zm, a = s·v + Σ g_k·s²/(s² + 2ζω_k s + ω_k²)·Bl·i/m. With creep the spring is
+// K(s) = K0·(1 − c/(1 + sτ)) (z = x/(1 + sτ) relaxes a share c of it).
 cd continuous_response(const PlantConfig& c, double f) {
   const cd s(0.0, 2.0 * kPi * f);
   const cd ze = c.Re_ohm + s * c.Le_H;
-  const cd zm = s * c.mass_kg + c.damping_Ns_per_m + c.stiffness_N_per_m / s;
+  const cd spring = c.stiffness_N_per_m * (1.0 - c.creep.fraction / (1.0 + s * c.creep.time_constant_s));
+  const cd zm = s * c.mass_kg + c.damping_Ns_per_m + spring / s;
   const cd i = c.amplifier_gain_V / (ze + c.Bl_Tm * c.Bl_Tm / zm);
   cd a = s * c.Bl_Tm * i / zm;
   for (const PanelMode& m : c.panel_modes) {
@@ -65,29 +70,56 @@ cd single_bin(const Eigen::VectorXd& x, double f, double fs) {
   return sum;
 }
 
-TEST(VirtualTransducer, LinearPlantMatchesClosedFormFrequencyResponse) {
-  const PlantConfig plant = quiet(plant_preset("linear"));
+// The plant's response (output over drive, one bin) at each frequency, measured from a stepped sine of
+// amplitude 0.5 that settles 3000 samples and measures 3000 at every step.
+std::vector<std::pair<double, cd>> stepped_sine_response(const PlantConfig& plant, const std::vector<double>& frequencies) {
   dsp::SteppedSineSpec spec;
-  spec.frequencies = {30, 80, 150, 160, 300, 500, 800, 900, 1000, 1100};
+  spec.frequencies = frequencies;
   spec.fs = plant.fs;
   spec.amplitude = 0.5;
   spec.settle = 3000;  // the main resonance has decayed by > 100 dB
   spec.measure = 3000;
   const dsp::SteppedSine sine = dsp::stepped_sine(spec);
   const PlantRecord r = simulate(plant, sine.signal, 1);
+  std::vector<std::pair<double, cd>> out;
   for (const dsp::SineStep& step : sine.steps) {
     const auto start = static_cast<Eigen::Index>(step.measure_start);
     const auto n = static_cast<Eigen::Index>(step.measure_length);
-    const cd measured = single_bin(r.y.segment(start, n), step.frequency, plant.fs) /
-                        single_bin(sine.signal.segment(start, n), step.frequency, plant.fs);
-    const cd expected = expected_discrete_response(plant, step.frequency);
+    out.emplace_back(step.frequency, single_bin(r.y.segment(start, n), step.frequency, plant.fs) /
+                                         single_bin(sine.signal.segment(start, n), step.frequency, plant.fs));
+  }
+  return out;
+}
+
+TEST(VirtualTransducer, LinearPlantMatchesClosedFormFrequencyResponse) {
+  const PlantConfig plant = quiet(plant_preset("linear"));
+  for (const auto& [frequency, measured] : stepped_sine_response(plant, {30, 80, 150, 160, 300, 500, 800, 900, 1000, 1100})) {
+    const cd expected = expected_discrete_response(plant, frequency);
     // Up to 800 Hz the converter images folded back by sampling are below −60 dB; near 1000 Hz the
     // image at fs − f passes both 4th-order filters at about −40 dB.
-    const double tolerance_db = step.frequency <= 800 ? 0.02 : 0.15;
+    const double tolerance_db = frequency <= 800 ? 0.02 : 0.15;
     EXPECT_NEAR(20 * std::log10(std::abs(measured)), 20 * std::log10(std::abs(expected)), tolerance_db)
-        << "at " << step.frequency << " Hz";
-    EXPECT_NEAR(std::arg(measured / expected), 0.0, tolerance_db / 8.7 * 2) << "at " << step.frequency << " Hz";
+        << "at " << frequency << " Hz";
+    EXPECT_NEAR(std::arg(measured / expected), 0.0, tolerance_db / 8.7 * 2) << "at " << frequency << " Hz";
   }
+}
+
+// Creep (a viscoelastic suspension) softens the spring far below the resonance: the closed form with
+// K(s) = K0·(1 − c/(1 + sτ)), and the displacement under a held drive settling at Bl·i/(K0·(1 − c)).
+TEST(VirtualTransducer, CreepMatchesTheClosedFormOfARelaxingSpring) {
+  PlantConfig plant = quiet(plant_preset("linear"));
+  plant.creep.fraction = 0.3;
+  plant.creep.time_constant_s = 0.01;
+  for (const auto& [frequency, measured] : stepped_sine_response(plant, {10, 20, 40, 80, 150, 400}))
+    EXPECT_NEAR(20 * std::log10(std::abs(measured / expected_discrete_response(plant, frequency))), 0.0, 0.02)
+        << "at " << frequency << " Hz";
+  const Eigen::VectorXd held = Eigen::VectorXd::Constant(6000, 0.1);  // 2 s: 200 time constants
+  const PlantRecord still = simulate(plant, held, 1);
+  const double current = 0.1 * plant.amplifier_gain_V / plant.Re_ohm;
+  EXPECT_NEAR(still.x[held.size() - 1], plant.Bl_Tm * current / (plant.stiffness_N_per_m * (1.0 - 0.3)), 1e-9);
+  // Without creep the same drive holds the displacement at Bl·i/K0.
+  plant.creep.fraction = 0.0;
+  EXPECT_NEAR(simulate(plant, held, 1).x[held.size() - 1], plant.Bl_Tm * current / plant.stiffness_N_per_m, 1e-9);
 }
 
 TEST(VirtualTransducer, Rk4ConvergesAtFourthOrderAsTheStepHalves) {

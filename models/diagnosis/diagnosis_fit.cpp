@@ -1,0 +1,143 @@
+#include "models/diagnosis/diagnosis_fit.h"
+
+#include <Eigen/QR>
+#include <iomanip>
+#include <sstream>
+
+#include "models/linear/oe_estimator.h"
+#include "models/validation/performance.h"
+
+namespace panelbass::models {
+namespace {
+
+// Passes in which the terms' states are re-estimated from the augmented output.
+constexpr int kRefinements = 2;
+
+// The output of `m` without its terms: the linear simulation, or the baseline's simulation plus the change
+// a refit made to its linearisation.
+Eigen::VectorXd base_output(const AugmentedModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                            Eigen::Index init) {
+  if (!m.simulate_baseline) return m.linear.simulate(u, y, init);
+  return m.simulate_baseline(u, y, init) + m.linear.simulate(u) - m.reference.simulate(u);
+}
+
+StateSignals reference_of(const AugmentedModel& m) {
+  StateSignals s;
+  s.mean = m.state_mean;
+  s.rms = m.state_rms;
+  return s;
+}
+
+Eigen::MatrixXd stacked_regressors(const std::vector<DiagnosisTerm>& terms, const StateSignals& states,
+                                   const TransferFunction& tf, int lags, Eigen::Index rows) {
+  int cols = 0;
+  for (const auto& t : terms) cols += term_columns(t, lags);
+  Eigen::MatrixXd phi(rows, cols);
+  int at = 0;
+  for (const auto& t : terms) {
+    const int c = term_columns(t, lags);
+    phi.middleCols(at, c) = term_regressors(t, states, tf, lags);
+    at += c;
+  }
+  return phi;
+}
+
+}  // namespace
+
+// The augmented model's simulation lives here, beside the fit that runs it for every candidate (the same
+// states, the same refinement passes).
+Eigen::VectorXd simulate_augmented(const AugmentedModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                                   Eigen::Index init) {
+  const Eigen::VectorXd y_lin = base_output(m, u, y, init);
+  if (m.terms.empty()) return y_lin;
+  const Eigen::VectorXd ys = m.linear.scaling.scale_y(y_lin);
+  // The terms' states come from the simulation started at rest, as on the estimation record: a state set
+  // from a few noisy outputs can start a slow transient that the integrals behind the states magnify.
+  const Eigen::VectorXd ys_rest = m.linear.scaling.scale_y(base_output(m, u, {}, 0));
+  const StateSignals reference = reference_of(m);
+  const StateSignals states = state_signals(m.linear.scaling.scale_u(u), ys_rest, m.linear.fs, &reference);
+  Eigen::MatrixXd phi = stacked_regressors(m.terms, states, m.linear.tf, m.lags, ys.size());
+  Eigen::VectorXd c(phi.cols());
+  int at = 0;
+  for (const auto& t : m.terms) {
+    c.segment(at, t.coefficients.size()) = t.coefficients;
+    at += static_cast<int>(t.coefficients.size());
+  }
+  // y⁽⁰⁾ = ŷ_lin, y⁽ᵏ⁺¹⁾ = ŷ_lin + Φ(y⁽ᵏ⁾)·c: the terms act on the states of the augmented output.
+  Eigen::VectorXd y_aug = ys + phi * c;
+  for (int pass = 0; pass < kRefinements; ++pass) {
+    phi = stacked_regressors(m.terms, state_signals(m.linear.scaling.scale_u(u), ys_rest + phi * c, m.linear.fs, &reference),
+                             m.linear.tf, m.lags, ys.size());
+    y_aug = ys + phi * c;
+  }
+  return m.linear.scaling.unscale_y(y_aug);
+}
+
+namespace diagnosis_detail {
+
+bool has_effect(const std::vector<DiagnosisTerm>& terms, Effect e) {
+  for (const auto& t : terms)
+    if (t.effect == e) return true;
+  return false;
+}
+
+std::string fixed(double x, int digits) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << x;
+  return s.str();
+}
+
+Fit fit_terms(const Records& r, const LinearModel& linear, std::vector<DiagnosisTerm> terms) {
+  Fit f;
+  f.model = *r.base;
+  f.model.linear = linear;
+  f.model.lags = r.lags;
+  const Eigen::VectorXd y_lin = linear.scaling.scale_y(base_output(f.model, r.u_est, r.y_est, r.init));
+  const Eigen::VectorXd y_rest = linear.scaling.scale_y(base_output(f.model, r.u_est, {}, 0));  // states: see simulate_augmented
+  const StateSignals states = state_signals(linear.scaling.scale_u(r.u_est), y_rest, r.fs);
+  f.model.state_mean = states.mean;
+  f.model.state_rms = states.rms;
+  if (!terms.empty()) {
+    // Least squares on the regressors of the linear simulation, then refined: the states are re-estimated
+    // from the augmented output and the coefficients refitted (kRefinements times; the model's own map).
+    const Eigen::VectorXd e = linear.scaling.scale_y(r.y_est) - y_lin;
+    Eigen::MatrixXd phi = stacked_regressors(terms, states, linear.tf, r.lags, y_lin.size());
+    const Eigen::Index n = phi.rows() - r.init;
+    for (int pass = 0; pass <= kRefinements; ++pass) {
+      const Eigen::VectorXd c = phi.bottomRows(n).colPivHouseholderQr().solve(e.tail(n));
+      int at = 0;
+      for (auto& t : terms) {
+        const int k = term_columns(t, r.lags);
+        t.coefficients = c.segment(at, k);
+        at += k;
+      }
+      if (pass == kRefinements) break;
+      const Eigen::VectorXd y_aug = y_rest + phi * c;
+      phi = stacked_regressors(terms, state_signals(linear.scaling.scale_u(r.u_est), y_aug, r.fs, &states), linear.tf,
+                               r.lags, y_lin.size());
+    }
+  }
+  f.model.terms = std::move(terms);
+  f.j_est = j_percent(simulate_augmented(f.model, r.u_est, r.y_est, r.init), r.y_est, r.init);
+  f.j_val = j_percent(simulate_augmented(f.model, r.u_val, r.y_val, r.init), r.y_val, r.init);
+  return f;
+}
+
+std::optional<LinearModel> refit_linear(const Records& r, const LinearModel& base, const TransferFunction& initial,
+                                        int iterations) {
+  OeOptions o;
+  o.max_iterations = iterations;
+  o.transient_skip = r.init;
+  try {
+    const OeResult fit = estimate_oe(base.scaling.scale_u(r.u_est), base.scaling.scale_y(r.y_est), initial, o);
+    if (!fit.tf.all_finite() || !fit.tf.is_stable()) return std::nullopt;
+    LinearModel m = base;
+    m.tf = fit.tf;
+    return m;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+}  // namespace diagnosis_detail
+}  // namespace panelbass::models

@@ -1,0 +1,181 @@
+#include "models/diagnosis/diagnosis_static_nonlinearity.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+
+namespace panelbass::models::diagnosis_detail {
+namespace {
+
+// The baseline's poles in groups that a real filter can hold (a conjugate pair, or a real pole), by frequency.
+std::vector<Eigen::VectorXcd> pole_groups(const TransferFunction& tf) {
+  const Eigen::VectorXcd poles = tf.poles();
+  std::vector<Eigen::VectorXcd> groups;
+  for (Eigen::Index k = 0; k < poles.size(); ++k) {
+    if (poles[k].imag() < -1e-12) continue;  // its conjugate holds it
+    if (poles[k].imag() > 1e-12) {
+      Eigen::VectorXcd pair(2);
+      pair << poles[k], std::conj(poles[k]);
+      groups.push_back(pair);
+    } else {
+      groups.push_back(Eigen::VectorXcd::Constant(1, std::complex<double>(poles[k].real(), 0.0)));
+    }
+  }
+  std::sort(groups.begin(), groups.end(),
+            [](const Eigen::VectorXcd& a, const Eigen::VectorXcd& b) { return std::abs(std::arg(a[0])) < std::abs(std::arg(b[0])); });
+  return groups;
+}
+
+// The all-pole filter with `roots` as its poles and unit gain at DC.
+TransferFunction all_pole(const Eigen::VectorXcd& roots) {
+  TransferFunction f;
+  const Eigen::VectorXd a = polynomial_from_roots(roots);
+  f.a = a.tail(a.size() - 1);
+  f.b = Eigen::VectorXd::Constant(1, a.sum());
+  return f;
+}
+
+// The identity filter (y = x).
+TransferFunction identity_filter() {
+  TransferFunction f;
+  f.b = Eigen::VectorXd::Ones(1);
+  return f;
+}
+
+// The ways the baseline's dynamics G can be split around a static nonlinearity: all of G after it is the
+// input's saturation (not offered here), all before it Wiener; between two filters, the front an all-pole
+// filter of some of G's pole groups and the back the rest with G's zeros and delay (Wiener–Hammerstein).
+// With up to five groups every split; with more, the lowest and the highest k groups in front.
+std::vector<std::pair<TransferFunction, TransferFunction>> block_splits(const TransferFunction& tf) {
+  std::vector<std::pair<TransferFunction, TransferFunction>> out;
+  out.emplace_back(tf, identity_filter());  // Wiener
+  const std::vector<Eigen::VectorXcd> groups = pole_groups(tf);
+  const std::size_t g = groups.size();
+  if (g < 2) return out;
+  std::vector<std::vector<bool>> subsets;
+  if (g <= 5) {
+    for (unsigned mask = 1; mask + 1 < (1u << g); ++mask) {
+      std::vector<bool> in(g);
+      for (std::size_t k = 0; k < g; ++k) in[k] = (mask >> k) & 1u;
+      subsets.push_back(in);
+    }
+  } else {
+    for (std::size_t k = 1; k < g; ++k) {
+      std::vector<bool> low(g, false), high(g, false);
+      for (std::size_t j = 0; j < k; ++j) low[j] = true, high[g - 1 - j] = true;
+      subsets.push_back(low);
+      subsets.push_back(high);
+    }
+  }
+  for (const auto& in : subsets) {
+    std::vector<std::complex<double>> front, back;
+    for (std::size_t k = 0; k < g; ++k)
+      for (Eigen::Index j = 0; j < groups[k].size(); ++j) (in[k] ? front : back).push_back(groups[k][j]);
+    TransferFunction b = all_pole(Eigen::Map<Eigen::VectorXcd>(back.data(), static_cast<Eigen::Index>(back.size())));
+    b.b = tf.b;
+    b.nk = tf.nk;
+    out.emplace_back(all_pole(Eigen::Map<Eigen::VectorXcd>(front.data(), static_cast<Eigen::Index>(front.size()))), b);
+  }
+  return out;
+}
+
+// A fitted static nonlinearity's shape from its coefficients: the static curve is front_rms·z (the linear
+// path through the back filter) plus Σ_l c_l times each feature; the slope beyond the knee over the slope
+// inside it, per side. Below 1: saturating; above: dead-zone-like (the gain rises past the knee).
+nlohmann::json static_shape(const DiagnosisTerm& t, const StateSignals& states, int lags) {
+  const Eigen::VectorXd z = static_nonlinearity_signal(t, states);
+  const int width = lags + kTermLead;
+  if (t.shape == Shape::polynomial) {
+    const double c3 = t.coefficients.segment(width, width).sum();
+    return {{"shape", "polynomial"}, {"polynomial_order", 3}, {"compressive", c3 * t.front_rms < 0.0}};
+  }
+  // The features are the raw knees minus β·z (orthogonalised): the slope inside is front_rms − Σ_j C_j·β_j.
+  const Eigen::Index sides = t.one_sided ? 2 : 1;
+  Eigen::VectorXd sums(sides), betas(sides);
+  for (Eigen::Index j = 0; j < sides; ++j) {
+    Eigen::VectorXd raw(z.size());
+    for (Eigen::Index k = 0; k < z.size(); ++k)
+      raw[k] = !t.one_sided ? std::max(std::abs(z[k]) - t.threshold, 0.0) * (z[k] < 0 ? -1.0 : 1.0)
+                            : j == 0 ? std::max(z[k] - t.threshold, 0.0) : std::min(z[k] + t.threshold, 0.0);
+    betas[j] = z.dot(raw) / std::max(z.squaredNorm(), 1e-300);
+    sums[j] = t.coefficients.segment(j * width, width).sum();
+  }
+  const double inside = t.front_rms - sums.dot(betas);
+  nlohmann::json ratios = nlohmann::json::array();
+  bool falls = false, rises = false;
+  for (Eigen::Index j = 0; j < sides; ++j) {
+    const double ratio = (inside + sums[j]) / inside;
+    ratios.push_back(ratio);
+    falls = falls || ratio < 0.9;
+    rises = rises || ratio > 1.1;
+  }
+  const std::string word = falls && !rises ? "saturating" : rises && !falls ? "dead zone" : falls ? "mixed" : "nearly linear";
+  return {{"shape", word}, {"slope_beyond_knee_over_inside", ratios}};
+}
+
+}  // namespace
+
+void static_nonlinearity_candidates(const Records& r, const Fit& current, const std::function<void(Candidate)>& offer) {
+  if (has_effect(current.model.terms, Effect::static_nonlinearity)) return;
+  const LinearModel& linear = current.model.linear;
+  const StateSignals states = state_signals(linear.scaling.scale_u(r.u_est), linear.scaling.scale_u(r.u_est), r.fs);
+  const double n_val = static_cast<double>(r.u_val.size() - r.init);
+  auto fitted = [&](DiagnosisTerm t, int choices) {
+    std::vector<DiagnosisTerm> with = current.model.terms;
+    with.push_back(t);
+    return Candidate{Effect::static_nonlinearity, "", term_columns(t, r.lags) + choices, fit_terms(r, linear, with), {}};
+  };
+  auto score = [&](const Candidate& c) { return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val); };
+  // Each split screened with one shape (a knee at half the peak, each side on its own); the best split then
+  // gets every shape. The split and the knee are choices made from the data: a parameter each.
+  std::optional<Candidate> best;
+  DiagnosisTerm best_term;
+  for (const auto& [front, back] : block_splits(linear.tf)) {
+    DiagnosisTerm t;
+    t.effect = Effect::static_nonlinearity;
+    t.position = back.a.size() == 0 && back.nk == 0 && back.b.size() == 1 ? Position::output : Position::between;
+    t.front = front;
+    t.back = back;
+    const Eigen::VectorXd w = filter_through(front, states.input);
+    t.front_rms = std::sqrt(w.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, w.size())));
+    if (!(t.front_rms > 0.0) || !std::isfinite(t.front_rms)) continue;
+    t.one_sided = true;
+    t.threshold = 0.5 * (w / t.front_rms).cwiseAbs().maxCoeff();
+    Candidate c = fitted(t, 3);
+    if (!best || score(c) > score(*best)) best = std::move(c), best_term = t;
+  }
+  if (!best) return;
+  const double peak = static_nonlinearity_signal(best_term, states).cwiseAbs().maxCoeff();
+  std::vector<DiagnosisTerm> shapes;
+  for (bool one_sided : {false, true})
+    for (double fraction : {0.2, 0.35, 0.5, 0.65, 0.8}) {
+      DiagnosisTerm t = best_term;
+      t.one_sided = one_sided;
+      t.threshold = fraction * peak;
+      shapes.push_back(t);
+    }
+  DiagnosisTerm poly = best_term;
+  poly.shape = Shape::polynomial;
+  shapes.push_back(poly);
+  for (const auto& t : shapes) {
+    Candidate c = fitted(t, t.shape == Shape::knee ? 3 : 2);
+    const DiagnosisTerm& kept = c.fit.model.terms.back();
+    const std::string where = t.position == Position::output ? "output" : "between";
+    c.variant = std::string(where == "output" ? "Wiener" : "Wiener–Hammerstein") + ", " +
+                (t.shape == Shape::polynomial ? std::string("polynomial")
+                                              : std::string(t.one_sided ? "each side" : "both sides") + ", knee " +
+                                                    fixed(t.threshold / peak, 2));
+    c.parameters_json = static_shape(kept, states, r.lags);
+    c.parameters_json["position"] = where;
+    c.parameters_json["structure"] = where == "output" ? "Wiener" : "Wiener–Hammerstein";
+    c.parameters_json["front_order"] = t.front.na();
+    c.parameters_json["back_order"] = t.back.na();
+    if (t.shape == Shape::knee) {
+      c.parameters_json["knee_fraction_of_peak"] = t.threshold / peak;
+      c.parameters_json["one_sided"] = t.one_sided;
+    }
+    offer(std::move(c));
+  }
+}
+
+}  // namespace panelbass::models::diagnosis_detail
