@@ -100,6 +100,10 @@ struct SsModel {
 
   /// The linear part (A, B, C, D).
   StateSpace linear_part() const;
+  /// The linearisation at the equilibrium of zero scaled input (the data's mean): x* = A·x* + f(x*, 0) found
+  /// by Newton from x = 0, then A + ∂f/∂x, B + ∂f/∂u, C + ∂h/∂x, D + ∂h/∂u there, exact (the tanh layer's and
+  /// the polynomial's derivatives). Scaled units. Throws std::invalid_argument when no equilibrium is found.
+  StateSpace linearization() const;
 
   /// Free run in scaled units: outputs before `init` are the measured ones, the encoder reads the record
   /// before `init` (zeros before its start) for x(init), and the recursion runs from there.

@@ -213,6 +213,22 @@ TEST_F(CliDesignModel, BadTargetHighpassIsRefusedNamingIt) {
   EXPECT_FALSE(fs::exists(dir_ / "ff.json"));
 }
 
+TEST_F(CliDesignModel, AnSsModelIsDesignedOnByItsLinearization) {
+  // An ss model started from the linear model with no training is that linear model exactly (its networks'
+  // last layers zero): designing on it is designing on the linear model.
+  const fs::path ss = dir_ / "ss.json";
+  expect_result(run("identify ss --data " + quoted(dir_ / "run.csv") + " --fs 3000 --linear " + quoted(model()) +
+                    " --hidden 3 --lags 4 --epochs 0 --out " + quoted(ss)));
+  const std::string options = " --R 3 --R0 20 --bandpass 20,1200 --samples 4000 --out ";
+  const json from_linear = expect_result(run("design lq --model " + quoted(model()) + options + quoted(dir_ / "a.json")));
+  const json from_ss = expect_result(run("design lq --model " + quoted(ss) + options + quoted(dir_ / "b.json")));
+  EXPECT_EQ(from_ss["order"], from_linear["order"]);
+  for (const char* key : {"max_input_worst", "max_input_noise", "ripple_db"}) {
+    const double expected = from_linear[key].get<double>();
+    EXPECT_NEAR(from_ss[key].get<double>(), expected, 1e-6 * (1.0 + std::abs(expected))) << key;
+  }
+}
+
 TEST_F(CliDesign, MissingOrWrongModelIsRefusedNamingIt) {
   RunResult r = run("design lq --model " + quoted(dir_ / "nope.json") + " --out " + quoted(dir_ / "ff.json"));
   expect_failure(r);

@@ -40,6 +40,33 @@ TEST_F(CliIdentifySs, TrainsAndValidateAndAnalyzeReadItsModel) {
   EXPECT_NEAR(baseline["J_val_pct"].get<double>(), v["J_sim_pct"].get<double>(), 1e-9);
 }
 
+TEST_F(CliIdentifySs, WienerHammersteinStartIsWrittenAsAnSsModelThatValidateReads) {
+  const fs::path model = dir_ / "wh.json";
+  const json r = expect_result(run("identify ss --data " + est() + " --val " + val() +
+                                   " --fs 3000 --nx 4 --hidden 4 --lags 8 --wiener-hammerstein --wh-iter 4 "
+                                   "--wh-candidates 2 --epochs 0 --seed 3 --out " + quoted(model)));
+  EXPECT_EQ(r["epochs"], 0);
+  const json meta = json::parse(text_of(model))["meta"];
+  const json start = meta["wiener_hammerstein_start"];
+  for (const char* key : {"splits", "front_poles", "front_zeros", "front_states", "search_J_from_rest_pct", "J_from_rest_pct",
+                          "iterations", "candidates", "linear_J_from_rest_pct"}) {
+    EXPECT_TRUE(start.contains(key)) << key;
+  }
+  EXPECT_EQ(start["candidates"], 2);
+  EXPECT_LE(start["iterations"].get<int>(), 4);
+  EXPECT_GE(start["splits"].get<int>(), 2);
+  EXPECT_LT(start["front_states"].get<int>(), r["states"].get<int>()) << "the back filter keeps states too";
+  EXPECT_LE(start["J_from_rest_pct"].get<double>(), start["linear_J_from_rest_pct"].get<double>());
+  // validate's J of the file is the J it reports (selected on), the state from 50 measured samples.
+  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
+  EXPECT_EQ(v["kind"], "ss");
+  EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
+  const RunResult no_nodes = run("identify ss --data " + est() + " --fs 3000 --nx 4 --hidden 0 --lags 8 "
+                                 "--wiener-hammerstein --epochs 0 --out " + quoted(dir_ / "bad.json"));
+  expect_failure(no_nodes);
+  EXPECT_TRUE(contains(no_nodes.err, "hidden")) << no_nodes.err;
+}
+
 TEST_F(CliIdentifySs, BadOptionsFailNamingTheProblem) {
   const RunResult no_linear = run("identify ss --data " + est() + " --fs 3000 --linear " + quoted(dir_ / "none.json") +
                                   " --out " + quoted(dir_ / "ss.json"));

@@ -216,6 +216,41 @@ TEST(SsModel, PolynomialFileRoundTripsAndRefusesBadDegrees) {
   EXPECT_EQ(ss_model_from_json(old).structure.poly_degree, 0);
 }
 
+TEST(SsModel, LinearizationIsTheSmallSignalResponseAtTheEquilibrium) {
+  // The equilibrium found independently (the zero-input recursion run until it settles), then the response
+  // to ±ε·v from there, central differences: the linearisation's response to v from rest.
+  for (const bool poly_input : {true, false}) {
+    const SsModel m = random_model(0, 3, poly_input);
+    const auto p = ss_parts(m.structure, static_cast<const double*>(m.theta.data()));
+    SsStepWork work;
+    Eigen::RowVectorXd output(1), input = Eigen::RowVectorXd::Zero(1);
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(3), next(3);
+    for (int k = 0; k < 3000; ++k) {
+      ss_step(p, x, input, work, output, next);
+      x.swap(next);
+    }
+    ss_step(p, x, input, work, output, next);
+    ASSERT_LT((next - x).norm(), 1e-13) << "the zero-input recursion settles";
+    const double y_rest = output(0);
+    const Eigen::VectorXd v = noise(200, 31);
+    const double eps = 1e-5;
+    auto response = [&](double sign) {
+      Eigen::VectorXd state = x, y(v.size());
+      for (Eigen::Index k = 0; k < v.size(); ++k) {
+        input(0) = sign * eps * v(k);
+        ss_step(p, state, input, work, output, next);
+        y(k) = output(0) - y_rest;
+        state = next;
+      }
+      return y;
+    };
+    const Eigen::VectorXd fd = (response(1.0) - response(-1.0)) / (2.0 * eps);
+    const Eigen::VectorXd linear = simulate(m.linearization(), v);
+    EXPECT_LE((linear - fd).norm(), 1e-6 * fd.norm()) << "poly_input " << poly_input;
+    EXPECT_GT((linear - simulate(m.linear_part(), v)).norm(), 1e-3 * fd.norm()) << "the network's slope counts";
+  }
+}
+
 TEST(SsTraining, LowersTheValidationJBelowTheLinearStart) {
   const Eigen::VectorXd u = noise(6000, 9), y = wiener_hammerstein(u);
   const Eigen::VectorXd ue = u.head(4000), ye = y.head(4000), uv = u.tail(2000), yv = y.tail(2000);
