@@ -66,6 +66,9 @@ void run_identify_ss(const IdentifySsOptions& o) {
     throw std::invalid_argument(o.data + ": " + std::to_string(est.columns[0].size()) + " samples, --lags + --window = " +
                                 std::to_string(o.lags + o.window) + " needed");
   }
+  if (o.wiener_hammerstein && o.hidden < 1) {
+    throw std::invalid_argument("--wiener-hammerstein needs --hidden >= 1: the tanh nodes of the static nonlinearity");
+  }
   const auto began = std::chrono::steady_clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count(); };
   models::SsModel start;

@@ -223,9 +223,14 @@ TEST_F(CliDesignModel, AnSsModelIsDesignedOnByItsLinearization) {
   const json from_linear = expect_result(run("design lq --model " + quoted(model()) + options + quoted(dir_ / "a.json")));
   const json from_ss = expect_result(run("design lq --model " + quoted(ss) + options + quoted(dir_ / "b.json")));
   EXPECT_EQ(from_ss["order"], from_linear["order"]);
-  for (const char* key : {"max_input_worst", "max_input_noise", "ripple_db"}) {
+  for (const char* key : {"max_input_worst", "max_input_noise", "pole_radius"}) {
     const double expected = from_linear[key].get<double>();
     EXPECT_NEAR(from_ss[key].get<double>(), expected, 1e-6 * (1.0 + std::abs(expected))) << key;
+  }
+  EXPECT_NEAR(from_ss["ripple_db"]["controlled"].get<double>(), from_linear["ripple_db"]["controlled"].get<double>(), 1e-6);
+  ASSERT_EQ(from_ss["L"].size(), from_linear["L"].size());
+  for (std::size_t i = 0; i < from_linear["L"].size(); ++i) {
+    EXPECT_NEAR(from_ss["L"][i].get<double>(), from_linear["L"][i].get<double>(), 1e-9) << "L[" << i << "]";
   }
 }
 
