@@ -144,5 +144,8 @@ row EMPS DATA_EMPS_PULSES "NARX 2-2-10" em-narx "$em/DATA_EMPS_PULSES.csv" 1000 
   narx em 1000 2 2 10 --input-col vir --output-col qm -- --input-col vir --output-col qm
 row EMPS DATA_EMPS_PULSES "OE order 2 (linear)" em-oe "$em/DATA_EMPS_PULSES.csv" 1000 20 1000 mm "2.64 mm (dynoNet)" \
   linear em 1000 2 --input-col vir --output-col qm -- --input-col vir --output-col qm
+row EMPS DATA_EMPS_PULSES "SS nx=2, 10 nodes, 20 lags, polished" em-ss "$em/DATA_EMPS_PULSES.csv" 1000 20 1000 mm "2.64 mm (dynoNet)" \
+  ss em 1000 2 10 20 200 --lr 1e-4 --epochs 300 --polish-iter 1000 --polish-window 1000 --input-col vir --output-col qm \
+  -- --input-col vir --output-col qm
 
 echo "| Fine steering mirror | 100 / 200 / 300 mV | not run: 3 inputs × 3 outputs, panelbass's models are single-input single-output | 100 | – | 0.0866 / 0.131 / 0.169 µm (NL-LFR) | – |"
