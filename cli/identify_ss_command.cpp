@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <variant>
 
@@ -152,6 +153,16 @@ void run_identify_ss(const IdentifySsOptions& o) {
                  polished.history.size() - 1);
     trained.model = polished.model;
     trained.j_val_pct = polished.j_val_pct;
+    trained.runaway = polished.runaway;
+  }
+  if (trained.runaway) {
+    throw std::runtime_error(
+        "identify ss: no model written to " + o.out + ": the free run of every candidate (the start, " +
+        std::to_string(trained.history.size() - 1) + " epochs" + (o.polish_iterations > 0 ? " and the L-BFGS iterates" : "") +
+        ") left the bound on full-scale noise (the start's |y| = " + std::to_string(trained.runaway->magnitude) + " after " +
+        std::to_string(trained.runaway->samples) +
+        " samples, scaled units), so no reader would load it. Try fewer states (--nx), a lower --poly-degree, "
+        "without --poly-states-only, a lower --lr, or more estimation data");
   }
   const double j_est = models::j_percent(trained.model.simulate(est.columns[0], est.columns[1], o.init), est.columns[1], o.init);
   const double j_val = u_val.size() ? trained.j_val_pct : NAN;

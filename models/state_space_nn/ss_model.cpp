@@ -342,6 +342,8 @@ nlohmann::json ss_model_to_json(const SsModel& m) {
   };
 }
 
+std::optional<Runaway> ss_free_run_runaway(const SsModel& m) { return runaway(m.simulate_scaled(free_run_drive())); }
+
 SsModel ss_model_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
   SsModel m;
@@ -378,7 +380,7 @@ SsModel ss_model_from_json(const nlohmann::json& j) {
   p.finish();
   m.meta = read_model_meta(top);
   top.finish();
-  if (const auto r = runaway(m.simulate_scaled(free_run_drive()))) {
+  if (const auto r = ss_free_run_runaway(m)) {
     throw ConfigError("model: free run unbounded: |y| = " + std::to_string(r->magnitude) + " after " +
                       std::to_string(r->samples) + " samples of full-scale noise (scaled units)");
   }

@@ -9,10 +9,12 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <type_traits>
 #include <vector>
 
 #include "models/linear/state_space.h"
+#include "models/narx/free_run.h"
 #include "models/preprocess/scaling.h"
 
 namespace panelbass::models {
@@ -127,8 +129,12 @@ SsModel ss_model_from_linear(const StateSpace& linear, SsStructure s, const Eige
 /// absent; poly_input optional, true when absent).
 nlohmann::json ss_model_to_json(const SsModel& m);
 
+/// The runaway of `m`'s free run (scaled units, from rest) on free_run_drive(); nullopt when it stays within
+/// ±kFreeRunBound. The loader's test, and the trainers' test of every model they would return.
+std::optional<Runaway> ss_free_run_runaway(const SsModel& m);
+
 /// Reads and validates a neural state-space model object: sizes, θ of exactly P finite entries, fs > 0, and
-/// a bounded free run (free_run_drive() from rest stays within ±kFreeRunBound); ConfigError names the key.
+/// a bounded free run (ss_free_run_runaway); ConfigError names the key.
 SsModel ss_model_from_json(const nlohmann::json& j);
 
 }  // namespace panelbass::models

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -187,10 +188,12 @@ Eigen::MatrixXd wh_block_jacobian(const WhBlocks& f, const Eigen::VectorXd& us) 
 namespace {
 
 /// Levenberg–Marquardt on the block model's simulation error (from rest, rows from `skip` on) over the
-/// estimation data, keeping the iterate of the lowest J on the selection data; `iterations` steps at most.
+/// estimation data, keeping the iterate of the lowest J on the selection data among those `bounded` accepts
+/// (asked only of an iterate that would replace the kept one; while the start is not bounded, any finite J
+/// replaces it); `iterations` steps at most.
 SplitFit refine_split(const SplitFit& start, const Eigen::VectorXd& us, const Eigen::VectorXd& ys,
                       const Eigen::VectorXd& us_sel, const Eigen::VectorXd& ys_sel, Eigen::Index skip, int iterations,
-                      int& steps) {
+                      int& steps, const std::function<bool(const SplitFit&)>& bounded) {
   const Eigen::Index rows = us.size() - skip;
   auto loss_of = [&](const SplitFit& f) {
     if (!f.front.is_stable() || !f.back.is_stable()) return std::numeric_limits<double>::infinity();
@@ -198,6 +201,7 @@ SplitFit refine_split(const SplitFit& start, const Eigen::VectorXd& us, const Ei
     return e.allFinite() ? 0.5 * e.squaredNorm() : std::numeric_limits<double>::infinity();
   };
   SplitFit best = start, current = start;
+  bool best_bounded = bounded(start);
   Eigen::VectorXd theta = start.pack();
   LevenbergMarquardt lm({.damping = LmDamping::relative_to_mean}, theta.size());
   double V = loss_of(current);
@@ -212,7 +216,10 @@ SplitFit refine_split(const SplitFit& start, const Eigen::VectorXd& us, const Ei
     steps = it + 1;
     current = unpack(theta, start);
     current.j_pct = j_percent(wh_block_output(current, us_sel), ys_sel, skip);
-    if (current.j_pct < best.j_pct) best = current;
+    if (std::isfinite(current.j_pct) && (current.j_pct < best.j_pct || !best_bounded) && bounded(current)) {
+      best = current;
+      best_bounded = true;
+    }
   }
   return best;
 }
@@ -303,7 +310,13 @@ SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStruct
   if (fits.empty()) throw std::invalid_argument("ss_wiener_hammerstein_start: no split could be fitted");
   std::stable_sort(fits.begin(), fits.end(), [](const SplitFit& a, const SplitFit& b) { return a.j_pct < b.j_pct; });
   out.candidates = iterations > 0 ? std::min<int>(candidates, static_cast<int>(fits.size())) : 1;
-  SplitFit best = fits.front();
+  // A split is a candidate only when its model's free run is bounded (the loader's test); the encoder,
+  // fitted last, is left out (zero).
+  const std::function<bool(const SplitFit&)> bounded = [&](const SplitFit& fit) {
+    return !ss_free_run_runaway(block_model(fit, structure, bla.scaling, bla.fs, seed));
+  };
+  const auto first_bounded = std::find_if(fits.begin(), fits.end(), bounded);
+  SplitFit best = first_bounded != fits.end() ? *first_bounded : fits.front();
   double search_j = best.j_pct;
   if (iterations > 0) {
     // Each candidate split's J on the whole selection record from rest, then (with more than one) a short
@@ -315,8 +328,8 @@ SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStruct
       const double fit_search_j = fit.j_pct;
       fit.j_pct = j_percent(wh_block_output(fit, us_sel_all), ys_sel_all, skip);
       int steps = 0;
-      if (trial_steps > 0) fit = refine_split(fit, us_all, ys_all, us_sel_all, ys_sel_all, skip, trial_steps, steps);
-      if (fit.j_pct < best.j_pct) {
+      if (trial_steps > 0) fit = refine_split(fit, us_all, ys_all, us_sel_all, ys_sel_all, skip, trial_steps, steps, bounded);
+      if (fit.j_pct < best.j_pct && bounded(fit)) {
         best = std::move(fit);
         search_j = fit_search_j;
         out.iterations = steps;
@@ -324,7 +337,7 @@ SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStruct
     }
     // The kept split refined jointly on the whole records.
     int steps = 0;
-    best = refine_split(best, us_all, ys_all, us_sel_all, ys_sel_all, skip, iterations - out.iterations, steps);
+    best = refine_split(best, us_all, ys_all, us_sel_all, ys_sel_all, skip, iterations - out.iterations, steps, bounded);
     out.iterations += steps;
   }
   out.search_j_pct = search_j;

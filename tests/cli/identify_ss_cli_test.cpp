@@ -1,8 +1,11 @@
 // `panelbass identify ss` run as a user runs it: the model file it writes is read by validate (the J it
-// reports is the J it selected on) and analyze; bad options fail naming the problem.
+// reports is the J it selected on) and analyze; a training whose every candidate runs away in free run
+// writes nothing and says why; bad options fail naming the problem.
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "tests/support/cli_runner.h"
@@ -65,6 +68,25 @@ TEST_F(CliIdentifySs, WienerHammersteinStartIsWrittenAsAnSsModelThatValidateRead
                                  "--wiener-hammerstein --epochs 0 --out " + quoted(dir_ / "bad.json"));
   expect_failure(no_nodes);
   EXPECT_TRUE(contains(no_nodes.err, "hidden")) << no_nodes.err;
+}
+
+TEST_F(CliIdentifySs, WritesNoFileWhenEveryCandidateRunsAwayInFreeRun) {
+  // A stable linear start (its file loads) of gain 1000 in scaled units: full-scale noise drives its free
+  // run far past ±100, and a learning rate of 1e-9 keeps every epoch's model there.
+  const fs::path linear = dir_ / "lin.json", loud = dir_ / "loud.json", model = dir_ / "ss.json";
+  expect_result(run("identify linear --data " + est() + " --fs 3000 --method oe --order 2 --out " + quoted(linear)));
+  json lin = json::parse(text_of(linear));
+  for (auto& b : lin["params"]["b"]) b = 1000.0 * b.get<double>();
+  std::ofstream(loud) << lin.dump();
+  const RunResult r = run("identify ss --data " + est() + " --val " + val() + " --fs 3000 --linear " + quoted(loud) +
+                          " --hidden 4 --lags 8 --window 40 --epochs 2 --lr 1e-9 --out " + quoted(model));
+  // Failed (the epochs' progress lines precede the error), printed no result, wrote no file.
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_EQ(r.out, "");
+  EXPECT_FALSE(fs::exists(model));
+  for (const char* said : {"free run", "no model written", "--nx", "--poly-degree", "more estimation data"}) {
+    EXPECT_TRUE(contains(r.err, said)) << said << ": " << r.err;
+  }
 }
 
 TEST_F(CliIdentifySs, BadOptionsFailNamingTheProblem) {

@@ -2,7 +2,8 @@
 // finite differences, its free run against a hand-written loop of the recursion, its start against the
 // linear model it came from, the model file (round trip and failure modes), training on a
 // Wiener–Hammerstein system (Adam, then the L-BFGS polish) lowering the validation J below the linear model's,
-// and the polynomial option: its terms against the monomials written out, its extrapolation of a cubic spring.
+// a training whose candidates run away in free run (none kept), and the polynomial option: its terms
+// against the monomials written out, its extrapolation of a cubic spring.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 #include "models/io/config_error.h"
 #include "models/kinds/model_file.h"
 #include "models/linear/state_space.h"
+#include "models/narx/free_run.h"
 #include "models/state_space_nn/ss_gradients.h"
 #include "models/state_space_nn/ss_model.h"
 #include "models/state_space_nn/ss_training.h"
@@ -298,6 +300,45 @@ TEST(SsTraining, LbfgsPolishLowersTheSelectedJAndKeepsItsBest) {
   EXPECT_NEAR(polished.j_val_pct, j_percent(polished.model.simulate(uv, yv, 20), yv, 20), 1e-9);
 }
 
+// The Wiener–Hammerstein system's linear start with A = 1.5·I: its free run runs away.
+SsModel ss_runaway_start(const Eigen::VectorXd& ue, const Eigen::VectorXd& ye) {
+  LinearModel linear;
+  linear.fs = 1000.0;
+  linear.tf.a = Eigen::Vector2d(-1.5, 0.56);
+  linear.tf.b = Eigen::VectorXd::Constant(1, 0.12);
+  linear.tf.nk = 1;
+  SsModel start = ss_initial_model(linear, {2, 4, 5, 0}, ue, ye, 4);
+  ss_parts(start.structure, start.theta.data()).A = 1.5 * Eigen::MatrixXd::Identity(2, 2);
+  return start;
+}
+
+TEST(SsTraining, KeepsNoCandidateWhoseFreeRunRunsAway) {
+  const Eigen::VectorXd u = noise(1500, 12), y = wiener_hammerstein(u);
+  const Eigen::VectorXd ue = u.head(1000), ye = y.head(1000), uv = u.tail(500), yv = y.tail(500);
+  const SsModel start = ss_runaway_start(ue, ye);
+  ASSERT_TRUE(ss_free_run_runaway(start));
+  EXPECT_THROW(ss_model_from_json(ss_model_to_json(start)), ConfigError) << "the loader's test is the trainer's";
+  SsTrainingOptions options;
+  options.window = 20;
+  options.batch = 8;
+  options.init = 20;
+  // A rate so small that every epoch's model runs away too: none is kept, the start returned, flagged.
+  options.max_epochs = 3;
+  options.adam.learning_rate = 1e-9;
+  const SsTraining stuck = train_ss(start, ue, ye, uv, yv, options);
+  ASSERT_TRUE(stuck.runaway);
+  EXPECT_GT(stuck.runaway->magnitude, kFreeRunBound);
+  EXPECT_EQ(stuck.best_epoch, 0);
+  EXPECT_EQ(stuck.model.theta, start.theta);
+  // The polish keeps the start's flag when it stops at once.
+  SsPolishOptions polish;
+  polish.window = 20;
+  polish.init = 20;
+  polish.progress = [](const SsTrainingRecord&) { return false; };
+  EXPECT_TRUE(polish_ss(start, ue, ye, uv, yv, polish).runaway);
+  EXPECT_FALSE(polish_ss(random_model(0), ue, ye, uv, yv, polish).runaway);
+}
+
 TEST(SsTraining, ThePolynomialExtrapolatesACubicSpringBeyondTheTrainingAmplitude) {
   // A mass on a cubic spring (the Silverbox's physics), by semi-implicit Euler with unit step:
   //   v(k+1) = v + u − c·v − κ·(x + a·x³),   x(k+1) = x + v(k+1),   y(k) = x(k);
@@ -321,7 +362,10 @@ TEST(SsTraining, ThePolynomialExtrapolatesACubicSpringBeyondTheTrainingAmplitude
   LinearModel linear;
   linear.fs = 1000.0;
   linear.tf.a = Eigen::Vector2d(-(2.0 - kappa - c), 1.0 - c);
-  linear.tf.b = Eigen::VectorXd::Constant(1, 1.0);
+  // The input scaled so that full scale is the judged amplitude (the loader's free run stays where the
+  // spring is stable in discrete time): b in scaled units.
+  linear.scaling.u_scale = 0.15;
+  linear.tf.b = Eigen::VectorXd::Constant(1, linear.scaling.u_scale);
   linear.tf.nk = 1;
   const SsModel start = ss_initial_model(linear, {2, 0, 5, 0, 3}, ue, ye, 1);
   constexpr Eigen::Index init = 20;
