@@ -54,6 +54,16 @@ ss() {
     --hidden "$hidden" --lags "$lags" --window "$window" --max-seconds "${SS_SECONDS:-600}" --seed 1 "$@" \
     ${SS_EXTRA:-} --out "$out" 2>/dev/null | top seconds | awk '{printf "%.0f", $1}'
 }
+# linear OUT NAME FS ORDER [DATA OPTIONS...]: OE of order ORDER on NAME-est/-val, prints its seconds
+linear() {
+  local out=$1 name=$2 fs=$3 order=$4
+  shift 4
+  local began
+  began=$(date +%s.%N)
+  "$bin" identify linear --data "$work/$name-est.csv" --val "$work/$name-val.csv" --fs "$fs" "$@" --method oe \
+    --order "$order" --out "$out" > /dev/null 2>&1
+  awk -v a="$began" -v b="$(date +%s.%N)" 'BEGIN {printf "%.0f", b - a}'
+}
 # fit KEY TRAINER ARGS...: $models/KEY.json, trained by TRAINER with it as OUT unless it is kept already;
 # prints the training seconds (KEY.seconds), or fails the row when it is missing and TRAIN=0
 fit() {
@@ -123,11 +133,19 @@ ct=$data/cascaded_tanks/dataBenchmark.csv
 split "$ct" 700 ct
 row "Cascaded tanks" uVal/yVal "NARX 2-2-5" ct-narx "$ct" 0.25 50 1 V "0.191 V (grey box)" \
   narx ct 0.25 2 2 5 --input-col uEst --output-col yEst -- --input-col uVal --output-col yVal
+row "Cascaded tanks" uVal/yVal "SS nx=3, 20 nodes, 10 lags, polished" ct-ss "$ct" 0.25 50 1 V "0.191 V (grey box)" \
+  ss ct 0.25 3 20 10 100 --batch 4 --epochs 2000 --polish-iter 2000 --polish-window 300 --input-col uEst --output-col yEst \
+  -- --input-col uVal --output-col yVal
 
 # EMPS: u = vir, y = qm; estimation rows [0, 20000) of DATA_EMPS, validation the rest; test DATA_EMPS_PULSES
 em=$data/emps
 split "$em/DATA_EMPS.csv" 20000 em
 row EMPS DATA_EMPS_PULSES "NARX 2-2-10" em-narx "$em/DATA_EMPS_PULSES.csv" 1000 20 1000 mm "2.64 mm (dynoNet)" \
   narx em 1000 2 2 10 --input-col vir --output-col qm -- --input-col vir --output-col qm
+row EMPS DATA_EMPS_PULSES "OE order 2 (linear)" em-oe "$em/DATA_EMPS_PULSES.csv" 1000 20 1000 mm "2.64 mm (dynoNet)" \
+  linear em 1000 2 --input-col vir --output-col qm -- --input-col vir --output-col qm
+row EMPS DATA_EMPS_PULSES "SS nx=2, 10 nodes, 20 lags, polished" em-ss "$em/DATA_EMPS_PULSES.csv" 1000 20 1000 mm "2.64 mm (dynoNet)" \
+  ss em 1000 2 10 20 200 --lr 1e-4 --epochs 300 --polish-iter 1000 --polish-window 1000 --input-col vir --output-col qm \
+  -- --input-col vir --output-col qm
 
 echo "| Fine steering mirror | 100 / 200 / 300 mV | not run: 3 inputs × 3 outputs, panelbass's models are single-input single-output | 100 | – | 0.0866 / 0.131 / 0.169 µm (NL-LFR) | – |"

@@ -25,8 +25,8 @@
 #include "dsp/decibels.h"
 #include "dsp/frequency_grid.h"
 #include "models/io/json_file.h"
-#include "models/kinds/model_file.h"
 #include "models/io/roots_json.h"
+#include "models/kinds/model_file.h"
 #include "models/linear/frequency_response.h"
 #include "models/linear/linear_model.h"
 #include "models/control/lq_feedforward.h"
@@ -177,18 +177,30 @@ fs::path plot_lq_magnitude(const models::LqFeedforward& ff, double lo, double hi
   return fig.render(dir, format);
 }
 
-// The plant of an LQ design: a linear model file, or the linear part of a diagnosed model (kind gray_box: the
-// controller is linear; the gray-box terms stay with the model).
-models::LinearModel design_plant(const std::string& path) {
-  const nlohmann::json j = models::read_json_file(path);
-  if (j.is_object() && j.contains("kind") && j["kind"] == "gray_box")
-    return std::get<models::GrayBoxModel>(models::load_model(path).model).augmented.linear;
-  return models::load_linear_model(path);
+/// The plant model of `design lq`: a linear model file as it is; the linear part of a diagnosed model (kind
+/// gray_box: the controller is linear, the gray-box terms stay with the model); an ss model by its linearisation
+/// at the equilibrium of zero (scaled) input — the small-signal plant; other kinds fail as a linear model's load.
+models::LinearModel lq_plant_model(const std::string& path) {
+  const nlohmann::json file = models::read_json_file(path);
+  const std::string kind = file.is_object() && file.contains("kind") && file["kind"].is_string() ? file["kind"] : "";
+  if (kind == "gray_box") return std::get<models::GrayBoxModel>(models::load_model(path).model).augmented.linear;
+  if (kind != "ss") return models::load_linear_model(path);
+  const models::SsModel ss = std::get<models::SsModel>(models::load_model(path).model);
+  models::LinearModel linear;
+  try {
+    linear.tf = models::to_transfer_function(ss.linearization());
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("--model " + path + ": " + e.what());
+  }
+  linear.fs = ss.fs;
+  linear.scaling = ss.scaling;
+  linear.method = "ss-linearization";
+  return linear;
 }
 
 void run_design_lq(const DesignLqOptions& o) {
   const auto [lo, hi] = parse_bandpass(o.bandpass);
-  const models::LinearModel model = design_plant(o.model);
+  const models::LinearModel model = lq_plant_model(o.model);
   const std::vector<dsp::Biquad> band = band_pass_sections(lo, hi, o.order, model.fs);
   check_output_file("--out", o.out);
   const PlotFormat format = parse_plot_format(o.plot_format);
@@ -320,7 +332,7 @@ void add_design_lq(CLI::App* design) {
   auto o = std::make_shared<DesignLqOptions>();
   CLI::App* lq = design->add_subcommand(
       "lq", "LQ feedforward controller [7A]/[7B] on a linear model, and the largest safe program amplitude");
-  lq->add_option("--model", o->model, "Linear model file (JSON, from identify linear)")->required();
+  lq->add_option("--model", o->model, "Linear model file (JSON, from identify linear), or an ss model (linearised at rest)")->required();
   CLI::Option* r_option =
       lq->add_option("--R", o->R, "Weight on the controller output u* (> 0); small R: flatter response, larger u*")
           ->check(at_least(0.0, false))

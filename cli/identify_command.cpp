@@ -4,6 +4,8 @@
 #include <limits>
 #include <vector>
 #include <memory>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <variant>
 
@@ -14,6 +16,7 @@
 #include "dsp/data_file.h"
 #include "dsp/sample_rate.h"
 #include "models/io/roots_json.h"
+#include "models/narx/free_run.h"
 #include "models/narx/friction_seed.h"
 #include "models/io/json_fields.h"
 #include "models/io/json_file.h"
@@ -326,6 +329,13 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   if (!friction_report.is_null()) {
     result.model.meta["friction_units"] = friction_report;
     structure_report["friction_units"] = friction_report;
+  }
+  if (const std::optional<models::Runaway> run = models::free_run_runaway(result.model)) {
+    throw std::runtime_error("identify narx: no model written to " + o.out +
+                             ": the trained network's free run on full-scale noise diverges (|y| = " +
+                             std::to_string(run->magnitude) + " after " + std::to_string(run->samples) +
+                             " samples, scaled units), so no reader would load it. Try fewer hidden nodes, lower orders, "
+                             "another --seed, or more estimation data");
   }
   models::save_narx_model(o.out, result.model);
   // The history is a log, not the result: a file on request, else stderr.

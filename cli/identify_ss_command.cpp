@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <variant>
 
@@ -26,7 +27,7 @@ struct IdentifySsOptions {
   DataOptions columns;
   int nx = 6, nk = -1, hidden = 20, lags = 50, encoder_hidden = 0, poly_degree = 0;
   long window = 100, batch = 32, init = 50;
-  int epochs = 100, patience = 0, polish_iterations = 0, wh_iterations = 200;
+  int epochs = 100, patience = 0, polish_iterations = 0, wh_iterations = 200, wh_candidates = 1;
   long polish_window = 0;
   double max_seconds = 0.0, learning_rate = 1e-3, final_learning_rate = 0.0;
   std::uint64_t seed = 1;
@@ -66,6 +67,9 @@ void run_identify_ss(const IdentifySsOptions& o) {
     throw std::invalid_argument(o.data + ": " + std::to_string(est.columns[0].size()) + " samples, --lags + --window = " +
                                 std::to_string(o.lags + o.window) + " needed");
   }
+  if (o.wiener_hammerstein && o.hidden < 1) {
+    throw std::invalid_argument("--wiener-hammerstein needs --hidden >= 1: the tanh nodes of the static nonlinearity");
+  }
   const auto began = std::chrono::steady_clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count(); };
   models::SsModel start;
@@ -87,12 +91,12 @@ void run_identify_ss(const IdentifySsOptions& o) {
     if (o.wiener_hammerstein) {
       const models::SsWienerHammerstein wh =
           models::ss_wiener_hammerstein_start(linear, structure, est.columns[0], est.columns[1], u_val, y_val,
-                                                o.wh_iterations, o.seed);
+                                                o.wh_iterations, o.seed, o.wh_candidates);
       std::fprintf(stderr,
                    "identify ss: Wiener-Hammerstein start: %d splits, front %d poles and %d zeros (%d states), "
-                   "J from rest %.4g %% (linear %.4g %%), after %d Levenberg-Marquardt steps %.4g %%, %.1f s\n",
+                   "J from rest %.4g %% (linear %.4g %%), after %d Levenberg-Marquardt steps %.4g %% (%d candidates), %.1f s\n",
                    wh.splits, wh.front_poles, wh.front_zeros, wh.front_states, wh.search_j_pct, wh.linear_j_pct,
-                   wh.iterations, wh.j_pct, seconds());
+                   wh.iterations, wh.j_pct, wh.candidates, seconds());
       start = wh.model;
       wh_start = {{"splits", wh.splits},
                   {"front_poles", wh.front_poles},
@@ -101,6 +105,7 @@ void run_identify_ss(const IdentifySsOptions& o) {
                   {"search_J_from_rest_pct", wh.search_j_pct},
                   {"J_from_rest_pct", wh.j_pct},
                   {"iterations", wh.iterations},
+                  {"candidates", wh.candidates},
                   {"linear_J_from_rest_pct", wh.linear_j_pct}};
     } else {
       start = models::ss_initial_model(linear, structure, est.columns[0], est.columns[1], o.seed);
@@ -148,6 +153,16 @@ void run_identify_ss(const IdentifySsOptions& o) {
                  polished.history.size() - 1);
     trained.model = polished.model;
     trained.j_val_pct = polished.j_val_pct;
+    trained.runaway = polished.runaway;
+  }
+  if (trained.runaway) {
+    throw std::runtime_error(
+        "identify ss: no model written to " + o.out + ": the free run of every candidate (the start, " +
+        std::to_string(trained.history.size() - 1) + " epochs" + (o.polish_iterations > 0 ? " and the L-BFGS iterates" : "") +
+        ") left the bound on full-scale noise (the start's |y| = " + std::to_string(trained.runaway->magnitude) + " after " +
+        std::to_string(trained.runaway->samples) +
+        " samples, scaled units), so no reader would load it. Try fewer states (--nx), a lower --poly-degree, "
+        "without --poly-states-only, a lower --lr, or more estimation data");
   }
   const double j_est = models::j_percent(trained.model.simulate(est.columns[0], est.columns[1], o.init), est.columns[1], o.init);
   const double j_val = u_val.size() ? trained.j_val_pct : NAN;
@@ -203,6 +218,10 @@ void register_identify_ss(CLI::App& identify) {
   cmd->add_option("--wh-iter", o->wh_iterations,
                   "Levenberg-Marquardt iterations refining the Wiener-Hammerstein start's blocks jointly (0: none)")
       ->check(CLI::Range(0, 100000))
+      ->capture_default_str();
+  cmd->add_option("--wh-candidates", o->wh_candidates,
+                  "Splits of the Wiener-Hammerstein search refined 20 steps each before the best one is kept")
+      ->check(CLI::Range(1, 64))
       ->capture_default_str();
   cmd->add_option("--lags", o->lags, "Past inputs and outputs the encoder reads")->check(CLI::Range(1, 1000))->capture_default_str();
   cmd->add_option("--encoder-hidden", o->encoder_hidden, "Tanh nodes of the encoder (0: affine)")

@@ -180,6 +180,67 @@ StateSpace SsModel::linear_part() const {
   return ss;
 }
 
+namespace {
+
+/// [f; h] at (x, u) and its Jacobian ∂[f; h]/∂[x; u] ((nx+1)×(nx+1)).
+Eigen::VectorXd ss_network_jacobian(const SsParts<const double>& p, const Eigen::VectorXd& x, double u,
+                                    const std::vector<std::vector<int>>& factors, Eigen::MatrixXd& jacobian) {
+  const Eigen::Index n = x.size();
+  Eigen::VectorXd z(n + 1);
+  z << x, u;
+  const Eigen::ArrayXd t = (p.W1 * z + p.b1.col(0)).array().tanh();
+  Eigen::VectorXd network = p.W2 * t.matrix() + p.b2.col(0);
+  // ∂(W2·tanh(W1·z + b1))/∂z = W2·diag(1 − tanh²)·W1
+  jacobian = p.W2 * (1.0 - t.square()).matrix().asDiagonal() * p.W1;
+  for (std::size_t m = 0; m < factors.size(); ++m) {
+    const std::vector<int>& f = factors[m];
+    double product = 1.0;
+    for (const int i : f) product *= z(i);
+    network += p.P.col(static_cast<Eigen::Index>(m)) * product;
+    // ∂(z_f0·z_f1·…)/∂z_f[j] = the product of the other factors, summed over the positions j
+    for (std::size_t j = 0; j < f.size(); ++j) {
+      double others = 1.0;
+      for (std::size_t r = 0; r < f.size(); ++r) {
+        if (r != j) others *= z(f[r]);
+      }
+      jacobian.col(f[j]) += p.P.col(static_cast<Eigen::Index>(m)) * others;
+    }
+  }
+  return network;
+}
+
+}  // namespace
+
+StateSpace SsModel::linearization() const {
+  const auto p = ss_parts(structure, theta.data());
+  const Eigen::Index n = structure.states;
+  const std::vector<std::vector<int>> factors =
+      structure.poly_degree > 0 ? ss_monomial_factors(p.poly_variables, p.poly_degree) : std::vector<std::vector<int>>{};
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(n);
+  Eigen::MatrixXd jacobian;
+  bool converged = false;
+  for (int it = 0; it < 100 && !converged; ++it) {
+    // Newton on r(x) = A·x + f(x, 0) − x
+    const Eigen::VectorXd network = ss_network_jacobian(p, x, 0.0, factors, jacobian);
+    const Eigen::VectorXd r = p.A * x + network.head(n) - x;
+    const Eigen::MatrixXd dr = p.A + jacobian.topLeftCorner(n, n) - Eigen::MatrixXd::Identity(n, n);
+    const Eigen::VectorXd dx = dr.fullPivLu().solve(r);
+    if (!dx.allFinite()) break;
+    x -= dx;
+    converged = dx.norm() <= 1e-12 * (1.0 + x.norm());
+  }
+  if (!converged || !x.allFinite()) {
+    throw std::invalid_argument("SsModel::linearization: no equilibrium found at zero input");
+  }
+  ss_network_jacobian(p, x, 0.0, factors, jacobian);
+  StateSpace ss;
+  ss.A = p.A + jacobian.topLeftCorner(n, n);
+  ss.B = p.B.col(0) + jacobian.col(n).head(n);
+  ss.C = p.C.row(0) + jacobian.row(n).head(n);
+  ss.D = p.D(0, 0) + jacobian(n, n);
+  return ss;
+}
+
 Eigen::VectorXd SsModel::simulate_scaled(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) const {
   if (init > 0 && y.size() < std::min(init, u.size())) {
     throw std::invalid_argument("SsModel::simulate: " + std::to_string(init) + " measured outputs requested, got " +
@@ -281,6 +342,8 @@ nlohmann::json ss_model_to_json(const SsModel& m) {
   };
 }
 
+std::optional<Runaway> ss_free_run_runaway(const SsModel& m) { return runaway(m.simulate_scaled(free_run_drive())); }
+
 SsModel ss_model_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
   SsModel m;
@@ -317,7 +380,7 @@ SsModel ss_model_from_json(const nlohmann::json& j) {
   p.finish();
   m.meta = read_model_meta(top);
   top.finish();
-  if (const auto r = runaway(m.simulate_scaled(free_run_drive()))) {
+  if (const auto r = ss_free_run_runaway(m)) {
     throw ConfigError("model: free run unbounded: |y| = " + std::to_string(r->magnitude) + " after " +
                       std::to_string(r->samples) + " samples of full-scale noise (scaled units)");
   }

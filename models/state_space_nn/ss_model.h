@@ -9,10 +9,12 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <type_traits>
 #include <vector>
 
 #include "models/linear/state_space.h"
+#include "models/narx/free_run.h"
 #include "models/preprocess/scaling.h"
 
 namespace panelbass::models {
@@ -100,6 +102,10 @@ struct SsModel {
 
   /// The linear part (A, B, C, D).
   StateSpace linear_part() const;
+  /// The linearisation at the equilibrium of zero scaled input (the data's mean): x* = A·x* + f(x*, 0) found
+  /// by Newton from x = 0, then A + ∂f/∂x, B + ∂f/∂u, C + ∂h/∂x, D + ∂h/∂u there, exact (the tanh layer's and
+  /// the polynomial's derivatives). Scaled units. Throws std::invalid_argument when no equilibrium is found.
+  StateSpace linearization() const;
 
   /// Free run in scaled units: outputs before `init` are the measured ones, the encoder reads the record
   /// before `init` (zeros before its start) for x(init), and the recursion runs from there.
@@ -123,8 +129,12 @@ SsModel ss_model_from_linear(const StateSpace& linear, SsStructure s, const Eige
 /// absent; poly_input optional, true when absent).
 nlohmann::json ss_model_to_json(const SsModel& m);
 
+/// The runaway of `m`'s free run (scaled units, from rest) on free_run_drive(); nullopt when it stays within
+/// ±kFreeRunBound. The loader's test, and the trainers' test of every model they would return.
+std::optional<Runaway> ss_free_run_runaway(const SsModel& m);
+
 /// Reads and validates a neural state-space model object: sizes, θ of exactly P finite entries, fs > 0, and
-/// a bounded free run (free_run_drive() from rest stays within ±kFreeRunBound); ConfigError names the key.
+/// a bounded free run (ss_free_run_runaway); ConfigError names the key.
 SsModel ss_model_from_json(const nlohmann::json& j);
 
 }  // namespace panelbass::models

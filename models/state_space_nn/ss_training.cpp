@@ -21,6 +21,13 @@ double selection_j(const SsModel& m, const Eigen::VectorXd& u, const Eigen::Vect
   return j_percent(m.simulate(u, y, init), y, init);
 }
 
+// Whether candidate `m` of selection J `j` replaces the kept model of `out`: a finite J below the kept one's
+// (any finite J while the kept one runs away), and a bounded free run — tested only then, as it costs a run.
+bool replaces_kept(const SsModel& m, double j, const SsTraining& out) {
+  if (!std::isfinite(j) || !(j < out.j_val_pct || out.runaway)) return false;
+  return !ss_free_run_runaway(m);
+}
+
 }  // namespace
 
 void ss_fit_encoder(SsModel& m, const Eigen::VectorXd& us, const Eigen::VectorXd& ys, const Eigen::MatrixXd& states) {
@@ -107,6 +114,7 @@ SsTraining train_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen:
   SsModel m = start;
   out.model = m;
   out.j_val_pct = selection_j(m, us_sel, ys_sel, options.init);
+  out.runaway = ss_free_run_runaway(m);
   out.history.push_back({0, ss_window_loss(m, us, ys, {std::vector<Eigen::Index>{L}, T}, nullptr), out.j_val_pct, seconds()});
   if (options.progress && !options.progress(out.history.back())) return out;
 
@@ -136,9 +144,10 @@ SsTraining train_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen:
     }
     const double j = selection_j(m, us_sel, ys_sel, options.init);
     out.history.push_back({epoch, steps > 0 ? loss_sum / static_cast<double>(steps) : NAN, j, seconds()});
-    if (std::isfinite(j) && j < out.j_val_pct) {
+    if (replaces_kept(m, j, out)) {
       out.j_val_pct = j;
       out.model = m;
+      out.runaway.reset();
       out.best_epoch = epoch;
       since_best = 0;
     } else {
@@ -186,9 +195,10 @@ int polish_progress(void* instance, const lbfgsfloatval_t* x, const lbfgsfloatva
   const double j = selection_j(run.model, *run.u_sel, *run.y_sel, run.options->init);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run.began).count();
   run.out->history.push_back({k, fx, j, seconds});
-  if (std::isfinite(j) && j < run.out->j_val_pct) {
+  if (replaces_kept(run.model, j, *run.out)) {
     run.out->j_val_pct = j;
     run.out->model = run.model;
+    run.out->runaway.reset();
     run.out->best_epoch = k;
   }
   return run.options->progress && !run.options->progress(run.out->history.back()) ? 1 : 0;
@@ -215,6 +225,7 @@ SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen
                 std::chrono::steady_clock::now(), {}, 0.0};
   for (Eigen::Index k0 = L; k0 + T <= u.size(); k0 += T) run.starts.push_back(k0);
   out.j_val_pct = selection_j(start, *run.u_sel, *run.y_sel, options.init);
+  out.runaway = ss_free_run_runaway(start);
   run.start_loss = ss_window_loss(start, us, ys, {run.starts, T}, nullptr);
   out.history.push_back({0, run.start_loss, out.j_val_pct, 0.0});
   if (options.progress && !options.progress(out.history.back())) return out;

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "models/linear/linear_model.h"
@@ -49,12 +50,15 @@ struct SsTrainingOptions {
 
 /// What training produced.
 struct SsTraining {
-  SsModel model;                          ///< the model of the lowest selection J
+  SsModel model;                          ///< the model of the lowest selection J whose free run is bounded
   std::vector<SsTrainingRecord> history;  ///< every epoch, the start first
   int best_epoch = 0;
   double j_val_pct = 0.0;                 ///< its selection J
   double seconds = 0.0;
   int status = 0;                         ///< polish_ss: liblbfgs's return code (why it stopped; 0 = converged)
+  /// Set when no candidate's free run was bounded (ss_free_run_runaway): `model` is then the start, and
+  /// this its runaway; a model file of it would not load.
+  std::optional<Runaway> runaway;
 };
 
 /// How to polish.
@@ -68,13 +72,14 @@ struct SsPolishOptions {
 
 /// Polishes `start` by L-BFGS (liblbfgs, with its More–Thuente line search) on the full-batch loss of
 /// windows of options.window samples tiling the raw estimation data u, y from sample `lags` on, keeping
-/// the iterate of the lowest selection J (on u_val, y_val, or the estimation data when empty), the
-/// start included. Throws std::invalid_argument for data shorter than lags + window.
+/// the iterate of the lowest selection J (on u_val, y_val, or the estimation data when empty) whose free
+/// run is bounded, the start included. Throws std::invalid_argument for data shorter than lags + window.
 SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
                      const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const SsPolishOptions& options);
 
 /// Trains `start` on raw estimation data (u, y), selecting on raw validation data (u_val, y_val; the
-/// estimation data when empty). Throws std::invalid_argument for data shorter than lags + window or
+/// estimation data when empty) among the candidates (the start, each epoch's model) whose free run is
+/// bounded. Throws std::invalid_argument for data shorter than lags + window or
 /// mismatched lengths.
 SsTraining train_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
                     const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const SsTrainingOptions& options);

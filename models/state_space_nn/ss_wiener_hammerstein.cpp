@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -21,6 +22,7 @@ namespace {
 
 constexpr Eigen::Index kSearchSamples = 20000;  // samples of each record the split search reads
 constexpr double kTail = 0.001;                 // the centres span v's quantiles kTail … 1 − kTail
+constexpr int kTrialSteps = 20;                 // refinement steps of each candidate split before one is kept
 
 using Roots = std::vector<std::complex<double>>;
 
@@ -72,11 +74,8 @@ Eigen::MatrixXd filter_columns(const StateSpace& filter, const Eigen::MatrixXd& 
   return out;
 }
 
-/// One split's fit: the front filter (scaled so v has unit RMS), the centres, g's coefficients, its J.
-struct SplitFit {
-  TransferFunction front, back;
-  Eigen::VectorXd centres, coefficients;
-  Eigen::VectorXd slopes;  ///< wᵢ
+/// One split's fit: the blocks (the front filter scaled so v has unit RMS) and its J.
+struct SplitFit : WhBlocks {
   double j_pct = std::numeric_limits<double>::infinity();
 };
 
@@ -114,17 +113,38 @@ SplitFit fit_split(TransferFunction front, const TransferFunction& back, int hid
   return fit;
 }
 
-/// θ = [front a, front b, back a, back b, p, c, w] of a split's fit.
-Eigen::VectorXd pack(const SplitFit& f) {
-  Eigen::VectorXd theta(f.front.na() + f.front.nb() + f.back.na() + f.back.nb() + f.coefficients.size() +
-                        f.centres.size() + f.slopes.size());
-  theta << f.front.a, f.front.b, f.back.a, f.back.b, f.coefficients, f.centres, f.slopes;
-  return theta;
-}
-
 /// The fit of θ, the shapes those of `like`.
 SplitFit unpack(const Eigen::VectorXd& theta, const SplitFit& like) {
   SplitFit f = like;
+  static_cast<WhBlocks&>(f) = like.unpack(theta);
+  return f;
+}
+
+/// The block model's output from rest: y = G2·g(G1·u); `v` and `w` receive G1·u and g(v).
+Eigen::VectorXd block_signals(const WhBlocks& f, const Eigen::VectorXd& us, Eigen::VectorXd* v_out,
+                              Eigen::VectorXd* w_out) {
+  const Eigen::VectorXd v = simulate(realize(f.front), us);
+  const Eigen::VectorXd w = basis(v, f.centres, f.slopes) * f.coefficients;
+  if (v_out != nullptr) *v_out = v;
+  if (w_out != nullptr) *w_out = w;
+  return simulate(realize(f.back), w);
+}
+
+}  // namespace
+
+Eigen::VectorXd WhBlocks::pack() const {
+  Eigen::VectorXd theta(front.na() + front.nb() + back.na() + back.nb() + coefficients.size() + centres.size() +
+                        slopes.size());
+  theta << front.a, front.b, back.a, back.b, coefficients, centres, slopes;
+  return theta;
+}
+
+WhBlocks WhBlocks::unpack(const Eigen::VectorXd& theta) const {
+  WhBlocks f = *this;
+  if (theta.size() != pack().size()) {
+    throw std::invalid_argument("WhBlocks::unpack: " + std::to_string(theta.size()) + " parameters, " +
+                                std::to_string(pack().size()) + " expected");
+  }
   Eigen::Index at = 0;
   for (Eigen::VectorXd* part : {&f.front.a, &f.front.b, &f.back.a, &f.back.b, &f.coefficients, &f.centres, &f.slopes}) {
     *part = theta.segment(at, part->size());
@@ -133,21 +153,15 @@ SplitFit unpack(const Eigen::VectorXd& theta, const SplitFit& like) {
   return f;
 }
 
-/// The block model's output from rest: y = G2·g(G1·u); `v` and `w` receive G1·u and g(v).
-Eigen::VectorXd block_output(const SplitFit& f, const Eigen::VectorXd& us, Eigen::VectorXd* v_out = nullptr,
-                             Eigen::VectorXd* w_out = nullptr) {
-  const Eigen::VectorXd v = simulate(realize(f.front), us);
-  const Eigen::VectorXd w = basis(v, f.centres, f.slopes) * f.coefficients;
-  if (v_out != nullptr) *v_out = v;
-  if (w_out != nullptr) *w_out = w;
-  return simulate(realize(f.back), w);
+Eigen::VectorXd wh_block_output(const WhBlocks& blocks, const Eigen::VectorXd& u) {
+  return block_signals(blocks, u, nullptr, nullptr);
 }
 
-/// ∂y/∂θ (N×P, θ as pack() lays it out), exact: the back filter's by its OE sensitivities to w; the
-/// nonlinearity's and the front filter's through G2, the front's times g'(v) (the chain rule sample by sample).
-Eigen::MatrixXd block_jacobian(const SplitFit& f, const Eigen::VectorXd& us) {
+// The back filter's columns by its OE sensitivities to w; the nonlinearity's and the front filter's through
+// G2, the front's times g'(v) (the chain rule sample by sample).
+Eigen::MatrixXd wh_block_jacobian(const WhBlocks& f, const Eigen::VectorXd& us) {
   Eigen::VectorXd v, w;
-  block_output(f, us, &v, &w);
+  block_signals(f, us, &v, &w);
   const Eigen::Index N = us.size(), H = f.centres.size();
   const Eigen::Index n_front = f.front.na() + f.front.nb(), n_back = f.back.na() + f.back.nb();
   Eigen::MatrixXd J(N, n_front + n_back + 3 * H + 2);
@@ -171,24 +185,29 @@ Eigen::MatrixXd block_jacobian(const SplitFit& f, const Eigen::VectorXd& us) {
   return J;
 }
 
+namespace {
+
 /// Levenberg–Marquardt on the block model's simulation error (from rest, rows from `skip` on) over the
-/// estimation data, keeping the iterate of the lowest J on the selection data; `iterations` steps at most.
+/// estimation data, keeping the iterate of the lowest J on the selection data among those `bounded` accepts
+/// (asked only of an iterate that would replace the kept one; while the start is not bounded, any finite J
+/// replaces it); `iterations` steps at most.
 SplitFit refine_split(const SplitFit& start, const Eigen::VectorXd& us, const Eigen::VectorXd& ys,
                       const Eigen::VectorXd& us_sel, const Eigen::VectorXd& ys_sel, Eigen::Index skip, int iterations,
-                      int& steps) {
+                      int& steps, const std::function<bool(const SplitFit&)>& bounded) {
   const Eigen::Index rows = us.size() - skip;
   auto loss_of = [&](const SplitFit& f) {
     if (!f.front.is_stable() || !f.back.is_stable()) return std::numeric_limits<double>::infinity();
-    const Eigen::VectorXd e = block_output(f, us).tail(rows) - ys.tail(rows);
+    const Eigen::VectorXd e = wh_block_output(f, us).tail(rows) - ys.tail(rows);
     return e.allFinite() ? 0.5 * e.squaredNorm() : std::numeric_limits<double>::infinity();
   };
   SplitFit best = start, current = start;
-  Eigen::VectorXd theta = pack(start);
+  bool best_bounded = bounded(start);
+  Eigen::VectorXd theta = start.pack();
   LevenbergMarquardt lm({.damping = LmDamping::relative_to_mean}, theta.size());
   double V = loss_of(current);
   for (int it = 0; it < iterations && std::isfinite(V); ++it) {
-    const Eigen::MatrixXd J = block_jacobian(current, us).bottomRows(rows);
-    const Eigen::VectorXd e = block_output(current, us).tail(rows) - ys.tail(rows);
+    const Eigen::MatrixXd J = wh_block_jacobian(current, us).bottomRows(rows);
+    const Eigen::VectorXd e = wh_block_output(current, us).tail(rows) - ys.tail(rows);
     const Eigen::MatrixXd H = J.transpose() * J;
     const Eigen::VectorXd g = J.transpose() * e;
     const LmStep step = lm.step(H, g, V, theta, [&](const Eigen::VectorXd& candidate) { return loss_of(unpack(candidate, start)); });
@@ -196,8 +215,11 @@ SplitFit refine_split(const SplitFit& start, const Eigen::VectorXd& us, const Ei
     V = step.loss;
     steps = it + 1;
     current = unpack(theta, start);
-    current.j_pct = j_percent(block_output(current, us_sel), ys_sel, skip);
-    if (current.j_pct < best.j_pct) best = current;
+    current.j_pct = j_percent(wh_block_output(current, us_sel), ys_sel, skip);
+    if (std::isfinite(current.j_pct) && (current.j_pct < best.j_pct || !best_bounded) && bounded(current)) {
+      best = current;
+      best_bounded = true;
+    }
   }
   return best;
 }
@@ -239,7 +261,9 @@ SsModel block_model(const SplitFit& fit, SsStructure s, const Scaling& scaling, 
 
 SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStructure structure, const Eigen::VectorXd& u,
                                                 const Eigen::VectorXd& y, const Eigen::VectorXd& u_val,
-                                                const Eigen::VectorXd& y_val, int iterations, std::uint64_t seed) {
+                                                const Eigen::VectorXd& y_val, int iterations, std::uint64_t seed,
+                                                int candidates) {
+  if (candidates < 1) throw std::invalid_argument("ss_wiener_hammerstein_start: candidates must be at least 1");
   if (structure.hidden < 1) throw std::invalid_argument("ss_wiener_hammerstein_start: the nonlinearity needs hidden >= 1 tanh nodes");
   if (bla.tf.na() < 1) throw std::invalid_argument("ss_wiener_hammerstein_start: the linear model has no pole to split");
   if (u.size() != y.size() || u_val.size() != y_val.size()) {
@@ -270,7 +294,7 @@ SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStruct
 
   SsWienerHammerstein out;
   out.linear_j_pct = j_percent(simulate(realize(bla.tf), us_sel), ys_sel, skip);
-  SplitFit best;
+  std::vector<SplitFit> fits;  // every split's fit, the lowest J first after the search
   for (unsigned pm = 0; pm < (1U << poles.size()); ++pm) {
     for (unsigned zm = 0; zm < (1U << zeros.size()); ++zm) {
       const TransferFunction front = factor_filter(pick(poles, pm, true), pick(zeros, zm, true), delay, 1.0);
@@ -280,21 +304,45 @@ SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStruct
       if (n1 + n2 > order) continue;
       ++out.splits;
       SplitFit fit = fit_split(front, back, structure.hidden, us, ys, us_sel, ys_sel, skip);
-      if (fit.j_pct < best.j_pct) {
-        best = std::move(fit);
-        out.front_poles = front.na();
-        out.front_zeros = front.nb() - 1;
-      }
+      if (std::isfinite(fit.j_pct)) fits.push_back(std::move(fit));
     }
   }
-  if (!std::isfinite(best.j_pct)) throw std::invalid_argument("ss_wiener_hammerstein_start: no split could be fitted");
-  out.search_j_pct = best.j_pct;
+  if (fits.empty()) throw std::invalid_argument("ss_wiener_hammerstein_start: no split could be fitted");
+  std::stable_sort(fits.begin(), fits.end(), [](const SplitFit& a, const SplitFit& b) { return a.j_pct < b.j_pct; });
+  out.candidates = iterations > 0 ? std::min<int>(candidates, static_cast<int>(fits.size())) : 1;
+  // A split is a candidate only when its model's free run is bounded (the loader's test); the encoder,
+  // fitted last, is left out (zero).
+  const std::function<bool(const SplitFit&)> bounded = [&](const SplitFit& fit) {
+    return !ss_free_run_runaway(block_model(fit, structure, bla.scaling, bla.fs, seed));
+  };
+  const auto first_bounded = std::find_if(fits.begin(), fits.end(), bounded);
+  SplitFit best = first_bounded != fits.end() ? *first_bounded : fits.front();
+  double search_j = best.j_pct;
   if (iterations > 0) {
-    // The kept split refined jointly on the whole records (its J first on them, from rest).
-    best.j_pct = j_percent(block_output(best, us_sel_all), ys_sel_all, skip);
-    const SplitFit refined = refine_split(best, us_all, ys_all, us_sel_all, ys_sel_all, skip, iterations, out.iterations);
-    best = refined;
+    // Each candidate split's J on the whole selection record from rest, then (with more than one) a short
+    // joint refinement of each: the one of the lowest J after it is the one refined on.
+    const int trial_steps = out.candidates > 1 ? std::min(iterations, kTrialSteps) : 0;
+    best.j_pct = std::numeric_limits<double>::infinity();
+    for (int c = 0; c < out.candidates; ++c) {
+      SplitFit fit = fits[static_cast<std::size_t>(c)];
+      const double fit_search_j = fit.j_pct;
+      fit.j_pct = j_percent(wh_block_output(fit, us_sel_all), ys_sel_all, skip);
+      int steps = 0;
+      if (trial_steps > 0) fit = refine_split(fit, us_all, ys_all, us_sel_all, ys_sel_all, skip, trial_steps, steps, bounded);
+      if (fit.j_pct < best.j_pct && bounded(fit)) {
+        best = std::move(fit);
+        search_j = fit_search_j;
+        out.iterations = steps;
+      }
+    }
+    // The kept split refined jointly on the whole records.
+    int steps = 0;
+    best = refine_split(best, us_all, ys_all, us_sel_all, ys_sel_all, skip, iterations - out.iterations, steps, bounded);
+    out.iterations += steps;
   }
+  out.search_j_pct = search_j;
+  out.front_poles = best.front.na();
+  out.front_zeros = static_cast<int>(best.front.nb()) - 1;
   out.j_pct = best.j_pct;
   out.model = block_model(best, structure, bla.scaling, bla.fs, seed);
   out.front_states = realize(best.front).order();

@@ -213,6 +213,27 @@ TEST_F(CliDesignModel, BadTargetHighpassIsRefusedNamingIt) {
   EXPECT_FALSE(fs::exists(dir_ / "ff.json"));
 }
 
+TEST_F(CliDesignModel, AnSsModelIsDesignedOnByItsLinearization) {
+  // An ss model started from the linear model with no training is that linear model exactly (its networks'
+  // last layers zero): designing on it is designing on the linear model.
+  const fs::path ss = dir_ / "ss.json";
+  expect_result(run("identify ss --data " + quoted(dir_ / "run.csv") + " --fs 3000 --linear " + quoted(model()) +
+                    " --hidden 3 --lags 4 --epochs 0 --out " + quoted(ss)));
+  const std::string options = " --R 3 --R0 20 --bandpass 20,1200 --samples 4000 --out ";
+  const json from_linear = expect_result(run("design lq --model " + quoted(model()) + options + quoted(dir_ / "a.json")));
+  const json from_ss = expect_result(run("design lq --model " + quoted(ss) + options + quoted(dir_ / "b.json")));
+  EXPECT_EQ(from_ss["order"], from_linear["order"]);
+  for (const char* key : {"max_input_worst", "max_input_noise", "pole_radius"}) {
+    const double expected = from_linear[key].get<double>();
+    EXPECT_NEAR(from_ss[key].get<double>(), expected, 1e-6 * (1.0 + std::abs(expected))) << key;
+  }
+  EXPECT_NEAR(from_ss["ripple_db"]["controlled"].get<double>(), from_linear["ripple_db"]["controlled"].get<double>(), 1e-6);
+  ASSERT_EQ(from_ss["L"].size(), from_linear["L"].size());
+  for (std::size_t i = 0; i < from_linear["L"].size(); ++i) {
+    EXPECT_NEAR(from_ss["L"][i].get<double>(), from_linear["L"][i].get<double>(), 1e-9) << "L[" << i << "]";
+  }
+}
+
 TEST_F(CliDesign, MissingOrWrongModelIsRefusedNamingIt) {
   RunResult r = run("design lq --model " + quoted(dir_ / "nope.json") + " --out " + quoted(dir_ / "ff.json"));
   expect_failure(r);

@@ -1,8 +1,11 @@
 // `panelbass identify ss` run as a user runs it: the model file it writes is read by validate (the J it
-// reports is the J it selected on) and analyze; bad options fail naming the problem.
+// reports is the J it selected on) and analyze; a training whose every candidate runs away in free run
+// writes nothing and says why; bad options fail naming the problem.
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "tests/support/cli_runner.h"
@@ -38,6 +41,52 @@ TEST_F(CliIdentifySs, TrainsAndValidateAndAnalyzeReadItsModel) {
   const json baseline = json::parse(text_of(dir_ / "d.json"))["baseline"];
   EXPECT_EQ(baseline["kind"], "ss");
   EXPECT_NEAR(baseline["J_val_pct"].get<double>(), v["J_sim_pct"].get<double>(), 1e-9);
+}
+
+TEST_F(CliIdentifySs, WienerHammersteinStartIsWrittenAsAnSsModelThatValidateReads) {
+  const fs::path model = dir_ / "wh.json";
+  const json r = expect_result(run("identify ss --data " + est() + " --val " + val() +
+                                   " --fs 3000 --nx 4 --hidden 4 --lags 8 --wiener-hammerstein --wh-iter 4 "
+                                   "--wh-candidates 2 --epochs 0 --seed 3 --out " + quoted(model)));
+  EXPECT_EQ(r["epochs"], 0);
+  const json meta = json::parse(text_of(model))["meta"];
+  const json start = meta["wiener_hammerstein_start"];
+  for (const char* key : {"splits", "front_poles", "front_zeros", "front_states", "search_J_from_rest_pct", "J_from_rest_pct",
+                          "iterations", "candidates", "linear_J_from_rest_pct"}) {
+    EXPECT_TRUE(start.contains(key)) << key;
+  }
+  EXPECT_EQ(start["candidates"], 2);
+  EXPECT_LE(start["iterations"].get<int>(), 4);
+  EXPECT_GE(start["splits"].get<int>(), 2);
+  EXPECT_LE(start["front_states"].get<int>(), r["states"].get<int>());
+  EXPECT_LE(start["J_from_rest_pct"].get<double>(), start["linear_J_from_rest_pct"].get<double>());
+  // validate's J of the file is the J it reports (selected on), the state from 50 measured samples.
+  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
+  EXPECT_EQ(v["kind"], "ss");
+  EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
+  const RunResult no_nodes = run("identify ss --data " + est() + " --fs 3000 --nx 4 --hidden 0 --lags 8 "
+                                 "--wiener-hammerstein --epochs 0 --out " + quoted(dir_ / "bad.json"));
+  expect_failure(no_nodes);
+  EXPECT_TRUE(contains(no_nodes.err, "hidden")) << no_nodes.err;
+}
+
+TEST_F(CliIdentifySs, WritesNoFileWhenEveryCandidateRunsAwayInFreeRun) {
+  // A stable linear start (its file loads) of gain 1000 in scaled units: full-scale noise drives its free
+  // run far past ±100, and a learning rate of 1e-9 keeps every epoch's model there.
+  const fs::path linear = dir_ / "lin.json", loud = dir_ / "loud.json", model = dir_ / "ss.json";
+  expect_result(run("identify linear --data " + est() + " --fs 3000 --method oe --order 2 --out " + quoted(linear)));
+  json lin = json::parse(text_of(linear));
+  for (auto& b : lin["params"]["b"]) b = 1000.0 * b.get<double>();
+  std::ofstream(loud) << lin.dump();
+  const RunResult r = run("identify ss --data " + est() + " --val " + val() + " --fs 3000 --linear " + quoted(loud) +
+                          " --hidden 4 --lags 8 --window 40 --epochs 2 --lr 1e-9 --out " + quoted(model));
+  // Failed (the epochs' progress lines precede the error), printed no result, wrote no file.
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_EQ(r.out, "");
+  EXPECT_FALSE(fs::exists(model));
+  for (const char* said : {"free run", "no model written", "--nx", "--poly-degree", "more estimation data"}) {
+    EXPECT_TRUE(contains(r.err, said)) << said << ": " << r.err;
+  }
 }
 
 TEST_F(CliIdentifySs, BadOptionsFailNamingTheProblem) {

@@ -2,7 +2,8 @@
 // finite differences, its free run against a hand-written loop of the recursion, its start against the
 // linear model it came from, the model file (round trip and failure modes), training on a
 // Wiener–Hammerstein system (Adam, then the L-BFGS polish) lowering the validation J below the linear model's,
-// and the polynomial option: its terms against the monomials written out, its extrapolation of a cubic spring.
+// a training whose candidates run away in free run (none kept), and the polynomial option: its terms
+// against the monomials written out, its extrapolation of a cubic spring.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 #include "models/io/config_error.h"
 #include "models/kinds/model_file.h"
 #include "models/linear/state_space.h"
+#include "models/narx/free_run.h"
 #include "models/state_space_nn/ss_gradients.h"
 #include "models/state_space_nn/ss_model.h"
 #include "models/state_space_nn/ss_training.h"
@@ -216,6 +218,44 @@ TEST(SsModel, PolynomialFileRoundTripsAndRefusesBadDegrees) {
   EXPECT_EQ(ss_model_from_json(old).structure.poly_degree, 0);
 }
 
+TEST(SsModel, LinearizationIsTheSmallSignalResponseAtTheEquilibrium) {
+  // The equilibrium found independently (the zero-input recursion run until it settles), then the response
+  // to ±ε·v from there, central differences: the linearisation's response to v from rest.
+  for (const bool poly_input : {true, false}) {
+    SsModel m = random_model(0, 3, poly_input);
+    // the networks small enough that the zero-input recursion settles (a stable equilibrium)
+    ss_parts(m.structure, m.theta.data()).W2 *= 0.2;
+    ss_parts(m.structure, m.theta.data()).P *= 0.05;
+    const auto p = ss_parts(m.structure, static_cast<const double*>(m.theta.data()));
+    SsStepWork work;
+    Eigen::RowVectorXd output(1), input = Eigen::RowVectorXd::Zero(1);
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(3), next(3);
+    for (int k = 0; k < 3000; ++k) {
+      ss_step(p, x, input, work, output, next);
+      x.swap(next);
+    }
+    ss_step(p, x, input, work, output, next);
+    ASSERT_LT((next - x).norm(), 1e-13) << "the zero-input recursion settles";
+    const double y_rest = output(0);
+    const Eigen::VectorXd v = noise(200, 31);
+    const double eps = 1e-5;
+    auto response = [&](double sign) {
+      Eigen::VectorXd state = x, y(v.size());
+      for (Eigen::Index k = 0; k < v.size(); ++k) {
+        input(0) = sign * eps * v(k);
+        ss_step(p, state, input, work, output, next);
+        y(k) = output(0) - y_rest;
+        state = next;
+      }
+      return y;
+    };
+    const Eigen::VectorXd fd = (response(1.0) - response(-1.0)) / (2.0 * eps);
+    const Eigen::VectorXd linear = simulate(m.linearization(), v);
+    EXPECT_LE((linear - fd).norm(), 1e-6 * fd.norm()) << "poly_input " << poly_input;
+    EXPECT_GT((linear - simulate(m.linear_part(), v)).norm(), 1e-3 * fd.norm()) << "the network's slope counts";
+  }
+}
+
 TEST(SsTraining, LowersTheValidationJBelowTheLinearStart) {
   const Eigen::VectorXd u = noise(6000, 9), y = wiener_hammerstein(u);
   const Eigen::VectorXd ue = u.head(4000), ye = y.head(4000), uv = u.tail(2000), yv = y.tail(2000);
@@ -260,6 +300,45 @@ TEST(SsTraining, LbfgsPolishLowersTheSelectedJAndKeepsItsBest) {
   EXPECT_NEAR(polished.j_val_pct, j_percent(polished.model.simulate(uv, yv, 20), yv, 20), 1e-9);
 }
 
+// The Wiener–Hammerstein system's linear start with A = 1.5·I: its free run runs away.
+SsModel ss_runaway_start(const Eigen::VectorXd& ue, const Eigen::VectorXd& ye) {
+  LinearModel linear;
+  linear.fs = 1000.0;
+  linear.tf.a = Eigen::Vector2d(-1.5, 0.56);
+  linear.tf.b = Eigen::VectorXd::Constant(1, 0.12);
+  linear.tf.nk = 1;
+  SsModel start = ss_initial_model(linear, {2, 4, 5, 0}, ue, ye, 4);
+  ss_parts(start.structure, start.theta.data()).A = 1.5 * Eigen::MatrixXd::Identity(2, 2);
+  return start;
+}
+
+TEST(SsTraining, KeepsNoCandidateWhoseFreeRunRunsAway) {
+  const Eigen::VectorXd u = noise(1500, 12), y = wiener_hammerstein(u);
+  const Eigen::VectorXd ue = u.head(1000), ye = y.head(1000), uv = u.tail(500), yv = y.tail(500);
+  const SsModel start = ss_runaway_start(ue, ye);
+  ASSERT_TRUE(ss_free_run_runaway(start));
+  EXPECT_THROW(ss_model_from_json(ss_model_to_json(start)), ConfigError) << "the loader's test is the trainer's";
+  SsTrainingOptions options;
+  options.window = 20;
+  options.batch = 8;
+  options.init = 20;
+  // A rate so small that every epoch's model runs away too: none is kept, the start returned, flagged.
+  options.max_epochs = 3;
+  options.adam.learning_rate = 1e-9;
+  const SsTraining stuck = train_ss(start, ue, ye, uv, yv, options);
+  ASSERT_TRUE(stuck.runaway);
+  EXPECT_GT(stuck.runaway->magnitude, kFreeRunBound);
+  EXPECT_EQ(stuck.best_epoch, 0);
+  EXPECT_EQ(stuck.model.theta, start.theta);
+  // The polish keeps the start's flag when it stops at once.
+  SsPolishOptions polish;
+  polish.window = 20;
+  polish.init = 20;
+  polish.progress = [](const SsTrainingRecord&) { return false; };
+  EXPECT_TRUE(polish_ss(start, ue, ye, uv, yv, polish).runaway);
+  EXPECT_FALSE(polish_ss(random_model(0), ue, ye, uv, yv, polish).runaway);
+}
+
 TEST(SsTraining, ThePolynomialExtrapolatesACubicSpringBeyondTheTrainingAmplitude) {
   // A mass on a cubic spring (the Silverbox's physics), by semi-implicit Euler with unit step:
   //   v(k+1) = v + u − c·v − κ·(x + a·x³),   x(k+1) = x + v(k+1),   y(k) = x(k);
@@ -283,7 +362,10 @@ TEST(SsTraining, ThePolynomialExtrapolatesACubicSpringBeyondTheTrainingAmplitude
   LinearModel linear;
   linear.fs = 1000.0;
   linear.tf.a = Eigen::Vector2d(-(2.0 - kappa - c), 1.0 - c);
-  linear.tf.b = Eigen::VectorXd::Constant(1, 1.0);
+  // The input scaled so that full scale is the judged amplitude (the loader's free run stays where the
+  // spring is stable in discrete time): b in scaled units.
+  linear.scaling.u_scale = 0.15;
+  linear.tf.b = Eigen::VectorXd::Constant(1, linear.scaling.u_scale);
   linear.tf.nk = 1;
   const SsModel start = ss_initial_model(linear, {2, 0, 5, 0, 3}, ue, ye, 1);
   constexpr Eigen::Index init = 20;
