@@ -45,7 +45,9 @@ void VirtualTransducer::reset() noexcept {
   noise_ = dsp::Rng(noise_seed_);
 }
 
-// A cascade of analog Butterworth sections: ω/(s+ω) or ω²/(s² + (ω/q)s + ω²). Returns its output.
+// The state's time derivative ds at state s for one drive sample (the DA filter, the coil, the mechanics with
+// creep, the panel modes, the AD filter), and in `accel` the acceleration entering the AD filter (the preamp's
+// clip applied).
 void VirtualTransducer::derivatives(const Eigen::VectorXd& s, double drive, Eigen::VectorXd& ds,
                                     double& accel) const noexcept {
   const PlantConfig& c = config_;
