@@ -3,8 +3,10 @@
 // lies below the sensor noise at every bin of the raw residual spectrum (each test asserts it), found
 // from a long record (60 000 + 40 000 samples): the right id comes first and validation J improves.
 // Two effects at once are both found; no effect gives no finding over several seeds.
-// These runs are the slowest of the models tests (a few seconds each in Release); the sanitizer stage
-// leaves them out (scripts/sanitize.sh).
+// These runs are the slowest of the models tests (10-40 s each in Release): each diagnosis here is one run
+// of the detection bench (bench/diagnosis_detection.sh, every effect over 6 seeds and the effect-free
+// scenario over 10), so no scenario is diagnosed twice and only the first round is run where only the first
+// finding is asserted. The sanitizer stage leaves them out (scripts/sanitize.sh).
 #include <gtest/gtest.h>
 
 #include <string>
@@ -57,7 +59,10 @@ class ConcealedEffect : public testing::TestWithParam<Effect> {};
 
 TEST_P(ConcealedEffect, IsNamedFirstAndImprovesValidation) {
   const Effect effect = GetParam();
-  const Diagnosed run = diagnose_scenario(concealed_scenario(effect), 1, 2);
+  // One round: the first finding is what is asserted. Concealed inductance's first term closes just under half
+  // of the gap to the noise (J 0.00506 against 0.00500 % on seed 1), and a second round the rest.
+  const int rounds = effect == Effect::inductance ? 2 : 1;
+  const Diagnosed run = diagnose_scenario(concealed_scenario(effect), 1, rounds);
   const Diagnosis& d = run.diagnosis;
   // Concealed: what the baseline misses on the noise-free output lies below the sensor noise everywhere.
   EXPECT_LT(concealment_ratio(run.records, d.baseline_model.linear, kInit), 1.0);
@@ -79,6 +84,18 @@ TEST_P(ConcealedEffect, IsNamedFirstAndImprovesValidation) {
   const double share = effect == Effect::saturation ? 0.95 : 0.5;
   EXPECT_LT(d.j_val_after_pct - noise_j, share * (d.j_val_before_pct - noise_j)) << "noise alone: " << noise_j << " %";
   EXPECT_FALSE(first.explanation.empty());
+  // The fitted parameters of the effects that have a value to compare with the plant's.
+  if (effect == Effect::dc_offset) {
+    // The sensor offset, 3.5 mV, in raw units: the coefficient times the output scale; its standard error
+    // over 40 000 samples of 70 mV noise is 0.35 mV.
+    EXPECT_NEAR(d.model.terms.front().coefficients[0] * d.baseline_model.linear.scaling.y_scale, 0.0035, 0.0012);
+  } else if (effect == Effect::delay) {
+    EXPECT_EQ(first.parameters["nk_before"].get<int>(), 2);
+    EXPECT_EQ(first.parameters["nk_after"].get<int>(), 1);  // the converters' true latency
+  } else if (effect == Effect::resonance || effect == Effect::antiresonance) {
+    // The mode at 450 Hz; the cancelling pair at 440 and 460 Hz dips in between.
+    EXPECT_NEAR(first.parameters["frequency_hz"].get<double>(), 450.0, 15.0);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, ConcealedEffect,
@@ -87,35 +104,6 @@ INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, ConcealedEffect,
                                          Effect::inductance, Effect::hysteresis, Effect::saturation,
                                          Effect::thermal_compression, Effect::dc_offset, Effect::static_nonlinearity,
                                          Effect::creep),
-                         [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
-
-// The fitted parameters of the effects that have a value to compare with the plant's (one test each: each
-// diagnosis takes seconds).
-TEST(DiagnosisScenarios, FittedSensorOffsetMatchesThePlant) {
-  const Diagnosis d = diagnose_scenario(concealed_scenario(Effect::dc_offset), 1, 1).diagnosis;
-  ASSERT_FALSE(d.findings.empty());
-  // The sensor offset, 3.5 mV, in raw units: the coefficient times the output scale; its standard error
-  // over 40 000 samples of 70 mV noise is 0.35 mV.
-  EXPECT_NEAR(d.model.terms.front().coefficients[0] * d.baseline_model.linear.scaling.y_scale, 0.0035, 0.0012);
-}
-
-TEST(DiagnosisScenarios, FittedDelayMatchesTheConverters) {
-  const Diagnosis d = diagnose_scenario(concealed_scenario(Effect::delay), 1, 1).diagnosis;
-  ASSERT_FALSE(d.findings.empty());
-  EXPECT_EQ(d.findings[0].parameters["nk_before"].get<int>(), 2);
-  EXPECT_EQ(d.findings[0].parameters["nk_after"].get<int>(), 1);  // the converters' true latency
-}
-
-class FittedMode : public testing::TestWithParam<Effect> {};
-
-TEST_P(FittedMode, FrequencyMatchesThePlant) {
-  const Diagnosis d = diagnose_scenario(concealed_scenario(GetParam()), 1, 1).diagnosis;
-  ASSERT_FALSE(d.findings.empty());
-  // The mode at 450 Hz; the cancelling pair at 440 and 460 Hz dips in between.
-  EXPECT_NEAR(d.findings[0].parameters["frequency_hz"].get<double>(), 450.0, 15.0);
-}
-
-INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, FittedMode, testing::Values(Effect::resonance, Effect::antiresonance),
                          [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
 
 // Two effects at once: both are found, each named (at twice the concealed size, from records half as long:
@@ -154,7 +142,16 @@ TEST_P(LookAlikeEffect, TheCurrentTellsItFromItsLookAlike) {
   EXPECT_NE(first.confidence["word"].get<std::string>(), "ambiguous") << first.confidence.dump(1);
 }
 
-TEST_P(LookAlikeEffect, WithoutTheCurrentIsNeverMisnamedWithConfidence) {
+INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, LookAlikeEffect,
+                         testing::Values(Effect::nonlinear_damping, Effect::cubic_stiffness, Effect::asymmetric_force_factor,
+                                         Effect::asymmetric_stiffness, Effect::inductance),
+                         [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
+
+// Without the current: the look-alikes that are not in ConcealedEffect's list (which asserts as much and more
+// for cubic_stiffness, asymmetric_stiffness and inductance on the same records).
+class LookAlikeFromTheDrive : public testing::TestWithParam<Effect> {};
+
+TEST_P(LookAlikeFromTheDrive, IsNeverMisnamedWithConfidence) {
   const Effect effect = GetParam();
   const Diagnosis d = diagnose_scenario(concealed_scenario(effect), 1, 1).diagnosis;
   ASSERT_FALSE(d.findings.empty()) << diagnosis_to_json(d)["rounds"].dump(1);
@@ -166,12 +163,11 @@ TEST_P(LookAlikeEffect, WithoutTheCurrentIsNeverMisnamedWithConfidence) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, LookAlikeEffect,
-                         testing::Values(Effect::nonlinear_damping, Effect::cubic_stiffness, Effect::asymmetric_force_factor,
-                                         Effect::asymmetric_stiffness, Effect::inductance),
+INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, LookAlikeFromTheDrive,
+                         testing::Values(Effect::nonlinear_damping, Effect::asymmetric_force_factor),
                          [](const testing::TestParamInfo<Effect>& info) { return to_string(info.param); });
 
-// No effect: no finding, over several seeds (one test each), and nothing changed.
+// No effect: no finding, on two seeds (one test each; the detection bench runs ten), and nothing changed.
 class NoEffect : public testing::TestWithParam<std::uint64_t> {};
 
 TEST_P(NoEffect, GivesNoFinding) {
@@ -180,7 +176,7 @@ TEST_P(NoEffect, GivesNoFinding) {
   EXPECT_EQ(d.j_val_after_pct, d.j_val_before_pct);
 }
 
-INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, NoEffect, testing::Values(11u, 12u, 13u, 14u),
+INSTANTIATE_TEST_SUITE_P(DiagnosisScenarios, NoEffect, testing::Values(11u, 12u),
                          [](const testing::TestParamInfo<std::uint64_t>& info) { return "seed" + std::to_string(info.param); });
 
 // A baseline that is not a linear model: the virtual transducer without the effect (no sensor noise) as the
