@@ -127,6 +127,8 @@ row "Wiener–Hammerstein 2009" test "SS nx=6, 20 nodes, 50 lags" wh-ss "$wh/tes
   ss wh 51200 6 20 50 100 --polish-iter 2000 --polish-window 200
 row "Wiener–Hammerstein 2009" test "SS nx=6 from a Wiener–Hammerstein start, 20 nodes, 50 lags" wh-block "$wh/test.csv" 51200 50 \
   1000 mV "0.241 mV (SUBNET nx=6)" ss wh 51200 6 20 50 100 --wiener-hammerstein --wh-iter 1000 --epochs 0
+row "Wiener–Hammerstein 2009" test "SS nx=6 from a Wiener–Hammerstein start, 10 nodes, 50 lags" wh-block10 "$wh/test.csv" 51200 \
+  50 1000 mV "0.241 mV (SUBNET nx=6)" ss wh 51200 6 10 50 100 --wiener-hammerstein --wh-iter 1000 --epochs 0
 
 # cascaded tanks: estimation rows [0, 700) of uEst/yEst, validation [700, 1024) (as Champneys et al. 2024)
 ct=$data/cascaded_tanks/dataBenchmark.csv
