@@ -91,7 +91,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> effects;
   long n_est = 60000, n_val = 40000;
   std::uint64_t first_seed = 1;
-  app.add_option("--seeds", seeds, "Seeds per effect and size")->check(CLI::Range(1, 10000))->capture_default_str();
+  app.add_option("--seeds", seeds, "Seeds per effect and size (0: only the effect-free runs)")->check(CLI::Range(0, 10000))->capture_default_str();
   app.add_option("--first-seed", first_seed, "First seed")->capture_default_str();
   app.add_option("--sizes", sizes, "Effect sizes, multiples of the concealed size")->delimiter(',')->capture_default_str();
   app.add_option("--effects", effects, "Effect ids (default: the whole vocabulary)")->delimiter(',');
@@ -118,6 +118,7 @@ int main(int argc, char** argv) {
   std::printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
   int runs = 0, confidently_wrong = 0, wrong_named = 0, right_total = 0, right_or_ambiguous_total = 0;
   for (Effect e : chosen) {
+    if (seeds == 0) break;
     for (double size : sizes) {
       const DiagnosisScenario s = concealed_scenario(e, size);
       int hits = 0, clear_hits = 0, wrong_clear = 0, wrong_not_ambiguous = 0, right_or_ambiguous = 0;
