@@ -65,6 +65,15 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
   run.j_after = d.j_val_after_pct;
   run.baseline = d.baseline_info.dump();
   if (verbose)
+    std::fprintf(stderr, "baseline's residual: spectral peak %.1f Hz (%.1f times the noise, threshold %.1f), FRF error %.1f Hz "
+                         "(coherence %.3f, threshold %.3f)\n",
+                 d.located_est.peak_frequency_hz, d.located_est.peak_over_noise, d.located_est.peak_threshold,
+                 d.located_est.frf_error.frequency_hz, d.located_est.frf_error.coherence, d.located_est.frf_error.threshold);
+  if (verbose && !d.findings.empty() && d.findings.front().parameters.contains("J_val_same_structure_refit_pct"))
+    std::fprintf(stderr, "first finding's linear refit: J %.4f %%, its structure refitted alone: J %.4f %%\n",
+                 d.findings.front().j_val_after_pct,
+                 d.findings.front().parameters["J_val_same_structure_refit_pct"].get<double>());
+  if (verbose)
     for (const auto& round : d.rounds) {
       std::string line;
       for (const auto& c : round)
