@@ -2,8 +2,8 @@
 # The detection bench of issue #35's "Done when": every effect of the vocabulary at its concealed size (the effect
 # below the sensor noise in the raw residual spectrum), SEEDS seeds each, the look-alike pairs included; first
 # from the drive and the acceleration alone, then with the coil current (the force channel) for the effects
-# that look alike from the drive; and the scenario with no effect (false positives). Runs niced, JOBS
-# processes side by side; prints the tables and the time taken.
+# that look alike from the drive; and the scenario with no effect (false positives), without and with the
+# current. Runs niced, JOBS processes side by side; prints the tables and the time taken.
 # Usage: bash bench/diagnosis_detection.sh [BUILD_DIR] [SEEDS] [JOBS] [PLAIN]   (defaults: build 6 2 20)
 # PANELBASS_WORK=DIR keeps each run's table and log in DIR (read them while it runs); otherwise a temporary folder.
 # N_EST / N_VAL set the records' lengths (defaults 60000 / 40000 samples, the tests' concealed scenarios).
@@ -31,7 +31,7 @@ look_alikes="nonlinear_damping cubic_stiffness hysteresis force_factor asymmetri
 # effect-free runs first, then the rest of the vocabulary.
 runs=()
 for e in $look_alikes; do runs+=("current $e" "drive $e"); done
-runs+=("plain none")
+runs+=("plain none" "plaincurrent none")
 for e in $all; do
   case " $look_alikes " in *" $e "*) ;; *) runs+=("drive $e") ;; esac
 done
@@ -40,6 +40,8 @@ printf '%s\n' "${runs[@]}" | xargs -P "$jobs" -I{} bash -c '
   out="'"$work"'/$1-$2"
   if [ "$1" = plain ]; then
     nice -n 15 "'"$bin"'" --seeds 1 --effects dc_offset --sizes 1 --plain '"$plain"' '"$lengths"' > "$out.md" 2> "$out.log"
+  elif [ "$1" = plaincurrent ]; then
+    nice -n 15 "'"$bin"'" --seeds 0 --plain '"$plain"' --current '"$lengths"' > "$out.md" 2> "$out.log"
   elif [ "$1" = current ]; then
     nice -n 15 "'"$bin"'" --seeds '"$seeds"' --sizes 1 --effects "$2" --plain 0 --current '"$lengths"' > "$out.md" 2> "$out.log"
   else
@@ -79,6 +81,7 @@ echo "## with the coil current (the force channel): the effects that look alike 
 echo
 table current $look_alikes
 echo
-grep "false positives" "$work/plain-none.md"
+echo "drive alone: $(grep "false positives" "$work/plain-none.md")"
+echo "with the current: $(grep "false positives" "$work/plaincurrent-none.md")"
 echo
 echo "time: $(( $(date +%s) - start )) s wall, $jobs processes, niced"

@@ -65,6 +65,15 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
   run.j_after = d.j_val_after_pct;
   run.baseline = d.baseline_info.dump();
   if (verbose)
+    std::fprintf(stderr, "baseline's residual: spectral peak %.1f Hz (%.1f times the noise, threshold %.1f), FRF error %.1f Hz "
+                         "(coherence %.3f, threshold %.3f)\n",
+                 d.located_est.peak_frequency_hz, d.located_est.peak_over_noise, d.located_est.peak_threshold,
+                 d.located_est.frf_error.frequency_hz, d.located_est.frf_error.coherence, d.located_est.frf_error.threshold);
+  if (verbose && !d.findings.empty() && d.findings.front().parameters.contains("J_val_same_structure_refit_pct"))
+    std::fprintf(stderr, "first finding's linear refit: J %.4f %%, its structure refitted alone: J %.4f %%\n",
+                 d.findings.front().j_val_after_pct,
+                 d.findings.front().parameters["J_val_same_structure_refit_pct"].get<double>());
+  if (verbose)
     for (const auto& round : d.rounds) {
       std::string line;
       for (const auto& c : round)
@@ -91,7 +100,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> effects;
   long n_est = 60000, n_val = 40000;
   std::uint64_t first_seed = 1;
-  app.add_option("--seeds", seeds, "Seeds per effect and size")->check(CLI::Range(1, 10000))->capture_default_str();
+  app.add_option("--seeds", seeds, "Seeds per effect and size (0: only the effect-free runs)")->check(CLI::Range(0, 10000))->capture_default_str();
   app.add_option("--first-seed", first_seed, "First seed")->capture_default_str();
   app.add_option("--sizes", sizes, "Effect sizes, multiples of the concealed size")->delimiter(',')->capture_default_str();
   app.add_option("--effects", effects, "Effect ids (default: the whole vocabulary)")->delimiter(',');
@@ -118,6 +127,7 @@ int main(int argc, char** argv) {
   std::printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
   int runs = 0, confidently_wrong = 0, wrong_named = 0, right_total = 0, right_or_ambiguous_total = 0;
   for (Effect e : chosen) {
+    if (seeds == 0) break;
     for (double size : sizes) {
       const DiagnosisScenario s = concealed_scenario(e, size);
       int hits = 0, clear_hits = 0, wrong_clear = 0, wrong_not_ambiguous = 0, right_or_ambiguous = 0;
