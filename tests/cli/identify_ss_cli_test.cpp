@@ -82,7 +82,7 @@ TEST_F(CliIdentifySs, CubicStatesOnlyNodesAreWrittenAndValidateReadsThem) {
   EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
   const RunResult bad = run("identify ss --data " + est() + " --fs 3000 --nx 2 --hidden 2 --activation relu --out " +
                             quoted(dir_ / "bad.json"));
-  expect_failure(bad);
+  expect_usage_error(bad);
   EXPECT_TRUE(contains(bad.err, "--activation")) << bad.err;
 }
 
