@@ -401,6 +401,26 @@ TEST(SsTraining, KeepsNoCandidateWhoseFreeRunRunsAway) {
   EXPECT_FALSE(polish_ss(random_model(0), ue, ye, uv, yv, polish).runaway);
 }
 
+TEST(SsTraining, ACandidateWhoseFreeRunOverflowsIsPassedOver) {
+  // Cubic feedback a thousand times too strong: the start's free run on the selection data overflows (its
+  // J is not a number to compare), and training goes on past it instead of failing.
+  SsModel m = random_cubic_model(false);
+  ss_parts(m.structure, m.theta.data()).W2 *= 1e3;
+  const Eigen::VectorXd u = noise(400, 41), y = 0.5 * noise(400, 42);
+  ASSERT_FALSE(m.simulate(u, y, 20).allFinite());
+  SsTrainingOptions options;
+  options.window = 20;
+  options.batch = 4;
+  options.max_epochs = 2;
+  options.init = 20;
+  options.adam.learning_rate = 1e-9;
+  SsTraining trained;
+  EXPECT_NO_THROW(trained = train_ss(m, u, y, u, y, options));
+  EXPECT_EQ(trained.history.size(), 3u);
+  EXPECT_TRUE(std::isinf(trained.j_val_pct));
+  EXPECT_TRUE(trained.runaway) << "no candidate kept";
+}
+
 // A mass on a cubic spring (the Silverbox's physics), by semi-implicit Euler with unit step:
 //   v(k+1) = v + u − c·v − κ·(x + a·x³),   x(k+1) = x + v(k+1),   y(k) = x(k);
 // a model of `structure` started from its linearisation q⁻¹ / (1 − (2 − κ − c)·q⁻¹ + (1 − c)·q⁻²), polished by
