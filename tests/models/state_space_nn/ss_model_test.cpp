@@ -374,20 +374,25 @@ SsModel ss_runaway_start(const Eigen::VectorXd& ue, const Eigen::VectorXd& ye) {
   return start;
 }
 
+// Training options that leave the model where it is: windows of 20, a rate of 1e-9, `epochs` epochs.
+SsTrainingOptions stuck_options(int epochs) {
+  SsTrainingOptions options;
+  options.window = 20;
+  options.batch = 8;
+  options.init = 20;
+  options.max_epochs = epochs;
+  options.adam.learning_rate = 1e-9;
+  return options;
+}
+
 TEST(SsTraining, KeepsNoCandidateWhoseFreeRunRunsAway) {
   const Eigen::VectorXd u = noise(1500, 12), y = wiener_hammerstein(u);
   const Eigen::VectorXd ue = u.head(1000), ye = y.head(1000), uv = u.tail(500), yv = y.tail(500);
   const SsModel start = ss_runaway_start(ue, ye);
   ASSERT_TRUE(ss_free_run_runaway(start));
   EXPECT_THROW(ss_model_from_json(ss_model_to_json(start)), ConfigError) << "the loader's test is the trainer's";
-  SsTrainingOptions options;
-  options.window = 20;
-  options.batch = 8;
-  options.init = 20;
   // A rate so small that every epoch's model runs away too: none is kept, the start returned, flagged.
-  options.max_epochs = 3;
-  options.adam.learning_rate = 1e-9;
-  const SsTraining stuck = train_ss(start, ue, ye, uv, yv, options);
+  const SsTraining stuck = train_ss(start, ue, ye, uv, yv, stuck_options(3));
   ASSERT_TRUE(stuck.runaway);
   EXPECT_GT(stuck.runaway->magnitude, kFreeRunBound);
   EXPECT_EQ(stuck.best_epoch, 0);
@@ -408,14 +413,8 @@ TEST(SsTraining, ACandidateWhoseFreeRunOverflowsIsPassedOver) {
   ss_parts(m.structure, m.theta.data()).W2 *= 1e3;
   const Eigen::VectorXd u = noise(400, 41), y = 0.5 * noise(400, 42);
   ASSERT_FALSE(m.simulate(u, y, 20).allFinite());
-  SsTrainingOptions options;
-  options.window = 20;
-  options.batch = 4;
-  options.max_epochs = 2;
-  options.init = 20;
-  options.adam.learning_rate = 1e-9;
   SsTraining trained;
-  EXPECT_NO_THROW(trained = train_ss(m, u, y, u, y, options));
+  EXPECT_NO_THROW(trained = train_ss(m, u, y, u, y, stuck_options(2)));
   EXPECT_EQ(trained.history.size(), 3u);
   EXPECT_TRUE(std::isinf(trained.j_val_pct));
   EXPECT_TRUE(trained.runaway) << "no candidate kept";
