@@ -23,7 +23,7 @@ namespace panelbass::cli {
 namespace {
 
 struct IdentifySsOptions {
-  std::string data, val, out, linear, start_from, history_out;
+  std::string data, val, out, linear, start_from, history_out, activation = "tanh";
   DataOptions columns;
   int nx = 6, nk = -1, hidden = 20, lags = 50, encoder_hidden = 0, poly_degree = 0;
   long window = 100, batch = 32, init = 50;
@@ -31,7 +31,7 @@ struct IdentifySsOptions {
   long polish_window = 0;
   double max_seconds = 0.0, learning_rate = 1e-3, final_learning_rate = 0.0;
   std::uint64_t seed = 1;
-  bool wiener_hammerstein = false, poly_states_only = false;
+  bool wiener_hammerstein = false, poly_states_only = false, hidden_states_only = false;
 };
 
 /// The linear starting model: --linear's file, else OE of order --nx fitted on the same data.
@@ -70,6 +70,9 @@ void run_identify_ss(const IdentifySsOptions& o) {
   if (o.wiener_hammerstein && o.hidden < 1) {
     throw std::invalid_argument("--wiener-hammerstein needs --hidden >= 1: the tanh nodes of the static nonlinearity");
   }
+  if (o.wiener_hammerstein && (o.activation != "tanh" || o.hidden_states_only)) {
+    throw std::invalid_argument("--wiener-hammerstein takes neither --activation cubic nor --hidden-states-only: its nodes are tanh nodes of the front filter's output");
+  }
   const auto began = std::chrono::steady_clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count(); };
   models::SsModel start;
@@ -87,6 +90,8 @@ void run_identify_ss(const IdentifySsOptions& o) {
     structure.encoder_hidden = o.encoder_hidden;
     structure.poly_degree = o.poly_degree;
     structure.poly_input = !o.poly_states_only;
+    structure.activation = models::ss_activation_from_name(o.activation);
+    structure.hidden_input = !o.hidden_states_only;
     const models::LinearModel linear = starting_linear(o, est, u_val, y_val);
     if (o.wiener_hammerstein) {
       const models::SsWienerHammerstein wh =
@@ -210,6 +215,14 @@ void register_identify_ss(CLI::App& identify) {
                   "Add PNLSS's polynomial: monomials of [x; u] of degree 2 to this (0: none, else 2-5)")
       ->check(CLI::IsMember({0, 2, 3, 4, 5}))
       ->capture_default_str();
+  cmd->add_option("--activation", o->activation,
+                  "The nodes' activation: tanh, or cubic (a³: with its bias each node is a cubic of one direction of "
+                  "[x; u] fed back, a nonlinear-feedback / LFR model)")
+      ->check(CLI::IsMember({"tanh", "cubic"}))
+      ->capture_default_str();
+  cmd->add_flag("--hidden-states-only", o->hidden_states_only,
+               "The nodes read the states alone, not the input (with --activation cubic: a cubic of the states "
+               "fed back, a Duffing oscillator's form)");
   cmd->add_flag("--poly-states-only", o->poly_states_only,
                "The polynomial's monomials of the states alone, none of the input (PNLSS's states-only form)");
   cmd->add_flag("--wiener-hammerstein", o->wiener_hammerstein,
@@ -255,6 +268,8 @@ void register_identify_ss(CLI::App& identify) {
       "Example:\n  panelbass identify ss --data est.csv --val val.csv --fs 51200 --nx 6 --hidden 20 --lags 50 "
       "--window 100 --epochs 200 --out ss.json\n"
       "  panelbass identify ss --data est.csv --val val.csv --fs 610.35 --nx 2 --hidden 0 --poly-degree 3 --out pnlss.json\n"
+      "  panelbass identify ss --data est.csv --val val.csv --fs 610.35 --nx 2 --hidden 2 --activation cubic "
+      "--hidden-states-only --out lfr.json\n"
       "  panelbass identify ss --data est.csv --val val.csv --fs 51200 --nx 6 --hidden 20 --lags 50 --wiener-hammerstein "
       "--epochs 0 --polish-iter 2000 --polish-window 400 --out wh.json");
   cmd->callback([o] { run_identify_ss(*o); });

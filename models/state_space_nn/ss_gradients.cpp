@@ -27,7 +27,7 @@ double ss_window_loss(const SsModel& m, const Eigen::VectorXd& u, const Eigen::V
     U.col(b) = u.segment(k0, T);
     Y.col(b) = y.segment(k0, T);
   }
-  Eigen::MatrixXd X(n, B * (T + 1)), H(s.hidden, B * T), G;
+  Eigen::MatrixXd X(n, B * (T + 1)), H(s.hidden, B * T), Hpre(s.hidden, B * T), G;
   ss_encode(p, Z, G, X.leftCols(B));
   SsStepWork work;
   Eigen::MatrixXd E(T, B);  // simulation errors ŷ − y
@@ -35,6 +35,7 @@ double ss_window_loss(const SsModel& m, const Eigen::VectorXd& u, const Eigen::V
   for (Eigen::Index t = 0; t < T; ++t) {
     ss_step(p, X.middleCols(t * B, B), U.row(t), work, yk, X.middleCols((t + 1) * B, B));
     H.middleCols(t * B, B) = work.hidden;
+    Hpre.middleCols(t * B, B) = work.pre;
     E.row(t) = yk - Y.row(t);
   }
   const double scale = 1.0 / static_cast<double>(B * T);
@@ -60,11 +61,11 @@ double ss_window_loss(const SsModel& m, const Eigen::VectorXd& u, const Eigen::V
     g.D(0, 0) += e.dot(Ut);
     g.W2.noalias() += dnet * Ht.transpose();
     g.b2 += dnet.rowwise().sum();
-    // through tanh: (W2ᵀ·∂[f; h]) ⊙ (1 − H²)
+    // through σ: (W2ᵀ·∂[f; h]) ⊙ σ′ (1 − H² for tanh, 3·pre² for the cube)
     dhidden.noalias() = p.W2.transpose() * dnet;
-    dhidden.array() *= 1.0 - Ht.array().square();
+    dhidden.array() *= ss_activation_slope(s.activation, Hpre.middleCols(t * B, B), Ht);
     g.W1.leftCols(n).noalias() += dhidden * Xt.transpose();
-    g.W1.col(n).noalias() += dhidden * Ut.transpose();
+    if (s.hidden_input) g.W1.col(n).noalias() += dhidden * Ut.transpose();  // else unread: no gradient
     g.b1 += dhidden.rowwise().sum();
     // Λ(t) = Aᵀ·Λ(t+1) + Cᵀ·e(t) + W1ₓᵀ·δ(t)
     Eigen::MatrixXd next = p.A.transpose() * lambda;

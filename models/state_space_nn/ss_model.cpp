@@ -29,7 +29,7 @@ SsParts<Scalar> parts_of(const SsStructure& s, Scalar* theta) {
   return SsParts<Scalar>{take(n, n),     take(n, 1),  take(1, n),  take(1, 1),  take(h, n + 1),
                          take(h, 1),     take(n + 1, h), take(n + 1, 1), take(n, l2), take(n, 1),
                          take(e, l2),    take(e, 1),  take(n, e),  take(n + 1, s.monomial_count()), s.poly_degree,
-                         s.states + (s.poly_input ? 1 : 0)};
+                         s.states + (s.poly_input ? 1 : 0), s.activation, s.hidden_input};
 }
 
 // Appends to `out` every non-decreasing index list of length `degree` from `first` on, after `prefix`.
@@ -120,6 +120,29 @@ void ss_monomials_backward(const std::vector<std::vector<int>>& factors, const E
   }
 }
 
+void ss_activate(SsActivation activation, const Eigen::MatrixXd& pre, Eigen::MatrixXd& out) {
+  out = pre;
+  if (activation == SsActivation::tanh) {
+    tanh_matrix(out);
+  } else {
+    out.array() = pre.array().cube();
+  }
+}
+
+Eigen::ArrayXXd ss_activation_slope(SsActivation activation, const Eigen::Ref<const Eigen::MatrixXd>& pre,
+                                    const Eigen::Ref<const Eigen::MatrixXd>& out) {
+  if (activation == SsActivation::tanh) return 1.0 - out.array().square();
+  return 3.0 * pre.array().square();
+}
+
+const char* ss_activation_name(SsActivation activation) { return activation == SsActivation::tanh ? "tanh" : "cubic"; }
+
+SsActivation ss_activation_from_name(const std::string& name) {
+  if (name == "tanh") return SsActivation::tanh;
+  if (name == "cubic") return SsActivation::cubic;
+  throw std::invalid_argument("activation must be \"tanh\" or \"cubic\", got \"" + name + "\"");
+}
+
 SsParts<const double> ss_parts(const SsStructure& s, const double* theta) { return parts_of<const double>(s, theta); }
 SsParts<double> ss_parts(const SsStructure& s, double* theta) { return parts_of<double>(s, theta); }
 
@@ -127,11 +150,11 @@ void ss_step(const SsParts<const double>& p, const Eigen::Ref<const Eigen::Matri
              const Eigen::Ref<const Eigen::RowVectorXd>& U, SsStepWork& work, Eigen::Ref<Eigen::RowVectorXd> Y,
              Eigen::Ref<Eigen::MatrixXd> X_next) {
   const Eigen::Index n = X.rows();
-  // [f; h] = W2·tanh(W1·[x; u] + b1) + b2
-  work.hidden.noalias() = p.W1.leftCols(n) * X;
-  work.hidden.noalias() += p.W1.col(n) * U;
-  work.hidden.colwise() += p.b1.col(0);
-  tanh_matrix(work.hidden);
+  // [f; h] = W2·σ(W1·[x; u] + b1) + b2 (W1's input column unread without hidden_input)
+  work.pre.noalias() = p.W1.leftCols(n) * X;
+  if (p.hidden_input) work.pre.noalias() += p.W1.col(n) * U;
+  work.pre.colwise() += p.b1.col(0);
+  ss_activate(p.activation, work.pre, work.hidden);
   work.network.noalias() = p.W2 * work.hidden;
   work.network.colwise() += p.b2.col(0);
   if (p.P.cols() > 0) {
@@ -188,10 +211,14 @@ Eigen::VectorXd ss_network_jacobian(const SsParts<const double>& p, const Eigen:
   const Eigen::Index n = x.size();
   Eigen::VectorXd z(n + 1);
   z << x, u;
-  const Eigen::ArrayXd t = (p.W1 * z + p.b1.col(0)).array().tanh();
-  Eigen::VectorXd network = p.W2 * t.matrix() + p.b2.col(0);
-  // ∂(W2·tanh(W1·z + b1))/∂z = W2·diag(1 − tanh²)·W1
-  jacobian = p.W2 * (1.0 - t.square()).matrix().asDiagonal() * p.W1;
+  Eigen::MatrixXd w1 = p.W1;
+  if (!p.hidden_input) w1.col(n).setZero();
+  const Eigen::MatrixXd pre = w1 * z + p.b1.col(0);
+  Eigen::MatrixXd t;
+  ss_activate(p.activation, pre, t);
+  Eigen::VectorXd network = p.W2 * t + p.b2.col(0);
+  // ∂(W2·σ(W1·z + b1))/∂z = W2·diag(σ′)·W1
+  jacobian = p.W2 * ss_activation_slope(p.activation, pre, t).matrix().col(0).asDiagonal() * w1;
   for (std::size_t m = 0; m < factors.size(); ++m) {
     const std::vector<int>& f = factors[m];
     double product = 1.0;
@@ -316,6 +343,7 @@ SsModel ss_model_from_linear(const StateSpace& linear, SsStructure s, const Eige
     const double scale = j < s.states ? state_scale(j) : 1.0;
     for (Eigen::Index i = 0; i < s.hidden; ++i) p.W1(i, j) = unit(rng) * per_input / scale;
   }
+  if (!s.hidden_input) p.W1.col(s.states).setZero();
   for (Eigen::Index i = 0; i < s.hidden; ++i) p.b1(i, 0) = 0.5 * unit(rng);
   const double per_lag = 1.0 / std::sqrt(2.0 * s.lags);
   for (Eigen::Index j = 0; j < p.V1.cols(); ++j)
@@ -337,6 +365,8 @@ nlohmann::json ss_model_to_json(const SsModel& m) {
         {"encoder_hidden", m.structure.encoder_hidden},
         {"poly_degree", m.structure.poly_degree},
         {"poly_input", m.structure.poly_input},
+        {"activation", ss_activation_name(m.structure.activation)},
+        {"hidden_input", m.structure.hidden_input},
         {"theta", to_array(m.theta)}}},
       {"meta", m.meta.is_null() ? nlohmann::json::object() : m.meta},
   };
@@ -364,6 +394,12 @@ SsModel ss_model_from_json(const nlohmann::json& j) {
   m.structure.encoder_hidden = static_cast<int>(p.integer("encoder_hidden", 0, 0, 1000));
   m.structure.poly_degree = static_cast<int>(p.integer("poly_degree", 0, 0, 5));
   m.structure.poly_input = p.boolean("poly_input", true);
+  m.structure.hidden_input = p.boolean("hidden_input", true);
+  try {
+    m.structure.activation = ss_activation_from_name(p.string("activation", "tanh"));
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(p.path_of("activation") + ": " + e.what());
+  }
   try {
     m.structure.check();  // poly_degree 1, or hidden 0 without the polynomial
   } catch (const std::invalid_argument& e) {

@@ -1,8 +1,11 @@
 #pragma once
 // The neural state-space model (SUBNET, Beintema et al. 2021/2023): a linear state space plus a small
-// tanh network in the state update and the output, its initial state from an encoder of past data.
+// network in the state update and the output, its initial state from an encoder of past data.
 //   x(k+1) = A·x(k) + B·u(k) + f(x(k), u(k)),   y(k) = C·x(k) + D·u(k) + h(x(k), u(k)),
-//   [f; h] = W2·tanh(W1·[x; u] + b1) + b2 + P·ζ(x, u),   x(k0) = E·z(k0) + V2·tanh(V1·z(k0) + c1) + c2,
+//   [f; h] = W2·σ(W1·[x; u] + b1) + b2 + P·ζ(x, u),   x(k0) = E·z(k0) + V2·tanh(V1·z(k0) + c1) + c2,
+// σ the nodes' activation: tanh, or the cube (a linear fractional / "nonlinear feedback" model: each node
+// a cubic of one direction of [x; u] fed back through W2's column; with the states alone, W1's input
+// column held at zero, the form of a cubic spring of one displacement, the Silverbox's Duffing physics),
 // z(k) = [y(k−1) … y(k−L), u(k−1) … u(k−L)], everything in scaled units; ζ the monomials of [x; u] of
 // total degree 2 … poly_degree (PNLSS, Paduart et al. 2010; none when poly_degree is 0).
 
@@ -10,6 +13,7 @@
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <string>
 #include <type_traits>
 #include <vector>
 
@@ -19,14 +23,22 @@
 
 namespace panelbass::models {
 
+/// The activation σ of the state/output network's nodes.
+enum class SsActivation {
+  tanh,   ///< σ(a) = tanh(a): SUBNET's, bounded
+  cubic,  ///< σ(a) = a³: with its bias, a cubic of one direction of [x; u] (z³, z², z and 1)
+};
+
 /// The sizes of a neural state-space model.
 struct SsStructure {
   int states = 6;          ///< nx
-  int hidden = 20;         ///< tanh nodes of the state/output network [f; h]
+  int hidden = 20;         ///< nodes of the state/output network [f; h]
   int lags = 50;           ///< L: past outputs and inputs the encoder reads
   int encoder_hidden = 0;  ///< tanh nodes of the encoder's network (0: an affine encoder)
   int poly_degree = 0;     ///< highest total degree of the polynomial ζ(x, u) in [f; h] (0: none, else 2–5)
   bool poly_input = true;  ///< ζ's monomials include the input (false: monomials of the states alone)
+  SsActivation activation = SsActivation::tanh;  ///< σ of [f; h]'s nodes
+  bool hidden_input = true;  ///< [f; h]'s nodes read the input (false: the states alone, W1's input column 0)
 
   /// Number of parameters P of θ.
   Eigen::Index parameter_count() const;
@@ -47,6 +59,8 @@ struct SsParts {
   Map A, B, C, D, W1, b1, W2, b2, E, c2, V1, c1, V2, P;
   int poly_degree = 0;  ///< ζ's highest degree (the structure's)
   int poly_variables = 0;  ///< ζ's variables: nx + 1 ([x; u]) or nx (the states alone)
+  SsActivation activation = SsActivation::tanh;  ///< σ of [f; h]'s nodes (the structure's)
+  bool hidden_input = true;  ///< whether the nodes read the input (the structure's)
 };
 
 /// The parts of `theta` (size s.parameter_count(), not checked) for structure `s`.
@@ -56,7 +70,8 @@ SsParts<double> ss_parts(const SsStructure& s, double* theta);
 
 /// The workspace of ss_step and ss_encode for batches of `columns` sequences.
 struct SsStepWork {
-  Eigen::MatrixXd hidden;     ///< tanh(W1·[x; u] + b1), hidden × columns
+  Eigen::MatrixXd pre;        ///< W1·[x; u] + b1, hidden × columns (the nodes' inputs)
+  Eigen::MatrixXd hidden;     ///< σ(pre), hidden × columns
   Eigen::MatrixXd network;    ///< [f; h], (nx+1) × columns
   Eigen::MatrixXd monomials;  ///< ζ(x, u), monomials × columns
   std::vector<std::vector<int>> factors;  ///< ζ's monomials, each as the indices into [x; u] of its factors
@@ -75,9 +90,19 @@ void ss_monomials_backward(const std::vector<std::vector<int>>& factors, const E
                            const Eigen::Ref<const Eigen::RowVectorXd>& U, const Eigen::MatrixXd& Q,
                            Eigen::Ref<Eigen::MatrixXd> dX);
 
+/// σ(pre) into `out` (resized to pre's shape).
+void ss_activate(SsActivation activation, const Eigen::MatrixXd& pre, Eigen::MatrixXd& out);
+/// σ′ at the nodes' inputs `pre`, their outputs `out` = σ(pre) given: 1 − out² (tanh), 3·pre² (cube).
+Eigen::ArrayXXd ss_activation_slope(SsActivation activation, const Eigen::Ref<const Eigen::MatrixXd>& pre,
+                                    const Eigen::Ref<const Eigen::MatrixXd>& out);
+/// "tanh" or "cubic".
+const char* ss_activation_name(SsActivation activation);
+/// The activation named `name` ("tanh", "cubic"); std::invalid_argument naming it otherwise.
+SsActivation ss_activation_from_name(const std::string& name);
+
 /// One step of `columns` sequences at once ([f; h] and the recursion of the header): from states X (nx×B)
-/// and inputs U (1×B), the outputs Y (1×B) and next states X_next (nx×B); work.hidden keeps the tanh
-/// layer for back-propagation.
+/// and inputs U (1×B), the outputs Y (1×B) and next states X_next (nx×B); work.pre and work.hidden keep
+/// the nodes' inputs and outputs for back-propagation.
 void ss_step(const SsParts<const double>& p, const Eigen::Ref<const Eigen::MatrixXd>& X,
              const Eigen::Ref<const Eigen::RowVectorXd>& U, SsStepWork& work, Eigen::Ref<Eigen::RowVectorXd> Y,
              Eigen::Ref<Eigen::MatrixXd> X_next);
@@ -120,13 +145,14 @@ struct SsModel {
 
 /// A model of structure `s` that is exactly the linear `linear` (nx = its order, which s.states is set to):
 /// A, B, C, D from it, W1 and b1 uniform random scaled by `state_scale` (the typical size of each state,
-/// nx entries) and the input's 1, W2 = b2 = 0, the encoder zero except V1 and c1, random. Seeded.
+/// nx entries) and the input's 1 (0 without hidden_input), W2 = b2 = 0, the encoder zero except V1 and c1, random. Seeded.
 SsModel ss_model_from_linear(const StateSpace& linear, SsStructure s, const Eigen::VectorXd& state_scale,
                              const Scaling& scaling, double fs, std::uint64_t seed);
 
 /// {"format":"panelbass.model/1","kind":"ss","fs","scaling","params":{"states","hidden","lags",
-/// "encoder_hidden","poly_degree","poly_input","theta"},"meta"} (poly_degree optional on reading, 0 when
-/// absent; poly_input optional, true when absent).
+/// "encoder_hidden","poly_degree","poly_input","activation","hidden_input","theta"},"meta"} (poly_degree
+/// optional on reading, 0 when absent; poly_input and hidden_input optional, true when absent; activation
+/// "tanh" or "cubic", "tanh" when absent).
 nlohmann::json ss_model_to_json(const SsModel& m);
 
 /// The runaway of `m`'s free run (scaled units, from rest) on free_run_drive(); nullopt when it stays within

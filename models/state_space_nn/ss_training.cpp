@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <chrono>
 #include <random>
 #include <stdexcept>
@@ -17,8 +18,12 @@
 namespace panelbass::models {
 namespace {
 
+// The selection J; infinite when the free run overflows (a cubic term run away), so that the candidate is
+// passed over and training goes on.
 double selection_j(const SsModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) {
-  return j_percent(m.simulate(u, y, init), y, init);
+  const Eigen::VectorXd simulated = m.simulate(u, y, init);
+  if (!simulated.allFinite()) return std::numeric_limits<double>::infinity();
+  return j_percent(simulated, y, init);
 }
 
 // Whether candidate `m` of selection J `j` replaces the kept model of `out`: a finite J below the kept one's
@@ -76,8 +81,8 @@ SsModel ss_initial_model(const LinearModel& linear, SsStructure structure, const
     const double rms = std::sqrt(states.row(i).squaredNorm() / static_cast<double>(samples));
     scale(i) = rms > 1e-12 ? rms : 1.0;
   }
-  if (structure.poly_degree > 0) {
-    // The polynomial's monomials want states of size ≈ 1: x = S·x', S = diag(scale), so A' = S⁻¹·A·S,
+  if (structure.poly_degree > 0 || structure.activation == SsActivation::cubic) {
+    // The polynomial's monomials (and cubic nodes) want states of size ≈ 1: x = S·x', S = diag(scale), so A' = S⁻¹·A·S,
     // B' = S⁻¹·B, C' = C·S (the same input-output map).
     const Eigen::VectorXd inverse = scale.cwiseInverse();
     ss.A = inverse.asDiagonal() * ss.A * scale.asDiagonal();
@@ -239,10 +244,12 @@ SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen
   param.max_iterations = options.iterations;
   param.epsilon = 0.0;  // no gradient-norm stop: the iterations and the selection J decide
   param.delta = 0.0;
-  // With the polynomial, a long trial step runs a window's simulation away (the loss above): halving the
-  // step until the loss falls (Armijo, then Wolfe's curvature condition) recovers where More–Thuente's
-  // interpolation gives up.
-  if (start.structure.poly_degree > 0) param.linesearch = LBFGS_LINESEARCH_BACKTRACKING_WOLFE;
+  // With the polynomial or cubic nodes, a long trial step runs a window's simulation away (the loss above):
+  // halving the step until the loss falls (Armijo, then Wolfe's curvature condition) recovers where
+  // More–Thuente's interpolation gives up.
+  if (start.structure.poly_degree > 0 || start.structure.activation == SsActivation::cubic) {
+    param.linesearch = LBFGS_LINESEARCH_BACKTRACKING_WOLFE;
+  }
   lbfgsfloatval_t fx = 0.0;
   out.status = lbfgs(n, x, &fx, polish_evaluate, polish_progress, &run, &param);  // any iterate kept
   lbfgs_free(x);

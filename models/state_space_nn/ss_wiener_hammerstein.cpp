@@ -265,6 +265,9 @@ SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStruct
                                                 int candidates) {
   if (candidates < 1) throw std::invalid_argument("ss_wiener_hammerstein_start: candidates must be at least 1");
   if (structure.hidden < 1) throw std::invalid_argument("ss_wiener_hammerstein_start: the nonlinearity needs hidden >= 1 tanh nodes");
+  if (structure.activation != SsActivation::tanh || !structure.hidden_input) {
+    throw std::invalid_argument("ss_wiener_hammerstein_start: the block model's nodes are tanh nodes reading the input");
+  }
   if (bla.tf.na() < 1) throw std::invalid_argument("ss_wiener_hammerstein_start: the linear model has no pole to split");
   if (u.size() != y.size() || u_val.size() != y_val.size()) {
     throw std::invalid_argument("ss_wiener_hammerstein_start: input and output lengths differ");

@@ -70,6 +70,22 @@ TEST_F(CliIdentifySs, WienerHammersteinStartIsWrittenAsAnSsModelThatValidateRead
   EXPECT_TRUE(contains(no_nodes.err, "hidden")) << no_nodes.err;
 }
 
+TEST_F(CliIdentifySs, CubicStatesOnlyNodesAreWrittenAndValidateReadsThem) {
+  const fs::path model = dir_ / "lfr.json";
+  const json r = expect_result(run("identify ss --data " + est() + " --val " + val() +
+                                   " --fs 3000 --nx 2 --hidden 2 --activation cubic --hidden-states-only --lags 8 "
+                                   "--window 40 --epochs 2 --seed 1 --out " + quoted(model)));
+  const json params = json::parse(text_of(model))["params"];
+  EXPECT_EQ(params["activation"], "cubic");
+  EXPECT_EQ(params["hidden_input"], false);
+  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
+  EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
+  const RunResult bad = run("identify ss --data " + est() + " --fs 3000 --nx 2 --hidden 2 --activation relu --out " +
+                            quoted(dir_ / "bad.json"));
+  expect_usage_error(bad);
+  EXPECT_TRUE(contains(bad.err, "--activation")) << bad.err;
+}
+
 TEST_F(CliIdentifySs, WritesNoFileWhenEveryCandidateRunsAwayInFreeRun) {
   // A stable linear start (its file loads) of gain 1000 in scaled units: full-scale noise drives its free
   // run far past ±100, and a learning rate of 1e-9 keeps every epoch's model there.

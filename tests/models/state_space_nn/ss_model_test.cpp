@@ -2,13 +2,15 @@
 // finite differences, its free run against a hand-written loop of the recursion, its start against the
 // linear model it came from, the model file (round trip and failure modes), training on a
 // Wiener–Hammerstein system (Adam, then the L-BFGS polish) lowering the validation J below the linear model's,
-// a training whose candidates run away in free run (none kept), and the polynomial option: its terms
-// against the monomials written out, its extrapolation of a cubic spring.
+// a training whose candidates run away in free run (none kept), the polynomial option: its terms
+// against the monomials written out, its extrapolation of a cubic spring; and cubic nodes of the states
+// alone (the nonlinear-feedback form): gradient, recursion written out, file, a cubic spring recovered.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -65,47 +67,107 @@ Eigen::VectorXd wiener_hammerstein(const Eigen::VectorXd& u) {
   return y;
 }
 
+// Expects the window loss's gradient on a small record to equal central differences (θ entry by entry) to
+// 1e-6 relative; returns the differences.
+Eigen::VectorXd expect_gradient_equals_central_differences(const SsModel& m, const std::string& label) {
+  const Eigen::VectorXd u = noise(60, 1), y = 0.5 * noise(60, 2);
+  const std::vector<Eigen::Index> starts{0, 5, 17, 40};
+  const SsWindows windows{starts, 12};
+  Eigen::VectorXd gradient;
+  ss_window_loss(m, u, y, windows, &gradient);
+  Eigen::VectorXd numeric(m.theta.size());
+  const double h = 1e-5;  // truncation ~h²·V''' ≈ 1e-10, rounding ~1e-16/h ≈ 1e-11
+  for (Eigen::Index i = 0; i < m.theta.size(); ++i) {
+    SsModel plus = m, minus = m;
+    plus.theta(i) += h;
+    minus.theta(i) -= h;
+    numeric(i) = (ss_window_loss(plus, u, y, windows, nullptr) - ss_window_loss(minus, u, y, windows, nullptr)) / (2 * h);
+  }
+  EXPECT_LT((gradient - numeric).norm(), 1e-6 * numeric.norm()) << label;
+  EXPECT_GT(numeric.norm(), 1e-3) << label;
+  return numeric;
+}
+
 TEST(SsGradients, EqualCentralFiniteDifferences) {
   for (const auto& [encoder_hidden, poly_degree] : {std::pair{0, 0}, std::pair{4, 0}, std::pair{2, 3}, std::pair{1, -3}}) {
     // poly_degree −3: degree 3 in the states alone (no monomial of the input)
     SsModel m = random_model(encoder_hidden, std::abs(poly_degree), poly_degree >= 0);
     if (poly_degree > 0) ss_parts(m.structure, m.theta.data()).P *= 0.3;  // a bounded run over the windows
-    const Eigen::VectorXd u = noise(60, 1), y = 0.5 * noise(60, 2);
-    const std::vector<Eigen::Index> starts{0, 5, 17, 40};
-    const SsWindows windows{starts, 12};
-    Eigen::VectorXd gradient;
-    ss_window_loss(m, u, y, windows, &gradient);
-    Eigen::VectorXd numeric(gradient.size());
-    const double h = 1e-5;  // truncation ~h²·V''' ≈ 1e-10, rounding ~1e-16/h ≈ 1e-11
-    for (Eigen::Index i = 0; i < gradient.size(); ++i) {
-      SsModel plus = m, minus = m;
-      plus.theta(i) += h;
-      minus.theta(i) -= h;
-      numeric(i) = (ss_window_loss(plus, u, y, windows, nullptr) - ss_window_loss(minus, u, y, windows, nullptr)) / (2 * h);
-    }
-    EXPECT_LT((gradient - numeric).norm(), 1e-6 * numeric.norm())
-        << "encoder_hidden " << encoder_hidden << ", poly_degree " << poly_degree;
-    EXPECT_GT(numeric.norm(), 1e-3);
+    expect_gradient_equals_central_differences(
+        m, "encoder_hidden " + std::to_string(encoder_hidden) + ", poly_degree " + std::to_string(poly_degree));
   }
 }
 
-TEST(SsModel, FreeRunFollowsTheRecursionWrittenOut) {
-  const SsModel m = random_model(2);
-  const auto p = ss_parts(m.structure, m.theta.data());
+// random_model's sizes with cubic nodes, reading the input or not.
+SsModel random_cubic_model(bool hidden_input) {
+  SsModel m = random_model(2);
+  m.structure.activation = SsActivation::cubic;
+  m.structure.hidden_input = hidden_input;
+  return m;
+}
+
+TEST(SsGradients, CubicNodesEqualCentralFiniteDifferences) {
+  for (const bool hidden_input : {true, false}) {
+    const Eigen::VectorXd numeric = expect_gradient_equals_central_differences(
+        random_cubic_model(hidden_input), hidden_input ? "with the input" : "states only");
+    // without the input, W1's input column (after A, B, C, D and W1's state columns) is unread: its
+    // finite differences are exactly zero
+    if (!hidden_input) {
+      EXPECT_EQ(numeric.segment(9 + 3 + 3 + 1 + 5 * 3, 5).norm(), 0.0);
+    }
+  }
+}
+
+TEST(SsModel, CubicStatesOnlyNodesRoundTripTheFile) {
+  const SsModel m = random_cubic_model(false);
   const Eigen::VectorXd u = noise(30, 3), y = noise(30, 4);
   const Eigen::Index init = 6;
-  // x(init) = E·z + V2·tanh(V1·z + c1) + c2 with z = [y(5..2), u(5..2)]
-  const Eigen::VectorXd z = ss_test_regressor(u, y, init, 4);
-  Eigen::VectorXd x = p.E * z + p.c2 + p.V2 * (p.V1 * z + p.c1).array().tanh().matrix();
   const Eigen::VectorXd sim = m.simulate_scaled(u, y, init);
-  for (Eigen::Index k = 0; k < init; ++k) EXPECT_EQ(sim(k), y(k));
-  for (Eigen::Index k = init; k < u.size(); ++k) {
-    Eigen::VectorXd in(4);
-    in << x, u(k);
-    const Eigen::VectorXd out = p.W2 * (p.W1 * in + p.b1).array().tanh().matrix() + p.b2;
-    const double yk = (p.C * x)(0) + p.D(0, 0) * u(k) + out(3);
-    EXPECT_NEAR(sim(k), yk, 1e-12) << k;
-    x = p.A * x + p.B * u(k) + out.head(3);
+  // the file keeps both choices, and refuses an unknown activation by name
+  const nlohmann::json j = ss_model_to_json(m);
+  const SsModel back = ss_model_from_json(j);
+  EXPECT_EQ(back.structure.activation, SsActivation::cubic);
+  EXPECT_FALSE(back.structure.hidden_input);
+  EXPECT_EQ(back.simulate_scaled(u, y, init), sim);
+  nlohmann::json bad = j;
+  bad["params"]["activation"] = "relu";
+  try {
+    ss_model_from_json(bad);
+    ADD_FAILURE() << "an unknown activation was read";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("model.params.activation"), std::string::npos) << e.what();
+  }
+  // a file written before the option reads as tanh nodes reading the input
+  nlohmann::json old = ss_model_to_json(random_model(2));
+  old["params"].erase("activation");
+  old["params"].erase("hidden_input");
+  const SsModel old_back = ss_model_from_json(old);
+  EXPECT_EQ(old_back.structure.activation, SsActivation::tanh);
+  EXPECT_TRUE(old_back.structure.hidden_input);
+}
+
+TEST(SsModel, FreeRunFollowsTheRecursionWrittenOut) {
+  // tanh nodes reading [x; u], and cubic nodes of the states alone (the input column of W1 unread)
+  for (const bool cubic : {false, true}) {
+    const SsModel m = cubic ? random_cubic_model(false) : random_model(2);
+    const auto p = ss_parts(m.structure, m.theta.data());
+    const Eigen::VectorXd u = noise(30, 3), y = noise(30, 4);
+    const Eigen::Index init = 6;
+    // x(init) = E·z + V2·tanh(V1·z + c1) + c2 with z = [y(5..2), u(5..2)]
+    const Eigen::VectorXd z = ss_test_regressor(u, y, init, 4);
+    Eigen::VectorXd x = p.E * z + p.c2 + p.V2 * (p.V1 * z + p.c1).array().tanh().matrix();
+    const Eigen::VectorXd sim = m.simulate_scaled(u, y, init);
+    for (Eigen::Index k = 0; k < init; ++k) EXPECT_EQ(sim(k), y(k));
+    for (Eigen::Index k = init; k < u.size(); ++k) {
+      Eigen::VectorXd in(4);
+      in << x, u(k);
+      // [f; h] = W2·tanh(W1·[x; u] + b1) + b2, or W2·(W1ₓ·x + b1)³ + b2
+      const Eigen::VectorXd out = cubic ? Eigen::VectorXd(p.W2 * (p.W1.leftCols(3) * x + p.b1).array().cube().matrix() + p.b2)
+                                        : Eigen::VectorXd(p.W2 * (p.W1 * in + p.b1).array().tanh().matrix() + p.b2);
+      const double yk = (p.C * x)(0) + p.D(0, 0) * u(k) + out(3);
+      EXPECT_NEAR(sim(k), yk, 1e-12) << k << (cubic ? " cubic" : " tanh");
+      x = p.A * x + p.B * u(k) + out.head(3);
+    }
   }
 }
 
@@ -312,20 +374,25 @@ SsModel ss_runaway_start(const Eigen::VectorXd& ue, const Eigen::VectorXd& ye) {
   return start;
 }
 
+// Training options that leave the model where it is: windows of 20, a rate of 1e-9, `epochs` epochs.
+SsTrainingOptions stuck_options(int epochs) {
+  SsTrainingOptions options;
+  options.window = 20;
+  options.batch = 8;
+  options.init = 20;
+  options.max_epochs = epochs;
+  options.adam.learning_rate = 1e-9;
+  return options;
+}
+
 TEST(SsTraining, KeepsNoCandidateWhoseFreeRunRunsAway) {
   const Eigen::VectorXd u = noise(1500, 12), y = wiener_hammerstein(u);
   const Eigen::VectorXd ue = u.head(1000), ye = y.head(1000), uv = u.tail(500), yv = y.tail(500);
   const SsModel start = ss_runaway_start(ue, ye);
   ASSERT_TRUE(ss_free_run_runaway(start));
   EXPECT_THROW(ss_model_from_json(ss_model_to_json(start)), ConfigError) << "the loader's test is the trainer's";
-  SsTrainingOptions options;
-  options.window = 20;
-  options.batch = 8;
-  options.init = 20;
   // A rate so small that every epoch's model runs away too: none is kept, the start returned, flagged.
-  options.max_epochs = 3;
-  options.adam.learning_rate = 1e-9;
-  const SsTraining stuck = train_ss(start, ue, ye, uv, yv, options);
+  const SsTraining stuck = train_ss(start, ue, ye, uv, yv, stuck_options(3));
   ASSERT_TRUE(stuck.runaway);
   EXPECT_GT(stuck.runaway->magnitude, kFreeRunBound);
   EXPECT_EQ(stuck.best_epoch, 0);
@@ -339,13 +406,26 @@ TEST(SsTraining, KeepsNoCandidateWhoseFreeRunRunsAway) {
   EXPECT_FALSE(polish_ss(random_model(0), ue, ye, uv, yv, polish).runaway);
 }
 
-TEST(SsTraining, ThePolynomialExtrapolatesACubicSpringBeyondTheTrainingAmplitude) {
-  // A mass on a cubic spring (the Silverbox's physics), by semi-implicit Euler with unit step:
-  //   v(k+1) = v + u − c·v − κ·(x + a·x³),   x(k+1) = x + v(k+1),   y(k) = x(k);
-  // trained at input amplitude 0.1 and judged at 0.15, beyond the training states (the small-signal
-  // linear model's J there: 19 %). Its linearisation, the start, is q⁻¹ / (1 − (2 − κ − c)·q⁻¹ + (1 − c)·q⁻²);
-  // linear + cubic PNLSS terms hold the system exactly, so L-BFGS brings the J at 0.15 below a tenth of
-  // the start's.
+TEST(SsTraining, ACandidateWhoseFreeRunOverflowsIsPassedOver) {
+  // Cubic feedback a thousand times too strong: the start's free run on the selection data overflows (its
+  // J is not a number to compare), and training goes on past it instead of failing.
+  SsModel m = random_cubic_model(false);
+  ss_parts(m.structure, m.theta.data()).W2 *= 1e3;
+  const Eigen::VectorXd u = noise(400, 41), y = 0.5 * noise(400, 42);
+  ASSERT_FALSE(m.simulate(u, y, 20).allFinite());
+  SsTraining trained;
+  EXPECT_NO_THROW(trained = train_ss(m, u, y, u, y, stuck_options(2)));
+  EXPECT_EQ(trained.history.size(), 3u);
+  EXPECT_TRUE(std::isinf(trained.j_val_pct));
+  EXPECT_TRUE(trained.runaway) << "no candidate kept";
+}
+
+// A mass on a cubic spring (the Silverbox's physics), by semi-implicit Euler with unit step:
+//   v(k+1) = v + u − c·v − κ·(x + a·x³),   x(k+1) = x + v(k+1),   y(k) = x(k);
+// a model of `structure` started from its linearisation q⁻¹ / (1 − (2 − κ − c)·q⁻¹ + (1 − c)·q⁻²), polished by
+// L-BFGS at input amplitude 0.1, and judged at 0.15, beyond the training states (the small-signal linear
+// model's J there: 19 %). Returns the J there of the start and of the polished model.
+std::pair<double, double> cubic_spring_extrapolation(const SsStructure& structure) {
   constexpr double kappa = 0.1, c = 0.1, a = 0.2;
   const auto cubic_spring = [&](const Eigen::VectorXd& input) {
     Eigen::VectorXd out(input.size());
@@ -367,17 +447,32 @@ TEST(SsTraining, ThePolynomialExtrapolatesACubicSpringBeyondTheTrainingAmplitude
   linear.scaling.u_scale = 0.15;
   linear.tf.b = Eigen::VectorXd::Constant(1, linear.scaling.u_scale);
   linear.tf.nk = 1;
-  const SsModel start = ss_initial_model(linear, {2, 0, 5, 0, 3}, ue, ye, 1);
+  const SsModel start = ss_initial_model(linear, structure, ue, ye, 1);
   constexpr Eigen::Index init = 20;
-  const double j_start = j_percent(start.simulate(ut, yt, init), yt, init);
   SsPolishOptions options;
   options.window = 100;
   options.iterations = 100;
   options.init = init;
   const SsTraining polished = polish_ss(start, ue, ye, {}, {}, options);
-  const double j_test = j_percent(polished.model.simulate(ut, yt, init), yt, init);
-  EXPECT_LT(j_test, 0.1 * j_start) << "start " << j_start << ", liblbfgs status " << polished.status << " after "
-                                    << polished.history.size() - 1 << " iterations";
+  EXPECT_FALSE(polished.runaway);
+  return {j_percent(start.simulate(ut, yt, init), yt, init), j_percent(polished.model.simulate(ut, yt, init), yt, init)};
+}
+
+TEST(SsTraining, ThePolynomialExtrapolatesACubicSpringBeyondTheTrainingAmplitude) {
+  // linear + cubic PNLSS terms hold the system exactly, so L-BFGS brings the J at 0.15 below a tenth of
+  // the start's.
+  const auto [j_start, j_test] = cubic_spring_extrapolation({2, 0, 5, 0, 3});
+  EXPECT_LT(j_test, 0.1 * j_start) << "start " << j_start;
+}
+
+TEST(SsTraining, CubicFeedbackNodesRecoverACubicSpringBeyondTheTrainingAmplitude) {
+  // A cubic of the displacement fed back: two cubic nodes of the states alone (W2·(W1ₓ·x + b1)³) hold it
+  // exactly (one node, its bias 0, along the displacement), so again below a tenth of the start's J.
+  SsStructure structure{2, 2, 5, 0, 0};
+  structure.activation = SsActivation::cubic;
+  structure.hidden_input = false;
+  const auto [j_start, j_test] = cubic_spring_extrapolation(structure);
+  EXPECT_LT(j_test, 0.1 * j_start) << "start " << j_start;
 }
 
 }  // namespace
