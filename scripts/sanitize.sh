@@ -28,9 +28,9 @@ not_built='_NOT_BUILT$|^web\.|^api\.load|^docs\.|^packaging\.'
 # over code the other diagnosis tests already exercise; the sanitizer stage leaves them out.
 numeric_only='^DiagnosisScenarios'
 # Seven more whole-pipeline diagnosis and identification runs (1.5-3 min each under ASan, 14 min of the
-# stage's CPU) repeat, on other plants, the paths that the three kept here walk under the sanitizer:
-# CliDiagnose.ANarxBaseline..., CliDiagnose.HtmlReport... and Diagnosis.APeriodicMultisine... (the whole
-# locate / name / model / refit pipeline, its report and figures), with JobKindsTest.Diagnose* and
+# stage's CPU) repeat, on other plants, the paths that the ones kept here walk under the sanitizer:
+# CliDiagnose.HtmlReport... and CliDiagnose.TheCurrentOptedIn... (the whole locate / name / model / refit
+# pipeline, its report and figures, the current channel), with JobKindsTest.Diagnose* and
 # LinearIdentification.PanelExciterZhuAndBackx... (OE, Zhu and BackX on the transducer). All run in the main stage.
 long_repeats='^CliDiagnose\.APlantBaselineIsDiagnosedThroughItsLinearisation$|^CliDiagnose\.FindsTheCubicSpringAndWritesTheReport$'
 long_repeats+='|^Diagnosis\.VisibleAsymmetricStiffnessIsNamedFirst$|^Diagnosis\.VisibleClippingIsNamedSaturationFirst$'
@@ -46,6 +46,18 @@ long_repeats+='|^DiagnosisStructure\.ADiodeAfterTheDynamicsIsAWienerStaticNonlin
 long_repeats+='|^NarxStructureGrowth\.TheDxOverNRule|^NarxTransducer\.NeuralModelBeatsTheBestLinearModel'
 long_repeats+='|^JobKindsTest\.EvaluateIsTheChainsEvaluationOnTheVirtualTransducer$|^CliControl\.AttributeEvaluatesEachNonlinearTermAlone$'
 long_repeats+='|^PlantSurvey\.PanelExciter'
+# Eight more (68-300 s each under ASan on a loaded machine, 1188 of the stage's 3329 test-seconds; CI's
+# time budget): the periodic multisine's whole diagnosis (its location on the empty lines: LocateResidual.*Periodic*),
+# the evaluate job's level sweep (the evaluation: ChainEvaluationTest.*), the command line's --model-out (the
+# same gray-box file: JobKindsTest.DiagnoseStoresAGrayBoxModel...), `identify ss` trained, validated and analysed
+# (CliIdentifySs.WienerHammerstein... and ...CubicStatesOnly..., SsTraining.*), the command line's NARX baseline
+# (JobKindsTest.DiagnoseANarxBaseline...), the survey's harmonics (PlantSurvey.LinearPreset...), issue #36's
+# selection reproduction (NarxTraining*.*) and the control command's chain (ChainEvaluationTest.*). All run in
+# the main stage.
+long_repeats+='|^Diagnosis\.APeriodicMultisineRecordIsIdentifiedAndItsEmptyLinesAreRead$|^JobKindsTest\.EvaluateLevelSweep'
+long_repeats+='|^CliDiagnose\.ModelOutWritesTheDiagnosedModelThatValidateReads$|^CliIdentifySs\.TrainsAndValidateAndAnalyzeReadItsModel$'
+long_repeats+='|^CliDiagnose\.ANarxBaselineStartsFromItsOwnSimulation$|^PlantSurvey\.HarmonicDistortion'
+long_repeats+='|^NarxTrainingSelection\.KeepsTheRefinementWhenTheValidationRecordStartsMidStream$|^CliControl\.ControlSignal'
 # The whole Tune pipeline through a JACK card (CardPipelineTest: excite, identify, design, verify while the
 # card streams, asserting no xrun): under ASan the engine's periods run slower than JACK's real-time clock on
 # a shared machine. Its parts run under the sanitizer in AlsaBackend.Jack*, ServerOnACardTest.* and the measurement's
