@@ -2,14 +2,15 @@
 # Sets panelbass up on a Debian 12 machine (as root), builds it in Release, then runs
 #   run   `panelbass serve` on the embedded virtual transducer: the API and the web UI at
 #         http://127.0.0.1:8080/, with an excitation, identification and LQ design at start-up, or
-#   test  the whole test suite (ctest, in parallel; the browser test included).
+#   test  the whole test suite (ctest, in parallel; the browser test included), or
+#   setup only the packages and the web UI's set-up, nothing built (CI installs everything first).
 # Idempotent: packages already installed are not touched, and the build is incremental.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-usage() { echo "usage: bash scripts/bootstrap.sh run|test" >&2; exit 2; }
+usage() { echo "usage: bash scripts/bootstrap.sh run|test|setup" >&2; exit 2; }
 [ $# -eq 1 ] || usage
-case "$1" in run|test) ;; *) usage ;; esac
+case "$1" in run|test|setup) ;; *) usage ;; esac
 
 packages=(
   build-essential cmake ninja-build pkg-config
@@ -26,6 +27,7 @@ bash scripts/install_packages.sh "${packages[@]}"
 
 # The web UI's packages (npm) and Debian's Chromium for the browser test.
 bash scripts/web_setup.sh
+[ "$1" = setup ] && exit 0
 
 jobs=$(nproc)
 # Ninja for a new build folder (it keeps both cores busy across targets: a fresh Release build took 8 min 53 s

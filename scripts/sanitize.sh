@@ -12,10 +12,13 @@
 # 255 s). Any sanitizer report fails the test that caused it.
 #
 #   bash scripts/sanitize.sh [FUZZ_SECONDS_PER_TARGET]     (default 10)
+#   bash scripts/sanitize.sh build                         (only build both folders: CI builds them at idle
+#                                                           priority while the main stage runs its tests)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-fuzz_seconds=${1:-10}
+build_only=0; fuzz_seconds=${1:-10}
+[ "$fuzz_seconds" = build ] && { build_only=1; fuzz_seconds=0; }
 # clang with its sanitizer and libFuzzer runtimes (the main build's packages are bootstrap.sh's).
 bash scripts/install_packages.sh clang libclang-rt-14-dev ninja-build
 jobs=$(nproc)
@@ -70,7 +73,10 @@ CC=clang CXX=clang++ cmake -S . -B build-asan $(ninja_unless_configured build-as
   -DPANELBASS_SANITIZE=ON -DPANELBASS_FUZZ=ON -DPANELBASS_FUZZ_COVERAGE=OFF >/dev/null
 cmake --build build-asan -j"$jobs" --target dsp_tests models_tests engine_tests evaluation_tests api_tests cli_tests \
   csv_fuzz wav_fuzz model_json_fuzz chain_json_fuzz plant_json_fuzz http_fuzz record_upload_fuzz
+CC=clang CXX=clang++ cmake -S . -B build-tsan $(ninja_unless_configured build-tsan) -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" -DPANELBASS_TSAN=ON >/dev/null
+cmake --build build-tsan -j"$jobs" --target engine_tests
 built=$(date +%s)
+[ "$build_only" = 1 ] && { echo "sanitize: both folders built in $((built - started)) s" >&2; exit 0; }
 # halt_on_error: a UBSan finding fails the test instead of scrolling past; leaks are reported at exit.
 ASAN_OPTIONS="detect_leaks=1:abort_on_error=1" UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
   ctest --test-dir build-asan --output-on-failure -j2 -E "$not_built|$numeric_only|$long_repeats"
@@ -78,13 +84,10 @@ asan_done=$(date +%s)
 FUZZ_BUILD=build-asan FUZZ_CONFIGURE=0 FUZZ_PARALLEL=2 bash scripts/fuzz.sh "$fuzz_seconds"
 fuzz_done=$(date +%s)
 
-CC=clang CXX=clang++ cmake -S . -B build-tsan $(ninja_unless_configured build-tsan) -DCMAKE_BUILD_TYPE=Sanitize -DCMAKE_CXX_FLAGS_SANITIZE="-O1" -DPANELBASS_TSAN=ON >/dev/null
-cmake --build build-tsan -j"$jobs" --target engine_tests
-tsan_built=$(date +%s)
 # The JACK loopback tests are left out here: libjack is not instrumented, so TSan cannot see its
 # synchronisation (they run under ASan above and in the main suite).
 TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1" \
   ctest --test-dir build-tsan --output-on-failure -j2 -E "$not_built|AlsaBackend\.Jack"
 finished=$(date +%s)
-echo "sanitize: asan build $((built - started)) s, tests $((asan_done - built)) s, fuzz $((fuzz_done - asan_done)) s;" \
-  "tsan build $((tsan_built - fuzz_done)) s, tests $((finished - tsan_built)) s" >&2
+echo "sanitize: asan and tsan builds $((built - started)) s, asan tests $((asan_done - built)) s," \
+  "fuzz $((fuzz_done - asan_done)) s, tsan tests $((finished - fuzz_done)) s" >&2
