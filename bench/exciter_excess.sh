@@ -3,7 +3,7 @@
 # bench/narx_speed.sh (panel exciter, uniform noise of peak 1, seed 11; samples 0–4999 estimation,
 # 5000–9999 validation), extended to 30000 samples (the first 10000 are the same), and the same record
 # from the plant with sensor.noise_rms_V 0 (the noise-free output). Prints, J by `validate --init 50`:
-#  1. the noise floor (J of the noise-free output on the validation half, k ≥ 50);
+#  1. the noise floor (J of the noise-free output, k ≥ 50) on the validation and the estimation half;
 #  2. memory: linear OE J_val at orders 2..16 on the record, and on the linear, noise-free plant (every
 #     nonlinear term off) at 4..8;
 #  3. the NARX 17-17-1 (na = nb = 8, pem then oem-d by LM, --weight-decay 0.1, --seed 3) with
@@ -36,7 +36,8 @@ rows "$work/l.csv" 0 5000 "$work/le.csv";        rows "$work/l.csv" 5000 10000 "
 
 j() { "$bin" validate --model "$1" --data "$2" --fs 3000 --init 50 2>/dev/null | sed -n 's/.*"J_sim_pct": \([-0-9.e+]*\).*/\1/p' | awk '{printf "%.4f", $1}'; }
 floor() { paste -d, "$1" "$2" | awk -F, 'NR > 51 { e += ($2 - $6)^2; s += $2^2 } END { printf "%.4f", 100 * e / s }'; }
-echo "noise floor: validation half $(floor "$work/val.csv" "$work/valc.csv") %, its first 4000 samples $(floor "$work/val4k.csv" "$work/valc4k.csv") %"
+echo "noise floor: validation half $(floor "$work/val.csv" "$work/valc.csv") %, its first 4000 samples $(floor "$work/val4k.csv" "$work/valc4k.csv") %," \
+  "estimation half $(floor "$work/est.csv" "$work/estc.csv") %"
 
 printf 'linear OE J_val %%, the record:'
 for n in 2 4 6 8 10 12 16; do
