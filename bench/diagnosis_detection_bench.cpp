@@ -81,6 +81,10 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
           line += "  " + c["effect"].get<std::string>() + " (" + c["variant"].get<std::string>() + ") J " +
                 std::to_string(c["J_val_pct"].get<double>()).substr(0, 6) + " score " + std::to_string(static_cast<int>(c["score"].get<double>()));
       std::fprintf(stderr, "round:%s\n", line.c_str());
+      for (const auto& c : round)
+        if (c.contains("details")) std::fprintf(stderr, "  %s: %s\n", c["effect"].get<std::string>().c_str(), c["details"].dump().c_str());
+        else if (c.contains("ruled_out"))
+          std::fprintf(stderr, "  %s ruled out: %s\n", c["effect"].get<std::string>().c_str(), c["ruled_out"].get<std::string>().c_str());
     }
   return run;
 }

@@ -14,6 +14,7 @@
 #include "models/diagnosis/diagnosis_confidence.h"
 #include "models/diagnosis/diagnosis_current.h"
 #include "models/diagnosis/diagnosis_explanations.h"
+#include "models/diagnosis/diagnosis_linear_refits.h"
 #include "models/linear/linear_identification.h"
 #include "models/validation/performance.h"
 
@@ -221,9 +222,11 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     double best_score = 0.0;
     nlohmann::json round_json = nlohmann::json::array();
     // Periodic data weigh in: several periods of an odd multisine tell odd from even distortion in the
-    // residual, and a candidate of the parity the residual lacks is not offered.
+    // residual, and a candidate of the parity the residual lacks is not offered. Nor is a mode whose pair only
+    // retunes a resonance the baseline already has.
     std::erase_if(scored, [&](const Candidate& c) {
-      const std::string why = ruled_out_by_periodic_distortion(c, where_val.distortion);
+      std::string why = ruled_out_by_periodic_distortion(c, where_val.distortion);
+      if (why.empty()) why = diagnosis_detail::ruled_out_as_extra_mode(c);
       if (!why.empty())
         round_json.push_back({{"effect", to_string(c.effect)}, {"variant", c.variant}, {"J_val_pct", c.fit.j_val}, {"ruled_out", why}});
       return !why.empty();
@@ -232,6 +235,8 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
       const double score = n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val);
       round_json.push_back({{"effect", to_string(c.effect)}, {"variant", c.variant}, {"parameters", c.parameters},
                             {"J_val_pct", c.fit.j_val}, {"score", score}});
+      // A linear refit's evidence (where the pair sits and what the refit changed) goes with its score.
+      if (c.parameters_json.contains("J_val_same_structure_refit_pct")) round_json.back()["details"] = c.parameters_json;
       if (score > best_score) best_score = score, chosen = &c;
     }
     d.rounds.push_back(round_json);

@@ -96,7 +96,22 @@ double one_sample_shift_j(const Records& r, const Fit& fit) {
 /// The share of one_sample_shift_j() a delay refit must recover to be named a dead time.
 constexpr double kDelayShareOfShift = 0.25;
 
+/// The largest damping ratio of a baseline pole pair that counts as a resonance of its own (a pair damped more
+/// heavily has no narrow band that an extra mode could be confused with).
+constexpr double kLightDamping = 0.2;
+
 }  // namespace
+
+std::string ruled_out_as_extra_mode(const Candidate& c) {
+  if ((c.effect != Effect::resonance && c.effect != Effect::antiresonance) ||
+      !c.parameters_json.value("retunes_baseline_resonance", false))
+    return "";
+  return "the pair changes the response at " + fixed(c.parameters_json.value("frequency_hz", 0.0), 1) +
+         " Hz, inside the half-power band of the baseline's own resonance at " +
+         fixed(c.parameters_json.value("baseline_resonance_hz", 0.0), 1) + " Hz (damping ratio " +
+         fixed(c.parameters_json.value("baseline_resonance_damping_ratio", 0.0), 3) +
+         "): it retunes that resonance (a changed stiffness or damping, as creep), it adds no mode";
+}
 
 void linear_refit_candidates(const Records& r, const Fit& current, const ResidualLocation& where, int oe_iterations,
                              const std::function<void(Candidate)>& offer) {
@@ -182,6 +197,11 @@ void linear_refit_candidates(const Records& r, const Fit& current, const Residua
     if (refitted) {
       const PairChange change = pair_change(tf, refitted->tf, seeded_at, r.fs);
       const auto [f, zeta] = pole_pair_near(refitted->tf, change.frequency_hz, r.fs);
+      // An extra mode is a pole pair the baseline lacks. A change inside the half-power band of a resonance the
+      // baseline already has (|f − f₀| ≤ ζ₀·f₀, ζ₀ light) retunes that resonance — its stiffness or damping, as a
+      // creeping suspension does at the main resonance — and is no extra mode.
+      const auto [f0, zeta0] = pole_pair_near(tf, change.frequency_hz, r.fs);
+      const bool retunes = zeta0 < kLightDamping && std::abs(change.frequency_hz - f0) <= zeta0 * f0;
       const Effect effect = change.opposing ? Effect::antiresonance : Effect::resonance;
       offer({effect, "pole and zero pair", 4, std::move(fitted),
              {{"frequency_hz", change.frequency_hz},
@@ -194,7 +214,10 @@ void linear_refit_candidates(const Records& r, const Fit& current, const Residua
               {"order_before", tf.na()},
               {"order_after", tf.na() + 2},
               {"seeded_at_hz", seeded_at},
-              {"J_val_same_structure_refit_pct", j_same}}});
+              {"J_val_same_structure_refit_pct", j_same},
+              {"baseline_resonance_hz", f0},
+              {"baseline_resonance_damping_ratio", zeta0},
+              {"retunes_baseline_resonance", retunes}}});
     }
   }
 }

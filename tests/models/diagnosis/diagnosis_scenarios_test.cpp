@@ -93,8 +93,19 @@ TEST_P(ConcealedEffect, IsNamedFirstAndImprovesValidation) {
     EXPECT_EQ(first.parameters["nk_before"].get<int>(), 2);
     EXPECT_EQ(first.parameters["nk_after"].get<int>(), 1);  // the converters' true latency
   } else if (effect == Effect::resonance || effect == Effect::antiresonance) {
-    // The mode at 450 Hz; the cancelling pair at 440 and 460 Hz dips in between.
+    // The mode at 450 Hz; the cancelling pair at 440 and 460 Hz dips in between: no resonance of the baseline's there.
     EXPECT_NEAR(first.parameters["frequency_hz"].get<double>(), 450.0, 15.0);
+    EXPECT_FALSE(first.parameters["retunes_baseline_resonance"].get<bool>());
+  } else if (effect == Effect::creep) {
+    // Creep softens the spring below 1/(2πτ) = 16 Hz and, at the 150 Hz main resonance, adds a damping-like change
+    // that a pole and zero pair fits by retuning that resonance: the pair is ruled out as an extra mode, so creep
+    // is named on its own rather than as ambiguous with a mode.
+    EXPECT_EQ(to_string(first.effect), "creep");
+    bool mode_ruled_out = false;
+    for (const auto& c : d.rounds.front())
+      if (c.contains("ruled_out") && (c["effect"] == "resonance" || c["effect"] == "antiresonance"))
+        mode_ruled_out = c["ruled_out"].get<std::string>().find("baseline's own resonance at 150") != std::string::npos;
+    EXPECT_TRUE(mode_ruled_out) << d.rounds.front().dump(1);
   }
 }
 
