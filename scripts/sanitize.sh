@@ -17,8 +17,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-build_only=0; fuzz_seconds=${1:-10}
-[ "$fuzz_seconds" = build ] && { build_only=1; fuzz_seconds=0; }
+build_only=0; [ "${1:-}" = build ] && build_only=1
+fuzz_seconds=${1:-10}
 # clang with its sanitizer and libFuzzer runtimes (the main build's packages are bootstrap.sh's).
 bash scripts/install_packages.sh clang libclang-rt-14-dev ninja-build
 jobs=$(nproc)
