@@ -7,6 +7,7 @@
 #include "cli/commands.h"
 #include "cli/data_options.h"
 #include "cli/json_output.h"
+#include "dsp/data_file.h"
 #include "models/kinds/model_file.h"
 #include "models/validation/performance.h"
 
@@ -15,6 +16,7 @@ namespace {
 
 struct ValidateOptions {
   std::string model, data;
+  std::string sim_out;  ///< where the record with the free-run and one-step outputs goes (empty: nowhere)
   DataOptions columns;
   long init = 0;
 };
@@ -36,6 +38,7 @@ std::string prediction_note(const models::AnyModel& model) {
 }
 
 void run_validate(const ValidateOptions& o) {
+  if (!o.sim_out.empty()) dsp::check_writable_data_file(o.sim_out);
   const models::AnyModel model = models::load_model(o.model);
   const dsp::Record data = o.columns.read_at_model_rate(o.data, model.fs());
   const Eigen::VectorXd& u = data.columns[0];
@@ -48,6 +51,15 @@ void run_validate(const ValidateOptions& o) {
   const double j_sim = models::j_percent(y_sim, y, o.init), j_pred = models::j_percent(y_pred, y, o.init);
   const std::string note = j_pred > j_sim ? prediction_note(model) : "";
   if (!note.empty()) std::fprintf(stderr, "validate: %s\n", note.c_str());
+  if (!o.sim_out.empty()) {
+    dsp::Record out;
+    out.fs = data.fs;
+    out.add("u", u);
+    out.add("y", y);
+    out.add("y_sim", y_sim);
+    out.add("y_pred", y_pred);
+    dsp::write_data_file(o.sim_out, out);
+  }
   print_result({{"J_sim_pct", j_sim},
                 {"J_pred_pct", j_pred},
                 {"J_pred_note", note.empty() ? nlohmann::json(nullptr) : nlohmann::json(note)},
@@ -56,7 +68,8 @@ void run_validate(const ValidateOptions& o) {
                 {"kind", model.kind()},
                 {"init", o.init},
                 {"model", o.model},
-                {"data", o.data}});
+                {"data", o.data},
+                {"sim_out", o.sim_out.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.sim_out)}});
 }
 
 }  // namespace
@@ -70,7 +83,12 @@ void register_validate(CLI::App& app) {
   cmd->add_option("--init", o->init, "Measured outputs given to the model to set its state, then free run")
       ->check(CLI::Range(0L, 100000000L))
       ->capture_default_str();
-  cmd->footer("Example:\n  panelbass validate --model lin.json --data test.csv --fs 610.3515625 --init 50");
+  cmd->add_option("--sim-out", o->sim_out,
+                  "Write the record judged, .csv or .wav: columns u, y, y_sim (the free run; the first --init samples "
+                  "are the measured outputs that set the state) and y_pred (one step ahead), at the model's rate");
+  cmd->footer(
+      "Example:\n  panelbass validate --model lin.json --data test.csv --fs 610.3515625 --init 50\n"
+      "  panelbass validate --model nn.json --data val.csv --init 50 --sim-out nn-val.csv");
   cmd->callback([o] { run_validate(*o); });
 }
 

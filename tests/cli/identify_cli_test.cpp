@@ -46,6 +46,35 @@ TEST_F(CliIdentifyData, LinearPrintsTheContractAndValidateAgrees) {
       << r["nk_source"];
 }
 
+// --sim-out writes the record validate judged: the data's own u and y beside the free run and the one-step
+// prediction, so J_sim, J_pred and the RMSE computed here from its columns ([2A]) are the ones printed.
+TEST_F(CliIdentifyData, ValidateSimOutWritesTheRecordItJudged) {
+  const fs::path model = dir_ / "lin.json", sim = dir_ / "sim.csv";
+  expect_result(run("identify linear --data " + est() + " --fs 3000 --method oe --order 4 --out " + quoted(model)));
+  const json v = expect_result(
+      run("validate --model " + quoted(model) + " --data " + val() + " --fs 3000 --init 50 --sim-out " + quoted(sim)));
+  EXPECT_EQ(v["sim_out"], sim.string());
+  const dsp::Record data = dsp::read_csv(dir_ / "val.csv", {"u", "y"});
+  const dsp::Record out = dsp::read_csv(sim, {"u", "y", "y_sim", "y_pred"});
+  ASSERT_EQ(out.samples(), data.samples());
+  EXPECT_LT((out.column("u") - data.column("u")).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((out.column("y") - data.column("y")).cwiseAbs().maxCoeff(), 1e-9);
+  const Eigen::Index init = 50, n = static_cast<Eigen::Index>(out.samples()) - init;
+  const Eigen::VectorXd y = out.column("y").tail(n);
+  const auto j_of = [&](const char* name) {
+    return 100.0 * (out.column(name).tail(n) - y).squaredNorm() / y.squaredNorm();
+  };
+  EXPECT_NEAR(j_of("y_sim"), v["J_sim_pct"].get<double>(), 1e-6 * v["J_sim_pct"].get<double>());
+  EXPECT_NEAR(j_of("y_pred"), v["J_pred_pct"].get<double>(), 1e-6 * v["J_pred_pct"].get<double>());
+  const double rmse = std::sqrt((out.column("y_sim").tail(n) - y).squaredNorm() / static_cast<double>(n));
+  EXPECT_NEAR(rmse, v["rmse"].get<double>(), 1e-6 * v["rmse"].get<double>());
+  // a folder that is not there is refused before the work, naming the path
+  const RunResult bad = run("validate --model " + quoted(model) + " --data " + val() + " --fs 3000 --sim-out " +
+                            quoted(dir_ / "no-such-dir" / "s.csv"));
+  expect_failure(bad);
+  EXPECT_TRUE(contains(bad.err, "no-such-dir")) << bad.err;
+}
+
 // The bar on stderr (a line per tenth when stderr is a file) never goes back: an order scan then the final fit
 // once ran 90 % → 0 % → 100 %.
 TEST_F(CliIdentifyData, LinearProgressNeverGoesBack) {
