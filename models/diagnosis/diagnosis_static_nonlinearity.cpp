@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <numbers>
 
 namespace panelbass::models::diagnosis_detail {
 namespace {
@@ -24,6 +25,18 @@ std::vector<Eigen::VectorXcd> pole_groups(const TransferFunction& tf) {
   std::sort(groups.begin(), groups.end(),
             [](const Eigen::VectorXcd& a, const Eigen::VectorXcd& b) { return std::abs(std::arg(a[0])) < std::abs(std::arg(b[0])); });
   return groups;
+}
+
+// Each pole group of `tf` as its natural frequency (Hz; a real pole's corner) and damping ratio, through
+// s = ln(p)·fs, in pole_groups' order.
+nlohmann::json pole_groups_json(const TransferFunction& tf, double fs) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const Eigen::VectorXcd& group : pole_groups(tf)) {
+    const std::complex<double> s = std::log(group[0]) * fs;
+    out.push_back({{"natural_frequency_hz", std::abs(s) / (2.0 * std::numbers::pi)},
+                   {"damping_ratio", std::abs(s) > 0.0 ? -s.real() / std::abs(s) : 1.0}});
+  }
+  return out;
 }
 
 // The all-pole filter with `roots` as its poles and unit gain at DC.
@@ -170,6 +183,8 @@ void static_nonlinearity_candidates(const Records& r, const Fit& current, const 
     c.parameters_json["structure"] = where == "output" ? "Wiener" : "Wiener–Hammerstein";
     c.parameters_json["front_order"] = t.front.na();
     c.parameters_json["back_order"] = t.back.na();
+    c.parameters_json["front_poles"] = pole_groups_json(t.front, r.fs);
+    c.parameters_json["back_poles"] = pole_groups_json(t.back, r.fs);
     if (t.shape == Shape::knee) {
       c.parameters_json["knee_fraction_of_peak"] = t.threshold / peak;
       c.parameters_json["one_sided"] = t.one_sided;
