@@ -103,17 +103,21 @@ std::vector<std::pair<TransferFunction, TransferFunction>> block_splits(const Tr
   return out;
 }
 
-// A fitted static nonlinearity's shape from its coefficients: the static curve, in units of the back filter's
-// input, is the linear path's slope times z plus Σ_l c_l times each feature; the slope beyond the knee over
-// the slope inside it, per side. Below 1: saturating; above: dead-zone-like (the gain rises past the knee).
+// A fitted static function's shape from its coefficients (a static nonlinearity, or a saturation as sampled or
+// behind the drive's filter): the static curve, in units of the input of the filter after it, is the linear
+// path's slope times z plus Σ_l c_l times each feature; the slope beyond the knee over the slope inside it, per
+// side. Below 1: saturating; above: dead-zone-like (the gain rises past the knee).
 nlohmann::json static_shape(const DiagnosisTerm& t, const StateSignals& states, int lags) {
-  const Eigen::VectorXd z = static_nonlinearity_signal(t, states);
+  const bool filters = has_block_filters(t);
+  const Eigen::VectorXd z = filters ? static_nonlinearity_signal(t, states) : states.input;
   const int width = lags + kTermLead;
-  // The baseline G·u is the linear path. At the output (Wiener) front = G; between two filters front·back =
-  // A_front(1)·G (block_splits' all-pole front has unit DC gain, its numerator A_front(1)). With front·u =
-  // rms_u·front_rms·z plus its mean, the linear path's slope in z is rms_u·front_rms over that factor.
-  const double path_factor = t.position == Position::output ? 1.0 : t.front.b.sum();
-  const double linear_slope = states.rms[3] * t.front_rms / path_factor;
+  // The baseline G·u is the linear path. As sampled the term passes G itself and z is the normalised drive; at
+  // the output (Wiener) front = G; between two filters front·back = A_front(1)·G (block_splits' all-pole front
+  // has unit DC gain, its numerator A_front(1)). With front·u = rms_u·front_rms·z plus its mean, the linear
+  // path's slope in z is rms_u·front_rms over that factor.
+  const double front_rms = filters ? t.front_rms : 1.0;
+  const double path_factor = !filters || t.position == Position::output ? 1.0 : t.front.b.sum();
+  const double linear_slope = states.rms[3] * front_rms / path_factor;
   if (t.shape == Shape::polynomial) {
     const double c3 = t.coefficients.segment(width, width).sum();
     return {{"shape", "polynomial"}, {"polynomial_order", 3}, {"compressive", c3 * linear_slope < 0.0}};
@@ -235,11 +239,9 @@ void static_nonlinearity_candidates(const Records& r, const Fit& current, const 
                     (one_sided ? "each side" : "both sides") + ", knee " + fixed(fraction, 2);
         c.parameters_json = {{"knee_fraction_of_peak", fraction}, {"one_sided", one_sided}, {"position", "input"},
                              {"structure", behind_filter ? "Hammerstein behind the drive's filter" : "Hammerstein"}};
-        if (behind_filter) {
-          const nlohmann::json shape = static_shape(c.fit.model.terms.back(), states, r.lags);
-          for (auto it = shape.begin(); it != shape.end(); ++it) c.parameters_json[it.key()] = it.value();
-          placement(t, c.parameters_json);
-        }
+        const nlohmann::json shape = static_shape(c.fit.model.terms.back(), states, r.lags);
+        for (auto it = shape.begin(); it != shape.end(); ++it) c.parameters_json[it.key()] = it.value();
+        if (behind_filter) placement(t, c.parameters_json);
         offer(std::move(c));
       }
   }
