@@ -87,7 +87,8 @@ std::string explain(const Candidate& c, const ResidualLocation& where, double co
              (c.parameters_json.value("structure", "") == "Hammerstein behind the drive's filter"
                   ? "the residual follows the input, through a filter of the drive (" +
                         std::to_string(c.parameters_json.value("front_order", 0)) +
-                        " poles before the clip, well damped and above the lowest resonance: a converter's or "
+                        (c.parameters_json.value("front_order", 0) == 1 ? " pole" : " poles") +
+                        " before the clip, well damped and above the lowest resonance: a converter's or "
                         "amplifier's; the resonances after it), beyond "
                   : std::string("the residual follows the input beyond ")) +
              fixed(c.parameters_json["knee_fraction_of_peak"].get<double>() * 100.0, 0) + " % of its peak" +

@@ -167,8 +167,8 @@ void static_nonlinearity_candidates(const Records& r, const Fit& current, const 
   const LinearModel& linear = current.model.linear;
   const StateSignals states = state_signals(linear.scaling.scale_u(r.u_est), linear.scaling.scale_u(r.u_est), r.fs);
   const double n_val = static_cast<double>(r.u_val.size() - r.init);
-  // The split, the knee and the sides are choices made from the data: a parameter each (a saturation's knee and
-  // sides one, as before it had a placement; its placement behind the drive's filter one more).
+  // The split, the knee and the sides are choices made from the data: a parameter each. A saturation's knee and
+  // sides are one, as they were for the drive as sampled; behind the drive's filter its placement is one more.
   auto fitted = [&](DiagnosisTerm t, int choices) {
     std::vector<DiagnosisTerm> with = current.model.terms;
     with.push_back(t);
@@ -235,7 +235,9 @@ void static_nonlinearity_candidates(const Records& r, const Fit& current, const 
         t.one_sided = one_sided;
         t.threshold = fraction * peak;
         Candidate c = fitted(t, choices_of(t));
-        c.variant = (behind_filter ? "behind the drive's filter (" + std::to_string(t.front.na()) + " poles), " : std::string()) +
+        c.variant = (behind_filter ? "behind the drive's filter (" + std::to_string(t.front.na()) +
+                                         (t.front.na() == 1 ? " pole), " : " poles), ")
+                                   : std::string()) +
                     (one_sided ? "each side" : "both sides") + ", knee " + fixed(fraction, 2);
         c.parameters_json = {{"knee_fraction_of_peak", fraction}, {"one_sided", one_sided}, {"position", "input"},
                              {"structure", behind_filter ? "Hammerstein behind the drive's filter" : "Hammerstein"}};
