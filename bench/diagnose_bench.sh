@@ -26,7 +26,7 @@ print("| # | effect | confidence | J_val before % | J_val after % | explanation 
 print("|---:|---|---|---:|---:|---|")
 for i, f in enumerate(r["findings"], 1):
     p = f["parameters"]
-    where = f" ({p['structure']}, {p['shape']})" if "structure" in p else ""
+    where = f" ({p['structure']}, {p.get('shape', '')})" if "structure" in p else ""
     word = f["confidence"].get("word", "")
     print(f"| {i} | {f['effect']}{where} | {word} | {f['J_val_before_pct']:.4f} | {f['J_val_after_pct']:.4f} | {f['explanation']} |")
 def where(l):

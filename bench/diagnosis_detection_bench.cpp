@@ -74,6 +74,10 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
                  d.findings.front().j_val_after_pct,
                  d.findings.front().parameters["J_val_same_structure_refit_pct"].get<double>());
   if (verbose)
+    for (const auto& f : d.findings)
+      std::fprintf(stderr, "finding %s (%s): %s\n", to_string(f.effect).c_str(), f.confidence.value("word", "").c_str(),
+                   f.parameters.dump().c_str());
+  if (verbose)
     for (const auto& round : d.rounds) {
       std::string line;
       for (const auto& c : round)

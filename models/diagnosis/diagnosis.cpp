@@ -235,8 +235,10 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
       const double score = n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val);
       round_json.push_back({{"effect", to_string(c.effect)}, {"variant", c.variant}, {"parameters", c.parameters},
                             {"J_val_pct", c.fit.j_val}, {"score", score}});
-      // A linear refit's evidence (where the pair sits and what the refit changed) goes with its score.
-      if (c.parameters_json.contains("J_val_same_structure_refit_pct")) round_json.back()["details"] = c.parameters_json;
+      // A linear refit's evidence (where the pair sits and what the refit changed), and a static nonlinearity's
+      // placement (the pole groups before and after it), go with its score.
+      if (c.parameters_json.contains("J_val_same_structure_refit_pct") || c.parameters_json.contains("front_poles"))
+        round_json.back()["details"] = c.parameters_json;
       if (score > best_score) best_score = score, chosen = &c;
     }
     d.rounds.push_back(round_json);

@@ -77,19 +77,8 @@ std::vector<Candidate> candidates(const Records& r, const Fit& current, const Re
     if (4.0 * tau * r.fs <= static_cast<double>(r.u_est.size()))
       add_term(term_of(Effect::thermal_compression, StateProxy::input, 0.0, tau), "tau " + fixed(tau, 1) + " s",
                1, {{"time_constant_s", tau}});
-  {
-    // Saturation of the drive, both sides alike (an amplifier) or each on its own (a diode); knees at
-    // fractions of the normalised input's peak on the estimation record.
-    const Eigen::VectorXd z = state_signals(linear.scaling.scale_u(r.u_est), linear.scaling.scale_u(r.u_est), r.fs).input;
-    const double peak = z.cwiseAbs().maxCoeff();
-    for (bool one_sided : {false, true})
-      for (double fraction : {0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.93, 0.95, 0.97, 0.99}) {
-        DiagnosisTerm t = term_of(Effect::saturation, StateProxy::input, fraction * peak);
-        t.one_sided = one_sided;
-        add_term(t, std::string(one_sided ? "each side" : "both sides") + ", knee " + fixed(fraction, 2), 1,
-                 {{"knee_fraction_of_peak", fraction}, {"one_sided", one_sided}});
-      }
-  }
+  // Saturation (the drive's static function at its end) and the static nonlinearity (anywhere else in the block
+  // structure): diagnosis_static_nonlinearity.cpp places both.
   static_nonlinearity_candidates(r, current, offer);
   linear_refit_candidates(r, current, where, oe_iterations, offer);
   return best;

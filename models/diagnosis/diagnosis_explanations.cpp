@@ -84,8 +84,15 @@ std::string explain(const Candidate& c, const ResidualLocation& where, double co
       return std::string(c.parameters_json["one_sided"].get<bool>()
                              ? "The model leaves out a saturation that differs between the two directions (diode-like): "
                              : "The model leaves out a saturation (clipping) alike in both directions: ") +
-             "the residual follows the input beyond " + fixed(c.parameters_json["knee_fraction_of_peak"].get<double>() * 100.0, 0) +
-             " % of its peak" + level_clause(where.level_ratio) + ".";
+             (c.parameters_json.value("structure", "") == "Hammerstein behind the drive's filter"
+                  ? "the residual follows the input, through a filter of the drive (" +
+                        std::to_string(c.parameters_json.value("front_order", 0)) +
+                        (c.parameters_json.value("front_order", 0) == 1 ? " pole" : " poles") +
+                        " before the clip, well damped and above the lowest resonance: a converter's or "
+                        "amplifier's; the resonances after it), beyond "
+                  : std::string("the residual follows the input beyond ")) +
+             fixed(c.parameters_json["knee_fraction_of_peak"].get<double>() * 100.0, 0) + " % of its peak" +
+             level_clause(where.level_ratio) + ".";
     case Effect::force_factor:
       return "The model leaves out a force factor that falls with excursion (the coil leaving the gap): the residual "
              "follows the drive times the square of the estimated " + state + " (odd, intermodulating; correlation " + r + ").";

@@ -42,6 +42,10 @@ struct Candidate {
   nlohmann::json parameters_json = nlohmann::json::object();
 };
 
+/// The largest damping ratio of a pole pair that counts as a resonance of its own (a mode of the mechanics; a pair
+/// damped more heavily, as a filter's, has no narrow band that an extra mode could be confused with).
+inline constexpr double kLightDamping = 0.2;
+
 /// Whether `terms` hold a term of `effect`.
 bool has_effect(const std::vector<DiagnosisTerm>& terms, Effect effect);
 

@@ -96,10 +96,6 @@ double one_sample_shift_j(const Records& r, const Fit& fit) {
 /// The share of one_sample_shift_j() a delay refit must recover to be named a dead time.
 constexpr double kDelayShareOfShift = 0.25;
 
-/// The largest damping ratio of a baseline pole pair that counts as a resonance of its own (a pair damped more
-/// heavily has no narrow band that an extra mode could be confused with).
-constexpr double kLightDamping = 0.2;
-
 }  // namespace
 
 std::string ruled_out_as_extra_mode(const Candidate& c) {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <limits>
+#include <numbers>
 
 namespace panelbass::models::diagnosis_detail {
 namespace {
@@ -26,6 +28,28 @@ std::vector<Eigen::VectorXcd> pole_groups(const TransferFunction& tf) {
   return groups;
 }
 
+// A pole group's natural frequency (Hz; a real pole's corner) and damping ratio, through s = ln(p)·fs.
+std::pair<double, double> natural_frequency_and_damping(const Eigen::VectorXcd& group, double fs) {
+  const std::complex<double> s = std::log(group[0]) * fs;
+  return {std::abs(s) / (2.0 * std::numbers::pi), std::abs(s) > 0.0 ? -s.real() / std::abs(s) : 1.0};
+}
+
+// A pole group that is a resonance: a conjugate pair damped lightly (a mode of the mechanics, not a filter's).
+bool is_resonance(const Eigen::VectorXcd& group, double fs) {
+  return group.size() == 2 && natural_frequency_and_damping(group, fs).second < kLightDamping;
+}
+
+// Each pole group of `tf` as its natural frequency (Hz; a real pole's corner) and damping ratio, in
+// pole_groups' order.
+nlohmann::json pole_groups_json(const TransferFunction& tf, double fs) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const Eigen::VectorXcd& group : pole_groups(tf)) {
+    const auto [frequency, damping] = natural_frequency_and_damping(group, fs);
+    out.push_back({{"natural_frequency_hz", frequency}, {"damping_ratio", damping}});
+  }
+  return out;
+}
+
 // The all-pole filter with `roots` as its poles and unit gain at DC.
 TransferFunction all_pole(const Eigen::VectorXcd& roots) {
   TransferFunction f;
@@ -43,7 +67,7 @@ TransferFunction identity_filter() {
 }
 
 // The ways the baseline's dynamics G can be split around a static nonlinearity: all of G after it is the
-// input's saturation (not offered here), all before it Wiener; between two filters, the front an all-pole
+// drive as sampled (saturation's, placed by the caller), all before it Wiener; between two filters, the front an all-pole
 // filter of some of G's pole groups and the back the rest with G's zeros and delay (Wiener–Hammerstein).
 // With up to five groups every split; with more, the lowest and the highest k groups in front.
 std::vector<std::pair<TransferFunction, TransferFunction>> block_splits(const TransferFunction& tf) {
@@ -79,17 +103,26 @@ std::vector<std::pair<TransferFunction, TransferFunction>> block_splits(const Tr
   return out;
 }
 
-// A fitted static nonlinearity's shape from its coefficients: the static curve is front_rms·z (the linear
-// path through the back filter) plus Σ_l c_l times each feature; the slope beyond the knee over the slope
-// inside it, per side. Below 1: saturating; above: dead-zone-like (the gain rises past the knee).
+// A fitted static function's shape from its coefficients (a static nonlinearity, or a saturation as sampled or
+// behind the drive's filter): the static curve, in units of the input of the filter after it, is the linear
+// path's slope times z plus Σ_l c_l times each feature; the slope beyond the knee over the slope inside it, per
+// side. Below 1: saturating; above: dead-zone-like (the gain rises past the knee).
 nlohmann::json static_shape(const DiagnosisTerm& t, const StateSignals& states, int lags) {
-  const Eigen::VectorXd z = static_nonlinearity_signal(t, states);
+  const bool filters = has_block_filters(t);
+  const Eigen::VectorXd z = filters ? static_nonlinearity_signal(t, states) : states.input;
   const int width = lags + kTermLead;
+  // The baseline G·u is the linear path. As sampled the term passes G itself and z is the normalised drive; at
+  // the output (Wiener) front = G; between two filters front·back = A_front(1)·G (block_splits' all-pole front
+  // has unit DC gain, its numerator A_front(1)). With front·u = rms_u·front_rms·z plus its mean, the linear
+  // path's slope in z is rms_u·front_rms over that factor.
+  const double front_rms = filters ? t.front_rms : 1.0;
+  const double path_factor = !filters || t.position == Position::output ? 1.0 : t.front.b.sum();
+  const double linear_slope = states.rms[3] * front_rms / path_factor;
   if (t.shape == Shape::polynomial) {
     const double c3 = t.coefficients.segment(width, width).sum();
-    return {{"shape", "polynomial"}, {"polynomial_order", 3}, {"compressive", c3 * t.front_rms < 0.0}};
+    return {{"shape", "polynomial"}, {"polynomial_order", 3}, {"compressive", c3 * linear_slope < 0.0}};
   }
-  // The features are the raw knees minus β·z (orthogonalised): the slope inside is front_rms − Σ_j C_j·β_j.
+  // The features are the raw knees minus β·z (orthogonalised): the slope inside is the linear slope − Σ_j C_j·β_j.
   const Eigen::Index sides = t.one_sided ? 2 : 1;
   Eigen::VectorXd sums(sides), betas(sides);
   for (Eigen::Index j = 0; j < sides; ++j) {
@@ -100,7 +133,7 @@ nlohmann::json static_shape(const DiagnosisTerm& t, const StateSignals& states, 
     betas[j] = z.dot(raw) / std::max(z.squaredNorm(), 1e-300);
     sums[j] = t.coefficients.segment(j * width, width).sum();
   }
-  const double inside = t.front_rms - sums.dot(betas);
+  const double inside = linear_slope - sums.dot(betas);
   nlohmann::json ratios = nlohmann::json::array();
   bool falls = false, rises = false;
   for (Eigen::Index j = 0; j < sides; ++j) {
@@ -115,50 +148,120 @@ nlohmann::json static_shape(const DiagnosisTerm& t, const StateSignals& states, 
 
 }  // namespace
 
+bool at_drive_end(const TransferFunction& front, const TransferFunction& dynamics, double fs) {
+  const std::vector<Eigen::VectorXcd> before = pole_groups(front);
+  if (before.empty()) return true;  // nothing before it: the drive as sampled (Hammerstein)
+  double lowest_resonance = std::numeric_limits<double>::infinity();
+  for (const Eigen::VectorXcd& group : pole_groups(dynamics))
+    if (is_resonance(group, fs)) lowest_resonance = std::min(lowest_resonance, natural_frequency_and_damping(group, fs).first);
+  if (!std::isfinite(lowest_resonance)) return false;  // no resonance: nothing tells the drive's filter from the rest
+  return std::ranges::all_of(before, [&](const Eigen::VectorXcd& group) {
+    return !is_resonance(group, fs) && natural_frequency_and_damping(group, fs).first > lowest_resonance;
+  });
+}
+
 void static_nonlinearity_candidates(const Records& r, const Fit& current, const std::function<void(Candidate)>& offer) {
-  if (has_effect(current.model.terms, Effect::static_nonlinearity)) return;
+  const bool want_static = !has_effect(current.model.terms, Effect::static_nonlinearity);
+  const bool want_saturation = !has_effect(current.model.terms, Effect::saturation);
+  if (!want_static && !want_saturation) return;
   const LinearModel& linear = current.model.linear;
   const StateSignals states = state_signals(linear.scaling.scale_u(r.u_est), linear.scaling.scale_u(r.u_est), r.fs);
   const double n_val = static_cast<double>(r.u_val.size() - r.init);
+  // The split, the knee and the sides are choices made from the data: a parameter each. A saturation's knee and
+  // sides are one, as they were for the drive as sampled; behind the drive's filter its placement is one more.
   auto fitted = [&](DiagnosisTerm t, int choices) {
     std::vector<DiagnosisTerm> with = current.model.terms;
     with.push_back(t);
-    return Candidate{Effect::static_nonlinearity, "", term_columns(t, r.lags) + choices, fit_terms(r, linear, with), {}};
+    return Candidate{t.effect, "", term_columns(t, r.lags) + choices, fit_terms(r, linear, with), {}};
   };
   auto score = [&](const Candidate& c) { return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val); };
-  // Each split screened with one shape (a knee at half the peak, each side on its own); the best split then
-  // gets every shape. The split and the knee are choices made from the data: a parameter each.
-  std::optional<Candidate> best;
-  DiagnosisTerm best_term;
-  for (const auto& [front, back] : block_splits(linear.tf)) {
+  auto choices_of = [](const DiagnosisTerm& t) {
+    if (t.effect == Effect::saturation) return has_block_filters(t) ? 2 : 1;
+    return t.shape == Shape::knee ? 3 : 2;
+  };
+  // The signal the static function acts on: the drive as sampled, or the drive through the filter before it.
+  auto signal = [&](const DiagnosisTerm& t) { return has_block_filters(t) ? static_nonlinearity_signal(t, states) : states.input; };
+  // Where the static function may sit, each screened with one shape: the drive as sampled and every split whose
+  // front is only the drive's filter (at_drive_end) are the amplifier's — saturation, screened alike on both
+  // sides with a knee near the peak, where a drive clips; every other split is a static nonlinearity's, screened
+  // with each side on its own and a knee at half the peak. The best of each then gets every shape of its own.
+  std::optional<Candidate> best_static, best_drive;
+  DiagnosisTerm best_static_term, best_drive_term;
+  auto screen = [&](DiagnosisTerm t, double knee_fraction) {
+    t.threshold = knee_fraction * signal(t).cwiseAbs().maxCoeff();
+    Candidate c = fitted(t, choices_of(t));
+    std::optional<Candidate>& best = t.effect == Effect::saturation ? best_drive : best_static;
+    if (!best || score(c) > score(*best)) best = std::move(c), (t.effect == Effect::saturation ? best_drive_term : best_static_term) = t;
+  };
+  constexpr double kDriveScreenKnee = 0.8, kStaticScreenKnee = 0.5;
+  if (want_saturation) {
     DiagnosisTerm t;
-    t.effect = Effect::static_nonlinearity;
-    t.position = back.a.size() == 0 && back.nk == 0 && back.b.size() == 1 ? Position::output : Position::between;
+    t.effect = Effect::saturation;
+    t.proxy = StateProxy::input;
+    screen(t, kDriveScreenKnee);
+  }
+  for (const auto& [front, back] : block_splits(linear.tf)) {
+    const bool drive_end = at_drive_end(front, linear.tf, r.fs);
+    if (drive_end ? !want_saturation : !want_static) continue;
+    DiagnosisTerm t;
+    t.effect = drive_end ? Effect::saturation : Effect::static_nonlinearity;
+    t.proxy = StateProxy::input;
+    t.position = drive_end ? Position::input
+                 : back.a.size() == 0 && back.nk == 0 && back.b.size() == 1 ? Position::output
+                                                                            : Position::between;
     t.front = front;
     t.back = back;
     const Eigen::VectorXd w = filter_through(front, states.input);
     t.front_rms = std::sqrt(w.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, w.size())));
     if (!(t.front_rms > 0.0) || !std::isfinite(t.front_rms)) continue;
-    t.one_sided = true;
-    t.threshold = 0.5 * (w / t.front_rms).cwiseAbs().maxCoeff();
-    Candidate c = fitted(t, 3);
-    if (!best || score(c) > score(*best)) best = std::move(c), best_term = t;
+    t.one_sided = !drive_end;
+    screen(t, drive_end ? kDriveScreenKnee : kStaticScreenKnee);
   }
-  if (!best) return;
-  const double peak = static_nonlinearity_signal(best_term, states).cwiseAbs().maxCoeff();
+  // The kept term's placement in the report: the pole groups before and after it.
+  auto placement = [&](const DiagnosisTerm& t, nlohmann::json& p) {
+    p["front_order"] = t.front.na();
+    p["back_order"] = t.back.na();
+    p["front_poles"] = pole_groups_json(t.front, r.fs);
+    p["back_poles"] = pole_groups_json(t.back, r.fs);
+  };
+  if (best_drive) {
+    // Saturation of the drive, both sides alike (an amplifier) or each on its own (a diode), where the screen put
+    // it; knees at fractions of the peak of the signal it acts on, on the estimation record.
+    const double peak = signal(best_drive_term).cwiseAbs().maxCoeff();
+    const bool behind_filter = has_block_filters(best_drive_term);
+    for (bool one_sided : {false, true})
+      for (double fraction : {0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.93, 0.95, 0.97, 0.99}) {
+        DiagnosisTerm t = best_drive_term;
+        t.one_sided = one_sided;
+        t.threshold = fraction * peak;
+        Candidate c = fitted(t, choices_of(t));
+        c.variant = (behind_filter ? "behind the drive's filter (" + std::to_string(t.front.na()) +
+                                         (t.front.na() == 1 ? " pole), " : " poles), ")
+                                   : std::string()) +
+                    (one_sided ? "each side" : "both sides") + ", knee " + fixed(fraction, 2);
+        c.parameters_json = {{"knee_fraction_of_peak", fraction}, {"one_sided", one_sided}, {"position", "input"},
+                             {"structure", behind_filter ? "Hammerstein behind the drive's filter" : "Hammerstein"}};
+        const nlohmann::json shape = static_shape(c.fit.model.terms.back(), states, r.lags);
+        for (auto it = shape.begin(); it != shape.end(); ++it) c.parameters_json[it.key()] = it.value();
+        if (behind_filter) placement(t, c.parameters_json);
+        offer(std::move(c));
+      }
+  }
+  if (!best_static) return;
+  const double peak = static_nonlinearity_signal(best_static_term, states).cwiseAbs().maxCoeff();
   std::vector<DiagnosisTerm> shapes;
   for (bool one_sided : {false, true})
     for (double fraction : {0.2, 0.35, 0.5, 0.65, 0.8}) {
-      DiagnosisTerm t = best_term;
+      DiagnosisTerm t = best_static_term;
       t.one_sided = one_sided;
       t.threshold = fraction * peak;
       shapes.push_back(t);
     }
-  DiagnosisTerm poly = best_term;
+  DiagnosisTerm poly = best_static_term;
   poly.shape = Shape::polynomial;
   shapes.push_back(poly);
   for (const auto& t : shapes) {
-    Candidate c = fitted(t, t.shape == Shape::knee ? 3 : 2);
+    Candidate c = fitted(t, choices_of(t));
     const DiagnosisTerm& kept = c.fit.model.terms.back();
     const std::string where = t.position == Position::output ? "output" : "between";
     c.variant = std::string(where == "output" ? "Wiener" : "Wiener–Hammerstein") + ", " +
@@ -168,8 +271,7 @@ void static_nonlinearity_candidates(const Records& r, const Fit& current, const 
     c.parameters_json = static_shape(kept, states, r.lags);
     c.parameters_json["position"] = where;
     c.parameters_json["structure"] = where == "output" ? "Wiener" : "Wiener–Hammerstein";
-    c.parameters_json["front_order"] = t.front.na();
-    c.parameters_json["back_order"] = t.back.na();
+    placement(t, c.parameters_json);
     if (t.shape == Shape::knee) {
       c.parameters_json["knee_fraction_of_peak"] = t.threshold / peak;
       c.parameters_json["one_sided"] = t.one_sided;

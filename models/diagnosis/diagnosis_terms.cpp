@@ -78,6 +78,10 @@ Eigen::MatrixXd knee_features(const Eigen::VectorXd& z, double c, bool one_sided
 
 }  // namespace
 
+bool has_block_filters(const DiagnosisTerm& term) {
+  return term.effect == Effect::static_nonlinearity || (term.effect == Effect::saturation && term.front.b.size() > 0);
+}
+
 Eigen::VectorXd static_nonlinearity_signal(const DiagnosisTerm& term, const StateSignals& states) {
   return filter_through(term.front, states.input) / term.front_rms;
 }
@@ -257,7 +261,9 @@ Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& sta
       g.col(1) = centred_orthogonal_to(u.array().square().matrix(), u);
       return g;
     }
-    case Effect::saturation: return knee_features(z, term.threshold, term.one_sided);
+    case Effect::saturation:  // the drive as sampled, or behind the drive's filter
+      return knee_features(has_block_filters(term) ? static_nonlinearity_signal(term, states) : z, term.threshold,
+                           term.one_sided);
     case Effect::static_nonlinearity: {
       // f(z) with z = front·u: a knee, or z² and z³ (a polynomial of order 3), beyond the linear part
       const Eigen::VectorXd w = static_nonlinearity_signal(term, states);
@@ -275,8 +281,9 @@ Eigen::MatrixXd term_regressors(const DiagnosisTerm& term, const StateSignals& s
                                 const TransferFunction& dynamics, int lags) {
   if (term.effect == Effect::dc_offset) return Eigen::VectorXd::Ones(states.input.size());
   const Eigen::MatrixXd g = term_features(term, states);
-  // A static nonlinearity's output passes only the filter after it; every other term the baseline's dynamics.
-  const TransferFunction& through = term.effect == Effect::static_nonlinearity ? term.back : dynamics;
+  // A static nonlinearity's output (and a saturation's behind the drive's filter) passes only the filter after it;
+  // every other term the baseline's dynamics.
+  const TransferFunction& through = has_block_filters(term) ? term.back : dynamics;
   const int width = lags + kTermLead;
   Eigen::MatrixXd phi = Eigen::MatrixXd::Zero(g.rows(), width * g.cols());
   for (Eigen::Index j = 0; j < g.cols(); ++j) {

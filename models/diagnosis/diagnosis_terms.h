@@ -76,9 +76,11 @@ struct DiagnosisTerm {
   bool one_sided = false;   ///< saturation, static_nonlinearity: each side of the knee fitted on its own (a diode), not alike
   Position position = Position::input;  ///< static_nonlinearity: where it sits
   Shape shape = Shape::knee;            ///< static_nonlinearity: its static function
-  TransferFunction front;   ///< static_nonlinearity: the filter before it (scaled input → its signal z; unit DC gain)
-  TransferFunction back;    ///< static_nonlinearity: the filter after it (its output → the scaled output)
-  double front_rms = 1.0;   ///< static_nonlinearity: rms of front·u on the estimation record (z is divided by it)
+  /// static_nonlinearity, and a saturation behind the drive's filter: the filter before it (scaled input → its
+  /// signal z; unit DC gain). Empty (no coefficients) for a saturation of the drive as sampled.
+  TransferFunction front;
+  TransferFunction back;    ///< with `front`: the filter after it (its output → the scaled output)
+  double front_rms = 1.0;   ///< with `front`: rms of front·u on the estimation record (z is divided by it)
   Eigen::VectorXd coefficients;  ///< one per lag (dc_offset: one, the offset in scaled output units)
 };
 
@@ -111,6 +113,10 @@ Eigen::VectorXd term_feature(const DiagnosisTerm& term, const StateSignals& stat
 /// Features of a term: 2 for a static nonlinearity's polynomial (z², z³), for asymmetric_force_factor (x·u, x·v), for force_factor (x²·u, x²·v), inductance (z·Δu, u²) and a one-sided saturation
 /// (each side of the knee with its own coefficients), else 1.
 int feature_count(const DiagnosisTerm& term);
+
+/// Whether `term`'s static function sits between filters of its own (`front`, `back`): a static nonlinearity, or a
+/// saturation behind the drive's filter; its output then passes `back` instead of the baseline's dynamics.
+bool has_block_filters(const DiagnosisTerm& term);
 
 /// A static nonlinearity's signal z: the normalised input through the filter before it, over front_rms.
 Eigen::VectorXd static_nonlinearity_signal(const DiagnosisTerm& term, const StateSignals& states);

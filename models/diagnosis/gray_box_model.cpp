@@ -69,6 +69,8 @@ DiagnosisTerm term_from_json(const nlohmann::json& j, const std::string& path, i
   f.finish();
   if (t.effect == Effect::static_nonlinearity && (t.front.b.size() == 0 || t.back.b.size() == 0))
     throw ConfigError(path + ": a static_nonlinearity needs its filters \"front\" and \"back\"");
+  if ((t.front.b.size() == 0) != (t.back.b.size() == 0))
+    throw ConfigError(path + ": \"front\" and \"back\" go together (the filters before and after a static function)");
   const int expected = term_columns(t, lags);
   if (t.coefficients.size() != expected)
     throw ConfigError(f.path_of("coefficients") + ": " + std::to_string(t.coefficients.size()) + " coefficients, " +
@@ -112,7 +114,7 @@ nlohmann::json term_to_json(const DiagnosisTerm& t) {
                         {"position", to_string(t.position)},
                         {"shape", shape_name(t.shape)},
                         {"coefficients", to_array(t.coefficients)}};
-  if (t.effect == Effect::static_nonlinearity) {
+  if (has_block_filters(t)) {
     out["front"] = tf_to_json(t.front);
     out["back"] = tf_to_json(t.back);
     out["front_rms"] = t.front_rms;

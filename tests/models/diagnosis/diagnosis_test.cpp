@@ -116,6 +116,10 @@ TEST(Diagnosis, VisibleClippingIsNamedSaturationFirst) {
   ASSERT_FALSE(d.findings.empty());
   EXPECT_EQ(d.findings[0].effect, Effect::saturation) << d.findings[0].explanation;
   EXPECT_LT(d.findings[0].j_val_after_pct, 0.97 * d.findings[0].j_val_before_pct);
+  // The amplifier clips both sides alike: past the knee the fitted slope falls, where it sits (the drive as
+  // sampled or behind the drive's filter: the clip acts after the DA filter, before the coil).
+  EXPECT_EQ(d.findings[0].parameters.value("shape", ""), "saturating") << d.findings[0].parameters.dump();
+  EXPECT_EQ(d.findings[0].parameters.value("position", ""), "input") << d.findings[0].parameters.dump();
 }
 
 // The linear preset identified (OE, the true order 13 and delay 1) from its own record, seed 50.

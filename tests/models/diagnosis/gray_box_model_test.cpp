@@ -1,5 +1,6 @@
 // The diagnosed model as a model file (kind "gray_box"): read back through the loader of every kind it simulates
-// exactly as the diagnosis's model did; a sensor offset term adds its constant (closed form); bad files are named.
+// exactly as the diagnosis's model did (a saturation behind the drive's filter with its filters); a sensor offset
+// term adds its constant (closed form); bad files are named.
 
 #include <gtest/gtest.h>
 
@@ -39,12 +40,26 @@ TEST(GrayBoxModelFile, ReadBackItSimulatesAsWritten) {
   cubic.proxy = StateProxy::double_integral;
   cubic.coefficients = Eigen::VectorXd::LinSpaced(term_columns(cubic, m.augmented.lags), -0.03, 0.05);
   m.augmented.terms.push_back(cubic);
+  // A saturation behind the drive's filter (a real pole at 0.3 of unit DC gain before it, the rest after it): its
+  // filters are part of the file, or it would be read back as the drive's saturation as sampled.
+  DiagnosisTerm clip;
+  clip.effect = Effect::saturation;
+  clip.proxy = StateProxy::input;
+  clip.threshold = 0.9;
+  clip.front.a = Eigen::VectorXd::Constant(1, -0.3);
+  clip.front.b = Eigen::VectorXd::Constant(1, 0.7);
+  clip.back.b = Eigen::VectorXd::Constant(1, 0.4);
+  clip.back.nk = 1;
+  clip.front_rms = 0.8;
+  clip.coefficients = Eigen::VectorXd::LinSpaced(term_columns(clip, m.augmented.lags), 0.04, -0.02);
+  m.augmented.terms.push_back(clip);
   DiagnosisTerm offset;
   offset.effect = Effect::dc_offset;
   offset.coefficients = Eigen::VectorXd::Constant(1, 0.02);
   m.augmented.terms.push_back(offset);
   const nlohmann::json file = gray_box_model_to_json(m);
   EXPECT_EQ(file["kind"], "gray_box");
+  EXPECT_EQ(file["terms"][1]["front"]["a"], nlohmann::json::array({-0.3}));
   const AnyModel back = model_from_json(nlohmann::json::parse(file.dump()));
   EXPECT_EQ(back.kind(), "gray_box");
   EXPECT_EQ(back.fs(), 1000.0);
@@ -98,6 +113,9 @@ TEST(GrayBoxModelFile, BadFilesAreNamed) {
   bad = good;
   bad["state_rms"] = {1.0, 1.0, 1.0};
   EXPECT_NE(gray_box_error(bad).find("model.state_rms"), std::string::npos) << gray_box_error(bad);
+  bad = good;
+  bad["terms"][0]["front"] = {{"a", {-0.3}}, {"b", {0.7}}, {"nk", 0}};  // a filter before it and none after
+  EXPECT_NE(gray_box_error(bad).find("\"front\" and \"back\" go together"), std::string::npos) << gray_box_error(bad);
   bad = good;
   bad["extra"] = 1;
   EXPECT_NE(gray_box_error(bad).find("extra"), std::string::npos) << gray_box_error(bad);
