@@ -109,7 +109,7 @@ std::vector<std::pair<TransferFunction, TransferFunction>> block_splits(const Tr
 // side. Below 1: saturating; above: dead-zone-like (the gain rises past the knee).
 nlohmann::json static_shape(const DiagnosisTerm& t, const StateSignals& states, int lags) {
   const bool filters = has_block_filters(t);
-  const Eigen::VectorXd z = filters ? static_nonlinearity_signal(t, states) : states.input;
+  const Eigen::VectorXd z = static_nonlinearity_signal(t, states);
   const int width = lags + kTermLead;
   // The baseline G·u is the linear path. As sampled the term passes G itself and z is the normalised drive; at
   // the output (Wiener) front = G; between two filters front·back = A_front(1)·G (block_splits' all-pole front
@@ -179,8 +179,6 @@ void static_nonlinearity_candidates(const Records& r, const Fit& current, const 
     if (t.effect == Effect::saturation) return has_block_filters(t) ? 2 : 1;
     return t.shape == Shape::knee ? 3 : 2;
   };
-  // The signal the static function acts on: the drive as sampled, or the drive through the filter before it.
-  auto signal = [&](const DiagnosisTerm& t) { return has_block_filters(t) ? static_nonlinearity_signal(t, states) : states.input; };
   // Where the static function may sit, each screened with one shape: the drive as sampled and every split whose
   // front is only the drive's filter (at_drive_end) are the amplifier's — saturation, screened alike on both
   // sides with a knee near the peak, where a drive clips; every other split is a static nonlinearity's, screened
@@ -188,7 +186,7 @@ void static_nonlinearity_candidates(const Records& r, const Fit& current, const 
   std::optional<Candidate> best_static, best_drive;
   DiagnosisTerm best_static_term, best_drive_term;
   auto screen = [&](DiagnosisTerm t, double knee_fraction) {
-    t.threshold = knee_fraction * signal(t).cwiseAbs().maxCoeff();
+    t.threshold = knee_fraction * static_nonlinearity_signal(t, states).cwiseAbs().maxCoeff();
     Candidate c = fitted(t, choices_of(t));
     std::optional<Candidate>& best = t.effect == Effect::saturation ? best_drive : best_static;
     if (!best || score(c) > score(*best)) best = std::move(c), (t.effect == Effect::saturation ? best_drive_term : best_static_term) = t;
@@ -227,7 +225,7 @@ void static_nonlinearity_candidates(const Records& r, const Fit& current, const 
   if (best_drive) {
     // Saturation of the drive, both sides alike (an amplifier) or each on its own (a diode), where the screen put
     // it; knees at fractions of the peak of the signal it acts on, on the estimation record.
-    const double peak = signal(best_drive_term).cwiseAbs().maxCoeff();
+    const double peak = static_nonlinearity_signal(best_drive_term, states).cwiseAbs().maxCoeff();
     const bool behind_filter = has_block_filters(best_drive_term);
     for (bool one_sided : {false, true})
       for (double fraction : {0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.93, 0.95, 0.97, 0.99}) {

@@ -83,6 +83,7 @@ bool has_block_filters(const DiagnosisTerm& term) {
 }
 
 Eigen::VectorXd static_nonlinearity_signal(const DiagnosisTerm& term, const StateSignals& states) {
+  if (!has_block_filters(term)) return states.of(term.proxy);
   return filter_through(term.front, states.input) / term.front_rms;
 }
 
@@ -262,8 +263,7 @@ Eigen::MatrixXd term_features(const DiagnosisTerm& term, const StateSignals& sta
       return g;
     }
     case Effect::saturation:  // the drive as sampled, or behind the drive's filter
-      return knee_features(has_block_filters(term) ? static_nonlinearity_signal(term, states) : z, term.threshold,
-                           term.one_sided);
+      return knee_features(static_nonlinearity_signal(term, states), term.threshold, term.one_sided);
     case Effect::static_nonlinearity: {
       // f(z) with z = front·u: a knee, or z² and z³ (a polynomial of order 3), beyond the linear part
       const Eigen::VectorXd w = static_nonlinearity_signal(term, states);

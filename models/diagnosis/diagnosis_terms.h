@@ -118,7 +118,8 @@ int feature_count(const DiagnosisTerm& term);
 /// saturation behind the drive's filter; its output then passes `back` instead of the baseline's dynamics.
 bool has_block_filters(const DiagnosisTerm& term);
 
-/// A static nonlinearity's signal z: the normalised input through the filter before it, over front_rms.
+/// The signal z a static function acts on: with block filters (has_block_filters) the normalised input through the
+/// filter before it, over front_rms; without (a saturation of the drive as sampled) its state proxy.
 Eigen::VectorXd static_nonlinearity_signal(const DiagnosisTerm& term, const StateSignals& states);
 
 /// Every static feature of `term` (feature_count columns; the first is term_feature).
