@@ -29,8 +29,8 @@ std::pair<double, double> pole_pair_near(const TransferFunction& tf, double freq
   for (Eigen::Index k = 0; k < poles.size(); ++k)
     if (poles[k].imag() > 0.0 && std::abs(poles[k] - target) < distance) distance = std::abs(poles[k] - target), best = poles[k];
   if (best == 0.0) return {0.0, 1.0};
-  const std::complex<double> s = std::log(best);
-  return {std::abs(s.imag()) * fs / (2.0 * std::numbers::pi), -s.real() / std::abs(s)};
+  const PoleMode mode = pole_mode(best, fs);
+  return {mode.damped_hz, mode.damping_ratio};
 }
 
 // What a refit with an extra pole and zero pair changed against the same structure refitted: the

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <complex>
 #include <limits>
-#include <numbers>
 
 namespace panelbass::models::diagnosis_detail {
 namespace {
@@ -28,10 +27,10 @@ std::vector<Eigen::VectorXcd> pole_groups(const TransferFunction& tf) {
   return groups;
 }
 
-// A pole group's natural frequency (Hz; a real pole's corner) and damping ratio, through s = ln(p)·fs.
+// A pole group's natural frequency (Hz; a real pole's corner) and damping ratio.
 std::pair<double, double> natural_frequency_and_damping(const Eigen::VectorXcd& group, double fs) {
-  const std::complex<double> s = std::log(group[0]) * fs;
-  return {std::abs(s) / (2.0 * std::numbers::pi), std::abs(s) > 0.0 ? -s.real() / std::abs(s) : 1.0};
+  const PoleMode mode = pole_mode(group[0], fs);
+  return {mode.natural_hz, mode.damping_ratio};
 }
 
 // A pole group that is a resonance: a conjugate pair damped lightly (a mode of the mechanics, not a filter's).

@@ -18,6 +18,13 @@ Eigen::VectorXcd polynomial_roots(const Eigen::VectorXd& c) {
   return Eigen::EigenSolver<Eigen::MatrixXd>(companion, false).eigenvalues();
 }
 
+PoleMode pole_mode(std::complex<double> pole, double fs) {
+  const std::complex<double> s = std::log(pole) * fs;
+  const double magnitude = std::abs(s);
+  return {magnitude / (2.0 * std::numbers::pi), std::abs(s.imag()) / (2.0 * std::numbers::pi),
+          magnitude > 0.0 ? -s.real() / magnitude : 1.0};
+}
+
 Eigen::VectorXd polynomial_from_roots(const Eigen::VectorXcd& roots) {
   Eigen::VectorXcd p = Eigen::VectorXcd::Zero(roots.size() + 1);
   p[0] = 1.0;

@@ -36,4 +36,14 @@ Eigen::VectorXd polynomial_from_roots(const Eigen::VectorXcd& roots);
 /// Roots of c_0 z^n + c_1 z^(n−1) + … + c_n (c_0 ≠ 0), as eigenvalues of the companion matrix.
 Eigen::VectorXcd polynomial_roots(const Eigen::VectorXd& coefficients);
 
+/// A discrete-time pole read as the continuous-time mode s = ln(p)·fs it samples.
+struct PoleMode {
+  double natural_hz = 0.0;     ///< |s|/2π: the undamped natural frequency (a real pole's corner)
+  double damped_hz = 0.0;      ///< |Im s|/2π: the frequency it rings at (0 for a real pole)
+  double damping_ratio = 1.0;  ///< −Re s/|s| (1 for a pole at z = 1)
+};
+
+/// The continuous-time mode of the nonzero pole `pole` at sample rate `fs`.
+PoleMode pole_mode(std::complex<double> pole, double fs);
+
 }  // namespace panelbass::models
