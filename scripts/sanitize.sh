@@ -44,7 +44,7 @@ long_repeats+='|^DiagnosisStructure\.ADiodeAfterTheDynamicsIsAWienerStaticNonlin
 # Six more long numeric runs (30-110 s each under ASan, 7 min of the stage's CPU) whose paths shorter tests
 # walk under the sanitizer too: the dX/N growth loop (NarxStructureGrowth.MaxHiddenOne...), NARX training on
 # the transducer (JobKindsTest.IdentifyNarxOnTheVirtualTransducer), the chain's evaluation on the transducer
-# (CliControl.ControlSignal..., ChainEvaluationTest.OnALinearPlant...), the term-by-term attribution
+# (ChainEvaluationTest.EachProbeReportsTheThd...), the term-by-term attribution
 # (ChainEvaluationTest.Attribution...) and the transducer's simulation (VirtualTransducer.*). All run in the main stage.
 long_repeats+='|^NarxStructureGrowth\.TheDxOverNRule|^NarxTransducer\.NeuralModelBeatsTheBestLinearModel'
 long_repeats+='|^JobKindsTest\.EvaluateIsTheChainsEvaluationOnTheVirtualTransducer$|^CliControl\.AttributeEvaluatesEachNonlinearTermAlone$'
@@ -52,7 +52,7 @@ long_repeats+='|^PlantSurvey\.PanelExciter'
 # Eight more (68-300 s each under ASan on a loaded machine, 1188 of the stage's 3329 test-seconds; CI's
 # time budget): the periodic multisine's whole diagnosis (its location on the empty lines: LocateResidual.*Periodic*),
 # the evaluate job's level sweep (the evaluation: ChainEvaluationTest.*), the command line's --model-out (the
-# same gray-box file: JobKindsTest.DiagnoseStoresAGrayBoxModel...), `identify ss` trained, validated and analysed
+# same gray-box file: GrayBoxModelFile.*), `identify ss` trained, validated and analysed
 # (CliIdentifySs.WienerHammerstein... and ...CubicStatesOnly..., SsTraining.*), the command line's NARX baseline
 # (JobKindsTest.DiagnoseANarxBaseline...), the survey's harmonics (PlantSurvey.LinearPreset...), issue #36's
 # selection reproduction (NarxTraining*.*) and the control command's chain (ChainEvaluationTest.*). All run in
@@ -61,6 +61,18 @@ long_repeats+='|^Diagnosis\.APeriodicMultisineRecordIsIdentifiedAndItsEmptyLines
 long_repeats+='|^CliDiagnose\.ModelOutWritesTheDiagnosedModelThatValidateReads$|^CliIdentifySs\.TrainsAndValidateAndAnalyzeReadItsModel$'
 long_repeats+='|^CliDiagnose\.ANarxBaselineStartsFromItsOwnSimulation$|^PlantSurvey\.HarmonicDistortion'
 long_repeats+='|^NarxTrainingSelection\.KeepsTheRefinementWhenTheValidationRecordStartsMidStream$|^CliControl\.ControlSignal'
+# Six more (30-125 s each under ASan, about a seventh of the stage's test-seconds; CI ran over its 40-minute
+# budget, 2591 s on 3dffa27): the diagnose job's gray-box file (GrayBoxModelFile.* and
+# JobKindsTest.DiagnoseFindsItsOwnBaseline... walk the file and the job), the OE order scan on the transducer
+# (LinearIdentification.PanelExciterZhuAndBackx... fits OE on it), the cubic spring's extrapolation (the other
+# SsTraining.* and the gradient tests walk the training), the flat chain on a linear plant (the other
+# ChainEvaluationTest.* walk the evaluation) and the API's process-alone estimate on the transducer
+# (ProcessAlone.* walk its computation). All run in the main stage.
+long_repeats+='|^JobKindsTest\.DiagnoseStoresAGrayBoxModelThatADiagnosisTakesAsItsBaseline$'
+long_repeats+='|^LinearIdentification\.PanelExciterOrderScanShowsItsKnee$'
+long_repeats+='|^SsTraining\.ThePolynomialExtrapolatesACubicSpringBeyondTheTrainingAmplitude$'
+long_repeats+='|^ChainEvaluationTest\.OnALinearPlantTheFeedforwardFlattensAndNothingDistorts$'
+long_repeats+='|^ProcessAloneTest\.TheProcessAloneIsTheMechanicsAndSensorWithoutTheConverters$'
 # The whole Tune pipeline through a JACK card (CardPipelineTest: excite, identify, design, verify while the
 # card streams, asserting no xrun): under ASan the engine's periods run slower than JACK's real-time clock on
 # a shared machine. Its parts run under the sanitizer in AlsaBackend.Jack*, ServerOnACardTest.* and the measurement's
