@@ -25,7 +25,7 @@ namespace {
 struct IdentifySsOptions {
   std::string data, val, out, linear, start_from, history_out, activation = "tanh";
   DataOptions columns;
-  int nx = 6, nk = -1, hidden = 20, lags = 50, encoder_hidden = 0, poly_degree = 0;
+  int nx = 6, nk = -1, hidden = 20, lags = 50, encoder_hidden = 0, poly_degree = 0, poly_states = 0;
   long window = 100, batch = 32, init = 50;
   int epochs = 100, patience = 0, polish_iterations = 0, wh_iterations = 200, wh_candidates = 1;
   long polish_window = 0;
@@ -73,6 +73,13 @@ void run_identify_ss(const IdentifySsOptions& o) {
   if (o.wiener_hammerstein && (o.activation != "tanh" || o.hidden_states_only)) {
     throw std::invalid_argument("--wiener-hammerstein takes neither --activation cubic nor --hidden-states-only: its nodes are tanh nodes of the front filter's output");
   }
+  if (o.poly_states > 0 && o.poly_degree == 0) {
+    throw std::invalid_argument("--poly-states needs --poly-degree: the monomials it restricts");
+  }
+  if (o.poly_states > 0 && o.linear.empty() && o.poly_states > o.nx) {
+    throw std::invalid_argument("--poly-states " + std::to_string(o.poly_states) + " exceeds --nx " + std::to_string(o.nx) +
+                                ": the monomials are of the leading states, at most all of them");
+  }
   const auto began = std::chrono::steady_clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count(); };
   models::SsModel start;
@@ -89,7 +96,8 @@ void run_identify_ss(const IdentifySsOptions& o) {
     structure.lags = o.lags;
     structure.encoder_hidden = o.encoder_hidden;
     structure.poly_degree = o.poly_degree;
-    structure.poly_input = !o.poly_states_only;
+    structure.poly_input = !o.poly_states_only && o.poly_states == 0;
+    structure.poly_states = o.poly_states;
     structure.activation = models::ss_activation_from_name(o.activation);
     structure.hidden_input = !o.hidden_states_only;
     const models::LinearModel linear = starting_linear(o, est, u_val, y_val);
@@ -225,6 +233,12 @@ void register_identify_ss(CLI::App& identify) {
                "fed back, a Duffing oscillator's form)");
   cmd->add_flag("--poly-states-only", o->poly_states_only,
                "The polynomial's monomials of the states alone, none of the input (PNLSS's states-only form)");
+  cmd->add_option("--poly-states", o->poly_states,
+                  "The polynomial's monomials of the first N states alone (implies --poly-states-only; 0: all states). "
+                  "The start is balanced, its states in descending Hankel singular value: the leading ones carry the "
+                  "dominant dynamics, the others stay linear")
+      ->check(CLI::Range(0, 64))
+      ->capture_default_str();
   cmd->add_flag("--wiener-hammerstein", o->wiener_hammerstein,
                "Start from a Wiener-Hammerstein model: the linear start's poles and zeros split between two filters, "
                "--hidden tanh nodes between them (the split of the lowest J_val kept)");
@@ -268,6 +282,8 @@ void register_identify_ss(CLI::App& identify) {
       "Example:\n  panelbass identify ss --data est.csv --val val.csv --fs 51200 --nx 6 --hidden 20 --lags 50 "
       "--window 100 --epochs 200 --out ss.json\n"
       "  panelbass identify ss --data est.csv --val val.csv --fs 610.35 --nx 2 --hidden 0 --poly-degree 3 --out pnlss.json\n"
+      "  panelbass identify ss --data est.csv --val val.csv --fs 610.35 --nx 4 --hidden 0 --poly-degree 3 --poly-states 2 "
+      "--out pnlss4.json\n"
       "  panelbass identify ss --data est.csv --val val.csv --fs 610.35 --nx 2 --hidden 2 --activation cubic "
       "--hidden-states-only --out lfr.json\n"
       "  panelbass identify ss --data est.csv --val val.csv --fs 51200 --nx 6 --hidden 20 --lags 50 --wiener-hammerstein "

@@ -29,7 +29,7 @@ SsParts<Scalar> parts_of(const SsStructure& s, Scalar* theta) {
   return SsParts<Scalar>{take(n, n),     take(n, 1),  take(1, n),  take(1, 1),  take(h, n + 1),
                          take(h, 1),     take(n + 1, h), take(n + 1, 1), take(n, l2), take(n, 1),
                          take(e, l2),    take(e, 1),  take(n, e),  take(n + 1, s.monomial_count()), s.poly_degree,
-                         s.states + (s.poly_input ? 1 : 0), s.activation, s.hidden_input};
+                         s.poly_variables(), s.activation, s.hidden_input};
 }
 
 // Appends to `out` every non-decreasing index list of length `degree` from `first` on, after `prefix`.
@@ -55,11 +55,17 @@ Eigen::Index SsStructure::parameter_count() const {
          (n + 1) * monomial_count();
 }
 
+int SsStructure::poly_variables() const {
+  if (poly_states > 0) return poly_states;
+  return states + (poly_input ? 1 : 0);
+}
+
 Eigen::Index SsStructure::monomial_count() const {
   // monomials of v variables of degree exactly d: C(v + d − 1, d)
-  Eigen::Index count = 0, of_degree = states + (poly_input ? 1 : 0);  // degree 1
+  const Eigen::Index variables = poly_variables();
+  Eigen::Index count = 0, of_degree = variables;  // degree 1
   for (int d = 2; d <= poly_degree; ++d) {
-    of_degree = of_degree * (states + (poly_input ? 1 : 0) + d - 1) / d;
+    of_degree = of_degree * (variables + d - 1) / d;
     count += of_degree;
   }
   return count;
@@ -77,6 +83,11 @@ void SsStructure::check() const {
   within("lags", lags, 1, 1000);
   within("encoder_hidden", encoder_hidden, 0, 1000);
   if (poly_degree != 0) within("poly_degree", poly_degree, 2, 5);
+  within("poly_states", poly_states, 0, states);
+  if (poly_states > 0 && poly_degree == 0) throw std::invalid_argument("poly_states needs a polynomial (poly_degree 2-5)");
+  if (poly_states > 0 && poly_input) {
+    throw std::invalid_argument("poly_states takes monomials of the leading states alone: poly_input must be false");
+  }
 }
 
 std::vector<std::vector<int>> ss_monomial_factors(int variables, int degree) {
@@ -365,6 +376,7 @@ nlohmann::json ss_model_to_json(const SsModel& m) {
         {"encoder_hidden", m.structure.encoder_hidden},
         {"poly_degree", m.structure.poly_degree},
         {"poly_input", m.structure.poly_input},
+        {"poly_states", m.structure.poly_states},
         {"activation", ss_activation_name(m.structure.activation)},
         {"hidden_input", m.structure.hidden_input},
         {"theta", to_array(m.theta)}}},
@@ -393,7 +405,8 @@ SsModel ss_model_from_json(const nlohmann::json& j) {
   m.structure.lags = size("lags", 1, 1000);
   m.structure.encoder_hidden = static_cast<int>(p.integer("encoder_hidden", 0, 0, 1000));
   m.structure.poly_degree = static_cast<int>(p.integer("poly_degree", 0, 0, 5));
-  m.structure.poly_input = p.boolean("poly_input", true);
+  m.structure.poly_states = static_cast<int>(p.integer("poly_states", 0, 0, 64));
+  m.structure.poly_input = p.boolean("poly_input", m.structure.poly_states == 0);
   m.structure.hidden_input = p.boolean("hidden_input", true);
   try {
     m.structure.activation = ss_activation_from_name(p.string("activation", "tanh"));
@@ -401,7 +414,7 @@ SsModel ss_model_from_json(const nlohmann::json& j) {
     throw ConfigError(p.path_of("activation") + ": " + e.what());
   }
   try {
-    m.structure.check();  // poly_degree 1, or hidden 0 without the polynomial
+    m.structure.check();  // poly_degree 1, hidden 0 without the polynomial, or poly_states beyond the states
   } catch (const std::invalid_argument& e) {
     throw ConfigError("model.params: " + std::string(e.what()));
   }

@@ -7,7 +7,9 @@
 // a cubic of one direction of [x; u] fed back through W2's column; with the states alone, W1's input
 // column held at zero, the form of a cubic spring of one displacement, the Silverbox's Duffing physics),
 // z(k) = [y(k−1) … y(k−L), u(k−1) … u(k−L)], everything in scaled units; ζ the monomials of [x; u] of
-// total degree 2 … poly_degree (PNLSS, Paduart et al. 2010; none when poly_degree is 0).
+// total degree 2 … poly_degree (PNLSS, Paduart et al. 2010; none when poly_degree is 0), or of the states
+// alone, or of the first poly_states states alone (the leading states of the balanced start: the dominant
+// dynamics, e.g. a Duffing oscillator's pair, while the others stay linear).
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -37,15 +39,20 @@ struct SsStructure {
   int encoder_hidden = 0;  ///< tanh nodes of the encoder's network (0: an affine encoder)
   int poly_degree = 0;     ///< highest total degree of the polynomial ζ(x, u) in [f; h] (0: none, else 2–5)
   bool poly_input = true;  ///< ζ's monomials include the input (false: monomials of the states alone)
+  int poly_states = 0;     ///< ζ's monomials are of the first poly_states states alone (0: of all nx states)
   SsActivation activation = SsActivation::tanh;  ///< σ of [f; h]'s nodes
   bool hidden_input = true;  ///< [f; h]'s nodes read the input (false: the states alone, W1's input column 0)
 
   /// Number of parameters P of θ.
   Eigen::Index parameter_count() const;
-  /// Number of monomials of ζ: those of nx + 1 variables (nx without poly_input) of total degree 2 … poly_degree.
+  /// Number of ζ's variables: poly_states when set (the leading states alone), else nx + 1 ([x; u]) or nx
+  /// (without poly_input).
+  int poly_variables() const;
+  /// Number of monomials of ζ: those of poly_variables() variables of total degree 2 … poly_degree.
   Eigen::Index monomial_count() const;
   /// Throws std::invalid_argument naming the size out of range (states 1–64, hidden 0–1000 and at least 1
-  /// without the polynomial, lags 1–1000, encoder_hidden 0–1000, poly_degree 0 or 2–5).
+  /// without the polynomial, lags 1–1000, encoder_hidden 0–1000, poly_degree 0 or 2–5, poly_states 0–states,
+  /// and poly_states > 0 only with the polynomial and without poly_input).
   void check() const;
 };
 
@@ -58,7 +65,7 @@ struct SsParts {
   using Map = Eigen::Map<std::conditional_t<std::is_const_v<Scalar>, const Eigen::MatrixXd, Eigen::MatrixXd>>;
   Map A, B, C, D, W1, b1, W2, b2, E, c2, V1, c1, V2, P;
   int poly_degree = 0;  ///< ζ's highest degree (the structure's)
-  int poly_variables = 0;  ///< ζ's variables: nx + 1 ([x; u]) or nx (the states alone)
+  int poly_variables = 0;  ///< ζ's variables: nx + 1 ([x; u]), nx (the states alone) or the leading poly_states
   SsActivation activation = SsActivation::tanh;  ///< σ of [f; h]'s nodes (the structure's)
   bool hidden_input = true;  ///< whether the nodes read the input (the structure's)
 };
@@ -150,9 +157,10 @@ SsModel ss_model_from_linear(const StateSpace& linear, SsStructure s, const Eige
                              const Scaling& scaling, double fs, std::uint64_t seed);
 
 /// {"format":"panelbass.model/1","kind":"ss","fs","scaling","params":{"states","hidden","lags",
-/// "encoder_hidden","poly_degree","poly_input","activation","hidden_input","theta"},"meta"} (poly_degree
-/// optional on reading, 0 when absent; poly_input and hidden_input optional, true when absent; activation
-/// "tanh" or "cubic", "tanh" when absent).
+/// "encoder_hidden","poly_degree","poly_input","poly_states","activation","hidden_input","theta"},"meta"}
+/// (poly_degree and poly_states optional on reading, 0 when absent; poly_input optional, true when absent
+/// unless poly_states > 0; hidden_input optional, true when absent; activation "tanh" or "cubic", "tanh"
+/// when absent).
 nlohmann::json ss_model_to_json(const SsModel& m);
 
 /// The runaway of `m`'s free run (scaled units, from rest) on free_run_drive(); nullopt when it stays within

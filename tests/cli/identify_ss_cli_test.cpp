@@ -86,6 +86,25 @@ TEST_F(CliIdentifySs, CubicStatesOnlyNodesAreWrittenAndValidateReadsThem) {
   EXPECT_TRUE(contains(bad.err, "--activation")) << bad.err;
 }
 
+TEST_F(CliIdentifySs, PolynomialOfTheLeadingStatesIsWrittenAndMoreThanNxIsRefused) {
+  const fs::path model = dir_ / "pnlss.json";
+  const json r = expect_result(run("identify ss --data " + est() + " --val " + val() +
+                                   " --fs 3000 --nx 3 --hidden 0 --poly-degree 3 --poly-states 2 --lags 8 "
+                                   "--window 40 --epochs 1 --seed 1 --out " + quoted(model)));
+  const json params = json::parse(text_of(model))["params"];
+  EXPECT_EQ(params["poly_states"], 2);
+  EXPECT_EQ(params["poly_input"], false);
+  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
+  EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
+  for (const char* extra : {" --nx 2 --poly-degree 3 --poly-states 3", " --nx 3 --poly-states 2"}) {
+    const RunResult bad = run("identify ss --data " + est() + " --fs 3000 --hidden 0" + std::string(extra) + " --out " +
+                              quoted(dir_ / "bad.json"));
+    expect_failure(bad);
+    EXPECT_TRUE(contains(bad.err, "--poly-states")) << bad.err;
+    EXPECT_FALSE(fs::exists(dir_ / "bad.json"));
+  }
+}
+
 TEST_F(CliIdentifySs, WritesNoFileWhenEveryCandidateRunsAwayInFreeRun) {
   // A stable linear start (its file loads) of gain 1000 in scaled units: full-scale noise drives its free
   // run far past ±100, and a learning rate of 1e-9 keeps every epoch's model there.

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <string>
 #include <utility>
@@ -35,9 +36,9 @@ Eigen::VectorXd noise(Eigen::Index n, std::uint64_t seed) {
 }
 
 // A small model with every part of θ non-zero (random, seeded), a stable A.
-SsModel random_model(int encoder_hidden, int poly_degree = 0, bool poly_input = true) {
+SsModel random_model(int encoder_hidden, int poly_degree = 0, bool poly_input = true, int poly_states = 0) {
   SsModel m;
-  m.structure = {3, 5, 4, encoder_hidden, poly_degree, poly_input};
+  m.structure = {3, 5, 4, encoder_hidden, poly_degree, poly_input, poly_states};
   m.fs = 1000.0;
   m.theta = 0.3 * noise(m.structure.parameter_count(), 7);
   auto p = ss_parts(m.structure, m.theta.data());
@@ -95,6 +96,16 @@ TEST(SsGradients, EqualCentralFiniteDifferences) {
     if (poly_degree > 0) ss_parts(m.structure, m.theta.data()).P *= 0.3;  // a bounded run over the windows
     expect_gradient_equals_central_differences(
         m, "encoder_hidden " + std::to_string(encoder_hidden) + ", poly_degree " + std::to_string(poly_degree));
+  }
+}
+
+TEST(SsGradients, LeadingStatesPolynomialEqualsCentralFiniteDifferences) {
+  // degree 3 in the first 2 of 3 states (x2 stays linear), without and with the tanh layer's encoder
+  for (const int encoder_hidden : {0, 2}) {
+    SsModel m = random_model(encoder_hidden, 3, false, 2);
+    EXPECT_EQ(m.structure.monomial_count(), 7);  // x0², x0x1, x1², x0³, x0²x1, x0x1², x1³
+    ss_parts(m.structure, m.theta.data()).P *= 0.3;
+    expect_gradient_equals_central_differences(m, "poly_states 2, encoder_hidden " + std::to_string(encoder_hidden));
   }
 }
 
@@ -171,6 +182,29 @@ TEST(SsModel, FreeRunFollowsTheRecursionWrittenOut) {
   }
 }
 
+// Expects m's free run (scaled) from `init` to follow the recursion of the header written out, with no tanh
+// layer: [f; h] = b2 + P·ζ(x, u), ζ given by `zeta`; x(init) from the affine encoder.
+void expect_polynomial_recursion(const SsModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init,
+                                 const std::function<Eigen::VectorXd(const Eigen::VectorXd&, double)>& zeta) {
+  const auto p = ss_parts(m.structure, m.theta.data());
+  const Eigen::Index n = m.structure.states;
+  Eigen::VectorXd x = p.E * ss_test_regressor(u, y, init, m.structure.lags) + p.c2;
+  const Eigen::VectorXd sim = m.simulate_scaled(u, y, init);
+  for (Eigen::Index k = init; k < u.size(); ++k) {
+    const Eigen::VectorXd out = p.b2 + p.P * zeta(x, u(k));
+    EXPECT_NEAR(sim(k), (p.C * x)(0) + p.D(0, 0) * u(k) + out(n), 1e-12) << k;
+    x = p.A * x + p.B * u(k) + out.head(n);
+  }
+}
+
+// ζ of degree 3 in the first two states alone: x0², x0·x1, x1², x0³, x0²·x1, x0·x1², x1³.
+Eigen::VectorXd leading_pair_cubic(const Eigen::VectorXd& x, double) {
+  const double a = x(0), b = x(1);
+  Eigen::VectorXd zeta(7);
+  zeta << a * a, a * b, b * b, a * a * a, a * a * b, a * b * b, b * b * b;
+  return zeta;
+}
+
 TEST(SsModel, PolynomialTermsAreTheMonomialsWrittenOut) {
   // nx = 2, no tanh layer, degree 3: ζ(x, u) = the 6 monomials of degree 2 and the 10 of degree 3 of
   // (x0, x1, u), in the order the header gives (non-decreasing factor indices, degree by degree).
@@ -181,20 +215,13 @@ TEST(SsModel, PolynomialTermsAreTheMonomialsWrittenOut) {
   m.theta = 0.2 * noise(m.structure.parameter_count(), 11);
   auto p = ss_parts(m.structure, m.theta.data());
   p.A << 0.5, 0.2, -0.1, 0.6;
-  const Eigen::VectorXd u = noise(25, 12), y = noise(25, 13);
-  const Eigen::Index init = 4;
-  const Eigen::VectorXd z = ss_test_regressor(u, y, init, 3);
-  Eigen::Vector2d x = p.E * z + p.c2;
-  const Eigen::VectorXd sim = m.simulate_scaled(u, y, init);
-  for (Eigen::Index k = init; k < u.size(); ++k) {
-    const double a = x(0), b = x(1), c = u(k);
+  expect_polynomial_recursion(m, noise(25, 12), noise(25, 13), 4, [](const Eigen::VectorXd& x, double c) {
+    const double a = x(0), b = x(1);
     Eigen::VectorXd zeta(16);
     zeta << a * a, a * b, a * c, b * b, b * c, c * c, a * a * a, a * a * b, a * a * c, a * b * b, a * b * c, a * c * c,
         b * b * b, b * b * c, b * c * c, c * c * c;
-    const Eigen::VectorXd out = p.b2 + p.P * zeta;
-    EXPECT_NEAR(sim(k), (p.C * x)(0) + p.D(0, 0) * c + out(2), 1e-12) << k;
-    x = p.A * x + p.B * c + out.head(2);
-  }
+    return zeta;
+  });
 }
 
 TEST(SsModel, StartsExactlyAtTheLinearModel) {
@@ -243,20 +270,54 @@ TEST(SsModel, StatesOnlyPolynomialTermsAreTheStatesMonomialsWrittenOut) {
   p.A << 0.5, 0.2, -0.1, 0.6;
   const Eigen::VectorXd u = noise(25, 32), y = noise(25, 33);
   const Eigen::Index init = 4;
-  Eigen::Vector2d x = p.E * ss_test_regressor(u, y, init, 3) + p.c2;
+  expect_polynomial_recursion(m, u, y, init, leading_pair_cubic);
   const Eigen::VectorXd sim = m.simulate_scaled(u, y, init);
-  for (Eigen::Index k = init; k < u.size(); ++k) {
-    const double a = x(0), b = x(1), c = u(k);
-    Eigen::VectorXd zeta(7);
-    zeta << a * a, a * b, b * b, a * a * a, a * a * b, a * b * b, b * b * b;
-    const Eigen::VectorXd out = p.b2 + p.P * zeta;
-    EXPECT_NEAR(sim(k), (p.C * x)(0) + p.D(0, 0) * c + out(2), 1e-12) << k;
-    x = p.A * x + p.B * c + out.head(2);
-  }
   // the file keeps the choice
   const SsModel back = ss_model_from_json(ss_model_to_json(m));
   EXPECT_FALSE(back.structure.poly_input);
   EXPECT_EQ(back.simulate_scaled(u, y, init), sim);
+}
+
+TEST(SsModel, LeadingStatesPolynomialTermsAreWrittenOutAndTheFileKeepsThem) {
+  // nx = 3, degree 3, poly_states 2: ζ(x) = x0², x0·x1, x1², x0³, x0²·x1, x0·x1², x1³ (neither x2 nor u).
+  SsModel m;
+  m.structure = {3, 0, 3, 0, 3, false, 2};
+  m.fs = 1000.0;
+  EXPECT_EQ(m.structure.monomial_count(), 7);
+  m.theta = 0.2 * noise(m.structure.parameter_count(), 41);
+  auto p = ss_parts(m.structure, m.theta.data());
+  p.A = 0.5 * Eigen::MatrixXd::Identity(3, 3) + 0.1 * noise(9, 42).reshaped(3, 3);
+  p.P *= 0.1;  // a bounded free run on full-scale noise, so that the file loads
+  const Eigen::VectorXd u = noise(25, 43), y = noise(25, 44);
+  const Eigen::Index init = 4;
+  expect_polynomial_recursion(m, u, y, init, leading_pair_cubic);  // x2 in no monomial
+  const Eigen::VectorXd sim = m.simulate_scaled(u, y, init);
+  // the file keeps the choice; poly_input reads as false when absent beside poly_states
+  const nlohmann::json j = ss_model_to_json(m);
+  EXPECT_EQ(j["params"]["poly_states"], 2);
+  const SsModel back = ss_model_from_json(j);
+  EXPECT_EQ(back.structure.poly_states, 2);
+  EXPECT_EQ(back.simulate_scaled(u, y, init), sim);
+  nlohmann::json no_input_key = j;
+  no_input_key["params"].erase("poly_input");
+  EXPECT_EQ(ss_model_from_json(no_input_key).simulate_scaled(u, y, init), sim);
+  // more leading states than states, or poly_states beside the input's monomials: refused naming the key
+  for (const auto& [key, value] : {std::pair{"poly_states", nlohmann::json(4)}, std::pair{"poly_input", nlohmann::json(true)}}) {
+    nlohmann::json bad = j;
+    bad["params"][key] = value;
+    try {
+      ss_model_from_json(bad);
+      ADD_FAILURE() << key << " " << value << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  }
+  // an old file (no poly_states) reads as all states
+  SsModel all_states = random_model(0, 2);
+  all_states.theta *= 0.2;
+  nlohmann::json old = ss_model_to_json(all_states);
+  old["params"].erase("poly_states");
+  EXPECT_EQ(ss_model_from_json(old).structure.poly_states, 0);
 }
 
 TEST(SsModel, PolynomialFileRoundTripsAndRefusesBadDegrees) {
