@@ -16,7 +16,18 @@ namespace {
 using namespace testing_support;
 
 /// 6000 samples of the panel exciter: rows 0..4000 to estimate, the rest to validate.
-using CliIdentifySs = CliExciterSplitTest;
+class CliIdentifySs : public CliExciterSplitTest {
+ protected:
+  /// Trains `identify ss OPTIONS` on the split into `model`, expects validate's J of the file to be the J_val
+  /// it reported (the J it selected on), and returns the file's params.
+  json trained_params(const std::string& options, const fs::path& model) {
+    const json r = expect_result(run("identify ss --data " + est() + " --val " + val() + " --fs 3000 " + options +
+                                     " --out " + quoted(model)));
+    const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
+    EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
+    return json::parse(text_of(model))["params"];
+  }
+};
 
 TEST_F(CliIdentifySs, TrainsAndValidateAndAnalyzeReadItsModel) {
   const fs::path model = dir_ / "ss.json", log = dir_ / "h.json";
@@ -71,15 +82,10 @@ TEST_F(CliIdentifySs, WienerHammersteinStartIsWrittenAsAnSsModelThatValidateRead
 }
 
 TEST_F(CliIdentifySs, CubicStatesOnlyNodesAreWrittenAndValidateReadsThem) {
-  const fs::path model = dir_ / "lfr.json";
-  const json r = expect_result(run("identify ss --data " + est() + " --val " + val() +
-                                   " --fs 3000 --nx 2 --hidden 2 --activation cubic --hidden-states-only --lags 8 "
-                                   "--window 40 --epochs 2 --seed 1 --out " + quoted(model)));
-  const json params = json::parse(text_of(model))["params"];
+  const json params = trained_params("--nx 2 --hidden 2 --activation cubic --hidden-states-only --lags 8 --window 40 "
+                                     "--epochs 2 --seed 1", dir_ / "lfr.json");
   EXPECT_EQ(params["activation"], "cubic");
   EXPECT_EQ(params["hidden_input"], false);
-  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
-  EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
   const RunResult bad = run("identify ss --data " + est() + " --fs 3000 --nx 2 --hidden 2 --activation relu --out " +
                             quoted(dir_ / "bad.json"));
   expect_usage_error(bad);
@@ -87,15 +93,10 @@ TEST_F(CliIdentifySs, CubicStatesOnlyNodesAreWrittenAndValidateReadsThem) {
 }
 
 TEST_F(CliIdentifySs, PolynomialOfTheLeadingStatesIsWrittenAndMoreThanNxIsRefused) {
-  const fs::path model = dir_ / "pnlss.json";
-  const json r = expect_result(run("identify ss --data " + est() + " --val " + val() +
-                                   " --fs 3000 --nx 3 --hidden 0 --poly-degree 3 --poly-states 2 --lags 8 "
-                                   "--window 40 --epochs 1 --seed 1 --out " + quoted(model)));
-  const json params = json::parse(text_of(model))["params"];
+  const json params = trained_params("--nx 3 --hidden 0 --poly-degree 3 --poly-states 2 --lags 8 --window 40 "
+                                     "--epochs 1 --seed 1", dir_ / "pnlss.json");
   EXPECT_EQ(params["poly_states"], 2);
   EXPECT_EQ(params["poly_input"], false);
-  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
-  EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
   for (const char* extra : {" --nx 2 --poly-degree 3 --poly-states 3", " --nx 3 --poly-states 2"}) {
     const RunResult bad = run("identify ss --data " + est() + " --fs 3000 --hidden 0" + std::string(extra) + " --out " +
                               quoted(dir_ / "bad.json"));
