@@ -278,6 +278,13 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   return r;
 }
 
+ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
+                             const FeedbackDesignOptions& o, std::uint64_t seed, const NarxModel* plant) {
+  std::optional<LoopPlant> loop_plant;
+  if (plant != nullptr) loop_plant = *plant;
+  return control_record(ff, band_pass, o, seed, loop_plant ? &*loop_plant : nullptr);
+}
+
 Eigen::VectorXd harmonic_weights(const ControlRecord& record, const Eigen::VectorXd& y, double fs) {
   if (y.size() != record.y_desired.size()) {
     throw std::invalid_argument("harmonic weights: the output has " + std::to_string(y.size()) +

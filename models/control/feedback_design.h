@@ -122,6 +122,9 @@ struct ControlRecord {
 /// DC drive. Deterministic in `seed`.
 ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
                              const FeedbackDesignOptions& o, std::uint64_t seed, const LoopPlant* plant = nullptr);
+/// control_record on a NARX plant model.
+ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
+                             const FeedbackDesignOptions& o, std::uint64_t seed, const NarxModel* plant);
 
 /// Per-sample weights for identifying a plant model on `record`'s drive u and the plant's measured output
 /// `y` (same length, rate fs): every step weighs by the inverse power of its harmonics — the 2nd to 5th
