@@ -1,5 +1,6 @@
 #include "models/state_space_nn/ss_model.h"
 
+#include <Eigen/LU>
 #include <random>
 #include <span>
 #include <stdexcept>
