@@ -21,9 +21,9 @@ namespace panelbass::models {
 /// What the loop output is trained to track.
 enum class DesiredResponse {
   linear_model,         ///< y_lin of [7B], the linear model behind the feedforward (fig. 7.10, the thesis's)
-  plant_small_signal,   ///< the NARX plant model's own small-signal response to the feedforward output u*
+  plant_small_signal,   ///< the plant model's own small-signal response to the feedforward output u*
                         ///< (small_signal_response): the loop's error is then the model's distortion alone,
-                        ///< not the gain gap between the linear and the NARX model
+                        ///< not the gain gap between the linear and the plant model
   plant_fundamental,    ///< plant_small_signal plus, on each sine step's steady part, the fundamental (and
                         ///< mean) of the uncorrected loop's departure from it (the plant model driven by u*);
                         ///< the rest of a step weighs 0. The error is then the harmonics alone: neither the
@@ -161,8 +161,8 @@ inline constexpr std::uint64_t kPlaybackSeedStride = 1000000;
 /// a length below 4 when the step is too short to have one.
 RecordPart steady_part(const SineStep& step);
 
-/// Designs the controller on `plant` (a NARX or neural state-space model at ff's rate) behind `ff` and `band_pass`: o.restarts
-/// trainings from initial weights seeded seed, seed + 1, … on the same records, the best by o.keep kept
+/// Designs the controller on `plant` (a NARX or neural state-space model at ff's rate) behind `ff` and
+/// `band_pass`: o.restarts trainings from initial weights seeded seed, seed + 1, … on the same records, the best by o.keep kept
 /// (ties to the earlier). Given a `device` (a virtual transducer standing in for the real one), the controller
 /// is tuned on it: the records' drives are played into it (o.device_playbacks times, averaged) and the
 /// tracking error is its measured output's, while the gradients stay the plant model's
