@@ -41,8 +41,12 @@ nlohmann::json history_json(const std::vector<models::FeedbackTrainingRecord>& h
 
 void run_design_nn(DesignNnOptions o) {
   const models::AnyModel any = models::load_model(o.plant);
-  const auto* plant = std::get_if<models::NarxModel>(&any.model);
-  if (plant == nullptr) throw std::invalid_argument("--plant " + o.plant + ": expected a NARX model, got " + any.kind());
+  std::optional<models::LoopPlant> plant;
+  if (const auto* narx = std::get_if<models::NarxModel>(&any.model)) plant = *narx;
+  if (const auto* ss = std::get_if<models::SsModel>(&any.model)) plant = *ss;
+  if (!plant) {
+    throw std::invalid_argument("--plant " + o.plant + ": expected a NARX or state-space (ss) model, got " + any.kind());
+  }
   const models::LqFeedforward ff = models::lq_feedforward_from_json(models::read_json_file(o.ff));
   const std::vector<dsp::Biquad> band_pass = band_pass_sections(o.bandpass, o.order, ff.fs);
   ProgressBar bar("design nn");
@@ -62,6 +66,7 @@ void run_design_nn(DesignNnOptions o) {
   models::FeedbackDesign d =
       models::design_feedback(*plant, ff, band_pass, o.design, device ? &*device : nullptr, start ? &*start : nullptr);
   d.controller.meta = {{"plant", o.plant},
+                       {"plant_kind", plant->kind()},
                        {"feedforward", o.ff},
                        {"bandpass", o.bandpass},
                        {"order", o.order},
@@ -90,8 +95,11 @@ void run_design_nn(DesignNnOptions o) {
 void add_design_nn(CLI::App& design) {
   auto o = std::make_shared<DesignNnOptions>();
   CLI::App* cmd = design.add_subcommand(
-      "nn", "Neural feedback controller trained through the loop with the NARX plant model (fig. 7.10, App. 3)");
-  cmd->add_option("--plant", o->plant, "NARX model of the plant (identify narx)")->required();
+      "nn",
+      "Neural feedback controller trained through the loop with the plant model, NARX or state-space (fig. 7.10, "
+      "App. 3)");
+  cmd->add_option("--plant", o->plant, "NARX or neural state-space model of the plant (identify narx, identify ss)")
+      ->required();
   cmd->add_option("--ff", o->ff, "LQ feedforward controller (design lq)")->required();
   add_bandpass_option(cmd, o->bandpass, "Band-pass corners LO,HI in Hz in front of the controllers (LO = 0: low-pass only)");
   cmd->add_option("--order", o->order, "Band-pass order")->check(CLI::Range(1, 8))->capture_default_str();
@@ -143,7 +151,7 @@ void add_design_nn(CLI::App& design) {
   cmd->add_option_function<std::string>(
          "--desired",
          [o](const std::string& name) { o->design.desired = models::desired_response_from_name(name); },
-         "What the loop output tracks: linear-model (y_lin of [7B], the thesis's), plant-small-signal (the NARX "
+         "What the loop output tracks: linear-model (y_lin of [7B], the thesis's), plant-small-signal (the "
          "plant model's own small-signal response to the feedforward output, so only its distortion is corrected) "
          "or plant-fundamental (on each sine step's steady part the fundamental of the uncorrected loop's output, so "
          "only its harmonics are; the noise as plant-small-signal)")
@@ -193,6 +201,7 @@ void add_design_nn(CLI::App& design) {
   cmd->footer(
       "Example:\n  panelbass design nn --plant nn.json --ff ff.json --bandpass 20,1200 --hidden 8 --out fb.json\n"
       "  panelbass design nn --plant nn.json --ff ff.json --restarts 4 --keep worst-probe --out fb.json\n"
+      "  panelbass design nn --plant ss.json --ff ff.json --hidden 8 --out fb.json   (ss.json: identify ss)\n"
       "  panelbass design nn --plant nn.json --ff ff.json --desired plant-fundamental --tune-on panel-exciter \\\n"
       "      --tune-playbacks 8 --out fb.json");
   cmd->callback([o] { run_design_nn(*o); });

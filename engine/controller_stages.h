@@ -1,7 +1,7 @@
 #pragma once
 // The controllers of the Control issue as engine stages: the LQ feedforward controller ([7B], a
 // state-space system u → u*) and the neural feedback controller (fig. 7.10), which reads the plant's
-// output either from the sensor (observe()) or from its own NARX plant model.
+// output either from the sensor (observe()) or from its own plant model (NARX or state-space).
 
 #include <Eigen/Core>
 #include <memory>
@@ -41,7 +41,7 @@ class StateSpaceStage final : public Stage {
 class NeuralFeedbackStage final : public Stage {
  public:
   /// The stage of `controller`, its plant output taken from `source` (sensor: observe(); model: its
-  /// NARX plant model run on the drives it produces).
+  /// plant model, NARX or state-space, run on the drives it produces).
   NeuralFeedbackStage(models::NeuralFeedback controller, FeedbackSource source);
   /// Sizes the runner; throws if spec.fs differs from the controller's rate.
   void prepare(const ProcessSpec& spec) override;

@@ -86,7 +86,7 @@ double ripple_db(const Response& r, const EvaluationOptions& o) {
 /// `y` with its mean removed (an accelerometer is AC-coupled).
 Eigen::VectorXd ac_coupled(const Eigen::VectorXd& y) { return y.array() - y.mean(); }
 
-/// The THD of the design's NARX plant model (fb.plant) driven as `variant` drives the transducer: `sine`
+/// The THD of the design's plant model (fb.plant, NARX or ss) driven as `variant` drives the transducer: `sine`
 /// through the band-pass and the [7B] feedforward, then the neural feedback in closed loop with the model
 /// (fig. 7.10, model mode). The chain's limiter is left out: at a probe's drive it passes the drive unchanged.
 double model_thd_pct(const models::NeuralFeedback& fb, const Variant& variant, const std::vector<dsp::Biquad>& sections,

@@ -218,14 +218,14 @@ RestartChoice restart_choice_from_name(const std::string& name) {
 }
 
 ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
-                             const FeedbackDesignOptions& o, std::uint64_t seed, const NarxModel* plant) {
+                             const FeedbackDesignOptions& o, std::uint64_t seed, const LoopPlant* plant) {
   require_options(o, ff.fs);
   if (o.desired != DesiredResponse::linear_model && plant == nullptr) {
     throw std::invalid_argument(std::string("design nn: the ") + desired_response_name(o.desired) +
-                                " desired response needs the NARX plant model");
+                                " desired response needs the plant model");
   }
   if (o.distortion_weighting && plant == nullptr) {
-    throw std::invalid_argument("design nn: distortion weighting needs the NARX plant model");
+    throw std::invalid_argument("design nn: distortion weighting needs the plant model");
   }
   if (o.distortion_weighting && o.level_weighting) {
     throw std::invalid_argument("design nn: level weighting and distortion weighting exclude each other");
@@ -245,7 +245,7 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
   const Eigen::VectorXd shaped = dsp::SosFilter(band_pass).process(r.program);
   r.u = simulate(controller, shaped);
   r.y_desired = o.desired == DesiredResponse::linear_model ? simulate(ff.desired(), shaped)
-                                                           : small_signal_response(*plant, r.u);
+                                                           : plant->small_signal_response(r.u);
   // Measured from the plant model's rest: a NARX model at rest outputs a small offset that no plant has (an
   // accelerometer has none), and its gain at DC is tiny, so a loop that tracks a target without that offset
   // learns a DC drive many times larger to null it (4.6e-4 at a DC gain of 0.0085 asked -0.054 on
@@ -276,6 +276,13 @@ ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biq
     weigh_parts_by_inverse_power(r.weight, weighed, parts);
   }
   return r;
+}
+
+ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
+                             const FeedbackDesignOptions& o, std::uint64_t seed, const NarxModel* plant) {
+  std::optional<LoopPlant> loop_plant;
+  if (plant != nullptr) loop_plant = *plant;
+  return control_record(ff, band_pass, o, seed, loop_plant ? &*loop_plant : nullptr);
 }
 
 Eigen::VectorXd harmonic_weights(const ControlRecord& record, const Eigen::VectorXd& y, double fs) {
@@ -352,11 +359,11 @@ nlohmann::json feedback_design_options_json(const FeedbackDesignOptions& o) {
           {"seed", o.seed}};
 }
 
-FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
+FeedbackDesign design_feedback(const LoopPlant& plant, const LqFeedforward& ff,
                                const std::vector<dsp::Biquad>& band_pass, const FeedbackDesignOptions& o,
                                const PlantConfig* device, const NeuralFeedback* start) {
-  if (!dsp::same_rate(plant.fs, ff.fs)) {
-    throw std::invalid_argument("design nn: the plant model runs at " + std::to_string(plant.fs) +
+  if (!dsp::same_rate(plant.fs(), ff.fs)) {
+    throw std::invalid_argument("design nn: the plant model runs at " + std::to_string(plant.fs()) +
                                 " Hz, the feedforward controller at " + std::to_string(ff.fs) + " Hz");
   }
   if (o.restarts < 1) throw std::invalid_argument("design nn: restarts must be >= 1, got " + std::to_string(o.restarts));

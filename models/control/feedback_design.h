@@ -1,7 +1,7 @@
 #pragma once
 // Designing the neural feedback controller on the models (fig. 7.10): the training records (the program
 // through band-pass and LQ feedforward, and the desired response [7B] y_lin), then training through the
-// loop with the NARX plant model (feedback_training.h).
+// loop with the plant model, NARX or state-space (feedback_training.h, loop_plant.h).
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -12,7 +12,7 @@
 #include "dsp/biquad.h"
 #include "models/control/feedback_training.h"
 #include "models/control/lq_feedforward.h"
-#include "models/narx/narx_model.h"
+#include "models/control/loop_plant.h"
 #include "models/control/neural_feedback.h"
 #include "models/plant/plant_config.h"
 
@@ -21,9 +21,9 @@ namespace panelbass::models {
 /// What the loop output is trained to track.
 enum class DesiredResponse {
   linear_model,         ///< y_lin of [7B], the linear model behind the feedforward (fig. 7.10, the thesis's)
-  plant_small_signal,   ///< the NARX plant model's own small-signal response to the feedforward output u*
+  plant_small_signal,   ///< the plant model's own small-signal response to the feedforward output u*
                         ///< (small_signal_response): the loop's error is then the model's distortion alone,
-                        ///< not the gain gap between the linear and the NARX model
+                        ///< not the gain gap between the linear and the plant model
   plant_fundamental,    ///< plant_small_signal plus, on each sine step's steady part, the fundamental (and
                         ///< mean) of the uncorrected loop's departure from it (the plant model driven by u*);
                         ///< the rest of a step weighs 0. The error is then the harmonics alone: neither the
@@ -121,7 +121,10 @@ struct ControlRecord {
 /// u = 0), so that the loop tracks the change from rest and is not trained to null the model's offset with a
 /// DC drive. Deterministic in `seed`.
 ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
-                             const FeedbackDesignOptions& o, std::uint64_t seed, const NarxModel* plant = nullptr);
+                             const FeedbackDesignOptions& o, std::uint64_t seed, const LoopPlant* plant = nullptr);
+/// control_record on a NARX plant model.
+ControlRecord control_record(const LqFeedforward& ff, const std::vector<dsp::Biquad>& band_pass,
+                             const FeedbackDesignOptions& o, std::uint64_t seed, const NarxModel* plant);
 
 /// Per-sample weights for identifying a plant model on `record`'s drive u and the plant's measured output
 /// `y` (same length, rate fs): every step weighs by the inverse power of its harmonics — the 2nd to 5th
@@ -158,8 +161,8 @@ inline constexpr std::uint64_t kPlaybackSeedStride = 1000000;
 /// a length below 4 when the step is too short to have one.
 RecordPart steady_part(const SineStep& step);
 
-/// Designs the controller on `plant` (a NARX model at ff's rate) behind `ff` and `band_pass`: o.restarts
-/// trainings from initial weights seeded seed, seed + 1, … on the same records, the best by o.keep kept
+/// Designs the controller on `plant` (a NARX or neural state-space model at ff's rate) behind `ff` and
+/// `band_pass`: o.restarts trainings from initial weights seeded seed, seed + 1, … on the same records, the best by o.keep kept
 /// (ties to the earlier). Given a `device` (a virtual transducer standing in for the real one), the controller
 /// is tuned on it: the records' drives are played into it (o.device_playbacks times, averaged) and the
 /// tracking error is its measured output's, while the gradients stay the plant model's
@@ -170,7 +173,7 @@ RecordPart steady_part(const SineStep& step);
 /// o.desired = plant_fundamental. Given `start`, one training goes on from its structure, weights and knee
 /// (on `plant`, in place of start's own plant model) instead of fresh initial weights. Throws
 /// std::invalid_argument for a rate mismatch or bad options.
-FeedbackDesign design_feedback(const NarxModel& plant, const LqFeedforward& ff,
+FeedbackDesign design_feedback(const LoopPlant& plant, const LqFeedforward& ff,
                                const std::vector<dsp::Biquad>& band_pass, const FeedbackDesignOptions& o,
                                const PlantConfig* device = nullptr, const NeuralFeedback* start = nullptr);
 

@@ -123,15 +123,15 @@ struct LoopSweep {
   Eigen::MatrixXd Dv, Dy;  // P×N: dv(k)/dθ and dŷ_s(k)/dθ
   Eigen::MatrixXd Dq;      // P×N: d/dθ of the drive-offset residuals √μ·low(k) (when μ > 0)
   Eigen::VectorXd dlow;    // d low(k)/dθ
-  Mlp::Workspace ws, plant_ws;
-  Eigen::VectorXd r, dr, dtheta, x, dx, plant_dtheta, ds;
+  Mlp::Workspace ws;
+  LoopPlantSweep plant;
+  Eigen::VectorXd r, dr, dtheta, ds;
 
   LoopSweep(const NeuralFeedback& controller, Eigen::Index n)
       : c(controller), v(n), v_scaled(n), y_scaled(n), ws(controller.net.workspace()),
-        plant_ws(controller.plant.net.workspace()), r(controller.structure.inputs()),
+        plant(controller.plant, controller.net.parameter_count()), r(controller.structure.inputs()),
         dr(controller.structure.inputs()), dtheta(controller.net.parameter_count()),
-        x(controller.plant.structure.inputs()), dx(controller.plant.structure.inputs()),
-        plant_dtheta(controller.plant.net.parameter_count()), ds(controller.net.parameter_count()) {}
+        ds(controller.net.parameter_count()) {}
 
   /// Runs the loop on record `d`; returns V. With `g`/`H`, also the normal equations (normalised like V).
   /// `lambda`: λ of the rail penalty; `dc`: μ of the drive-offset penalty (FeedbackTrainingOptions::dc_penalty).
@@ -141,8 +141,7 @@ struct LoopSweep {
     const Eigen::Index n = u.size();
     const Eigen::Index P = c.net.parameter_count();
     const FeedbackStructure& s = c.structure;
-    const NarxStructure& ps = c.plant.structure;
-    const Scaling& sc = c.plant.scaling;
+    const Scaling& sc = c.plant.scaling();
     const bool jacobian = g != nullptr;
     if (jacobian) {
       Dv.setZero(P, n);
@@ -158,6 +157,7 @@ struct LoopSweep {
     const double pole = std::exp(-2.0 * std::numbers::pi * kDcCornerHz / c.fs);
     double low = 0.0;
     double sum = 0.0;
+    plant.start();
     for (Eigen::Index k = 0; k < n; ++k) {
       // the controller: s(k) = u(k) + N1(r(k)), v(k) = soft_limit(s(k))
       c.regressor(u, v, y_scaled, k, r);
@@ -174,18 +174,10 @@ struct LoopSweep {
         if (dc > 0.0) dlow = pole * dlow + (1.0 - pole) * ds;  // ∂s/∂θ1 = ∂N1/∂θ1: u does not depend on θ1
       }
       low = pole * low + (1.0 - pole) * (s_k - u[k]);
-      // the plant model: ŷ(k) = N2(ŷ(k−1..k−na), v(k−nk..k−nk−nb))
-      c.plant.regressor(v_scaled, y_scaled, k, x);
-      y_scaled[k] = c.plant.net.forward(x, plant_ws);
-      if (jacobian) {
-        c.plant.net.backward(plant_ws, plant_dtheta, dx);
-        // Appendix 3 [1]: dy/dθ1 = ∂N2/∂y·W(z⁻¹)·dy/dθ1 + ∂N2/∂v·dv/dθ1 (the closed-loop form of [5L])
-        auto dy = Dy.col(k);
-        for (Eigen::Index i = 1; i <= ps.na && k - i >= 0; ++i) dy.noalias() += dx[i - 1] * Dy.col(k - i);
-        for (Eigen::Index j = 0; j <= ps.nb && k - ps.nk - j >= 0; ++j) {
-          dy.noalias() += (dx[ps.na + j] / sc.u_scale) * Dv.col(k - ps.nk - j);
-        }
-      }
+      // the plant model: ŷ(k) from the drives (NARX: and its past outputs), and Appendix 3 [1]'s
+      // dŷ/dθ1 through it (loop_plant.h: through the NARX network or the ss model's state recursion)
+      y_scaled[k] = plant.step(k, v_scaled, y_scaled);
+      if (jacobian) plant.sensitivities(k, Dv, Dy);
       if (k < skip) continue;
       const double over = std::abs(s_k) - c.knee;
       const double p = over > 0.0 ? sqrt_lambda * over : 0.0;
@@ -246,7 +238,7 @@ struct LoopSweep {
 
   /// [2C] J_c of the last run on record `d` (weighted by its weights unless they are empty), percent.
   double jc(const SweepRecord& d, Eigen::Index skip) const {
-    return jc_percent(tracked, d.y_desired / c.plant.scaling.y_scale, skip, d.weight);
+    return jc_percent(tracked, d.y_desired / c.plant.scaling().y_scale, skip, d.weight);
   }
 
   /// Share of samples k ≥ skip whose unlimited output was above the knee in the last run.

@@ -1,8 +1,9 @@
 #pragma once
 // Training the neural feedback controller through the loop (fig. 7.10, Appendix 3): the controller N1
-// drives the NARX plant model N2, and θ1 is tuned so that the loop output tracks the desired output
-// (the linear model behind the LQ feedforward controller). Gradients by dynamic backpropagation through
-// both networks (exact, the closed-loop form of [5L]), Levenberg–Marquardt steps, early stopping on
+// drives the plant model N2 (NARX, or a neural state-space model: loop_plant.h), and θ1 is tuned so that the
+// loop output tracks the desired output (the linear model behind the LQ feedforward controller). Gradients by
+// dynamic backpropagation through N1 and the plant model (exact, the closed-loop form of [5L]; through an ss
+// model's state recursion, forward sensitivities of its state), Levenberg–Marquardt steps, early stopping on
 // validation data.
 //
 // The loss: V = 1/(2(N − skip))·Σ_{k≥skip} [w(k)·e(k)² + λ·p(k)² + μ·low(k)²] (w = 1 unless weights are

@@ -1,5 +1,5 @@
 #pragma once
-// The distortion probes of a chain's evaluation, run on the design's NARX plant model instead of the
+// The distortion probes of a chain's evaluation, run on the design's plant model (NARX or ss) instead of the
 // transducer (model mode): the probe sine, its amplitude rule, and the THD the model shows with and
 // without the neural feedback. `evaluate` reports these beside the transducer's figures; `design nn` can
 // keep the restart whose worst probe the controller cuts most on its own model.

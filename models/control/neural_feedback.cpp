@@ -29,13 +29,13 @@ void require_structure(const FeedbackStructure& s) {
 
 }  // namespace
 
-NeuralFeedback NeuralFeedback::with_structure(const FeedbackStructure& structure, const NarxModel& plant) {
+NeuralFeedback NeuralFeedback::with_structure(const FeedbackStructure& structure, const LoopPlant& plant) {
   require_structure(structure);
   NeuralFeedback c;
   c.structure = structure;
   c.net = Mlp(structure.inputs(), structure.hidden);
   c.plant = plant;
-  c.fs = plant.fs;
+  c.fs = plant.fs();
   return c;
 }
 
@@ -57,21 +57,20 @@ ClosedLoopRun simulate_closed_loop(const NeuralFeedback& c, const Eigen::VectorX
   }
   const Eigen::Index n = u.size();
   ClosedLoopRun run{Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n)};
-  const Scaling& sc = c.plant.scaling;
+  const Scaling& sc = c.plant.scaling();
   Eigen::VectorXd y_scaled = Eigen::VectorXd::Zero(n);
   Eigen::VectorXd v_scaled = Eigen::VectorXd::Zero(n);
   Mlp::Workspace ws = c.net.workspace();
-  Mlp::Workspace plant_ws = c.plant.net.workspace();
+  LoopPlantSweep plant(c.plant, c.net.parameter_count());
+  plant.start();
   Eigen::VectorXd r(c.structure.inputs());
-  Eigen::VectorXd x(c.plant.structure.inputs());
-  // fig. 7.10: v(k) = N1(u, past v, past y), then y(k) = N2(past v, past y) ([5G], free run)
+  // fig. 7.10: v(k) = N1(u, past v, past y), then y(k) from the drives (the plant model's free run)
   for (Eigen::Index k = 0; k < n; ++k) {
     c.regressor(u, run.v, y_scaled, k, r);
     run.s[k] = u[k] + c.net.forward(r, ws);
     run.v[k] = dsp::soft_limit(run.s[k], c.knee);
     v_scaled[k] = (run.v[k] - sc.u_offset) / sc.u_scale;
-    c.plant.regressor(v_scaled, y_scaled, k, x);
-    y_scaled[k] = c.plant.net.forward(x, plant_ws);
+    y_scaled[k] = plant.step(k, v_scaled, y_scaled);
   }
   run.y = sc.unscale_y(y_scaled);
   return run;
@@ -79,22 +78,16 @@ ClosedLoopRun simulate_closed_loop(const NeuralFeedback& c, const Eigen::VectorX
 
 FeedbackRunner::FeedbackRunner(const NeuralFeedback& controller) : c_(controller) {
   const FeedbackStructure& s = c_.structure;
-  const NarxStructure& p = c_.plant.structure;
   if (c_.net.inputs() != s.inputs()) {
     throw std::invalid_argument("neural feedback: the structure has " + std::to_string(s.inputs()) +
                                 " network inputs, the network " + std::to_string(c_.net.inputs()));
   }
-  if (c_.plant.net.inputs() != p.inputs()) {
-    throw std::invalid_argument("neural feedback: the plant model's structure has " + std::to_string(p.inputs()) +
-                                " network inputs (na + nb + 1), its network " + std::to_string(c_.plant.net.inputs()));
-  }
+  plant_ = LoopPlantRunner(c_.plant);
   ws_ = c_.net.workspace();
-  plant_ws_ = c_.plant.net.workspace();
   r_ = Eigen::VectorXd::Zero(s.inputs());
   u_hist_ = SignalHistory(static_cast<std::size_t>(s.nu + 1));
   v_hist_ = SignalHistory(static_cast<std::size_t>(s.nv));
   y_hist_ = SignalHistory(static_cast<std::size_t>(s.ny));
-  plant_ = NarxHistory(p);
 }
 
 double FeedbackRunner::control(double u) noexcept {
@@ -106,20 +99,19 @@ double FeedbackRunner::control(double u) noexcept {
   asked_ = u + c_.net.forward_unchecked(r_, ws_);
   const double v = dsp::soft_limit(asked_, c_.knee);
   v_hist_.push(v);
-  const Scaling& sc = c_.plant.scaling;
+  const Scaling& sc = c_.plant.scaling();
   plant_.push_input((v - sc.u_offset) / sc.u_scale);
   return v;
 }
 
 double FeedbackRunner::plant_model_output() noexcept {
-  const double y_scaled = c_.plant.net.forward_unchecked(plant_.regressor(), plant_ws_);
-  plant_.push_output(y_scaled);
-  const Scaling& sc = c_.plant.scaling;
+  const double y_scaled = plant_.output();
+  const Scaling& sc = c_.plant.scaling();
   return y_scaled * sc.y_scale + sc.y_offset;
 }
 
 void FeedbackRunner::push_output(double y) noexcept {
-  const Scaling& sc = c_.plant.scaling;
+  const Scaling& sc = c_.plant.scaling();
   y_hist_.push((y - sc.y_offset) / sc.y_scale);
 }
 
@@ -143,7 +135,7 @@ nlohmann::json neural_feedback_to_json(const NeuralFeedback& c) {
         {"hidden", c.structure.hidden},
         {"knee", c.knee},
         {"theta", to_array(c.net.parameters())}}},
-      {"plant", narx_model_to_json(c.plant)},
+      {"plant", loop_plant_to_json(c.plant)},
       {"meta", c.meta.is_null() ? nlohmann::json::object() : c.meta},
   };
 }
@@ -170,16 +162,16 @@ NeuralFeedback neural_feedback_from_json(const nlohmann::json& j) {
 
   const nlohmann::json* plant_json = top.member("plant");
   if (plant_json == nullptr) throw ConfigError("model.plant: missing");
-  NarxModel plant;
+  LoopPlant plant;
   try {
-    plant = narx_model_from_json(*plant_json);
+    plant = loop_plant_from_json(*plant_json);
   } catch (const ConfigError& e) {
     // "model.x: …" of the plant's own loader becomes "model.plant.x: …"
     const std::string what = e.what();
     throw ConfigError(what.rfind("model", 0) == 0 ? "model.plant" + what.substr(5) : "model.plant: " + what);
   }
-  if (!dsp::same_rate(plant.fs, fs)) {
-    throw ConfigError("model.plant.fs: " + std::to_string(plant.fs) + " Hz, the controller runs at " +
+  if (!dsp::same_rate(plant.fs(), fs)) {
+    throw ConfigError("model.plant.fs: " + std::to_string(plant.fs()) + " Hz, the controller runs at " +
                       std::to_string(fs) + " Hz");
   }
   nlohmann::json meta = read_model_meta(top);

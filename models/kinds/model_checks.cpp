@@ -15,7 +15,7 @@ std::optional<double> unstable_lq_radius(const Eigen::MatrixXd& A, const Eigen::
 
 std::optional<Runaway> closed_loop_runaway(const NeuralFeedback& c) {
   const ClosedLoopRun run = simulate_closed_loop(c, free_run_drive());
-  return runaway(c.plant.scaling.scale_y(run.y));
+  return runaway(c.plant.scaling().scale_y(run.y));
 }
 
 }  // namespace panelbass::models

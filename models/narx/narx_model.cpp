@@ -146,12 +146,17 @@ Eigen::VectorXd NarxModel::predict(const Eigen::VectorXd& u, const Eigen::Vector
 }
 
 Eigen::VectorXd small_signal_response(const NarxModel& m, const Eigen::VectorXd& u) {
+  return small_signal_response_of([&m](const Eigen::VectorXd& v) { return m.simulate(v); }, u);
+}
+
+Eigen::VectorXd small_signal_response_of(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& simulate,
+                                         const Eigen::VectorXd& u) {
   require_finite(u, "small_signal_response", "u");
   const double peak = u.size() != 0 ? u.cwiseAbs().maxCoeff() : 0.0;
   if (peak == 0.0) return Eigen::VectorXd::Zero(u.size());
   const double epsilon = 1e-5 / peak;
   const Eigen::VectorXd up = epsilon * u;
-  return (m.simulate(up) - m.simulate(-up)) / (2.0 * epsilon);
+  return (simulate(up) - simulate(-up)) / (2.0 * epsilon);
 }
 
 nlohmann::json narx_model_to_json(const NarxModel& m) {

@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -57,6 +58,11 @@ struct NarxModel {
 /// orders cancel and the odd ones leave a relative error of order (1e-5 / u_scale)². Raw output units,
 /// without the rest output; all zeros for u = 0. Throws std::invalid_argument for a non-finite u.
 Eigen::VectorXd small_signal_response(const NarxModel& m, const Eigen::VectorXd& u);
+
+/// The same central difference of any model's free run `simulate` (raw drive → raw output from rest): what
+/// small_signal_response computes of a NARX model, for the other kinds (the neural state-space model).
+Eigen::VectorXd small_signal_response_of(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& simulate,
+                                         const Eigen::VectorXd& u);
 
 /// {"format":"panelbass.model/1","kind":"narx","fs","scaling","params":{"na","nb","nk","hidden","theta"},"meta"}.
 nlohmann::json narx_model_to_json(const NarxModel& m);

@@ -1,5 +1,6 @@
 #include "models/state_space_nn/ss_model.h"
 
+#include <Eigen/LU>
 #include <random>
 #include <span>
 #include <stdexcept>
@@ -214,9 +215,6 @@ StateSpace SsModel::linear_part() const {
   return ss;
 }
 
-namespace {
-
-/// [f; h] at (x, u) and its Jacobian ∂[f; h]/∂[x; u] ((nx+1)×(nx+1)).
 Eigen::VectorXd ss_network_jacobian(const SsParts<const double>& p, const Eigen::VectorXd& x, double u,
                                     const std::vector<std::vector<int>>& factors, Eigen::MatrixXd& jacobian) {
   const Eigen::Index n = x.size();
@@ -246,8 +244,6 @@ Eigen::VectorXd ss_network_jacobian(const SsParts<const double>& p, const Eigen:
   }
   return network;
 }
-
-}  // namespace
 
 StateSpace SsModel::linearization() const {
   const auto p = ss_parts(structure, theta.data());

@@ -114,6 +114,12 @@ void ss_step(const SsParts<const double>& p, const Eigen::Ref<const Eigen::Matri
              const Eigen::Ref<const Eigen::RowVectorXd>& U, SsStepWork& work, Eigen::Ref<Eigen::RowVectorXd> Y,
              Eigen::Ref<Eigen::MatrixXd> X_next);
 
+/// [f; h] at one state x (nx) and input u, and into `jacobian` its Jacobian ∂[f; h]/∂[x; u] ((nx+1)×(nx+1)),
+/// exact (σ′ and the polynomial's derivatives); `factors` are ζ's monomials (ss_monomial_factors). Allocates:
+/// for analysis and training, not the real-time path.
+Eigen::VectorXd ss_network_jacobian(const SsParts<const double>& p, const Eigen::VectorXd& x, double u,
+                                    const std::vector<std::vector<int>>& factors, Eigen::MatrixXd& jacobian);
+
 /// The encoder's states X0 (nx×B) from regressors Z (2L×B); `hidden` receives its tanh layer
 /// (encoder_hidden×B).
 void ss_encode(const SsParts<const double>& p, const Eigen::Ref<const Eigen::MatrixXd>& Z, Eigen::MatrixXd& hidden,

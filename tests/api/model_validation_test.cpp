@@ -16,6 +16,7 @@
 #include "models/narx/narx_model.h"
 #include "models/control/neural_feedback.h"
 #include "models/linear/transfer_function.h"
+#include "tests/support/ss_models.h"
 
 namespace panelbass::api {
 namespace {
@@ -140,6 +141,26 @@ TEST(ModelValidation, AnExplodingNarxModelIsInvalid) {
 
 TEST(ModelValidation, AnExplodingPlantInsideANeuralFeedbackControllerIsInvalid) {
   expect_rejected(feedback_json(exploding_narx()), "invalid_model", "model.plant");
+}
+
+// A controller designed on a neural state-space plant model (design nn --plant ss.json) is a model the API
+// takes, at its plant's rate; one whose ss plant's free run runs away is refused, naming the plant.
+TEST(ModelValidation, ANeuralFeedbackControllerWithAStateSpacePlantModelIsValidated) {
+  models::FeedbackStructure s;
+  s.nu = 1;
+  s.nv = 1;
+  s.ny = 2;
+  s.hidden = {3};
+  models::SsModel plant =
+      testing_support::resonant_ss(100.0, 3000.0, 0.1, 0.0, 0.05, 0.0, 0.0, models::Scaling{}, 1, true);
+  const ValidatedModel v = validate_model(models::neural_feedback_to_json(models::NeuralFeedback::with_structure(s, plant)));
+  EXPECT_EQ(v.kind, "neural_feedback");
+  EXPECT_EQ(v.fs, 3000.0);
+  models::ss_parts(plant.structure, plant.theta.data()).A *= 1.1;  // its pole radius 0.97 -> 1.067
+  const auto [code, message] = rejection(models::neural_feedback_to_json(models::NeuralFeedback::with_structure(s, plant)));
+  EXPECT_NE(code, "");
+  EXPECT_NE(message.find("model.plant"), std::string::npos) << message;
+  EXPECT_NE(message.find("unbounded"), std::string::npos) << message;
 }
 
 TEST(ModelValidation, TheFirstNonFiniteNumberIsNamedByItsKeyPath) {

@@ -258,6 +258,36 @@ TEST_F(CliControl, AttributeEvaluatesEachNonlinearTermAlone) {
   EXPECT_TRUE(contains(r.err, "friction")) << r.err;
 }
 
+// `design nn` takes a neural state-space plant model (identify ss) as it takes a NARX one: the controller file
+// holds that model, read back by its kind, and the chain built on it runs (evaluate plays it through the
+// engine's controller stage in model mode, its own ss plant model in the loop).
+TEST_F(CliControl, DesignNnTakesAStateSpacePlantModelAndItsChainRuns) {
+  expect_result(run("simulate --plant linear --signal control --ff " + quoted(path("ff.json")) +
+                    " --samples 3000 --seed 5 --sine-peak 0.6 --out " + quoted(path("reg.csv"))));
+  split_csv(path("reg.csv"), 2000);
+  expect_result(run("identify ss --data " + quoted(path("est.csv")) + " --val " + quoted(path("val.csv")) +
+                    " --fs 3000 --nx 2 --hidden 3 --lags 4 --window 40 --epochs 2 --seed 1 --out " + quoted(path("ss.json"))));
+  const json nn = expect_result(run("design nn --plant " + quoted(path("ss.json")) + " --ff " + quoted(path("ff.json")) +
+                                    " --hidden 3 --iterations 3 --samples 2000 --out " + quoted(path("fb_ss.json"))));
+  EXPECT_LE(nn["jc_val_after_pct"].get<double>(), nn["jc_val_before_pct"].get<double>());
+  const json file = json::parse(text_of(path("fb_ss.json")));
+  EXPECT_EQ(file["meta"]["plant_kind"], "ss");
+  EXPECT_EQ(file["plant"]["params"]["theta"], json::parse(text_of(path("ss.json")))["params"]["theta"]);
+  const models::NeuralFeedback fb = models::neural_feedback_from_json(file);
+  EXPECT_TRUE(std::holds_alternative<models::SsModel>(fb.plant.model));
+  expect_result(run("chain --bandpass 20,1200 --ff " + quoted(path("ff.json")) + " --fb " + quoted(path("fb_ss.json")) +
+                    " --source model --out " + quoted(path("chain_ss.json"))));
+  const json e = expect_result(run("evaluate --plant linear --chain " + quoted(path("chain_ss.json")) +
+                                   " --noise-samples 8000 --probes 80 --probe-peak 0.6"));
+  ASSERT_EQ(e["rows"].size(), 3u);
+  EXPECT_TRUE(std::isfinite(e["rows"][2]["jc_pct"].get<double>())) << e["rows"][2].dump();
+  // the model's THD through the loop: the controller's own ss plant model run with it
+  const double with = e["rows"][2]["probes"][0]["model_thd_pct"].get<double>();
+  const double without = e["rows"][1]["probes"][0]["model_thd_pct"].get<double>();
+  EXPECT_TRUE(std::isfinite(with) && std::isfinite(without));
+  EXPECT_NE(with, without) << "the controller acts in the loop";
+}
+
 TEST_F(CliControl, BadInputIsNamed) {
   // a chain without an LQ feedforward cannot be evaluated: J_c has no reference
   expect_result(run("chain --bandpass 20,1200 --out " + quoted(path("bp.json"))));

@@ -25,6 +25,7 @@
 #include "models/plant/plant_presets.h"
 #include "models/plant/virtual_transducer.h"
 #include "tests/engine/engine_test_models.h"
+#include "tests/support/ss_models.h"
 
 namespace {
 
@@ -349,6 +350,36 @@ TEST(AllocationCounter, TheControllerStagesSwapAndRunWithoutAllocatingOrFreeing)
   EXPECT_EQ(freed, 0);
   EXPECT_EQ(chain.metrics().snapshot().swaps, 2u);
   EXPECT_EQ(chain.collect_retired(), 2u);
+}
+
+// The neural feedback controller with a neural state-space plant model (its tanh layer and polynomial both
+// nonzero) in model mode: the plant model steps on the audio thread, and a new controller takes over.
+TEST(AllocationCounter, TheNeuralFeedbackStageRunsAStateSpacePlantModelWithoutAllocatingOrFreeing) {
+  ChainOptions options;
+  options.spec.max_block = 64;
+  options.slots = {Samples{48}, Samples{256}};
+  Chain chain(options);
+  const double fs = models::plant_preset("panel-exciter").fs;
+  models::FeedbackStructure structure;
+  structure.hidden = {6};
+  models::NeuralFeedback fb = models::NeuralFeedback::with_structure(
+      structure, testing_support::resonant_ss(100.0, fs, 0.1, 0.05, 0.5, 0.05, 0.02, models::Scaling{}, 81));
+  models::initialize_feedback(fb, 82, 1.0);
+  chain.feedback().set_initial(std::make_unique<NeuralFeedbackStage>(fb, FeedbackSource::model));
+  ClosedLoopBlocks process(chain, testing::uniform(64 * 20, 0.3, 83));
+  process(4);
+  chain.feedback().install(std::make_unique<NeuralFeedbackStage>(fb, FeedbackSource::model));
+  long allocated = 0, freed = 0;
+  {
+    Counting c;
+    process(6);
+    allocated = allocations;
+    freed = frees;
+  }
+  EXPECT_EQ(allocated, 0);
+  EXPECT_EQ(freed, 0);
+  EXPECT_EQ(chain.metrics().snapshot().swaps, 1u);
+  EXPECT_EQ(chain.collect_retired(), 1u);
 }
 
 TEST(AllocationCounter, TheRateBridgeAndTheChainRunOddPeriodsWithoutAllocating) {

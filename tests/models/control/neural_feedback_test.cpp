@@ -95,7 +95,8 @@ TEST(NeuralFeedbackTest, RunnerMatchesTheClosedLoopSimulation) {
 TEST(NeuralFeedbackTest, RunnerRefusesAPlantModelWhoseNetworkDisagreesWithItsStructure) {
   NeuralFeedback c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
   EXPECT_NO_THROW(FeedbackRunner{c});
-  c.plant.net = Mlp(c.plant.structure.inputs() + 1, {3});
+  NarxModel& narx = std::get<NarxModel>(c.plant.model);
+  narx.net = Mlp(narx.structure.inputs() + 1, {3});
   EXPECT_THROW(FeedbackRunner{c}, std::invalid_argument);
   c = NeuralFeedback::with_structure(small_structure(), saturating_plant());
   c.net = Mlp(c.structure.inputs() + 2, {3});
@@ -396,7 +397,7 @@ TEST(NeuralFeedbackTest, ModelFileRoundTripsAndNamesWhatIsWrong) {
   EXPECT_EQ(back.net.parameters(), c.net.parameters());
   EXPECT_EQ(back.knee, 0.7);
   EXPECT_EQ(back.structure.ny, 2);
-  EXPECT_EQ(back.plant.net.parameters(), c.plant.net.parameters());
+  EXPECT_EQ(std::get<NarxModel>(back.plant.model).net.parameters(), std::get<NarxModel>(c.plant.model).net.parameters());
 
   const auto broken = [&](auto edit, const std::string& message) {
     nlohmann::json b = j;
