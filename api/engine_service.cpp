@@ -38,13 +38,15 @@ std::string keys_needing_restart(const engine::ConfigChange& change) {
 }
 
 // The model kind each slot runs (ROUTES.md "Models"): the feedforward slot an LQ controller, the feedback
-// slot a neural feedback controller. Plant models (linear, narx) describe the transducer: no slot runs them.
+// slot a neural feedback controller. Plant models (linear, narx, ss, gray_box) describe the transducer: no slot
+// runs them.
 constexpr std::array<const char*, 2> kSlotKinds = {"lq_feedforward", "neural_feedback"};
 
 // What a model of `kind` is, in words.
 std::string kind_in_words(const std::string& kind) {
   if (kind == "linear") return "a linear plant model";
   if (kind == "narx") return "a NARX plant model";
+  if (kind == "ss") return "a neural state-space plant model";
   if (kind == "gray_box") return "a diagnosed gray-box plant model";
   if (kind == "lq_feedforward") return "an LQ feedforward controller";
   if (kind == "neural_feedback") return "a neural feedback controller";
@@ -56,8 +58,9 @@ std::optional<std::string> slot_refusal(std::size_t s, const std::string& id, co
   if (kind == kSlotKinds[s]) return std::nullopt;
   std::string message = "model \"" + id + "\" is " + kind_in_words(kind) + " (kind " + kind + "): the " +
                         kSlotKeys[s] + " slot takes " + kind_in_words(kSlotKinds[s]) + " (kind " + kSlotKinds[s] + ")";
-  if (kind == "linear" || kind == "narx") {
-    message += "; a plant model is what controllers are designed on (design-lq takes a linear one, design-nn a NARX one)";
+  if (kind == "linear" || kind == "narx" || kind == "ss" || kind == "gray_box") {
+    message += "; a plant model is what controllers are designed on (design-lq takes a linear one, design-nn a NARX "
+               "or ss one)";
   } else {
     message += "; activate it in the " + std::string(kSlotKeys[1 - s]) + " slot";
   }

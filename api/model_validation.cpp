@@ -18,6 +18,7 @@
 #include "models/linear/linear_model.h"
 #include "models/control/lq_feedforward.h"
 #include "models/narx/narx_model.h"
+#include "models/state_space_nn/ss_model.h"
 #include "models/io/network_fields.h"
 #include "models/control/neural_feedback.h"
 #include "models/diagnosis/gray_box_model.h"
@@ -56,17 +57,17 @@ std::string read_kind(const json& model) {
                           "belongs to panelbass run --chain (over the API, set the chain with PUT /api/config)");
     }
     throw ModelRejected(kBadRequest, "model.kind: missing (a model file has \"format\":\"panelbass.model/1\" and "
-                                     "\"kind\": linear, narx, lq_feedforward or neural_feedback)");
+                                     "\"kind\": linear, narx, ss, lq_feedforward or neural_feedback)");
   }
   if (!it->is_string()) {
     throw ModelRejected(kBadRequest, std::string("model.kind: expected a string, got ") + it->type_name());
   }
   const std::string kind = it->get<std::string>();
-  for (const char* known : {"linear", "narx", "lq_feedforward", "neural_feedback", "gray_box"}) {
+  for (const char* known : {"linear", "narx", "ss", "lq_feedforward", "neural_feedback", "gray_box"}) {
     if (kind == known) return kind;
   }
   throw ModelRejected(kBadRequest, "model.kind: unknown kind \"" + kind +
-                                       "\" (expected linear, narx, lq_feedforward, neural_feedback or gray_box)");
+                                       "\" (expected linear, narx, ss, lq_feedforward, neural_feedback or gray_box)");
 }
 
 // The key path of the first non-finite number in `root` (depth first, object keys in their stored
@@ -181,6 +182,10 @@ std::optional<std::string> instability(const std::string& kind, const json& mode
     if (kind == "linear") return linear_instability(model);
     if (kind == "lq_feedforward") return lq_instability(model);
     if (kind == "narx") return narx_instability(model, "model");
+    if (kind == "ss") {
+      return runaway_problem(models::ss_free_run_runaway(models::ss_model_shape_from_json(model)), "model",
+                             "the free run");
+    }
     if (kind == "neural_feedback") return narx_instability(model.at("plant"), "model.plant");
   } catch (...) {
     // Malformed: the kind's loader says what is wrong, as a bad request.
@@ -209,6 +214,7 @@ double load(const std::string& kind, const json& model) {
     return m.fs;
   }
   if (kind == "narx") return models::narx_model_from_json(model).fs;
+  if (kind == "ss") return models::ss_model_from_json(model).fs;
   if (kind == "gray_box") return models::gray_box_model_from_json(model).fs;  // its linear part's stability checked
   if (kind == "lq_feedforward") return models::lq_feedforward_from_json(model).fs;
   const models::NeuralFeedback c = models::neural_feedback_from_json(model);

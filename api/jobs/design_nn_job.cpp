@@ -13,12 +13,12 @@
 #include "api/jobs/excitation_record.h"
 #include "api/jobs/stored_models.h"
 #include "models/control/feedback_design.h"
+#include "models/control/loop_plant.h"
 #include "models/control/lq_feedforward.h"
 #include "models/control/model_probes.h"
 #include "models/control/neural_feedback.h"
 #include "models/io/json_fields.h"
 #include "models/io/number_text.h"
-#include "models/narx/narx_model.h"
 #include "models/plant/plant_presets.h"
 
 namespace panelbass::api {
@@ -36,7 +36,7 @@ constexpr long long kMaxPlaybacks = 64;
 
 json design_nn_params(const json& params, const JobEnvironment& env) {
   ParamReader r(params, "params");
-  require_stored_model(r, "plant_model", true, {"narx"}, env);
+  require_stored_model(r, "plant_model", true, {"narx", "ss"}, env);
   require_stored_model(r, "feedforward_model", true, {"lq_feedforward"}, env);
   const models::FeedbackDesignOptions design;
   r.integer("samples", 3000, 1000, kMaxSamples);
@@ -85,7 +85,7 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
   const std::string plant_id = params.at("plant_model").get<std::string>();
   const std::string ff_id = params.at("feedforward_model").get<std::string>();
   progress.at(0.0, "reading " + plant_id + " and " + ff_id);
-  const models::NarxModel plant = models::narx_model_from_json(stored_model_file(env, plant_id));
+  const models::LoopPlant plant = models::loop_plant_from_json(stored_model_file(env, plant_id));
   const models::LqFeedforward ff = models::lq_feedforward_from_json(stored_model_file(env, ff_id));
   const LqBandPass band = lq_band_pass(ff);
   const double lo = band.low_hz, hi = band.high_hz;

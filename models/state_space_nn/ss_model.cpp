@@ -382,7 +382,7 @@ nlohmann::json ss_model_to_json(const SsModel& m) {
 
 std::optional<Runaway> ss_free_run_runaway(const SsModel& m) { return runaway(m.simulate_scaled(free_run_drive())); }
 
-SsModel ss_model_from_json(const nlohmann::json& j) {
+SsModel ss_model_shape_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
   SsModel m;
   m.fs = read_model_header(top, kSsKind);
@@ -425,6 +425,11 @@ SsModel ss_model_from_json(const nlohmann::json& j) {
   p.finish();
   m.meta = read_model_meta(top);
   top.finish();
+  return m;
+}
+
+SsModel ss_model_from_json(const nlohmann::json& j) {
+  SsModel m = ss_model_shape_from_json(j);
   if (const auto r = ss_free_run_runaway(m)) {
     throw ConfigError("model: free run unbounded: |y| = " + std::to_string(r->magnitude) + " after " +
                       std::to_string(r->samples) + " samples of full-scale noise (scaled units)");

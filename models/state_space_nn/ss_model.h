@@ -176,5 +176,8 @@ std::optional<Runaway> ss_free_run_runaway(const SsModel& m);
 /// Reads and validates a neural state-space model object: sizes, θ of exactly P finite entries, fs > 0, and
 /// a bounded free run (ss_free_run_runaway); ConfigError names the key.
 SsModel ss_model_from_json(const nlohmann::json& j);
+/// ss_model_from_json without the free-run test: the file's shape alone (the API tells an unstable model
+/// from a malformed one by running that test itself).
+SsModel ss_model_shape_from_json(const nlohmann::json& j);
 
 }  // namespace panelbass::models

@@ -163,6 +163,25 @@ TEST(ModelValidation, ANeuralFeedbackControllerWithAStateSpacePlantModelIsValida
   EXPECT_NE(message.find("unbounded"), std::string::npos) << message;
 }
 
+// A neural state-space plant model (identify ss) is stored at its rate; one whose free run on full-scale noise
+// runs away (pole radius 0.97 · 1.1 > 1) is an invalid model, not a malformed one; a θ of the wrong length is a
+// bad request naming the key.
+TEST(ModelValidation, AStateSpacePlantModelIsStoredAndAnUnstableOneIsInvalid) {
+  models::SsModel plant =
+      testing_support::resonant_ss(100.0, 3000.0, 0.1, 0.0, 0.05, 0.0, 0.0, models::Scaling{}, 1, true);
+  const ValidatedModel v = validate_model(models::ss_model_to_json(plant));
+  EXPECT_EQ(v.kind, "ss");
+  EXPECT_EQ(v.fs, 3000.0);
+
+  models::SsModel exploding = plant;
+  models::ss_parts(exploding.structure, exploding.theta.data()).A *= 1.1;
+  expect_rejected(models::ss_model_to_json(exploding), "invalid_model", "free run");
+
+  nlohmann::json short_theta = models::ss_model_to_json(plant);
+  short_theta["params"]["theta"].erase(0);
+  expect_rejected(short_theta, "bad_request", "model.params.theta");
+}
+
 TEST(ModelValidation, TheFirstNonFiniteNumberIsNamedByItsKeyPath) {
   // nlohmann::json 3.11 refuses "1e999" while parsing (out_of_range 406), so a body with it never gets
   // here; a non-finite number can still come from code, which this covers.

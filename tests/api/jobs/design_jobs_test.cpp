@@ -3,7 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include "models/control/loop_plant.h"
+#include "models/state_space_nn/ss_model.h"
 #include "tests/api/jobs/job_test_fixture.h"
+#include "tests/support/ss_models.h"
 
 namespace panelbass::api::job_testing {
 namespace {
@@ -83,6 +86,32 @@ TEST_F(JobKindsTest, DesignNnTrainsOnANarxPlantBehindTheLqController) {
   expect_plot(history, {"iteration", "j_est_pct", "j_val_pct"});
   EXPECT_LE(history.at("iteration").size(), 4u);
   EXPECT_LE(result.at("j_val_pct").get<double>(), result.at("summary").at("jc_val_before_pct").get<double>());
+}
+
+// A stored neural state-space plant model (identify ss; uploaded, validated as the API does) is a plant a
+// design-nn job trains on: the controller it stores runs that ss model in its loop, and training lowers the
+// validation J_c from the start.
+TEST_F(JobKindsTest, DesignNnTrainsOnAStateSpacePlantModel) {
+  json params = design_nn_models();
+  const models::SsModel ss =
+      testing_support::resonant_ss(100.0, kFs, 0.1, 0.0, 0.05, 0.0, 0.0, models::Scaling{}, 1, true);
+  const json file = models::ss_model_to_json(ss);
+  const ValidatedModel v = validate_model(file);
+  ASSERT_EQ(v.kind, "ss");
+  const std::string ss_id = store_->put(file, v.kind, v.fs, "resonance", "upload").id;
+  params.update({{"plant_model", ss_id}, {"samples", 1000}, {"max_iterations", 5}, {"hidden", {3}}});
+  const json result = run("design-nn", params, "j3");
+  const std::string id = result.at("model_id").get<std::string>();
+  ASSERT_TRUE(store_->find(id));
+  const models::NeuralFeedback fb = models::neural_feedback_from_json(*store_->model(id));
+  EXPECT_STREQ(fb.plant.kind(), "ss");
+  EXPECT_EQ(fb.meta.at("plant"), ss_id);
+  EXPECT_LT(result.at("j_val_pct").get<double>(), result.at("summary").at("jc_val_before_pct").get<double>());
+  // A linear plant model is refused naming the key and the kinds it takes.
+  params["plant_model"] = store_reference_model();
+  const std::string message = refusal("design-nn", params);
+  EXPECT_NE(message.find("plant_model"), std::string::npos) << message;
+  EXPECT_NE(message.find("ss"), std::string::npos) << message;
 }
 
 TEST_F(JobKindsTest, DesignNnTakesTheControllersLagsAndTheRecordsShape) {
