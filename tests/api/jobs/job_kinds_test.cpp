@@ -160,7 +160,7 @@ TEST_F(JobKindsTest, ReferencedModelsMustExistWithTheRightKind) {
   EXPECT_NE(refusal("design-lq", {{"plant_model", "../etc"}}).find("params.plant_model: must be an id"), std::string::npos);
   const std::string linear = store_reference_model();
   EXPECT_EQ(refusal("design-nn", {{"plant_model", linear}, {"feedforward_model", linear}}),
-            "params.plant_model: model " + linear + " is of kind \"linear\", expected narx");
+            "params.plant_model: model " + linear + " is of kind \"linear\", expected narx or ss");
   EXPECT_EQ(refusal("analyze", json::object()), "params.model: required");
   EXPECT_NO_THROW(validate_job_params("diagnose", {{"baseline_model", linear}}, env_));
   EXPECT_NE(refusal("design-lq", {{"plant_model", linear}, {"band_pass", {{"high_hz", 1600}}}}).find("params.band_pass.high_hz"),
