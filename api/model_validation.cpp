@@ -57,7 +57,7 @@ std::string read_kind(const json& model) {
                           "belongs to panelbass run --chain (over the API, set the chain with PUT /api/config)");
     }
     throw ModelRejected(kBadRequest, "model.kind: missing (a model file has \"format\":\"panelbass.model/1\" and "
-                                     "\"kind\": linear, narx, ss, lq_feedforward or neural_feedback)");
+                                     "\"kind\": linear, narx, ss, lq_feedforward, neural_feedback or gray_box)");
   }
   if (!it->is_string()) {
     throw ModelRejected(kBadRequest, std::string("model.kind: expected a string, got ") + it->type_name());
