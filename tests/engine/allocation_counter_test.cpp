@@ -157,6 +157,17 @@ struct Counting {
   ~Counting() { counting = false; }
 };
 
+/// The allocations and frees on this thread while `work` runs.
+struct Counted {
+  long allocations = 0, frees = 0;
+};
+template <class Work>
+Counted count_during(Work&& work) {
+  Counting c;
+  work();
+  return {allocations, frees};
+}
+
 // Keeps the compiler from proving a pointer unused.
 void* volatile sink = nullptr;
 
@@ -275,9 +286,7 @@ TEST(AllocationCounter, TheChainsBlockRunsAllocateNothingThroughSwapsAndFaults) 
   chain.feedback().install(std::make_unique<NarxStage>(testing::example_narx(73)));
   std::vector<double> bad(64, 0.1);
   bad[30] = std::numeric_limits<double>::quiet_NaN();
-  long allocated = 0, freed = 0;
-  {
-    Counting c;
+  const Counted counted = count_during([&] {
     process(4);  // take-over, crossfade, then block runs again
     chain.feedforward().set_bypassed(true);
     process(3);
@@ -287,11 +296,9 @@ TEST(AllocationCounter, TheChainsBlockRunsAllocateNothingThroughSwapsAndFaults) 
     process(2);
     chain.clear_fault();
     process(4);
-    allocated = allocations;
-    freed = frees;
-  }
-  EXPECT_EQ(allocated, 0);
-  EXPECT_EQ(freed, 0);
+  });
+  EXPECT_EQ(counted.allocations, 0);
+  EXPECT_EQ(counted.frees, 0);
   EXPECT_EQ(chain.metrics().snapshot().swaps, 1u);
   EXPECT_EQ(chain.metrics().snapshot().faults, 1u);
   EXPECT_FALSE(chain.in_fault());
@@ -308,15 +315,11 @@ TEST(AllocationCounter, AStageCaughtUpOverBlocksOnTheAudioThreadAllocatesNothing
   chain.feedback().install(std::make_unique<NarxStage>(testing::example_narx(73), FeedbackSource::sensor));
   process(1);  // taken over; its 200-sample crossfade runs
   chain.feedback().install(std::make_unique<NarxStage>(testing::example_narx(74), FeedbackSource::sensor));
-  long allocated = 0, freed = 0;
-  {
-    Counting c;
+  const Counted counted = count_during([&] {
     process(30);  // the second waits out the fade, catches up block by block, crossfades
-    allocated = allocations;
-    freed = frees;
-  }
-  EXPECT_EQ(allocated, 0);
-  EXPECT_EQ(freed, 0);
+  });
+  EXPECT_EQ(counted.allocations, 0);
+  EXPECT_EQ(counted.frees, 0);
   EXPECT_EQ(chain.metrics().snapshot().swaps, 2u);
   EXPECT_TRUE(chain.feedback().idle());
   EXPECT_EQ(chain.collect_retired(), 2u);
@@ -339,15 +342,11 @@ TEST(AllocationCounter, TheControllerStagesSwapAndRunWithoutAllocatingOrFreeing)
   // new controllers of both kinds (the feedback one now in model mode: its own plant model runs)
   chain.feedforward().install(std::make_unique<StateSpaceStage>(ff.controller(), ff.fs));
   chain.feedback().install(std::make_unique<NeuralFeedbackStage>(fb, FeedbackSource::model));
-  long allocated = 0, freed = 0;
-  {
-    Counting c;
+  const Counted counted = count_during([&] {
     process(6);
-    allocated = allocations;
-    freed = frees;
-  }
-  EXPECT_EQ(allocated, 0);
-  EXPECT_EQ(freed, 0);
+  });
+  EXPECT_EQ(counted.allocations, 0);
+  EXPECT_EQ(counted.frees, 0);
   EXPECT_EQ(chain.metrics().snapshot().swaps, 2u);
   EXPECT_EQ(chain.collect_retired(), 2u);
 }
@@ -369,15 +368,11 @@ TEST(AllocationCounter, TheNeuralFeedbackStageRunsAStateSpacePlantModelWithoutAl
   ClosedLoopBlocks process(chain, testing::uniform(64 * 20, 0.3, 83));
   process(4);
   chain.feedback().install(std::make_unique<NeuralFeedbackStage>(fb, FeedbackSource::model));
-  long allocated = 0, freed = 0;
-  {
-    Counting c;
+  const Counted counted = count_during([&] {
     process(6);
-    allocated = allocations;
-    freed = frees;
-  }
-  EXPECT_EQ(allocated, 0);
-  EXPECT_EQ(freed, 0);
+  });
+  EXPECT_EQ(counted.allocations, 0);
+  EXPECT_EQ(counted.frees, 0);
   EXPECT_EQ(chain.metrics().snapshot().swaps, 1u);
   EXPECT_EQ(chain.collect_retired(), 1u);
 }
