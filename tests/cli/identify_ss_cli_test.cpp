@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -79,6 +80,40 @@ TEST_F(CliIdentifySs, WienerHammersteinStartIsWrittenAsAnSsModelThatValidateRead
                                  "--wiener-hammerstein --epochs 0 --out " + quoted(dir_ / "bad.json"));
   expect_failure(no_nodes);
   EXPECT_TRUE(contains(no_nodes.err, "hidden")) << no_nodes.err;
+}
+
+TEST_F(CliIdentifySs, AverageOfModelsIsAnSsModelWhoseJIsTheMeanRunsAndWhoseMembersLowerIt) {
+  // Three small models of the same split, two seeds and a worse one (no epochs: the linear start).
+  const fs::path a = dir_ / "a.json", b = dir_ / "b.json", lin = dir_ / "lin.json", avg = dir_ / "avg.json";
+  trained_params("--nx 4 --hidden 6 --lags 8 --window 40 --epochs 3 --seed 2", a);
+  trained_params("--nx 4 --hidden 6 --lags 8 --window 40 --epochs 3 --seed 5", b);
+  trained_params("--nx 2 --hidden 2 --lags 8 --window 40 --epochs 0 --seed 1", lin);
+  const json r = expect_result(run("identify average --models " + quoted(a) + " " + quoted(b) + " " + quoted(lin) +
+                                   " --val " + val() + " --fs 3000 --out " + quoted(avg)));
+  // the J it reports is validate's J of the written file, and no higher than its best member's
+  const json v = expect_result(run("validate --model " + quoted(avg) + " --data " + val() + " --init 50"));
+  EXPECT_EQ(v["kind"], "ss");
+  EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
+  double best = 1e300;
+  for (const json& c : r["candidates"]) best = std::min(best, c["J_val_pct"].get<double>());
+  EXPECT_LE(r["J_val_pct"].get<double>(), best);
+  // its states are its members' side by side
+  auto states_of = [&](const json& files) {
+    int sum = 0;
+    for (const json& f : files) sum += json::parse(text_of(f.get<std::string>()))["params"]["states"].get<int>();
+    return sum;
+  };
+  EXPECT_EQ(r["states"], states_of(r["members"]));
+  // without --val every model is a member
+  const json all = expect_result(run("identify average --models " + quoted(a) + " " + quoted(lin) + " --out " + quoted(avg)));
+  EXPECT_EQ(all["members"].size(), 2u);
+  EXPECT_EQ(all["states"], states_of(all["members"]));
+  // a NARX model is not averaged: the refusal names the file and its kind
+  expect_result(run("identify narx --data " + est() + " --fs 3000 --na 2 --nb 2 --hidden 2 --max-iter 1 "
+                                      "--out " + quoted(dir_ / "n.json")));
+  const RunResult bad = run("identify average --models " + quoted(a) + " " + quoted(dir_ / "n.json") + " --out " + quoted(avg));
+  expect_failure(bad);
+  EXPECT_TRUE(contains(bad.err, "n.json") && contains(bad.err, "narx")) << bad.err;
 }
 
 TEST_F(CliIdentifySs, CubicStatesOnlyNodesAreWrittenAndValidateReadsThem) {

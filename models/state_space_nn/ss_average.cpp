@@ -1,0 +1,120 @@
+#include "models/state_space_nn/ss_average.h"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "models/validation/performance.h"
+
+namespace panelbass::models {
+namespace {
+
+// Throws naming member `i` when it cannot sit beside the first member in one average.
+void check_member(const SsModel& first, const SsModel& m, std::size_t i) {
+  const std::string who = "ss_average: member " + std::to_string(i + 1) + " ";
+  const SsStructure &a = first.structure, &b = m.structure;
+  if (b.poly_degree != 0) throw std::invalid_argument(who + "has a polynomial (poly_degree " + std::to_string(b.poly_degree) + "); only tanh or cubic nodes average");
+  if (m.fs != first.fs) throw std::invalid_argument(who + "has fs " + std::to_string(m.fs) + ", member 1 " + std::to_string(first.fs));
+  if (b.lags != a.lags) throw std::invalid_argument(who + "reads " + std::to_string(b.lags) + " lags, member 1 " + std::to_string(a.lags));
+  if (b.activation != a.activation) {
+    throw std::invalid_argument(who + "has " + ss_activation_name(b.activation) + " nodes, member 1 " + ss_activation_name(a.activation));
+  }
+  const Scaling &s = first.scaling, &t = m.scaling;
+  if (s.u_offset != t.u_offset || s.u_scale != t.u_scale || s.y_offset != t.y_offset || s.y_scale != t.y_scale) {
+    throw std::invalid_argument(who + "has another scaling than member 1 (models trained on other data); average models "
+                                "trained on the same estimation data");
+  }
+}
+
+}  // namespace
+
+SsModel ss_average(const std::vector<SsModel>& members) {
+  if (members.empty()) throw std::invalid_argument("ss_average: no members");
+  SsStructure s = members[0].structure;
+  s.states = s.hidden = s.encoder_hidden = 0;
+  s.hidden_input = false;
+  for (std::size_t i = 0; i < members.size(); ++i) {
+    check_member(members[0], members[i], i);
+    s.states += members[i].structure.states;
+    s.hidden += members[i].structure.hidden;
+    s.encoder_hidden += members[i].structure.encoder_hidden;
+    s.hidden_input = s.hidden_input || members[i].structure.hidden_input;
+  }
+  s.check();  // names a sum beyond the limits (64 states)
+  SsModel out;
+  out.structure = s;
+  out.scaling = members[0].scaling;
+  out.fs = members[0].fs;
+  out.theta = Eigen::VectorXd::Zero(s.parameter_count());
+  auto p = ss_parts(s, out.theta.data());
+  const double share = 1.0 / static_cast<double>(members.size());
+  const Eigen::Index n = s.states;
+  Eigen::Index x0 = 0, h0 = 0, e0 = 0;  // where member i's states, nodes and encoder nodes start
+  out.meta["members"] = nlohmann::json::array();
+  for (const SsModel& m : members) {
+    const auto q = ss_parts(m.structure, m.theta.data());
+    const Eigen::Index nx = m.structure.states, h = m.structure.hidden, e = m.structure.encoder_hidden;
+    p.A.block(x0, x0, nx, nx) = q.A;
+    p.B.middleRows(x0, nx) = q.B;
+    p.C.middleCols(x0, nx) = share * q.C;
+    p.D(0, 0) += share * q.D(0, 0);
+    // the nodes: W1 reads the member's states and the input, W2 feeds its states and (a share of) h
+    p.W1.block(h0, x0, h, nx) = q.W1.leftCols(nx);
+    if (m.structure.hidden_input) p.W1.block(h0, n, h, 1) = q.W1.col(nx);
+    p.b1.middleRows(h0, h) = q.b1;
+    p.W2.block(x0, h0, nx, h) = q.W2.topRows(nx);
+    p.W2.block(n, h0, 1, h) = share * q.W2.row(nx);
+    p.b2.middleRows(x0, nx) = q.b2.topRows(nx);
+    p.b2(n, 0) += share * q.b2(nx, 0);
+    // the encoder: x(k0) = E·z + V2·tanh(V1·z + c1) + c2, member by member
+    p.E.middleRows(x0, nx) = q.E;
+    p.c2.middleRows(x0, nx) = q.c2;
+    p.V1.middleRows(e0, e) = q.V1;
+    p.c1.middleRows(e0, e) = q.c1;
+    p.V2.block(x0, e0, nx, e) = q.V2;
+    out.meta["members"].push_back(m.meta);
+    x0 += nx;
+    h0 += h;
+    e0 += e;
+  }
+  return out;
+}
+
+AverageSelection select_average(const std::vector<Eigen::VectorXd>& runs, const Eigen::VectorXd& y, Eigen::Index init) {
+  if (runs.empty()) throw std::invalid_argument("select_average: no candidates");
+  AverageSelection out;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    if (runs[i].size() != y.size()) {
+      throw std::invalid_argument("select_average: candidate " + std::to_string(i + 1) + "'s free run has " +
+                                  std::to_string(runs[i].size()) + " samples, the data " + std::to_string(y.size()));
+    }
+    if (!runs[i].allFinite()) throw std::invalid_argument("select_average: candidate " + std::to_string(i + 1) + "'s free run is not finite");
+    out.candidate_j_percent.push_back(j_percent(runs[i], y, init));
+  }
+  Eigen::VectorXd sum = Eigen::VectorXd::Zero(y.size());
+  std::vector<bool> taken(runs.size(), false);
+  double best = std::numeric_limits<double>::infinity();
+  for (;;) {
+    int pick = -1;
+    double pick_j = best;
+    const double k = static_cast<double>(out.chosen.size() + 1);
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      if (taken[i]) continue;
+      const double j = j_percent((sum + runs[i]) / k, y, init);
+      if (j < pick_j) {
+        pick_j = j;
+        pick = static_cast<int>(i);
+      }
+    }
+    if (pick < 0) break;
+    taken[static_cast<std::size_t>(pick)] = true;
+    sum += runs[static_cast<std::size_t>(pick)];
+    out.chosen.push_back(pick);
+    out.j_percent.push_back(pick_j);
+    best = pick_j;
+  }
+  return out;
+}
+
+}  // namespace panelbass::models
