@@ -30,7 +30,7 @@ struct IdentifySsOptions {
   int epochs = 100, patience = 0, polish_iterations = 0, wh_iterations = 200, wh_candidates = 1;
   long polish_window = 0;
   double max_seconds = 0.0, learning_rate = 1e-3, final_learning_rate = 0.0;
-  std::uint64_t seed = 1, wh_centre_seed = 0;
+  std::uint64_t seed = 1;
   bool wiener_hammerstein = false, poly_states_only = false, hidden_states_only = false;
 };
 
@@ -104,7 +104,7 @@ void run_identify_ss(const IdentifySsOptions& o) {
     if (o.wiener_hammerstein) {
       const models::SsWienerHammerstein wh =
           models::ss_wiener_hammerstein_start(linear, structure, est.columns[0], est.columns[1], u_val, y_val,
-                                                o.wh_iterations, o.seed, o.wh_candidates, o.wh_centre_seed);
+                                                o.wh_iterations, o.seed, o.wh_candidates);
       std::fprintf(stderr,
                    "identify ss: Wiener-Hammerstein start: %d splits, front %d poles and %d zeros (%d states), "
                    "J from rest %.4g %% (linear %.4g %%), after %d Levenberg-Marquardt steps %.4g %% (%d candidates), %.1f s\n",
@@ -119,7 +119,6 @@ void run_identify_ss(const IdentifySsOptions& o) {
                   {"J_from_rest_pct", wh.j_pct},
                   {"iterations", wh.iterations},
                   {"candidates", wh.candidates},
-                  {"centre_seed", o.wh_centre_seed},
                   {"linear_J_from_rest_pct", wh.linear_j_pct}};
     } else {
       start = models::ss_initial_model(linear, structure, est.columns[0], est.columns[1], o.seed);
@@ -250,10 +249,6 @@ void register_identify_ss(CLI::App& identify) {
   cmd->add_option("--wh-candidates", o->wh_candidates,
                   "Splits of the Wiener-Hammerstein search refined 20 steps each before the best one is kept")
       ->check(CLI::Range(1, 64))
-      ->capture_default_str();
-  cmd->add_option("--wh-centre-seed", o->wh_centre_seed,
-                  "Draw the Wiener-Hammerstein nonlinearity's node centres at random with this seed (0: evenly spaced): "
-                  "another start per seed, for identify average")
       ->capture_default_str();
   cmd->add_option("--lags", o->lags, "Past inputs and outputs the encoder reads")->check(CLI::Range(1, 1000))->capture_default_str();
   cmd->add_option("--encoder-hidden", o->encoder_hidden, "Tanh nodes of the encoder (0: affine)")

@@ -7,7 +7,6 @@
 #include <complex>
 #include <functional>
 #include <limits>
-#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -82,7 +81,7 @@ struct SplitFit : WhBlocks {
 
 SplitFit fit_split(TransferFunction front, const TransferFunction& back, int hidden, const Eigen::VectorXd& us,
                    const Eigen::VectorXd& ys, const Eigen::VectorXd& us_sel, const Eigen::VectorXd& ys_sel,
-                   Eigen::Index skip, std::uint64_t centre_seed) {
+                   Eigen::Index skip) {
   SplitFit fit;
   const Eigen::VectorXd v_raw = simulate(realize(front), us);
   const double rms = std::sqrt(v_raw.squaredNorm() / static_cast<double>(v_raw.size()));
@@ -96,13 +95,6 @@ SplitFit fit_split(TransferFunction front, const TransferFunction& back, int hid
   const auto quantile = [&](double q) { return sorted(static_cast<Eigen::Index>(q * static_cast<double>(sorted.size() - 1))); };
   const double low = quantile(kTail), high = quantile(1.0 - kTail), spacing = (high - low) / hidden;
   fit.centres = Eigen::VectorXd::LinSpaced(hidden, low + 0.5 * spacing, high - 0.5 * spacing);
-  if (centre_seed != 0) {
-    // Another start: the centres drawn uniformly over the same range, sorted (a restart of its own for averaging).
-    std::mt19937_64 rng(centre_seed);
-    std::uniform_real_distribution<double> within(low, high);
-    for (double& c : fit.centres) c = within(rng);
-    std::sort(fit.centres.begin(), fit.centres.end());
-  }
   fit.slopes = Eigen::VectorXd::Constant(hidden, 1.0 / spacing);
   const StateSpace back_ss = realize(back);
   const Eigen::MatrixXd M = filter_columns(back_ss, basis(v, fit.centres, fit.slopes)).bottomRows(v.size() - skip);
@@ -270,7 +262,7 @@ SsModel block_model(const SplitFit& fit, SsStructure s, const Scaling& scaling, 
 SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStructure structure, const Eigen::VectorXd& u,
                                                 const Eigen::VectorXd& y, const Eigen::VectorXd& u_val,
                                                 const Eigen::VectorXd& y_val, int iterations, std::uint64_t seed,
-                                                int candidates, std::uint64_t centre_seed) {
+                                                int candidates) {
   if (candidates < 1) throw std::invalid_argument("ss_wiener_hammerstein_start: candidates must be at least 1");
   if (structure.hidden < 1) throw std::invalid_argument("ss_wiener_hammerstein_start: the nonlinearity needs hidden >= 1 tanh nodes");
   if (structure.activation != SsActivation::tanh || !structure.hidden_input) {
@@ -314,7 +306,7 @@ SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStruct
       const int n1 = std::max(front.na(), front.nk + front.nb() - 1), n2 = std::max(back.na(), back.nb() - 1);
       if (n1 + n2 > order) continue;
       ++out.splits;
-      SplitFit fit = fit_split(front, back, structure.hidden, us, ys, us_sel, ys_sel, skip, centre_seed);
+      SplitFit fit = fit_split(front, back, structure.hidden, us, ys, us_sel, ys_sel, skip);
       if (std::isfinite(fit.j_pct)) fits.push_back(std::move(fit));
     }
   }

@@ -60,14 +60,12 @@ struct SsWienerHammerstein {
 /// the simulation error over the whole estimation data, exact Jacobian, at most `iterations` steps, the
 /// iterate of the lowest selection J kept (0: no refinement). With `candidates` > 1 the search's best
 /// `candidates` splits are each refined for min(iterations, 20) steps first, and the one of the lowest
-/// selection J after them is the one refined on. A non-zero `centre_seed` draws g's centres uniformly over the
-/// same range (seeded, sorted) instead of spacing them evenly: another start, and so another local optimum,
-/// per seed — the members of an average (ss_average). Only splits and iterates whose model (encoder aside) has a
+/// selection J after them is the one refined on. Only splits and iterates whose model (encoder aside) has a
 /// bounded free run (ss_free_run_runaway) are kept while any is; the caller's trainer tests the start again. Throws std::invalid_argument when structure.hidden is 0,
 /// `bla` has no pole, or the data are too short for the encoder's lags.
 SsWienerHammerstein ss_wiener_hammerstein_start(const LinearModel& bla, SsStructure structure, const Eigen::VectorXd& u,
                                                 const Eigen::VectorXd& y, const Eigen::VectorXd& u_val,
                                                 const Eigen::VectorXd& y_val, int iterations, std::uint64_t seed,
-                                                int candidates = 1, std::uint64_t centre_seed = 0);
+                                                int candidates = 1);
 
 }  // namespace panelbass::models
