@@ -54,15 +54,30 @@ ss() {
     --hidden "$hidden" --lags "$lags" --window "$window" --max-seconds "${SS_SECONDS:-600}" --seed 1 "$@" \
     ${SS_EXTRA:-} --out "$out" 2>/dev/null | top seconds | awk '{printf "%.0f", $1}'
 }
-# linear OUT NAME FS ORDER [DATA OPTIONS...]: OE of order ORDER on NAME-est/-val, prints its seconds
+# linear OUT NAME FS METHOD ORDER [DATA OPTIONS...]: a linear model (oe, zhu, backx …) of order ORDER on
+# NAME-est/-val, prints its seconds
 linear() {
-  local out=$1 name=$2 fs=$3 order=$4
-  shift 4
+  local out=$1 name=$2 fs=$3 method=$4 order=$5
+  shift 5
   local began
   began=$(date +%s.%N)
-  "$bin" identify linear --data "$work/$name-est.csv" --val "$work/$name-val.csv" --fs "$fs" "$@" --method oe \
+  "$bin" identify linear --data "$work/$name-est.csv" --val "$work/$name-val.csv" --fs "$fs" "$@" --method "$method" \
     --order "$order" --out "$out" > /dev/null 2>&1
   awk -v a="$began" -v b="$(date +%s.%N)" 'BEGIN {printf "%.0f", b - a}'
+}
+# average OUT NAME MEMBER-KEYS...: identify average of the kept models MEMBER-KEYS, members chosen on NAME-val;
+# prints the members' training seconds summed with its own
+average() {
+  local out=$1 name=$2
+  shift 2
+  local files=() total=0 began key
+  for key in "$@"; do
+    files+=("$models/$key.json")
+    total=$(awk -v a="$total" -v b="$(cat "$models/$key.seconds")" 'BEGIN {print a + b}')
+  done
+  began=$(date +%s.%N)
+  "$bin" identify average --models "${files[@]}" --val "$work/$name-val.csv" --out "$out" > /dev/null 2>&1
+  awk -v a="$began" -v b="$(date +%s.%N)" -v t="$total" 'BEGIN {printf "%.0f", t + b - a}'
 }
 # fit KEY TRAINER ARGS...: $models/KEY.json, trained by TRAINER with it as OUT unless it is kept already;
 # prints the training seconds (KEY.seconds), or fails the row when it is missing and TRAIN=0
@@ -150,7 +165,7 @@ split "$em/DATA_EMPS.csv" 20000 em
 row EMPS DATA_EMPS_PULSES "NARX 2-2-10" em-narx "$em/DATA_EMPS_PULSES.csv" 1000 20 1000 mm "2.64 mm (dynoNet)" \
   narx em 1000 2 2 10 --input-col vir --output-col qm -- --input-col vir --output-col qm
 row EMPS DATA_EMPS_PULSES "OE order 2 (linear)" em-oe "$em/DATA_EMPS_PULSES.csv" 1000 20 1000 mm "2.64 mm (dynoNet)" \
-  linear em 1000 2 --input-col vir --output-col qm -- --input-col vir --output-col qm
+  linear em 1000 oe 2 --input-col vir --output-col qm -- --input-col vir --output-col qm
 row EMPS DATA_EMPS_PULSES "SS nx=2, 10 nodes, 20 lags, polished" em-ss "$em/DATA_EMPS_PULSES.csv" 1000 20 1000 mm "2.64 mm (dynoNet)" \
   ss em 1000 2 10 20 200 --lr 1e-4 --epochs 300 --polish-iter 1000 --polish-window 1000 --input-col vir --output-col qm \
   -- --input-col vir --output-col qm

@@ -56,10 +56,13 @@ void run_identify_average(const IdentifyAverageOptions& o) {
     j_val = s.j_percent.back();
     selection = nlohmann::json::array();
     for (std::size_t i = 0; i < candidates.size(); ++i) {
-      selection.push_back({{"model", o.models[i]}, {"J_val_pct", s.candidate_j_percent[i]}, {"chosen", nullptr}});
+      selection.push_back({{"model", o.models[i]}, {"J_val_pct", s.candidate_j_percent[i]}, {"member", false}});
     }
-    for (std::size_t step = 0; step < s.chosen.size(); ++step) {
-      selection[static_cast<std::size_t>(s.chosen[step])]["chosen"] = {{"step", step + 1}, {"J_val_of_average_pct", s.j_percent[step]}};
+    for (std::size_t step = 0; step < s.order.size(); ++step) {
+      nlohmann::json& c = selection[static_cast<std::size_t>(s.order[step])];
+      c["added_at_step"] = step + 1;
+      c["J_val_of_average_pct"] = s.j_percent[step];
+      c["member"] = step < s.chosen.size();
     }
   }
   std::vector<models::SsModel> members;
@@ -92,7 +95,7 @@ void register_identify_average(CLI::App& identify) {
       ->required()
       ->check(CLI::ExistingFile);
   cmd->add_option("--val", o->val,
-                  "Validation data: members are added greedily while one lowers the J of the mean (without it: all)");
+                  "Validation data: members added one by one, each time the one that leaves the mean of the lowest J; the first ones up to the lowest J are kept (without it: all)");
   o->columns.add_to(cmd);
   cmd->add_option("--init", o->init, "Measured samples that set the state before J (the J the models report)")
       ->check(CLI::Range(0L, 100000000L))

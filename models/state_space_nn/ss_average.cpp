@@ -1,5 +1,6 @@
 #include "models/state_space_nn/ss_average.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -94,26 +95,25 @@ AverageSelection select_average(const std::vector<Eigen::VectorXd>& runs, const 
   }
   Eigen::VectorXd sum = Eigen::VectorXd::Zero(y.size());
   std::vector<bool> taken(runs.size(), false);
-  double best = std::numeric_limits<double>::infinity();
-  for (;;) {
+  while (out.order.size() < runs.size()) {
     int pick = -1;
-    double pick_j = best;
-    const double k = static_cast<double>(out.chosen.size() + 1);
+    double pick_j = std::numeric_limits<double>::infinity();
+    const double k = static_cast<double>(out.order.size() + 1);
     for (std::size_t i = 0; i < runs.size(); ++i) {
       if (taken[i]) continue;
       const double j = j_percent((sum + runs[i]) / k, y, init);
-      if (j < pick_j) {
+      if (pick < 0 || j < pick_j) {
         pick_j = j;
         pick = static_cast<int>(i);
       }
     }
-    if (pick < 0) break;
     taken[static_cast<std::size_t>(pick)] = true;
     sum += runs[static_cast<std::size_t>(pick)];
-    out.chosen.push_back(pick);
+    out.order.push_back(pick);
     out.j_percent.push_back(pick_j);
-    best = pick_j;
   }
+  const auto lowest = std::min_element(out.j_percent.begin(), out.j_percent.end()) - out.j_percent.begin();
+  out.chosen.assign(out.order.begin(), out.order.begin() + lowest + 1);
   return out;
 }
 

@@ -17,11 +17,14 @@ namespace panelbass::models {
 /// std::invalid_argument names the member and what differs. Their meta is kept under meta["members"].
 SsModel ss_average(const std::vector<SsModel>& members);
 
-/// The members of an average chosen greedily by J (forward selection, Caruana et al. 2004): the
-/// candidate of lowest J first, then while one lowers it, the candidate that lowers the J of the mean most.
+/// The members of an average chosen by J (forward selection, as Caruana et al. 2004): the candidate of lowest
+/// J first, then each time the one whose addition leaves the mean of the lowest J, until all are in; the
+/// members are the first ones of that order up to the lowest J on the way (a member that raises J one step
+/// may still let a later one lower it below what came before).
 struct AverageSelection {
-  std::vector<int> chosen;        ///< indices into the candidates, in the order they were added
-  std::vector<double> j_percent;  ///< [2A] J of the average after each addition
+  std::vector<int> order;         ///< every candidate's index, in the order they were added
+  std::vector<double> j_percent;  ///< [2A] J of the mean of the first 1, 2, … of `order`
+  std::vector<int> chosen;        ///< the members: the first of `order` up to the lowest of `j_percent`
   std::vector<double> candidate_j_percent;  ///< each candidate's own J
 };
 

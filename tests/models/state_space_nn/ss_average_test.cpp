@@ -79,11 +79,12 @@ TEST(SsAverage, MembersThatCannotShareOneModelAreRefusedByNumber) {
   EXPECT_THROW(ss_average({}), std::invalid_argument);
 }
 
-TEST(SsAverage, SelectionAddsTheMemberThatLowersTheMeansJMostWhileOneDoes) {
+TEST(SsAverage, SelectionKeepsTheForwardOrdersPrefixOfLowestJ) {
   // y measured; candidates y + e with independent errors: two of one size, one twice as large, one ten times.
   const Eigen::Index n = 4000, init = 50;
   const Eigen::VectorXd y = uniform_noise(n, 1.0, 1);
-  const Eigen::VectorXd e1 = 0.010 * uniform_noise(n, 1.0, 2), e2 = 0.011 * uniform_noise(n, 1.0, 3), e3 = 0.020 * uniform_noise(n, 1.0, 4), e4 = 0.1 * uniform_noise(n, 1.0, 5);
+  const Eigen::VectorXd e1 = 0.010 * uniform_noise(n, 1.0, 2), e2 = 0.011 * uniform_noise(n, 1.0, 3);
+  const Eigen::VectorXd e3 = 0.020 * uniform_noise(n, 1.0, 4), e4 = 0.1 * uniform_noise(n, 1.0, 5);
   const std::vector<Eigen::VectorXd> runs{y + e3, y + e2, y + e4, y + e1};
   const AverageSelection s = select_average(runs, y, init);
   auto j = [&](const Eigen::VectorXd& error) {
@@ -91,12 +92,24 @@ TEST(SsAverage, SelectionAddsTheMemberThatLowersTheMeansJMostWhileOneDoes) {
   };
   ASSERT_EQ(s.candidate_j_percent.size(), 4u);
   EXPECT_NEAR(s.candidate_j_percent[2], j(e4), 1e-12);
-  // e1 alone is best; with e2 the error halves in power; adding e3 ((e1+e2+e3)/3) lowers it once more only
-  // if 0.020² < what it removes, which for these sizes it does not: J((e1+e2+e3)/3) > J((e1+e2)/2).
+  // e1 alone is best; with e2 the error power halves; e3 then raises it (0.020² is more than it averages away),
+  // e4 raises it further: the order e1, e2, e3, e4, the members the first two.
   ASSERT_GT(j((e1 + e2 + e3) / 3.0), j((e1 + e2) / 2.0));
-  ASSERT_EQ(s.chosen, (std::vector<int>{3, 1}));
+  EXPECT_EQ(s.order, (std::vector<int>{3, 1, 0, 2}));
+  ASSERT_EQ(s.j_percent.size(), 4u);
   EXPECT_NEAR(s.j_percent[0], j(e1), 1e-12);
   EXPECT_NEAR(s.j_percent[1], j((e1 + e2) / 2.0), 1e-12);
+  EXPECT_NEAR(s.j_percent[2], j((e1 + e2 + e3) / 3.0), 1e-12);
+  EXPECT_NEAR(s.j_percent[3], j((e1 + e2 + e3 + e4) / 4.0), 1e-12);
+  EXPECT_EQ(s.chosen, (std::vector<int>{3, 1}));
+
+  // A member that raises J one step is kept when a later one lowers it below: two errors that cancel
+  // (+d and −d) beside a small independent one.
+  const Eigen::VectorXd d = 0.03 * uniform_noise(n, 1.0, 6), small = 0.01 * uniform_noise(n, 1.0, 7);
+  const AverageSelection cancel = select_average({y + d, y + small, y - d + 0.1 * small}, y, init);
+  ASSERT_GT(cancel.j_percent[1], cancel.j_percent[0]) << "the second addition raises J";
+  EXPECT_LT(cancel.j_percent[2], cancel.j_percent[0]);
+  EXPECT_EQ(cancel.chosen.size(), 3u);
 
   Eigen::VectorXd broken = y;
   broken(7) = NAN;
