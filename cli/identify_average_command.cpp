@@ -53,7 +53,7 @@ void run_identify_average(const IdentifyAverageOptions& o) {
     }
     const models::AverageSelection s = models::select_average(runs, val.columns[1], o.init);
     chosen = s.chosen;
-    j_val = s.j_percent.back();
+    j_val = s.j_percent[s.chosen.size() - 1];
     selection = nlohmann::json::array();
     for (std::size_t i = 0; i < candidates.size(); ++i) {
       selection.push_back({{"model", o.models[i]}, {"J_val_pct", s.candidate_j_percent[i]}, {"member", false}});
