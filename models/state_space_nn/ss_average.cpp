@@ -16,14 +16,14 @@ void check_member(const SsModel& first, const SsModel& m, std::size_t i) {
   const std::string who = "ss_average: member " + std::to_string(i + 1) + " ";
   const SsStructure &a = first.structure, &b = m.structure;
   if (b.poly_degree != 0) throw std::invalid_argument(who + "has a polynomial (poly_degree " + std::to_string(b.poly_degree) + "); only tanh or cubic nodes average");
-  if (m.fs != first.fs) throw std::invalid_argument(who + "has fs " + std::to_string(m.fs) + ", member 1 " + std::to_string(first.fs));
-  if (b.lags != a.lags) throw std::invalid_argument(who + "reads " + std::to_string(b.lags) + " lags, member 1 " + std::to_string(a.lags));
+  if (m.fs != first.fs) throw std::invalid_argument(who + "has fs " + std::to_string(m.fs) + ", the first " + std::to_string(first.fs));
+  if (b.lags != a.lags) throw std::invalid_argument(who + "reads " + std::to_string(b.lags) + " lags, the first " + std::to_string(a.lags));
   if (b.activation != a.activation) {
-    throw std::invalid_argument(who + "has " + ss_activation_name(b.activation) + " nodes, member 1 " + ss_activation_name(a.activation));
+    throw std::invalid_argument(who + "has " + ss_activation_name(b.activation) + " nodes, the first " + ss_activation_name(a.activation));
   }
   const Scaling &s = first.scaling, &t = m.scaling;
   if (s.u_offset != t.u_offset || s.u_scale != t.u_scale || s.y_offset != t.y_offset || s.y_scale != t.y_scale) {
-    throw std::invalid_argument(who + "has another scaling than member 1 (models trained on other data); average models "
+    throw std::invalid_argument(who + "has another scaling than the first (models trained on other data); average models "
                                 "trained on the same estimation data");
   }
 }
@@ -42,7 +42,11 @@ SsModel ss_average(const std::vector<SsModel>& members) {
     s.encoder_hidden += members[i].structure.encoder_hidden;
     s.hidden_input = s.hidden_input || members[i].structure.hidden_input;
   }
-  s.check();  // names a sum beyond the limits (64 states)
+  if (s.states > 64) {
+    throw std::invalid_argument("ss_average: the " + std::to_string(members.size()) + " members have " +
+                                std::to_string(s.states) + " states in all, more than the 64 an ss model holds; average fewer");
+  }
+  s.check();
   SsModel out;
   out.structure = s;
   out.scaling = members[0].scaling;

@@ -114,6 +114,15 @@ TEST_F(CliIdentifySs, AverageOfModelsIsAnSsModelWhoseJIsTheMeanRunsAndWhoseMembe
   const RunResult bad = run("identify average --models " + quoted(a) + " " + quoted(dir_ / "n.json") + " --out " + quoted(avg));
   expect_failure(bad);
   EXPECT_TRUE(contains(bad.err, "n.json") && contains(bad.err, "narx")) << bad.err;
+  // nor a model trained on other data (another scaling): the refusal names both files
+  const fs::path other = dir_ / "other.json";
+  expect_result(run("identify ss --data " + val() + " --fs 3000 --nx 2 --hidden 2 --lags 8 --window 40 --epochs 0 --out " +
+                    quoted(other)));
+  const RunResult mixed = run("identify average --models " + quoted(a) + " " + quoted(other) + " --out " + quoted(avg));
+  expect_failure(mixed);
+  EXPECT_TRUE(contains(mixed.err, "other.json cannot be averaged with") && contains(mixed.err, "a.json") &&
+              contains(mixed.err, "another scaling"))
+      << mixed.err;
 }
 
 TEST_F(CliIdentifySs, CubicStatesOnlyNodesAreWrittenAndValidateReadsThem) {

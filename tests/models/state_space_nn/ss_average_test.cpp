@@ -68,15 +68,18 @@ TEST(SsAverage, MembersThatCannotShareOneModelAreRefusedByNumber) {
   SsModel other_lags = average_member(2, 3, 0, true, 2);
   other_lags.structure.lags = 5;
   other_lags.theta = Eigen::VectorXd::Zero(other_lags.structure.parameter_count());
-  EXPECT_NE(refusal(other_lags).find("member 2 reads 5 lags, member 1 4"), std::string::npos) << refusal(other_lags);
+  EXPECT_NE(refusal(other_lags).find("member 2 reads 5 lags, the first 4"), std::string::npos) << refusal(other_lags);
   SsModel polynomial = average_member(2, 3, 0, true, 2);
   polynomial.structure.poly_degree = 3;
   polynomial.theta = Eigen::VectorXd::Zero(polynomial.structure.parameter_count());
   EXPECT_NE(refusal(polynomial).find("member 2 has a polynomial"), std::string::npos) << refusal(polynomial);
   SsModel cubic = average_member(2, 3, 0, true, 2);
   cubic.structure.activation = SsActivation::cubic;
-  EXPECT_NE(refusal(cubic).find("member 2 has cubic nodes, member 1 tanh"), std::string::npos) << refusal(cubic);
+  EXPECT_NE(refusal(cubic).find("member 2 has cubic nodes, the first tanh"), std::string::npos) << refusal(cubic);
   EXPECT_THROW(ss_average({}), std::invalid_argument);
+  const std::vector<SsModel> eleven(11, average_member(6, 2, 0, true, 3));
+  const std::string too_many = message_of<std::invalid_argument>([&] { ss_average(eleven); }, "accepted");
+  EXPECT_NE(too_many.find("66 states in all, more than the 64"), std::string::npos) << too_many;
 }
 
 TEST(SsAverage, SelectionKeepsTheForwardOrdersPrefixOfLowestJ) {
