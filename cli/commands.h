@@ -13,6 +13,8 @@ void register_simulate(CLI::App& app);
 void register_identify(CLI::App& app);
 /// `identify ss` under `identify`.
 void register_identify_ss(CLI::App& identify);
+/// `identify mimo` under `identify`.
+void register_identify_mimo(CLI::App& identify);
 
 /// `panelbass validate`: judge a model on data by simulation and prediction.
 void register_validate(CLI::App& app);
