@@ -25,7 +25,7 @@ struct IdentifyMimoOptions {
   std::vector<std::string> inputs{"u1", "u2", "u3"}, outputs{"y1", "y2", "y3"};
   double fs = 0.0;
   int order = 0, max_iterations = 100;
-  long taps = 400, val_realizations = 1;
+  long taps = 150, val_realizations = 1;
   double ridge = 1e-6;
 };
 
@@ -134,7 +134,7 @@ void register_identify_mimo(CLI::App& identify) {
   cmd->add_option("--out", o->out, "Model file to write")->required();
   cmd->footer(
       "Example:\n  zcat fsm_100mV_train.csv.gz > train.csv\n"
-      "  panelbass identify mimo --data train.csv --fs 6400 --order 28 --out fsm.json\n"
+      "  panelbass identify mimo --data train.csv --fs 6400 --order 52 --taps 150 --max-iter 40 --out fsm.json\n"
       "  panelbass validate --model fsm.json --data test.csv --init 100 --warmup 1000");
   cmd->callback([o] { run_identify_mimo(*o); });
 }

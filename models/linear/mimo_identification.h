@@ -17,7 +17,7 @@ namespace panelbass::models {
 struct MimoIdentificationSpec {
   int order = 0;               ///< states; 0 = at the largest gap of the Hankel singular values (up to max_auto_order)
   int max_auto_order = 60;     ///< the automatic order's upper bound
-  Eigen::Index taps = 400;     ///< Markov parameters estimated (the FIR length)
+  Eigen::Index taps = 150;     ///< Markov parameters estimated (the FIR length)
   double ridge = 1e-6;         ///< the FIR's ridge, relative to the normal matrix's mean diagonal
   int max_iterations = 100;    ///< Levenberg–Marquardt steps at most (0: Kung's model as it is)
   /// Called after every refinement iteration; false stops it (the best iterate is kept).
