@@ -188,4 +188,36 @@ row EMPS DATA_EMPS_PULSES "SS nx=2, 10 nodes, 20 lags, polished" em-ss "$em/DATA
   ss em 1000 2 10 20 200 --lr 1e-4 --epochs 300 --polish-iter 1000 --polish-window 1000 --input-col vir --output-col qm \
   -- --input-col vir --output-col qm
 
-echo "| Fine steering mirror | 100 / 200 / 300 mV | not run: 3 inputs × 3 outputs, panelbass's models are single-input single-output | 100 | – | 0.0866 / 0.131 / 0.169 µm (NL-LFR) | – |"
+# Fine steering mirror (3 piezo inputs, 3 displacement outputs, periodic multisines in steady state): a linear MIMO
+# state space (`identify mimo`: circular FIR, Kung's realisation, Levenberg–Marquardt on the steady-state simulation
+# error), per amplitude level and on all three together; the last training realization of every file held out for
+# selection. Test RMSE by the baseline notebook's protocol (merijnfloren/fsm-benchmark-data,
+# baseline_results/analyze_models.ipynb): per realization the two periods in sequence after a 1000-sample
+# periodic warm-up, the RMSE of each output, realization and period over its samples 100..8191, averaged.
+fsm=$data/fine_steering_mirror
+for level in 100mV 200mV 300mV; do
+  for split in train test; do zcat "$fsm/fsm_${level}_$split.csv.gz" > "$work/fsm-$level-$split.csv"; done
+done
+# mimo OUT ORDER TAPS ITERATIONS LEVEL...: identify mimo on the LEVELs' training files, prints its seconds
+mimo() {
+  local out=$1 order=$2 taps=$3 iterations=$4
+  shift 4
+  local files=()
+  for level in "$@"; do files+=(--data "$work/fsm-$level-train.csv"); done
+  "$bin" identify mimo "${files[@]}" --fs 6400 --order "$order" --taps "$taps" --max-iter "$iterations" \
+    --val-realizations 1 --out "$out" 2>/dev/null | top seconds | awk '{printf "%.0f", $1}'
+}
+fsm_published=(100mV:"0.114 µm (BLA of 100 mV); NL-LFR 0.0866" 200mV:"0.216 µm (BLA of 200 mV); NL-LFR 0.131"
+  300mV:"0.228 µm (BLA of 300 mV); NL-LFR 0.169")
+for t in "${fsm_published[@]}"; do
+  level=${t%%:*}
+  row "Fine steering mirror" "$level" "linear MIMO state space n=52, fitted on $level" "fsm-$level" \
+    "$work/fsm-$level-test.csv" 6400 100 1e6 µm "${t#*:}" mimo 52 150 40 "$level" -- --warmup 1000
+done
+fsm_single=(100mV:"0.252 µm (single BLA); NL-LFR 0.0866" 200mV:"0.179 µm (single BLA); NL-LFR 0.131"
+  300mV:"0.658 µm (single BLA); NL-LFR 0.169")
+for t in "${fsm_single[@]}"; do
+  level=${t%%:*}
+  row "Fine steering mirror" "$level" "linear MIMO state space n=52, fitted on all three levels" fsm-all \
+    "$work/fsm-$level-test.csv" 6400 100 1e6 µm "${t#*:}" mimo 52 150 20 100mV 200mV 300mV -- --warmup 1000
+done

@@ -15,6 +15,8 @@ void register_identify(CLI::App& app);
 void register_identify_ss(CLI::App& identify);
 /// `identify average` under `identify`.
 void register_identify_average(CLI::App& identify);
+/// `identify mimo` under `identify`.
+void register_identify_mimo(CLI::App& identify);
 
 /// `panelbass validate`: judge a model on data by simulation and prediction.
 void register_validate(CLI::App& app);

@@ -477,6 +477,7 @@ void register_identify(CLI::App& app) {
 
   register_identify_ss(*identify);
   register_identify_average(*identify);
+  register_identify_mimo(*identify);
 }
 
 }  // namespace panelbass::cli

@@ -119,4 +119,27 @@ nlohmann::json to_array(const Eigen::VectorXd& x) {
   return a;
 }
 
+Eigen::MatrixXd read_matrix(const nlohmann::json& v, const std::string& path, Eigen::Index rows, Eigen::Index cols) {
+  if (!v.is_array()) throw ConfigError(path + ": expected an array of rows, got " + std::string(v.type_name()));
+  if (static_cast<Eigen::Index>(v.size()) != rows) {
+    throw ConfigError(path + ": expected " + std::to_string(rows) + " rows, got " + std::to_string(v.size()));
+  }
+  Eigen::MatrixXd x(rows, cols);
+  for (Eigen::Index i = 0; i < rows; ++i) {
+    const std::string where = path + "[" + std::to_string(i) + "]";
+    const Eigen::VectorXd row = read_vector(v[static_cast<std::size_t>(i)], where);
+    if (row.size() != cols) {
+      throw ConfigError(where + ": expected " + std::to_string(cols) + " numbers, got " + std::to_string(row.size()));
+    }
+    x.row(i) = row.transpose();
+  }
+  return x;
+}
+
+nlohmann::json to_rows(const Eigen::MatrixXd& x) {
+  nlohmann::json a = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < x.rows(); ++i) a.push_back(to_array(x.row(i).transpose()));
+  return a;
+}
+
 }  // namespace panelbass::models

@@ -61,4 +61,11 @@ Eigen::VectorXd read_vector(const nlohmann::json& v, const std::string& path);
 /// The entries of `x` as a JSON array of numbers.
 nlohmann::json to_array(const Eigen::VectorXd& x);
 
+/// A JSON array of `rows` rows, each an array of `cols` finite numbers, as a matrix; ConfigError names the
+/// element or the row whose length is wrong ("model.params.B[2]: expected 3 numbers, got 2").
+Eigen::MatrixXd read_matrix(const nlohmann::json& v, const std::string& path, Eigen::Index rows, Eigen::Index cols);
+
+/// The rows of `x` as a JSON array of arrays of numbers.
+nlohmann::json to_rows(const Eigen::MatrixXd& x);
+
 }  // namespace panelbass::models

@@ -31,6 +31,10 @@ AnyModel model_from_json(const nlohmann::json& j) {
   if (*kind == "narx") return AnyModel{narx_model_from_json(j)};
   if (*kind == "ss") return AnyModel{ss_model_from_json(j)};
   if (*kind == "gray_box") return AnyModel{gray_box_model_from_json(j)};
+  if (*kind == "mimo") {
+    throw ConfigError("model.kind: \"mimo\" is a multi-input multi-output model; only `panelbass validate` reads it "
+                      "(on periodic data), this takes single-input single-output models (linear, narx, ss or gray_box)");
+  }
   throw ConfigError("model.kind: unknown kind \"" + kind->get<std::string>() + "\" (linear, narx, ss or gray_box)");
 }
 
