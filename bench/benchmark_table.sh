@@ -150,23 +150,29 @@ row "Wiener–Hammerstein 2009" test "SS nx=6 from a Wiener–Hammerstein start,
   wh-block10-polish "$wh/test.csv" 51200 50 1000 mV "0.241 mV (SUBNET nx=6)" ss wh 51200 6 10 50 100 --wiener-hammerstein \
   --wh-iter 1000 --epochs 0 --polish-iter 15000 --polish-window 79950
 
-# The members of an average (identify average): block models from other starts — today's OE start with 12 nodes,
-# and Zhu's linear model (order 6; its input delay estimated, 0 or 2) with 10 or 15 nodes; each alone no better,
-# their errors partly independent of the OE start's. The average's members are chosen on the validation part.
+# The members of an average (identify average): block models from other starts — today's OE start with 12 or 15
+# nodes, and Zhu's linear model (order 6, its input delay estimated, 0 or 2; order 7) with 10, 15 or 20 nodes; each
+# alone no better, their errors partly independent of the OE start's. The average's members are chosen on the
+# validation part.
 fit wh-lin-zhu linear wh 51200 zhu 6 > /dev/null || true
 fit wh-lin-zhu0 linear wh 51200 zhu 6 --delay 0 > /dev/null || true
 fit wh-lin-zhu2 linear wh 51200 zhu 6 --delay 2 > /dev/null || true
-row "Wiener–Hammerstein 2009" test "SS nx=6 from a Wiener–Hammerstein start, 12 nodes, 50 lags" wh-block12 "$wh/test.csv" 51200 \
-  50 1000 mV "0.241 mV (SUBNET nx=6)" ss wh 51200 6 12 50 100 --wiener-hammerstein --wh-iter 1000 --epochs 0
-for member in "zhu10 wh-lin-zhu 10" "zhu15 wh-lin-zhu 15" "zhu0-10 wh-lin-zhu0 10" "zhu2-10 wh-lin-zhu2 10"; do
-  read -r key start nodes <<< "$member"
-  row "Wiener–Hammerstein 2009" test "SS nx=6 from a Wiener–Hammerstein start of $start, $nodes nodes, 50 lags" "wh-$key" \
-    "$wh/test.csv" 51200 50 1000 mV "0.241 mV (SUBNET nx=6)" ss wh 51200 6 "$nodes" 50 100 --linear "$models/$start.json" \
+fit wh-lin-zhu7 linear wh 51200 zhu 7 > /dev/null || true
+for member in "12 wh-block12" "15 wh-block15"; do
+  read -r nodes key <<< "$member"
+  row "Wiener–Hammerstein 2009" test "SS nx=6 from a Wiener–Hammerstein start, $nodes nodes, 50 lags" "$key" "$wh/test.csv" \
+    51200 50 1000 mV "0.241 mV (SUBNET nx=6)" ss wh 51200 6 "$nodes" 50 100 --wiener-hammerstein --wh-iter 1000 --epochs 0
+done
+for member in "zhu10 wh-lin-zhu 6 10" "zhu15 wh-lin-zhu 6 15" "zhu20 wh-lin-zhu 6 20" "zhu0-10 wh-lin-zhu0 6 10" \
+  "zhu2-10 wh-lin-zhu2 6 10" "zhu7-10 wh-lin-zhu7 7 10" "zhu7-15 wh-lin-zhu7 7 15"; do
+  read -r key start nx nodes <<< "$member"
+  row "Wiener–Hammerstein 2009" test "SS nx=$nx from a Wiener–Hammerstein start of $start, $nodes nodes, 50 lags" "wh-$key" \
+    "$wh/test.csv" 51200 50 1000 mV "0.241 mV (SUBNET nx=6)" ss wh 51200 "$nx" "$nodes" 50 100 --linear "$models/$start.json" \
     --wiener-hammerstein --wh-iter 600 --epochs 0
 done
 row "Wiener–Hammerstein 2009" test "average of the block models above, members chosen by J_val (identify average)" wh-average \
   "$wh/test.csv" 51200 50 1000 mV "0.241 mV (SUBNET nx=6)" average wh wh-block wh-block10 wh-block10-polish wh-block12 \
-  wh-zhu10 wh-zhu15 wh-zhu0-10 wh-zhu2-10
+  wh-block15 wh-zhu10 wh-zhu15 wh-zhu20 wh-zhu0-10 wh-zhu2-10 wh-zhu7-10 wh-zhu7-15
 
 # cascaded tanks: estimation rows [0, 700) of uEst/yEst, validation [700, 1024) (as Champneys et al. 2024)
 ct=$data/cascaded_tanks/dataBenchmark.csv
