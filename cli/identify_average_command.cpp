@@ -61,6 +61,7 @@ void run_identify_average(const IdentifyAverageOptions& o) {
     for (std::size_t i = 0; i < candidates.size(); ++i) {
       std::fprintf(stderr, "identify average: free run of %s on %s\n", o.models[i].c_str(), o.val.c_str());
       runs.push_back(candidates[i].simulate(val.columns[0], val.columns[1], o.init));
+      if (!runs.back().allFinite()) throw std::invalid_argument("--models " + o.models[i] + ": its free run on " + o.val + " is not finite");
     }
     const models::AverageSelection s = models::select_average(runs, val.columns[1], o.init);
     chosen = s.chosen;
