@@ -37,15 +37,11 @@ models::SsModel load_ss(const std::string& path) {
 void run_identify_average(const IdentifyAverageOptions& o) {
   std::vector<models::SsModel> candidates;
   for (const std::string& path : o.models) candidates.push_back(load_ss(path));
-  for (std::size_t i = 1; i < candidates.size(); ++i) {
-    // each beside the first before any free run: the refusal names the two files
-    try {
-      (void)models::ss_average({candidates[0], candidates[i]});
-    } catch (const std::invalid_argument& e) {
-      std::string why = e.what();
-      const std::string member = "ss_average: member 2 ";
-      if (why.rfind(member, 0) == 0) why = why.substr(member.size());
-      throw std::invalid_argument("--models " + o.models[i] + " cannot be averaged with " + o.models[0] + ": it " + why);
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    // each beside the first before any free run, the refusal naming the files
+    if (const auto why = models::ss_average_mismatch(candidates[0], candidates[i])) {
+      throw std::invalid_argument("--models " + o.models[i] + (i > 0 ? " cannot be averaged with " + o.models[0] : "") +
+                                  ": it " + *why);
     }
   }
   std::vector<int> chosen(candidates.size());

@@ -39,12 +39,7 @@ AnyModel model_from_json(const nlohmann::json& j) {
 }
 
 AnyModel load_model(const std::filesystem::path& path) {
-  const nlohmann::json json = read_json_file(path);
-  try {
-    return model_from_json(json);
-  } catch (const ConfigError& e) {
-    throw ConfigError(path.string() + ": " + e.what());
-  }
+  return read_json_file_as(path, model_from_json);
 }
 
 void save_narx_model(const std::filesystem::path& path, const NarxModel& m) {

@@ -137,12 +137,7 @@ void save_linear_model(const std::filesystem::path& path, const LinearModel& m) 
 }
 
 LinearModel load_linear_model(const std::filesystem::path& path) {
-  const nlohmann::json json = read_json_file(path);
-  try {
-    return linear_model_from_json(json);
-  } catch (const ConfigError& e) {
-    throw ConfigError(path.string() + ": " + e.what());
-  }
+  return read_json_file_as(path, linear_model_from_json);
 }
 
 }  // namespace panelbass::models

@@ -79,12 +79,7 @@ MimoModel mimo_model_from_json(const nlohmann::json& j) {
 void save_mimo_model(const std::filesystem::path& path, const MimoModel& m) { write_json_file(path, mimo_model_to_json(m)); }
 
 MimoModel load_mimo_model(const std::filesystem::path& path) {
-  const nlohmann::json json = read_json_file(path);
-  try {
-    return mimo_model_from_json(json);
-  } catch (const ConfigError& e) {
-    throw ConfigError(path.string() + ": " + e.what());
-  }
+  return read_json_file_as(path, mimo_model_from_json);
 }
 
 }  // namespace panelbass::models

@@ -278,12 +278,7 @@ nlohmann::json plant_to_json(const PlantConfig& c) {
 }
 
 PlantConfig load_plant_file(const std::filesystem::path& path) {
-  const nlohmann::json json = read_json_file(path);
-  try {
-    return plant_from_json(json);
-  } catch (const ConfigError& e) {
-    throw ConfigError(path.string() + ": " + e.what());
-  }
+  return read_json_file_as(path, plant_from_json);
 }
 
 PlantConfig linearized(PlantConfig c) {

@@ -9,26 +9,21 @@
 #include "models/validation/performance.h"
 
 namespace panelbass::models {
-namespace {
-
-// Throws naming member `i` when it cannot sit beside the first member in one average.
-void check_member(const SsModel& first, const SsModel& m, std::size_t i) {
-  const std::string who = "ss_average: member " + std::to_string(i + 1) + " ";
+std::optional<std::string> ss_average_mismatch(const SsModel& first, const SsModel& m) {
   const SsStructure &a = first.structure, &b = m.structure;
-  if (b.poly_degree != 0) throw std::invalid_argument(who + "has a polynomial (poly_degree " + std::to_string(b.poly_degree) + "); only tanh or cubic nodes average");
-  if (m.fs != first.fs) throw std::invalid_argument(who + "has fs " + std::to_string(m.fs) + ", the first " + std::to_string(first.fs));
-  if (b.lags != a.lags) throw std::invalid_argument(who + "reads " + std::to_string(b.lags) + " lags, the first " + std::to_string(a.lags));
+  if (b.poly_degree != 0) return "has a polynomial (poly_degree " + std::to_string(b.poly_degree) + "); only tanh or cubic nodes average";
+  if (m.fs != first.fs) return "has fs " + std::to_string(m.fs) + ", the first " + std::to_string(first.fs);
+  if (b.lags != a.lags) return "reads " + std::to_string(b.lags) + " lags, the first " + std::to_string(a.lags);
   if (b.activation != a.activation) {
-    throw std::invalid_argument(who + "has " + ss_activation_name(b.activation) + " nodes, the first " + ss_activation_name(a.activation));
+    return std::string("has ") + ss_activation_name(b.activation) + " nodes, the first " + ss_activation_name(a.activation);
   }
   const Scaling &s = first.scaling, &t = m.scaling;
   if (s.u_offset != t.u_offset || s.u_scale != t.u_scale || s.y_offset != t.y_offset || s.y_scale != t.y_scale) {
-    throw std::invalid_argument(who + "has another scaling than the first (models trained on other data); average models "
-                                "trained on the same estimation data");
+    return "has another scaling than the first (models trained on other data); average models trained on the same "
+           "estimation data";
   }
+  return std::nullopt;
 }
-
-}  // namespace
 
 SsModel ss_average(const std::vector<SsModel>& members) {
   if (members.empty()) throw std::invalid_argument("ss_average: no members");
@@ -36,7 +31,9 @@ SsModel ss_average(const std::vector<SsModel>& members) {
   s.states = s.hidden = s.encoder_hidden = 0;
   s.hidden_input = false;
   for (std::size_t i = 0; i < members.size(); ++i) {
-    check_member(members[0], members[i], i);
+    if (const auto why = ss_average_mismatch(members[0], members[i])) {
+      throw std::invalid_argument("ss_average: member " + std::to_string(i + 1) + " " + *why);
+    }
     s.states += members[i].structure.states;
     s.hidden += members[i].structure.hidden;
     s.encoder_hidden += members[i].structure.encoder_hidden;

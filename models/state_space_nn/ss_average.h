@@ -4,6 +4,8 @@
 // diagnosed and designed on as any other ss model; and the members of an average chosen by validation J.
 
 #include <Eigen/Core>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "models/state_space_nn/ss_model.h"
@@ -16,6 +18,10 @@ namespace panelbass::models {
 /// Members must share fs, scaling (the same estimation data), lags and activation, and carry no polynomial;
 /// std::invalid_argument names the member and what differs. Their meta is kept under meta["members"].
 SsModel ss_average(const std::vector<SsModel>& members);
+
+/// Why `m` cannot sit beside `first` in one average ("has another scaling than the first …", for a message
+/// that names `m`), or nullopt when it can; `first` against itself checks it alone (a polynomial).
+std::optional<std::string> ss_average_mismatch(const SsModel& first, const SsModel& m);
 
 /// The members of an average chosen by J (forward selection, as Caruana et al. 2004): the candidate of lowest
 /// J first, then each time the one whose addition leaves the mean of the lowest J, until all are in; the
