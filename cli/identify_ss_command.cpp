@@ -15,6 +15,7 @@
 #include "models/io/json_file.h"
 #include "models/kinds/model_file.h"
 #include "models/linear/linear_identification.h"
+#include "models/state_space_nn/ss_initial_state.h"
 #include "models/state_space_nn/ss_training.h"
 #include "models/state_space_nn/ss_wiener_hammerstein.h"
 #include "models/validation/performance.h"
@@ -23,7 +24,7 @@ namespace panelbass::cli {
 namespace {
 
 struct IdentifySsOptions {
-  std::string data, val, out, linear, start_from, history_out, activation = "tanh";
+  std::string data, val, out, linear, start_from, history_out, activation = "tanh", initial_state;
   DataOptions columns;
   int nx = 6, nk = -1, hidden = 20, lags = 50, encoder_hidden = 0, poly_degree = 0, poly_states = 0;
   long window = 100, batch = 32, init = 50;
@@ -125,6 +126,16 @@ void run_identify_ss(const IdentifySsOptions& o) {
     }
   }
 
+  // The initial state: the encoder's, or fitted per record against the prior of the start's states (the
+  // selection's J is then the fitted one, as the written model's is; the prior is the kept model's in the file).
+  const bool fit_initial_state = o.initial_state == "fit" || (o.initial_state.empty() && start.state_prior);
+  const std::string initial_state = fit_initial_state ? "fit" : "encoder";
+  auto set_prior = [&](models::SsModel& m) {
+    m.state_prior.reset();
+    if (fit_initial_state) m.state_prior = models::ss_state_prior(m, est.columns[0], est.columns[1], o.init);
+  };
+  set_prior(start);
+
   models::SsTrainingOptions options;
   options.window = o.window;
   options.batch = o.batch;
@@ -177,12 +188,17 @@ void run_identify_ss(const IdentifySsOptions& o) {
         " samples, scaled units), so no reader would load it. Try fewer states (--nx), a lower --poly-degree, "
         "without --poly-states-only, a lower --lr, or more estimation data");
   }
+  if (fit_initial_state && trained.model.theta != start.theta) {
+    set_prior(trained.model);
+    if (u_val.size()) trained.j_val_pct = models::j_percent(trained.model.simulate(u_val, y_val, o.init), y_val, o.init);
+  }
   const double j_est = models::j_percent(trained.model.simulate(est.columns[0], est.columns[1], o.init), est.columns[1], o.init);
   const double j_val = u_val.size() ? trained.j_val_pct : NAN;
   trained.model.meta = {{"data", o.data},
                         {"val", o.val},
                         {"linear", o.linear},
                         {"init", o.init},
+                        {"initial_state", initial_state},
                         {"J_est_pct", j_est},
                         {"J_val_pct", models::number_or_null(j_val)},
                         {"start_J_pct", j_start},
@@ -195,6 +211,7 @@ void run_identify_ss(const IdentifySsOptions& o) {
   print_result({{"J_est_pct", j_est},
                 {"J_val_pct", models::number_or_null(j_val)},
                 {"start_J_pct", j_start},
+                {"initial_state", initial_state},
                 {"states", trained.model.structure.states},
                 {"params", trained.model.theta.size()},
                 {"epochs", static_cast<int>(trained.history.size()) - 1},
@@ -272,6 +289,12 @@ void register_identify_ss(CLI::App& identify) {
   cmd->add_option("--polish-window", o->polish_window, "Window of the L-BFGS polish (0: --window)")
       ->check(CLI::Range(0L, 10000000L))
       ->capture_default_str();
+  cmd->add_option("--initial-state", o->initial_state,
+                  "How a free run's state starts from the --init measured samples: encoder (SUBNET's, an affine map of "
+                  "them), or fit (x(0) fitted through the model to those outputs against the prior of its states along "
+                  "--data; written into the model, so validate and every reader use it). Default: the encoder, or "
+                  "--start-from's own. With --start-from M --epochs 0 it converts M")
+      ->check(CLI::IsMember({"encoder", "fit"}));
   cmd->add_option("--init", o->init, "Measured samples that set the state before J (the J reported and selected on)")
       ->check(CLI::Range(0L, 100000000L))
       ->capture_default_str();
@@ -287,7 +310,9 @@ void register_identify_ss(CLI::App& identify) {
       "  panelbass identify ss --data est.csv --val val.csv --fs 610.35 --nx 2 --hidden 2 --activation cubic "
       "--hidden-states-only --out lfr.json\n"
       "  panelbass identify ss --data est.csv --val val.csv --fs 51200 --nx 6 --hidden 20 --lags 50 --wiener-hammerstein "
-      "--epochs 0 --polish-iter 2000 --polish-window 400 --out wh.json");
+      "--epochs 0 --polish-iter 2000 --polish-window 400 --out wh.json\n"
+      "  panelbass identify ss --data est.csv --val val.csv --fs 51200 --start-from wh.json --epochs 0 --initial-state fit "
+      "--out wh-fit.json");
   cmd->callback([o] { run_identify_ss(*o); });
 }
 

@@ -11,6 +11,7 @@
 #include "models/io/model_header.h"
 #include "models/narx/free_run.h"
 #include "models/narx/mlp_kernel.h"
+#include "models/state_space_nn/ss_initial_state.h"
 
 namespace panelbass::models {
 namespace {
@@ -280,21 +281,34 @@ Eigen::VectorXd SsModel::simulate_scaled(const Eigen::VectorXd& u, const Eigen::
     throw std::invalid_argument("SsModel::simulate: " + std::to_string(init) + " measured outputs requested, got " +
                                 std::to_string(y.size()));
   }
-  const auto p = ss_parts(structure, theta.data());
-  const Eigen::Index n = structure.states, samples = u.size();
+  const Eigen::Index samples = u.size(), start = std::min(init, samples);
   Eigen::VectorXd out(samples);
-  const Eigen::Index start = std::min(init, samples);
+  if (state_prior && start > 0) {
+    out = run_scaled(u, ss_fit_initial_state(*this, u, y, start), 0, samples);
+  } else {
+    Eigen::VectorXd z(2 * structure.lags);
+    ss_regressor(u, y.size() != 0 ? y.head(start).eval() : Eigen::VectorXd(), start, structure.lags, z);
+    Eigen::MatrixXd x(structure.states, 1), encoder_hidden;
+    ss_encode(ss_parts(structure, theta.data()), z, encoder_hidden, x);
+    out.tail(samples - start) = run_scaled(u, x.col(0), start, samples);
+  }
   if (start > 0) out.head(start) = y.head(start);
-  Eigen::VectorXd z(2 * structure.lags);
-  ss_regressor(u, y.size() != 0 ? y.head(start).eval() : Eigen::VectorXd(), start, structure.lags, z);
-  Eigen::MatrixXd x(n, 1), next(n, 1), encoder_hidden;
-  ss_encode(p, z, encoder_hidden, x);
+  return out;
+}
+
+Eigen::VectorXd SsModel::run_scaled(const Eigen::VectorXd& u, const Eigen::VectorXd& x0, Eigen::Index begin, Eigen::Index end,
+                                    Eigen::MatrixXd* states) const {
+  const auto p = ss_parts(structure, theta.data());
+  Eigen::MatrixXd x = x0, next(x0.size(), 1);
+  if (states != nullptr) states->resize(x0.size(), end - begin);
+  Eigen::VectorXd out(end - begin);
   SsStepWork work;
   Eigen::RowVectorXd uk(1), yk(1);
-  for (Eigen::Index k = start; k < samples; ++k) {
+  for (Eigen::Index k = begin; k < end; ++k) {
+    if (states != nullptr) states->col(k - begin) = x.col(0);
     uk(0) = u(k);
     ss_step(p, x, uk, work, yk, next);
-    out(k) = yk(0);
+    out(k - begin) = yk(0);
     x.swap(next);
   }
   return out;
@@ -360,7 +374,7 @@ SsModel ss_model_from_linear(const StateSpace& linear, SsStructure s, const Eige
 }
 
 nlohmann::json ss_model_to_json(const SsModel& m) {
-  return {
+  nlohmann::json j = {
       {"format", kModelFormat},
       {"kind", kSsKind},
       {"fs", m.fs},
@@ -378,9 +392,47 @@ nlohmann::json ss_model_to_json(const SsModel& m) {
         {"theta", to_array(m.theta)}}},
       {"meta", m.meta.is_null() ? nlohmann::json::object() : m.meta},
   };
+  if (m.state_prior) {
+    const SsStatePrior& prior = *m.state_prior;
+    j["params"]["initial_state"] = {
+        {"state_mean", to_array(prior.mean)},
+        {"state_covariance", to_rows(prior.covariance)},
+        {"noise_variance", prior.noise_variance}};
+  }
+  return j;
 }
 
 std::optional<Runaway> ss_free_run_runaway(const SsModel& m) { return runaway(m.simulate_scaled(free_run_drive())); }
+
+namespace {
+
+// The "initial_state" member: the prior's mean (nx), covariance (nx rows of nx, symmetric) and noise
+// variance (> 0), each checked and named by its path.
+SsStatePrior state_prior_from_json(const nlohmann::json& j, const std::string& path, int states) {
+  JsonFields f(j, path);
+  auto required = [&](const char* key) {
+    const nlohmann::json* v = f.member(key);
+    if (v == nullptr) throw ConfigError(f.path_of(key) + ": missing");
+    return v;
+  };
+  SsStatePrior prior;
+  prior.mean = read_vector(*required("state_mean"), f.path_of("state_mean"));
+  if (prior.mean.size() != states) {
+    throw ConfigError(f.path_of("state_mean") + ": expected " + std::to_string(states) + " numbers (the states), got " +
+                      std::to_string(prior.mean.size()));
+  }
+  prior.covariance = read_matrix(*required("state_covariance"), f.path_of("state_covariance"), states, states);
+  if (!(prior.covariance - prior.covariance.transpose()).isZero(1e-9 * (1.0 + prior.covariance.cwiseAbs().maxCoeff())) ||
+      (prior.covariance.diagonal().array() < 0.0).any()) {
+    throw ConfigError(f.path_of("state_covariance") + ": not a covariance (asymmetric, or a negative variance)");
+  }
+  prior.noise_variance = f.number("noise_variance");
+  require_positive(prior.noise_variance, f.path_of("noise_variance"));
+  f.finish();
+  return prior;
+}
+
+}  // namespace
 
 SsModel ss_model_shape_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
@@ -422,6 +474,7 @@ SsModel ss_model_shape_from_json(const nlohmann::json& j) {
     throw ConfigError(p.path_of("theta") + ": expected " + std::to_string(count) + " numbers for these sizes, got " +
                       std::to_string(m.theta.size()));
   }
+  if (const nlohmann::json* prior = p.member("initial_state")) m.state_prior = state_prior_from_json(*prior, p.path_of("initial_state"), m.structure.states);
   p.finish();
   m.meta = read_model_meta(top);
   top.finish();

@@ -10,6 +10,9 @@
 // total degree 2 … poly_degree (PNLSS, Paduart et al. 2010; none when poly_degree is 0), or of the states
 // alone, or of the first poly_states states alone (the leading states of the balanced start: the dominant
 // dynamics, e.g. a Duffing oscillator's pair, while the others stay linear).
+// A model may instead fit its initial state per record (SsStatePrior, models/state_space_nn/ss_initial_state.h):
+// x(0) chosen so that its own free run matches the record's first measured outputs, weighed against a
+// Gaussian prior of its states.
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -130,6 +133,15 @@ void ss_encode(const SsParts<const double>& p, const Eigen::Ref<const Eigen::Mat
 void ss_regressor(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index k, int lags,
                   Eigen::Ref<Eigen::VectorXd> z);
 
+/// What fitting a record's initial state weighs the first measured outputs against (scaled units): the
+/// states' mean and covariance along the model's free run on its estimation data, and the variance of that
+/// free run's output error there.
+struct SsStatePrior {
+  Eigen::VectorXd mean;        ///< nx
+  Eigen::MatrixXd covariance;  ///< nx × nx, symmetric positive semi-definite
+  double noise_variance = 0.0; ///< > 0
+};
+
 /// A neural state-space model in scaled units, with what it needs for raw data.
 struct SsModel {
   SsStructure structure;
@@ -137,6 +149,9 @@ struct SsModel {
   Scaling scaling;
   double fs = 0.0;
   nlohmann::json meta = nlohmann::json::object();
+  /// Set: a free run with measured outputs fits x(0) to them (ss_fit_initial_state) instead of encoding
+  /// x(init) from them; the encoder still serves one-step prediction and training windows.
+  std::optional<SsStatePrior> state_prior;
 
   /// The linear part (A, B, C, D).
   StateSpace linear_part() const;
@@ -146,8 +161,13 @@ struct SsModel {
   StateSpace linearization() const;
 
   /// Free run in scaled units: outputs before `init` are the measured ones, the encoder reads the record
-  /// before `init` (zeros before its start) for x(init), and the recursion runs from there.
+  /// before `init` (zeros before its start) for x(init), and the recursion runs from there. With a
+  /// state_prior and init > 0, x(0) is fitted to the first `init` outputs and the recursion runs from k = 0.
   Eigen::VectorXd simulate_scaled(const Eigen::VectorXd& u, const Eigen::VectorXd& y = {}, Eigen::Index init = 0) const;
+  /// The recursion from state x0 at sample `begin` to `end` (exclusive) on scaled input u: the outputs of
+  /// those samples; `states`, when given, receives x(k) of each (nx × (end − begin)).
+  Eigen::VectorXd run_scaled(const Eigen::VectorXd& u, const Eigen::VectorXd& x0, Eigen::Index begin, Eigen::Index end,
+                             Eigen::MatrixXd* states = nullptr) const;
   /// One-step prediction in scaled units: at every k the encoder's state from the measured past, then h.
   Eigen::VectorXd predict_scaled(const Eigen::VectorXd& u, const Eigen::VectorXd& y) const;
   /// Free run on raw data, raw units; the first `init` measured outputs (raw) seed it.
@@ -163,10 +183,11 @@ SsModel ss_model_from_linear(const StateSpace& linear, SsStructure s, const Eige
                              const Scaling& scaling, double fs, std::uint64_t seed);
 
 /// {"format":"panelbass.model/1","kind":"ss","fs","scaling","params":{"states","hidden","lags",
-/// "encoder_hidden","poly_degree","poly_input","poly_states","activation","hidden_input","theta"},"meta"}
+/// "encoder_hidden","poly_degree","poly_input","poly_states","activation","hidden_input","theta",
+/// "initial_state":{"state_mean","state_covariance" (column-major),"noise_variance"}},"meta"}
 /// (poly_degree and poly_states optional on reading, 0 when absent; poly_input optional, true when absent
 /// unless poly_states > 0; hidden_input optional, true when absent; activation "tanh" or "cubic", "tanh"
-/// when absent).
+/// when absent; initial_state optional, the encoder's when absent).
 nlohmann::json ss_model_to_json(const SsModel& m);
 
 /// The runaway of `m`'s free run (scaled units, from rest) on free_run_drive(); nullopt when it stays within

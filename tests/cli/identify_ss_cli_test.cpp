@@ -125,6 +125,33 @@ TEST_F(CliIdentifySs, AverageOfModelsIsAnSsModelWhoseJIsTheMeanRunsAndWhoseMembe
       << mixed.err;
 }
 
+TEST_F(CliIdentifySs, AFittedInitialStateIsWrittenReadByValidateAndKeptByLaterTraining) {
+  const fs::path encoder = dir_ / "enc.json", fitted = dir_ / "fit.json", again = dir_ / "again.json", back = dir_ / "back.json";
+  const json enc = trained_params("--nx 4 --hidden 6 --lags 8 --window 40 --epochs 3 --seed 2", encoder);
+  EXPECT_FALSE(enc.contains("initial_state"));
+  // converted: the same θ, x(0) now fitted to the 50 measured samples; validate's J is the J reported
+  const json fit = trained_params("--start-from " + quoted(encoder) + " --epochs 0 --initial-state fit", fitted);
+  EXPECT_EQ(fit["theta"], enc["theta"]);
+  ASSERT_TRUE(fit.contains("initial_state"));
+  EXPECT_EQ(fit["initial_state"]["state_mean"].size(), enc["states"].get<std::size_t>());
+  EXPECT_EQ(fit["initial_state"]["state_covariance"].size(), enc["states"].get<std::size_t>());
+  EXPECT_EQ(json::parse(text_of(fitted))["meta"]["initial_state"], "fit");
+  // the encoder reads 8 samples, the fit sees 50 through the model: its J on the record is lower
+  const json v_enc = expect_result(run("validate --model " + quoted(encoder) + " --data " + val() + " --init 50"));
+  const json v_fit = expect_result(run("validate --model " + quoted(fitted) + " --data " + val() + " --init 50"));
+  EXPECT_LT(v_fit["J_sim_pct"].get<double>(), v_enc["J_sim_pct"].get<double>());
+  // trained on from it, the fit stays unless told otherwise
+  trained_params("--start-from " + quoted(fitted) + " --window 40 --epochs 1 --seed 3", again);
+  EXPECT_EQ(json::parse(text_of(again))["meta"]["initial_state"], "fit");
+  EXPECT_TRUE(json::parse(text_of(again))["params"].contains("initial_state"));
+  trained_params("--start-from " + quoted(fitted) + " --epochs 0 --initial-state encoder", back);
+  EXPECT_FALSE(json::parse(text_of(back))["params"].contains("initial_state"));
+  const RunResult bad = run("identify ss --data " + est() + " --fs 3000 --start-from " + quoted(encoder) +
+                            " --epochs 0 --initial-state guess --out " + quoted(dir_ / "bad.json"));
+  expect_usage_error(bad);
+  EXPECT_TRUE(contains(bad.err, "--initial-state")) << bad.err;
+}
+
 TEST_F(CliIdentifySs, CubicStatesOnlyNodesAreWrittenAndValidateReadsThem) {
   const json params = trained_params("--nx 2 --hidden 2 --activation cubic --hidden-states-only --lags 8 --window 40 "
                                      "--epochs 2 --seed 1", dir_ / "lfr.json");
