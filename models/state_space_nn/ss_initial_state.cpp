@@ -28,7 +28,7 @@ SsStatePrior ss_state_prior(const SsModel& m, const Eigen::VectorXd& u, const Ei
   prior.mean = kept.rowwise().mean();
   const Eigen::MatrixXd centred = kept.colwise() - prior.mean;
   prior.covariance = centred * centred.transpose() / static_cast<double>(count - 1);
-  prior.noise_variance = std::max((ys.tail(count) - out.tail(count)).squaredNorm() / static_cast<double>(count), 1e-30);
+  prior.noise_variance = std::max((ys.tail(count) - out.tail(count)).squaredNorm() / static_cast<double>(count), 1e-12);
   return prior;
 }
 

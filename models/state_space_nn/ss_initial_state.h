@@ -13,7 +13,8 @@ namespace panelbass::models {
 
 /// The prior of `m`'s states along raw data u, y: the free run from the encoder's state at sample `init`,
 /// the states and output error of its samples from init + 2L on (past the encoder's transient) — their mean,
-/// covariance and mean squared error (scaled units; the variance floored at 1e-30). Throws
+/// covariance and mean squared error (scaled units, where the output is of size one: the error floored at
+/// 1e-12, so that a model exact on its data still weighs its prior). Throws
 /// std::invalid_argument for mismatched lengths or fewer than nx + 2 samples past the transient.
 SsStatePrior ss_state_prior(const SsModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init);
 
