@@ -27,10 +27,19 @@ struct IdentifyAverageOptions {
   long init = 50;
 };
 
-/// The ss model in `path`; an error naming the file and its kind otherwise.
+/// The ss model in `path`, started by its encoder as the written average will be (a fitted initial state does
+/// not carry over: the members' priors do not combine); an error naming the file and its kind otherwise.
 models::SsModel load_ss(const std::string& path) {
   const models::AnyModel any = models::load_model(path);
-  if (const auto* ss = std::get_if<models::SsModel>(&any.model)) return *ss;
+  if (const auto* ss = std::get_if<models::SsModel>(&any.model)) {
+    models::SsModel m = *ss;
+    if (m.state_prior) {
+      std::fprintf(stderr, "identify average: %s: its fitted initial state is not used; the average starts from the "
+                   "encoders (convert it after: identify ss --start-from AVERAGE --epochs 0 --initial-state fit)\n", path.c_str());
+      m.state_prior.reset();
+    }
+    return m;
+  }
   throw std::invalid_argument("--models " + path + ": a " + any.kind() + " model; identify average takes ss models (identify ss)");
 }
 

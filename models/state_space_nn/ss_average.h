@@ -16,7 +16,8 @@ namespace panelbass::models {
 /// encoders (E, c2, V1, c1, V2 block-wise) and the nodes of [f; h] stacked (each node reads its own member's
 /// states and the input, and feeds its own member's states), C, D and h's weights and bias divided by K.
 /// Members must share fs, scaling (the same estimation data), lags and activation, and carry no polynomial;
-/// std::invalid_argument names the member and what differs. Their meta is kept under meta["members"].
+/// std::invalid_argument names the member and what differs. Their meta is kept under meta["members"]; their
+/// fitted initial states (state_prior) are not: the average starts from its encoders.
 SsModel ss_average(const std::vector<SsModel>& members);
 
 /// Why `m` cannot sit beside `first` in one average ("has another scaling than the first …", for a message
