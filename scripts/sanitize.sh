@@ -92,7 +92,7 @@ cmake --build build-asan -j"$jobs" --target dsp_tests models_tests engine_tests 
 [ "$build_only" = 1 ] && { echo "sanitize: the ASan folder built in $(($(date +%s) - started)) s" >&2; exit 0; }
 # The main build's models library (bootstrap.sh's folder), when it is clang's; otherwise TSan compiles its own.
 prebuilt_models=
-if grep -q '^CMAKE_CXX_COMPILER:FILEPATH=.*clang' build/CMakeCache.txt 2>/dev/null; then
+if grep -q '^CMAKE_CXX_COMPILER:[A-Z]*=.*clang' build/CMakeCache.txt 2>/dev/null; then
   cmake --build build -j"$jobs" --target panelbass_models
   prebuilt_models=$PWD/build/models/libpanelbass_models.a
 fi
