@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "models/optimization/least_squares.h"
+
 namespace panelbass::models::diagnosis_detail {
 namespace {
 
@@ -165,7 +167,7 @@ ForceScore force_score(const ForceChannel& channel, const Records& r, const Fit&
     if (effects.empty()) return 100.0 * channel.residual_val.tail(n_val).squaredNorm() / energy;
     const Eigen::MatrixXd phi_est = stacked_force_regressors(effects, m_est, channel.path.tf).bottomRows(n_est);
     const Eigen::MatrixXd phi_val = stacked_force_regressors(effects, m_val, channel.path.tf).bottomRows(n_val);
-    const Eigen::VectorXd c = phi_est.colPivHouseholderQr().solve(channel.residual_est.tail(n_est));
+    const Eigen::VectorXd c = least_squares(phi_est, channel.residual_est.tail(n_est)).theta;
     return 100.0 * (channel.residual_val.tail(n_val) - phi_val * c).squaredNorm() / energy;
   };
   out.j_before_pct = j_with(base);

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "models/linear/oe_estimator.h"
+#include "models/optimization/least_squares.h"
 #include "models/validation/performance.h"
 
 namespace panelbass::models {
@@ -42,18 +43,14 @@ Eigen::MatrixXd stacked_regressors(const std::vector<DiagnosisTerm>& terms, cons
   return phi;
 }
 
-}  // namespace
-
-// The augmented model's simulation lives here, beside the fit that runs it for every candidate (the same
-// states, the same refinement passes).
-Eigen::VectorXd simulate_augmented(const AugmentedModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                                   Eigen::Index init) {
-  const Eigen::VectorXd y_lin = base_output(m, u, y, init);
-  if (m.terms.empty()) return y_lin;
-  const Eigen::VectorXd ys = m.linear.scaling.scale_y(y_lin);
+// The augmented output from its base's outputs (raw units; `base` started as judged, `base_rest` from rest).
+Eigen::VectorXd augmented_output(const AugmentedModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& base,
+                                 const Eigen::VectorXd& base_rest) {
+  if (m.terms.empty()) return base;
+  const Eigen::VectorXd ys = m.linear.scaling.scale_y(base);
   // The terms' states come from the simulation started at rest, as on the estimation record: a state set
   // from a few noisy outputs can start a slow transient that the integrals behind the states magnify.
-  const Eigen::VectorXd ys_rest = m.linear.scaling.scale_y(base_output(m, u, {}, 0));
+  const Eigen::VectorXd ys_rest = m.linear.scaling.scale_y(base_rest);
   const StateSignals reference = reference_of(m);
   const StateSignals states = state_signals(m.linear.scaling.scale_u(u), ys_rest, m.linear.fs, &reference);
   Eigen::MatrixXd phi = stacked_regressors(m.terms, states, m.linear.tf, m.lags, ys.size());
@@ -73,6 +70,23 @@ Eigen::VectorXd simulate_augmented(const AugmentedModel& m, const Eigen::VectorX
   return m.linear.scaling.unscale_y(y_aug);
 }
 
+bool same_linear_part(const LinearModel& a, const LinearModel& b) {
+  const Scaling &x = a.scaling, &y = b.scaling;
+  return a.tf.nk == b.tf.nk && a.tf.a == b.tf.a && a.tf.b == b.tf.b && a.fs == b.fs && x.u_offset == y.u_offset &&
+         x.u_scale == y.u_scale && x.y_offset == y.y_offset && x.y_scale == y.y_scale;
+}
+
+}  // namespace
+
+// The augmented model's simulation lives here, beside the fit that runs it for every candidate (the same
+// states, the same refinement passes).
+Eigen::VectorXd simulate_augmented(const AugmentedModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
+                                   Eigen::Index init) {
+  const Eigen::VectorXd base = base_output(m, u, y, init);
+  if (m.terms.empty()) return base;
+  return augmented_output(m, u, base, base_output(m, u, {}, 0));
+}
+
 namespace diagnosis_detail {
 
 bool has_effect(const std::vector<DiagnosisTerm>& terms, Effect e) {
@@ -87,13 +101,27 @@ std::string fixed(double x, int digits) {
   return s.str();
 }
 
+std::shared_ptr<const BaseOutputs> BaseOutputCache::of(const Records& r, const LinearModel& linear) {
+  for (const auto& [kept, outputs] : kept_)
+    if (same_linear_part(kept, linear)) return outputs;
+  AugmentedModel m = *r.base;
+  m.linear = linear;
+  auto outputs = std::make_shared<const BaseOutputs>(BaseOutputs{base_output(m, r.u_est, r.y_est, r.init), base_output(m, r.u_est, {}, 0),
+                                                                 base_output(m, r.u_val, r.y_val, r.init), base_output(m, r.u_val, {}, 0)});
+  if (kept_.size() == kKept) kept_.erase(kept_.begin());
+  kept_.emplace_back(linear, outputs);
+  return outputs;
+}
+
 Fit fit_terms(const Records& r, const LinearModel& linear, std::vector<DiagnosisTerm> terms) {
   Fit f;
   f.model = *r.base;
   f.model.linear = linear;
   f.model.lags = r.lags;
-  const Eigen::VectorXd y_lin = linear.scaling.scale_y(base_output(f.model, r.u_est, r.y_est, r.init));
-  const Eigen::VectorXd y_rest = linear.scaling.scale_y(base_output(f.model, r.u_est, {}, 0));  // states: see simulate_augmented
+  const std::shared_ptr<const BaseOutputs> kept = r.base_outputs->of(r, linear);
+  const BaseOutputs& base = *kept;
+  const Eigen::VectorXd y_lin = linear.scaling.scale_y(base.est);
+  const Eigen::VectorXd y_rest = linear.scaling.scale_y(base.est_rest);  // states: see augmented_output
   const StateSignals states = state_signals(linear.scaling.scale_u(r.u_est), y_rest, r.fs);
   f.model.state_mean = states.mean;
   f.model.state_rms = states.rms;
@@ -104,7 +132,7 @@ Fit fit_terms(const Records& r, const LinearModel& linear, std::vector<Diagnosis
     Eigen::MatrixXd phi = stacked_regressors(terms, states, linear.tf, r.lags, y_lin.size());
     const Eigen::Index n = phi.rows() - r.init;
     for (int pass = 0; pass <= kRefinements; ++pass) {
-      const Eigen::VectorXd c = phi.bottomRows(n).colPivHouseholderQr().solve(e.tail(n));
+      const Eigen::VectorXd c = least_squares(phi.bottomRows(n), e.tail(n)).theta;
       int at = 0;
       for (auto& t : terms) {
         const int k = term_columns(t, r.lags);
@@ -118,8 +146,8 @@ Fit fit_terms(const Records& r, const LinearModel& linear, std::vector<Diagnosis
     }
   }
   f.model.terms = std::move(terms);
-  f.j_est = j_percent(simulate_augmented(f.model, r.u_est, r.y_est, r.init), r.y_est, r.init);
-  f.j_val = j_percent(simulate_augmented(f.model, r.u_val, r.y_val, r.init), r.y_val, r.init);
+  f.j_est = j_percent(augmented_output(f.model, r.u_est, base.est, base.est_rest), r.y_est, r.init);
+  f.j_val = j_percent(augmented_output(f.model, r.u_val, base.val, base.val_rest), r.y_val, r.init);
   return f;
 }
 

@@ -4,6 +4,7 @@
 // and a fitted candidate. Folder-internal (namespace diagnosis_detail).
 
 #include <Eigen/Core>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -12,6 +13,8 @@
 #include "models/diagnosis/diagnosis.h"
 
 namespace panelbass::models::diagnosis_detail {
+
+class BaseOutputCache;
 
 /// The records a diagnosis fits on and judges by, and the simulation it starts from.
 struct Records {
@@ -24,6 +27,26 @@ struct Records {
   int lags;
   const AugmentedModel* base = nullptr;  ///< the simulation diagnosed (its linear part and, if not linear, its simulation)
   OutputQuantity output = OutputQuantity::unknown;  ///< what the output measures (which proxy is the displacement)
+  std::shared_ptr<BaseOutputCache> base_outputs = std::make_shared<BaseOutputCache>();  ///< see BaseOutputCache
+};
+
+/// The simulation of `base` with a linear part, without terms, on the two records (raw units): started from the
+/// first `init` measured outputs, as J judges, and from rest, where the terms' states come from.
+struct BaseOutputs {
+  Eigen::VectorXd est, est_rest, val, val_rest;
+};
+
+/// The base outputs of the last few linear parts a diagnosis simulated: every candidate of a round simulates
+/// the same two records through the same linear part (only a linear refit changes it), so each is simulated
+/// once. Valid for one Records (its records and its base).
+class BaseOutputCache {
+ public:
+  /// The base outputs of `linear` (with the records' base simulation, if any) on `r`'s records.
+  std::shared_ptr<const BaseOutputs> of(const Records& r, const LinearModel& linear);
+
+ private:
+  static constexpr std::size_t kKept = 4;  ///< the round's linear part and the last few refits
+  std::vector<std::pair<LinearModel, std::shared_ptr<const BaseOutputs>>> kept_;
 };
 
 /// An augmented model with its coefficients fitted, and its simulation J on both records.

@@ -7,6 +7,7 @@
 
 #include "models/linear/estimation_error.h"
 #include "models/linear/estimator_checks.h"
+#include "models/optimization/least_squares.h"
 
 namespace panelbass::models {
 TransferFunction estimate_arx(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const ModelOrders& orders) {
@@ -45,18 +46,13 @@ TransferFunction estimate_arx(const Eigen::VectorXd& u, const Eigen::VectorXd& y
     phi.col(c) *= scale[c];
   }
 
-  // min ‖Φθ − y‖: a blocked Householder QR of [Φ y] reduces the N×(P+1) problem to the triangular
-  // factor R = [R11 r; 0 ρ] (R11 P×P) with min ‖R11·θ − r‖ the same problem; a column-pivoting QR of
-  // the small R11 then reveals the rank (R11 has the singular values of Φ). Never the normal equations.
-  Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(phi);
-  const Eigen::MatrixXd R = qr.matrixQR().topRows(P).triangularView<Eigen::Upper>();
-  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> small(R.topLeftCorner(P, P));
-  small.setThreshold(1e-10);
-  if (small.rank() < P) {
+  // min ‖Φθ − y‖ (optimization/least_squares.h: never the normal equations), the rank from the unit-norm columns.
+  const LeastSquares fit = least_squares(phi.leftCols(P), phi.col(P), 1e-10);
+  if (fit.rank < P) {
     throw EstimationError(name + ": the input does not excite " + std::to_string(P) + " parameters (rank " +
-                          std::to_string(small.rank()) + ")");
+                          std::to_string(fit.rank) + ")");
   }
-  const Eigen::VectorXd theta = small.solve(Eigen::VectorXd(R.col(P).head(P))).cwiseProduct(scale);
+  const Eigen::VectorXd theta = fit.theta.cwiseProduct(scale);
   if (!theta.allFinite()) {
     throw EstimationError(name + ": the input does not excite " + std::to_string(P) + " parameters");
   }
