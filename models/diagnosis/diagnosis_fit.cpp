@@ -1,6 +1,7 @@
 #include "models/diagnosis/diagnosis_fit.h"
 
 #include <Eigen/QR>
+#include <algorithm>
 #include <iomanip>
 #include <sstream>
 
@@ -43,6 +44,23 @@ Eigen::MatrixXd stacked_regressors(const std::vector<DiagnosisTerm>& terms, cons
   return phi;
 }
 
+// Whether any of `terms` reads the output's states: only then does a refinement pass change the regressors.
+bool any_reads_the_output(const std::vector<DiagnosisTerm>& terms) {
+  return std::ranges::any_of(terms, [](const DiagnosisTerm& t) { return !reads_only_the_input(t); });
+}
+
+// `phi` (stacked_regressors' layout) with the columns of the terms that read the output's states recomputed from
+// `states`; the others read the input alone, which a refinement pass does not change.
+void restack_output_terms(const std::vector<DiagnosisTerm>& terms, const StateSignals& states, const TransferFunction& tf,
+                          int lags, Eigen::MatrixXd& phi) {
+  int at = 0;
+  for (const auto& t : terms) {
+    const int c = term_columns(t, lags);
+    if (!reads_only_the_input(t)) phi.middleCols(at, c) = term_regressors(t, states, tf, lags);
+    at += c;
+  }
+}
+
 // The augmented output from its base's outputs (raw units; `base` started as judged, `base_rest` from rest).
 Eigen::VectorXd augmented_output(const AugmentedModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& base,
                                  const Eigen::VectorXd& base_rest) {
@@ -62,9 +80,10 @@ Eigen::VectorXd augmented_output(const AugmentedModel& m, const Eigen::VectorXd&
   }
   // y⁽⁰⁾ = ŷ_lin, y⁽ᵏ⁺¹⁾ = ŷ_lin + Φ(y⁽ᵏ⁾)·c: the terms act on the states of the augmented output.
   Eigen::VectorXd y_aug = ys + phi * c;
-  for (int pass = 0; pass < kRefinements; ++pass) {
-    phi = stacked_regressors(m.terms, state_signals(m.linear.scaling.scale_u(u), ys_rest + phi * c, m.linear.fs, &reference),
-                             m.linear.tf, m.lags, ys.size());
+  const bool refine = any_reads_the_output(m.terms);
+  for (int pass = 0; refine && pass < kRefinements; ++pass) {
+    restack_output_terms(m.terms, state_signals(m.linear.scaling.scale_u(u), ys_rest + phi * c, m.linear.fs, &reference),
+                         m.linear.tf, m.lags, phi);
     y_aug = ys + phi * c;
   }
   return m.linear.scaling.unscale_y(y_aug);
@@ -131,6 +150,7 @@ Fit fit_terms(const Records& r, const LinearModel& linear, std::vector<Diagnosis
     const Eigen::VectorXd e = linear.scaling.scale_y(r.y_est) - y_lin;
     Eigen::MatrixXd phi = stacked_regressors(terms, states, linear.tf, r.lags, y_lin.size());
     const Eigen::Index n = phi.rows() - r.init;
+    const bool refine = any_reads_the_output(terms);
     for (int pass = 0; pass <= kRefinements; ++pass) {
       const Eigen::VectorXd c = least_squares(phi.bottomRows(n), e.tail(n)).theta;
       int at = 0;
@@ -139,10 +159,10 @@ Fit fit_terms(const Records& r, const LinearModel& linear, std::vector<Diagnosis
         t.coefficients = c.segment(at, k);
         at += k;
       }
-      if (pass == kRefinements) break;
+      if (pass == kRefinements || !refine) break;  // regressors of the input alone: the same again
       const Eigen::VectorXd y_aug = y_rest + phi * c;
-      phi = stacked_regressors(terms, state_signals(linear.scaling.scale_u(r.u_est), y_aug, r.fs, &states), linear.tf,
-                               r.lags, y_lin.size());
+      restack_output_terms(terms, state_signals(linear.scaling.scale_u(r.u_est), y_aug, r.fs, &states), linear.tf, r.lags,
+                           phi);
     }
   }
   f.model.terms = std::move(terms);

@@ -82,6 +82,11 @@ bool has_block_filters(const DiagnosisTerm& term) {
   return term.effect == Effect::static_nonlinearity || (term.effect == Effect::saturation && term.front.b.size() > 0);
 }
 
+bool reads_only_the_input(const DiagnosisTerm& term) {
+  return term.effect == Effect::dc_offset || term.effect == Effect::thermal_compression || has_block_filters(term) ||
+         term.proxy == StateProxy::input;
+}
+
 Eigen::VectorXd static_nonlinearity_signal(const DiagnosisTerm& term, const StateSignals& states) {
   if (!has_block_filters(term)) return states.of(term.proxy);
   return filter_through(term.front, states.input) / term.front_rms;

@@ -118,6 +118,10 @@ int feature_count(const DiagnosisTerm& term);
 /// saturation behind the drive's filter; its output then passes `back` instead of the baseline's dynamics.
 bool has_block_filters(const DiagnosisTerm& term);
 
+/// Whether `term`'s regressors read the input alone (a constant, a function of the drive or of the drive through
+/// a filter of its own), so that a new estimate of the output's states leaves them unchanged.
+bool reads_only_the_input(const DiagnosisTerm& term);
+
 /// The signal z a static function acts on: with block filters (has_block_filters) the normalised input through the
 /// filter before it, over front_rms; without (a saturation of the drive as sampled) its state proxy.
 Eigen::VectorXd static_nonlinearity_signal(const DiagnosisTerm& term, const StateSignals& states);
