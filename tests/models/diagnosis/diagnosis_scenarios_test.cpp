@@ -3,7 +3,7 @@
 // lies below the sensor noise at every bin of the raw residual spectrum (each test asserts it), found
 // from a long record (60 000 + 40 000 samples): the right id comes first and validation J improves.
 // Two effects at once are both found; no effect gives no finding over several seeds.
-// These runs are the slowest of the models tests (10-40 s each in Release): each diagnosis here is one run
+// These runs are the slowest of the models tests (9-36 s each in Release): each diagnosis here is one run
 // of the detection bench (bench/diagnosis_detection.sh, every effect over 6 seeds and the effect-free
 // scenario over 10), so no scenario is diagnosed twice and only the first round is run where only the first
 // finding is asserted. The sanitizer stage leaves them out (scripts/sanitize.sh).
