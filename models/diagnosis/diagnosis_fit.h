@@ -14,21 +14,7 @@
 
 namespace panelbass::models::diagnosis_detail {
 
-class BaseOutputCache;
-
-/// The records a diagnosis fits on and judges by, and the simulation it starts from.
-struct Records {
-  const Eigen::VectorXd& u_est;
-  const Eigen::VectorXd& y_est;
-  const Eigen::VectorXd& u_val;
-  const Eigen::VectorXd& y_val;
-  double fs;
-  Eigen::Index init;
-  int lags;
-  const AugmentedModel* base = nullptr;  ///< the simulation diagnosed (its linear part and, if not linear, its simulation)
-  OutputQuantity output = OutputQuantity::unknown;  ///< what the output measures (which proxy is the displacement)
-  std::shared_ptr<BaseOutputCache> base_outputs = std::make_shared<BaseOutputCache>();  ///< see BaseOutputCache
-};
+struct Records;
 
 /// The simulation of `base` with a linear part, without terms, on the two records (raw units): started from the
 /// first `init` measured outputs, as J judges, and from rest, where the terms' states come from.
@@ -47,6 +33,20 @@ class BaseOutputCache {
  private:
   static constexpr std::size_t kKept = 4;  ///< the round's linear part and the last few refits
   std::vector<std::pair<LinearModel, std::shared_ptr<const BaseOutputs>>> kept_;
+};
+
+/// The records a diagnosis fits on and judges by, and the simulation it starts from.
+struct Records {
+  const Eigen::VectorXd& u_est;
+  const Eigen::VectorXd& y_est;
+  const Eigen::VectorXd& u_val;
+  const Eigen::VectorXd& y_val;
+  double fs;
+  Eigen::Index init;
+  int lags;
+  const AugmentedModel* base = nullptr;  ///< the simulation diagnosed (its linear part and, if not linear, its simulation)
+  OutputQuantity output = OutputQuantity::unknown;  ///< what the output measures (which proxy is the displacement)
+  std::shared_ptr<BaseOutputCache> base_outputs = std::make_shared<BaseOutputCache>();  ///< see BaseOutputCache
 };
 
 /// An augmented model with its coefficients fitted, and its simulation J on both records.
