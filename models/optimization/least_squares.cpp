@@ -3,6 +3,7 @@
 #include <Eigen/QR>
 #include <algorithm>
 #include <stdexcept>
+#include <string>
 
 namespace panelbass::models {
 namespace {
