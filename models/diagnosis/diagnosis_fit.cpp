@@ -91,7 +91,9 @@ Eigen::VectorXd augmented_output(const AugmentedModel& m, const Eigen::VectorXd&
 
 bool same_linear_part(const LinearModel& a, const LinearModel& b) {
   const Scaling &x = a.scaling, &y = b.scaling;
-  return a.tf.nk == b.tf.nk && a.tf.a == b.tf.a && a.tf.b == b.tf.b && a.fs == b.fs && x.u_offset == y.u_offset &&
+  // Eigen's == wants equal sizes: the orders first (a refit may change them).
+  return a.tf.nk == b.tf.nk && a.tf.a.size() == b.tf.a.size() && a.tf.b.size() == b.tf.b.size() && a.tf.a == b.tf.a &&
+         a.tf.b == b.tf.b && a.fs == b.fs && x.u_offset == y.u_offset &&
          x.u_scale == y.u_scale && x.y_offset == y.y_offset && x.y_scale == y.y_scale;
 }
 
