@@ -1,6 +1,5 @@
 #include "models/diagnosis/diagnosis_fit.h"
 
-#include <Eigen/QR>
 #include <algorithm>
 #include <iomanip>
 #include <sstream>

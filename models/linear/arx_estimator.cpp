@@ -1,6 +1,5 @@
 #include "models/linear/arx_estimator.h"
 
-#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <string>

@@ -12,11 +12,11 @@ struct LeastSquares {
   Eigen::Index rank = 0;  ///< the rank revealed with the threshold given
 };
 
-/// min ‖Φθ − y‖: a blocked Householder QR of [Φ y] reduces the N×(P+1) problem to its triangular factor
-/// R = [R₁₁ r; 0 ρ] (R₁₁ P×P, with the singular values of Φ) and min ‖R₁₁θ − r‖, which a column-pivoting QR of
-/// the small R₁₁ solves and whose rank it reveals. The same answer as a column-pivoting QR of Φ itself, whose
-/// unblocked sweeps over N rows cost several times more. `threshold` is that QR's (a pivot below threshold ×
-/// the largest counts as zero); a negative one keeps Eigen's default.
+/// min ‖Φθ − y‖: a Householder QR of [Φ y], a block of rows at a time, reduces the N×(P+1) problem to its
+/// triangular factor R = [R₁₁ r; 0 ρ] (R₁₁ P×P, with the singular values of Φ) and min ‖R₁₁θ − r‖, which a
+/// column-pivoting QR of the small R₁₁ solves at the rank it reveals. The same answer as a column-pivoting QR of Φ
+/// itself, without its pivoting sweeps over all N rows. `threshold` is that QR's (a pivot below threshold × the
+/// largest counts as zero); a negative one keeps Eigen's default.
 LeastSquares least_squares(const Eigen::Ref<const Eigen::MatrixXd>& phi, const Eigen::Ref<const Eigen::VectorXd>& y,
                            double threshold = -1.0);
 
