@@ -13,6 +13,8 @@ void register_simulate(CLI::App& app);
 void register_identify(CLI::App& app);
 /// `identify ss` under `identify`.
 void register_identify_ss(CLI::App& identify);
+/// `identify oscillator` under `identify`.
+void register_identify_oscillator(CLI::App& identify);
 /// `identify average` under `identify`.
 void register_identify_average(CLI::App& identify);
 /// `identify mimo` under `identify`.

@@ -476,6 +476,7 @@ void register_identify(CLI::App& app) {
   });
 
   register_identify_ss(*identify);
+  register_identify_oscillator(*identify);
   register_identify_average(*identify);
   register_identify_mimo(*identify);
 }

@@ -10,15 +10,16 @@
 #include "models/diagnosis/gray_box_model.h"
 #include "models/linear/linear_model.h"
 #include "models/narx/narx_model.h"
+#include "models/oscillator/oscillator_model.h"
 #include "models/state_space_nn/ss_model.h"
 
 namespace panelbass::models {
 
 /// A dynamic model of any kind, used through what all kinds can do.
 struct AnyModel {
-  std::variant<LinearModel, NarxModel, SsModel, GrayBoxModel> model;
+  std::variant<LinearModel, NarxModel, SsModel, GrayBoxModel, OscillatorModel> model;
 
-  /// "linear", "narx", "ss" or "gray_box" (a diagnosed linear model with gray-box terms).
+  /// "linear", "narx", "ss", "gray_box" (a diagnosed linear model with gray-box terms) or "oscillator".
   std::string kind() const;
   /// Sample rate the model was identified at, Hz.
   double fs() const;
@@ -39,5 +40,8 @@ void save_narx_model(const std::filesystem::path& path, const NarxModel& m);
 
 /// Writes a neural state-space model file atomically; ConfigError naming the path if it cannot.
 void save_ss_model(const std::filesystem::path& path, const SsModel& m);
+
+/// Writes an oscillator model file atomically; ConfigError naming the path if it cannot.
+void save_oscillator_model(const std::filesystem::path& path, const OscillatorModel& m);
 
 }  // namespace panelbass::models
