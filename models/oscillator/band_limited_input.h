@@ -10,7 +10,8 @@
 namespace panelbass::models {
 
 /// A sampled input as a function of continuous time, in samples (t = k is sample k), band-limited between
-/// the samples and held at the first and last sample beyond the record.
+/// the samples, held at the first sample before t = 0 and at the grid's last point (t = N − 1/kOversampling)
+/// after it.
 class BandLimitedInput {
  public:
   /// Grid points per sample.
