@@ -81,12 +81,8 @@ Baseline load_baseline(const std::string& path) {
   const models::AnyModel model = models::load_model(path);
   if (const auto* linear = std::get_if<models::LinearModel>(&model.model)) {
     b.linear = *linear;
-  } else if (const auto* ss = std::get_if<models::SsModel>(&model.model)) {
-    b.simulation = models::ss_baseline(*ss);
-  } else if (const auto* gray = std::get_if<models::GrayBoxModel>(&model.model)) {
-    b.simulation = models::gray_box_baseline(*gray);
   } else {
-    b.simulation = models::narx_baseline(std::get<models::NarxModel>(model.model));
+    b.simulation = std::visit([&](const auto& m) { return models::model_baseline(model.kind(), m); }, model.model);
   }
   return b;
 }

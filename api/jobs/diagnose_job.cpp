@@ -40,7 +40,7 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
   JobProgress progress(control);
   const SourcedRecord data = acquire_record(params, env, progress, control);
   const ExcitationRecord& r = data.record;
-  // The simulation diagnosed: a stored linear, NARX, neural state-space or gray-box model, or (without one) the best
+  // The simulation diagnosed: a stored model of any kind, or (without one) the best
   // linear OE model.
   std::optional<models::AnyModel> baseline;
   if (params.contains("baseline_model") && params.at("baseline_model").is_string()) {
@@ -57,16 +57,14 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
   progress.span(kExcitationShare, 0.95);
   // The diagnosis names its stages but not how many remain: each one closes part of the gap to the end.
   options.progress = [&](const std::string& stage) { progress.at(1.0 - std::pow(0.8, ++stages), "diagnose: " + stage); };
-  const auto* narx = baseline ? std::get_if<models::NarxModel>(&baseline->model) : nullptr;
-  const auto* ss = baseline ? std::get_if<models::SsModel>(&baseline->model) : nullptr;
-  const auto* gray = baseline ? std::get_if<models::GrayBoxModel>(&baseline->model) : nullptr;
+  const auto* linear = baseline ? std::get_if<models::LinearModel>(&baseline->model) : nullptr;
   const models::Diagnosis d =
-      narx != nullptr ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs, models::narx_baseline(*narx), options)
-      : ss != nullptr ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs, models::ss_baseline(*ss), options)
-      : gray != nullptr ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs, models::gray_box_baseline(*gray), options)
-                      : models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs,
-                                         baseline ? std::optional(std::get<models::LinearModel>(baseline->model)) : std::nullopt,
-                                         options);
+      baseline && linear == nullptr
+          ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs,
+                             std::visit([&](const auto& m) { return models::model_baseline(baseline->kind(), m); }, baseline->model),
+                             options)
+          : models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs,
+                             linear ? std::optional(*linear) : std::nullopt, options);
 
   progress.span(0.95, 1.0);
   json report = models::diagnosis_to_json(d);
