@@ -6,6 +6,8 @@
 # RMSE taken over the rest. Beside each figure: the best published one (../shared/data/RESULTS.md) and
 # the training time on this machine (wall seconds). NARX models trained pem then oem-d by
 # Levenberg–Marquardt with early stopping on the validation part (the J the model reports, `--init 50`).
+# The oscillator rows (`identify oscillator`: a continuous-time Duffing oscillator with named terms, its input
+# band-limited between samples, fitted in stages by Levenberg–Marquardt) choose their stage on the same part.
 # The neural state-space rows (`identify ss`: SUBNET's linear part plus tanh networks, encoder of past
 # data, Adam on truncated simulation windows; PNLSS: the same linear part plus cubic monomials of the
 # state and input, no tanh layer; or of the states alone) select on the same validation part and J. The
@@ -53,6 +55,13 @@ ss() {
   "$bin" identify ss --data "$work/$name-est.csv" --val "$work/$name-val.csv" --fs "$fs" --nx "$nx" \
     --hidden "$hidden" --lags "$lags" --window "$window" --max-seconds "${SS_SECONDS:-600}" --seed 1 "$@" \
     ${SS_EXTRA:-} --out "$out" 2>/dev/null | top seconds | awk '{printf "%.0f", $1}'
+}
+# oscillator OUT NAME FS [OPTIONS...]: identify oscillator on NAME-est/-val, prints its seconds
+oscillator() {
+  local out=$1 name=$2 fs=$3
+  shift 3
+  "$bin" identify oscillator --data "$work/$name-est.csv" --val "$work/$name-val.csv" --fs "$fs" "$@" --out "$out" \
+    2>/dev/null | top seconds | awk '{printf "%.0f", $1}'
 }
 # linear OUT NAME FS METHOD ORDER [DATA OPTIONS...]: a linear model (oe, zhu, backx …) of order ORDER on
 # NAME-est/-val, prints its seconds
@@ -144,6 +153,8 @@ for t in "${sb_published[@]}"; do
     ss sb $fs_sb 2 0 20 100 --poly-degree 3 --polish-iter 2000 --polish-window 500
   row Silverbox "$set_name" "PNLSS nx=2, degree 3, states-only monomials" sb-pnlss-x "$sb/test_${t%%:*}.csv" $fs_sb 50 1000 mV \
     "${t#*:}" ss sb $fs_sb 2 0 20 100 --poly-degree 3 --poly-states-only --polish-iter 2000 --polish-window 500
+  row Silverbox "$set_name" "Oscillator: Duffing + 6 terms, 8+8 taps" sb-oscillator "$sb/test_${t%%:*}.csv" $fs_sb 50 1000 mV \
+    "${t#*:}" oscillator sb $fs_sb --terms y3,v_log_v,y_v,v2,y_v2,y_abs_y,v_y2 --output-taps 8 --input-taps 8
 done
 
 row "Wiener–Hammerstein 2009" test "NARX 10-10-20" wh-narx "$wh/test.csv" 51200 50 1000 mV "0.241 mV (SUBNET nx=6)" \
