@@ -38,7 +38,7 @@ std::string keys_needing_restart(const engine::ConfigChange& change) {
 }
 
 // The model kind each slot runs (ROUTES.md "Models"): the feedforward slot an LQ controller, the feedback
-// slot a neural feedback controller. Plant models (linear, narx, ss, gray_box) describe the transducer: no slot
+// slot a neural feedback controller. Plant models (linear, narx, ss, gray_box, oscillator) describe the transducer: no slot
 // runs them.
 constexpr std::array<const char*, 2> kSlotKinds = {"lq_feedforward", "neural_feedback"};
 
@@ -48,6 +48,7 @@ std::string kind_in_words(const std::string& kind) {
   if (kind == "narx") return "a NARX plant model";
   if (kind == "ss") return "a neural state-space plant model";
   if (kind == "gray_box") return "a diagnosed gray-box plant model";
+  if (kind == "oscillator") return "an oscillator plant model";
   if (kind == "lq_feedforward") return "an LQ feedforward controller";
   if (kind == "neural_feedback") return "a neural feedback controller";
   return "a model of kind \"" + kind + "\"";
@@ -58,7 +59,7 @@ std::optional<std::string> slot_refusal(std::size_t s, const std::string& id, co
   if (kind == kSlotKinds[s]) return std::nullopt;
   std::string message = "model \"" + id + "\" is " + kind_in_words(kind) + " (kind " + kind + "): the " +
                         kSlotKeys[s] + " slot takes " + kind_in_words(kSlotKinds[s]) + " (kind " + kSlotKinds[s] + ")";
-  if (kind == "linear" || kind == "narx" || kind == "ss" || kind == "gray_box") {
+  if (kind == "linear" || kind == "narx" || kind == "ss" || kind == "gray_box" || kind == "oscillator") {
     message += "; a plant model is what controllers are designed on (design-lq takes a linear one, design-nn a NARX "
                "or ss one)";
   } else {

@@ -17,6 +17,7 @@
 #include "models/kinds/model_checks.h"
 #include "models/linear/linear_model.h"
 #include "models/control/lq_feedforward.h"
+#include "models/oscillator/oscillator_model.h"
 #include "models/narx/narx_model.h"
 #include "models/state_space_nn/ss_model.h"
 #include "models/io/network_fields.h"
@@ -57,17 +58,17 @@ std::string read_kind(const json& model) {
                           "belongs to panelbass run --chain (over the API, set the chain with PUT /api/config)");
     }
     throw ModelRejected(kBadRequest, "model.kind: missing (a model file has \"format\":\"panelbass.model/1\" and "
-                                     "\"kind\": linear, narx, ss, lq_feedforward, neural_feedback or gray_box)");
+                                     "\"kind\": linear, narx, ss, lq_feedforward, neural_feedback, gray_box or oscillator)");
   }
   if (!it->is_string()) {
     throw ModelRejected(kBadRequest, std::string("model.kind: expected a string, got ") + it->type_name());
   }
   const std::string kind = it->get<std::string>();
-  for (const char* known : {"linear", "narx", "ss", "lq_feedforward", "neural_feedback", "gray_box"}) {
+  for (const char* known : {"linear", "narx", "ss", "lq_feedforward", "neural_feedback", "gray_box", "oscillator"}) {
     if (kind == known) return kind;
   }
   throw ModelRejected(kBadRequest, "model.kind: unknown kind \"" + kind +
-                                       "\" (expected linear, narx, ss, lq_feedforward, neural_feedback or gray_box)");
+                                       "\" (expected linear, narx, ss, lq_feedforward, neural_feedback, gray_box or oscillator)");
 }
 
 // The key path of the first non-finite number in `root` (depth first, object keys in their stored
@@ -216,6 +217,7 @@ double load(const std::string& kind, const json& model) {
   if (kind == "narx") return models::narx_model_from_json(model).fs;
   if (kind == "ss") return models::ss_model_from_json(model).fs;
   if (kind == "gray_box") return models::gray_box_model_from_json(model).fs;  // its linear part's stability checked
+  if (kind == "oscillator") return models::oscillator_model_from_json(model).fs;  // its free run checked
   if (kind == "lq_feedforward") return models::lq_feedforward_from_json(model).fs;
   const models::NeuralFeedback c = models::neural_feedback_from_json(model);
   require_bounded_closed_loop(c);

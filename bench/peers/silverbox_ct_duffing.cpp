@@ -1,9 +1,9 @@
 // A peer experiment for issue #36 (Silverbox arrow full), not part of panelbass and not built by CMake: a
 // continuous-time grey-box Duffing oscillator integrated between samples, fitted by Levenberg–Marquardt on the
-// free-run simulation error. It is kept as the reference the figures in docs/identification.md come from, and
-// as the specification of the model kind panelbass does not have yet; a model kind would be rebuilt on the
-// project's own pieces (dsp's resampler for the band-limited input, models/optimization's Levenberg–Marquardt),
-// not on the hand-written CSV reader, interpolator and solver below.
+// free-run simulation error. It is kept as the reference the figures in docs/identification.md come from: the
+// model kind built from it on the project's own pieces (dsp's resampler for the band-limited input,
+// models/optimization's Levenberg–Marquardt, exact sensitivities) is models/oscillator, `identify oscillator`,
+// which reproduces these figures (arrow full 0.242 mV) without the hand-written CSV reader, interpolator and solver below.
 //
 // Model (normalised units: time in samples, us = u / 0.1 V, y in units of 0.1 V):
 //   us(t): the sampled input reconstructed band-limited (Kaiser-windowed sinc, β = 8, taps −31..+32: it looks
