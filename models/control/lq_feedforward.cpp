@@ -450,9 +450,7 @@ LqFeedforward lq_feedforward_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
   ff.fs = read_model_header(top, kLqFeedforwardKind);
 
-  const nlohmann::json* params = top.member("params");
-  if (params == nullptr) throw ConfigError("model.params: missing");
-  JsonFields p(*params, "model.params");
+  JsonFields p(read_model_params(top), "model.params");
   read_feedback_system(p, ff.plant, ff.L);
   ff.weights.R = p.number("R");
   require_positive(ff.weights.R, "model.params.R");

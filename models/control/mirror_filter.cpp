@@ -315,9 +315,7 @@ MirrorModel mirror_model_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
   m.fs = read_model_header(top, kMirrorFilterKind);
   (void)read_model_meta(top);
-  const nlohmann::json* params = top.member("params");
-  if (params == nullptr) throw ConfigError("model.params: missing");
-  JsonFields p(*params, "model.params");
+  JsonFields p(read_model_params(top), "model.params");
   const auto coefficients = [&p](const char* key, std::array<double, 10>& out) {
     const nlohmann::json* v = p.member(key);
     if (v == nullptr) throw ConfigError(p.path_of(key) + ": missing");

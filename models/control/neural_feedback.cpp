@@ -144,9 +144,7 @@ NeuralFeedback neural_feedback_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
   const double fs = read_model_header(top, kNeuralFeedbackKind);
 
-  const nlohmann::json* params = top.member("params");
-  if (params == nullptr) throw ConfigError("model.params: missing");
-  JsonFields p(*params, "model.params");
+  JsonFields p(read_model_params(top), "model.params");
   FeedbackStructure s;
   for (auto [key, field] : {std::pair{"nu", &s.nu}, std::pair{"nv", &s.nv}, std::pair{"ny", &s.ny}}) {
     if (p.member(key) == nullptr) throw ConfigError(p.path_of(key) + ": missing");

@@ -25,4 +25,10 @@ nlohmann::json read_model_meta(JsonFields& top) {
   return *meta;
 }
 
+const nlohmann::json& read_model_params(JsonFields& top) {
+  const nlohmann::json* params = top.member("params");
+  if (params == nullptr) throw ConfigError("model.params: missing");
+  return *params;
+}
+
 }  // namespace panelbass::models

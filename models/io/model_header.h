@@ -16,6 +16,9 @@ inline constexpr const char* kModelFormat = "panelbass.model/1";
 /// ConfigError names the key ("model.kind: expected \"narx\", got \"linear\"").
 double read_model_header(JsonFields& top, const std::string& kind);
 
+/// The required "params" object of the model behind `top`; ConfigError "model.params: missing" without one.
+const nlohmann::json& read_model_params(JsonFields& top);
+
 /// The optional "meta" object (an empty object when absent); ConfigError if it is not an object.
 nlohmann::json read_model_meta(JsonFields& top);
 

@@ -109,13 +109,8 @@ LinearModel linear_model_from_json(const nlohmann::json& j) {
   m.fs = read_model_header(top, kKind);
   m.method = top.string("method", "");
 
-  const nlohmann::json* scaling = top.member("scaling");
-  if (scaling == nullptr) throw ConfigError("model.scaling: missing");
-  m.scaling = scaling_from_json(*scaling, "model.scaling");
-
-  const nlohmann::json* params = top.member("params");
-  if (params == nullptr) throw ConfigError("model.params: missing");
-  JsonFields p(*params, "model.params");
+  m.scaling = read_model_scaling(top);
+  JsonFields p(read_model_params(top), "model.params");
   const nlohmann::json* a = p.member("a");
   if (a == nullptr) throw ConfigError("model.params.a: missing");
   m.tf.a = read_vector(*a, "model.params.a");

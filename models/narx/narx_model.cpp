@@ -179,13 +179,8 @@ NarxModel narx_model_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
   const double fs = read_model_header(top, kNarxKind);
 
-  const nlohmann::json* scaling_json = top.member("scaling");
-  if (scaling_json == nullptr) throw ConfigError("model.scaling: missing");
-  const Scaling scaling = scaling_from_json(*scaling_json, "model.scaling");
-
-  const nlohmann::json* params = top.member("params");
-  if (params == nullptr) throw ConfigError("model.params: missing");
-  JsonFields p(*params, "model.params");
+  const Scaling scaling = read_model_scaling(top);
+  JsonFields p(read_model_params(top), "model.params");
   NarxStructure structure;
   structure.na = read_order(p, "na", kMaxInputs - 1);
   structure.nb = read_order(p, "nb", kMaxInputs - 1);

@@ -301,12 +301,8 @@ OscillatorModel oscillator_model_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
   OscillatorModel m;
   m.fs = read_model_header(top, kOscillatorKind);
-  const nlohmann::json* scaling_json = top.member("scaling");
-  if (scaling_json == nullptr) throw ConfigError("model.scaling: missing");
-  m.scaling = scaling_from_json(*scaling_json, "model.scaling");
-  const nlohmann::json* params = top.member("params");
-  if (params == nullptr) throw ConfigError("model.params: missing");
-  JsonFields p(*params, "model.params");
+  m.scaling = read_model_scaling(top);
+  JsonFields p(read_model_params(top), "model.params");
   OscillatorStructure& s = m.structure;
   s.substeps = static_cast<int>(p.integer("substeps", 4, 1, 64));
   std::vector<double> coefficients;

@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "models/io/config_error.h"
 #include "models/io/json_fields.h"
 
 namespace panelbass::models {
@@ -48,6 +49,12 @@ Scaling scaling_from_json(const nlohmann::json& j, const std::string& path) {
   require_positive(s.y_scale, f.path_of("y_scale"));
   f.finish();
   return s;
+}
+
+Scaling read_model_scaling(JsonFields& top) {
+  const nlohmann::json* scaling = top.member("scaling");
+  if (scaling == nullptr) throw ConfigError("model.scaling: missing");
+  return scaling_from_json(*scaling, "model.scaling");
 }
 
 }  // namespace panelbass::models

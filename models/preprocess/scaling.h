@@ -4,6 +4,9 @@
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
+#include <string>
+
+#include "models/io/json_fields.h"
 
 namespace panelbass::models {
 
@@ -29,5 +32,9 @@ nlohmann::json scaling_to_json(const Scaling& s);
 
 /// Reads and validates a scaling (finite offsets, finite positive scales); ConfigError names the key.
 Scaling scaling_from_json(const nlohmann::json& j, const std::string& path);
+
+/// The required "scaling" of the model file behind `top`, read as scaling_from_json reads it; ConfigError
+/// "model.scaling: missing" without one.
+Scaling read_model_scaling(JsonFields& top);
 
 }  // namespace panelbass::models

@@ -438,14 +438,11 @@ SsModel ss_model_shape_from_json(const nlohmann::json& j) {
   JsonFields top(j, "model");
   SsModel m;
   m.fs = read_model_header(top, kSsKind);
-  const nlohmann::json* scaling_json = top.member("scaling");
-  if (scaling_json == nullptr) throw ConfigError("model.scaling: missing");
-  m.scaling = scaling_from_json(*scaling_json, "model.scaling");
-  const nlohmann::json* params = top.member("params");
-  if (params == nullptr) throw ConfigError("model.params: missing");
-  JsonFields p(*params, "model.params");
+  m.scaling = read_model_scaling(top);
+  const nlohmann::json& params = read_model_params(top);
+  JsonFields p(params, "model.params");
   auto size = [&](const char* key, long lo, long hi) {
-    if (!params->contains(key)) throw ConfigError(p.path_of(key) + ": missing");
+    if (!params.contains(key)) throw ConfigError(p.path_of(key) + ": missing");
     return static_cast<int>(p.integer(key, 0, lo, hi));
   };
   m.structure.states = size("states", 1, 64);
