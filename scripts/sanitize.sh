@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The sanitizer runs CI does after the main tests (issue #10, item 5; item 1's brief fuzz runs):
 #   1. AddressSanitizer + UBSan (less four checks ASan covers; PANELBASS_ASAN_UBSAN in CMakeLists.txt), clang
-#      (build-asan): the whole test suite, every layer. The same build has the libFuzzer targets
+#      (build-asan): the whole test suite, every layer (the libraries instrumented, the test programs' own code
+#      not: tests/CMakeLists.txt). The same build has the libFuzzer targets
 #      (PANELBASS_FUZZ), and each target then runs for a few seconds on its seed corpus, so a parser regression
 #      fails CI. The libraries are built without the fuzzer's coverage hooks
 #      (PANELBASS_FUZZ_COVERAGE=OFF: a tenth of their compile time, and a few seconds of mutation gain little

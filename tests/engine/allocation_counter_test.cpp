@@ -45,7 +45,9 @@ void count_free(void* p) {
 // AddressSanitizer and ThreadSanitizer own malloc and operator new (replacing either breaks their
 // start-up, or clashes with clang's static runtime at link time): there the counting goes through their
 // allocator hooks, which see every allocation and free of the malloc family and operator new alike.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)  // GCC
+#if defined(PANELBASS_SANITIZER_RUNTIME)  // the sanitizer build, whose test code itself is not instrumented
+#define PANELBASS_SANITIZER_OWNS_MALLOC 1
+#elif defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)  // GCC
 #define PANELBASS_SANITIZER_OWNS_MALLOC 1
 #elif defined(__has_feature)  // clang (14 does not define GCC's macros)
 #if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
