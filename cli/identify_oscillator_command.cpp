@@ -15,10 +15,14 @@
 #include "cli/stop_signals.h"
 #include "models/io/json_fields.h"
 #include "models/kinds/model_file.h"
+#include "models/linear/fit_warnings.h"
 #include "models/oscillator/oscillator_fit.h"
 
 namespace panelbass::cli {
 namespace {
+
+/// Above this simulation J (%) a fit is called out as missing what the output does.
+constexpr double kUsefulJPct = 10.0;
 
 struct IdentifyOscillatorOptions {
   std::string data, val, out, terms = "y3";
@@ -85,6 +89,23 @@ void run_identify_oscillator(const IdentifyOscillatorOptions& o) {
                       {"seconds", s.seconds}});
   }
   const models::OscillatorStage& best = fit.stages[fit.best_stage];
+  // A fit worse than a linear model of its own order (2) on the same part says so (fit_warnings).
+  const bool validated = u_val.size() > 0;
+  const double j_linear = models::linear_reference_j_pct(est.columns[0], est.columns[1], u_val, y_val, 2, 0, o.init);
+  std::vector<std::string> warnings = models::fit_warnings(
+      validated ? best.j_val_pct : best.j_est_pct, validated ? "J_val" : "J_est", j_linear,
+      "The record may not be one mass on a spring (more resonances, a coil's inductance, a sensor that differentiates): "
+      "try identify linear, narx or ss, or more --terms and --output-taps/--input-taps.");
+  const double j_judged = validated ? best.j_val_pct : best.j_est_pct;
+  if (warnings.empty() && j_judged > kUsefulJPct) {
+    char figure[64];
+    std::snprintf(figure, sizeof figure, "%.3g", j_judged);
+    warnings.push_back(std::string(validated ? "J_val" : "J_est") + " = " + figure +
+                       " %: the oscillator misses more than a tenth of the output's energy. The record may not be one "
+                       "mass on a spring (more resonances, a coil's inductance, a sensor that differentiates): try "
+                       "identify linear, narx or ss, or more --terms and --output-taps/--input-taps.");
+  }
+  for (const std::string& w : warnings) std::fprintf(stderr, "identify oscillator: warning: %s\n", w.c_str());
   fit.model.meta = {{"data", o.data},
                     {"val", o.val},
                     {"init", o.init},
@@ -98,6 +119,7 @@ void run_identify_oscillator(const IdentifyOscillatorOptions& o) {
                 {"J_val_pct", models::number_or_null(best.j_val_pct)},
                 {"chosen_stage", best.name},
                 {"stages", stages},
+                {"warnings", warnings},
                 {"params", fit.model.theta.size()},
                 {"seconds", fit.stages.back().seconds},
                 {"out", o.out}});

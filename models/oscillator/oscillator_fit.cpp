@@ -6,6 +6,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "models/linear/transfer_function.h"
 #include "models/optimization/least_squares.h"
 #include "models/optimization/levenberg_marquardt.h"
 #include "models/validation/performance.h"
@@ -13,28 +14,57 @@
 namespace panelbass::models {
 namespace {
 
-/// d, k and g of the continuous-time oscillator whose sampled poles are those of the ARX(2, 2) model of
-/// (u, y) (scaled): z² + a₁z + a₂ = 0, s = ln z, d = −(s₁ + s₂), k = s₁·s₂, and g = k times the DC gain.
-void linear_start(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::VectorXd& theta) {
-  const Eigen::Index n = y.size();
-  Eigen::MatrixXd phi(n - 2, 5);
-  for (Eigen::Index k = 2; k < n; ++k) phi.row(k - 2) << -y(k - 1), -y(k - 2), u(k - 1), u(k - 2), 1.0;
-  const Eigen::VectorXd arx = least_squares(phi, y.tail(n - 2)).theta;
-  const double a1 = arx(0), a2 = arx(1);
-  const std::complex<double> root = std::sqrt(std::complex<double>(a1 * a1 - 4 * a2));
-  const std::complex<double> z1 = (-a1 + root) / 2.0, z2 = (-a1 - root) / 2.0;
-  auto not_a_damped_pole = [](std::complex<double> z) {
-    return std::abs(z) >= 1.0 || (std::abs(z.imag()) < 1e-12 && z.real() <= 0.0);
-  };
-  if (not_a_damped_pole(z1) || not_a_damped_pole(z2)) {
-    throw std::invalid_argument("the data's ARX(2,2) model has poles " + std::to_string(z1.real()) + (z1.imag() < 0 ? "" : "+") +
-                                std::to_string(z1.imag()) + "j and " + std::to_string(z2.real()) + (z2.imag() < 0 ? "" : "+") +
-                                std::to_string(z2.imag()) + "j: not a damped oscillator sampled fast enough to start from");
+/// The ARX(n, n) model (with a constant) of (u, y) as a transfer function.
+TransferFunction arx(const Eigen::VectorXd& u, const Eigen::VectorXd& y, int n) {
+  const Eigen::Index rows = y.size() - n;
+  Eigen::MatrixXd phi(rows, 2 * n + 1);
+  for (Eigen::Index k = n; k < y.size(); ++k) {
+    for (int i = 1; i <= n; ++i) {
+      phi(k - n, i - 1) = -y(k - i);
+      phi(k - n, n + i - 1) = u(k - i);
+    }
+    phi(k - n, 2 * n) = 1.0;
   }
-  const std::complex<double> s1 = std::log(z1), s2 = std::log(z2);
-  theta(kOscDamping) = -(s1 + s2).real();
-  theta(kOscStiffness) = (s1 * s2).real();
-  theta(kOscGain) = (arx(2) + arx(3)) / (1.0 + a1 + a2) * theta(kOscStiffness);
+  const Eigen::VectorXd theta = least_squares(phi, y.tail(rows)).theta;
+  TransferFunction tf;
+  tf.a = theta.head(n);
+  tf.b = theta.segment(n, n);
+  tf.nk = 1;
+  return tf;
+}
+
+/// d, k and g of the linear oscillator to start from: the resonance of the data's ARX(n, n) model for the
+/// lowest n = 2 … 8 that has one — its complex pole pair of the largest radius inside the unit circle (or, for
+/// n = 2, two positive real poles inside it) — mapped to continuous time (s = ln z: d = −(s₁ + s₂), k = s₁·s₂),
+/// and g = k times the model's DC gain. ARX(2, 2) is the oscillator's own sampled form; a transducer with more
+/// dynamics (a coil's inductance, a sensor's filter) needs more poles around its resonance.
+void linear_start(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::VectorXd& theta) {
+  std::string seen;
+  for (int n = 2; n <= 8; ++n) {
+    const TransferFunction tf = arx(u, y, n);
+    const Eigen::VectorXcd poles = tf.poles();
+    std::complex<double> z1, z2;
+    bool found = false;
+    for (Eigen::Index i = 0; i < poles.size(); ++i) {
+      const std::complex<double> z = poles(i);
+      if (z.imag() > 1e-9 && std::abs(z) < 1.0 && (!found || std::abs(z) > std::abs(z1))) found = true, z1 = z, z2 = std::conj(z);
+    }
+    const bool real_pair = n == 2 && poles.imag().cwiseAbs().maxCoeff() < 1e-12 && poles.real().minCoeff() > 0.0 &&
+                           poles.real().maxCoeff() < 1.0;
+    if (!found && real_pair) found = true, z1 = poles(0), z2 = poles(1);  // an overdamped oscillator
+    if (!found) {
+      seen += std::string(seen.empty() ? "" : ", ") + "ARX(" + std::to_string(n) + "," + std::to_string(n) + ")";
+      continue;
+    }
+    const std::complex<double> s1 = std::log(z1), s2 = std::log(z2);
+    theta(kOscDamping) = -(s1 + s2).real();
+    theta(kOscStiffness) = (s1 * s2).real();
+    theta(kOscGain) = tf.b.sum() / (1.0 + tf.a.sum()) * theta(kOscStiffness);
+    return;
+  }
+  throw std::invalid_argument("no resonance to start from: the data's " + seen +
+                              " models have no complex pole pair inside the unit circle (nor ARX(2,2) two positive "
+                              "real poles), so it does not look like a damped oscillator sampled fast enough");
 }
 
 /// The parameters a stage frees: x(0) (columns 0, 1), the linear oscillator, and as `stage` says the terms

@@ -1,6 +1,6 @@
 #pragma once
 // Fitting an oscillator model (oscillator_model.h) to a record by its simulation error: a linear oscillator
-// from the record's ARX(2, 2) model (its poles mapped to continuous time), then Levenberg–Marquardt on the
+// from the resonance of the record's ARX model (its poles mapped to continuous time), then Levenberg–Marquardt on the
 // free-run error with the run's exact Jacobian, in warm-started stages that each free one more term of the
 // restoring force (the input delay with the first), then the output and input taps; the initial state is
 // fitted with the parameters. The stage whose validation J (by the protocol it is reported with: x(0) fitted
@@ -52,7 +52,7 @@ struct OscillatorFit {
 
 /// Fits an oscillator to (u, y) at sample rate fs, choosing by (u_val, y_val) when given (else by the
 /// estimation record). Throws std::invalid_argument for records of unequal length or shorter than
-/// 4·(init + 10) samples, a bad structure, or data whose ARX(2, 2) model is not a damped oscillator.
+/// 4·(init + 10) samples, a bad structure, or data whose ARX models (orders 2 … 8) show no resonance.
 OscillatorFit fit_oscillator(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const Eigen::VectorXd& u_val,
                              const Eigen::VectorXd& y_val, double fs, const OscillatorFitOptions& options);
 

@@ -59,6 +59,7 @@ TEST_F(CliIdentifyOscillator, ItsModelIsReadByValidateAnalyzeAndDiagnose) {
   double lowest = 1e300;
   for (const json& s : r["stages"]) lowest = std::min(lowest, s["J_val_pct"].get<double>());
   EXPECT_EQ(r["J_val_pct"].get<double>(), lowest);
+  EXPECT_EQ(r["warnings"], json::array()) << "a good fit warns of nothing";
   EXPECT_LT(r["J_val_pct"].get<double>(), 1.2 * models::j_percent(clean_, y_val_, 50));
   const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
   EXPECT_EQ(v["kind"], "oscillator");
@@ -70,6 +71,19 @@ TEST_F(CliIdentifyOscillator, ItsModelIsReadByValidateAnalyzeAndDiagnose) {
   const json baseline = json::parse(text_of(dir_ / "d.json"))["baseline"];
   EXPECT_EQ(baseline["kind"], "oscillator");
   EXPECT_NEAR(baseline["J_val_pct"].get<double>(), v["J_sim_pct"].get<double>(), 1e-9);
+}
+
+TEST_F(CliIdentifyOscillator, AFitThatMissesMostOfTheOutputSaysSo) {
+  // The panel exciter's recorded output is not one mass on a spring: the fit is written, with a warning.
+  expect_result(run("simulate --samples 6000 --seed 5 --out " + quoted(dir_ / "pe.csv")));
+  split_csv(dir_ / "pe.csv", 4000);
+  const RunResult run_result = run("identify oscillator --data " + est() + " --val " + val() + " --fs 3000 --terms y3 --out " +
+                                   quoted(dir_ / "pe.json"));
+  const json r = expect_result(run_result);
+  ASSERT_GT(r["J_val_pct"].get<double>(), 10.0);
+  ASSERT_GE(r["warnings"].size(), 1u);
+  for (const json& w : r["warnings"]) EXPECT_NE(w.get<std::string>().find("not be one mass on a spring"), std::string::npos) << w;
+  EXPECT_NE(run_result.err.find("identify oscillator: warning: "), std::string::npos) << run_result.err;
 }
 
 TEST_F(CliIdentifyOscillator, AnUnknownTermFailsNamingIt) {
