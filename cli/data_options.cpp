@@ -39,4 +39,10 @@ dsp::Record DataOptions::read_validation(const std::string& path, double est_fs)
   return val;
 }
 
+DataOptions::Validation DataOptions::read_optional_validation(const std::string& path, double est_fs) const {
+  if (path.empty()) return {};
+  const dsp::Record val = read_validation(path, est_fs);
+  return {val.columns[0], val.columns[1]};
+}
+
 }  // namespace panelbass::cli

@@ -28,6 +28,13 @@ struct DataOptions {
   /// Reads the validation record `path` for estimation data sampled at `est_fs`; a different rate is an error
   /// naming the file.
   dsp::Record read_validation(const std::string& path, double est_fs) const;
+
+  /// The input and output of an optional validation record.
+  struct Validation {
+    Eigen::VectorXd u, y;  ///< both empty without one
+  };
+  /// read_validation's input and output columns of `path`, or empty ones when `path` is empty (no --val).
+  Validation read_optional_validation(const std::string& path, double est_fs) const;
 };
 
 }  // namespace panelbass::cli

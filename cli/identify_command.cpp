@@ -63,12 +63,8 @@ void run_identify_linear(const IdentifyLinearOptions& o) {
     spec.scan_from = std::stoi(o.scan.substr(0, colon));
     spec.scan_to = std::stoi(o.scan.substr(colon + 1));
   }
-  Eigen::VectorXd u_val, y_val;
-  if (!o.val.empty()) {
-    const dsp::Record val = o.columns.read_validation(o.val, est.fs);
-    u_val = val.columns[0];
-    y_val = val.columns[1];
-  }
+  const DataOptions::Validation val = o.columns.read_optional_validation(o.val, est.fs);
+  const Eigen::VectorXd &u_val = val.u, &y_val = val.y;
   ProgressBar bar("identify " + o.method);
   spec.progress = [&bar, &spec](const std::string& stage, double f) {
     bar.update(models::identification_fraction(spec, stage, f));

@@ -50,12 +50,8 @@ std::vector<models::OscillatorTerm> parse_terms(const std::string& list) {
 
 void run_identify_oscillator(const IdentifyOscillatorOptions& o) {
   const dsp::Record est = o.columns.read(o.data);
-  Eigen::VectorXd u_val, y_val;
-  if (!o.val.empty()) {
-    const dsp::Record val = o.columns.read_validation(o.val, est.fs);
-    u_val = val.columns[0];
-    y_val = val.columns[1];
-  }
+  const DataOptions::Validation val = o.columns.read_optional_validation(o.val, est.fs);
+  const Eigen::VectorXd &u_val = val.u, &y_val = val.y;
   models::OscillatorFitOptions options;
   options.structure.terms = parse_terms(o.terms);
   options.structure.substeps = o.substeps;

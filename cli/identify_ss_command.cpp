@@ -58,12 +58,8 @@ models::LinearModel starting_linear(const IdentifySsOptions& o, const dsp::Recor
 
 void run_identify_ss(const IdentifySsOptions& o) {
   const dsp::Record est = o.columns.read(o.data);
-  Eigen::VectorXd u_val, y_val;
-  if (!o.val.empty()) {
-    const dsp::Record val = o.columns.read_validation(o.val, est.fs);
-    u_val = val.columns[0];
-    y_val = val.columns[1];
-  }
+  const DataOptions::Validation val = o.columns.read_optional_validation(o.val, est.fs);
+  const Eigen::VectorXd &u_val = val.u, &y_val = val.y;
   if (o.start_from.empty() && est.columns[0].size() < o.lags + o.window) {
     throw std::invalid_argument(o.data + ": " + std::to_string(est.columns[0].size()) + " samples, --lags + --window = " +
                                 std::to_string(o.lags + o.window) + " needed");
