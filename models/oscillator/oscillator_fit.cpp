@@ -38,7 +38,7 @@ TransferFunction arx(const Eigen::VectorXd& u, const Eigen::VectorXd& y, int n) 
 /// n = 2, two positive real poles inside it) — mapped to continuous time (s = ln z: d = −(s₁ + s₂), k = s₁·s₂),
 /// and g = k times the model's DC gain. ARX(2, 2) is the oscillator's own sampled form; a transducer with more
 /// dynamics (a coil's inductance, a sensor's filter) needs more poles around its resonance.
-void linear_start(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::VectorXd& theta) {
+void linear_start(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Ref<Eigen::VectorXd> theta) {
   std::string seen;
   for (int n = 2; n <= 8; ++n) {
     const TransferFunction tf = arx(u, y, n);
@@ -117,11 +117,11 @@ OscillatorFit fit_oscillator(const Eigen::VectorXd& u, const Eigen::VectorXd& y,
   const BandLimitedInput input(us);
   const std::optional<BandLimitedInput> input_val =
       u_val.size() ? std::optional<BandLimitedInput>(scaling.scale_u(u_val)) : std::nullopt;
+  // p = [x(0); θ], the columns of the run's Jacobian.
   const Eigen::Index P = s.parameter_count();
-  Eigen::VectorXd theta = Eigen::VectorXd::Zero(P);
-  linear_start(us, ys, theta);
-  Eigen::VectorXd x0(2);
-  x0 << ys(0), ys(1) - ys(0);
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(2 + P);
+  p.head(2) << ys(0), ys(1) - ys(0);
+  linear_start(us, ys, p.tail(P));
 
   // The stages: linear, each term, the taps.
   struct Plan {
@@ -140,9 +140,9 @@ OscillatorFit fit_oscillator(const Eigen::VectorXd& u, const Eigen::VectorXd& y,
   for (const Plan& plan : plans) {
     const std::vector<Eigen::Index> free = free_columns(s, plan.terms, plan.delay, plan.taps);
     const Eigen::Index F = static_cast<Eigen::Index>(free.size());
-    Eigen::VectorXd all(2 + P), reduced(F);
+    Eigen::VectorXd reduced(F);
     auto spread = [&](const Eigen::VectorXd& r) {  // a reduced vector back into [x(0); θ]
-      Eigen::VectorXd full = all;
+      Eigen::VectorXd full = p;
       for (Eigen::Index i = 0; i < F; ++i) full(free[static_cast<std::size_t>(i)]) = r(i);
       return full;
     };
@@ -151,13 +151,12 @@ OscillatorFit fit_oscillator(const Eigen::VectorXd& u, const Eigen::VectorXd& y,
       const OscillatorRun run = oscillator_run(s, full.tail(P), input, full.head(2), OscillatorSensitivity::none);
       return run.diverged ? std::numeric_limits<double>::infinity() : (run.y - ys).squaredNorm();
     };
-    all << x0, theta;
-    for (Eigen::Index i = 0; i < F; ++i) reduced(i) = all(free[static_cast<std::size_t>(i)]);
+    for (Eigen::Index i = 0; i < F; ++i) reduced(i) = p(free[static_cast<std::size_t>(i)]);
     LevenbergMarquardt lm(settings, F);
     OscillatorStage stage;
     stage.name = plan.name;
     for (int iteration = 0; iteration < options.max_iterations && !stopped; ++iteration) {
-      const OscillatorRun run = oscillator_run(s, theta, input, x0, OscillatorSensitivity::all);
+      const OscillatorRun run = oscillator_run(s, p.tail(P), input, p.head(2), OscillatorSensitivity::all);
       if (run.diverged) break;
       const Eigen::VectorXd e = run.y - ys;
       Eigen::MatrixXd J(run.jacobian.rows(), F);
@@ -169,9 +168,7 @@ OscillatorFit fit_oscillator(const Eigen::VectorXd& u, const Eigen::VectorXd& y,
       const LmStep step = lm.step(H, J.transpose() * e, V, reduced, loss);
       if (step.accepted) {
         ++stage.iterations;
-        all = spread(reduced);
-        x0 = all.head(2);
-        theta = all.tail(P);
+        p = spread(reduced);
       }
       if (options.progress) {
         OscillatorFitProgress progress{plan.name, fit.stages.size(), plans.size(), iteration + 1,
@@ -180,7 +177,7 @@ OscillatorFit fit_oscillator(const Eigen::VectorXd& u, const Eigen::VectorXd& y,
       }
       if (!step.accepted || V - step.loss <= 1e-9 * V) break;
     }
-    OscillatorModel model = trimmed(s, theta, plan.terms, plan.taps);
+    OscillatorModel model = trimmed(s, p.tail(P), plan.terms, plan.taps);
     model.scaling = scaling;
     model.fs = fs;
     auto protocol_j = [&](const BandLimitedInput& in, const Eigen::VectorXd& yy) {  // as validate reports it

@@ -21,7 +21,7 @@ struct OscillatorFitProgress {
   std::size_t stage_number = 0;  ///< 0-based
   std::size_t stages = 1;        ///< how many the fit runs
   int iteration = 0;    ///< Levenberg–Marquardt iterations of this stage so far
-  double j_est_pct = 0; ///< J on the estimation record along the fit (x(0) fitted with θ, every sample)
+  double j_est_pct = 0; ///< J on the estimation record along the fit, scaled units (x(0) fitted with θ, every sample)
 };
 
 /// How to fit.

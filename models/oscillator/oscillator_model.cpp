@@ -246,15 +246,21 @@ Eigen::VectorXd OscillatorModel::simulate_scaled(const BandLimitedInput& input, 
     throw std::invalid_argument("oscillator: " + std::to_string(init) + " measured outputs set the state, " +
                                 std::to_string(y.size()) + " given");
   }
+  Eigen::VectorXd out = run_from_fitted_state(input, y, init);
+  const Eigen::Index measured = std::min({init, n, y.size()});
+  if (measured > 0) out.head(measured) = y.head(measured);
+  return out;
+}
+
+Eigen::VectorXd OscillatorModel::run_from_fitted_state(const BandLimitedInput& input, const Eigen::VectorXd& y,
+                                                       Eigen::Index init) const {
   const Eigen::Vector2d x0 = oscillator_initial_state(structure, theta, input, y, init);
   OscillatorRun run = oscillator_run(structure, theta, input, x0, OscillatorSensitivity::none);
   if (run.diverged) {
     throw std::runtime_error("oscillator: the free run diverged at sample " + std::to_string(*run.diverged) +
                              " (its state beyond ±" + std::to_string(kOscillatorBound) + " in scaled units)");
   }
-  const Eigen::Index measured = std::min({init, n, y.size()});
-  if (measured > 0) run.y.head(measured) = y.head(measured);
-  return run.y;
+  return std::move(run.y);
 }
 
 Eigen::VectorXd OscillatorModel::simulate(const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) const {
@@ -264,13 +270,7 @@ Eigen::VectorXd OscillatorModel::simulate(const Eigen::VectorXd& u, const Eigen:
 
 Eigen::VectorXd OscillatorModel::predict(const Eigen::VectorXd& u, const Eigen::VectorXd& y) const {
   const Eigen::Index init = std::min({kPredictorInit, u.size(), y.size()});
-  const BandLimitedInput input(scaling.scale_u(u));
-  const Eigen::Vector2d x0 = oscillator_initial_state(structure, theta, input, scaling.scale_y(y), init);
-  const OscillatorRun run = oscillator_run(structure, theta, input, x0, OscillatorSensitivity::none);
-  if (run.diverged) {
-    throw std::runtime_error("oscillator: the predictor's run diverged at sample " + std::to_string(*run.diverged));
-  }
-  return scaling.unscale_y(run.y);
+  return scaling.unscale_y(run_from_fitted_state(BandLimitedInput(scaling.scale_u(u)), scaling.scale_y(y), init));
 }
 
 nlohmann::json oscillator_model_to_json(const OscillatorModel& m) {

@@ -120,6 +120,11 @@ struct OscillatorModel {
   /// One-step prediction on raw data: an output-error model's predictor is its free run (its noise model is
   /// 1), here with x(0) fitted to the first min(50, N) measured outputs.
   Eigen::VectorXd predict(const Eigen::VectorXd& u, const Eigen::VectorXd& y) const;
+
+ private:
+  /// The run (scaled) from the x(0) fitted to the first `init` outputs of `y`; std::runtime_error naming the sample
+  /// where it diverged.
+  Eigen::VectorXd run_from_fitted_state(const BandLimitedInput& input, const Eigen::VectorXd& y, Eigen::Index init) const;
 };
 
 /// {"format":"panelbass.model/1","kind":"oscillator","fs","scaling","params":{"substeps","damping","stiffness",
