@@ -9,6 +9,7 @@
 #include "api/alsa_status_json.h"
 #include "models/io/config_error.h"
 #include "models/io/number_text.h"
+#include "models/kinds/model_file.h"
 #include "models/plant/virtual_transducer.h"
 
 namespace panelbass::api {
@@ -37,35 +38,19 @@ std::string keys_needing_restart(const engine::ConfigChange& change) {
   return keys;
 }
 
-// The model kind each slot runs (ROUTES.md "Models"): the feedforward slot an LQ controller, the feedback
-// slot a neural feedback controller. Plant models (linear, narx, ss, gray_box, oscillator) describe the transducer: no slot
-// runs them.
-constexpr std::array<const char*, 2> kSlotKinds = {"lq_feedforward", "neural_feedback"};
+// The registry's role of slot `s` (0 feedforward, 1 feedback).
+models::ModelRole slot_role(std::size_t s) { return s == 0 ? models::ModelRole::feedforward : models::ModelRole::feedback; }
 
-// What a model of `kind` is, in words.
-std::string kind_in_words(const std::string& kind) {
-  if (kind == "linear") return "a linear plant model";
-  if (kind == "narx") return "a NARX plant model";
-  if (kind == "ss") return "a neural state-space plant model";
-  if (kind == "gray_box") return "a diagnosed gray-box plant model";
-  if (kind == "oscillator") return "an oscillator plant model";
-  if (kind == "lq_feedforward") return "an LQ feedforward controller";
-  if (kind == "neural_feedback") return "a neural feedback controller";
-  return "a model of kind \"" + kind + "\"";
-}
-
-// Why model `id` of `kind` cannot go into slot `s` (nullopt: it can).
+// Why model `id` of `kind` cannot go into slot `s` (nullopt: it can), in the registry's words.
 std::optional<std::string> slot_refusal(std::size_t s, const std::string& id, const std::string& kind) {
-  if (kind == kSlotKinds[s]) return std::nullopt;
-  std::string message = "model \"" + id + "\" is " + kind_in_words(kind) + " (kind " + kind + "): the " +
-                        kSlotKeys[s] + " slot takes " + kind_in_words(kSlotKinds[s]) + " (kind " + kSlotKinds[s] + ")";
-  if (kind == "linear" || kind == "narx" || kind == "ss" || kind == "gray_box" || kind == "oscillator") {
-    message += "; a plant model is what controllers are designed on (design-lq takes a linear one, design-nn a NARX "
-               "or ss one)";
-  } else {
-    message += "; activate it in the " + std::string(kSlotKeys[1 - s]) + " slot";
+  const models::ModelKind* known = models::find_model_kind(kind);
+  if (known == nullptr) return "model \"" + id + "\" is of kind \"" + kind + "\", which no slot runs";
+  try {
+    models::require_role(*known, slot_role(s), "model \"" + id + "\"");
+  } catch (const models::ConfigError& e) {
+    return std::string(e.what());
   }
-  return message;
+  return std::nullopt;
 }
 
 // The first key of `whole` (the running settings, recursively) that `settings` leaves out, as
@@ -128,8 +113,9 @@ const char* slot_name(ModelSlotName slot) { return kSlotKeys[static_cast<std::si
 
 std::vector<ModelSlotName> slots_accepting(const std::string& kind) {
   std::vector<ModelSlotName> slots;
+  const models::ModelKind* known = models::find_model_kind(kind);
   for (const ModelSlotName slot : {ModelSlotName::feedforward, ModelSlotName::feedback}) {
-    if (kind == kSlotKinds[static_cast<std::size_t>(slot)]) slots.push_back(slot);
+    if (known != nullptr && known->takes(slot_role(static_cast<std::size_t>(slot)))) slots.push_back(slot);
   }
   return slots;
 }

@@ -1,14 +1,16 @@
 #pragma once
-// What a model file must satisfy before the store keeps it or the engine runs it.
+// What a model file must satisfy before the store keeps it or the engine runs it: the model-kind registry's
+// checks (models/kinds/model_file.h), worded as the API answers them.
 
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string>
 
 namespace panelbass::api {
 
 /// Kind and rate of a model that passed validation.
 struct ValidatedModel {
-  std::string kind;  ///< "linear", "narx", "lq_feedforward", "neural_feedback"
+  std::string kind;  ///< a kind of the registry ("linear", "mirror_filter", …)
   double fs = 0.0;   ///< Hz
 };
 
@@ -25,11 +27,10 @@ class ModelRejected : public std::runtime_error {
   std::string code_;
 };
 
-/// Validates a model file object of any kind the engine runs: the kind's own loader (format, fields,
-/// dimensions), every number finite (the first non-finite one named by its key path), stability (a linear
-/// or LQ model's poles — its A matrix's spectral radius — inside the unit circle; a NARX model, also the
-/// one inside neural_feedback, run free for 2000 samples on uniform noise spanning its scaled input range
-/// must stay finite and within 100× its output scaling range). Throws ModelRejected.
+/// Validates a model file object of any kind of the registry with the kind's own checks (format, fields,
+/// dimensions; every number finite, the first non-finite one named by its key path; stability: poles inside the
+/// unit circle, a bounded free run or closed loop, a finite mirror filter on full-scale noise). Throws
+/// ModelRejected.
 ValidatedModel validate_model(const nlohmann::json& model);
 
 }  // namespace panelbass::api

@@ -10,6 +10,7 @@
 
 #include "api/request_body.h"
 #include "api/routes/route_helpers.h"
+#include "models/kinds/model_file.h"
 
 namespace panelbass::api {
 namespace {
@@ -30,16 +31,6 @@ const std::vector<Route> kRoutes = {
 
 bool is_loopback(const std::string& address) {
   return address == "127.0.0.1" || address == "::1" || address == "localhost";
-}
-
-// The kind of model a job of `job_kind` makes ("" if it makes none).
-std::string model_kind_made_by(const std::string& job_kind) {
-  if (job_kind == "identify-linear") return "linear";
-  if (job_kind == "identify-narx") return "narx";
-  if (job_kind == "design-lq") return "lq_feedforward";
-  if (job_kind == "design-nn") return "neural_feedback";
-  if (job_kind == "diagnose") return "gray_box";
-  return "";
 }
 
 }  // namespace
@@ -147,9 +138,11 @@ std::string Server::submit_job(const std::string& kind, const nlohmann::json& pa
       throw std::invalid_argument("activate: the job kind " + kind + " makes no model to activate");
     }
     if (!made.empty() && slots_accepting(made).empty()) {
+      const auto role = [](models::ModelRole r) { return models::model_kind_names(static_cast<unsigned>(r)); };
       throw std::invalid_argument("activate: the job kind " + kind + " makes a " + made +
-                                  " plant model, which no slot runs (the feedforward slot takes an lq_feedforward "
-                                  "controller from design-lq, the feedback slot a neural_feedback one from design-nn)");
+                                  " plant model, which no slot runs (the feedforward slot takes " +
+                                  role(models::ModelRole::feedforward) + ", the feedback slot " +
+                                  role(models::ModelRole::feedback) + ")");
     }
   }
   const nlohmann::json checked = validate_job_params(kind, params, environment_);

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "dsp/butterworth.h"
+#include "models/io/number_text.h"
 
 namespace panelbass::cli {
 
@@ -21,6 +22,10 @@ std::pair<double, double> parse_bandpass(const std::string& text) {
   } catch (const std::exception&) {
     throw std::invalid_argument("expects LO,HI in Hz with 0 <= LO < HI (LO = 0: low-pass only), got \"" + text + "\"");
   }
+}
+
+std::string band_pass_text(const usecases::BandPass& band) {
+  return models::number_text(band.low_hz) + "," + models::number_text(band.high_hz);
 }
 
 CLI::Option* add_bandpass_option(CLI::App* cmd, std::string& text, const std::string& help) {

@@ -8,11 +8,15 @@
 #include <vector>
 
 #include "dsp/biquad.h"
+#include "usecases/band_pass.h"
 
 namespace panelbass::cli {
 
 /// "LO,HI" → the corners in Hz (0 ≤ LO < HI); std::invalid_argument saying what is expected otherwise.
 std::pair<double, double> parse_bandpass(const std::string& text);
+
+/// "LO,HI" of `band` (its corners, as --bandpass takes them).
+std::string band_pass_text(const usecases::BandPass& band);
 
 /// Adds `--bandpass LO,HI` to `cmd`, stored as text in `text` (its default shown) and checked by
 /// parse_bandpass() while parsing.

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <string>
@@ -21,6 +22,7 @@
 #include "cli/commands.h"
 #include "cli/gnuplot.h"
 #include "cli/json_output.h"
+#include "cli/usecase_door.h"
 #include "dsp/butterworth.h"
 #include "dsp/decibels.h"
 #include "dsp/frequency_grid.h"
@@ -31,6 +33,7 @@
 #include "models/linear/linear_model.h"
 #include "models/control/lq_feedforward.h"
 #include "models/control/lq_weight_search.h"
+#include "usecases/design_lq.h"
 
 namespace panelbass::cli {
 namespace {
@@ -38,45 +41,26 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-// The ripple of a response is judged from this frequency up when the band-pass has no low corner: a
-// transducer's acceleration response falls to zero at DC, and 20 Hz is the lowest audible frequency.
-constexpr double kLowestAudibleHz = 20.0;
 
+// The flags of `design lq`'s request fields (usecases/design_lq.h), for its refusals.
+const std::map<std::string, std::string> kDesignLqFlags = {
+    {"plant_model", "--model"},   {"r", "--R"},          {"r0", "--R0"},      {"max_input", "--max-input"},
+    {"band_pass.order", "--order"}, {"band_pass", "--bandpass"}, {"target_highpass", "--target-highpass"},
+    {"noise_samples", "--samples"}};
+
+// The options of `design lq`; the defaults are the request's (usecases::DesignLqRequest).
 struct DesignLqOptions {
   std::string model, out, plots;
-  double R = 3.0;
-  double max_input = 0.0;  // > 0: search R for this safe noise amplitude instead
-  double R0 = 20.0;
-  std::string bandpass = "20,1200";
+  double R = models::LqWeights{}.R;
+  double max_input = 0.0;  // given: search R for this safe noise amplitude instead
+  double R0 = usecases::DesignLqRequest{}.r0;
+  std::string bandpass = band_pass_text(usecases::DesignLqRequest{}.band_pass);
   std::string target_highpass;  // "HZ[,ORDER]": the desired response's band (empty: flat, the thesis's)
-  int order = 2;
-  long samples = 100000;
-  std::uint64_t seed = 1;
+  int order = usecases::DesignLqRequest{}.band_pass.order;
+  long samples = usecases::DesignLqRequest{}.noise_samples;
+  std::uint64_t seed = usecases::DesignLqRequest{}.seed;
   std::string plot_format = "png";
 };
-
-nlohmann::json vector_json(const Eigen::RowVectorXd& v) {
-  nlohmann::json out = nlohmann::json::array();
-  for (Eigen::Index k = 0; k < v.size(); ++k) out.push_back(v[k]);
-  return out;
-}
-
-// A number option's check: the value must exceed `bound` (or equal it, when `inclusive`); CLI11 puts the
-// option's name in front of the message.
-CLI::Validator at_least(double bound, bool inclusive) {
-  const std::string relation = inclusive ? ">=" : ">";
-  return CLI::Validator(
-      [bound, inclusive, relation](std::string& text) {
-        double v = 0.0;
-        if (!CLI::detail::lexical_cast(text, v) || !std::isfinite(v)) return "must be a number, got \"" + text + "\"";
-        if (inclusive ? v >= bound : v > bound) return std::string();
-        return "must be " + relation + " " + gnuplot_number(bound) + ", got " + text;
-      },
-      "NUMBER " + relation + " " + gnuplot_number(bound), "at_least");
-}
-
-// The program levels the design's report gives the drive and excursion at.
-constexpr double kReportLevels[] = {0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0};
 
 // "HZ[,ORDER]" → the target band's corner and Butterworth order (2 when left out); the range of HZ is
 // checked by models::design_lq, which knows fs.
@@ -105,12 +89,6 @@ void check_output_file(const std::string& option, const std::string& path) {
 // 20·log10|H| of `ss` at each of `f` (Hz), NaN where H = 0.
 Eigen::VectorXd magnitude_db(const models::StateSpace& ss, const Eigen::VectorXd& f, double fs) {
   return dsp::magnitude_db(models::frequency_response(ss, f, fs));
-}
-
-// Largest minus smallest magnitude (dB) of `ss` over [lo, hi] Hz.
-double ripple_db(const models::StateSpace& ss, double lo, double hi, double fs) {
-  const Eigen::VectorXd db = magnitude_db(ss, dsp::log_spaced(lo, hi, 400), fs);
-  return db.maxCoeff() - db.minCoeff();
 }
 
 // Figs. 7.3/7.4/7.6: poles and zeros of the linear model beside those of the controlled model.
@@ -177,152 +155,40 @@ fs::path plot_lq_magnitude(const models::LqFeedforward& ff, double lo, double hi
   return fig.render(dir, format);
 }
 
-/// The plant model of `design lq`: a linear model file as it is; the linear part of a diagnosed model (kind
-/// gray_box: the controller is linear, the gray-box terms stay with the model); an ss model by its linearisation
-/// at the equilibrium of zero (scaled) input — the small-signal plant; other kinds fail as a linear model's load.
-models::LinearModel lq_plant_model(const std::string& path) {
-  const nlohmann::json file = models::read_json_file(path);
-  const std::string kind = file.is_object() && file.contains("kind") && file["kind"].is_string() ? file["kind"] : "";
-  if (kind == "gray_box") return std::get<models::GrayBoxModel>(models::load_model(path).model).augmented.linear;
-  if (kind != "ss") return models::load_linear_model(path);
-  const models::SsModel ss = std::get<models::SsModel>(models::load_model(path).model);
-  models::LinearModel linear;
-  try {
-    linear.tf = models::to_transfer_function(ss.linearization());
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument("--model " + path + ": " + e.what());
-  }
-  linear.fs = ss.fs;
-  linear.scaling = ss.scaling;
-  linear.method = "ss-linearization";
-  return linear;
-}
-
-void run_design_lq(const DesignLqOptions& o) {
+// `design lq` with the options given (`weight_given`: --R; `max_input_given`: --max-input).
+void run_design_lq(const DesignLqOptions& o, bool weight_given, bool max_input_given) {
+  usecases::DesignLqRequest q;
+  q.plant_model = models::read_json_file(o.model);
+  q.plant_name = o.model;
+  if (weight_given) q.r = o.R;
+  if (max_input_given) q.max_input = o.max_input;
+  q.r0 = o.R0;
   const auto [lo, hi] = parse_bandpass(o.bandpass);
-  const models::LinearModel model = lq_plant_model(o.model);
-  const std::vector<dsp::Biquad> band = band_pass_sections(lo, hi, o.order, model.fs);
+  q.band_pass = {lo, hi, o.order};
+  if (!o.target_highpass.empty()) {
+    const auto [hz, hp_order] = parse_target_highpass(o.target_highpass);
+    q.target_highpass = usecases::TargetHighpass{hz, hp_order};
+  }
+  q.noise_samples = o.samples;
+  q.seed = o.seed;
   check_output_file("--out", o.out);
   const PlotFormat format = parse_plot_format(o.plot_format);
   if (!o.plots.empty()) {
     find_gnuplot();
     fs::create_directories(o.plots);
   }
-
-  models::LqFeedforward ff;
-  models::InputLimits limits;
-  nlohmann::json search = nullptr;
-  if (!o.target_highpass.empty()) {
-    // The target's gain is the model's at the geometric middle of the corner and the band's top.
-    const auto [hz, hp_order] = parse_target_highpass(o.target_highpass);
-    if (!(hz > 0.0 && hz < hi)) {
-      throw std::invalid_argument("--target-highpass " + o.target_highpass + ": HZ must be in (0, " + gnuplot_number(hi) +
-                                  ") Hz, below the band-pass's top (--bandpass)");
-    }
-    const double mid_hz = std::sqrt(hz * hi);
-    try {
-      ff = models::design_lq(model, {o.R, o.R0}, {hz, hp_order, mid_hz});
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument(std::string("--target-highpass ") + o.target_highpass + ": " + e.what());
-    }
-    limits = models::max_input(ff, band, o.samples, o.seed);
-  } else if (o.max_input > 0.0) {
-    models::LqWeightSearch found = models::design_lq_for_input(model, o.R0, o.max_input, band, o.samples, o.seed);
-    ff = std::move(found.ff);
-    limits = found.limits;
-    search = models::lq_weight_search_report(found);
-    if (found.at_lower_bound) {
-      std::fprintf(stderr, "design lq: the target %g is met even at R = %g, the cheapest control searched\n",
-                   o.max_input, models::kMinSearchR);
-    }
-  } else {
-    ff = models::design_lq(model, {o.R, o.R0});
-    limits = models::max_input(ff, band, o.samples, o.seed);
-  }
-  const double R = ff.weights.R;
-  const models::DrivePeak peak = models::drive_peak(ff, band);
-  if (lo > 0.0 && peak.frequency_hz < lo) {
-    std::fprintf(stderr,
-                 "design lq: the drive's gain peaks at %.1f Hz (%+.1f dB), below the band-pass corner %g Hz: the controller "
-                 "boosts what the band-pass is there to remove, and max_input falls with it; raise the corner or --order, "
-                 "or the weight (--R, --max-input)\n",
-                 peak.frequency_hz, peak.gain_db, lo);
-  }
-  const double ripple_lo = std::max(lo, kLowestAudibleHz);
-  const double ripple_model = ripple_db(ff.plant, ripple_lo, hi, ff.fs);
-  const double ripple_controlled = ripple_db(ff.desired(), ripple_lo, hi, ff.fs);
-  ff.meta = {{"model", o.model},
-             {"model_method", model.method},
-             {"order", ff.plant.order()},
-             {"weights", {{"R", R}, {"R0", o.R0}}},
-             {"bandpass", {lo, hi}},
-             {"bandpass_order", o.order},
-             {"max_input", {{"worst", limits.worst}, {"noise", limits.noise}, {"samples", o.samples}, {"seed", o.seed}}}};
-  if (!search.is_null()) ff.meta["R_search"] = search;
-  nlohmann::json target = nullptr;
-  if (ff.has_target()) {
-    const models::LqTarget& t = ff.target;
-    target = {{"highpass_hz", t.band.highpass_hz}, {"order", t.band.order}, {"mid_hz", t.band.mid_hz},
-              {"gain", t.gain},                    {"delay", t.delay}};
-    // How far the controlled response is from the target over [corner, band top], dB.
-    const Eigen::VectorXd f = dsp::log_spaced(t.band.highpass_hz, hi, 400);
-    const Eigen::VectorXd off = magnitude_db(ff.desired(), f, ff.fs) - magnitude_db(t.model, f, ff.fs);
-    Eigen::Index worst = 0;
-    off.cwiseAbs().maxCoeff(&worst);
-    target["deviation_db"] = {{"band", {t.band.highpass_hz, hi}}, {"max", std::abs(off[worst])}, {"at_hz", f[worst]},
-                              {"at_mid", off[f.size() / 2]}};
-    ff.meta["target"] = target;
-  }
-
-  // Per program level: the noise's peak drive and estimated excursion scale with it (a linear model).
-  const double unit_excursion = models::noise_excursion(ff, band, o.samples, o.seed);
-  nlohmann::json levels = nlohmann::json::array();
-  for (const double level : kReportLevels) {
-    const double drive = level / limits.noise;
-    levels.push_back({{"level", level}, {"drive_peak", drive}, {"drive_within_limits", drive <= 1.0},
-                      {"excursion_peak", level * unit_excursion}});
-  }
-  if (limits.noise < 1.0) {
-    std::fprintf(stderr,
-                 "design lq: a band-limited noise program above peak %.3g needs more drive than [-1, 1] gives "
-                 "(the drive's peak at level 1 is %.3g)\n",
-                 limits.noise, 1.0 / limits.noise);
-  }
-  models::write_json_file(o.out, models::lq_feedforward_to_json(ff));
-
-  const Eigen::VectorXcd poles = ff.poles();
-  nlohmann::json result = {{"model", o.model},
-                           {"out", o.out},
-                           {"fs", ff.fs},
-                           {"order", ff.plant.order()},
-                           {"R", R},
-                           {"R_search", search},
-                           {"R0", o.R0},
-                           {"L", vector_json(ff.L)},
-                           {"poles", models::roots_json(poles)},
-                           {"zeros", models::roots_json(ff.zeros())},
-                           {"pole_radius", poles.size() ? poles.cwiseAbs().maxCoeff() : 0.0},
-                           {"bandpass", {lo, hi}},
-                           {"bandpass_order", o.order},
-                           {"max_input_worst", limits.worst},
-                           {"max_input_noise", limits.noise},
-                           {"target", target},
-                           {"safe_amplitude", limits.noise},
-                           {"levels", levels},
-                           {"excursion",
-                            {{"estimate", "the desired response y_lin (the model's output, acceleration) to the "
-                                          "band-passed noise, integrated twice by a leaky integrator (corner fs/500)"},
-                             {"unit", "model output x s^2 (sensor volts: divide by its V/(m/s^2) for metres)"}}},
-                           {"noise_samples", o.samples},
-                           {"drive_peak", {{"frequency_hz", peak.frequency_hz}, {"gain_db", peak.gain_db}}},
-                           {"unity_gain_hz", models::unity_gain_hz(ff)},
-                           {"seed", o.seed},
-                           {"ripple_db", {{"band", {ripple_lo, hi}}, {"model", ripple_model}, {"controlled", ripple_controlled}}},
-                           {"plots", nullptr}};
+  BarProgress progress("design lq");
+  const usecases::DesignLqReport report =
+      run_use_case([&] { return usecases::design_lq(q, progress); }, {kDesignLqFlags, {{"plant_model", o.model}}});
+  print_warnings("design lq", report.warnings);
+  models::write_json_file(o.out, models::lq_feedforward_to_json(report.controller));
+  nlohmann::json result = report.summary;
+  result["out"] = o.out;
+  result["plots"] = nullptr;
   if (!o.plots.empty()) {
     const fs::path dir(o.plots);
-    result["plots"] = {{"poles_zeros", (dir / plot_lq_pole_zero(ff, dir, format).filename()).string()},
-                       {"magnitude", (dir / plot_lq_magnitude(ff, lo, hi, dir, format).filename()).string()}};
+    result["plots"] = {{"poles_zeros", (dir / plot_lq_pole_zero(report.controller, dir, format).filename()).string()},
+                       {"magnitude", (dir / plot_lq_magnitude(report.controller, lo, hi, dir, format).filename()).string()}};
   }
   print_result(result);
 }
@@ -335,14 +201,13 @@ void add_design_lq(CLI::App* design) {
   lq->add_option("--model", o->model, "Linear model file (JSON, from identify linear), or an ss model (linearised at rest)")->required();
   CLI::Option* r_option =
       lq->add_option("--R", o->R, "Weight on the controller output u* (> 0); small R: flatter response, larger u*")
-          ->check(at_least(0.0, false))
           ->capture_default_str();
-  lq->add_option("--max-input", o->max_input,
-                 "Instead of --R: the program peak (0 < A <= 1) that must keep u* within [-1, 1] for band-limited white "
-                 "noise; R is searched (the smallest that allows it: the flattest response at that level)")
-      ->check(CLI::Range(1e-6, 1.0))
-      ->excludes(r_option);
-  lq->add_option("--R0", o->R0, "Weight on the model output y (>= 0)")->check(at_least(0.0, true))->capture_default_str();
+  CLI::Option* max_input_option =
+      lq->add_option("--max-input", o->max_input,
+                     "Instead of --R: the program peak (0 < A <= 1) that must keep u* within [-1, 1] for band-limited "
+                     "white noise; R is searched (the smallest that allows it: the flattest response at that level)")
+          ->excludes(r_option);
+  lq->add_option("--R0", o->R0, "Weight on the model output y (>= 0)")->capture_default_str();
   add_bandpass_option(lq, o->bandpass, "Band-pass corners LO,HI in Hz before the controller (LO = 0: low-pass only)");
   lq->add_option("--target-highpass", o->target_highpass,
                  "HZ[,ORDER]: the desired response is the model's gain at mid band times a Butterworth high-pass at HZ "
@@ -359,12 +224,9 @@ void add_design_lq(CLI::App* design) {
           },
           "HZ[,ORDER]", "target_highpass"))
       ->excludes("--max-input");
-  lq->add_option("--order", o->order, "Butterworth order of the high-pass and of the low-pass")
-      ->check(CLI::Range(1, 16))
+  lq->add_option("--order", o->order, "Butterworth order of the high-pass and of the low-pass (1..16)")
       ->capture_default_str();
-  lq->add_option("--samples", o->samples, "Samples of uniform noise for max_input_noise")
-      ->check(CLI::Range(1L, 100000000L))
-      ->capture_default_str();
+  lq->add_option("--samples", o->samples, "Samples of uniform noise for max_input_noise")->capture_default_str();
   lq->add_option("--seed", o->seed, "Seed of that noise")->capture_default_str();
   lq->add_option("--out", o->out, "Controller file to write (JSON, kind lq_feedforward)")->required();
   lq->add_option("--plot", o->plots, "Directory for the pole-zero and magnitude figures (created)");
@@ -381,7 +243,9 @@ void add_design_lq(CLI::App* design) {
       "  panelbass design lq --model lin.json --R 0.1 --R0 20 --bandpass 20,1200 --target-highpass 80,2 --out ff-80.json\n"
       "The result gives safe_amplitude (the largest noise program peak keeping the drive within [-1, 1]) and, per\n"
       "program level 0.1..1, the drive's peak and the estimated peak excursion.");
-  lq->callback([o] { run_design_lq(*o); });
+  lq->callback([o, r_option, max_input_option] {
+    run_design_lq(*o, r_option->count() > 0, max_input_option->count() > 0);
+  });
 }
 
 }  // namespace

@@ -9,61 +9,54 @@
 
 #include "cli/commands.h"
 #include "cli/json_output.h"
+#include "cli/usecase_door.h"
 #include "dsp/data_file.h"
 #include "models/control/mirror_filter.h"
 #include "models/control/mirror_observer.h"
 #include "models/io/json_file.h"
+#include "usecases/design_mirror.h"
 
 namespace panelbass::cli {
 namespace {
 
+// The options of `design mirror`; the defaults are the request's (usecases::DesignMirrorRequest).
 struct DesignMirrorOptions {
   std::string data, out;
   double fs = 0.0;
   std::string input_col = "u", current_col = "i", displacement_col = "x", sensor_col = "y";
-  int max_delay = 4;
-  bool adapt = false;
-  double stiffness_rate = models::MirrorObserverSettings{}.stiffness_rate;
-  double stiffness_spread = models::MirrorObserverSettings{}.stiffness_spread;
+  int max_delay = usecases::DesignMirrorRequest{}.max_delay;
+  bool adapt = usecases::DesignMirrorRequest{}.adapt;
+  double stiffness_rate = usecases::DesignMirrorRequest{}.stiffness_rate;
+  double stiffness_spread = usecases::DesignMirrorRequest{}.stiffness_spread;
 };
 
 void run_design_mirror(const DesignMirrorOptions& o) {
   std::vector<std::string> columns{o.input_col, o.current_col, o.displacement_col};
   if (o.adapt) columns.push_back(o.sensor_col);
   const dsp::Record r = dsp::read_data_file(o.data, columns, o.fs, 1000);
-  models::MirrorFit fit = models::fit_mirror_model(r.column(o.input_col), r.column(o.current_col),
-                                                   r.column(o.displacement_col), r.fs, o.max_delay);
-  nlohmann::json meta = {{"data", o.data},
-                         {"electrical_fit_pct", fit.electrical_fit_pct},
-                         {"mechanical_fit_pct", fit.mechanical_fit_pct}};
-  if (o.adapt) {
-    if (fit.model.delay > models::MirrorObserver::kMaxDelay) {
-      throw std::invalid_argument("design mirror --adapt: the fitted drive delay (" + std::to_string(fit.model.delay) +
-                                  " samples) exceeds the observer's " + std::to_string(models::MirrorObserver::kMaxDelay));
-    }
-    const models::SensorMapFit sensor = models::fit_sensor_map(r.column(o.displacement_col), r.column(o.sensor_col), r.fs);
-    models::MirrorObserverSettings& s = fit.model.observer;
-    s.enabled = true;
-    s.sensor_taps = sensor.taps;
-    s.sensor_noise = sensor.noise_rms;
-    s.process_noise = fit.mechanical_residual_rms;
-    s.stiffness_rate = o.stiffness_rate;
-    s.stiffness_spread = o.stiffness_spread;
-    meta["sensor_map_residual_rms"] = sensor.noise_rms;
-    std::fprintf(stderr, "design mirror: sensor map residual %.4g rms, adapting the stiffness on line\n", sensor.noise_rms);
-  }
-  models::write_json_file(o.out, models::mirror_model_to_json(fit.model, meta));
+  usecases::DesignMirrorRequest q;
+  q.drive = r.column(o.input_col);
+  q.current = r.column(o.current_col);
+  q.displacement = r.column(o.displacement_col);
+  if (o.adapt) q.sensor = r.column(o.sensor_col);
+  q.fs = r.fs;
+  q.data_name = o.data;
+  q.max_delay = o.max_delay;
+  q.adapt = o.adapt;
+  q.stiffness_rate = o.stiffness_rate;
+  q.stiffness_spread = o.stiffness_spread;
+  BarProgress progress("design mirror");
+  const usecases::DesignMirrorReport report = run_use_case([&] { return usecases::design_mirror(q, progress); },
+                                                           {{{"fs", "--fs"}}, {{"record", o.data}}});
+  print_warnings("design mirror", report.warnings);
+  models::write_json_file(o.out, models::mirror_model_to_json(report.model, report.meta));
   std::fprintf(stderr, "design mirror: residual %.4f %% (electrical), %.4f %% (mechanical), delay %d samples\n",
-               fit.electrical_fit_pct, fit.mechanical_fit_pct, fit.model.delay);
-  print_result({{"out", o.out},
-                {"fs", fit.model.fs},
-                {"delay", fit.model.delay},
-                {"friction_velocity_mm_per_s", fit.model.friction_velocity},
-                {"electrical", fit.model.electrical},
-                {"mechanical", fit.model.mechanical},
-                {"electrical_fit_pct", fit.electrical_fit_pct},
-                {"mechanical_fit_pct", fit.mechanical_fit_pct},
-                {"adaptive", fit.model.observer.enabled}});
+               report.summary.at("electrical_fit_pct").get<double>(), report.summary.at("mechanical_fit_pct").get<double>(),
+               report.model.delay);
+  nlohmann::json result = report.summary;
+  result["out"] = o.out;
+  result["warnings"] = report.warnings;
+  print_result(result);
 }
 
 }  // namespace
@@ -79,17 +72,14 @@ void add_design_mirror(CLI::App& design) {
   cmd->add_option("--current-col", o->current_col, "Coil current column, A")->capture_default_str();
   cmd->add_option("--displacement-col", o->displacement_col, "Displacement column, m")->capture_default_str();
   cmd->add_option("--max-delay", o->max_delay, "Largest drive-to-voltage delay searched, samples")
-      ->check(CLI::Range(0, 64))
       ->capture_default_str();
   cmd->add_flag("--adapt", o->adapt,
                 "Adapt the stiffness on line from the sensor (an extended Kalman filter; fits the sensor map to the "
                 "record's sensor column)");
   cmd->add_option("--sensor-col", o->sensor_col, "Sensor column read with --adapt")->capture_default_str();
   cmd->add_option("--stiffness-rate", o->stiffness_rate, "With --adapt: the stiffness scale's random walk per sample")
-      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->add_option("--stiffness-spread", o->stiffness_spread, "With --adapt: the stiffness scale's initial spread")
-      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Model file to write (JSON, kind mirror_filter)")->required();
   cmd->footer(

@@ -30,6 +30,7 @@ void ProgressBar::update(double fraction) {
     const int tenth = percent / 10;
     if (tenth == shown_) return;
     shown_ = tenth;
+    if (tenth == 0) return;  // a log line says what was done: "0 %" says nothing (and would stand before an error)
     std::fprintf(stderr, "%s: %d%%\n", label_.c_str(), tenth * 10);
   }
   if (percent == 100 && !done_) {

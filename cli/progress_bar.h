@@ -6,7 +6,7 @@
 namespace panelbass::cli {
 
 /// Draws "label [#####.....]  50%" on stderr, redrawn in place on a terminal; when stderr is not a
-/// terminal it prints a line at each tenth instead, so logs stay readable.
+/// terminal it prints a line at each tenth from 10 % instead, so logs stay readable.
 class ProgressBar {
  public:
   /// A bar titled `label`, at 0 %.

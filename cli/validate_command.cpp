@@ -7,6 +7,7 @@
 #include "cli/commands.h"
 #include "cli/data_options.h"
 #include "cli/json_output.h"
+#include "cli/usecase_door.h"
 #include "dsp/data_file.h"
 #include "dsp/periodic_record.h"
 #include "models/io/json_file.h"
@@ -14,6 +15,7 @@
 #include "models/linear/mimo_model.h"
 #include "models/validation/performance.h"
 #include "models/validation/periodic_rmse.h"
+#include "usecases/validate_model.h"
 
 namespace panelbass::cli {
 namespace {
@@ -25,22 +27,6 @@ struct ValidateOptions {
   long init = 0;
   long warmup = 1000;  ///< a MIMO model's steady-state warm-up, samples
 };
-
-/// Why a one-step prediction J can be worse than the simulation J, for `model`: its predictor feeds measured
-/// outputs through a noise model it never had (both kinds are fitted for simulation, output error).
-std::string prediction_note(const models::AnyModel& model) {
-  if (const auto* lm = std::get_if<models::LinearModel>(&model.model)) {
-    char gain[64];  // A(q) = 1 + a1 q^-1 + ..., a_1..a_na stored
-    std::snprintf(gain, sizeof gain, "%.3g", 1.0 + lm->tf.a.squaredNorm());
-    return "J_pred is worse than J_sim because this output-error model has no noise model: its one-step predictor "
-           "y(k) = -a1*y(k-1) - ... + B(q)u(k) reads the measured, noisy outputs, so its error is A(q) times the "
-           "simulation error, and A(q) multiplies white noise's power by 1 + sum(a_i^2) = " +
-           std::string(gain) + ". Judge it by J_sim; J_pred fits a model fitted for prediction (ARX, PEM).";
-  }
-  return "J_pred is worse than J_sim because the model was trained for simulation (output error): its one-step predictor "
-         "feeds the measured, noisy outputs into lags trained on its own noise-free outputs. Judge it by J_sim; J_pred "
-         "fits a model trained for prediction (PEM).";
-}
 
 /// A MIMO model on a periodic record: per realisation its periods one after the other, continued from the
 /// periodic steady state (the last --warmup samples played first), scored by the FSM benchmark's protocol.
@@ -92,37 +78,32 @@ void run_validate(const ValidateOptions& o) {
     return;
   }
   if (!o.sim_out.empty()) dsp::check_writable_data_file(o.sim_out);
-  const models::AnyModel model = models::load_model(o.model);
-  const dsp::Record data = o.columns.read_at_model_rate(o.data, model.fs());
-  const Eigen::VectorXd& u = data.columns[0];
-  const Eigen::VectorXd& y = data.columns[1];
-  if (o.init >= u.size()) throw std::invalid_argument("--init " + std::to_string(o.init) + " is not shorter than the data");
-  const Eigen::VectorXd y_sim = model.simulate(u, y, o.init);
-  const Eigen::VectorXd y_pred = model.predict(u, y);
-  const Eigen::Index n = u.size() - o.init;
-  const double rmse = std::sqrt((y_sim - y).tail(n).squaredNorm() / static_cast<double>(n));
-  const double j_sim = models::j_percent(y_sim, y, o.init), j_pred = models::j_percent(y_pred, y, o.init);
-  const std::string note = j_pred > j_sim ? prediction_note(model) : "";
-  if (!note.empty()) std::fprintf(stderr, "validate: %s\n", note.c_str());
+  usecases::ValidateRequest q;
+  q.model = models::read_json_file(o.model);
+  q.model_name = o.model;
+  const double model_fs = models::rate_of(models::read_json_file_as(o.model, models::load_checked_model));
+  const dsp::Record data = o.columns.read_at_model_rate(o.data, model_fs);
+  q.u = data.columns[0];
+  q.y = data.columns[1];
+  q.init = o.init;
+  usecases::SilentProgress quiet;
+  const usecases::ValidateReport report = run_use_case([&] { return usecases::validate_model(q, quiet); });
+  if (const auto& note = report.summary.at("J_pred_note"); note.is_string()) {
+    std::fprintf(stderr, "validate: %s\n", note.get<std::string>().c_str());
+  }
   if (!o.sim_out.empty()) {
     dsp::Record out;
     out.fs = data.fs;
-    out.add("u", u);
-    out.add("y", y);
-    out.add("y_sim", y_sim);
-    out.add("y_pred", y_pred);
+    out.add("u", q.u);
+    out.add("y", q.y);
+    out.add("y_sim", report.y_sim);
+    out.add("y_pred", report.y_pred);
     dsp::write_data_file(o.sim_out, out);
   }
-  print_result({{"J_sim_pct", j_sim},
-                {"J_pred_pct", j_pred},
-                {"J_pred_note", note.empty() ? nlohmann::json(nullptr) : nlohmann::json(note)},
-                {"rmse", rmse},
-                {"samples", n},
-                {"kind", model.kind()},
-                {"init", o.init},
-                {"model", o.model},
-                {"data", o.data},
-                {"sim_out", o.sim_out.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.sim_out)}});
+  nlohmann::json result = report.summary;
+  result["data"] = o.data;
+  result["sim_out"] = o.sim_out.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.sim_out);
+  print_result(result);
 }
 
 }  // namespace

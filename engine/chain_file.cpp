@@ -58,6 +58,9 @@ BandPassConfig parse_band_pass(const nlohmann::json& value, double fs) {
   return c;
 }
 
+// The role of the feedforward or the feedback slot, as the model-kind registry names it.
+models::ModelRole slot_role(bool feedback) { return feedback ? models::ModelRole::feedback : models::ModelRole::feedforward; }
+
 // The model of a slot: a path relative to `folder` or an inline object; validated as a stage at `fs`.
 SlotConfig parse_slot(const nlohmann::json& value, const std::string& name, double fs,
                       const std::filesystem::path& folder, bool feedback) {
@@ -91,10 +94,10 @@ SlotConfig parse_slot(const nlohmann::json& value, const std::string& name, doub
   }
   c.bypass = f.boolean("bypass", false);
   f.finish();
-  // make_stage() validates the object and knows which kinds the engine runs.
+  // make_stage() validates the object and knows which kinds the slot runs.
   const std::string where = c.path.empty() ? model_key : model_key + " (" + (folder / c.path).string() + ")";
   try {
-    (void)make_stage(c.model, c.source);
+    (void)make_stage(c.model, slot_role(feedback), c.source);
   } catch (const std::exception& e) {
     throw ConfigError(where + ": " + e.what());
   }
@@ -142,8 +145,8 @@ std::unique_ptr<Stage> band_pass_stage(const BandPassDesign& design) {
   return stage;
 }
 
-std::unique_ptr<Stage> slot_stage(const SlotConfig& slot) {
-  std::unique_ptr<Stage> stage = make_stage(slot.model, slot.source);
+std::unique_ptr<Stage> slot_stage(const SlotConfig& slot, bool feedback) {
+  std::unique_ptr<Stage> stage = make_stage(slot.model, slot_role(feedback), slot.source);
   stage->set_id(model_id(slot.model));
   return stage;
 }
@@ -271,7 +274,7 @@ std::unique_ptr<Chain> make_chain(const ChainConfig& config) {
   const auto fill = [](ModelSlot& slot, const std::optional<SlotConfig>& c, const char* name) {
     if (!c) return;
     try {
-      slot.set_initial(slot_stage(*c));
+      slot.set_initial(slot_stage(*c, std::string(name) == "feedback"));
     } catch (const std::exception& e) {
       throw std::invalid_argument(std::string(name) + ": " + e.what());
     }
@@ -338,7 +341,7 @@ ConfigChange apply_change(Chain& chain, const ChainConfig& before, const ChainCo
   std::unique_ptr<Stage> band_pass, feedforward, feedback;
   const auto build = [&spec](const std::optional<SlotConfig>& c, const char* name) -> std::unique_ptr<Stage> {
     try {
-      std::unique_ptr<Stage> stage = c ? slot_stage(*c) : std::make_unique<PassThroughStage>();
+      std::unique_ptr<Stage> stage = c ? slot_stage(*c, std::string(name) == "feedback") : std::make_unique<PassThroughStage>();
       stage->prepare(spec);
       return stage;
     } catch (const std::exception& e) {

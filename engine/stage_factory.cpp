@@ -1,33 +1,31 @@
 #include "engine/stage_factory.h"
 
-#include <stdexcept>
+#include <type_traits>
 
 #include "engine/controller_stages.h"
 #include "engine/mirror_filter_stage.h"
 #include "models/io/config_error.h"
-#include "models/linear/linear_model.h"
-#include "models/control/lq_feedforward.h"
-#include "models/narx/narx_model.h"
-#include "models/control/neural_feedback.h"
 
 namespace panelbass::engine {
 
-std::unique_ptr<Stage> make_stage(const nlohmann::json& model_file, FeedbackSource source) {
-  if (!model_file.is_object() || !model_file.contains("kind") || !model_file["kind"].is_string()) {
-    throw models::ConfigError("model: \"kind\" is missing or not a string");
-  }
-  const std::string kind = model_file["kind"].get<std::string>();
-  if (kind == "linear") return std::make_unique<LinearStage>(models::linear_model_from_json(model_file));
-  if (kind == "narx") return std::make_unique<NarxStage>(models::narx_model_from_json(model_file), source);
-  if (kind == "lq_feedforward") {
-    const models::LqFeedforward ff = models::lq_feedforward_from_json(model_file);
-    return std::make_unique<StateSpaceStage>(ff.controller(), ff.fs);
-  }
-  if (kind == "mirror_filter") return std::make_unique<MirrorFilterStage>(models::mirror_model_from_json(model_file));
-  if (kind == "neural_feedback") {
-    return std::make_unique<NeuralFeedbackStage>(models::neural_feedback_from_json(model_file), source);
-  }
-  throw std::invalid_argument("model: kind \"" + kind + "\" cannot run as an engine stage");
+std::unique_ptr<Stage> make_stage(const nlohmann::json& model_file, models::ModelRole slot, FeedbackSource source) {
+  const models::ModelKind& kind = models::model_kind_of(model_file);
+  models::require_role(kind, slot, "the model");
+  return std::visit(
+      [source](auto&& m) -> std::unique_ptr<Stage> {
+        using T = std::decay_t<decltype(m)>;
+        if constexpr (std::is_same_v<T, models::LqFeedforward>) {
+          return std::make_unique<StateSpaceStage>(m.controller(), m.fs);
+        } else if constexpr (std::is_same_v<T, models::MirrorModel>) {
+          return std::make_unique<MirrorFilterStage>(m);
+        } else if constexpr (std::is_same_v<T, models::NeuralFeedback>) {
+          return std::make_unique<NeuralFeedbackStage>(std::move(m), source);
+        } else {
+          // The registry gives plant kinds no slot: require_role refused it above.
+          throw models::ConfigError("model: a plant model runs in no slot of the chain");
+        }
+      },
+      models::load_checked_model(model_file));
 }
 
 double model_rate(const nlohmann::json& model_file) {

@@ -24,7 +24,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 json analyze_params(const json& params, const JobEnvironment& env) {
   ParamReader r(params, "params");
-  require_stored_model(r, "model", true, {"linear", "narx"}, env);
+  require_stored_model(r, "model", true, kinds_taking(models::ModelRole::plant), env);
   std::string validation_path;
   record_source(r, env, validation_path);
   return r.finish();

@@ -1,134 +1,91 @@
 #include "api/jobs/design_lq_job.h"
 
-#include <cstdint>
 #include <limits>
-#include <stdexcept>
 #include <string>
-#include <vector>
 
 #include "api/jobs/job_plots.h"
 #include "api/jobs/job_progress.h"
 #include "api/jobs/param_reader.h"
 #include "api/jobs/stored_models.h"
-#include "dsp/butterworth.h"
-#include "dsp/decibels.h"
-#include "dsp/frequency_grid.h"
-#include "models/control/lq_feedforward.h"
-#include "models/control/lq_weight_search.h"
-#include "models/io/json_fields.h"
 #include "models/io/number_text.h"
-#include "models/io/roots_json.h"
-#include "models/linear/frequency_response.h"
-#include "models/linear/linear_model.h"
+#include "usecases/design_lq.h"
 
 namespace panelbass::api {
 namespace {
 
 using nlohmann::json;
 
-// The LQ weight on the model output (the CLI's --R0 default; the API exposes R only).
-constexpr double kLqR0 = 20.0;
-// Uniform-noise samples behind the LQ design's max_input_noise figure.
-constexpr Eigen::Index kLqNoiseSamples = 20000;
+
+// The request of filled-in params; the plant model's file read from the store when `env` has it.
+usecases::DesignLqRequest design_lq_request(const json& params, const JobEnvironment& env, bool with_model) {
+  usecases::DesignLqRequest q;
+  q.plant_name = params.at("plant_model").get<std::string>();
+  if (with_model) q.plant_model = stored_model_file(env, q.plant_name);
+  if (!params.at("r").is_null()) q.r = params.at("r").get<double>();
+  if (!params.at("max_input").is_null()) q.max_input = params.at("max_input").get<double>();
+  q.r0 = params.at("r0").get<double>();
+  const json& band = params.at("band_pass");
+  q.band_pass = {band.at("low_hz").get<double>(), band.at("high_hz").get<double>(), band.at("order").get<int>()};
+  if (const json& t = params.at("target_highpass"); !t.is_null()) {
+    q.target_highpass = usecases::TargetHighpass{t.at("hz").get<double>(), t.at("order").get<int>()};
+  }
+  q.noise_samples = params.at("noise_samples").get<long>();
+  q.seed = params.at("seed").get<std::uint64_t>();
+  return q;
+}
 
 json design_lq_params(const json& params, const JobEnvironment& env) {
+  const usecases::DesignLqRequest defaults;
   ParamReader r(params, "params");
-  require_stored_model(r, "plant_model", true, {"linear"}, env);
-  const json* weight = r.member("r");
-  const bool weight_given = weight != nullptr && !weight->is_null();
-  r.number("r", 1e-5, {0.0, std::numeric_limits<double>::infinity(), true, true});
-  // The weight chosen by its safe program amplitude instead (models::design_lq_for_input).
-  if (const json* target = r.member("max_input"); target != nullptr && !target->is_null()) {
-    if (weight_given) refuse(r.path_of("max_input"), "choose the weight by r or by max_input, not both");
-    r.number("max_input", 0.0, {0.0, 1.0, true, false});
+  require_stored_model(r, "plant_model", true, {"linear", "gray_box", "ss"}, env);
+  for (const char* key : {"r", "max_input"}) {
+    const json* v = r.member(key);
+    r.set(key, v == nullptr || v->is_null() ? json(nullptr) : json(r.number(key, 0.0, kAnyFinite)));
   }
+  r.number("r0", defaults.r0, kAnyFinite);
   const json* band = r.member("band_pass");
   ParamReader b(band != nullptr ? *band : json::object(), r.path_of("band_pass"));
-  const double low = b.number("low_hz", 20.0, {0.0, std::numeric_limits<double>::infinity(), false, true});
-  b.number("high_hz", 1200.0, {low, env.fs / 2.0, true, true});
-  b.integer("order", 2, 1, 16);
+  b.number("low_hz", defaults.band_pass.low_hz, kAnyFinite);
+  b.number("high_hz", defaults.band_pass.high_hz, kAnyFinite);
+  b.integer("order", defaults.band_pass.order, std::numeric_limits<int>::min(), std::numeric_limits<int>::max());
   r.set("band_pass", b.finish());
-  return r.finish();
+  const json* target = r.member("target_highpass");
+  if (target == nullptr || target->is_null()) {
+    r.set("target_highpass", nullptr);
+  } else {
+    ParamReader t(*target, r.path_of("target_highpass"));
+    t.number("hz", 0.0, kAnyFinite);
+    t.integer("order", usecases::TargetHighpass{}.order, std::numeric_limits<int>::min(), std::numeric_limits<int>::max());
+    r.set("target_highpass", t.finish());
+  }
+  r.integer("noise_samples", defaults.noise_samples, std::numeric_limits<long>::min(), std::numeric_limits<long>::max());
+  r.integer("seed", static_cast<long long>(defaults.seed), 0, kMaxSeed);
+  json filled = r.finish();
+  const usecases::DesignLqRequest q = design_lq_request(filled, env, false);
+  check_request([&] {
+    usecases::check(q);
+    q.band_pass.check("band_pass", env.fs);
+  });
+  return filled;
 }
 
 json design_lq_work(const json& params, const JobEnvironment& env, JobControl& control) {
   JobProgress progress(control);
-  const std::string plant_id = params.at("plant_model").get<std::string>();
-  progress.at(0.0, "reading " + plant_id);
-  const models::LinearModel model = models::linear_model_from_json(stored_model_file(env, plant_id));
-  const json& band = params.at("band_pass");
-  const double lo = band.at("low_hz").get<double>(), hi = band.at("high_hz").get<double>();
-  const int band_order = band.at("order").get<int>();
-  if (!(hi < model.fs / 2.0)) {
-    throw std::invalid_argument("params.band_pass.high_hz: " + models::number_text(hi, 4) +
-                                " Hz is not below the model's Nyquist frequency");
-  }
-  const std::vector<dsp::Biquad> band_pass = dsp::butterworth_band(band_order, lo, hi, model.fs);
-
-  const std::uint64_t seed = 1;
-  models::LqFeedforward ff;
-  models::InputLimits limits;
-  json search = nullptr;
-  if (params.contains("max_input")) {
-    const double target = params.at("max_input").get<double>();
-    progress.at(0.1, "searching R for a safe program amplitude of " + models::number_text(target, 4));
-    models::LqWeightSearch found = models::design_lq_for_input(model, kLqR0, target, band_pass, kLqNoiseSamples, seed);
-    ff = std::move(found.ff);
-    limits = found.limits;
-    search = models::lq_weight_search_report(found);
-  } else {
-    progress.at(0.1, "LQ design, R = " + models::number_text(params.at("r").get<double>(), 4));
-    ff = models::design_lq(model, {params.at("r").get<double>(), kLqR0});
-    progress.at(0.4, "largest safe program amplitude");
-    limits = models::max_input(ff, band_pass, kLqNoiseSamples, seed);
-  }
-  const double r_weight = ff.weights.R;
-  const models::DrivePeak peak = models::drive_peak(ff, band_pass);
-  ff.meta = {{"model", plant_id},
-             {"model_method", model.method},
-             {"order", ff.plant.order()},
-             {"weights", {{"R", r_weight}, {"R0", kLqR0}}},
-             {"bandpass", {lo, hi}},
-             {"bandpass_order", band_order},
-             {"max_input", {{"worst", limits.worst}, {"noise", limits.noise}, {"samples", kLqNoiseSamples}, {"seed", seed}}}};
-  if (!search.is_null()) ff.meta["R_search"] = search;
-  progress.at(0.8, "storing the controller");
-  const std::string name = "lq R=" + models::number_text(r_weight, 4) + " on " + plant_id + " (" + control.job_id() + ")";
-  const std::string model_id = store_model(env, models::lq_feedforward_to_json(ff), name, control);
-
-  const Eigen::VectorXd f = dsp::log_spaced(10.0, 0.49 * ff.fs, 200);
-  const Eigen::VectorXcd poles = ff.poles();
-  json result = {{"model_id", model_id},
-                 {"j_est_pct", nullptr},
-                 {"j_val_pct", nullptr},
-                 {"summary",
-                  {{"plant_model", plant_id},
-                   {"order", ff.plant.order()},
-                   {"R", r_weight},
-                   {"R_search", search},
-                   {"R0", kLqR0},
-                   {"L", models::to_array(ff.L.transpose())},
-                   {"poles", models::roots_json(poles)},
-                   {"zeros", models::roots_json(ff.zeros())},
-                   {"pole_radius", poles.size() ? poles.cwiseAbs().maxCoeff() : 0.0},
-                   {"bandpass", {lo, hi}},
-                   {"bandpass_order", band_order},
-                   {"max_input_worst", limits.worst},
-                   {"max_input_noise", limits.noise},
-                   {"drive_peak", {{"frequency_hz", peak.frequency_hz}, {"gain_db", peak.gain_db}}},
-                   {"unity_gain_hz", models::unity_gain_hz(ff)}}},
-                 {"plots",
-                  {{"spectrum",
-                    {{"f", column(f)},
-                     {"plant_db", column(dsp::magnitude_db(models::frequency_response(ff.plant, f, ff.fs)))},
-                     {"controlled_db", column(dsp::magnitude_db(models::frequency_response(ff.desired(), f, ff.fs)))},
-                     {"controller_db", column(dsp::magnitude_db(models::frequency_response(ff.controller(), f, ff.fs)))}}}}}};
-  progress.at(1.0, "done");
-  return result;
+  const usecases::DesignLqRequest q = design_lq_request(params, env, true);
+  usecases::DesignLqReport report = usecases::design_lq(q, progress);
+  const std::string name = "lq R=" + models::number_text(report.controller.weights.R, 4) + " on " + q.plant_name + " (" +
+                           control.job_id() + ")";
+  const std::string model_id = store_model(env, models::lq_feedforward_to_json(report.controller), name, control);
+  return {{"model_id", model_id},
+          {"j_est_pct", nullptr},
+          {"j_val_pct", nullptr},
+          {"summary", report.summary},
+          {"warnings", report.warnings},
+          {"plots", {{"spectrum", report.spectrum}}}};
 }
 
 }  // namespace
 
-JobKind design_lq_job() { return {"design-lq", design_lq_params, design_lq_work}; }
+JobKind design_lq_job() { return {"design-lq", design_lq_params, design_lq_work, "lq_feedforward"}; }
 
 }  // namespace panelbass::api

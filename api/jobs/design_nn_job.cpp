@@ -198,6 +198,6 @@ json design_nn_work(const json& params, const JobEnvironment& env, JobControl& c
 
 }  // namespace
 
-JobKind design_nn_job() { return {"design-nn", design_nn_params, design_nn_work}; }
+JobKind design_nn_job() { return {"design-nn", design_nn_params, design_nn_work, "neural_feedback"}; }
 
 }  // namespace panelbass::api

@@ -26,7 +26,7 @@ json diagnose_params(const json& params, const JobEnvironment& env) {
   std::string validation_path;
   const long long validation = record_source(r, env, validation_path);
   if (validation == 0) refuse(validation_path, "diagnose needs validation data (it judges every augmentation on it)");
-  require_stored_model(r, "baseline_model", false, {"linear", "narx", "ss", "gray_box"}, env);
+  require_stored_model(r, "baseline_model", false, kinds_taking(models::ModelRole::plant), env);
   r.integer("max_findings", 4, 0, 20);
   std::vector<std::string> quantities;
   for (auto q : models::all_output_quantities()) quantities.push_back(models::to_string(q));
@@ -90,6 +90,6 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
 
 }  // namespace
 
-JobKind diagnose_job() { return {"diagnose", diagnose_params, diagnose_work}; }
+JobKind diagnose_job() { return {"diagnose", diagnose_params, diagnose_work, "gray_box"}; }
 
 }  // namespace panelbass::api

@@ -183,6 +183,6 @@ json identify_linear_work(const json& params, const JobEnvironment& env, JobCont
 
 }  // namespace
 
-JobKind identify_linear_job() { return {"identify-linear", identify_linear_params, identify_linear_work}; }
+JobKind identify_linear_job() { return {"identify-linear", identify_linear_params, identify_linear_work, "linear"}; }
 
 }  // namespace panelbass::api

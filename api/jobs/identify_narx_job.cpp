@@ -184,6 +184,6 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
 
 }  // namespace
 
-JobKind identify_narx_job() { return {"identify-narx", identify_narx_params, identify_narx_work}; }
+JobKind identify_narx_job() { return {"identify-narx", identify_narx_params, identify_narx_work, "narx"}; }
 
 }  // namespace panelbass::api

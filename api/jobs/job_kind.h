@@ -20,6 +20,7 @@ struct JobKind {
   const char* name;    ///< as ROUTES.md spells it ("identify-linear")
   ParamsCheck params;  ///< its params check
   KindWork work;       ///< its work
+  const char* makes = nullptr;  ///< the model kind its result's "model_id" is of (nullptr: it makes none)
 };
 
 }  // namespace panelbass::api

@@ -4,6 +4,7 @@
 
 #include "api/jobs/analyze_job.h"
 #include "api/jobs/design_lq_job.h"
+#include "api/jobs/design_mirror_job.h"
 #include "api/jobs/design_nn_job.h"
 #include "api/jobs/diagnose_job.h"
 #include "api/jobs/evaluate_job.h"
@@ -12,6 +13,7 @@
 #include "api/jobs/identify_narx_job.h"
 #include "api/jobs/job_kind.h"
 #include "api/jobs/job_plots.h"
+#include "api/jobs/validate_job.h"
 #include "api/jobs/verify_job.h"
 
 namespace panelbass::api {
@@ -22,8 +24,9 @@ using nlohmann::json;
 // Every kind, in the order ROUTES.md lists them.
 const std::vector<JobKind>& registry() {
   static const std::vector<JobKind> kinds{excite_job(),     identify_linear_job(), identify_narx_job(),
-                                          design_lq_job(),  design_nn_job(),       evaluate_job(),
-                                          analyze_job(),    diagnose_job(),        verify_job()};
+                                          validate_job(),   design_lq_job(),       design_nn_job(),
+                                          design_mirror_job(), evaluate_job(),     analyze_job(),
+                                          diagnose_job(),   verify_job()};
   return kinds;
 }
 
@@ -46,6 +49,13 @@ const std::vector<std::string>& job_kinds() {
     return out;
   }();
   return names;
+}
+
+std::string model_kind_made_by(const std::string& job_kind) {
+  for (const JobKind& kind : registry()) {
+    if (job_kind == kind.name) return kind.makes != nullptr ? kind.makes : "";
+  }
+  return "";
 }
 
 json validate_job_params(const std::string& kind, const json& params, const JobEnvironment& env) {

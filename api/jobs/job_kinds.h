@@ -1,6 +1,6 @@
 #pragma once
-// The kinds of job the API runs (ROUTES.md "Jobs"): excite, identify-linear, identify-narx, design-lq,
-// design-nn, evaluate, analyze, diagnose. Each validates its params before it is queued and returns a result with
+// The kinds of job the API runs (ROUTES.md "Jobs"): excite, identify-linear, identify-narx, validate, design-lq,
+// design-nn, design-mirror, evaluate, analyze, diagnose, verify. Each validates its params before it is queued and returns a result with
 // plot-ready columns. Each kind is a file of its own here (its params beside its work); this is the registry.
 
 #include <nlohmann/json.hpp>
@@ -14,6 +14,9 @@ namespace panelbass::api {
 
 /// The job kinds, in the order ROUTES.md lists them.
 const std::vector<std::string>& job_kinds();
+
+/// The model kind a job of `job_kind` makes ("" when it makes none, or the job kind is unknown).
+std::string model_kind_made_by(const std::string& job_kind);
 
 /// Checks `params` of `kind` without running anything: unknown kind, unknown fields (named), wrong types,
 /// values out of range, referenced models or jobs that do not exist or are of the wrong kind. Returns the

@@ -5,11 +5,12 @@
 #include <string>
 
 #include "api/job_queue.h"
+#include "usecases/progress.h"
 
 namespace panelbass::api {
 
 /// Progress of one job. JobCancelled thrown by the control unwinds whatever called at().
-class JobProgress {
+class JobProgress final : public usecases::Progress {
  public:
   /// Reports through `control`.
   explicit JobProgress(JobControl& control) : control_(control) {}
@@ -17,6 +18,8 @@ class JobProgress {
   void span(double lo, double hi);
   /// Reports `fraction` of the current stage (non-finite counts as 0; clamped to [0, 1]).
   void at(double fraction, const std::string& message);
+  /// A use case's report: at().
+  void report(double fraction, const std::string& message) override { at(fraction, message); }
 
  private:
   JobControl& control_;

@@ -4,11 +4,13 @@
 // validated reader (models::JsonFields), which keeps the key paths and the fields asked for.
 
 #include <nlohmann/json.hpp>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "models/io/json_fields.h"
+#include "usecases/request_error.h"
 
 namespace panelbass::api {
 
@@ -31,6 +33,9 @@ struct Interval {
   /// "(0, 1]", "[0, inf)", …
   std::string text() const;
 };
+
+/// Any finite number: for a field whose range a use case's check says (the same words at both doors).
+inline constexpr Interval kAnyFinite{-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(), true, true};
 
 /// Reads one params object: each accessor marks its key as known, checks the value (throwing
 /// std::invalid_argument "<path>.<key>: …") and records it, with the default when absent, in the
@@ -80,6 +85,17 @@ class ParamReader {
 
 /// Throws std::invalid_argument "<path>: <what>".
 [[noreturn]] void refuse(const std::string& path, const std::string& what);
+
+/// Runs `check` (a use case's request check, or the use case itself) and turns a RequestError it throws into
+/// std::invalid_argument "params.<field>: <problem>", as the API names a field.
+template <typename Check>
+void check_request(Check&& check) {
+  try {
+    check();
+  } catch (const usecases::RequestError& e) {
+    refuse("params." + e.field(), e.problem());
+  }
+}
 
 /// A short rendering of a value for a message: `"x"`, `12.5`, `[1,2]` (long ones cut).
 std::string shown(const nlohmann::json& value);

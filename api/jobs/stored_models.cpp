@@ -32,6 +32,14 @@ void require_stored_model(ParamReader& r, const std::string& key, bool required,
   }
 }
 
+std::vector<std::string> kinds_taking(models::ModelRole role) {
+  std::vector<std::string> names;
+  for (const models::ModelKind& k : models::model_kinds()) {
+    if (k.takes(role)) names.emplace_back(k.name);
+  }
+  return names;
+}
+
 json stored_model_file(const JobEnvironment& env, const std::string& id) {
   if (env.store == nullptr) throw std::runtime_error("no model store");
   std::optional<json> model = env.store->model(id);

@@ -9,6 +9,7 @@
 #include "api/job_queue.h"
 #include "api/jobs/job_environment.h"
 #include "api/jobs/param_reader.h"
+#include "models/kinds/model_file.h"
 
 namespace panelbass::api {
 
@@ -16,6 +17,9 @@ namespace panelbass::api {
 /// the engine's rate; std::invalid_argument naming the field otherwise.
 void require_stored_model(ParamReader& r, const std::string& key, bool required, const std::vector<std::string>& kinds,
                           const JobEnvironment& env);
+
+/// The names of the model kinds that may take `role` (the registry's), for require_stored_model.
+std::vector<std::string> kinds_taking(models::ModelRole role);
 
 /// The stored model file `id` (checked when the params were; gone since → std::runtime_error, the job fails).
 nlohmann::json stored_model_file(const JobEnvironment& env, const std::string& id);

@@ -240,7 +240,7 @@ TEST(ModelValidation, APlantDescriptionOrAChainFileSaysWhatItIsAndWhereItBelongs
       rejection(models::plant_to_json(models::plant_preset("panel-exciter")));
   EXPECT_EQ(plant_code, "bad_request");
   EXPECT_NE(plant_message.find("this is a plant description"), std::string::npos) << plant_message;
-  EXPECT_NE(plant_message.find("--plant of panelbass serve, run or simulate"), std::string::npos) << plant_message;
+  EXPECT_NE(plant_message.find("--plant of panelbass serve, run, simulate or transducer"), std::string::npos) << plant_message;
   const auto [chain_code, chain_message] = rejection(json{{"format", "panelbass.chain/1"}, {"fs", 3000}});
   EXPECT_EQ(chain_code, "bad_request");
   EXPECT_NE(chain_message.find("this is a chain file"), std::string::npos) << chain_message;

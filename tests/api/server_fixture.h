@@ -23,6 +23,7 @@
 #include "models/control/neural_feedback.h"
 #include "models/plant/plant_presets.h"
 #include "tests/engine/engine_test_models.h"
+#include "tests/support/controllers.h"
 #include "tests/support/scratch_directory.h"
 
 // After the project's (Eigen) headers: glibc's resolv.h, which httplib pulls in, defines a macro `_res`.
@@ -84,16 +85,7 @@ inline Reply raw_request(int port, const std::string& request) {
 
 /// An LQ feedforward controller whose drive is u*(k) = u(k) + c·u(k−1) (gain between |1 − |c|| and 1 + |c|):
 /// one state, A = −c, B = 1, L = −c, so that A − B·L = 0 (u*/u = 1 + c·z⁻¹ by [7B]).
-inline nlohmann::json lq_gain_controller(double c) {
-  models::LqFeedforward ff;
-  ff.plant.A = Eigen::MatrixXd::Constant(1, 1, -c);
-  ff.plant.B = Eigen::VectorXd::Ones(1);
-  ff.plant.C = Eigen::RowVectorXd::Ones(1);
-  ff.L = Eigen::RowVectorXd::Constant(1, -c);
-  ff.weights = {1.0, 0.0};
-  ff.fs = engine::testing::kFs;
-  return models::lq_feedforward_to_json(ff);
-}
+inline nlohmann::json lq_gain_controller(double c) { return testing_support::fir_gain_controller(c, engine::testing::kFs); }
 
 /// A neural feedback controller with N1's weights zero (its drive is the soft-limited feedforward output) on
 /// engine::testing::example_narx(`plant_seed`).

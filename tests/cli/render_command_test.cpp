@@ -20,6 +20,7 @@
 #include "models/linear/transfer_function.h"
 #include "models/plant/virtual_transducer.h"
 #include "tests/support/cli_runner.h"
+#include "tests/support/controllers.h"
 
 namespace panelbass {
 namespace {
@@ -167,16 +168,16 @@ TEST_F(CliRender, WithAnLqFeedforwardTheDesiredResponseIsItsControlledLinearMode
 }
 
 TEST_F(CliRender, AProgramPastTheChainsSafeAmplitudeIsReportedAndOneBelowIsNot) {
-  // A feedforward of gain 3 behind the band-pass: the chain's safe amplitude at 100 Hz is 1 / (3·|H(100)|).
-  models::LinearModel gain;
-  gain.tf.b = Eigen::VectorXd::Constant(1, 3.0);
-  gain.fs = 3000.0;
-  models::write_json_file(dir_ / "gain.json", models::linear_model_to_json(gain));
+  // A feedforward u + 2·u(k−1) (about 3 at 100 Hz) behind the band-pass.
+  models::write_json_file(dir_ / "gain.json", testing_support::fir_gain_controller(2.0));
   const fs::path chain = file("gain-chain.json", R"({"format":"panelbass.chain/1","fs":3000,
       "band_pass":{"low_hz":20,"high_hz":1200},"feedforward":{"model":"gain.json"}})");
   const auto asked = [](const fs::path& in) {  // what the chain asks for, evaluated here
     const Eigen::VectorXd program = dsp::read_wav(in, {"program"}).columns.front();
-    return Eigen::VectorXd(3.0 * dsp::SosFilter(dsp::butterworth_bandpass(2, 20.0, 1200.0, 3000.0)).process(program));
+    const Eigen::VectorXd band = dsp::SosFilter(dsp::butterworth_bandpass(2, 20.0, 1200.0, 3000.0)).process(program);
+    Eigen::VectorXd out = band;
+    for (Eigen::Index k = 1; k < band.size(); ++k) out(k) += 2.0 * band(k - 1);
+    return out;
   };
   // 0.4 asks ≈ 1.2: past full scale.
   const fs::path loud = wav("loud.wav", dsp::sine(3000, 3000.0, 100.0, 0.4), 3000.0);

@@ -10,19 +10,15 @@
 #include "models/io/json_file.h"
 #include "models/linear/linear_model.h"
 #include "tests/support/cli_runner.h"
+#include "tests/support/controllers.h"
 
 namespace panelbass {
 namespace {
 
 using namespace testing_support;
 
-// The feedforward model of the test chain: a linear gain of 0.8.
-json gain_model() {
-  models::LinearModel gain;
-  gain.tf.b = Eigen::VectorXd::Constant(1, 0.8);
-  gain.fs = 3000.0;
-  return models::linear_model_to_json(gain);
-}
+// The feedforward controller of the test chain: u − 0.2·u(k−1), a gain of 0.8 at DC and at most 1.2.
+json gain_model() { return fir_gain_controller(-0.2); }
 
 class CliRun : public CliTest {
  protected:

@@ -1,7 +1,8 @@
 // The chain file: parsing with every validation error naming its key path and file, the JSON round
 // trip, the classification of each kind of change, chains built from a file checked against the stages
-// evaluated directly in the test (dsp::SosFilter from dsp::butterworth_*, LinearModel::simulate,
-// NarxModel::simulate), and a change applied while the virtual backend plays.
+// evaluated directly in the test (dsp::SosFilter from dsp::butterworth_*, the LQ controller's state space by
+// models::simulate, the neural feedback's closed loop by models::simulate_closed_loop), and a change applied
+// while the virtual backend plays.
 #include "engine/chain_file.h"
 
 #include <gtest/gtest.h>
@@ -53,8 +54,8 @@ Eigen::VectorXd run(Chain& chain, const Eigen::VectorXd& program) {
 class ChainFile : public testing_support::ScratchDirectoryTest {
  protected:
   ChainFile() {
-    models::write_json_file(dir_ / "ff.json", models::linear_model_to_json(testing::example_linear()));
-    models::write_json_file(dir_ / "fb.json", models::narx_model_to_json(testing::example_narx(41, 0.5)));
+    models::write_json_file(dir_ / "ff.json", models::lq_feedforward_to_json(testing::example_lq()));
+    models::write_json_file(dir_ / "fb.json", models::neural_feedback_to_json(testing::chain_feedback()));
   }
 
   // The chain file `json` written as chain.json and loaded.
@@ -115,12 +116,12 @@ TEST_F(ChainFile, FillsDefaultsAndTakesInlineModelsAndTheSensorSource) {
   EXPECT_FALSE(minimal.feedback.has_value());
 
   json j = example_json();
-  j["feedforward"]["model"] = models::linear_model_to_json(testing::gain_model(0.5));
+  j["feedforward"]["model"] = models::lq_feedforward_to_json(testing::example_lq(1e-2));
   j["feedback"]["source"] = "sensor";
   j["feedback"]["bypass"] = true;
   const ChainConfig c = load(j);
   EXPECT_EQ(c.feedforward->path, "");
-  EXPECT_EQ(c.feedforward->model, models::linear_model_to_json(testing::gain_model(0.5)));
+  EXPECT_EQ(c.feedforward->model, models::lq_feedforward_to_json(testing::example_lq(1e-2)));
   EXPECT_EQ(c.feedback->source, FeedbackSource::sensor);
   EXPECT_TRUE(c.feedback->bypass);
 }
@@ -225,16 +226,28 @@ TEST_F(ChainFile, RejectsModelsThatAreMissingInvalidUnrunnableOrAtAnotherRate) {
   j["feedforward"].erase("model");
   expect_error(j, {"chain.feedforward.model: missing"});
 
-  json bad = models::linear_model_to_json(testing::example_linear());
-  bad["params"].erase("a");
+  json bad = models::lq_feedforward_to_json(testing::example_lq());
+  bad["params"].erase("L");
   models::write_json_file(dir_ / "bad.json", bad);
   j = example_json();
   j["feedforward"]["model"] = "bad.json";
-  expect_error(j, {"chain.feedforward.model (" + (dir_ / "bad.json").string() + "): ", "model.params.a"});
+  expect_error(j, {"chain.feedforward.model (" + (dir_ / "bad.json").string() + "): ", "model.params.L"});
 
-  models::LinearModel fast = testing::example_linear();
-  fast.fs = 48000.0;
-  models::write_json_file(dir_ / "fast.json", models::linear_model_to_json(fast));
+  // A plant model is no controller: the registry gives it no slot.
+  models::write_json_file(dir_ / "lin.json", models::linear_model_to_json(testing::example_linear()));
+  j = example_json();
+  j["feedforward"]["model"] = "lin.json";
+  expect_error(j, {"chain.feedforward.model (" + (dir_ / "lin.json").string() + "): ",
+                   "a linear plant model (kind linear): the feedforward slot takes lq_feedforward or mirror_filter"});
+  j = example_json();
+  j["feedback"]["model"] = "ff.json";
+  expect_error(j, {"chain.feedback.model (" + (dir_ / "ff.json").string() + "): ",
+                   "an LQ feedforward controller (kind lq_feedforward): the feedback slot takes neural_feedback"});
+
+  json fast = models::neural_feedback_to_json(testing::chain_feedback());
+  fast["fs"] = 48000.0;
+  if (fast["plant"].contains("fs")) fast["plant"]["fs"] = 48000.0;
+  models::write_json_file(dir_ / "fast.json", fast);
   j = example_json();
   j["feedback"]["model"] = "fast.json";
   expect_error(j, {"chain.feedback.model (" + (dir_ / "fast.json").string() + "): ",
@@ -253,7 +266,7 @@ TEST_F(ChainFile, RoundTripsThroughJson) {
   EXPECT_EQ(chain_config_to_json(chain_config_from_json(written, dir_)), written);
 
   json j = example_json();
-  j["feedforward"]["model"] = models::linear_model_to_json(testing::gain_model(0.5));
+  j["feedforward"]["model"] = models::lq_feedforward_to_json(testing::example_lq(1e-2));
   j["band_pass"] = {{"low_hz", 0}, {"high_hz", 900}, {"order", 4}, {"bypass", true}};
   j["feedback"]["source"] = "sensor";
   const ChainConfig inline_model = load(j);
@@ -292,7 +305,7 @@ TEST_F(ChainFile, ClassifiesEachKindOfChange) {
   expect_class([](ChainConfig& c) { c.band_pass.design.low = Hertz{50}; }, rebuild, "band_pass.low_hz");
   expect_class([](ChainConfig& c) { c.band_pass.design.high = Hertz{1000}; }, rebuild, "band_pass.high_hz");
   expect_class([](ChainConfig& c) { c.band_pass.design.order = 4; }, rebuild, "band_pass.order");
-  expect_class([](ChainConfig& c) { c.feedforward->model = models::linear_model_to_json(testing::gain_model(0.5)); }, rebuild,
+  expect_class([](ChainConfig& c) { c.feedforward->model = models::lq_feedforward_to_json(testing::example_lq(1e-2)); }, rebuild,
                "feedforward.model");
   expect_class([](ChainConfig& c) { c.feedback->source = FeedbackSource::sensor; }, rebuild, "feedback.source");
   expect_class([](ChainConfig& c) { c.feedforward.reset(); }, rebuild, "feedforward");
@@ -319,7 +332,8 @@ TEST_F(ChainFile, AChainFromTheFileEqualsItsStagesEvaluatedDirectly) {
   auto chain = make_chain(c);
   const Eigen::VectorXd program = testing::uniform(4000, 0.5, 7);
   const Eigen::VectorXd band = filtered(dsp::butterworth_bandpass(2, 20.0, 1200.0, kFs), program);
-  const Eigen::VectorXd fb = testing::example_narx(41, 0.5).simulate(testing::example_linear().simulate(band));
+  const Eigen::VectorXd ff = models::simulate(testing::example_lq().controller(), band);
+  const Eigen::VectorXd fb = models::simulate_closed_loop(testing::chain_feedback(), ff).v;
   Eigen::VectorXd expected(fb.size());
   for (Eigen::Index k = 0; k < fb.size(); ++k) expected[k] = testing::reference_soft_limit(fb[k], 0.8);
   EXPECT_LE((run(*chain, program) - expected).cwiseAbs().maxCoeff(), 1e-12);
@@ -352,7 +366,7 @@ TEST_F(ChainFile, ApplyChangeSwapsModelsAndFlagsAndRefusesWhatNeedsARestart) {
   run(*chain, program);
 
   ChainConfig after = before;
-  after.feedforward->model = models::linear_model_to_json(testing::gain_model(0.5));
+  after.feedforward->model = models::lq_feedforward_to_json(testing::example_lq(1e-2));
   after.feedback->bypass = true;
   const ConfigChange change = apply_change(*chain, before, after);
   EXPECT_EQ(change.kind, ChangeClass::rebuild_with_crossfade);
@@ -368,7 +382,7 @@ TEST_F(ChainFile, ApplyChangeSwapsModelsAndFlagsAndRefusesWhatNeedsARestart) {
   apply_change(*chain, after, removed);
   run(*chain, program);
   EXPECT_EQ(chain->metrics().snapshot().active_ids[1], 0u);
-  EXPECT_EQ(chain->collect_retired(), 1u);  // the gain stage (install() freed the first one)
+  EXPECT_EQ(chain->collect_retired(), 1u);  // the second controller (install() freed the first one)
 
   ChainConfig faster = removed;
   faster.fs = 6000;

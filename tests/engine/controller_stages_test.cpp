@@ -36,7 +36,7 @@ models::NeuralFeedback example_feedback() {
 
 TEST(ControllerStagesTest, LqFeedforwardStageIsTheStateSpaceOf7B) {
   const models::LqFeedforward ff = models::design_lq(testing::example_linear(), {1e-3, 20.0});
-  const std::unique_ptr<Stage> stage = make_stage(models::lq_feedforward_to_json(ff));
+  const std::unique_ptr<Stage> stage = make_stage(models::lq_feedforward_to_json(ff), models::ModelRole::feedforward);
   const Eigen::VectorXd u = testing::uniform(500, 0.5, 1);
   const Eigen::VectorXd out = run_prepared(*stage, u);
   // [7B] written out: x(k+1) = (A − BL)x(k) + Bu(k), u*(k) = −Lx(k) + u(k), with the plant's A, B and L
@@ -95,17 +95,32 @@ TEST(ControllerStagesTest, SensorModeFedThePlantModelsOutputMatchesModelMode) {
   EXPECT_GT(difference, 1e-6);
 }
 
-TEST(ControllerStagesTest, FactoryBuildsEveryKindAndRefusesOthers) {
+// The registry (models/kinds) says which kinds a slot takes: a plant model runs in neither slot, a controller only in
+// its own, and each refusal names what the model is and what the slot takes.
+TEST(ControllerStagesTest, FactoryBuildsEveryControllerInItsSlotAndRefusesOthers) {
   const models::NeuralFeedback c = example_feedback();
-  const std::unique_ptr<Stage> fb = make_stage(models::neural_feedback_to_json(c), FeedbackSource::model);
+  const std::unique_ptr<Stage> fb =
+      make_stage(models::neural_feedback_to_json(c), models::ModelRole::feedback, FeedbackSource::model);
   const Eigen::VectorXd u = testing::uniform(200, 0.5, 4);
   EXPECT_LT((run_prepared(*fb, u) - models::simulate_closed_loop(c, u).v).cwiseAbs().maxCoeff(), 1e-12);
-  const std::unique_ptr<Stage> linear = make_stage(models::linear_model_to_json(testing::example_linear()));
-  EXPECT_LT((run_prepared(*linear, u) - testing::example_linear().simulate(u)).cwiseAbs().maxCoeff(), 1e-12);
-  EXPECT_THROW(make_stage(nlohmann::json{{"kind", "pid"}}), std::invalid_argument);
-  EXPECT_THROW(make_stage(nlohmann::json{{"fs", 3000}}), models::ConfigError);
+  const nlohmann::json linear = models::linear_model_to_json(testing::example_linear());
+  for (const auto slot : {models::ModelRole::feedforward, models::ModelRole::feedback}) {
+    try {
+      (void)make_stage(linear, slot);
+      ADD_FAILURE() << "a linear plant model was accepted in the " << models::role_name(slot) << " slot";
+    } catch (const models::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("a linear plant model (kind linear)"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(std::string("the ") + models::role_name(slot) + " slot takes"), std::string::npos)
+          << e.what();
+    }
+  }
+  EXPECT_THROW(make_stage(models::neural_feedback_to_json(c), models::ModelRole::feedforward), models::ConfigError);
+  const models::LqFeedforward ff = models::design_lq(testing::example_linear(), {1e-3, 20.0});
+  EXPECT_THROW(make_stage(models::lq_feedforward_to_json(ff), models::ModelRole::feedback), models::ConfigError);
+  EXPECT_THROW(make_stage(nlohmann::json{{"kind", "pid"}}, models::ModelRole::feedforward), models::ConfigError);
+  EXPECT_THROW(make_stage(nlohmann::json{{"fs", 3000}}, models::ModelRole::feedforward), models::ConfigError);
   nlohmann::json wrong_rate = models::neural_feedback_to_json(c);
-  const std::unique_ptr<Stage> at_3k = make_stage(wrong_rate);
+  const std::unique_ptr<Stage> at_3k = make_stage(wrong_rate, models::ModelRole::feedback);
   EXPECT_THROW(at_3k->prepare(ProcessSpec{48000.0, 64}), std::invalid_argument);
 }
 

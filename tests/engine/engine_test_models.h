@@ -13,6 +13,7 @@
 #include "models/linear/linear_model.h"
 #include "models/control/feedback_training.h"
 #include "models/narx/narx_model.h"
+#include "models/control/lq_feedforward.h"
 #include "models/control/neural_feedback.h"
 #include "models/linear/transfer_function.h"
 
@@ -76,6 +77,21 @@ inline models::NeuralFeedback example_feedback(const models::FeedbackStructure& 
   models::NeuralFeedback c = models::NeuralFeedback::with_structure(structure, example_narx(plant_seed));
   models::initialize_feedback(c, seed, output_scale);
   return c;
+}
+
+/// An LQ feedforward controller on example_linear() with input weight `R` (output weight 20): what a chain's
+/// feedforward slot runs.
+inline models::LqFeedforward example_lq(double R = 1e-3) { return models::design_lq(example_linear(), {R, 20.0}); }
+
+/// The neural feedback controller the chain tests run in the feedback slot: lags 2, 2, 3, five hidden nodes, on
+/// example_narx(41) (its weights from seed 9, output scale 0.3).
+inline models::NeuralFeedback chain_feedback() {
+  models::FeedbackStructure s;
+  s.nu = 2;
+  s.nv = 2;
+  s.ny = 3;
+  s.hidden = {5};
+  return example_feedback(s, 41, 9, 0.3);
 }
 
 /// `n` samples uniform in ±amplitude from dsp::Rng(seed).

@@ -24,7 +24,7 @@ models::MirrorModel small_model() {
 
 TEST(MirrorFilterStage, FactoryStageRunsTheModelsFilter) {
   const models::MirrorModel model = small_model();
-  std::unique_ptr<Stage> stage = make_stage(models::mirror_model_to_json(model), FeedbackSource::model);
+  std::unique_ptr<Stage> stage = make_stage(models::mirror_model_to_json(model), models::ModelRole::feedforward);
   stage->prepare({3000.0, 64});
   Eigen::VectorXd program(600);
   for (Eigen::Index k = 0; k < program.size(); ++k) program[k] = 0.4 * std::sin(2.0 * std::numbers::pi * 80.0 * k / 3000.0);

@@ -13,6 +13,7 @@
 #include "evaluation/level_sweep.h"
 #include "models/linear/linear_model.h"
 #include "models/plant/plant_presets.h"
+#include "tests/support/controllers.h"
 
 namespace panelbass::evaluation {
 namespace {
@@ -58,22 +59,22 @@ TEST(LevelSweep, LinearPlantShowsTheSensorNoiseFloor) {
 }
 
 TEST(LevelSweep, SaysWhereTheProgramNeedsMoreDriveThanTheChainCanGive) {
-  // a feedforward of gain 3 and nothing else: program 0.2 asks for 0.6 (inside the limiter's knee), 0.4 for 1.2
-  models::LinearModel gain;
-  gain.tf.b = Eigen::VectorXd::Constant(1, 3.0);
-  gain.fs = 3000.0;
+  // a feedforward u + 2·u(k−1) and nothing else, |H| ≈ 3 at 80 Hz: program 0.2 asks for about 0.6 (inside the
+  // limiter's knee), 0.4 for about 1.2
+  const double w = 2.0 * std::numbers::pi * 80.0 / 3000.0;
+  const double gain = std::sqrt(5.0 + 4.0 * std::cos(w));  // |1 + 2·e^{−jω}|
   engine::ChainConfig chain = pass_through_chain();
   chain.feedforward = engine::SlotConfig{};
-  chain.feedforward->model = models::linear_model_to_json(gain);
+  chain.feedforward->model = testing_support::fir_gain_controller(2.0);
   LevelSweepOptions o = short_sweep();
   o.program_amplitudes = {0.2, 0.4};
   const LevelSweep sweep = sweep_levels(chain, models::plant_preset("panel-exciter"), o);
   const std::vector<LevelPoint>& points = sweep.curves.at(0).points;
   ASSERT_EQ(points.size(), 2u);
-  // the peak asked is 3 × the sampled sine's: between 3a·cos(π·80/3000) and 3a
+  // the peak asked is |H| × the sampled sine's: between |H|·a·cos(π·80/3000) and |H|·a
   for (const LevelPoint& p : points) {
-    EXPECT_LE(p.peak_demand, 3.0 * p.program_amplitude + 1e-12);
-    EXPECT_GE(p.peak_demand, 3.0 * p.program_amplitude * std::cos(std::numbers::pi * 80.0 / 3000.0));
+    EXPECT_LE(p.peak_demand, gain * p.program_amplitude + 1e-12);
+    EXPECT_GE(p.peak_demand, gain * p.program_amplitude * std::cos(std::numbers::pi * 80.0 / 3000.0));
   }
   EXPECT_FALSE(points[0].needs_more_drive);
   EXPECT_TRUE(points[0].reachable);

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include "models/control/lq_feedforward.h"
 #include "tests/api/jobs/job_test_fixture.h"
 
 namespace panelbass::api::job_testing {
@@ -11,8 +12,8 @@ namespace {
 // ----- validation ------------------------------------------------------------------------------------
 
 TEST(JobKinds, ListsTheKindsInTheOrderOfRoutes) {
-  EXPECT_EQ(job_kinds(), (std::vector<std::string>{"excite", "identify-linear", "identify-narx", "design-lq", "design-nn",
-                                                   "evaluate", "analyze", "diagnose", "verify"}));
+  EXPECT_EQ(job_kinds(), (std::vector<std::string>{"excite", "identify-linear", "identify-narx", "validate", "design-lq",
+                                                   "design-nn", "design-mirror", "evaluate", "analyze", "diagnose", "verify"}));
 }
 
 TEST_F(JobKindsTest, UnknownKindIsRefusedWithTheKindsThereAre) {
@@ -75,10 +76,14 @@ TEST_F(JobKindsTest, DefaultsAreFilledIn) {
   EXPECT_EQ(narx.at("friction_lags"), 1);
   EXPECT_EQ(narx.at("weighted"), false);
 
+  // design-lq's defaults are the request's, as `design lq` has them: the weights of models::LqWeights (r unset: the
+  // use case takes LqWeights's R), the band 20-1200 Hz of order 2, 100 000 noise samples.
   const json lq = validate_job_params("design-lq", {{"plant_model", store_reference_model()}}, env_);
-  EXPECT_EQ(lq.at("r"), 1e-5);
-  EXPECT_FALSE(lq.contains("max_input"));  // the weight is r unless a safe amplitude is asked for
+  EXPECT_TRUE(lq.at("r").is_null());
+  EXPECT_TRUE(lq.at("max_input").is_null());
+  EXPECT_EQ(lq.at("r0"), models::LqWeights{}.R0);
   EXPECT_EQ(lq.at("band_pass"), (json{{"low_hz", 20.0}, {"high_hz", 1200.0}, {"order", 2}}));
+  EXPECT_EQ(lq.at("noise_samples"), 100000);
 }
 
 TEST_F(JobKindsTest, DesignNnDefaultsComeFromTheDesignOptions) {

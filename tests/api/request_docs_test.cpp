@@ -1,0 +1,97 @@
+// Every field of a use case's request is documented where a client of the API reads it: in the OpenAPI document's
+// params schema of its job kind and in api/ROUTES.md's entry for that kind. The test names each field one of them
+// lacks, so a field added to a request struct without its documentation fails here.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "api/server.h"
+#include "usecases/design_lq.h"
+#include "usecases/design_mirror.h"
+#include "usecases/validate_model.h"
+
+namespace panelbass::api {
+namespace {
+
+using nlohmann::json;
+
+// The leaf fields of a request's JSON, as dotted paths ("band_pass.low_hz"); an object-valued field counts too.
+void field_paths(const json& j, const std::string& prefix, std::vector<std::string>& out) {
+  for (const auto& [key, value] : j.items()) {
+    const std::string path = prefix.empty() ? key : prefix + "." + key;
+    out.push_back(path);
+    if (value.is_object()) field_paths(value, path, out);
+  }
+}
+
+// The schema of `path` within the params schema `schema` (nested "properties"), or null.
+const json* schema_of(const json& schema, const std::string& path) {
+  const json* at = &schema;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t dot = path.find('.', start);
+    const std::string key = path.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+    if (!at->contains("properties") || !(*at)["properties"].contains(key)) return nullptr;
+    at = &(*at)["properties"][key];
+    if (dot == std::string::npos) return at;
+    start = dot + 1;
+  }
+}
+
+// ROUTES.md's entry of job kind `kind`: from "  - `kind`:" to the next entry of the list.
+std::string routes_entry(const std::string& kind) {
+  std::ifstream in(std::string(PANELBASS_SOURCE_DIR) + "/api/ROUTES.md");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string all = text.str();
+  const std::size_t start = all.find("  - `" + kind + "`:");
+  if (start == std::string::npos) return "";
+  const std::size_t end = all.find("\n  - `", start + 1);
+  return all.substr(start, end == std::string::npos ? std::string::npos : end - start);
+}
+
+struct DocumentedRequest {
+  const char* kind;    ///< the job kind
+  const char* schema;  ///< its params schema in the OpenAPI document
+  json fields;         ///< the request struct's fields with their defaults
+};
+
+TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKind) {
+  const std::vector<DocumentedRequest> requests = {
+      {"design-lq", "DesignLqParams", usecases::to_json(usecases::DesignLqRequest{})},
+      {"validate", "ValidateParams", usecases::to_json(usecases::ValidateRequest{})},
+      {"design-mirror", "DesignMirrorParams", usecases::to_json(usecases::DesignMirrorRequest{})},
+  };
+  const json& schemas = openapi_document().at("components").at("schemas");
+  for (const DocumentedRequest& r : requests) {
+    ASSERT_TRUE(schemas.contains(r.schema)) << "the OpenAPI document has no schema " << r.schema << " for " << r.kind;
+    const std::string entry = routes_entry(r.kind);
+    ASSERT_FALSE(entry.empty()) << "api/ROUTES.md has no entry for the job kind " << r.kind;
+    std::vector<std::string> paths;
+    field_paths(r.fields, "", paths);
+    ASSERT_FALSE(paths.empty()) << r.kind;
+    for (const std::string& path : paths) {
+      EXPECT_NE(schema_of(schemas.at(r.schema), path), nullptr)
+          << "the OpenAPI schema " << r.schema << " lacks the field " << path << " of " << r.kind << "'s request";
+      const std::string leaf = path.substr(path.rfind('.') == std::string::npos ? 0 : path.rfind('.') + 1);
+      EXPECT_TRUE(entry.find("`" + leaf + "`") != std::string::npos || entry.find("\"" + leaf + "\"") != std::string::npos)
+          << "api/ROUTES.md's entry of " << r.kind << " does not mention the field " << path << " (as `" << leaf
+          << "` or \"" << leaf << "\")";
+    }
+  }
+}
+
+// The check above can fail: a field the documents lack is found.
+TEST(RequestDocs, AFieldTheDocumentsLackIsFound) {
+  const json& schema = openapi_document().at("components").at("schemas").at("DesignLqParams");
+  EXPECT_EQ(schema_of(schema, "no_such_field"), nullptr);
+  EXPECT_EQ(schema_of(schema, "band_pass.no_such_corner"), nullptr);
+  EXPECT_NE(schema_of(schema, "band_pass.low_hz"), nullptr);
+  EXPECT_EQ(routes_entry("no-such-kind"), "");
+}
+
+}  // namespace
+}  // namespace panelbass::api

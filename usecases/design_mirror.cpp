@@ -1,0 +1,90 @@
+#include "usecases/design_mirror.h"
+
+#include <cmath>
+
+#include "models/io/number_text.h"
+#include "usecases/request_error.h"
+
+namespace panelbass::usecases {
+
+using models::number_text;
+
+void check(const DesignMirrorRequest& q) {
+  if (!(std::isfinite(q.fs) && q.fs > 0.0)) throw RequestError("fs", "must be > 0 Hz, got " + number_text(q.fs));
+  if (q.current.size() != q.drive.size() || q.displacement.size() != q.drive.size()) {
+    throw RequestError("record", "the drive, current and displacement must be equally long (" +
+                                     std::to_string(q.drive.size()) + ", " + std::to_string(q.current.size()) + ", " +
+                                     std::to_string(q.displacement.size()) + " samples)");
+  }
+  if (q.drive.size() < 1000) {
+    throw RequestError("record", "needs at least 1000 samples, got " + std::to_string(q.drive.size()));
+  }
+  if (q.max_delay < 0 || q.max_delay > 64) {
+    throw RequestError("max_delay", "must be within 0..64, got " + std::to_string(q.max_delay));
+  }
+  if (q.adapt && q.sensor.size() != q.drive.size()) {
+    throw RequestError("adapt", "needs the sensor's output, as long as the drive (" + std::to_string(q.sensor.size()) +
+                                    " samples given)");
+  }
+  if (!(std::isfinite(q.stiffness_rate) && q.stiffness_rate >= 0.0)) {
+    throw RequestError("stiffness_rate", "must be ≥ 0, got " + number_text(q.stiffness_rate));
+  }
+  if (!(std::isfinite(q.stiffness_spread) && q.stiffness_spread > 0.0)) {
+    throw RequestError("stiffness_spread", "must be > 0, got " + number_text(q.stiffness_spread));
+  }
+}
+
+nlohmann::json to_json(const DesignMirrorRequest& q) {
+  return {{"record", q.data_name},         {"samples", q.drive.size()},          {"fs", q.fs},
+          {"max_delay", q.max_delay},      {"adapt", q.adapt},                   {"stiffness_rate", q.stiffness_rate},
+          {"stiffness_spread", q.stiffness_spread}};
+}
+
+DesignMirrorReport design_mirror(const DesignMirrorRequest& q, Progress& progress) {
+  check(q);
+  progress.report(0.0, "fitting the gray-box model [M1]-[M3]");
+  models::MirrorFit fit = models::fit_mirror_model(q.drive, q.current, q.displacement, q.fs, q.max_delay);
+  DesignMirrorReport report;
+  report.meta = {{"data", q.data_name},
+                 {"electrical_fit_pct", fit.electrical_fit_pct},
+                 {"mechanical_fit_pct", fit.mechanical_fit_pct}};
+  if (q.adapt) {
+    progress.report(0.7, "fitting the sensor map");
+    if (fit.model.delay > models::MirrorObserver::kMaxDelay) {
+      throw RequestError("adapt", "the fitted drive delay (" + std::to_string(fit.model.delay) +
+                                      " samples) exceeds the observer's " + std::to_string(models::MirrorObserver::kMaxDelay));
+    }
+    const models::SensorMapFit sensor = models::fit_sensor_map(q.displacement, q.sensor, q.fs);
+    models::MirrorObserverSettings& s = fit.model.observer;
+    s.enabled = true;
+    s.sensor_taps = sensor.taps;
+    s.sensor_noise = sensor.noise_rms;
+    s.process_noise = fit.mechanical_residual_rms;
+    s.stiffness_rate = q.stiffness_rate;
+    s.stiffness_spread = q.stiffness_spread;
+    report.meta["sensor_map_residual_rms"] = sensor.noise_rms;
+  }
+  for (const auto& [name, pct] : {std::pair{"electrical", fit.electrical_fit_pct}, std::pair{"mechanical", fit.mechanical_fit_pct}}) {
+    if (!(pct <= kMirrorFitWarningPct)) {
+      report.warnings.push_back(std::string("the ") + name + " equation's residual is " + number_text(pct, 3) +
+                                " % of its signal (over " + number_text(kMirrorFitWarningPct) +
+                                " %): the gray-box model misses this transducer, and its mirror filter may add distortion "
+                                "instead of cutting it; check the record's columns (current in A, displacement in m, "
+                                "aligned to the drive) and judge the filter with verify before using it");
+    }
+  }
+  report.model = fit.model;
+  report.summary = {{"fs", fit.model.fs},
+                    {"delay", fit.model.delay},
+                    {"friction_velocity_mm_per_s", fit.model.friction_velocity},
+                    {"electrical", fit.model.electrical},
+                    {"mechanical", fit.model.mechanical},
+                    {"electrical_fit_pct", fit.electrical_fit_pct},
+                    {"mechanical_fit_pct", fit.mechanical_fit_pct},
+                    {"adaptive", fit.model.observer.enabled},
+                    {"sensor_map_residual_rms", report.meta.value("sensor_map_residual_rms", nlohmann::json(nullptr))}};
+  progress.report(1.0, "done");
+  return report;
+}
+
+}  // namespace panelbass::usecases

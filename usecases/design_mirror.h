@@ -1,0 +1,49 @@
+#pragma once
+// `design mirror` / the design-mirror job: Klippel's mirror filter fitted to a record of drive, coil current and
+// displacement (models/control/mirror_filter.h), adaptive on line when a sensor column is given; a fit that misses
+// says so.
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "models/control/mirror_filter.h"
+#include "models/control/mirror_observer.h"
+#include "usecases/progress.h"
+
+namespace panelbass::usecases {
+
+/// A fit whose residual (either equation) is above this share of its signal's power, percent, is reported as missing.
+inline constexpr double kMirrorFitWarningPct = 5.0;
+
+/// What `design mirror` is asked.
+struct DesignMirrorRequest {
+  Eigen::VectorXd drive, current, displacement;  ///< drive units, A, m; equally long, ≥ 1000 samples
+  Eigen::VectorXd sensor;  ///< the sensor's output; only with adapt
+  double fs = 0.0;         ///< Hz
+  std::string data_name;   ///< where the record came from, kept in the model's meta
+  int max_delay = 4;       ///< largest drive-to-voltage delay searched, samples (0..64)
+  bool adapt = false;      ///< adapt the stiffness on line from the sensor (needs `sensor`)
+  double stiffness_rate = models::MirrorObserverSettings{}.stiffness_rate;    ///< with adapt, ≥ 0
+  double stiffness_spread = models::MirrorObserverSettings{}.stiffness_spread;  ///< with adapt, > 0
+};
+
+/// What `design mirror` made.
+struct DesignMirrorReport {
+  models::MirrorModel model;          ///< observer settings filled in with adapt
+  nlohmann::json meta;                ///< the model file's meta
+  nlohmann::json summary;             ///< the fit's figures
+  std::vector<std::string> warnings;  ///< a fit that misses says so
+};
+
+/// Throws RequestError naming the field for a request out of range.
+void check(const DesignMirrorRequest& request);
+
+/// The request's fields (the record by its name and length), as the API echoes its params.
+nlohmann::json to_json(const DesignMirrorRequest& request);
+
+/// Fits the model.
+DesignMirrorReport design_mirror(const DesignMirrorRequest& request, Progress& progress);
+
+}  // namespace panelbass::usecases
