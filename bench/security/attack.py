@@ -143,7 +143,7 @@ def main():
     print(f"{'':<16} server RSS {before} -> {rss_mib(a.pid)} MiB")
     show("length", "POST /api/records Content-Length: 1 GiB (no body sent)",
          request(addr, "POST", "/api/records", b"", {"Content-Length": str(1 << 30), "Content-Type": "text/csv"}, timeout=5))
-    deep_meta = model_text[:-1] + b',"meta":' + b'{"a":' * 2000 + b'1' + b'}' * 2001
+    deep_meta = json.dumps({k: v for k, v in model.items() if k != "meta"}).encode()[:-1] + b',"meta":' + b'{"a":' * 2000 + b'1' + b'}' * 2001
     show("nesting", "POST /api/models, meta nested 2000 levels", request(addr, "POST", "/api/models", deep_meta, {"Content-Type": "application/json"}))
     show("nesting", "POST /api/jobs, params nested 100 levels", request(addr, "POST", "/api/jobs", (b'{"kind":"excite","params":' + b'{"a":' * 100 + b'1' + b'}' * 101), {"Content-Type": "application/json"}))
     show("meta", "POST /api/models, meta of 4 MiB", request(addr, "POST", "/api/models", json.dumps(dict(model, meta={"note": "x" * (4 << 20)})).encode(), {"Content-Type": "application/json"}, timeout=30))
@@ -160,7 +160,7 @@ def main():
     time.sleep(0.5)
     t0 = time.time()
     st = request(addr, "GET", "/api/health", timeout=3)
-    show("slowloris", f"GET /api/health beside {len(held)} half-sent heads ({time.time() - t0:.1f} s)", st)
+    show("slowloris", f"GET /api/health beside {len(held)} half-sent heads (answered in {time.time() - t0:.2f} s)", st)
     for c in held:
         c.close()
     streams = []
@@ -173,7 +173,8 @@ def main():
             break
     time.sleep(0.3)
     t0 = time.time()
-    show("slowloris", f"GET /api/health beside 20 idle connections ({time.time() - t0:.1f} s)", request(addr, "GET", "/api/health", timeout=3))
+    st = request(addr, "GET", "/api/health", timeout=3)
+    show("slowloris", f"GET /api/health beside 20 idle connections (answered in {time.time() - t0:.2f} s)", st)
     for c in streams:
         c.close()
 
