@@ -3,6 +3,7 @@
 // the status shows a program within the chain's safe amplitude.
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <fstream>
@@ -92,6 +93,26 @@ TEST_F(CliServe, APortAnotherServerHoldsIsAnErrorNamingTheAddress) {
   const httplib::Result health = client.Get("/api/health");
   ASSERT_TRUE(health);
   EXPECT_EQ(health->status, 200);
+}
+
+TEST_F(CliServe, AStoreAnotherServerHoldsIsAnErrorNamingTheStoreAndItsProcess) {
+  api::ServerOptions options;
+  options.port = 0;
+  options.store = dir_ / "store";
+  options.engine.plant = models::plant_preset("panel-exciter");
+  options.engine.chain.fs = options.engine.plant.fs;
+  options.log = [](const std::string&) {};
+  api::Server first(options);
+  first.start();
+
+  // Another port, the same store: two servers would number their jobs alike and overwrite each other's.
+  const RunResult r = run("serve --port 0 --no-demo --web '' --store " + quoted(dir_ / "store") + " --seconds 5");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("panelbass: error: store " + (dir_ / "store").string() + " is in use by another panelbass serve (pid " +
+                       std::to_string(::getpid()) + ")"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.out.find("serving"), std::string::npos) << r.out;
 }
 
 TEST_F(CliServe, TheDemosControllerIsDesignedForTheProgramItPlays) {
