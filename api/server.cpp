@@ -212,7 +212,6 @@ bool Server::refuse_before_routing(const httplib::Request& req, httplib::Respons
     }
   }
   if (early) return refuse(*early);
-  add_cors_headers(req, res, origin_policy_);
   return false;
 }
 
@@ -242,6 +241,7 @@ void Server::register_routes() {
   });
   http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
     if (refuse_before_routing(req, res)) return httplib::Server::HandlerResponse::Handled;
+    add_cors_headers(req, res, origin_policy_);
     accept_any_body(req);
     return httplib::Server::HandlerResponse::Unhandled;
   });

@@ -59,6 +59,17 @@ class CliServe : public CliTest {
   /// What it wrote on stderr so far.
   std::string serve_err() const { return text_of(dir_ / "serve-err.txt"); }
 
+  /// Options of a server run in the test's own process (any free port, the panel exciter, silent) on `store`.
+  static api::ServerOptions in_process_options(const std::filesystem::path& store) {
+    api::ServerOptions options;
+    options.port = 0;
+    options.store = store;
+    options.engine.plant = models::plant_preset("panel-exciter");
+    options.engine.chain.fs = options.engine.plant.fs;
+    options.log = [](const std::string&) {};
+    return options;
+  }
+
  private:
   bool zombie() const {
     std::ifstream stat("/proc/" + std::to_string(pid_) + "/stat");
@@ -71,13 +82,7 @@ class CliServe : public CliTest {
 };
 
 TEST_F(CliServe, APortAnotherServerHoldsIsAnErrorNamingTheAddress) {
-  api::ServerOptions options;
-  options.port = 0;
-  options.store = dir_ / "first";
-  options.engine.plant = models::plant_preset("panel-exciter");
-  options.engine.chain.fs = options.engine.plant.fs;
-  options.log = [](const std::string&) {};
-  api::Server first(options);
+  api::Server first(in_process_options(dir_ / "first"));
   const int port = first.start();
 
   const RunResult r = run("serve --port " + std::to_string(port) + " --no-demo --web '' --store " +
@@ -96,13 +101,7 @@ TEST_F(CliServe, APortAnotherServerHoldsIsAnErrorNamingTheAddress) {
 }
 
 TEST_F(CliServe, AStoreAnotherServerHoldsIsAnErrorNamingTheStoreAndItsProcess) {
-  api::ServerOptions options;
-  options.port = 0;
-  options.store = dir_ / "store";
-  options.engine.plant = models::plant_preset("panel-exciter");
-  options.engine.chain.fs = options.engine.plant.fs;
-  options.log = [](const std::string&) {};
-  api::Server first(options);
+  api::Server first(in_process_options(dir_ / "store"));
   first.start();
 
   // Another port, the same store: two servers would number their jobs alike and overwrite each other's.
