@@ -131,6 +131,34 @@ TEST_F(ServerTest, AConnectionBeyondTheBoundIsAnswered503AndAStalledHeadIsDroppe
   EXPECT_EQ(get("/api/health").status, 200);
 }
 
+TEST_F(ServerTest, ABodyThatStopsComingIsAnswered408AtItsDeadline) {
+  ServerOptions o = options(dir_ / "store");
+  o.body_timeout = 300ms;
+  start(std::move(o));
+  const int sock = connect_loopback(port_);
+  ASSERT_GE(sock, 0);
+  // 100 bytes announced, 10 sent.
+  const std::string request = http_request("PATCH", "/api/config", port_,
+                                           {{"Content-Type", "application/json"}, {"Content-Length", "100"}}) + R"({"band_pa)";
+  ASSERT_GT(::send(sock, request.data(), request.size(), MSG_NOSIGNAL), 0);
+  const RawReply late = read_reply(sock);
+  ::close(sock);
+  EXPECT_EQ(late.status, 408) << late.text;
+  EXPECT_EQ(late.body["error"]["code"], "timeout") << late.text;
+  EXPECT_EQ(get("/api/health").status, 200);
+}
+
+TEST_F(ServerTest, TheTokenIsCheckedBeforeABodyIsRead) {
+  ServerOptions o = options(dir_ / "store");
+  o.token = "s3cret";
+  start(std::move(o));
+  // A megabyte announced and never sent: the 401 cannot have waited for it.
+  const RawReply r = send_raw(port_, http_request("POST", "/api/models", port_,
+                                                  {{"Content-Type", "application/json"}, {"Content-Length", "1000000"}}));
+  EXPECT_EQ(r.status, 401) << r.text;
+  EXPECT_EQ(r.header("Connection"), "close") << r.head;
+}
+
 TEST_F(ServerTest, AKeptAliveConnectionServesABoundedNumberOfRequests) {
   start();
   const int sock = connect_loopback(port_);
