@@ -191,11 +191,14 @@ std::string Server::submit_job(const std::string& kind, const nlohmann::json& pa
 }
 
 bool Server::refuse_before_routing(const httplib::Request& req, httplib::Response& res) {
-  // A refused request's body is left unread: the connection cannot carry another request after it.
-  const auto refuse = [&req, &res](const HttpError& e) {
+  // A request answered here leaves its body unread: the connection cannot carry another request after it.
+  const auto close_after = [&req] {
     if (req.has_header("Content-Length") || req.has_header("Transfer-Encoding")) {
       const_cast<httplib::Request&>(req).set_header("Connection", "close");
     }
+  };
+  const auto refuse = [&res, &close_after](const HttpError& e) {
+    close_after();
     send_error(res, e.status, e.code, e.message);
     return true;
   };
@@ -203,6 +206,7 @@ bool Server::refuse_before_routing(const httplib::Request& req, httplib::Respons
   if (early && early->status == 421) return refuse(*early);  // a foreign Host learns nothing more
   if (req.method == "OPTIONS") {
     if (const std::optional<HttpError> foreign = answer_options(req, res, origin_policy_)) return refuse(*foreign);
+    close_after();
     return true;
   }
   if (!options_.token.empty()) {
