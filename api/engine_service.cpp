@@ -1,5 +1,6 @@
 #include "api/engine_service.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -257,8 +258,9 @@ LimiterActivity EngineService::limiter_activity() const {
   a.window_s = std::chrono::duration<double>(last.at - first.at).count();
   if (last.samples > first.samples) {
     const auto samples = static_cast<double>(last.samples - first.samples);
-    a.limited_fraction = static_cast<double>(last.limited - first.limited) / samples;
-    a.over_range_fraction = static_cast<double>(last.over_range - first.over_range) / samples;
+    // Shares of the samples: a stage's own count joins the limiter's, so the sum can exceed the samples.
+    a.limited_fraction = std::min(1.0, static_cast<double>(last.limited - first.limited) / samples);
+    a.over_range_fraction = std::min(1.0, static_cast<double>(last.over_range - first.over_range) / samples);
   }
   a.needs_more_drive = last.over_range > first.over_range;
   return a;

@@ -362,6 +362,17 @@ void JobQueue::worker() noexcept {
   }
 }
 
+JobQueueFull::JobQueueFull(std::size_t waiting_jobs, std::size_t most_jobs)
+    : std::runtime_error("the job queue is full: " + std::to_string(waiting_jobs) + " jobs wait for a worker (at most " +
+                         std::to_string(most_jobs) + "); wait for some to end, or cancel some (DELETE /api/jobs/{id})"),
+      waiting(waiting_jobs),
+      most(most_jobs) {}
+
+void JobQueue::set_max_waiting(std::size_t most) {
+  const std::lock_guard lock(mutex_);
+  max_waiting_ = std::max<std::size_t>(most, 1);
+}
+
 std::string JobQueue::submit(const std::string& kind, const json& params, JobWork work,
                              const std::function<void(const JobRecord&)>& before_queued) {
   auto entry = std::make_shared<Entry>();
@@ -373,6 +384,7 @@ std::string JobQueue::submit(const std::string& kind, const json& params, JobWor
   {
     const std::lock_guard lock(mutex_);
     if (stopping_) throw std::logic_error("JobQueue::submit: the queue is stopping");
+    if (waiting_.size() >= max_waiting_) throw JobQueueFull(waiting_.size(), max_waiting_);
     entry->record.id = "j" + std::to_string(next_number_);
     if (before_queued) before_queued(entry->record);  // may throw: then nothing was queued
     id = entry->record.id;

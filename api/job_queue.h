@@ -12,6 +12,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -73,6 +74,15 @@ nlohmann::json job_to_json(const JobRecord& job, bool with_details);
 /// A record from its JSON form (a stored job); throws std::invalid_argument naming the field.
 JobRecord job_from_json(const nlohmann::json& json);
 
+/// A job refused because the queue holds as many waiting jobs as it may (HTTP 429); the message says how many.
+class JobQueueFull : public std::runtime_error {
+ public:
+  /// `waiting` jobs wait, at most `most` may.
+  JobQueueFull(std::size_t waiting, std::size_t most);
+  std::size_t waiting;  ///< jobs waiting for a worker
+  std::size_t most;     ///< the bound
+};
+
 /// A worker pool running submitted jobs in order of submission.
 class JobQueue {
  public:
@@ -87,10 +97,13 @@ class JobQueue {
   JobQueue(const JobQueue&) = delete;
   JobQueue& operator=(const JobQueue&) = delete;
 
+  /// At most `most` (≥ 1) jobs may wait for a worker at once; submit() refuses more (JobQueueFull).
+  void set_max_waiting(std::size_t most);
+
   /// Queues `work`; returns the new job's id. Ids continue after the largest restored one.
   /// `before_queued` (if set) sees the queued record before any worker can start it — the place to
   /// persist it, so that a later write of the finished record can never be overtaken; if it throws, the
-  /// job is not queued and the exception propagates.
+  /// job is not queued and the exception propagates. Throws JobQueueFull when the waiting jobs are at the bound.
   std::string submit(const std::string& kind, const nlohmann::json& params, JobWork work,
                      const std::function<void(const JobRecord&)>& before_queued = {});
   /// Adds a finished job read back from the store (a queued or running one comes back as failed,
@@ -133,6 +146,7 @@ class JobQueue {
   std::vector<std::string> order_;
   std::deque<std::shared_ptr<Entry>> waiting_;
   std::uint64_t next_number_ = 1;
+  std::size_t max_waiting_ = 1000;
   bool stopping_ = false;
   std::vector<std::thread> workers_;
 };

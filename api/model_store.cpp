@@ -13,6 +13,7 @@
 #include "api/model_validation.h"
 #include "api/utc_time.h"
 #include "engine/chain_file.h"
+#include "models/io/bounded_json.h"
 
 namespace panelbass::api {
 namespace {
@@ -38,9 +39,11 @@ std::string string_field(const json& object, const char* key) {
 json read_stored(const std::filesystem::path& path, const char* format) {
   json object;
   try {
-    object = json::parse(read_whole_file(path));
+    object = models::parse_bounded_json(read_whole_file(path));
   } catch (const json::exception& e) {
     throw std::invalid_argument(std::string("not valid JSON (") + e.what() + ")");
+  } catch (const models::JsonLimitError& e) {
+    throw std::invalid_argument(std::string("not acceptable JSON (") + e.what() + ")");
   }
   if (!object.is_object()) throw std::invalid_argument(std::string("expected a JSON object, got ") + object.type_name());
   const std::string tag = string_field(object, "format");

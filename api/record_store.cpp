@@ -13,6 +13,7 @@
 #include "api/utc_time.h"
 #include "dsp/data_error.h"
 #include "dsp/data_file.h"
+#include "models/io/bounded_json.h"
 
 namespace panelbass::api {
 namespace {
@@ -42,9 +43,11 @@ json entry_json(const StoredRecord& r) {
 StoredRecord entry_from_file(const std::filesystem::path& path) {
   json j;
   try {
-    j = json::parse(read_whole_file(path));
+    j = models::parse_bounded_json(read_whole_file(path));
   } catch (const json::exception& e) {
     throw std::invalid_argument(std::string("not valid JSON (") + e.what() + ")");
+  } catch (const models::JsonLimitError& e) {
+    throw std::invalid_argument(std::string("not acceptable JSON (") + e.what() + ")");
   }
   if (!j.is_object() || j.value("format", "") != kStoredRecordFormat) {
     throw std::invalid_argument(std::string("not a \"") + kStoredRecordFormat + "\" entry");

@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <system_error>
@@ -32,6 +33,52 @@ std::string media_type(std::string_view content_type) {
   type.erase(std::remove_if(type.begin(), type.end(), [](unsigned char c) { return std::isspace(c); }), type.end());
   std::transform(type.begin(), type.end(), type.begin(), [](unsigned char c) { return std::tolower(c); });
   return type;
+}
+
+// The sizes a RIFF (or RIFX) WAV's header claims against the bytes sent: the form's size and every chunk's up
+// to the data chunk must fit in the body (a truncated file, or a data size of 0xFFFFFFFE, which readers
+// would otherwise take as "read what is there"). HttpError 400 naming the chunk and both sizes. RF64 keeps
+// its sizes elsewhere (ds64) and is left to the reader.
+void check_wav_sizes(std::string_view body) {
+  const bool big_endian = body.substr(0, 4) == "RIFX";
+  if (!big_endian && body.substr(0, 4) != "RIFF") return;
+  const auto u32 = [&](std::size_t at) -> std::uint64_t {
+    std::uint64_t v = 0;
+    for (int k = 0; k < 4; ++k) {
+      const auto b = static_cast<std::uint64_t>(static_cast<unsigned char>(body[at + static_cast<std::size_t>(k)]));
+      v |= b << (8 * (big_endian ? 3 - k : k));
+    }
+    return v;
+  };
+  const auto u16 = [&](std::size_t at) -> std::uint64_t {
+    const auto lo = static_cast<unsigned char>(body[at + (big_endian ? 1 : 0)]);
+    const auto hi = static_cast<unsigned char>(body[at + (big_endian ? 0 : 1)]);
+    return static_cast<std::uint64_t>(lo) | (static_cast<std::uint64_t>(hi) << 8);
+  };
+  const std::uint64_t form = u32(4) + 8;
+  if (form > body.size()) {
+    throw HttpError{400, "bad_request", "body: the WAV header says the file has " + std::to_string(form) +
+                                            " bytes (RIFF size), the body has " + std::to_string(body.size()) +
+                                            " (a truncated file?)"};
+  }
+  std::uint64_t frame_bytes = 0;
+  for (std::size_t at = 12; at + 8 <= body.size();) {
+    const std::string id(body.substr(at, 4));
+    const std::uint64_t size = u32(at + 4);
+    const std::uint64_t present = body.size() - (at + 8);
+    if (id == "fmt " && size >= 16 && size <= present) frame_bytes = u16(at + 8 + 12);
+    if (size > present) {
+      const auto frames = [&](std::uint64_t bytes) {
+        return frame_bytes > 0 ? " (" + std::to_string(bytes / frame_bytes) + " frames)" : std::string();
+      };
+      throw HttpError{400, "bad_request", "body: the WAV's \"" + id + "\" chunk says " + std::to_string(size) +
+                                              " bytes" + (id == "data" ? frames(size) : "") + ", the file holds " +
+                                              std::to_string(present) + (id == "data" ? frames(present) : "") +
+                                              " after its header (a truncated file?)"};
+    }
+    if (id == "data") return;
+    at += 8 + static_cast<std::size_t>(size) + static_cast<std::size_t>(size & 1);
+  }
 }
 
 // RIFF (little-endian), RIFX (big-endian) or RF64 (over 4 GiB), then the WAVE form type at byte 8.
@@ -137,6 +184,7 @@ dsp::Record read_uploaded_record(std::string_view body, const RecordUpload& uplo
       }
     }
   }
+  if (format == UploadFormat::wav) check_wav_sizes(body);
   const ScratchFile scratch(scratch_folder, body, format == UploadFormat::wav ? ".wav" : ".csv");
   dsp::Record record;
   try {

@@ -4,6 +4,8 @@
 
 #include <string>
 
+#include "models/io/bounded_json.h"
+
 namespace panelbass::api {
 
 // The request body as text: the body itself, or the one part of a multipart upload (curl -F model=@file).
@@ -29,7 +31,9 @@ nlohmann::json parse_body(const httplib::Request& req, const char* expected, con
     return empty;
   }
   try {
-    return nlohmann::json::parse(text);
+    return models::parse_bounded_json(text);
+  } catch (const models::JsonLimitError& e) {
+    throw HttpError{400, "bad_request", std::string("body: ") + e.what()};
   } catch (const nlohmann::json::parse_error& e) {
     throw HttpError{400, "bad_request", std::string("body: malformed JSON: ") + e.what()};
   } catch (const nlohmann::json::out_of_range& e) {

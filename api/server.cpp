@@ -8,6 +8,7 @@
 #include <chrono>
 #include <stdexcept>
 
+#include "api/http/guarded_http_server.h"
 #include "api/request_body.h"
 #include "api/routes/route_helpers.h"
 #include "models/kinds/model_file.h"
@@ -28,6 +29,19 @@ const std::vector<Route> kRoutes = {
     {"get", "/api/records"},         {"post", "/api/records"},
     {"get", "/api/records/{id}"},    {"delete", "/api/records/{id}"},
 };
+
+// The bytes of every file under `folder` (what the store takes on disk); 0 for what cannot be read.
+std::uintmax_t folder_size(const std::filesystem::path& folder) {
+  std::uintmax_t bytes = 0;
+  std::error_code error;
+  for (std::filesystem::recursive_directory_iterator it(folder, error), end; !error && it != end; it.increment(error)) {
+    std::error_code ignored;
+    if (!it->is_regular_file(ignored)) continue;
+    const std::uintmax_t size = it->file_size(ignored);
+    if (!ignored) bytes += size;
+  }
+  return bytes;
+}
 
 bool is_loopback(const std::string& address) {
   return address == "127.0.0.1" || address == "::1" || address == "localhost";
@@ -51,6 +65,12 @@ Server::Server(ServerOptions options) : options_(std::move(options)) {
                                 "Authorization: Bearer <token>)");
   }
   if (options_.workers < 1) throw std::invalid_argument("--workers: must be at least 1");
+  origin_policy_.bind = options_.bind;
+  for (const std::string& origin : options_.allowed_origins) {
+    origin_policy_.allowed_origins.push_back(normalized_origin(origin));
+  }
+  origin_policy_.allowed_hosts = options_.allowed_hosts;
+  store_lock_ = std::make_unique<StoreLock>(options_.store);
   store_ = std::make_unique<ModelStore>(options_.store, [this](const std::string& w) { options_.log("warning: " + w); });
   records_ = std::make_unique<RecordStore>(options_.store, [this](const std::string& w) { options_.log("warning: " + w); });
   engine_ = std::make_unique<EngineService>(options_.engine);
@@ -77,6 +97,7 @@ Server::Server(ServerOptions options) : options_(std::move(options)) {
     return job->result;
   };
   jobs_ = std::make_unique<JobQueue>(options_.workers, [this](JobRecord& job) { on_job_finished(job); });
+  jobs_->set_max_waiting(options_.max_queued_jobs);
   for (const nlohmann::json& record : store_->jobs()) {
     try {
       jobs_->restore(job_from_json(record));
@@ -85,7 +106,12 @@ Server::Server(ServerOptions options) : options_(std::move(options)) {
     }
   }
   store_->release_jobs();
-  http_ = std::make_unique<httplib::Server>();
+  HttpLimits limits;
+  limits.body_bytes = options_.body_limit;
+  limits.max_connections = static_cast<std::size_t>(std::max(options_.http_threads, 2));
+  limits.head_timeout = options_.head_timeout;
+  limits.body_timeout = options_.body_timeout;
+  http_ = std::make_unique<GuardedHttpServer>(limits);
   register_routes();
 }
 
@@ -157,9 +183,37 @@ std::string Server::submit_job(const std::string& kind, const nlohmann::json& pa
   });
 }
 
+bool Server::refuse_before_routing(const httplib::Request& req, httplib::Response& res) {
+  // A request answered here leaves its body unread: the connection cannot carry another request after it.
+  const auto close_after = [&req] {
+    if (req.has_header("Content-Length") || req.has_header("Transfer-Encoding")) {
+      const_cast<httplib::Request&>(req).set_header("Connection", "close");
+    }
+  };
+  const auto refuse = [&res, &close_after](const HttpError& e) {
+    close_after();
+    send_error(res, e.status, e.code, e.message);
+    return true;
+  };
+  const std::optional<HttpError> early = refusal(req, origin_policy_, options_.body_limit);
+  if (early && early->status == 421) return refuse(*early);  // a foreign Host learns nothing more
+  if (req.method == "OPTIONS") {
+    if (const std::optional<HttpError> foreign = answer_options(req, res, origin_policy_)) return refuse(*foreign);
+    close_after();
+    return true;
+  }
+  if (!options_.token.empty()) {
+    const bool guarded_path = req.path.rfind("/api", 0) == 0 || req.path.rfind("/metrics", 0) == 0;
+    if (guarded_path && req.get_header_value("Authorization") != "Bearer " + options_.token) {
+      return refuse(HttpError{401, "unauthorized", "this server requires Authorization: Bearer <token>"});
+    }
+  }
+  if (early) return refuse(*early);
+  return false;
+}
+
 void Server::register_routes() {
-  httplib::Server& http = *http_;
-  http.set_payload_max_length(options_.body_limit);
+  GuardedHttpServer& http = *http_;
   // Without it, small responses on a kept-alive connection wait for the client's delayed ACK (~40 ms).
   http.set_tcp_nodelay(true);
   // The library's default adds SO_REUSEPORT, with which a second server binds the same port and the two
@@ -168,9 +222,6 @@ void Server::register_routes() {
     const int yes = 1;
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
   });
-  http.new_task_queue = [threads = options_.http_threads] {
-    return new httplib::ThreadPool(static_cast<std::size_t>(threads));
-  };
   for (const auto& [ext, mime] : std::initializer_list<std::pair<const char*, const char*>>{
            {"js", "text/javascript"}, {"mjs", "text/javascript"}, {"css", "text/css"}, {"html", "text/html"},
            {"json", "application/json"}, {"svg", "image/svg+xml"}, {"png", "image/png"}}) {
@@ -181,17 +232,26 @@ void Server::register_routes() {
       throw std::invalid_argument("--web " + options_.web_root.string() + ": not a folder");
     }
   }
+  // Every check runs before the body is read: curl's Expect: 100-continue gets its refusal instead of a go-ahead.
+  http.set_expect_100_continue_handler([this](const httplib::Request& req, httplib::Response& res) {
+    return refuse_before_routing(req, res) ? res.status : 100;
+  });
   http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    if (refuse_before_routing(req, res)) return httplib::Server::HandlerResponse::Handled;
+    add_cors_headers(req, res, origin_policy_);
     accept_any_body(req);
-    if (options_.token.empty()) return httplib::Server::HandlerResponse::Unhandled;
-    const bool guarded_path = req.path.rfind("/api", 0) == 0 || req.path.rfind("/metrics", 0) == 0;
-    if (guarded_path && req.get_header_value("Authorization") != "Bearer " + options_.token) {
-      send_error(res, 401, "unauthorized", "this server requires Authorization: Bearer <token>");
-      return httplib::Server::HandlerResponse::Handled;
-    }
     return httplib::Server::HandlerResponse::Unhandled;
   });
   http.set_error_handler([limit = options_.body_limit](const httplib::Request& req, httplib::Response& res) {
+    // A body cut off at the limit or a deadline reads as a malformed request to the library: say which it was.
+    const ReadFailure failure = GuardedHttpServer::current_read_failure();
+    if (failure != ReadFailure::none) {
+      const_cast<httplib::Request&>(req).set_header("Connection", "close");
+      res.body.clear();
+      res.status = read_failure_status(failure);
+      send_error(res, res.status, code_of_status(res.status), read_failure_message(failure, limit));
+      return;
+    }
     if (!res.body.empty()) return;
     send_error(res, res.status, code_of_status(res.status), library_error_message(req, res.status, limit));
   });
@@ -230,6 +290,7 @@ int Server::start() {
     for (std::uint64_t tick = 1; running_.load(std::memory_order_relaxed); ++tick) {
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
       engine_->housekeeping();
+      if (tick % 20 == 1) store_bytes_.store(folder_size(options_.store));
       // Every 10 s, hand freed memory back to the system: each HTTP thread's malloc arena otherwise keeps
       // its largest response's worth (a list of thousands of models) for the life of the process.
       if (tick % 100 == 0) malloc_trim(0);

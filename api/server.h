@@ -3,6 +3,7 @@
 // queue, and the HTTP API (cpp-httplib) with the web UI, as described in api/ROUTES.md.
 
 #include <atomic>
+#include <chrono>
 #include <cstddef>
 #include <filesystem>
 #include <functional>
@@ -15,16 +16,16 @@
 #include <vector>
 
 #include "api/engine_service.h"
+#include "api/http/request_guard.h"
 #include "api/jobs/job_kinds.h"
 #include "api/job_queue.h"
 #include "api/model_store.h"
 #include "api/record_store.h"
-
-namespace httplib {
-class Server;
-}
+#include "api/store_lock.h"
 
 namespace panelbass::api {
+
+class GuardedHttpServer;
 
 /// One route of the API: method and path template as the OpenAPI document writes it ("/api/models/{id}").
 struct Route {
@@ -43,11 +44,17 @@ struct ServerOptions {
   std::string bind = "127.0.0.1";          ///< address to listen on
   int port = 8080;                         ///< 0 = any free port
   std::string token;                       ///< required (Bearer) for every /api and /metrics request if set; required to bind beyond loopback
-  std::size_t body_limit = 16u << 20;      ///< largest request body, bytes
+  std::vector<std::string> allowed_origins;  ///< origins besides the server's own that may change state (serve --allow-origin)
+  std::vector<std::string> allowed_hosts;    ///< Host names besides the bound address and localhost (serve --allow-host)
+  std::size_t body_limit = 16u << 20;      ///< largest request body, bytes (every byte after the head, chunked framing included)
   std::filesystem::path store = "panelbass-store";  ///< the store folder
   std::filesystem::path web_root;          ///< the web UI folder served at / (empty: no UI)
   int workers = 1;                         ///< job worker threads
-  int http_threads = 16;                   ///< HTTP worker threads (each open event stream holds one)
+  int http_threads = 64;                   ///< connections served at once, a thread each (more are answered 503)
+  std::chrono::milliseconds head_timeout{10000};  ///< a request's line and headers must arrive within this
+  std::chrono::milliseconds body_timeout{60000};  ///< and its body within this after them
+  int event_streams = 16;                  ///< job event streams open at once (each holds a connection; more: 503)
+  std::size_t max_queued_jobs = 32;        ///< jobs waiting for a worker (more: 429)
   EngineServiceOptions engine;             ///< what the engine plays
   /// Where start-up warnings (skipped store files) and notices go.
   std::function<void(const std::string&)> log;
@@ -98,8 +105,11 @@ class Server {
   nlohmann::json status_json() const;
   std::string metrics_text() const;
   void count_response(int status);
+  // The checks before any route (Host, Origin, content type, declared length, token); true if it answered.
+  bool refuse_before_routing(const httplib::Request& req, httplib::Response& res);
 
   ServerOptions options_;
+  std::unique_ptr<StoreLock> store_lock_;  // one server per store, taken before anything in it is read
   std::unique_ptr<ModelStore> store_;
   std::unique_ptr<RecordStore> records_;  // uploaded recordings, beside the models
   std::unique_ptr<EngineService> engine_;
@@ -107,7 +117,10 @@ class Server {
   std::map<std::string, bool> activate_on_success_;  // job id → activate its model when it succeeds
   std::mutex activate_mutex_;
   std::unique_ptr<JobQueue> jobs_;
-  std::unique_ptr<httplib::Server> http_;
+  std::unique_ptr<GuardedHttpServer> http_;
+  OriginPolicy origin_policy_;
+  std::atomic<int> open_event_streams_{0};
+  std::atomic<std::uintmax_t> store_bytes_{0};  // the store folder's size, measured by the housekeeping thread
   std::thread http_thread_;
   std::thread housekeeping_;
   std::atomic<bool> stop_requested_{false};

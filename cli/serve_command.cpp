@@ -36,6 +36,8 @@ struct ServeOptions {
   std::string bind = "127.0.0.1";
   int port = 8080;
   std::string token;
+  std::vector<std::string> allow_origins;
+  std::vector<std::string> allow_hosts;
   std::string store = "panelbass-store";
   std::string web = default_web_dir();
   std::string plant = "panel-exciter";
@@ -93,6 +95,8 @@ void run_serve(const ServeOptions& o) {
   options.bind = o.bind;
   options.port = o.port;
   options.token = o.token;
+  options.allowed_origins = o.allow_origins;
+  options.allowed_hosts = o.allow_hosts;
   options.store = o.store;
   options.web_root = o.web;
   options.workers = o.workers;
@@ -152,6 +156,12 @@ void register_serve(CLI::App& app) {
       ->check(CLI::Range(0, 65535))
       ->capture_default_str();
   cmd->add_option("--token", o->token, "Require Authorization: Bearer TOKEN on /api and /metrics");
+  cmd->add_option("--allow-origin", o->allow_origins,
+                  "An origin besides the server's own whose pages may change its state, e.g. https://panel.example "
+                  "(repeatable; other origins get 403)");
+  cmd->add_option("--allow-host", o->allow_hosts,
+                  "A Host name besides localhost and the bound address that the server answers to, e.g. the name "
+                  "a reverse proxy forwards (repeatable; other names get 421)");
   cmd->add_option("--store", o->store, "Folder of the model store (created if missing)")->capture_default_str();
   cmd->add_option("--web", o->web, "Folder of the web UI (\"\": no UI; default: the installed one, or the source tree's)")
       ->capture_default_str();

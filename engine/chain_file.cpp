@@ -121,10 +121,14 @@ LimiterConfig parse_limiter(const nlohmann::json& value) {
   if (!(c.knee >= 0.0 && c.knee < 1.0)) {
     throw ConfigError(f.path_of("knee") + ": must be within [0, 1), got " + show(c.knee));
   }
+  // The limiter's trip is the last guard of the transducer: a level above full scale (which the limited drive
+  // never reaches) or a long hold would switch it off.
   c.pinned_level = f.number("pinned_level", c.pinned_level);
-  models::require_positive(c.pinned_level, f.path_of("pinned_level"));
+  if (!(c.pinned_level > 0.0 && c.pinned_level <= 1.0)) {
+    throw ConfigError(f.path_of("pinned_level") + ": must be within (0, 1] (full scale), got " + show(c.pinned_level));
+  }
   c.max_pinned_ms = f.number("max_pinned_ms", c.max_pinned_ms);
-  models::require_within(c.max_pinned_ms, 0.0, 60000.0, f.path_of("max_pinned_ms"));
+  models::require_within(c.max_pinned_ms, 0.0, kLongestPinnedMs, f.path_of("max_pinned_ms"));
   f.finish();
   return c;
 }

@@ -38,11 +38,14 @@ struct SlotConfig {
   bool bypass = false;  ///< start (or switch) with the slot bypassed
 };
 
+/// The longest max_pinned_ms a chain may set: one second of drive held at full scale, then the safe bypass.
+inline constexpr double kLongestPinnedMs = 1000.0;
+
 /// The safety limiter of a chain file, with its time in milliseconds.
 struct LimiterConfig {
   double knee = 0.8;            ///< see LimiterOptions::knee
-  double pinned_level = 1.0;    ///< see LimiterOptions::pinned_level
-  double max_pinned_ms = 100.0; ///< longest time the drive may stay pinned at the rails
+  double pinned_level = 1.0;    ///< see LimiterOptions::pinned_level; within (0, 1]
+  double max_pinned_ms = 100.0; ///< longest time the drive may stay pinned at the rails; within [0, kLongestPinnedMs]
   /// Field by field.
   bool operator==(const LimiterConfig&) const = default;
 };

@@ -4,10 +4,20 @@
 // loopback with cpp-httplib's client. A bad request must be answered 4xx with the JSON error object
 // {"error":{"code","message"}}: a 5xx, a non-JSON error or a failed connection aborts (a crash to libFuzzer).
 //
-// Input: byte 0 → route ((byte − '0') mod 9, so seeds start with a digit); routes with an id in the path
+// Input: byte 0 → route ((byte − '0') mod 12, so seeds start with a digit); routes with an id in the path
 // take it from the bytes up to the first '\n' (percent-encoded, so the server sees the bytes as they are)
-// and the body from the rest.
+// and the body from the rest. Routes 9–11 write the request on a socket of their own, as no client library
+// would (issue #57): 9 a chunked body whose chunk sizes the input's bytes choose, 10 a request sent slowly
+// in pieces, 11 a body nested as deep as the input is long.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <thread>
 
 #include <cstddef>
 #include <cstdint>
@@ -19,6 +29,7 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <vector>
 
 #include "fuzz/scratch_file.h"
 #include "api/server.h"
@@ -87,11 +98,10 @@ httplib::Result send(const std::string& method, const std::string& path, const s
   std::abort();
 }
 
-/// Checks the answer: never 5xx; every 4xx carries {"error":{"code":string,"message":string}}.
-nlohmann::json checked(const std::string& method, const std::string& path, const httplib::Result& r) {
-  const int status = r->status;
-  const nlohmann::json body = nlohmann::json::parse(r->body, nullptr, false);
-  const std::string where = method + " " + path + " → " + std::to_string(status) + " " + r->body;
+/// Checks an answer: never 5xx; every 4xx carries {"error":{"code":string,"message":string}}.
+nlohmann::json checked(const std::string& method, const std::string& path, int status, const std::string& text) {
+  const nlohmann::json body = nlohmann::json::parse(text, nullptr, false);
+  const std::string where = method + " " + path + " → " + std::to_string(status) + " " + text;
   if (status >= 500 || status < 200) fail(where);
   if (status >= 400) {
     const bool shaped = body.is_object() && body.contains("error") && body["error"].is_object() &&
@@ -100,6 +110,45 @@ nlohmann::json checked(const std::string& method, const std::string& path, const
     if (!shaped) fail("not the JSON error object: " + where);
   }
   return body;
+}
+
+nlohmann::json checked(const std::string& method, const std::string& path, const httplib::Result& r) {
+  return checked(method, path, r->status, r->body);
+}
+
+/// Writes `pieces` of one request (Connection: close) on a new loopback connection, `pause` apart, and checks
+/// the answer read until the server closes.
+void raw_exchange(const std::string& method, const std::string& path, const std::vector<std::string>& pieces,
+                  std::chrono::milliseconds pause = std::chrono::milliseconds(0)) {
+  const int sock = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (sock < 0) fail("socket() failed");
+  timeval timeout{60, 0};
+  ::setsockopt(sock, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(sock, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) fail("connect() failed");
+  for (const std::string& piece : pieces) {
+    // A server that has answered early (a refused head, a body over the limit) stops reading: sending may fail.
+    if (::send(sock, piece.data(), piece.size(), MSG_NOSIGNAL) < 0) break;
+    if (pause.count() > 0) std::this_thread::sleep_for(pause);
+  }
+  std::string response;
+  char buffer[4096];
+  for (ssize_t n; (n = ::recv(sock, buffer, sizeof buffer, 0)) > 0;) response.append(buffer, static_cast<std::size_t>(n));
+  ::close(sock);
+  const std::size_t head_end = response.find("\r\n\r\n");
+  if (response.size() < 12 || head_end == std::string::npos) fail(method + " " + path + ": no answer: " + response);
+  checked(method, path, std::atoi(response.c_str() + 9), response.substr(head_end + 4));
+}
+
+/// The head of a request with a JSON body of `length` bytes (or chunked when `length` is npos).
+std::string head_of(const std::string& method, const std::string& path, std::size_t length) {
+  return method + " " + path + " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+         "\r\nContent-Type: application/json\r\n" +
+         (length == std::string::npos ? std::string("Transfer-Encoding: chunked") : "Content-Length: " + std::to_string(length)) +
+         "\r\nConnection: close\r\n\r\n";
 }
 
 nlohmann::json request(const std::string& method, const std::string& path, const std::string& body) {
@@ -136,7 +185,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
-  const unsigned route = static_cast<std::uint8_t>(data[0] - '0') % 9;
+  const unsigned route = static_cast<std::uint8_t>(data[0] - '0') % 12;
   const std::string_view rest(reinterpret_cast<const char*>(data + 1), size - 1);
   const std::size_t newline = rest.find('\n');
   const std::string id = percent_encoded(rest.substr(0, newline));
@@ -162,6 +211,38 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     case 6: request("DELETE", "/api/jobs/" + id, ""); break;
     case 7: request("GET", "/api/models/" + id, ""); break;
     case 8: request("DELETE", "/api/models/" + id, ""); break;
+    case 9: {
+      // The body in chunks of 1 to 16 bytes, each size taken from the next byte of the input.
+      std::vector<std::string> pieces = {head_of("POST", "/api/models", std::string::npos)};
+      for (std::size_t at = 0; at < body.size();) {
+        const std::size_t n = std::min<std::size_t>(1 + static_cast<std::uint8_t>(body[at]) % 16, body.size() - at);
+        char size_line[16];
+        std::snprintf(size_line, sizeof size_line, "%zx\r\n", n);
+        pieces.push_back(size_line + body.substr(at, n) + "\r\n");
+        at += n;
+      }
+      pieces.push_back("0\r\n\r\n");
+      raw_exchange("POST", "/api/models (chunked)", pieces);
+      break;
+    }
+    case 10: {
+      // The whole request in at most 8 pieces, 1 ms apart.
+      const std::string whole = head_of("PATCH", "/api/config", body.size()) + body;
+      std::vector<std::string> pieces;
+      const std::size_t step = std::max<std::size_t>(1, whole.size() / 8 + 1);
+      for (std::size_t at = 0; at < whole.size(); at += step) pieces.push_back(whole.substr(at, step));
+      raw_exchange("PATCH", "/api/config (slow)", pieces, std::chrono::milliseconds(1));
+      break;
+    }
+    case 11: {
+      // The input nested 16 levels per byte (past the parser's limit from the fifth byte on).
+      std::string deep;
+      const std::size_t levels = std::min<std::size_t>(16 * body.size(), 100000);
+      for (std::size_t k = 0; k < levels; ++k) deep += "{\"a\":";
+      deep += body;
+      raw_exchange("POST", "/api/models (deep)", {head_of("POST", "/api/models", deep.size()) + deep});
+      break;
+    }
   }
   return 0;
 }

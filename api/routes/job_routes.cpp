@@ -2,6 +2,7 @@
 // queue, and each job's progress as a server-sent event stream.
 #include "api/server.h"
 
+#include <algorithm>
 #include <chrono>
 
 #include "api/request_body.h"
@@ -11,10 +12,15 @@ namespace panelbass::api {
 
 void Server::register_job_routes() {
   httplib::Server& http = *http_;
-  http.Get("/api/jobs", guarded([this](const httplib::Request&, httplib::Response& res) {
-             nlohmann::json list = nlohmann::json::array();
-             for (const JobRecord& job : jobs_->list()) list.push_back(job_to_json(job, false));
-             send_json(res, 200, {{"jobs", list}});
+  http.Get("/api/jobs", guarded([this](const httplib::Request& req, httplib::Response& res) {
+             // Newest first, a page at a time (the list grows with every job the store keeps).
+             const std::vector<JobRecord> all = jobs_->list();
+             const Page page = query_page(req, all.size());
+             nlohmann::json items = nlohmann::json::array();
+             for (std::size_t k = page.offset; k < all.size() && k < page.offset + page.limit; ++k) {
+               items.push_back(job_to_json(all[all.size() - 1 - k], false));
+             }
+             send_json(res, 200, page.answer("jobs", std::move(items), all.size()));
            }));
   http.Post("/api/jobs", guarded([this](const httplib::Request& req, httplib::Response& res) {
               const nlohmann::json body =
@@ -64,6 +70,15 @@ void Server::register_job_routes() {
                  throw HttpError{400, "bad_request", "Last-Event-ID: expected an event number"};
                }
              }
+             // Each open stream holds a connection's thread: a bounded number of them leaves the rest for
+             // every other request.
+             const int most = std::max(1, std::min(options_.event_streams, options_.http_threads / 2));
+             if (open_event_streams_.fetch_add(1) >= most) {
+               open_event_streams_.fetch_sub(1);
+               res.set_header("Retry-After", "5");
+               throw HttpError{503, "unavailable", "too many event streams: " + std::to_string(most) +
+                                                        " are open (poll GET /api/jobs/" + id + " instead, or close one)"};
+             }
              res.set_header("Cache-Control", "no-cache");
              res.set_chunked_content_provider(
                  "text/event-stream", [this, id, after](std::size_t, httplib::DataSink& sink) mutable {
@@ -81,7 +96,8 @@ void Server::register_job_routes() {
                      return true;
                    }
                    return sink.is_writable();
-                 });
+                 },
+                 [this](bool) { open_event_streams_.fetch_sub(1); });
            }));
 }
 

@@ -9,6 +9,12 @@
 #include "models/io/number_text.h"
 
 namespace panelbass::api {
+namespace {
+
+// The largest `meta` (free-form notes) a model may carry, as JSON text.
+constexpr std::size_t kMaxMetaBytes = 64u << 10;
+
+}  // namespace
 
 void Server::register_model_routes() {
   httplib::Server& http = *http_;
@@ -33,13 +39,21 @@ void Server::register_model_routes() {
               const nlohmann::json model = parse_body(
                   req, "a model file object ({\"format\":\"panelbass.model/1\",\"kind\":…})", nullptr, Overflow::invalid_model);
               if (!model.is_object()) throw HttpError{400, "bad_request", "body: expected a model file object"};
+              const std::string name = query_text(req, "name");
+              if (const auto meta = model.find("meta"); meta != model.end()) {
+                // Free-form notes travel with the model into the store, every listing and every restart.
+                const std::size_t bytes = meta->dump().size();
+                if (bytes > kMaxMetaBytes) {
+                  throw HttpError{422, "invalid_model", "model.meta: " + size_text(bytes) + " of JSON, at most " +
+                                                            size_text(kMaxMetaBytes)};
+                }
+              }
               const ValidatedModel valid = validate_model(model);
               if (!dsp::same_rate(valid.fs, engine_->fs())) {
                 throw HttpError{422, "invalid_model",
                                 "model.fs: the model runs at " + models::number_text(valid.fs) + " Hz, the engine at " +
                                     models::number_text(engine_->fs()) + " Hz"};
               }
-              const std::string name = req.has_param("name") ? req.get_param_value("name") : "";
               bool created = false;
               const StoredModel stored = store_->put(model, valid.kind, valid.fs, name, "upload", &created);
               send_json(res, created ? 201 : 200, model_summary(stored));

@@ -15,13 +15,12 @@ void Server::register_record_routes() {
   httplib::Server& http = *http_;
   http.Get("/api/records", guarded([this](const httplib::Request& req, httplib::Response& res) {
              const std::vector<StoredRecord> all = records_->list();
-             const std::size_t offset = query_count(req, "offset", 0, all.size());
-             const std::size_t limit = query_count(req, "limit", kDefaultPageLimit, kMaxPageLimit);
-             nlohmann::json page = nlohmann::json::array();
-             for (std::size_t k = offset; k < all.size() && k < offset + limit; ++k) {
-               page.push_back(stored_record_to_json(all[k]));
+             const Page page = query_page(req, all.size());
+             nlohmann::json items = nlohmann::json::array();
+             for (std::size_t k = page.offset; k < all.size() && k < page.offset + page.limit; ++k) {
+               items.push_back(stored_record_to_json(all[k]));
              }
-             send_json(res, 200, {{"records", page}, {"total", all.size()}, {"offset", offset}, {"limit", limit}});
+             send_json(res, 200, page.answer("records", std::move(items), all.size()));
            }));
   http.Post("/api/records", guarded([this](const httplib::Request& req, httplib::Response& res) {
               RecordUpload upload;
@@ -41,10 +40,10 @@ void Server::register_record_routes() {
                   throw HttpError{400, "bad_request", "fs: expected a rate in Hz > 0, got \"" + text + "\""};
                 }
               }
-              if (req.has_param("input")) upload.input = req.get_param_value("input");
-              if (req.has_param("output")) upload.output = req.get_param_value("output");
-              if (req.has_param("current")) upload.current = req.get_param_value("current");
-              const std::string name = req.has_param("name") ? req.get_param_value("name") : "";
+              if (req.has_param("input")) upload.input = query_text(req, "input");
+              if (req.has_param("output")) upload.output = query_text(req, "output");
+              if (req.has_param("current")) upload.current = query_text(req, "current");
+              const std::string name = query_text(req, "name");
               bool created = false;
               const StoredRecord stored = records_->put(body_text(req), upload, name, engine_->fs(), &created);
               send_json(res, created ? 201 : 200, stored_record_to_json(stored));

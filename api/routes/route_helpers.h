@@ -12,6 +12,8 @@
 
 #include <httplib.h>
 
+#include "api/http/guarded_http_server.h"
+
 namespace panelbass::api {
 
 /// The media type of every JSON reply.
@@ -39,9 +41,24 @@ void reject_unknown_fields(const nlohmann::json& object, std::initializer_list<c
 /// The id in the path's first capture; HttpError 400 naming `what` ("model", "job", …) when it is not an id.
 std::string path_id(const httplib::Request& req, const char* what);
 
+/// The query's text parameter `key` ("" when absent); HttpError 400 naming it when it is longer than
+/// `most_bytes`, not UTF-8 or holds a control character (it is stored and shown as text).
+std::string query_text(const httplib::Request& req, const char* key, std::size_t most_bytes = 256);
+
 /// The query's non-negative integer `key` (at most `most`), or `fallback` when absent; HttpError 400 naming it
 /// otherwise.
 std::size_t query_count(const httplib::Request& req, const char* key, std::size_t fallback, std::size_t most);
+
+/// A page of a list of `total` items: the query's offset (at most `total`) and limit (kDefaultPageLimit unless
+/// given, at most kMaxPageLimit); HttpError 400 naming a bad one.
+struct Page {
+  std::size_t offset = 0;  ///< the first item
+  std::size_t limit = 0;   ///< how many at most
+  /// The list's answer: {key: items, "total", "offset", "limit"}.
+  nlohmann::json answer(const char* key, nlohmann::json items, std::size_t total) const;
+};
+/// The page of a list of `total` items the query asks for.
+Page query_page(const httplib::Request& req, std::size_t total);
 
 /// A route handler that turns every exception it throws into the API's error object (HttpError, the engine's,
 /// the model validator's and the store's with their own status; std::invalid_argument 400; the rest 500).

@@ -24,7 +24,10 @@ nlohmann::json Server::status_json() const {
   return {{"engine", engine_->engine_status()},
           {"metrics", metrics},
           {"active_models", active},
-          {"jobs", {{"queued", jobs_->count(JobState::queued)}, {"running", jobs_->count(JobState::running)}}}};
+          {"jobs", {{"queued", jobs_->count(JobState::queued)}, {"running", jobs_->count(JobState::running)},
+                    {"max_queued", options_.max_queued_jobs}}},
+          {"store", {{"path", options_.store.string()}, {"bytes", store_bytes_.load()}, {"models", store_->list().size()},
+                     {"records", records_->list().size()}}}};
 }
 
 std::string Server::metrics_text() const {

@@ -161,6 +161,51 @@ TEST_F(RecordRoutesTest, ListsArePagedOldestFirst) {
   EXPECT_EQ(get("/api/records?limit=x").status, 400);
 }
 
+TEST_F(RecordRoutesTest, AWavWhoseHeaderClaimsMoreThanItHoldsIsRefusedNamingBoth) {
+  start();
+  dsp::Record rec;
+  rec.fs = kFs;
+  const FirRecord r = fir_record(1000);
+  rec.add("u", r.u);
+  rec.add("y", r.y);
+  const std::string whole = wav_bytes(rec, dsp::WavFormat::pcm16);
+  // Two 16-bit channels: 4 bytes a frame, 1000 frames after the data chunk's 8-byte header.
+  const std::size_t data = whole.find("data");
+  ASSERT_NE(data, std::string::npos);
+  ASSERT_EQ(whole.size(), data + 8 + 4000);
+  // The file cut after 497 frames, its header left as it was (1000 frames).
+  const std::string cut = whole.substr(0, data + 8 + 497 * 4);
+  const Reply truncated = upload_record("", cut, "audio/wav");
+  EXPECT_EQ(truncated.status, 400) << truncated.text;
+  EXPECT_NE(error_message(truncated).find("the WAV header says the file has " + std::to_string(whole.size()) + " bytes"),
+            std::string::npos) << error_message(truncated);
+  // The form's size patched to fit: the data chunk's own claim is what is wrong.
+  std::string patched = cut;
+  const auto put_u32 = [](std::string& bytes, std::size_t at, std::uint32_t v) {
+    for (int k = 0; k < 4; ++k) bytes[at + static_cast<std::size_t>(k)] = static_cast<char>((v >> (8 * k)) & 0xFF);
+  };
+  put_u32(patched, 4, static_cast<std::uint32_t>(patched.size() - 8));
+  expect_refused(upload_record("", patched, "audio/wav"), 400, "\"data\" chunk says 4000 bytes (1000 frames), the file holds 1988 (497 frames)");
+  // A data size of 0xFFFFFFFE ("read whatever is there") on a whole file.
+  std::string huge = whole;
+  put_u32(huge, data + 4, 0xFFFFFFFEu);
+  expect_refused(upload_record("", huge, "audio/wav"), 400, "\"data\" chunk says 4294967294 bytes");
+  // The whole file is stored.
+  EXPECT_EQ(upload_record("", whole, "audio/wav").status, 201);
+}
+
+TEST_F(RecordRoutesTest, ANameOrChannelThatIsNotUtf8TextIsABadRequest) {
+  start();
+  const FirRecord r = fir_record(1000);
+  expect_refused(upload_record("?fs=3000&name=%FF%FE", csv_of(r)), 400, "name: not UTF-8 text (byte 0");
+  expect_refused(upload_record("?fs=3000&name=a%0Ab", csv_of(r)), 400, "name: not UTF-8 text (byte 1 is a control character)");
+  expect_refused(upload_record("?fs=3000&input=%C0%80", csv_of(r)), 400, "input: not UTF-8 text");  // an overlong NUL
+  // Text in any script is a name.
+  const Reply named = upload_record("?fs=3000&name=%C3%A9tude%20%E2%88%9A", csv_of(r));
+  EXPECT_EQ(named.status, 201) << named.text;
+  EXPECT_EQ(named.body["name"], "étude √");
+}
+
 TEST_F(RecordRoutesTest, AWavAtAnotherRateIsRefused) {
   start();
   dsp::Record rec;

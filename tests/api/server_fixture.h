@@ -3,13 +3,9 @@
 // panel-exciter preset, a looped noise program of peak 0.2), requests through cpp-httplib's client or as raw
 // bytes (what curl sends and the client never would), and small controllers to activate.
 
-#include <arpa/inet.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <sys/time.h>
-#include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <memory>
@@ -22,6 +18,7 @@
 #include "models/control/lq_feedforward.h"
 #include "models/control/neural_feedback.h"
 #include "models/plant/plant_presets.h"
+#include "tests/api/raw_http.h"
 #include "tests/engine/engine_test_models.h"
 #include "tests/support/controllers.h"
 #include "tests/support/scratch_directory.h"
@@ -58,29 +55,21 @@ inline std::string error_message(const Reply& r) {
 /// ending the sending side (as curl does), reads the response until the server closes the connection (at most
 /// 30 s) and returns its status and body.
 inline Reply raw_request(int port, const std::string& request) {
-  const int sock = ::socket(AF_INET, SOCK_STREAM, 0);
-  if (sock < 0) return {-1, nullptr, "socket() failed"};
-  timeval timeout{30, 0};
-  ::setsockopt(sock, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(static_cast<std::uint16_t>(port));
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  std::string response;
-  if (::connect(sock, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0 &&
-      ::send(sock, request.data(), request.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(request.size())) {
-    char buffer[4096];
-    for (ssize_t n; (n = ::recv(sock, buffer, sizeof buffer, 0)) > 0;) response.append(buffer, static_cast<std::size_t>(n));
-  }
-  ::close(sock);
-  // "HTTP/1.1 200 OK\r\n…\r\n\r\nbody"
-  const std::size_t space = response.find(' ');
-  const std::size_t head_end = response.find("\r\n\r\n");
-  if (space == std::string::npos || head_end == std::string::npos) return {-1, nullptr, "no response: " + response};
-  Reply out{std::stoi(response.substr(space + 1, 3)), nullptr, response.substr(head_end + 4)};
-  out.body = nlohmann::json::parse(out.text, nullptr, false);
-  if (out.body.is_discarded()) out.body = nullptr;
-  return out;
+  const RawReply r = send_raw(port, request);
+  if (r.status < 0) return {-1, nullptr, "no response: " + r.text};
+  return {r.status, r.body, r.text};
+}
+
+/// A job's work that runs until `release` is set (reporting progress, so that it can be cancelled): it keeps a
+/// worker busy for as long as a test needs.
+inline JobWork job_held_until(const std::atomic<bool>& release) {
+  return [&release](const nlohmann::json&, JobControl& control) {
+    while (!release.load()) {
+      control.progress(0.0, "held");
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return nlohmann::json::object();
+  };
 }
 
 /// An LQ feedforward controller whose drive is u*(k) = u(k) + c·u(k−1) (gain between |1 − |c|| and 1 + |c|):
@@ -120,6 +109,9 @@ class ServerTest : public testing_support::ScratchDirectoryTest {
 
   /// Starts a server with `o` and a client for it.
   void start(ServerOptions o) {
+    // A restart: the old server lets go of its store (one server per store) before the new one opens it.
+    client_.reset();
+    server_.reset();
     server_ = std::make_unique<Server>(std::move(o));
     port_ = server_->start();
     client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);

@@ -270,7 +270,11 @@ TEST_F(ServerTest, AnIdentificationJobRunsReportsProgressAndADesignOnItsModelIsA
   const nlohmann::json& fit = job["result"]["plots"]["fit"];
   EXPECT_EQ(fit["measured"].size(), fit["simulated"].size());
   EXPECT_GT(fit["measured"].size(), 100u);
-  EXPECT_EQ(get("/api/jobs").body["jobs"][0]["id"], id);
+  // The list is newest first: the design, then the identification.
+  const nlohmann::json jobs = get("/api/jobs").body["jobs"];
+  ASSERT_EQ(jobs.size(), 2u) << jobs.dump();
+  EXPECT_EQ(jobs[0]["id"], design.body["id"]);
+  EXPECT_EQ(jobs[1]["id"], id);
 }
 
 TEST_F(ServerTest, JobsCanBeCancelledMidwayAndBadJobRequestsAreRefused) {

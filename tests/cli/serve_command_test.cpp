@@ -3,6 +3,7 @@
 // the status shows a program within the chain's safe amplitude.
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <fstream>
@@ -58,6 +59,17 @@ class CliServe : public CliTest {
   /// What it wrote on stderr so far.
   std::string serve_err() const { return text_of(dir_ / "serve-err.txt"); }
 
+  /// Options of a server run in the test's own process (any free port, the panel exciter, silent) on `store`.
+  static api::ServerOptions in_process_options(const std::filesystem::path& store) {
+    api::ServerOptions options;
+    options.port = 0;
+    options.store = store;
+    options.engine.plant = models::plant_preset("panel-exciter");
+    options.engine.chain.fs = options.engine.plant.fs;
+    options.log = [](const std::string&) {};
+    return options;
+  }
+
  private:
   bool zombie() const {
     std::ifstream stat("/proc/" + std::to_string(pid_) + "/stat");
@@ -70,13 +82,7 @@ class CliServe : public CliTest {
 };
 
 TEST_F(CliServe, APortAnotherServerHoldsIsAnErrorNamingTheAddress) {
-  api::ServerOptions options;
-  options.port = 0;
-  options.store = dir_ / "first";
-  options.engine.plant = models::plant_preset("panel-exciter");
-  options.engine.chain.fs = options.engine.plant.fs;
-  options.log = [](const std::string&) {};
-  api::Server first(options);
+  api::Server first(in_process_options(dir_ / "first"));
   const int port = first.start();
 
   const RunResult r = run("serve --port " + std::to_string(port) + " --no-demo --web '' --store " +
@@ -92,6 +98,20 @@ TEST_F(CliServe, APortAnotherServerHoldsIsAnErrorNamingTheAddress) {
   const httplib::Result health = client.Get("/api/health");
   ASSERT_TRUE(health);
   EXPECT_EQ(health->status, 200);
+}
+
+TEST_F(CliServe, AStoreAnotherServerHoldsIsAnErrorNamingTheStoreAndItsProcess) {
+  api::Server first(in_process_options(dir_ / "store"));
+  first.start();
+
+  // Another port, the same store: two servers would number their jobs alike and overwrite each other's.
+  const RunResult r = run("serve --port 0 --no-demo --web '' --store " + quoted(dir_ / "store") + " --seconds 5");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("panelbass: error: store " + (dir_ / "store").string() + " is in use by another panelbass serve (pid " +
+                       std::to_string(::getpid()) + ")"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.out.find("serving"), std::string::npos) << r.out;
 }
 
 TEST_F(CliServe, TheDemosControllerIsDesignedForTheProgramItPlays) {

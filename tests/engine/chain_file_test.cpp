@@ -209,10 +209,16 @@ TEST_F(ChainFile, RejectsOutOfRangeTimesAndLimiterSettings) {
   expect_error(j, {"chain.limiter.knee: must be within [0, 1), got 1"});
   j = example_json();
   j["limiter"]["pinned_level"] = 0;
-  expect_error(j, {"chain.limiter.pinned_level: must be > 0, got 0"});
+  expect_error(j, {"chain.limiter.pinned_level: must be within (0, 1] (full scale), got 0"});
+  j = example_json();
+  j["limiter"]["pinned_level"] = 1e308;  // above full scale the limited drive never counts as pinned: no trip
+  expect_error(j, {"chain.limiter.pinned_level: must be within (0, 1] (full scale), got 1e+308"});
   j = example_json();
   j["limiter"]["max_pinned_ms"] = -5;
-  expect_error(j, {"chain.limiter.max_pinned_ms: must be within [0, 60000], got -5"});
+  expect_error(j, {"chain.limiter.max_pinned_ms: must be within [0, 1000], got -5"});
+  j = example_json();
+  j["limiter"]["max_pinned_ms"] = 60000;  // a minute of full-scale drive before the safe bypass
+  expect_error(j, {"chain.limiter.max_pinned_ms: must be within [0, 1000], got 60000"});
   j = example_json();
   j["feedback"]["source"] = "both";
   expect_error(j, {"chain.feedback.source: expected \"model\" or \"sensor\", got \"both\""});
