@@ -12,6 +12,8 @@ class Progress {
   virtual ~Progress() = default;
   /// `fraction` (0..1) of the work done and what is being done; may throw to stop the work (a cancelled job).
   virtual void report(double fraction, const std::string& message) = 0;
+  /// True when the door asks the work to end early and keep what it found so far (Ctrl-C on a terminal).
+  virtual bool stopping() const { return false; }
 };
 
 /// A Progress that shows nothing and never stops the work.
@@ -29,6 +31,8 @@ class ProgressSpan final : public Progress {
   ProgressSpan(Progress& outer, double lo, double hi) : outer_(outer), lo_(lo), hi_(hi) {}
   /// Reports lo + fraction·(hi − lo) to the outer progress.
   void report(double fraction, const std::string& message) override;
+  /// The outer progress's.
+  bool stopping() const override { return outer_.stopping(); }
 
  private:
   Progress& outer_;

@@ -11,6 +11,7 @@
 #include "api/server.h"
 #include "usecases/design_lq.h"
 #include "usecases/design_mirror.h"
+#include "usecases/identify_oscillator.h"
 #include "usecases/validate_model.h"
 
 namespace panelbass::api {
@@ -64,6 +65,7 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
       {"design-lq", "DesignLqParams", usecases::to_json(usecases::DesignLqRequest{})},
       {"validate", "ValidateParams", usecases::to_json(usecases::ValidateRequest{})},
       {"design-mirror", "DesignMirrorParams", usecases::to_json(usecases::DesignMirrorRequest{})},
+      {"identify-oscillator", "IdentifyOscillatorParams", usecases::to_json(usecases::IdentifyOscillatorRequest{})},
   };
   const json& schemas = openapi_document().at("components").at("schemas");
   for (const DocumentedRequest& r : requests) {

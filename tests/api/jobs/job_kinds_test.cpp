@@ -12,7 +12,8 @@ namespace {
 // ----- validation ------------------------------------------------------------------------------------
 
 TEST(JobKinds, ListsTheKindsInTheOrderOfRoutes) {
-  EXPECT_EQ(job_kinds(), (std::vector<std::string>{"excite", "identify-linear", "identify-narx", "validate", "design-lq",
+  EXPECT_EQ(job_kinds(), (std::vector<std::string>{"excite", "identify-linear", "identify-narx", "identify-oscillator",
+                                                   "validate", "design-lq",
                                                    "design-nn", "design-mirror", "evaluate", "analyze", "diagnose", "verify"}));
 }
 
