@@ -347,6 +347,8 @@ async function handle(req, res) {
       return fail(res, 400, 'bad_request', `params.order: must be an integer ≥ 1, got ${JSON.stringify(params.order)}`);
     }
     if (['design-lq', 'design-nn'].includes(body.kind) && !params.plant_model) return fail(res, 400, 'bad_request', 'params.plant_model: required');
+    // As the real server (api/jobs/design_nn_job.cpp): the neural feedback is designed behind its feedforward.
+    if (body.kind === 'design-nn' && !params.feedforward_model) return fail(res, 400, 'bad_request', 'params.feedforward_model: required');
     const id = `j${nextJob++}`;
     const job = { id, kind: body.kind, state: 'queued', progress: 0, message: '', created: now(), finished: '', error: '',
                   params, activate: !!body.activate, result: null, activated: null, listeners: [], warnings: [] };

@@ -26,7 +26,8 @@ const STEPS = [
     keep: (job, made) => { made.control = job.id; } },
   { label: 'identify NARX', kind: 'identify-narx', params: (made) => ({ record: made.control, weighted: true }),
     keep: (job, made) => { made.narx = job.result.model_id; } },
-  { label: 'design neural feedback', kind: 'design-nn', activate: true, params: (made) => ({ plant_model: made.narx }),
+  { label: 'design neural feedback', kind: 'design-nn', activate: true,
+    params: (made) => ({ plant_model: made.narx, feedforward_model: made.lq }),
     keep: (job, made) => { made.nn = job.result.model_id; } },
   { label: 'verify', kind: 'verify', params: (made) => ({ feedforward_model: made.lq, feedback_model: made.nn }),
     keep: (job) => showProbes(job.result) },
@@ -44,7 +45,8 @@ function showProbes(result) {
   const rows = (result.probes || []).map((p) => el('tr', { title: p.note || '' },
     el('td', {}, `${p.frequency_hz} Hz`), el('td', {}, thd(p, 'before')), el('td', {}, thd(p, 'after')),
     el('td', {}, change(p)), el('td', {}, fixed(p.level_before, 4)), el('td', {}, fixed(p.level_after, 4))));
-  $('#tune-probes').replaceChildren(el('thead', {}, el('tr', {}, ...['probe', 'THD before', 'THD after', 'change', 'level before',
+  $('#tune-probes').replaceChildren(el('thead', {}, el('tr', {}, ...['probe', 'THD before', 'THD after',
+    'THD change (negative: less distortion)', 'level before',
     'level after'].map((h) => el('th', {}, h)))), el('tbody', {}, ...rows));
   $('#tune-probes').hidden = false;
 }
