@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -9,123 +10,76 @@
 #include "cli/commands.h"
 #include "cli/data_options.h"
 #include "cli/json_output.h"
+#include "cli/usecase_door.h"
 #include "models/analysis/distortion_comparison.h"
 #include "models/io/json_fields.h"
 #include "models/kinds/model_file.h"
+#include "models/io/json_file.h"
 #include "models/plant/plant_presets.h"
+#include "usecases/harmonics.h"
 
 namespace panelbass::cli {
 namespace {
 
+// The options of `harmonics`; the defaults are the request's (usecases::HarmonicsRequest).
 struct HarmonicsOptions {
   std::string plant = "panel-exciter";
   std::string model;
-  std::vector<double> frequencies{40, 60, 80, 100, 150, 200, 300, 400, 600};
-  std::vector<double> amplitudes{0.8};
-  bool noise = false;
+  std::vector<double> frequencies = usecases::HarmonicsRequest{}.frequencies;
+  std::vector<double> amplitudes = usecases::HarmonicsRequest{}.amplitudes;
+  bool noise = usecases::HarmonicsRequest{}.noise;
   std::string data;
   DataOptions columns;
-  std::size_t settle = 600;
-  std::size_t measure = 3000;
+  std::size_t settle = static_cast<std::size_t>(usecases::HarmonicsRequest{}.settle);
+  std::size_t measure = static_cast<std::size_t>(usecases::HarmonicsRequest{}.measure);
 };
 
-nlohmann::json rows_json(const std::vector<models::DistortionRow>& rows) {
-  nlohmann::json out = nlohmann::json::array();
-  for (const auto& r : rows) {
-    nlohmann::json levels = nlohmann::json::object(), phases = nlohmann::json::object();
-    for (std::size_t h = 0; h < r.harmonic_db.size(); ++h) {
-      const std::string name = "H" + std::to_string(h + 2);
-      levels[name + "_db"] = models::number_or_null(r.harmonic_db[h]);
-      // against a cosine fundamental of phase zero (dsp::HarmonicLevels::relative), degrees
-      const double phase = h < r.harmonic_relative.size() ? std::arg(r.harmonic_relative[h]) : std::nan("");
-      phases[name + "_deg"] = models::number_or_null(phase * 180.0 / std::numbers::pi);
-    }
-    out.push_back({{"frequency_hz", r.frequency},
-                   {"amplitude", r.amplitude},
-                   {"fundamental", r.fundamental},
-                   {"harmonics", levels},
-                   {"phases", phases},
-                   {"thd_pct", models::number_or_null(r.thd_percent)}});
-  }
-  return out;
-}
-
-// Per row, how much of the measured distortion a canceller designed on the model would remove
-// (models::cancellable_db, and the levels-only bound); the smallest over the rows summarises it.
-void add_cancellation(nlohmann::json& result, const std::vector<models::DistortionRow>& measured,
-                      const std::vector<models::DistortionRow>& model) {
-  nlohmann::json rows = nlohmann::json::array();
-  double smallest = std::numeric_limits<double>::infinity();
-  for (std::size_t k = 0; k < measured.size() && k < model.size(); ++k) {
-    const double db = models::cancellable_db(measured[k], model[k]);
-    const double levels_db = models::cancellable_magnitude_db(measured[k], model[k]);
-    smallest = std::min(smallest, db);
-    rows.push_back({{"frequency_hz", measured[k].frequency},
-                    {"amplitude", measured[k].amplitude},
-                    {"cancellable_db", models::number_or_null(db)},
-                    {"cancellable_magnitude_db", models::number_or_null(levels_db)}});
-  }
-  result["cancellable"] = rows;
-  result["smallest_cancellable_db"] = models::number_or_null(smallest);
-}
-
-// A recording made with the stepped sine of `spec` (`panelbass simulate --signal stepped`, or played
-// through real hardware): its input column must be that signal; its output column is what is analysed.
-std::vector<models::DistortionRow> recording_distortion(const HarmonicsOptions& o, const models::DistortionSpec& spec) {
-  if (spec.amplitudes.size() != 1) throw std::invalid_argument("--data takes exactly one --amplitudes value");
-  const dsp::Record rec = o.columns.read(o.data);
-  const Eigen::VectorXd& u = rec.columns[0];
-  const Eigen::VectorXd& y = rec.columns[1];
-  const auto system = [&](const Eigen::VectorXd& drive) -> Eigen::VectorXd {
+// The stepped sine's drive in, the recording's response out: a recording made with the stepped sine of these
+// options (`panelbass simulate --signal stepped`, or played through real hardware); its input column must be that
+// signal.
+std::function<Eigen::VectorXd(const Eigen::VectorXd&)> recording_system(const HarmonicsOptions& o, const dsp::Record& rec) {
+  return [&o, &rec](const Eigen::VectorXd& drive) -> Eigen::VectorXd {
+    const Eigen::VectorXd& u = rec.columns[0];
     if (drive.size() != u.size()) {
       throw std::invalid_argument(o.data + ": " + std::to_string(u.size()) + " samples, but the stepped sine for these "
                                   "--freqs/--settle/--measure has " + std::to_string(drive.size()));
     }
     Eigen::Index worst = 0;
     const double mismatch = (drive - u).cwiseAbs().maxCoeff(&worst);
-    if (mismatch > 1e-3 * spec.amplitudes[0]) {
+    if (mismatch > 1e-3 * o.amplitudes[0]) {
       throw std::invalid_argument(o.data + ": column \"" + o.columns.input_col + "\" is not the stepped sine for these "
                                   "--freqs/--amplitudes/--settle/--measure (sample " + std::to_string(worst) +
                                   " differs by " + std::to_string(mismatch) + ")");
     }
-    return y;
+    return rec.columns[1];
   };
-  return models::measure_distortion(system, rec.fs, spec);
 }
 
 void run_harmonics(const HarmonicsOptions& o) {
-  models::DistortionSpec spec;
-  spec.frequencies = o.frequencies;
-  spec.amplitudes = o.amplitudes;
-  spec.settle = o.settle;
-  spec.measure = o.measure;
-  spec.sensor_noise = o.noise ? models::SensorNoise::keep : models::SensorNoise::off;
+  usecases::HarmonicsRequest q;
+  q.frequencies = o.frequencies;
+  q.amplitudes = o.amplitudes;
+  q.noise = o.noise;
+  q.settle = static_cast<long>(o.settle);
+  q.measure = static_cast<long>(o.measure);
+  if (!o.model.empty()) {
+    q.model = models::read_json_file(o.model);
+    q.model_name = o.model;
+  }
+  dsp::Record rec;
   if (!o.data.empty()) {
-    const std::vector<models::DistortionRow> recorded = recording_distortion(o, spec);
-    nlohmann::json result = {{"data", o.data}, {"recording_rows", rows_json(recorded)}};
-    if (!o.model.empty()) {
-      const std::vector<models::DistortionRow> modelled = models::model_distortion(models::load_model(o.model), spec);
-      result["model_rows"] = rows_json(modelled);
-      add_cancellation(result, recorded, modelled);
-    }
-    print_result(result);
-    return;
-  }
-  const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
-  nlohmann::json result = {{"plant", plant.name}, {"fs", plant.fs}};
-  if (o.model.empty()) {
-    result["plant_rows"] = rows_json(models::plant_distortion(plant, spec));
+    if (o.amplitudes.size() != 1) throw std::invalid_argument("--data takes exactly one --amplitudes value");
+    rec = o.columns.read(o.data);
+    q.system = recording_system(o, rec);
+    q.fs = rec.fs;
+    q.source_name = o.data;
   } else {
-    // The thesis's fig. 6.7: the harmonics the process makes against those its model makes.
-    const models::AnyModel model = models::load_model(o.model);
-    const models::DistortionComparison c = models::compare_distortion(plant, model, spec);
-    result["model"] = o.model;
-    result["kind"] = model.kind();
-    result["plant_rows"] = rows_json(c.plant);
-    result["model_rows"] = rows_json(c.model);
-    add_cancellation(result, c.plant, c.model);
+    q.plant = models::plant_from_name_or_file(o.plant);
+    q.source_name = q.plant->name;
   }
-  print_result(result);
+  usecases::SilentProgress quiet;
+  print_result(run_use_case([&] { return usecases::harmonics(q, quiet); },
+                            {{{"frequencies", "--freqs"}}, {{"model", o.model}}}));
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include "api/jobs/evaluate_job.h"
 #include "api/jobs/excite_job.h"
 #include "api/jobs/identify_linear_job.h"
+#include "api/jobs/harmonics_job.h"
 #include "api/jobs/identify_narx_job.h"
 #include "api/jobs/identify_oscillator_job.h"
 #include "api/jobs/job_kind.h"
@@ -27,7 +28,7 @@ const std::vector<JobKind>& registry() {
   static const std::vector<JobKind> kinds{excite_job(),     identify_linear_job(), identify_narx_job(),
                                           identify_oscillator_job(), validate_job(),   design_lq_job(),       design_nn_job(),
                                           design_mirror_job(), evaluate_job(),     analyze_job(),
-                                          diagnose_job(),   verify_job()};
+                                          harmonics_job(),  diagnose_job(),        verify_job()};
   return kinds;
 }
 

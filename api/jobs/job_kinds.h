@@ -1,6 +1,6 @@
 #pragma once
 // The kinds of job the API runs (ROUTES.md "Jobs"): excite, identify-linear, identify-narx, identify-oscillator, validate, design-lq,
-// design-nn, design-mirror, evaluate, analyze, diagnose, verify. Each validates its params before it is queued and returns a result with
+// design-nn, design-mirror, evaluate, analyze, harmonics, diagnose, verify. Each validates its params before it is queued and returns a result with
 // plot-ready columns. Each kind is a file of its own here (its params beside its work); this is the registry.
 
 #include <nlohmann/json.hpp>

@@ -11,6 +11,7 @@
 #include "api/server.h"
 #include "usecases/design_lq.h"
 #include "usecases/design_mirror.h"
+#include "usecases/harmonics.h"
 #include "usecases/identify_oscillator.h"
 #include "usecases/validate_model.h"
 
@@ -65,6 +66,7 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
       {"design-lq", "DesignLqParams", usecases::to_json(usecases::DesignLqRequest{})},
       {"validate", "ValidateParams", usecases::to_json(usecases::ValidateRequest{})},
       {"design-mirror", "DesignMirrorParams", usecases::to_json(usecases::DesignMirrorRequest{})},
+      {"harmonics", "HarmonicsParams", usecases::to_json(usecases::HarmonicsRequest{})},
       {"identify-oscillator", "IdentifyOscillatorParams", usecases::to_json(usecases::IdentifyOscillatorRequest{})},
   };
   const json& schemas = openapi_document().at("components").at("schemas");
