@@ -1,5 +1,6 @@
 // One NARX training recipe of `identify narx` on a record, its validation J logged per iteration with the
-// seconds since the start, in the peer's CSV form (bench/peers/narx_torch.py): run,epoch,seconds,J_val_pct.
+// seconds since the start, in the peer's CSV form (bench/peers/narx_torch.py): run,epoch,seconds,J_val_pct, and
+// the mode of the iteration.
 // For bench/narx_recipes.sh, which sets it beside the PyTorch recipes. The data and the J are the CLI's: the
 // first --est-rows rows estimate, the rest validate, scaled by the estimation part; the first --init measured
 // outputs set the state of every simulation and J runs from there (identify narx's protocol, its history's J).
@@ -81,12 +82,12 @@ int main(int argc, char** argv) {
   if (name.empty()) name = train;
 
   std::ofstream log(out);
-  log << "run,epoch,seconds,J_val_pct\n";
+  log << "run,epoch,seconds,J_val_pct,mode\n";
   const auto started = std::chrono::steady_clock::now();
   const auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(); };
   int epoch = 0;
   options.progress = [&](const models::TrainingRecord& r) {
-    log << name << ',' << epoch++ << ',' << seconds() << ',' << r.j_val_pct << '\n';
+    log << name << ',' << epoch++ << ',' << seconds() << ',' << r.j_val_pct << ',' << models::to_string(r.mode) << '\n';
   };
   double best = std::numeric_limits<double>::infinity();
   for (int r = 0; r < restarts; ++r) {

@@ -18,7 +18,7 @@ namespace panelbass::models {
 struct MultipleShootingOptions {
   Eigen::Index window = 250;    ///< samples per window (≥ na, ≥ 1); the last window takes the remainder
   double penalty = 1.0;         ///< ρ at the start: one continuity residual weighs as ρ sample errors
-  double penalty_growth = 1.5;  ///< ρ × this after every accepted step (1 = constant)
+  double penalty_growth = 1.0;  ///< ρ × this after every accepted step (1 = constant: measured best, docs/identification.md)
   double penalty_max = 1e4;     ///< ρ grows no further
 };
 

@@ -148,6 +148,39 @@ TEST(NarxMultipleShootingTraining, RecoversAKnownNarxFromNoiseFreeDataToNearMach
   EXPECT_LT((r.model.net.parameters() - teacher.net.parameters()).cwiseAbs().maxCoeff(), 1e-9);
 }
 
+/// [5Q] y(k) = 2A·cos(23°)·y(k−1) − A²·y(k−2) + u(k), scaled so that max |y| = 1 over the whole record.
+Eigen::VectorXd lightly_damped_second_order(const Eigen::VectorXd& u, double A) {
+  const double c = 2.0 * A * std::cos(23.0 * 3.14159265358979323846 / 180.0);
+  Eigen::VectorXd y(u.size());
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    y[k] = u[k] + (k >= 1 ? c * y[k - 1] : 0.0) - (k >= 2 ? A * A * y[k - 2] : 0.0);
+  }
+  return y / y.cwiseAbs().maxCoeff();
+}
+
+TEST(NarxMultipleShootingTraining, WindowsFirstReachALowerJThanSingleShootingFromTheSameStart) {
+  // The thesis's A = 0.99 point (poles 0.99·e^{±j23°}), NN 3-5-1 from the [5F] weights of seed 4, no pem: oem-d
+  // alone from that random start ends at J_val 20 %, oem-ms then oem-d from the same start at 0.0045 % (the
+  // windows' short simulations from measured histories bring θ near the system; the free run then polishes).
+  // Not so from every start: of seeds 1–5 the windows win on 1 (0.0004 against 0.0026 %) and 4, lose on 2 and
+  // 5, and neither finds the system from 3 (docs/identification.md, "Multiple shooting").
+  const Eigen::VectorXd u_all = dsp::uniform_noise(5000, 1.0, 7);
+  const Eigen::VectorXd y_all = lightly_damped_second_order(u_all, 0.99);
+  const Eigen::VectorXd u = u_all.head(3000), y = y_all.head(3000), uv = u_all.tail(2000), yv = y_all.tail(2000);
+  const NarxModel start = shooting_model(2, 0, 0, {5}, 4);
+  TrainingOptions o;
+  o.max_iterations = 200;
+  o.init = 50;
+  o.modes = {TrainingMode::oem_d};
+  const double single = j_percent(train_narx(start, u, y, uv, yv, o).model.simulate_scaled(uv, yv, 50), yv, 50);
+  o.modes = {TrainingMode::oem_ms, TrainingMode::oem_d};
+  o.multiple_shooting.window = 100;
+  const TrainingResult windows_first = train_narx(start, u, y, uv, yv, o);
+  const double shooting = j_percent(windows_first.model.simulate_scaled(uv, yv, 50), yv, 50);
+  EXPECT_GT(single, 1.0);
+  EXPECT_LT(shooting, 1e-3 * single) << "oem-d alone " << single << " %, oem-ms then oem-d " << shooting << " %";
+}
+
 TEST(NarxMultipleShootingTraining, ErrorsNameTheOption) {
   const NarxModel model = shooting_model(8, 2, 0, {3}, 1);
   const Eigen::VectorXd u = dsp::uniform_noise(300, 1.0, 1), y = model.simulate_scaled(u);
