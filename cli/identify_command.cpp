@@ -122,7 +122,7 @@ struct IdentifyNarxOptions {
   long batch = 0;
   long skip = -1;
   int patience = 20;
-  double weight_decay = 0.0;
+  double weight_decay = 0.01;  ///< --weight-decay; 0 with --optimizer sd unless given (issue 59's measurements)
   bool gradient_check = false;
   long parameter = 0;
   long init = 50;
@@ -423,7 +423,8 @@ void register_identify(CLI::App& app) {
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
   narx->add_option("--weight-decay", n->weight_decay,
-                   "Weight decay D (NNSYSID's): lm and linesearch minimise (sum e^2 + D*|theta|^2)/(2N) on scaled data")
+                   "Weight decay D (NNSYSID's): lm and linesearch minimise (sum e^2 + D*|theta|^2)/(2N) on scaled data; "
+                   "with --optimizer sd the default is 0 (sd has none)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   narx->add_option("--init", n->init,
@@ -481,13 +482,17 @@ void register_identify(CLI::App& app) {
                    "Write the training history (J per iteration) to this JSON file, {\"history\": [...]}, the form analyze "
                    "--history reads; without it the history goes to stderr");
   narx->footer(
-      "Example:\n  panelbass identify narx --data est.csv --val val.csv --fs 3000 --na 8 --nb 8 --hidden 17 "
-      "--train pem,oem-d --optimizer lm --max-iter 50 --seed 1 --out nn.json\n"
+      "Example (the best recipe measured, docs/identification.md):\n  panelbass identify narx --data est.csv --val val.csv "
+      "--fs 3000 --na 8 --nb 8 --hidden 17 --train pem,oem-d --optimizer lm --weight-decay 0.01 --max-iter 200 --seed 1 "
+      "--out nn.json\n"
+      "  panelbass identify narx --data est.csv --val val.csv --fs 3000 --train pem,oem-ms,oem-d --ms-window 250 "
+      "--out nn-ms.json\n"
       "  panelbass identify narx --data more.csv --val val.csv --fs 3000 --start-from nn.json --train oem-d "
       "--max-iter 20 --out nn2.json");
   narx->callback([n, narx, multiple_shooting_flags] {
     for (const char* name : {"--na", "--nb", "--nk", "--hidden"}) n->structure_given |= narx->count(name) > 0;
     n->nk_given = narx->count("--nk") > 0;
+    if (narx->count("--weight-decay") == 0 && n->optimizer == "sd") n->weight_decay = 0.0;
     for (const std::string& flag : multiple_shooting_flags) {
       if (narx->count(flag) > 0 && n->train.find("oem-ms") == std::string::npos) {
         throw std::invalid_argument(flag + " applies to the oem-ms stage: add oem-ms to --train (e.g. pem,oem-ms,oem-d)");
