@@ -146,6 +146,19 @@ class Log:
         self.file.flush()
 
 
+class Best:
+    """The lowest validation J so far, its θ, and the epochs since it last fell."""
+
+    def __init__(self, j, theta):
+        self.j, self.theta, self.since = j, theta.detach().clone(), 0
+
+    def offer(self, j, theta):
+        if j < self.j:
+            self.j, self.theta, self.since = j, theta.detach().clone(), 0
+        else:
+            self.since += 1
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--data", required=True, help="panelbass CSV (columns u,y); first --est-rows rows estimate")
@@ -285,8 +298,8 @@ def multiple_shooting_recipe(a, net, skip, u_est, y_est, ypast_est, ulags_est, j
     started = time.perf_counter()
     theta = net.initial_theta(a.seed).requires_grad_()
     adam = torch.optim.Adam([theta], lr=a.adam_warm_lr)
-    best_j, best_theta = j_val(theta.detach()), theta.detach().clone()
-    log.add("adam-sp", 0, time.perf_counter() - started, best_j)
+    best = Best(j_val(theta.detach()), theta)
+    log.add("adam-sp", 0, time.perf_counter() - started, best.j)
     for epoch in range(1, a.adam_warm_epochs + 1):
         adam.zero_grad()
         loss = ((net.predict(theta, ypast_est, ulags_est) - y_est)[skip:] ** 2).mean()
@@ -295,9 +308,8 @@ def multiple_shooting_recipe(a, net, skip, u_est, y_est, ypast_est, ulags_est, j
         if epoch % a.eval_every == 0 or epoch == a.adam_warm_epochs:
             j = j_val(theta.detach())
             log.add("adam-sp", epoch, time.perf_counter() - started, j)
-            if j < best_j:
-                best_j, best_theta = j, theta.detach().clone()
-    print(f"adam-sp: J_val {best_j:.4g} % after {time.perf_counter() - started:.1f} s", file=sys.stderr)
+            best.offer(j, theta)
+    print(f"adam-sp: J_val {best.j:.4g} % after {time.perf_counter() - started:.1f} s", file=sys.stderr)
 
     # windows over [skip, skip + W·T)
     T = a.ms_window
@@ -308,7 +320,7 @@ def multiple_shooting_recipe(a, net, skip, u_est, y_est, ypast_est, ulags_est, j
     u_windows = torch.stack([ulags_est[s: s + T] for s in starts])          # W×T×(nb+1)
     y_windows = torch.stack([y_est[s: s + T] for s in starts])              # W×T
     histories = torch.stack([ypast_est[s] for s in starts]).clone().requires_grad_()  # W×na: y(s−1..s−na)
-    theta = best_theta.clone().requires_grad_()
+    theta = best.theta.clone().requires_grad_()
     M = W * T
     opt = torch.optim.LBFGS([theta, histories], lr=1.0, max_iter=1, history_size=20, line_search_fn="strong_wolfe")
 
@@ -320,8 +332,8 @@ def multiple_shooting_recipe(a, net, skip, u_est, y_est, ypast_est, ulags_est, j
         loss.backward()
         return loss
 
-    since_best, epoch = 0, 0
-    log.add("ms-lbfgs", 0, time.perf_counter() - started, best_j)
+    best.since, epoch = 0, 0
+    log.add("ms-lbfgs", 0, time.perf_counter() - started, best.j)
     while time.perf_counter() - started < a.budget:
         epoch += 1
         opt.step(ms_loss)
@@ -330,13 +342,10 @@ def multiple_shooting_recipe(a, net, skip, u_est, y_est, ypast_est, ulags_est, j
             break
         j = j_val(theta.detach())
         log.add("ms-lbfgs", epoch, time.perf_counter() - started, j)
-        if j < best_j:
-            best_j, best_theta, since_best = j, theta.detach().clone(), 0
-        else:
-            since_best += 1
-        if (a.target is not None and best_j <= a.target) or since_best >= a.patience:
+        best.offer(j, theta)
+        if (a.target is not None and best.j <= a.target) or best.since >= a.patience:
             break
-    print(f"ms-lbfgs: best J_val {best_j:.4g} % in {epoch} epochs, {time.perf_counter() - started:.1f} s",
+    print(f"ms-lbfgs: best J_val {best.j:.4g} % in {epoch} epochs, {time.perf_counter() - started:.1f} s",
           file=sys.stderr)
 
 
