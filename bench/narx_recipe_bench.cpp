@@ -43,7 +43,8 @@ int main(int argc, char** argv) {
   app.add_option("--seed", seed)->capture_default_str();
   app.add_option("--restarts", restarts)->capture_default_str();
   app.add_option("--weight-decay", weight_decay)->capture_default_str();
-  app.add_option("--init", init, "Measured outputs setting the state (at most a tenth of the shorter part)")->capture_default_str();
+  app.add_option("--init", init, "Measured outputs setting the state (at most a tenth of the shorter part)")
+      ->capture_default_str();
   app.add_option("--ms-window", ms.window)->capture_default_str();
   app.add_option("--ms-penalty", ms.penalty)->capture_default_str();
   app.add_option("--ms-penalty-growth", ms.penalty_growth)->capture_default_str();
@@ -84,7 +85,9 @@ int main(int argc, char** argv) {
   std::ofstream log(out);
   log << "run,epoch,seconds,J_val_pct,mode\n";
   const auto started = std::chrono::steady_clock::now();
-  const auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(); };
+  const auto seconds = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  };
   int epoch = 0;
   options.progress = [&](const models::TrainingRecord& r) {
     log << name << ',' << epoch++ << ',' << seconds() << ',' << r.j_val_pct << ',' << models::to_string(r.mode) << '\n';

@@ -410,7 +410,8 @@ void register_identify(CLI::App& app) {
   narx->add_option("--nb", n->nb, "Past inputs u(k-nk)..u(k-nk-nb)")->check(CLI::Range(0, 500))->capture_default_str();
   narx->add_option("--nk", n->nk, "Input delay")->check(CLI::Range(0, 100000))->capture_default_str();
   narx->add_option("--hidden", n->hidden, "Hidden layer widths, e.g. 17 or 17,8")->delimiter(',')->check(CLI::Range(1, 10000));
-  narx->add_option("--train", n->train, "Modes in order: pem, oem-s, oem-d, oem-n, oem-ms (multiple shooting) (comma-separated)")->capture_default_str();
+  narx->add_option("--train", n->train, "Modes in order: pem, oem-s, oem-d, oem-n, oem-ms (multiple shooting), comma-separated")
+      ->capture_default_str();
   narx->add_option("--optimizer", n->optimizer, "lm, sd or linesearch")
       ->check(CLI::IsMember({"lm", "sd", "linesearch"}))
       ->capture_default_str();

@@ -18,7 +18,7 @@ namespace panelbass::models {
 struct MultipleShootingOptions {
   Eigen::Index window = 250;    ///< samples per window (≥ na, ≥ 1); the last window takes the remainder
   double penalty = 1.0;         ///< ρ at the start: one continuity residual weighs as ρ sample errors
-  double penalty_growth = 1.0;  ///< ρ × this after every accepted step (1 = constant: measured best, docs/identification.md)
+  double penalty_growth = 1.0;  ///< ρ × this after every accepted step (1 = constant, measured best: docs)
   double penalty_max = 1e4;     ///< ρ grows no further
 };
 
@@ -81,7 +81,7 @@ class MultipleShooting {
   Eigen::MatrixXd ring_;                    ///< (P+na)×na: ψ = d[ŷ]/d[θ; h_w] of the last na outputs
   Eigen::MatrixXd tail_;                    ///< (P+na)×na: ψ of the previous window's last na outputs, newest first
   Eigen::VectorXd tail_y_;                  ///< their values
-  Eigen::MatrixXd block_;                   ///< (P+2na)×B residual gradients over [θ; h_{w−1}; h_w] awaiting H += B·Bᵀ
+  Eigen::MatrixXd block_;                   ///< (P+2na)×B residual gradients over [θ; h_{w−1}; h_w], for H += B·Bᵀ
   Eigen::Index in_block_ = 0;
   Eigen::MatrixXd local_h_;                 ///< (P+2na)² Gauss–Newton matrix of one window
   Eigen::VectorXd local_g_, row_;           ///< (P+2na): gradient of one window, one residual's gradient

@@ -501,8 +501,9 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
     require_multiple_shooting_options(options.multiple_shooting, s.na);
     if (u_est.size() - skip < options.multiple_shooting.window) {
       throw std::invalid_argument("NARX training: oem-ms needs a window of " +
-                                  std::to_string(options.multiple_shooting.window) + " samples after the transient skip of " +
-                                  std::to_string(skip) + "; the estimation data has " + std::to_string(u_est.size()));
+                                  std::to_string(options.multiple_shooting.window) +
+                                  " samples after the transient skip of " + std::to_string(skip) +
+                                  "; the estimation data has " + std::to_string(u_est.size()));
     }
   }
   Trainer trainer(initial, u_est, y_est, u_val, y_val, skip, options);

@@ -85,7 +85,9 @@ TEST(NarxMultipleShootingGradient, LossIsTheDefinitionsSumOfWindowErrorsAndConti
   for (Eigen::Index w = 0; w < ms.windows(); ++w) {
     std::vector<double> out{ms.histories()[2 * w + 1], ms.histories()[2 * w]};  // ŷ(s−2), ŷ(s−1)
     if (w > 0) {
-      for (int i = 0; i < 2; ++i) sum += 2.0 * std::pow(ms.histories()[2 * w + i] - previous_end[static_cast<std::size_t>(i)], 2);
+      for (std::size_t i = 0; i < 2; ++i) {
+        sum += 2.0 * std::pow(ms.histories()[2 * w + static_cast<Eigen::Index>(i)] - previous_end[i], 2);
+      }
     }
     for (Eigen::Index k = ms.window_start(w); k < ms.window_start(w + 1); ++k) {
       x << out[out.size() - 1], out[out.size() - 2], u[k], k >= 1 ? u[k - 1] : 0.0;
@@ -206,7 +208,8 @@ TEST(NarxMultipleShootingTraining, ErrorsNameTheOption) {
   EXPECT_NE(message(o).find("oem-ms needs a window of 400 samples"), std::string::npos) << message(o);
   o.multiple_shooting = {};
   o.optimizer = Optimizer::sd;
-  EXPECT_NE(message(o).find("oem-ms (multiple shooting) needs --optimizer lm, got sd"), std::string::npos) << message(o);
+  EXPECT_NE(message(o).find("oem-ms (multiple shooting) needs --optimizer lm, got sd"), std::string::npos)
+      << message(o);
   EXPECT_THROW(loss_gradient(model, u, y, TrainingMode::oem_ms, 16), std::invalid_argument);
   EXPECT_EQ(parse_training_mode("oem-ms"), TrainingMode::oem_ms);
   EXPECT_EQ(to_string(TrainingMode::oem_ms), "oem-ms");
