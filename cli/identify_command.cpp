@@ -122,7 +122,7 @@ struct IdentifyNarxOptions {
   long batch = 0;
   long skip = -1;
   int patience = 20;
-  double weight_decay = 0.0;
+  double weight_decay = 0.01;  ///< --weight-decay; 0 with --optimizer sd unless given (issue 59's measurements)
   bool gradient_check = false;
   long parameter = 0;
   long init = 50;
@@ -136,6 +136,7 @@ struct IdentifyNarxOptions {
   std::string history_out;       ///< --history: the training history as JSON there (else on stderr)
   bool structure_given = false;  ///< --na, --nb, --nk or --hidden on the command line
   bool nk_given = false;         ///< --nk on the command line
+  models::MultipleShootingOptions multiple_shooting;  ///< --ms-window, --ms-penalty, … (oem-ms)
 };
 
 std::vector<models::TrainingMode> parse_modes(const std::string& list) {
@@ -218,6 +219,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   options.weight_decay = o.weight_decay;
   options.weights = w_est;
   options.validation_weights = w_val;
+  options.multiple_shooting = o.multiple_shooting;
   // The J reported below and the J that early stopping and the kept model go by are one figure: the first
   // `init` measured outputs set the state, then free run (as validate --init).
   const Eigen::Index init =
@@ -408,7 +410,8 @@ void register_identify(CLI::App& app) {
   narx->add_option("--nb", n->nb, "Past inputs u(k-nk)..u(k-nk-nb)")->check(CLI::Range(0, 500))->capture_default_str();
   narx->add_option("--nk", n->nk, "Input delay")->check(CLI::Range(0, 100000))->capture_default_str();
   narx->add_option("--hidden", n->hidden, "Hidden layer widths, e.g. 17 or 17,8")->delimiter(',')->check(CLI::Range(1, 10000));
-  narx->add_option("--train", n->train, "Modes in order: pem, oem-s, oem-d, oem-n (comma-separated)")->capture_default_str();
+  narx->add_option("--train", n->train, "Modes in order: pem, oem-s, oem-d, oem-n, oem-ms (multiple shooting), comma-separated")
+      ->capture_default_str();
   narx->add_option("--optimizer", n->optimizer, "lm, sd or linesearch")
       ->check(CLI::IsMember({"lm", "sd", "linesearch"}))
       ->capture_default_str();
@@ -421,7 +424,8 @@ void register_identify(CLI::App& app) {
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
   narx->add_option("--weight-decay", n->weight_decay,
-                   "Weight decay D (NNSYSID's): lm and linesearch minimise (sum e^2 + D*|theta|^2)/(2N) on scaled data")
+                   "Weight decay D (NNSYSID's): lm and linesearch minimise (sum e^2 + D*|theta|^2)/(2N) on scaled data; "
+                   "with --optimizer sd the default is 0 (sd has none)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   narx->add_option("--init", n->init,
@@ -455,18 +459,46 @@ void register_identify(CLI::App& app) {
   narx->add_option("--start-from", n->start_from,
                    "Train on from this NARX model (its structure, scaling and weights), e.g. on new records; --seed then "
                    "plays no part");
+  // oem-ms (multiple shooting): its windows and continuity penalty; refused unless --train has oem-ms
+  const std::vector<std::string> multiple_shooting_flags{"--ms-window", "--ms-penalty", "--ms-penalty-growth",
+                                                         "--ms-penalty-max"};
+  narx->add_option("--ms-window", n->multiple_shooting.window,
+                   "oem-ms: samples per window (>= na), each simulated from a free initial output history")
+      ->check(CLI::Range(1L, 100000000L))
+      ->capture_default_str();
+  narx->add_option("--ms-penalty", n->multiple_shooting.penalty,
+                   "oem-ms: weight rho of a continuity residual (window start against the previous window's end) "
+                   "against one sample's error, at the start")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  narx->add_option("--ms-penalty-growth", n->multiple_shooting.penalty_growth,
+                   "oem-ms: rho times this after every accepted step (1 = constant)")
+      ->check(CLI::Range(1.0, 1e6))
+      ->capture_default_str();
+  narx->add_option("--ms-penalty-max", n->multiple_shooting.penalty_max, "oem-ms: rho grows no further")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   narx->add_option("--out", n->out, "Model file to write (JSON)");
   narx->add_option("--history", n->history_out,
                    "Write the training history (J per iteration) to this JSON file, {\"history\": [...]}, the form analyze "
                    "--history reads; without it the history goes to stderr");
   narx->footer(
-      "Example:\n  panelbass identify narx --data est.csv --val val.csv --fs 3000 --na 8 --nb 8 --hidden 17 "
-      "--train pem,oem-d --optimizer lm --max-iter 50 --seed 1 --out nn.json\n"
+      "Example (the best recipe measured, docs/identification.md):\n  panelbass identify narx --data est.csv --val val.csv "
+      "--fs 3000 --na 8 --nb 8 --hidden 17 --train pem,oem-d --optimizer lm --weight-decay 0.01 --max-iter 200 --seed 1 "
+      "--out nn.json\n"
+      "  panelbass identify narx --data est.csv --val val.csv --fs 3000 --train pem,oem-ms,oem-d --ms-window 250 "
+      "--out nn-ms.json\n"
       "  panelbass identify narx --data more.csv --val val.csv --fs 3000 --start-from nn.json --train oem-d "
       "--max-iter 20 --out nn2.json");
-  narx->callback([n, narx] {
+  narx->callback([n, narx, multiple_shooting_flags] {
     for (const char* name : {"--na", "--nb", "--nk", "--hidden"}) n->structure_given |= narx->count(name) > 0;
     n->nk_given = narx->count("--nk") > 0;
+    if (narx->count("--weight-decay") == 0 && n->optimizer == "sd") n->weight_decay = 0.0;
+    for (const std::string& flag : multiple_shooting_flags) {
+      if (narx->count(flag) > 0 && n->train.find("oem-ms") == std::string::npos) {
+        throw std::invalid_argument(flag + " applies to the oem-ms stage: add oem-ms to --train (e.g. pem,oem-ms,oem-d)");
+      }
+    }
     if (!n->gradient_check && n->out.empty()) throw CLI::RequiredError("--out");
     run_identify_narx(*n);
   });

@@ -16,6 +16,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -149,6 +150,11 @@ struct Trainer {
   Eigen::VectorXd g;
   Eigen::MatrixXd H;
   LevenbergMarquardt lm;    ///< its λ is reset per mode
+  // oem_ms: the windows and histories, LM over the stack z = [θ; h_0; …], its gradient, matrix and mask
+  std::optional<MultipleShooting> shooting;
+  std::optional<LevenbergMarquardt> shooting_lm;
+  Eigen::VectorXd z, gz, shooting_mask;
+  Eigen::MatrixXd Hz;
 
   Trainer(const NarxModel& model, const Eigen::VectorXd& ue, const Eigen::VectorXd& ye, const Eigen::VectorXd& uv,
           const Eigen::VectorXd& yv, Eigen::Index skip_, const TrainingOptions& opt)
@@ -164,6 +170,43 @@ struct Trainer {
     if (opt.optimizer == Optimizer::lm) H.resize(P, P);
     est.init = opt.init;
     val.init = opt.init;
+  }
+
+  /// oem_ms from `m`: fresh windows, histories at the measured outputs, the penalty at its start, λ at its start.
+  void start_shooting(const NarxModel& m) {
+    shooting.emplace(m, u_est, y_est, skip, options.multiple_shooting, options.weights);
+    const Eigen::Index P = m.net.parameter_count(), n = P + shooting->histories().size();
+    shooting_lm.emplace(kLmSettings, n);
+    z.resize(n);
+    if (options.mask.size() != 0) {  // pruned weights stay held; every history is free
+      shooting_mask = Eigen::VectorXd::Ones(n);
+      shooting_mask.head(P) = options.mask;
+    }
+  }
+
+  /// One Levenberg–Marquardt step of θ and the histories together on the multiple-shooting loss (plus the
+  /// weight decay on θ); the penalty tightens after an accepted step. False when no step lowers the loss.
+  bool shooting_step(NarxModel& m) {
+    const Eigen::Index P = m.net.parameter_count();
+    double V = shooting->gradient(m, shooting->histories(), gz, &Hz);
+    if (options.weight_decay != 0.0) {
+      const double c = options.weight_decay / est.weight_total;
+      V += 0.5 * c * m.net.parameters().squaredNorm();
+      gz.head(P).noalias() += c * m.net.parameters();
+      Hz.diagonal().head(P).array() += c;
+    }
+    apply_mask(shooting_mask, gz, &Hz);
+    z << m.net.parameters(), shooting->histories();
+    const bool accepted = shooting_lm->step(Hz, gz, V, z, [&](const Eigen::VectorXd& candidate) {
+                               trial.net.parameters() = candidate.head(P);
+                               return shooting->loss(trial, candidate.tail(candidate.size() - P)) +
+                                      decay_term(trial.net.parameters());
+                             }, shooting_mask).accepted;
+    if (!accepted) return false;
+    m.net.parameters() = z.head(P);
+    shooting->histories() = z.tail(z.size() - P);
+    shooting->tighten();
+    return true;
   }
 
   /// The criterion minimised: the mode's loss V plus the weight decay D/(2·Σw)·‖θ‖².
@@ -211,6 +254,7 @@ struct Trainer {
   /// One Levenberg–Marquardt step on this mode's Gauss–Newton matrix and gradient, the system reduced to
   /// the free parameters; false when no step within the retries lowers the mode's loss.
   bool lm_step(NarxModel& m, TrainingMode mode) {
+    if (mode == TrainingMode::oem_ms) return shooting_step(m);
     double V;
     if (mode == TrainingMode::oem_n) {
       V = numerical_normal_equations(m, u_est, y_est, skip, kFiniteDifferenceStep, est, g, H);
@@ -284,6 +328,14 @@ struct Trainer {
   }
 };
 
+/// oem_ms's loss has the histories besides θ: the functions of θ alone refuse it.
+void require_single_record(TrainingMode mode) {
+  if (mode == TrainingMode::oem_ms) {
+    throw std::invalid_argument("NARX training: oem-ms has no loss of θ alone (its windows' histories are "
+                                "parameters too); MultipleShooting computes it, train_narx trains with it");
+  }
+}
+
 void require_options(const TrainingOptions& o) {
   if (o.modes.empty()) throw std::invalid_argument("NARX training: no training mode given");
   if (o.max_iterations < 0) {
@@ -306,6 +358,11 @@ void require_options(const TrainingOptions& o) {
     throw std::invalid_argument("NARX training: transient_skip must be ≥ 0 or −1 (= 2·(na + nb))");
   }
   if (o.init < 0) throw std::invalid_argument("NARX training: init must be ≥ 0, got " + std::to_string(o.init));
+  if (std::find(o.modes.begin(), o.modes.end(), TrainingMode::oem_ms) != o.modes.end() &&
+      o.optimizer != Optimizer::lm) {
+    throw std::invalid_argument("NARX training: oem-ms (multiple shooting) needs --optimizer lm, got " +
+                                to_string(o.optimizer));
+  }
   if (o.early_stopping && o.patience < 1) {
     throw std::invalid_argument("NARX training: patience must be ≥ 1, got " + std::to_string(o.patience));
   }
@@ -318,7 +375,8 @@ TrainingMode parse_training_mode(const std::string& name) {
   if (name == "oem-s") return TrainingMode::oem_s;
   if (name == "oem-d") return TrainingMode::oem_d;
   if (name == "oem-n") return TrainingMode::oem_n;
-  throw std::invalid_argument("unknown training mode \"" + name + "\" (expected pem, oem-s, oem-d or oem-n)");
+  if (name == "oem-ms") return TrainingMode::oem_ms;
+  throw std::invalid_argument("unknown training mode \"" + name + "\" (expected pem, oem-s, oem-d, oem-n or oem-ms)");
 }
 
 std::string to_string(TrainingMode mode) {
@@ -327,6 +385,7 @@ std::string to_string(TrainingMode mode) {
     case TrainingMode::oem_s: return "oem-s";
     case TrainingMode::oem_d: return "oem-d";
     case TrainingMode::oem_n: return "oem-n";
+    case TrainingMode::oem_ms: return "oem-ms";
   }
   return "?";
 }
@@ -352,6 +411,7 @@ double training_loss(const NarxModel& model, const Eigen::VectorXd& u, const Eig
   require_model(model);
   require_data(u, y, skip, "estimation");
   require_init(init, skip);
+  require_single_record(mode);
   Buffers b = weighted_buffers(model, u, skip, weights, "estimation");
   b.init = init;
   return output_loss(model, u, y, feedback_of(mode), skip, b);
@@ -363,6 +423,7 @@ Eigen::VectorXd loss_gradient(const NarxModel& model, const Eigen::VectorXd& u, 
   require_model(model);
   require_data(u, y, skip, "estimation");
   require_init(init, skip);
+  require_single_record(mode);
   if (mode == TrainingMode::oem_n && !(h > 0.0 && std::isfinite(h))) {
     throw std::invalid_argument("NARX training: finite-difference step h must be > 0, got " + std::to_string(h));
   }
@@ -379,6 +440,7 @@ Eigen::MatrixXd gauss_newton_hessian(const NarxModel& model, const Eigen::Vector
   require_model(model);
   require_data(u, y, skip, "estimation");
   require_init(init, skip);
+  require_single_record(mode);
   Buffers b = weighted_buffers(model, u, skip, weights, "estimation");
   b.init = init;
   const Eigen::Index P = model.net.parameter_count();
@@ -435,13 +497,23 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
     }
   }
 
+  if (std::find(options.modes.begin(), options.modes.end(), TrainingMode::oem_ms) != options.modes.end()) {
+    require_multiple_shooting_options(options.multiple_shooting, s.na);
+    if (u_est.size() - skip < options.multiple_shooting.window) {
+      throw std::invalid_argument("NARX training: oem-ms needs a window of " +
+                                  std::to_string(options.multiple_shooting.window) +
+                                  " samples after the transient skip of " + std::to_string(skip) +
+                                  "; the estimation data has " + std::to_string(u_est.size()));
+    }
+  }
   Trainer trainer(initial, u_est, y_est, u_val, y_val, skip, options);
   NarxModel current = initial;
   if (options.mask.size() != 0) current.net.parameters().array() *= options.mask.array();  // pruned: exactly 0
   TrainingResult result{initial, {}, 0, 0.0};
   const bool keep_best = options.early_stopping && has_validation;
 
-  auto report = [&](const TrainingRecord& r) {
+  auto report = [&](TrainingRecord r) {
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     result.history.push_back(r);
     if (options.progress) options.progress(r);
   };
@@ -454,6 +526,7 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
   // stopped early on the validation J (fig. 6.4)
   for (const TrainingMode mode : options.modes) {
     trainer.lm.reset();               // LM damping λ back to its start for each mode
+    if (mode == TrainingMode::oem_ms) trainer.start_shooting(current);
     double t = 0.5 * options.step;    // line search: the first trial step is α
     int without_improvement = 0;
     // Patience counts against this mode's own best: a refinement (oem-d after pem) often has to climb back

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "models/narx/narx_model.h"
+#include "models/narx/narx_multiple_shooting.h"
 
 namespace panelbass::models {
 
@@ -18,6 +19,10 @@ enum class TrainingMode {
   oem_s,  ///< parallel, static gradient: ∂F/∂θ only (the approximation that fails, table 5.1)
   oem_d,  ///< parallel, dynamic backpropagation: ∂F/∂θ + Σ ∂F/∂ŷ(k−t)·dŷ(k−t)/dθ ([5L])
   oem_n,  ///< parallel, central finite differences of the simulation
+  /// parallel, multiple shooting: windows simulated from free initial histories, continuity a penalty that
+  /// tightens, θ and the histories stepped together by LM on exact gradients (narx_multiple_shooting); J and
+  /// early stopping still by the free run over the whole record
+  oem_ms,
 };
 
 /// How parameters are updated.
@@ -27,9 +32,10 @@ enum class Optimizer {
   lm,          ///< Levenberg–Marquardt on the (exact, for oem_d) Jacobian of the simulation
 };
 
-/// "pem" → pem, "oem-s" → oem_s, "oem-d" → oem_d, "oem-n" → oem_n; throws std::invalid_argument.
+/// "pem" → pem, "oem-s" → oem_s, "oem-d" → oem_d, "oem-n" → oem_n, "oem-ms" → oem_ms; throws
+/// std::invalid_argument.
 TrainingMode parse_training_mode(const std::string& name);
-/// "pem", "oem-s", "oem-d", "oem-n".
+/// "pem", "oem-s", "oem-d", "oem-n", "oem-ms".
 std::string to_string(TrainingMode mode);
 /// "sd", "linesearch", "lm"; throws std::invalid_argument.
 Optimizer parse_optimizer(const std::string& name);
@@ -44,6 +50,7 @@ struct TrainingRecord {
   double j_val_pct = 0.0;   ///< simulation J on the validation data (NaN without), likewise
   double j_val_weighted_pct = 0.0;  ///< Σw·e²/Σw·y² on the validation data with its weights (= j_val_pct
                                     ///< without): what early stopping watches
+  double seconds = 0.0;     ///< since training started
 };
 
 /// How training runs.
@@ -79,6 +86,9 @@ struct TrainingOptions {
   Eigen::VectorXd weights;
   /// The same for the validation data; early stopping then watches Σw·e²/Σw·y² there. Empty = 1.
   Eigen::VectorXd validation_weights;
+  /// oem_ms: the windows (from the transient skip on) and the continuity penalty; each oem_ms mode in the list
+  /// starts afresh from the measured outputs as histories and this penalty. Needs Optimizer::lm.
+  MultipleShootingOptions multiple_shooting;
   std::function<void(const TrainingRecord&)> progress;
 };
 
@@ -96,7 +106,8 @@ struct TrainingResult {
 TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est, const Eigen::VectorXd& y_est,
                           const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const TrainingOptions& options);
 
-/// dV/dθ of V = 1/(2(N−skip))·Σ_{k≥skip} e(k)² for `mode` (scaled data), or with `weights` of
+/// dV/dθ of V = 1/(2(N−skip))·Σ_{k≥skip} e(k)² for `mode` (scaled data; not oem_ms, whose loss has more than θ:
+/// MultipleShooting), or with `weights` of
 /// V = Σ w(k)·e(k)² / (2·Σ w(k)). For oem_n: central differences with step h. `init` as
 /// TrainingOptions::init (the simulation's first init outputs measured; skip ≥ init, else invalid_argument).
 Eigen::VectorXd loss_gradient(const NarxModel& model, const Eigen::VectorXd& u, const Eigen::VectorXd& y,

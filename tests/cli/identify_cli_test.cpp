@@ -186,6 +186,39 @@ TEST_F(CliIdentifyData, NarxRestartsKeepTheLowestValidationJ) {
                      quoted(dir_ / "no.json")));
 }
 
+TEST_F(CliIdentifyData, NarxMultipleShootingStageTrainsAndBadOptionsAreNamed) {
+  // --train pem,oem-ms,oem-d: the history names the stage; its model is judged by validate's J as any other
+  const fs::path model = dir_ / "ms.json", log = dir_ / "ms-history.json";
+  const std::string common = "identify narx --data " + est() + " --val " + val() +
+                             " --fs 3000 --na 3 --nb 3 --hidden 4 --max-iter 3 --seed 2 ";
+  const json r = expect_result(run(common + "--train pem,oem-ms,oem-d --ms-window 200 --ms-penalty 2 " +
+                                   "--ms-penalty-growth 1.5 --ms-penalty-max 100 --out " + quoted(model) +
+                                   " --history " + quoted(log)));
+  const json h = json::parse(text_of(log));
+  bool shooting = false;
+  for (const auto& row : h["history"]) shooting |= row["mode"] == "oem-ms";
+  EXPECT_TRUE(shooting) << h;
+  const json v = expect_result(run("validate --model " + quoted(model) + " --data " + val() + " --init 50"));
+  EXPECT_NEAR(v["J_sim_pct"].get<double>(), r["J_val_pct"].get<double>(), 1e-9);
+  // a window shorter than na: the library's error, naming the option and the bound
+  RunResult bad = run(common + "--train pem,oem-ms --ms-window 2 --out " + quoted(dir_ / "bad.json"));
+  expect_failure(bad);
+  EXPECT_TRUE(contains(bad.err, "multiple-shooting window must be ≥ max(na, 1) = 3 samples, got 2")) << bad.err;
+  // oem-ms with another optimiser
+  bad = run(common + "--train oem-ms --optimizer sd --out " + quoted(dir_ / "bad.json"));
+  expect_failure(bad);
+  EXPECT_TRUE(contains(bad.err, "oem-ms (multiple shooting) needs --optimizer lm")) << bad.err;
+  // a multiple-shooting option without the stage
+  bad = run(common + "--train pem,oem-d --ms-window 100 --out " + quoted(dir_ / "bad.json"));
+  expect_failure(bad);
+  EXPECT_TRUE(contains(bad.err, "--ms-window applies to the oem-ms stage")) << bad.err;
+  // a penalty that is no positive number: a usage error naming the flag
+  bad = run(common + "--train pem,oem-ms --ms-penalty -1 --out " + quoted(dir_ / "bad.json"));
+  expect_usage_error(bad);
+  EXPECT_TRUE(contains(bad.err, "--ms-penalty")) << bad.err;
+  EXPECT_FALSE(fs::exists(dir_ / "bad.json"));
+}
+
 TEST_F(CliIdentifyData, NarxWeightColumnWeighsTheLoss) {
   // the estimation data with a weight column w: constant (no change: the loss divides by Σ w), zero on the
   // second half (another model), negative at one sample (an error naming it)
@@ -201,7 +234,9 @@ TEST_F(CliIdentifyData, NarxWeightColumnWeighsTheLoss) {
   half.tail(n / 2).setZero();
   Eigen::VectorXd negative = Eigen::VectorXd::Ones(n);
   negative[100] = -1.0;
-  const std::string train = " --fs 3000 --na 3 --nb 3 --hidden 4 --train pem,oem-d --max-iter 3 --seed 2 --out ";
+  // without weight decay: its term D/(2·Σw)·|θ|² is scaled by the weights' total, the loss's normaliser
+  const std::string train =
+      " --fs 3000 --na 3 --nb 3 --hidden 4 --train pem,oem-d --weight-decay 0 --max-iter 3 --seed 2 --out ";
   const json plain = expect_result(run("identify narx --data " + est() + train + quoted(dir_ / "a.json")));
   const json constant = expect_result(run("identify narx --data " + with_weights("c.csv", Eigen::VectorXd::Constant(n, 2.5)) +
                                           " --weight-col w" + train + quoted(dir_ / "b.json")));
