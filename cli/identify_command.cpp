@@ -122,7 +122,7 @@ struct IdentifyNarxOptions {
   long batch = 0;
   long skip = -1;
   int patience = 20;
-  double weight_decay = 0.01;  ///< --weight-decay; 0 with --optimizer sd unless given (issue 59's measurements)
+  double weight_decay = models::kDefaultLmWeightDecay;  ///< --weight-decay; 0 with --optimizer sd unless given (issue 59's measurements)
   bool gradient_check = false;
   long parameter = 0;
   long init = 50;

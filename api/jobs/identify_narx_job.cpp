@@ -37,6 +37,7 @@ json identify_narx_params(const json& params, const JobEnvironment& env) {
   const std::vector<long long> hidden = hidden_layers(r, {8});
   r.choices("modes", {"pem", "oem-d"}, {"pem", "oem-s", "oem-d", "oem-n"});
   r.integer("max_iterations", 30, 0, kMaxIterations);
+  r.number("weight_decay", models::kDefaultLmWeightDecay, {0.0, 1e6, false, false});
   r.integer("seed", 1, 0, kMaxSeed);
   // The control excitation's harmonic weights in the loss (identify narx --weight-col w).
   if (r.boolean("weighted", false)) {
@@ -99,6 +100,7 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
   }
   options.optimizer = models::Optimizer::lm;
   options.max_iterations = params.at("max_iterations").get<int>();
+  options.weight_decay = params.at("weight_decay").get<double>();
   const bool weighted = params.value("weighted", false);
   if (weighted) {
     if (r.w_est.size() == 0) throw std::invalid_argument("params.weighted: the record has no harmonic weights");

@@ -53,6 +53,10 @@ struct TrainingRecord {
   double seconds = 0.0;     ///< since training started
 };
 
+/// The weight decay both doors train with by Levenberg–Marquardt unless told otherwise: on the records of
+/// bench/narx_recipes.sh it reached a lower validation J than none at little cost (docs/identification.md, issue 59).
+inline constexpr double kDefaultLmWeightDecay = 0.01;
+
 /// How training runs.
 struct TrainingOptions {
   std::vector<TrainingMode> modes{TrainingMode::pem, TrainingMode::oem_d};  ///< run one after the other
