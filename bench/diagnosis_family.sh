@@ -5,7 +5,8 @@
 # microphone 3.4 samples behind on every other seed). Prints the confusion matrix — true effect down, first finding
 # across, "none" included both ways — for each channel set. Runs niced, JOBS processes side by side.
 # Usage: bash bench/diagnosis_family.sh [BUILD_DIR] [FAMILY] [SEEDS] [JOBS] [PLAIN]   (defaults: build second 3 2 6)
-# N_EST / N_VAL set the records' lengths (defaults 30000 / 20000); PANELBASS_WORK=DIR keeps each run's output.
+# N_EST / N_VAL set the records' lengths (defaults 30000 / 20000); PANELBASS_WORK=DIR keeps each run's output
+# (PANELBASS_MERGE_ONLY=1 then reprints the tables from it without running anything).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${1:-build}/bin/diagnosis_detection_bench
@@ -30,7 +31,8 @@ look_alikes="nonlinear_damping cubic_stiffness hysteresis force_factor asymmetri
 runs=("drive none" "current none")
 for e in $all; do runs+=("drive $e"); done
 for e in $look_alikes; do runs+=("current $e"); done
-printf '%s\n' "${runs[@]}" | xargs -P "$jobs" -I{} bash -c '
+# PANELBASS_MERGE_ONLY=1 with PANELBASS_WORK: print the tables of the runs already in that folder.
+[ -n "${PANELBASS_MERGE_ONLY:-}" ] || printf '%s\n' "${runs[@]}" | xargs -P "$jobs" -I{} bash -c '
   set -- {}
   out="'"$work"'/$1-$2"
   flag=""; [ "$1" = current ] && flag=--current
@@ -55,7 +57,8 @@ for path in sorted(glob.glob(f"{work}/{channel}-*.md")):
     if len(part) < 2:
         print(f"({path}: no confusion table — see its log)")
         continue
-    for m in re.finditer(r"^\| (\S+) \| ([^|]+?) \| (\d+) \|$", part[1], re.M):
+    long_form = part[1].split("| true \\ first", 1)[0]  # the long form only, not the matrix after it
+    for m in re.finditer(r"^\| (\S+) \| ([^|]+?) \| (\d+) \|$", long_form, re.M):
         rows[m[1]][m[2]] += int(m[3])
 truths = sorted(rows, key=lambda t: (t.startswith("none"), t))
 columns = sorted({f.split(" ")[0] for r in rows.values() for f in r}, key=lambda c: (c == "none", c))
