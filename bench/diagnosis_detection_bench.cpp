@@ -27,6 +27,8 @@ PlantFamily family = PlantFamily::panel;
 // The confusion matrix: per true effect ("none", "none-microphone" for the effect-free records), how often each
 // first finding (with its word) came first.
 std::map<std::string, std::map<std::string, int>> confusion;
+// The findings after the first, per true effect (a spurious "clear" after the truth is issue 58's complaint).
+std::map<std::string, std::map<std::string, int>> later_findings;
 
 Effect effect_named(const std::string& id) {
   for (Effect e : all_effects())
@@ -71,6 +73,8 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
   run.j_after = d.j_val_after_pct;
   run.baseline = d.baseline_info.dump();
   ++confusion[s.name][run.first + (run.word.empty() ? "" : " (" + run.word + ")")];
+  for (std::size_t k = 1; k < d.findings.size(); ++k)
+    ++later_findings[s.name][to_string(d.findings[k].effect) + " (" + d.findings[k].confidence.value("word", "") + ")"];
   if (verbose)
     std::fprintf(stderr, "baseline's residual: spectral peak %.1f Hz (%.1f times the noise, threshold %.1f), FRF error %.1f Hz "
                          "(coherence %.3f, threshold %.3f)\n",
@@ -111,6 +115,10 @@ void print_confusion() {
       std::printf("| %s | %s | %d |\n", truth.c_str(), first.c_str(), count);
       columns[first.substr(0, first.find(' '))] += count;
     }
+  std::printf("\n## later findings (%s family): true effect -> a finding after the first (word)\n\n"
+              "| true effect | later finding | runs |\n|---|---|---:|\n", to_string(family).c_str());
+  for (const auto& [truth, row] : later_findings)
+    for (const auto& [later, count] : row) std::printf("| %s | %s | %d |\n", truth.c_str(), later.c_str(), count);
   std::printf("\n| true \\ first |");
   for (const auto& [first, count] : columns) std::printf(" %s |", first.c_str());
   std::printf("\n|---|");

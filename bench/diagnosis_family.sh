@@ -48,6 +48,7 @@ import glob, re, sys
 from collections import defaultdict
 work, channel = sys.argv[1], sys.argv[2]
 rows = defaultdict(lambda: defaultdict(int))
+later = defaultdict(lambda: defaultdict(int))  # findings after the first
 named = 0  # right first, or ambiguous with the right one as its runner-up (the bench's own count)
 for path in sorted(glob.glob(f"{work}/{channel}-*.md")):
     text = open(path).read()
@@ -58,18 +59,22 @@ for path in sorted(glob.glob(f"{work}/{channel}-*.md")):
         print(f"({path}: no confusion table — see its log)")
         continue
     long_form = part[1].split("| true \\ first", 1)[0]  # the long form only, not the matrix after it
-    for m in re.finditer(r"^\| (\S+) \| ([^|]+?) \| (\d+) \|$", long_form, re.M):
+    firsts, _, laters = long_form.partition("## later findings")
+    for m in re.finditer(r"^\| (\S+) \| ([^|]+?) \| (\d+) \|$", firsts, re.M):
         rows[m[1]][m[2]] += int(m[3])
+    for m in re.finditer(r"^\| (\S+) \| ([^|]+?) \| (\d+) \|$", laters, re.M):
+        later[m[1]][m[2]] += int(m[3])
 truths = sorted(rows, key=lambda t: (t.startswith("none"), t))
 columns = sorted({f.split(" ")[0] for r in rows.values() for f in r}, key=lambda c: (c == "none", c))
-print("| true \\ first | " + " | ".join(columns) + " | words of the first findings |")
-print("|---|" + "---:|" * len(columns) + "---|")
+print("| true \\ first | " + " | ".join(columns) + " | words of the first findings | later findings |")
+print("|---|" + "---:|" * len(columns) + "---|---|")
 right = amb = wrong_clear = wrong = total = 0
 for t in truths:
     r = rows[t]
     n = lambda c: sum(v for f, v in r.items() if f.split(" ")[0] == c)
     words = ", ".join(f"{f} {v}" for f, v in sorted(r.items()))
-    print(f"| {t} | " + " | ".join(str(n(c)) if n(c) else "" for c in columns) + f" | {words} |")
+    afterwards = ", ".join(f"{f} {v}" for f, v in sorted(later[t].items()))
+    print(f"| {t} | " + " | ".join(str(n(c)) if n(c) else "" for c in columns) + f" | {words} | {afterwards} |")
     if t.startswith("none"):
         continue
     for f, v in r.items():
@@ -80,7 +85,9 @@ for t in truths:
         wrong += v if name not in (t, "none") and "(ambiguous)" not in f else 0
 none_runs = sum(sum(rows[t].values()) for t in truths if t.startswith("none"))
 none_findings = sum(v for t in truths if t.startswith("none") for f, v in rows[t].items() if f != "none")
-print(f"\nright first: {right}/{total}; right, or ambiguous naming it: {named}/{total}; a wrong first name called clear: {wrong_clear}/{total}; "
+later_clear = sum(v for t in truths for f, v in later[t].items() if "(clear)" in f and not f.startswith(t + " "))
+print(f"\nfindings after the first called clear: {later_clear}")
+print(f"right first: {right}/{total}; right, or ambiguous naming it: {named}/{total}; a wrong first name called clear: {wrong_clear}/{total}; "
       f"a wrong first name not called ambiguous: {wrong}/{total}; a finding on an effect-free record: {none_findings}/{none_runs}")
 PY
 }
