@@ -41,6 +41,7 @@ struct Run {
   std::string word;  ///< the first finding's confidence: clear, likely or ambiguous
   std::string runner_up;  ///< the first finding's runner-up (of an ambiguous finding: the other name)
   int findings = 0;
+  std::vector<std::string> names;  ///< every finding's effect, in order
   double concealment = 0.0, j_before = 0.0, j_after = 0.0;
   std::string baseline;
 };
@@ -62,6 +63,7 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
   const Diagnosis d = diagnose(r.u_est, r.y_est, r.u_val, r.y_val, r.fs, scenario_baseline(s), o);
   Run run;
   run.findings = static_cast<int>(d.findings.size());
+  for (const auto& f : d.findings) run.names.push_back(to_string(f.effect));
   if (!d.findings.empty()) {
     run.first = to_string(d.findings.front().effect);
     run.word = d.findings.front().confidence.value("word", "");
@@ -185,6 +187,8 @@ int main(int argc, char** argv) {
   app.add_flag("--current", with_current, "The records carry the coil current: diagnose uses the force channel");
   std::string family_name = "panel";
   bool concealment_only = false;
+  std::vector<std::string> pairs;
+  app.add_option("--pairs", pairs, "Pairs of effects at once, a+b (each at its concealed size; both must be found)")->delimiter(',');
   app.add_option("--family", family_name, "The plants: panel (the linear preset) or second (issue 58's second family: "
                                           "tests/support/plants/second-exciter-linear.json)")
       ->check(CLI::IsMember({"panel", "second"}))
@@ -214,7 +218,7 @@ int main(int argc, char** argv) {
   std::printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
   int runs = 0, confidently_wrong = 0, wrong_named = 0, right_total = 0, right_or_ambiguous_total = 0;
   for (Effect e : chosen) {
-    if (seeds == 0) break;
+    if (seeds == 0 || !pairs.empty()) break;
     for (double size : sizes) {
       const DiagnosisScenario s = concealed_scenario(e, size, family);
       int hits = 0, clear_hits = 0, wrong_clear = 0, wrong_not_ambiguous = 0, right_or_ambiguous = 0;
@@ -253,6 +257,43 @@ int main(int argc, char** argv) {
               right_or_ambiguous_total, runs);
   std::printf("confidently wrong (a wrong first name called clear): %d/%d; a wrong name not called ambiguous: %d/%d\n",
               confidently_wrong, runs, wrong_named, runs);
+  if (!pairs.empty()) {
+    std::printf("\n| pair | both found | first is one of them | findings seen |\n|---|---:|---:|---|\n");
+    for (const std::string& pair : pairs) {
+      const std::size_t plus = pair.find('+');
+      if (plus == std::string::npos) {
+        std::fprintf(stderr, "--pairs: \"%s\" is not a+b\n", pair.c_str());
+        return 2;
+      }
+      Effect a{}, b{};
+      try {
+        a = effect_named(pair.substr(0, plus));
+        b = effect_named(pair.substr(plus + 1));
+      } catch (const CLI::Error& e) {
+        return app.exit(e);
+      }
+      const DiagnosisScenario s = combined_scenario(concealed_scenario(a, 1.0, family), concealed_scenario(b, 1.0, family));
+      int both = 0, first_in = 0;
+      std::map<std::string, int> seen;
+      for (int k = 0; k < seeds; ++k) {
+        const std::uint64_t seed = first_seed + static_cast<std::uint64_t>(k);
+        const Run run = run_once(s, seed, n_est, n_val);
+        const auto found = [&](Effect e) {
+          return std::find(run.names.begin(), run.names.end(), to_string(e)) != run.names.end();
+        };
+        both += found(a) && found(b);
+        first_in += run.first == to_string(a) || run.first == to_string(b);
+        std::string list;
+        for (const auto& n : run.names) list += (list.empty() ? "" : " → ") + n;
+        ++seen[list.empty() ? "none" : list];
+        std::fprintf(stderr, "%s seed %llu: %s\n", s.name.c_str(), static_cast<unsigned long long>(seed), list.c_str());
+      }
+      std::string firsts;
+      for (const auto& [id, count] : seen) firsts += (firsts.empty() ? "" : ", ") + id + " " + std::to_string(count);
+      std::printf("| %s | %d/%d | %d/%d | %s |\n", s.name.c_str(), both, seeds, first_in, seeds, firsts.c_str());
+      std::fflush(stdout);
+    }
+  }
   if (plain > 0) {
     int false_positives = 0;
     std::map<std::string, int> seen;

@@ -2,7 +2,8 @@
 # The detection bench on one family of plants (issue 58): every effect of the vocabulary at its concealed size,
 # SEEDS seeds each, from the drive and the acceleration; the look-alikes again with the coil current; and the
 # family's effect-free records (the second family's: pink sensor noise, other converters, an L2R2 branch, and a
-# microphone 3.4 samples behind on every other seed). Prints the confusion matrix — true effect down, first finding
+# microphone 3.4 samples behind on every other seed); and issue 58's three look-alike pairs at once. Prints the
+# confusion matrix — true effect down, first finding
 # across, "none" included both ways — for each channel set. Runs niced, JOBS processes side by side.
 # Usage: bash bench/diagnosis_family.sh [BUILD_DIR] [FAMILY] [SEEDS] [JOBS] [PLAIN]   (defaults: build second 3 2 6)
 # N_EST / N_VAL set the records' lengths (defaults 30000 / 20000); PANELBASS_WORK=DIR keeps each run's output
@@ -28,7 +29,8 @@ all="resonance antiresonance delay cubic_stiffness asymmetric_stiffness force_fa
 thermal_compression dc_offset static_nonlinearity nonlinear_damping asymmetric_force_factor creep"
 look_alikes="nonlinear_damping cubic_stiffness hysteresis force_factor asymmetric_force_factor asymmetric_stiffness inductance"
 
-runs=("drive none" "current none")
+pairs="asymmetric_force_factor+asymmetric_stiffness,nonlinear_damping+hysteresis,cubic_stiffness+force_factor"
+runs=("drive none" "current none" "drive pairs" "current pairs")
 for e in $all; do runs+=("drive $e"); done
 for e in $look_alikes; do runs+=("current $e"); done
 # PANELBASS_MERGE_ONLY=1 with PANELBASS_WORK: print the tables of the runs already in that folder.
@@ -36,7 +38,9 @@ for e in $look_alikes; do runs+=("current $e"); done
   set -- {}
   out="'"$work"'/$1-$2"
   flag=""; [ "$1" = current ] && flag=--current
-  if [ "$2" = none ]; then
+  if [ "$2" = pairs ]; then
+    nice -n 15 "'"$bin"'" --family '"$family"' --seeds '"$seeds"' --plain 0 --pairs '"$pairs"' $flag '"$lengths"' > "'"$work"'/pairs-$1.md" 2> "$out.log"
+  elif [ "$2" = none ]; then
     nice -n 15 "'"$bin"'" --family '"$family"' --seeds 0 --plain '"$plain"' $flag '"$lengths"' > "$out.md" 2> "$out.log"
   else
     nice -n 15 "'"$bin"'" --family '"$family"' --seeds '"$seeds"' --sizes 1 --effects "$2" --plain 0 $flag '"$lengths"' > "$out.md" 2> "$out.log"
@@ -99,5 +103,13 @@ echo
 echo "## with the coil current: the look-alikes and the effect-free records"
 echo
 matrix current
+echo
+echo "## look-alike pairs at once (issue 58's three): both found, from the drive and with the current"
+for c in drive current; do
+  echo
+  echo "$c:"
+  echo
+  sed -n '/^| pair/,/^$/p' "$work/pairs-$c.md" 2>/dev/null || echo "(no pairs run)"
+done
 echo
 echo "time: $(( $(date +%s) - start )) s wall, $jobs processes, niced"
