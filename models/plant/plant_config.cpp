@@ -387,6 +387,12 @@ PlantConfig load_plant_file(const std::filesystem::path& path) {
   return read_json_file_as(path, plant_from_json);
 }
 
+PlantConfig without_sensor_noise(PlantConfig c) {
+  c.sensor.noise_rms_V = 0.0;
+  c.sensor.coloured_noise.rms_V = 0.0;
+  return c;
+}
+
 PlantConfig linearized(PlantConfig c) {
   for (const auto& [name, term] : nonlinear_switches(c.nonlinear)) term->enabled = false;
   return c;

@@ -185,6 +185,10 @@ int required_oversample(const PlantConfig& config);
 /// Reads a plant JSON file; ConfigError messages start with the file name.
 PlantConfig load_plant_file(const std::filesystem::path& path);
 
+/// The same plant read by a noise-free sensor: white and coloured noise off (setting noise_rms_V to 0 alone leaves
+/// the coloured noise on).
+PlantConfig without_sensor_noise(PlantConfig config);
+
 /// The same plant with every nonlinear term switched off.
 PlantConfig linearized(PlantConfig config);
 

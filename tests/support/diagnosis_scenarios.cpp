@@ -206,10 +206,8 @@ ScenarioRecords scenario_records(const DiagnosisScenario& scenario, std::uint64_
     const Eigen::VectorXd pick = dsp::uniform_noise(static_cast<std::size_t>(n / block + 1), 1.0, seed + 7);
     for (Eigen::Index k = 0; k < n; ++k) u[k] *= pick[k / block] > 0.0 ? 1.0 : kQuietLevel;
   }
-  PlantConfig quiet = scenario.plant;
-  quiet.sensor.noise_rms_V = 0.0;
   const PlantRecord record = simulate(scenario.plant, u, seed + 100);
-  const Eigen::VectorXd y_clean = simulate(quiet, u, seed + 100).y;
+  const Eigen::VectorXd y_clean = simulate(without_sensor_noise(scenario.plant), u, seed + 100).y;
   return {u.head(n_est),           record.y.head(n_est),    u.tail(n_val),        record.y.tail(n_val),
           y_clean.tail(n_val),     record.i.head(n_est),    record.i.tail(n_val), scenario.plant.fs};
 }

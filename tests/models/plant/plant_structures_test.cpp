@@ -216,6 +216,8 @@ TEST(PlantStructures, ColouredNoiseHasTheSlopeAndLevelOfItsShape) {
   const NoiseMeasure pink = measure_noise(p, 10.0, 500.0, 4);
   EXPECT_NEAR(pink.slope, -1.0, 0.1);
   EXPECT_NEAR(pink.rms, 0.05, 0.1 * 0.05);
+  // A noise-free sensor reads nothing at rest, coloured noise included.
+  EXPECT_EQ(simulate(without_sensor_noise(p), Eigen::VectorXd::Zero(1000), 4).y.cwiseAbs().maxCoeff(), 0.0);
   // Seeded: the same seed gives the same noise, another seed another one.
   EXPECT_EQ(measure_noise(p, 10.0, 500.0, 4).rms, pink.rms);
   EXPECT_NE(measure_noise(p, 10.0, 500.0, 5).rms, pink.rms);
