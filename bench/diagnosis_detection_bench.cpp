@@ -4,6 +4,7 @@
 // with no effect. Prints a markdown table; every run is also one line on stderr.
 //
 //   build/bin/diagnosis_detection_bench --seeds 10 --sizes 0.5,1,2 [--effects cubic_stiffness,delay] [--plain 20]
+//   build/bin/diagnosis_detection_bench --family second ...   (issue 58's second family; a confusion matrix at the end)
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
@@ -11,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "dsp/spectrum.h"
 #include "models/diagnosis/diagnosis.h"
 #include "tests/support/diagnosis_scenarios.h"
 
@@ -21,6 +23,12 @@ using namespace panelbass::models;
 constexpr Eigen::Index kInit = 50;
 bool verbose = false;  // every round's candidates on stderr
 bool with_current = false;  // the records carry the coil current (the force channel)
+PlantFamily family = PlantFamily::panel;
+// The confusion matrix: per true effect ("none", "none-microphone" for the effect-free records), how often each
+// first finding (with its word) came first.
+std::map<std::string, std::map<std::string, int>> confusion;
+// The findings after the first, per true effect (a spurious "clear" after the truth is issue 58's complaint).
+std::map<std::string, std::map<std::string, int>> later_findings;
 
 Effect effect_named(const std::string& id) {
   for (Effect e : all_effects())
@@ -33,6 +41,7 @@ struct Run {
   std::string word;  ///< the first finding's confidence: clear, likely or ambiguous
   std::string runner_up;  ///< the first finding's runner-up (of an ambiguous finding: the other name)
   int findings = 0;
+  std::vector<std::string> names;  ///< every finding's effect, in order
   double concealment = 0.0, j_before = 0.0, j_after = 0.0;
   std::string baseline;
 };
@@ -40,8 +49,8 @@ struct Run {
 DiagnosisOptions options_for(const DiagnosisScenario& s) {
   DiagnosisOptions o;
   o.init = kInit;
-  o.scan_from = 12;  // the linear preset's true order is 13: a narrow scan keeps each run short
-  o.scan_to = 13;
+  o.scan_from = family_order(s.family) - 1;  // the family's true order: a narrow scan keeps each run short
+  o.scan_to = family_order(s.family);
   o.output = OutputQuantity::acceleration;  // the virtual transducer's sensor is an accelerometer
   o.max_findings = static_cast<int>(std::max<std::size_t>(1, s.effects.size())) + 1;
   return o;
@@ -54,6 +63,7 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
   const Diagnosis d = diagnose(r.u_est, r.y_est, r.u_val, r.y_val, r.fs, scenario_baseline(s), o);
   Run run;
   run.findings = static_cast<int>(d.findings.size());
+  for (const auto& f : d.findings) run.names.push_back(to_string(f.effect));
   if (!d.findings.empty()) {
     run.first = to_string(d.findings.front().effect);
     run.word = d.findings.front().confidence.value("word", "");
@@ -64,6 +74,9 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
   run.j_before = d.j_val_before_pct;
   run.j_after = d.j_val_after_pct;
   run.baseline = d.baseline_info.dump();
+  ++confusion[s.name][run.first + (run.word.empty() ? "" : " (" + run.word + ")")];
+  for (std::size_t k = 1; k < d.findings.size(); ++k)
+    ++later_findings[s.name][to_string(d.findings[k].effect) + " (" + d.findings[k].confidence.value("word", "") + ")"];
   if (verbose)
     std::fprintf(stderr, "baseline's residual: spectral peak %.1f Hz (%.1f times the noise, threshold %.1f), FRF error %.1f Hz "
                          "(coherence %.3f, threshold %.3f)\n",
@@ -93,6 +106,61 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
   return run;
 }
 
+// The confusion matrix in long form (one row per true effect and first finding: a script merges several
+// processes' rows), then as a matrix: true effects down, first findings across.
+void print_confusion() {
+  std::printf("\n## confusion (%s family): true effect -> first finding (word)\n\n| true effect | first finding | runs |\n|---|---|---:|\n",
+              to_string(family).c_str());
+  std::map<std::string, int> columns;
+  for (const auto& [truth, row] : confusion)
+    for (const auto& [first, count] : row) {
+      std::printf("| %s | %s | %d |\n", truth.c_str(), first.c_str(), count);
+      columns[first.substr(0, first.find(' '))] += count;
+    }
+  std::printf("\n## later findings (%s family): true effect -> a finding after the first (word)\n\n"
+              "| true effect | later finding | runs |\n|---|---|---:|\n", to_string(family).c_str());
+  for (const auto& [truth, row] : later_findings)
+    for (const auto& [later, count] : row) std::printf("| %s | %s | %d |\n", truth.c_str(), later.c_str(), count);
+  std::printf("\n| true \\ first |");
+  for (const auto& [first, count] : columns) std::printf(" %s |", first.c_str());
+  std::printf("\n|---|");
+  for (std::size_t k = 0; k < columns.size(); ++k) std::printf("---:|");
+  std::printf("\n");
+  for (const auto& [truth, row] : confusion) {
+    std::printf("| %s |", truth.c_str());
+    for (const auto& [first, total] : columns) {
+      int n = 0;
+      for (const auto& [seen, count] : row)
+        if (seen.substr(0, seen.find(' ')) == first) n += count;
+      std::printf(" %s |", n == 0 ? "" : std::to_string(n).c_str());
+    }
+    std::printf("\n");
+  }
+}
+
+// Each effect's own size against the sensor noise, without diagnosing (for choosing the second family's sizes):
+// the largest ratio over a Welch spectrum's bins of the PSD of what the effect changes in the noise-free output
+// (the scenario's record minus the same drive through the family's plant without it) to the noise's PSD.
+void print_effect_sizes(const std::vector<Effect>& effects, const std::vector<double>& sizes, Eigen::Index n_est,
+                        Eigen::Index n_val) {
+  std::printf("| effect | size | largest PSD ratio of the effect's change to the noise (seed 1) |\n|---|---:|---:|\n");
+  const panelbass::dsp::WelchSpec spec{512, 0.5, panelbass::dsp::Window::hann};
+  for (Effect e : effects)
+    for (double size : sizes) {
+      const DiagnosisScenario s = concealed_scenario(e, size, family);
+      DiagnosisScenario bare = s;
+      bare.plant = family_base(family);
+      const ScenarioRecords r = scenario_records(s, 1, n_est, n_val);
+      const ScenarioRecords b = scenario_records(bare, 1, n_est, n_val);
+      const panelbass::dsp::PowerSpectrum change = panelbass::dsp::welch_psd(r.y_val_clean - b.y_val_clean, r.fs, spec);
+      const panelbass::dsp::PowerSpectrum noise = panelbass::dsp::welch_psd(r.y_val - r.y_val_clean, r.fs, spec);
+      double worst = 0.0;
+      for (Eigen::Index k = 0; k < change.psd.size(); ++k) worst = std::max(worst, change.psd[k] / noise.psd[k]);
+      std::printf("| %s | %.2f | %.3g |\n", to_string(e).c_str(), size, worst);
+      std::fflush(stdout);
+    }
+}
+
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -117,6 +185,15 @@ int main(int argc, char** argv) {
   app.add_option("--n-val", n_val, "Validation samples")->check(CLI::Range(2000L, 10000000L))->capture_default_str();
   app.add_flag("--verbose", verbose, "Every round's candidates and scores on stderr");
   app.add_flag("--current", with_current, "The records carry the coil current: diagnose uses the force channel");
+  std::string family_name = "panel";
+  bool concealment_only = false;
+  std::vector<std::string> pairs;
+  app.add_option("--pairs", pairs, "Pairs of effects at once, a+b (each at its concealed size; both must be found)")->delimiter(',');
+  app.add_option("--family", family_name, "The plants: panel (the linear preset) or second (issue 58's second family: "
+                                          "tests/support/plants/second-exciter-linear.json)")
+      ->check(CLI::IsMember({"panel", "second"}))
+      ->capture_default_str();
+  app.add_flag("--concealment-only", concealment_only, "Print each effect's own size against the sensor noise (largest PSD ratio); no diagnosis");
   app.footer("Example:\n  build/bin/diagnosis_detection_bench --seeds 5 --sizes 1,2 --effects cubic_stiffness,hysteresis --plain 5");
   CLI11_PARSE(app, argc, argv);
 
@@ -127,17 +204,23 @@ int main(int argc, char** argv) {
     return app.exit(e);
   }
   if (chosen.empty()) chosen = all_effects();
+  family = plant_family_named(family_name);
+  if (concealment_only) {
+    print_effect_sizes(chosen, sizes, n_est, n_val);
+    return 0;
+  }
 
   std::printf("## diagnose detection rate (%ld + %ld samples, seeds %llu..%llu)\n\n", n_est, n_val,
               static_cast<unsigned long long>(first_seed), static_cast<unsigned long long>(first_seed + seeds - 1));
-  std::printf("channels: drive, acceleration%s\n\n", with_current ? ", current" : "");
+  std::printf("plants: the %s family; channels: drive, acceleration%s\n\n", to_string(family).c_str(),
+              with_current ? ", current" : "");
   std::printf("| effect | size | detected first | right and clear | right, or ambiguous naming it | wrong and clear | wrong, not ambiguous | median concealment | median J before %% | median J after %% | first findings seen (word) |\n");
   std::printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
   int runs = 0, confidently_wrong = 0, wrong_named = 0, right_total = 0, right_or_ambiguous_total = 0;
   for (Effect e : chosen) {
-    if (seeds == 0) break;
+    if (seeds == 0 || !pairs.empty()) break;
     for (double size : sizes) {
-      const DiagnosisScenario s = concealed_scenario(e, size);
+      const DiagnosisScenario s = concealed_scenario(e, size, family);
       int hits = 0, clear_hits = 0, wrong_clear = 0, wrong_not_ambiguous = 0, right_or_ambiguous = 0;
       std::vector<double> concealment, before, after;
       std::map<std::string, int> seen;
@@ -174,13 +257,53 @@ int main(int argc, char** argv) {
               right_or_ambiguous_total, runs);
   std::printf("confidently wrong (a wrong first name called clear): %d/%d; a wrong name not called ambiguous: %d/%d\n",
               confidently_wrong, runs, wrong_named, runs);
+  if (!pairs.empty()) {
+    std::printf("\n| pair | both found | first is one of them | findings seen |\n|---|---:|---:|---|\n");
+    for (const std::string& pair : pairs) {
+      const std::size_t plus = pair.find('+');
+      if (plus == std::string::npos) {
+        std::fprintf(stderr, "--pairs: \"%s\" is not a+b\n", pair.c_str());
+        return 2;
+      }
+      Effect a{}, b{};
+      try {
+        a = effect_named(pair.substr(0, plus));
+        b = effect_named(pair.substr(plus + 1));
+      } catch (const CLI::Error& e) {
+        return app.exit(e);
+      }
+      const DiagnosisScenario s = combined_scenario(concealed_scenario(a, 1.0, family), concealed_scenario(b, 1.0, family));
+      int both = 0, first_in = 0;
+      std::map<std::string, int> seen;
+      for (int k = 0; k < seeds; ++k) {
+        const std::uint64_t seed = first_seed + static_cast<std::uint64_t>(k);
+        const Run run = run_once(s, seed, n_est, n_val);
+        const auto found = [&](Effect e) {
+          return std::find(run.names.begin(), run.names.end(), to_string(e)) != run.names.end();
+        };
+        both += found(a) && found(b);
+        first_in += run.first == to_string(a) || run.first == to_string(b);
+        std::string list;
+        for (const auto& n : run.names) list += (list.empty() ? "" : " → ") + n;
+        ++seen[list.empty() ? "none" : list];
+        std::fprintf(stderr, "%s seed %llu: %s\n", s.name.c_str(), static_cast<unsigned long long>(seed), list.c_str());
+      }
+      std::string firsts;
+      for (const auto& [id, count] : seen) firsts += (firsts.empty() ? "" : ", ") + id + " " + std::to_string(count);
+      std::printf("| %s | %d/%d | %d/%d | %s |\n", s.name.c_str(), both, seeds, first_in, seeds, firsts.c_str());
+      std::fflush(stdout);
+    }
+  }
   if (plain > 0) {
     int false_positives = 0;
     std::map<std::string, int> seen;
+    const std::vector<DiagnosisScenario> effect_free = effect_free_scenarios(family);
     for (int k = 0; k < plain; ++k) {
       const std::uint64_t seed = first_seed + 1000 + static_cast<std::uint64_t>(k);
-      const Run run = run_once(plain_scenario(), seed, n_est, n_val);
-      std::fprintf(stderr, "none seed %llu: first %s, J %.4f -> %.4f %%\n", static_cast<unsigned long long>(seed),
+      // The family's effect-free scenarios in turn (the second family's: accelerometer, then microphone).
+      const DiagnosisScenario& s = effect_free[static_cast<std::size_t>(k) % effect_free.size()];
+      const Run run = run_once(s, seed, n_est, n_val);
+      std::fprintf(stderr, "%s seed %llu: first %s, J %.4f -> %.4f %%\n", s.name.c_str(), static_cast<unsigned long long>(seed),
                    run.first.c_str(), run.j_before, run.j_after);
       if (run.findings > 0) ++false_positives, ++seen[run.first];
     }
@@ -191,5 +314,6 @@ int main(int argc, char** argv) {
                 static_cast<unsigned long long>(first_seed + 1000 + plain - 1), false_positives, plain,
                 firsts.empty() ? "" : " — ", firsts.c_str());
   }
+  print_confusion();
   return 0;
 }

@@ -14,6 +14,7 @@ models::PlantConfig plant_at_rate(models::PlantConfig plant, double rate) {
   const double ratio = rate / plant.fs;
   plant.oversample = std::max(1, static_cast<int>(std::lround(plant.oversample / ratio)));
   plant.converters.delay_samples = static_cast<int>(std::lround(plant.converters.delay_samples * ratio));
+  plant.sensor.delay_samples *= ratio;  // a microphone's acoustic delay, kept in time (fractions allowed)
   plant.sensor.noise_rms_V *= std::sqrt(ratio);
   plant.fs = rate;
   return plant;

@@ -19,9 +19,9 @@
 namespace panelbass::engine {
 
 /// The same plant simulated at `rate` Hz instead of its fs: the integrator's step kept (oversample
-/// scaled, at least 1), the converters' delay kept in time (rounded to whole samples at `rate`), and the
-/// sensor noise per sample scaled by √(rate / fs) so its density (and its level in the original band) is
-/// the same. Throws std::invalid_argument for a rate that is not finite and positive.
+/// scaled, at least 1), the converters' delay kept in time (rounded to whole samples at `rate`; a microphone's
+/// delay exactly), and the white sensor noise per sample scaled by √(rate / fs) so its density (and its level
+/// in the original band) is the same (the coloured noise's corners are in Hz: it keeps its level). Throws std::invalid_argument for a rate that is not finite and positive.
 models::PlantConfig plant_at_rate(models::PlantConfig plant, double rate);
 
 /// What a JACK transducer client is.

@@ -67,12 +67,101 @@ double fastest_rate(const PlantConfig& c) {
   rate = std::max(rate, (c.damping_Ns_per_m + c.Bl_Tm * c.Bl_Tm / c.Re_ohm) / c.mass_kg);
   for (const auto& m : c.panel_modes) rate = std::max(rate, two_pi * m.frequency_hz);
   if (c.creep.fraction > 0.0) rate = std::max(rate, 1.0 / c.creep.time_constant_s);
+  // The L2R2 branch: its own corner R2/L2 on top of the coil's (Re + R2)/Le (a bound on the faster eigenvalue).
+  if (c.eddy.L2_H > 0.0) rate = std::max(rate, (c.Re_ohm + c.eddy.R2_ohm) / c.Le_H + c.eddy.R2_ohm / c.eddy.L2_H);
   if (c.converters.da_filter.order > 0) rate = std::max(rate, two_pi * c.converters.da_filter.cutoff_hz);
   if (c.converters.ad_filter.order > 0) rate = std::max(rate, two_pi * c.converters.ad_filter.cutoff_hz);
   return rate;
 }
 
+constexpr std::array<std::pair<SensorKind, const char*>, 4> kSensorKinds{{{SensorKind::acceleration, "acceleration"},
+                                                                           {SensorKind::velocity, "velocity"},
+                                                                           {SensorKind::displacement, "displacement"},
+                                                                           {SensorKind::microphone, "microphone"}}};
+
+// The sensitivity key of each kind, so that a sensitivity in another kind's unit is refused by name.
+const char* sensitivity_key(SensorKind kind) {
+  switch (kind) {
+    case SensorKind::velocity: return "sensitivity_V_per_mps";
+    case SensorKind::displacement: return "sensitivity_V_per_m";
+    case SensorKind::acceleration:
+    case SensorKind::microphone: break;
+  }
+  return "sensitivity_V_per_mps2";
+}
+
+// The sensitivity field of the sensor's kind (Sensor or const Sensor).
+template <class S>
+auto& sensitivity_of(S& s) {
+  switch (s.kind) {
+    case SensorKind::velocity: return s.sensitivity_V_per_mps;
+    case SensorKind::displacement: return s.sensitivity_V_per_m;
+    case SensorKind::acceleration:
+    case SensorKind::microphone: break;
+  }
+  return s.sensitivity_V_per_mps2;
+}
+
+// The sensor's kind, its sensitivity (the key of its kind only) and, for a microphone, its delay.
+void read_sensor_kind(JsonFields& f, Sensor& s) {
+  const std::string kind = f.string("kind", to_string(s.kind));
+  std::string known;
+  bool found = false;
+  for (const auto& [k, name] : kSensorKinds) {
+    known += std::string(known.empty() ? "" : ", ") + name;
+    if (kind == name) s.kind = k, found = true;
+  }
+  if (!found) throw ConfigError(f.path_of("kind") + ": unknown sensor kind \"" + kind + "\" (kinds: " + known + ")");
+  for (const char* key : {"sensitivity_V_per_mps2", "sensitivity_V_per_mps", "sensitivity_V_per_m"}) {
+    if (std::string(key) != sensitivity_key(s.kind) && f.member(key) != nullptr)
+      throw ConfigError(f.path_of(key) + ": not the sensitivity of a " + kind + " sensor (use " + sensitivity_key(s.kind) + ")");
+  }
+  double& sensitivity = sensitivity_of(s);
+  sensitivity = f.number(sensitivity_key(s.kind), sensitivity);
+  require_positive(sensitivity, f.path_of(sensitivity_key(s.kind)));
+  if (s.kind == SensorKind::microphone) {
+    s.delay_samples = f.number("delay_samples", s.delay_samples);
+    require_within(s.delay_samples, 0.0, 10000.0, f.path_of("delay_samples"));
+  } else if (f.member("delay_samples") != nullptr) {
+    throw ConfigError(f.path_of("delay_samples") + ": only a microphone sensor has a delay (the converters' is converters.delay_samples)");
+  }
+}
+
+ColouredNoise read_coloured_noise(const nlohmann::json& v, const std::string& path, double fs) {
+  ColouredNoise n;
+  JsonFields f(v, path);
+  const std::string shape = f.string("shape", "lowpass");
+  if (shape == "lowpass") n.shape = NoiseShape::lowpass;
+  else if (shape == "pink") n.shape = NoiseShape::pink;
+  else throw ConfigError(f.path_of("shape") + ": unknown noise shape \"" + shape + "\" (shapes: lowpass, pink)");
+  n.rms_V = f.number("rms_V", n.rms_V);
+  require_non_negative(n.rms_V, f.path_of("rms_V"));
+  if (n.shape == NoiseShape::lowpass) {
+    n.corner_hz = f.number("corner_hz", n.corner_hz);
+    require_within(n.corner_hz, 1e-3, fs / 2.0, f.path_of("corner_hz"));
+  } else {
+    n.low_hz = f.number("low_hz", n.low_hz);
+    require_within(n.low_hz, 1e-3, fs / 2.0, f.path_of("low_hz"));
+    n.high_hz = f.number("high_hz", std::min(n.high_hz, fs / 2.0));
+    require_within(n.high_hz, n.low_hz * 1.0001, fs / 2.0, f.path_of("high_hz"));
+  }
+  f.finish();
+  return n;
+}
+
 }  // namespace
+
+std::string to_string(SensorKind kind) {
+  for (const auto& [k, name] : kSensorKinds)
+    if (k == kind) return name;
+  return "acceleration";
+}
+
+double sensor_sensitivity(const Sensor& sensor) { return sensitivity_of(sensor); }
+
+int required_oversample(const PlantConfig& c) {
+  return std::max(1, static_cast<int>(std::ceil(fastest_rate(c) / (kMaxRateTimesStep * c.fs))));
+}
 
 PlantConfig plant_from_json(const nlohmann::json& json) {
   PlantConfig c;
@@ -98,6 +187,10 @@ PlantConfig plant_from_json(const nlohmann::json& json) {
     require_positive(c.Re_ohm, f.path_of("Re_ohm"));
     c.Le_H = f.number("Le_H", c.Le_H);
     require_positive(c.Le_H, f.path_of("Le_H"));
+    c.eddy.L2_H = f.number("L2_H", c.eddy.L2_H);
+    require_within(c.eddy.L2_H, 0.0, 1.0, f.path_of("L2_H"));
+    c.eddy.R2_ohm = f.number("R2_ohm", c.eddy.R2_ohm);
+    require_positive(c.eddy.R2_ohm, f.path_of("R2_ohm"));
     f.finish();
   }
   if (const nlohmann::json* v = top.member("mechanical")) {
@@ -185,20 +278,19 @@ PlantConfig plant_from_json(const nlohmann::json& json) {
   }
   if (const nlohmann::json* v = top.member("sensor")) {
     JsonFields f(*v, "plant.sensor");
-    c.sensor.sensitivity_V_per_mps2 = f.number("sensitivity_V_per_mps2", c.sensor.sensitivity_V_per_mps2);
-    require_positive(c.sensor.sensitivity_V_per_mps2, f.path_of("sensitivity_V_per_mps2"));
+    read_sensor_kind(f, c.sensor);
     c.sensor.offset_V = f.number("offset_V", c.sensor.offset_V);
     c.sensor.noise_rms_V = f.number("noise_rms_V", c.sensor.noise_rms_V);
     require_non_negative(c.sensor.noise_rms_V, f.path_of("noise_rms_V"));
     c.sensor.preamp_clip_V = f.number("preamp_clip_V", c.sensor.preamp_clip_V);
     require_non_negative(c.sensor.preamp_clip_V, f.path_of("preamp_clip_V"));
+    if (const nlohmann::json* w = f.member("coloured_noise")) c.sensor.coloured_noise = read_coloured_noise(*w, f.path_of("coloured_noise"), c.fs);
     f.finish();
   }
   top.finish();
 
-  const double rate_step = fastest_rate(c) / fs_sim;
-  if (rate_step > kMaxRateTimesStep) {
-    const int needed = static_cast<int>(std::ceil(fastest_rate(c) / (kMaxRateTimesStep * c.fs)));
+  if (c.oversample < required_oversample(c)) {
+    const int needed = required_oversample(c);
     throw ConfigError("plant.oversample: " + std::to_string(c.oversample) +
                       " integrator steps per sample are too coarse for the fastest dynamics (" +
                       std::to_string(fastest_rate(c)) + " 1/s); use at least " + std::to_string(needed));
@@ -272,6 +364,20 @@ nlohmann::json plant_to_json(const PlantConfig& c) {
     out["nonlinear"]["damping"] = damping;
   }
   if (c.sensor.preamp_clip_V != 0.0) out["sensor"]["preamp_clip_V"] = c.sensor.preamp_clip_V;
+  if (c.sensor.kind != SensorKind::acceleration) {
+    nlohmann::json& sensor = out["sensor"];
+    sensor.erase("sensitivity_V_per_mps2");
+    sensor["kind"] = to_string(c.sensor.kind);
+    sensor[sensitivity_key(c.sensor.kind)] = sensor_sensitivity(c.sensor);
+    if (c.sensor.kind == SensorKind::microphone) sensor["delay_samples"] = c.sensor.delay_samples;
+  }
+  if (const ColouredNoise& n = c.sensor.coloured_noise; n.rms_V != 0.0) {
+    nlohmann::json noise{{"shape", n.shape == NoiseShape::pink ? "pink" : "lowpass"}, {"rms_V", n.rms_V}};
+    if (n.shape == NoiseShape::lowpass) noise["corner_hz"] = n.corner_hz;
+    else noise["low_hz"] = n.low_hz, noise["high_hz"] = n.high_hz;
+    out["sensor"]["coloured_noise"] = noise;
+  }
+  if (c.eddy.L2_H != 0.0) out["electrical"]["L2_H"] = c.eddy.L2_H, out["electrical"]["R2_ohm"] = c.eddy.R2_ohm;
   if (c.creep.fraction != 0.0)
     out["mechanical"]["creep"] = {{"fraction", c.creep.fraction}, {"time_constant_s", c.creep.time_constant_s}};
   return out;
@@ -279,6 +385,12 @@ nlohmann::json plant_to_json(const PlantConfig& c) {
 
 PlantConfig load_plant_file(const std::filesystem::path& path) {
   return read_json_file_as(path, plant_from_json);
+}
+
+PlantConfig without_sensor_noise(PlantConfig c) {
+  c.sensor.noise_rms_V = 0.0;
+  c.sensor.coloured_noise.rms_V = 0.0;
+  return c;
 }
 
 PlantConfig linearized(PlantConfig c) {

@@ -100,12 +100,53 @@ struct Converters {
   int delay_samples = 1;   ///< whole samples of latency between the drive and the DA output
 };
 
-/// The acceleration sensor and its AD converter.
+/// What the sensor reads. Each reading includes the panel modes' share (q̈, q̇ or q added to the exciter's own).
+enum class SensorKind {
+  acceleration,  ///< an accelerometer on the panel (the default): V per m/s²
+  velocity,      ///< a velocity pick-up (a laser vibrometer's velocity output): V per m/s
+  displacement,  ///< a displacement sensor (a laser triangulator): V per m
+  microphone,    ///< a far-field microphone: pressure follows the acceleration, `delay_samples` later; V per m/s²
+};
+
+/// The kind's name in the plant file ("acceleration", "velocity", "displacement", "microphone").
+std::string to_string(SensorKind kind);
+
+/// The shape of the sensor's coloured noise.
+enum class NoiseShape {
+  lowpass,  ///< white noise through a first-order low-pass at `corner_hz`: flat below it, −20 dB/decade above
+  pink,     ///< 1/f (−10 dB/decade) between `low_hz` and `high_hz`: a sum of first-order low-passes
+};
+
+/// Coloured noise added to the sensor's reading besides the white noise (off when rms_V is 0); seeded with it.
+struct ColouredNoise {
+  NoiseShape shape = NoiseShape::lowpass;
+  double rms_V = 0.0;        ///< its standard deviation, volts
+  double corner_hz = 10.0;   ///< lowpass: the corner
+  double low_hz = 1.0;       ///< pink: the band in which the density falls as 1/f
+  double high_hz = 1000.0;
+};
+
+/// The sensor and its AD converter.
 struct Sensor {
-  double sensitivity_V_per_mps2 = 0.01;
+  SensorKind kind = SensorKind::acceleration;
+  double sensitivity_V_per_mps2 = 0.01;  ///< acceleration and microphone (the microphone's: volts per m/s² of the panel)
+  double sensitivity_V_per_mps = 1.0;    ///< velocity
+  double sensitivity_V_per_m = 1000.0;   ///< displacement
+  double delay_samples = 0.0;  ///< microphone: the acoustic delay, samples (fractions allowed)
   double offset_V = 0.0;
   double noise_rms_V = 0.0;   ///< white Gaussian noise added to each sample
   double preamp_clip_V = 0.0; ///< > 0: the preamplifier saturates softly, v·tanh(s·a/v), before the AD filter (off: 0)
+  ColouredNoise coloured_noise;
+};
+
+/// Volts per SI unit of what `sensor` reads (the sensitivity of its kind).
+double sensor_sensitivity(const Sensor& sensor);
+
+/// An eddy-current branch in the coil's circuit: L2 in parallel with R2, in series with Re and Le, so the blocked
+/// impedance is Re + jωLe + jωL2·R2/(R2 + jωL2) (lossy at high frequencies). Off when L2_H is 0.
+struct EddyCurrentBranch {
+  double L2_H = 0.0;
+  double R2_ohm = 1.0;
 };
 
 /// Everything that defines a virtual transducer.
@@ -117,6 +158,7 @@ struct PlantConfig {
   double amplifier_offset_V = 0.0;  ///< DC offset of the amplifier output
   double Re_ohm = 4.0;         ///< coil resistance
   double Le_H = 3e-4;          ///< coil inductance
+  EddyCurrentBranch eddy;      ///< the L2R2 branch (off unless a plant file sets it: presets do not change)
   double mass_kg = 0.05;       ///< moving mass
   double stiffness_N_per_m = 4.4e4;  ///< suspension stiffness K0
   double damping_Ns_per_m = 8.0;     ///< mechanical resistance Rm
@@ -136,8 +178,16 @@ PlantConfig plant_from_json(const nlohmann::json& json);
 /// The JSON form of `config`, every field written out.
 nlohmann::json plant_to_json(const PlantConfig& config);
 
+/// The fewest integrator steps per sample that resolve the plant's fastest linearized dynamics (plant_from_json
+/// refuses fewer).
+int required_oversample(const PlantConfig& config);
+
 /// Reads a plant JSON file; ConfigError messages start with the file name.
 PlantConfig load_plant_file(const std::filesystem::path& path);
+
+/// The same plant read by a noise-free sensor: white and coloured noise off (setting noise_rms_V to 0 alone leaves
+/// the coloured noise on).
+PlantConfig without_sensor_noise(PlantConfig config);
 
 /// The same plant with every nonlinear term switched off.
 PlantConfig linearized(PlantConfig config);

@@ -1,7 +1,7 @@
 #pragma once
 // The virtual transducer: the plant of PlantConfig simulated sample by sample, the embedded stand-in
-// for hardware. Drive (dimensionless, normally within [-1, 1]) in; sensor voltage, coil current,
-// displacement and velocity out.
+// for hardware. Drive (dimensionless, normally within [-1, 1]) in; sensor voltage (an accelerometer, a
+// velocity or displacement sensor, or a delayed microphone), coil current, displacement and velocity out.
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -16,7 +16,7 @@ namespace panelbass::models {
 
 /// One sample of the plant's outputs.
 struct PlantSample {
-  double y = 0.0;  ///< measured acceleration, sensor volts (filtered, delayed, noisy)
+  double y = 0.0;  ///< the sensor's reading, volts (filtered, delayed, noisy)
   double y_clean = 0.0;  ///< y without the sensor's noise: what the panel does, as a noise-free sensor reads it
   double i = 0.0;  ///< coil current, A
   double x = 0.0;  ///< displacement, m
@@ -31,7 +31,8 @@ struct PlantRecord {
 /// The lumped exciter-on-panel model of docs/transducer.md, integrated with fixed-step RK4 at
 /// `oversample` steps per sample. The drive is held over each sample (DA zero-order hold), passes the
 /// converter delay, the analog DA filter and the amplifier; the acceleration passes the analog AD
-/// filter and is sampled at the end of the sample period, then sensor noise is added.
+/// filter and is sampled at the end of the sample period (a microphone's `delay_samples` earlier, interpolated
+/// between integrator steps), then the sensor's white and coloured noise are added.
 /// step() is noexcept and allocation-free, so the engine can run it on the audio thread.
 class VirtualTransducer {
  public:
@@ -48,7 +49,14 @@ class VirtualTransducer {
   const PlantConfig& config() const { return config_; }
 
  private:
-  void derivatives(const Eigen::VectorXd& s, double drive, Eigen::VectorXd& ds, double& accel) const noexcept;
+  void derivatives(const Eigen::VectorXd& s, double drive, Eigen::VectorXd& ds, double& sensed) const noexcept;
+  double sensed_now(double drive) noexcept;
+  double coloured_noise() noexcept;
+
+  /// One first-order section of the coloured noise: n ← a·n + g·w, w white and unit.
+  struct NoiseSection {
+    double a = 0.0, g = 0.0, state = 0.0;
+  };
 
   PlantConfig config_;
   std::uint64_t noise_seed_;
@@ -56,6 +64,10 @@ class VirtualTransducer {
   std::vector<ConverterSection> da_sections_, ad_sections_;  // the converters' filters (converter_loop.h)
   int mode_state_ = 4;
   int creep_state_ = -1;  // the suspension's relaxed displacement z, when the plant has creep
+  int eddy_state_ = -1;   // the current in L2 of the eddy-current branch, when the plant has one
+  std::vector<double> mic_line_;  // a microphone's reading at each integrator step, newest at mic_pos_
+  std::size_t mic_pos_ = 0;
+  std::vector<NoiseSection> noise_sections_;
   Eigen::VectorXd state_, k1_, k2_, k3_, k4_, trial_;
   std::vector<double> delay_line_;
   std::size_t delay_pos_ = 0;

@@ -264,6 +264,25 @@ TEST_F(CliPlant, ShowUnknownPresetListsThePresets) {
   EXPECT_TRUE(contains(r.err, "linear")) << r.err;
 }
 
+// `plant vary` prints the plant with Bl, K, Le and friction each moved by the fraction, not all the same way, and
+// refuses a fraction it cannot use.
+TEST_F(CliPlant, VaryPrintsALoadableVariantMovedInMixedDirections) {
+  const json result = expect_result(run("plant vary panel-exciter --by 0.2 --seed 5"));
+  const models::PlantConfig v = models::plant_from_json(result);
+  const models::PlantConfig p = models::plant_preset("panel-exciter");
+  const double ratios[] = {v.Bl_Tm / p.Bl_Tm, v.stiffness_N_per_m / p.stiffness_N_per_m, v.Le_H / p.Le_H,
+                           v.nonlinear.friction.coulomb_N / p.nonlinear.friction.coulomb_N};
+  int up = 0;
+  for (double r : ratios) {
+    EXPECT_NEAR(std::abs(r - 1.0), 0.2, 1e-12) << r;
+    up += r > 1.0;
+  }
+  EXPECT_GT(up, 0);
+  EXPECT_LT(up, 4);
+  EXPECT_EQ(v.mass_kg, p.mass_kg);
+  expect_usage_error(run("plant vary panel-exciter --by 1.5"));
+}
+
 TEST_F(CliPlant, SurveyPrintsItsMeasurements) {
   // The only survey run in this suite: the smallest estimation record keeps it quick.
   const RunResult r = run("plant survey panel-exciter --samples 2000 --seed 1");

@@ -7,7 +7,9 @@
 // and must neither allocate nor free.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
 #include <limits>
 #include <memory>
@@ -217,6 +219,30 @@ class ClosedLoopBlocks {
   std::vector<double> drive_ = std::vector<double>(64), measured_ = std::vector<double>(64);
   int block_ = 0;
 };
+
+// The virtual transducer with every structure the presets do not use — an L2R2 branch, creep, Rms(v), a microphone
+// with a fractional delay, pink and white sensor noise — steps on the audio thread (panelbass transducer --jack)
+// without allocating or freeing.
+TEST(AllocationCounter, TheVirtualTransducerWithItsNewStructuresStepsWithoutAllocating) {
+  models::PlantConfig p = models::plant_preset("panel-exciter");
+  p.eddy = {4e-4, 2.5};
+  p.creep = {0.1, 0.02};
+  p.nonlinear.damping.enabled = true;
+  p.nonlinear.damping.r2_per_m2ps2 = 0.5;
+  p.sensor.kind = models::SensorKind::microphone;
+  p.sensor.delay_samples = 3.7;
+  p.sensor.coloured_noise = {models::NoiseShape::pink, 0.02, 10.0, 1.0, 1500.0};
+  p.oversample = std::max(p.oversample, models::required_oversample(p));
+  models::VirtualTransducer plant(p, 3);
+  double sum = 0.0;
+  const Counted counted = count_during([&] {
+    for (int k = 0; k < 2000; ++k) sum += plant.step(0.4 * std::sin(0.1 * k)).y;
+    plant.reset();
+  });
+  EXPECT_TRUE(std::isfinite(sum));
+  EXPECT_EQ(counted.allocations, 0);
+  EXPECT_EQ(counted.frees, 0);
+}
 
 TEST(AllocationCounter, TheChainProcessesSwapsAndFaultsWithoutAllocatingOrFreeing) {
   ChainOptions options;

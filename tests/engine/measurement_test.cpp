@@ -83,6 +83,29 @@ TEST(Measurement, ThePlantAtACardsRateIsThePlantAtItsOwn) {
   EXPECT_THROW(plant_at_rate(plant, 0.0), std::invalid_argument);
 }
 
+// A microphone's delay (2.5 samples: 40 integrator steps at either rate) is kept in time: the plant at 16 times its
+// rate reads what the plant at its own rate reads.
+TEST(Measurement, AMicrophonesDelayIsKeptInTimeAtACardsRate) {
+  models::PlantConfig plant = models::plant_preset("linear");
+  plant.sensor.noise_rms_V = 0.0;
+  plant.sensor.kind = models::SensorKind::microphone;
+  plant.sensor.delay_samples = 2.5;
+  const models::PlantConfig fast = plant_at_rate(plant, 16.0 * plant.fs);
+  EXPECT_EQ(fast.sensor.delay_samples, 40.0);
+  models::VirtualTransducer slow_t(plant, 1), fast_t(fast, 1);
+  const Eigen::VectorXd u = testing::uniform(600, 0.5, 2);
+  double worst = 0.0, scale = 0.0;
+  for (Eigen::Index k = 0; k < u.size(); ++k) {
+    const double y = slow_t.step(u[k]).y;
+    double y_fast = 0.0;
+    for (int j = 0; j < 16; ++j) y_fast = fast_t.step(u[k]).y;
+    worst = std::max(worst, std::abs(y - y_fast));
+    scale = std::max(scale, std::abs(y));
+  }
+  EXPECT_GT(scale, 0.0);
+  EXPECT_LT(worst, 1e-9 * scale + 1e-12) << "scale " << scale;
+}
+
 // A loop: the drive (noise, with silent gaps as a measurement has) through a three-tap low-pass, 37 samples
 // later; from `slip_from` to `slip_to` the capture runs `slip` samples late (a repeated period).
 struct SlippedLoop {

@@ -28,14 +28,73 @@ PlantConfig with_stiffness(PlantConfig p, double k1, double k2, double scale) {
   return p;
 }
 
+// The second family's sizes relative to the first's: each effect's concealment ratio on the second family's plant
+// brought near the first's (the ratio grows as the size squared), from `diagnosis_detection_bench
+// --concealment-only` on both families.
+double second_family_size(Effect effect) {
+  switch (effect) {
+    case Effect::resonance: return 1.22;
+    case Effect::antiresonance: return 1.29;
+    case Effect::delay: return 1.0;  // a structure, not a size
+    case Effect::cubic_stiffness: return 2.21;
+    case Effect::asymmetric_stiffness: return 1.67;
+    case Effect::force_factor: return 2.16;
+    case Effect::inductance: return 2.25;
+    case Effect::hysteresis: return 1.36;
+    case Effect::saturation: return 4.0;
+    case Effect::thermal_compression: return 2.42;
+    case Effect::dc_offset: return 5.7;  // the pink noise is strongest near DC
+    case Effect::static_nonlinearity: return 1.8;
+    case Effect::nonlinear_damping: return 4.36;
+    case Effect::asymmetric_force_factor: return 1.9;
+    case Effect::creep: return 0.86;
+  }
+  return 1.0;
+}
+
 }  // namespace
 
-DiagnosisScenario plain_scenario() { return {"none", {}, plant_preset("linear"), false, ScenarioBaseline::identified}; }
+std::string to_string(PlantFamily family) { return family == PlantFamily::second ? "second" : "panel"; }
 
-DiagnosisScenario concealed_scenario(Effect effect, double size) {
+PlantFamily plant_family_named(const std::string& name) {
+  if (name == "panel") return PlantFamily::panel;
+  if (name == "second") return PlantFamily::second;
+  throw std::invalid_argument("unknown plant family \"" + name + "\" (families: panel, second)");
+}
+
+PlantConfig family_base(PlantFamily family) {
+  if (family == PlantFamily::panel) return plant_preset("linear");
+  PlantConfig p = load_plant_file(std::string(PANELBASS_SOURCE_DIR) + "/tests/support/plants/second-exciter-linear.json");
+  p.creep = {};  // creep is one of the effects
+  return p;
+}
+
+int family_order(PlantFamily family) { return family == PlantFamily::panel ? 13 : 16; }
+
+int family_delay(PlantFamily family) { return family_base(family).converters.delay_samples; }
+
+DiagnosisScenario plain_scenario(PlantFamily family) {
+  return {"none", {}, family_base(family), false, ScenarioBaseline::identified, family};
+}
+
+std::vector<DiagnosisScenario> effect_free_scenarios(PlantFamily family) {
+  std::vector<DiagnosisScenario> out{plain_scenario(family)};
+  if (family == PlantFamily::second) {
+    DiagnosisScenario mic = plain_scenario(family);
+    mic.name = "none-microphone";
+    mic.plant.sensor.kind = SensorKind::microphone;
+    mic.plant.sensor.sensitivity_V_per_mps2 = 0.002;
+    mic.plant.sensor.delay_samples = 3.4;
+    out.push_back(mic);
+  }
+  return out;
+}
+
+DiagnosisScenario concealed_scenario(Effect effect, double size, PlantFamily family) {
   if (!(size > 0.0) || !std::isfinite(size))
     throw std::invalid_argument("concealed_scenario: size " + std::to_string(size) + " is not a positive number");
-  DiagnosisScenario s = plain_scenario();
+  if (family == PlantFamily::second) size *= second_family_size(effect);
+  DiagnosisScenario s = plain_scenario(family);
   s.name = to_string(effect);
   s.effects = {effect};
   PlantConfig& p = s.plant;
@@ -97,7 +156,7 @@ DiagnosisScenario concealed_scenario(Effect effect, double size) {
       // The converters smear the drive: the sample before the first visible one is small. A baseline with
       // the delay estimated from the data starts one sample late. (`size` does not apply.)
       s.baseline = ScenarioBaseline::given_visible;
-      p.converters.da_filter.cutoff_hz = 1200.0 + 750.0 * size;
+      p.converters.da_filter.cutoff_hz += 750.0 * size;
       break;
     case Effect::resonance:  // a lightly damped panel mode the baseline's order has no room for
       p.panel_modes.push_back({450.0, 0.01, 0.0018 * size});
@@ -116,7 +175,7 @@ DiagnosisScenario combined_scenario(const DiagnosisScenario& first, const Diagno
   DiagnosisScenario s = first;
   s.name = first.name + "+" + second.name;
   s.effects.insert(s.effects.end(), second.effects.begin(), second.effects.end());
-  const PlantConfig plain = plain_scenario().plant;
+  const PlantConfig plain = plain_scenario(first.family).plant;
   // Every part of the plant the second scenario changed.
   PlantConfig& p = s.plant;
   const PlantConfig& q = second.plant;
@@ -147,10 +206,8 @@ ScenarioRecords scenario_records(const DiagnosisScenario& scenario, std::uint64_
     const Eigen::VectorXd pick = dsp::uniform_noise(static_cast<std::size_t>(n / block + 1), 1.0, seed + 7);
     for (Eigen::Index k = 0; k < n; ++k) u[k] *= pick[k / block] > 0.0 ? 1.0 : kQuietLevel;
   }
-  PlantConfig quiet = scenario.plant;
-  quiet.sensor.noise_rms_V = 0.0;
   const PlantRecord record = simulate(scenario.plant, u, seed + 100);
-  const Eigen::VectorXd y_clean = simulate(quiet, u, seed + 100).y;
+  const Eigen::VectorXd y_clean = simulate(without_sensor_noise(scenario.plant), u, seed + 100).y;
   return {u.head(n_est),           record.y.head(n_est),    u.tail(n_val),        record.y.tail(n_val),
           y_clean.tail(n_val),     record.i.head(n_est),    record.i.tail(n_val), scenario.plant.fs};
 }
@@ -160,13 +217,13 @@ std::optional<LinearModel> scenario_baseline(const DiagnosisScenario& scenario) 
   // Identified from seed 50 on the plant without the effect, true order and delay (given_reference: the
   // model a user made before the sensor drifted or the exciter was glued to another panel), or on the
   // scenario's own plant with the delay the data shows (given_visible).
-  DiagnosisScenario before = plain_scenario();
+  DiagnosisScenario before = plain_scenario(scenario.family);
   if (scenario.baseline == ScenarioBaseline::given_visible) before.plant = scenario.plant;
   const ScenarioRecords r = scenario_records(before, 50, 20000, 5000);
   LinearIdentificationSpec spec;
   spec.method = LinearMethod::oe;
-  spec.order = 13;  // the linear preset's true structure (see linear_identification_test.cpp)
-  if (scenario.baseline == ScenarioBaseline::given_reference) spec.delay = 1;
+  spec.order = family_order(scenario.family);  // the true structure (see linear_identification_test.cpp)
+  if (scenario.baseline == ScenarioBaseline::given_reference) spec.delay = family_delay(scenario.family);
   spec.fs = r.fs;
   return identify_linear(r.u_est, r.y_est, r.u_val, r.y_val, spec).model;
 }

@@ -16,6 +16,28 @@
 
 namespace panelbass::models {
 
+/// Which transducers the scenarios are built on.
+enum class PlantFamily {
+  panel,   ///< the `linear` preset (panel-exciter's values and structure): the structure the candidate terms mirror
+  second,  ///< tests/support/plants/second-exciter-linear.json without its creep: other values, an L2R2 branch, a
+           ///< second panel mode, other converters (DA 2nd order, AD 6th), pink sensor noise (issue 58's second family)
+};
+
+/// The family's name ("panel", "second").
+std::string to_string(PlantFamily family);
+
+/// The family named `name`; std::invalid_argument naming the families otherwise.
+PlantFamily plant_family_named(const std::string& name);
+
+/// The family's plant without any effect (every nonlinear term off, no creep).
+PlantConfig family_base(PlantFamily family);
+
+/// The order of the family's linear plant (its states: coil, L2R2, mechanics, panel modes, converter filters).
+int family_order(PlantFamily family);
+
+/// The family's converter delay, samples (what a reference baseline is given).
+int family_delay(PlantFamily family);
+
 /// How the baseline of a scenario is obtained.
 enum class ScenarioBaseline {
   identified,      ///< diagnose identifies its own best linear model
@@ -30,14 +52,20 @@ struct DiagnosisScenario {
   PlantConfig plant;
   bool modulated_level = false;  ///< the drive level changes every few seconds (a program, not steady noise)
   ScenarioBaseline baseline = ScenarioBaseline::identified;
+  PlantFamily family = PlantFamily::panel;
 };
 
-/// The scenario for `effect` at `size` times its concealed size (1 = the size the tests use).
+/// The scenario for `effect` at `size` times its concealed size (1 = the size the tests use) on `family`'s plant
+/// (the second family's sizes are scaled so that each effect is about as concealed as on the first).
 /// Throws std::invalid_argument for a size that is not positive.
-DiagnosisScenario concealed_scenario(Effect effect, double size = 1.0);
+DiagnosisScenario concealed_scenario(Effect effect, double size = 1.0, PlantFamily family = PlantFamily::panel);
 
 /// The scenario with no effect at all (for false positives).
-DiagnosisScenario plain_scenario();
+DiagnosisScenario plain_scenario(PlantFamily family = PlantFamily::panel);
+
+/// The family's effect-free scenarios: the plain one, and for the second family also the same plant read by a
+/// microphone 3.4 samples behind ("none-microphone").
+std::vector<DiagnosisScenario> effect_free_scenarios(PlantFamily family);
 
 /// The two scenarios' effects at once (plant changes of both applied; baseline and level of the first
 /// unless the second needs its own).
