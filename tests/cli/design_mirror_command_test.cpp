@@ -3,6 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
 #include "models/control/mirror_filter.h"
 #include "tests/support/cli_runner.h"
 
@@ -69,6 +74,24 @@ TEST_F(CliDesignMirror, CurrentOnlyFitsWithoutTheDisplacementAndItsChainCutsDist
   // panel-exciter at 80 Hz and program 0.3: 29 % THD alone; the current-only chain from these 12000 samples cuts it
   // by 7.5 dB (12 dB from 30000 samples, docs/control.md); the plant alone would be 0 dB
   EXPECT_GT(point["cut_db"].get<double>(), 6.0);
+}
+
+TEST_F(CliDesignMirror, CurrentOnlyFitThatMissesWritesNoModel) {
+  // a "current" that no drive explains (a pseudo-random sequence beside a sine drive): the fit says it misses and
+  // the model is not written
+  std::string csv = "u,i\n";
+  std::uint32_t state = 12345;
+  for (int k = 0; k < 3000; ++k) {
+    state = state * 1664525u + 1013904223u;
+    const double noise = static_cast<double>(state >> 8) / 16777216.0 - 0.5;
+    csv += std::to_string(0.5 * std::sin(0.05 * k)) + "," + std::to_string(noise) + "\n";
+  }
+  file("noise.csv", csv);
+  const RunResult r = run("design mirror --data " + quoted(dir_ / "noise.csv") + " --fs 3000 --current-only --out " +
+                          quoted(dir_ / "m.json"));
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_TRUE(contains(r.err, "misses")) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "m.json"));
 }
 
 TEST_F(CliDesignMirror, CurrentOnlyNamesABadSensorKind) {
