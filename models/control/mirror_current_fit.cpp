@@ -265,10 +265,24 @@ int output_error_fit(const MirrorModel& start, const CurrentFitRecord& r, double
                      int max_iterations, Eigen::VectorXd& theta, double& final_loss) {
   final_loss = std::numeric_limits<double>::infinity();
   const Eigen::Index p = theta.size();
+  // the linear model is time-invariant from rest, so its current is A(z) applied to the current g of the model
+  // without A(z): î = g + Σ_{j≥1} a_j·g_{k−j}, and the taps are solved by least squares in each evaluation
+  // (variable projection: no local minima in A(z)); θ's taps are written back, their columns of J are zero
+  const bool solve_taps = p == kLinearParameters;
   CurrentFitRun run;
-  const auto residual = [&](const Eigen::VectorXd& t, Eigen::VectorXd& out) {
-    const MirrorModel m = current_fit_model(start, t, current_rms);
+  const auto residual = [&](Eigen::VectorXd& t, Eigen::VectorXd& out) {
+    MirrorModel m = current_fit_model(start, t, current_rms);
+    if (solve_taps) m.drive_taps = {1.0, 0.0, 0.0, 0.0};
     if (!minimum_phase(m.drive_taps) || !run_current_model(m, r, current_peak, run)) return false;
+    if (solve_taps) {
+      const Eigen::Index rows = r.fit_end;
+      Eigen::MatrixXd phi = Eigen::MatrixXd::Zero(rows, 3);
+      for (int j = 1; j <= 3; ++j) phi.col(j - 1).tail(rows - j) = run.i.head(rows - j);
+      const Eigen::VectorXd a = least_squares(phi, r.current.head(rows) - run.i.head(rows)).theta;
+      if (!minimum_phase({1.0, a[0], a[1], a[2]})) return false;
+      for (int j = 0; j < 3; ++j) t[kTap1 + j] = a[j];
+      run.i.head(rows) += phi * a;
+    }
     out = current_fit_residual(run, r, 0, r.fit_end);
     return out.allFinite();
   };
@@ -289,7 +303,8 @@ int output_error_fit(const MirrorModel& start, const CurrentFitRecord& r, double
       Eigen::VectorXd t = theta;
       t[j] += delta;
       const bool up = residual(t, plus);
-      t[j] = theta[j] - delta;
+      t = theta;
+      t[j] -= delta;
       const bool down = residual(t, minus);
       if (up && down) {
         jacobian.col(j) = (plus - minus) / (2.0 * delta);
@@ -299,8 +314,8 @@ int output_error_fit(const MirrorModel& start, const CurrentFitRecord& r, double
     }
     const Eigen::MatrixXd hessian = jacobian.transpose() * jacobian;
     const Eigen::VectorXd gradient = jacobian.transpose() * res;
-    const LmStep step = lm.step(hessian, gradient, loss, theta, [&](const Eigen::VectorXd& t) {
-      Eigen::VectorXd trial;
+    const LmStep step = lm.step(hessian, gradient, loss, theta, [&](const Eigen::VectorXd& candidate) {
+      Eigen::VectorXd t = candidate, trial;
       return residual(t, trial) ? trial.squaredNorm() : std::numeric_limits<double>::infinity();
     });
     if (!step.accepted) break;
@@ -398,20 +413,9 @@ MirrorCurrentFit fit_mirror_model_from_current(const Eigen::VectorXd& drive, con
 
   MirrorCurrentFit fit;
   // (b) output error: the linear parameters on the current alone, then every parameter (with the sensor)
-  // the linear output-error fit has local minima in A(z): from the least-squares taps, from none and from the
-  // first alone, the smallest loss wins
-  Eigen::VectorXd theta;
-  double best_loss = std::numeric_limits<double>::infinity();
-  for (int kept_taps : {3, 0, 1}) {
-    Eigen::VectorXd t = Eigen::VectorXd::Zero(kLinearParameters);
-    for (int j = 1; j <= kept_taps; ++j) t[kTap1 + j - 1] = linear.drive_taps[static_cast<std::size_t>(j)];
-    double loss = 0.0;
-    fit.iterations += output_error_fit(linear, current_record, current_rms, current_peak, o.max_iterations, t, loss);
-    if (loss < best_loss) {
-      best_loss = loss;
-      theta = t;
-    }
-  }
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(kLinearParameters);
+  double linear_loss = 0.0;
+  fit.iterations = output_error_fit(linear, current_record, current_rms, current_peak, o.max_iterations, theta, linear_loss);
   const MirrorModel linear_fitted = current_fit_model(linear, theta, current_rms);
   run_current_model(linear_fitted, current_record, current_peak, run);
   fit.linear_j_val_pct = channel_j_pct(run.i, current, fit_end, n);

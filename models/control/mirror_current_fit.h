@@ -11,9 +11,11 @@
 //       i_{k+1} = (Σ_{j<4} a_j·drive_{k−L−j} − e5·v_{k+1})/e_R, is a linear least-squares problem in a_j/e_R and
 //       e5/e_R; the lag L (−2..max_delay: the current may even lead the drive's index) and (f0, ζ) with the
 //       smallest residual win. A(z) takes the DA path's filter and the fraction of a sample.
-//   (b) Output error: the parameters (the linear ones, Bl(x)'s b2 shared by [M1] and [M2], the reluctance force,
-//       K(x), the friction and its velocity scale, i·dLe/dx; not the inductance, Le(x, i) nor the asymmetric b1, c4,
-//       e9, which the current does not tell apart from K(x)'s asymmetry) by Levenberg–Marquardt
+//   (b) Output error, first the linear parameters (A(z) solved by least squares in each evaluation: the linear
+//       model's current is A(z) applied to that of the model without it), then with the nonlinear ones (Bl(x)'s b2
+//       shared by [M1] and [M2], the reluctance force, K(x), the friction and its velocity scale, i·dLe/dx; not the
+//       inductance, Le(x, i) nor the asymmetric b1, c4, e9, which the current does not tell apart from K(x)'s
+//       asymmetry) by Levenberg–Marquardt
 //       (models/optimization/levenberg_marquardt.h) on the free-run current error over the fitting part,
 //       V = Σ (î − i)² / Σ i² (+ the same for the sensor, when one joins), with the Jacobian by central finite
 //       differences of the free run (the friction's Newton solve and the tanh make an exact one long to write;
