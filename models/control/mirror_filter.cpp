@@ -49,8 +49,8 @@ Eigen::VectorXd scaled_least_squares(const Eigen::MatrixXd& a, const Eigen::Vect
   return theta.cwiseQuotient(scale);
 }
 
-/// True when every root of z³ + a1·z² + a2·z + a3 (A(z) = 1 + a1·z⁻¹ + a2·z⁻² + a3·z⁻³) lies inside |z| < 0.95:
-/// 1/A(z) is then a stable filter with some margin.
+}  // namespace
+
 bool minimum_phase(const std::array<double, 4>& a) {
   Eigen::Matrix3d companion = Eigen::Matrix3d::Zero();
   companion.row(0) << -a[1], -a[2], -a[3];
@@ -58,8 +58,6 @@ bool minimum_phase(const std::array<double, 4>& a) {
   companion(2, 1) = 1.0;
   return companion.eigenvalues().cwiseAbs().maxCoeff() < 0.95;
 }
-
-}  // namespace
 
 MirrorModel MirrorModel::linear() const {
   MirrorModel l = *this;

@@ -102,6 +102,10 @@ class MirrorFilter {
   bool saturated_ = false;
 };
 
+/// True when every root of z³ + a1·z² + a2·z + a3 (A(z) = 1 + a1·z⁻¹ + a2·z⁻² + a3·z⁻³) lies inside |z| < 0.95:
+/// 1/A(z), how the filter inverts the drive path, is then stable with some margin.
+bool minimum_phase(const std::array<double, 4>& a);
+
 /// Runs the mirror filter over `program` from rest.
 Eigen::VectorXd mirror_filter(const MirrorModel& model, const Eigen::VectorXd& program);
 

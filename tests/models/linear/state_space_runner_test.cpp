@@ -16,7 +16,7 @@ namespace panelbass::models {
 namespace {
 
 // H(z) = (0.5 + 0.2 z⁻¹ − 0.1 z⁻²) z⁻¹ / (1 − 1.2 z⁻¹ + 0.5 z⁻²): poles at radius √0.5, delay 1.
-TransferFunction example() {
+TransferFunction runner_example() {
   TransferFunction tf;
   tf.a = Eigen::Vector2d(-1.2, 0.5);
   tf.b = Eigen::Vector3d(0.5, 0.2, -0.1);
@@ -25,7 +25,7 @@ TransferFunction example() {
 }
 
 TEST(StateSpaceRunner, ImpulseResponseIsTheDirectFormRecursionOfTheTransferFunction) {
-  StateSpaceRunner runner(realize(example()));
+  StateSpaceRunner runner(realize(runner_example()));
   // By hand: b as a sequence (delay 1) = 0, 0.5, 0.2, −0.1, 0, …; h(k) = b(k) + 1.2·h(k−1) − 0.5·h(k−2).
   const double b[] = {0.0, 0.5, 0.2, -0.1};
   std::vector<double> h(60, 0.0);
@@ -72,7 +72,7 @@ TEST(StateSpaceRunner, StepBlockIsStepSampleBySampleWithinRoundingForEveryOrder)
 }
 
 TEST(StateSpaceRunner, SimulateIsTheRunnerStepBySampleToTheBit) {
-  const StateSpace ss = realize(example());
+  const StateSpace ss = realize(runner_example());
   Eigen::VectorXd u(300);
   for (Eigen::Index k = 0; k < u.size(); ++k) u[k] = std::sin(0.37 * k) + 0.2 * std::cos(1.9 * k);
   const Eigen::VectorXd x0 = Eigen::VectorXd::LinSpaced(ss.order(), 0.3, -0.2);
@@ -112,7 +112,7 @@ TEST(StateSpaceRunner, AnEmptySystemOutputsZeroAndAPureGainItsGain) {
 }
 
 TEST(StateSpaceRunner, RejectsMismatchedShapesAndInitialStates) {
-  StateSpace ss = realize(example());
+  StateSpace ss = realize(runner_example());
   EXPECT_THROW(StateSpaceRunner(ss, Eigen::VectorXd::Zero(ss.order() + 1)), std::invalid_argument);
   ss.B.resize(ss.order() + 1);
   EXPECT_THROW(StateSpaceRunner{ss}, std::invalid_argument);

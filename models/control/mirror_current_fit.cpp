@@ -1,0 +1,452 @@
+#include "models/control/mirror_current_fit.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "models/optimization/least_squares.h"
+#include "models/optimization/levenberg_marquardt.h"
+
+namespace panelbass::models {
+namespace {
+
+// The output-error fit's parameters θ, each of order one: the linear ones as log-factors of the linear start, the
+// nonlinear ones relative to the linear coefficient they modify (x in rms units, i over its rms). Left out (zero):
+// the coil's inductance and Le(x, i) (A(z) takes the time constant, as in fit_mirror_model; fitted, e0 went negative),
+// and the asymmetric b1, c4 and e9, which the current cannot tell from K(x)'s asymmetry (with them, panel-exciter's
+// 80 Hz cut at program 0.3 fell from 16.8 to 14.9 dB and k1 moved 10 % off).
+enum CurrentFitParameter : Eigen::Index {
+  kResistance, kBackEmf, kDamping, kStiffness, kTap1, kTap2, kTap3,  // e_R, e5, c5, c6 (log), a1..a3
+  kForceFactor2,                  // Bl(x)/Bl0 = 1 + b2·x² in [M1] and [M2] alike
+  kReluctance,                    // c3 over c0/i_rms
+  kStiffness1, kStiffness2,       // c7, c8 over c6
+  kFriction,                      // c9 over c0·i_rms
+  kEmfCurrent,                    // e8 over e5/i_rms
+  kFrictionVelocity,              // log of v0 over its start
+  kCurrentFitParameters
+};
+constexpr Eigen::Index kLinearParameters = kTap3 + 1;
+
+/// The model θ stands for, around the linear start `start` (c0 fixed: it sets the scale of x).
+MirrorModel current_fit_model(const MirrorModel& start, const Eigen::VectorXd& theta, double current_rms) {
+  MirrorModel m = start;
+  std::array<double, 10>& e = m.electrical;
+  std::array<double, 10>& c = m.mechanical;
+  e = {};
+  e[4] = start.electrical[4] * std::exp(theta[kResistance]);
+  e[5] = start.electrical[5] * std::exp(theta[kBackEmf]);
+  c[5] = start.mechanical[5] * std::exp(theta[kDamping]);
+  c[6] = start.mechanical[6] * std::exp(theta[kStiffness]);
+  m.drive_taps = {1.0, theta[kTap1], theta[kTap2], theta[kTap3]};
+  for (int j : {1, 2, 3, 4, 7, 8, 9}) c[static_cast<std::size_t>(j)] = 0.0;
+  if (theta.size() == kLinearParameters) return m;
+  const double b2 = theta[kForceFactor2];
+  c[2] = c[0] * b2;
+  e[7] = e[5] * b2;
+  c[3] = c[0] * theta[kReluctance] / current_rms;
+  c[7] = c[6] * theta[kStiffness1];
+  c[8] = c[6] * theta[kStiffness2];
+  c[9] = c[0] * current_rms * theta[kFriction];
+  e[8] = e[5] * theta[kEmfCurrent] / current_rms;
+  m.friction_velocity = start.friction_velocity * std::exp(theta[kFrictionVelocity]);
+  return m;
+}
+
+/// The record's drive, current and sensor with the fit's split and lags.
+struct CurrentFitRecord {
+  const Eigen::VectorXd& drive;
+  const Eigen::VectorXd& current;
+  const Eigen::VectorXd& sensor;  // empty: none
+  MirrorSensorKind sensor_kind;
+  Eigen::Index fit_end;   // samples [0, fit_end) are fitted, [fit_end, n) validate
+  int lag = 0;            // L
+  int sensor_delay = 0;   // D
+};
+
+/// The model's free run on the record: index k holds the state at the start of sample k, before drive[k − L] acts.
+struct CurrentFitRun {
+  Eigen::VectorXd i, x, v, a;
+};
+
+/// Runs `m` free over the record; false if it leaves the finite (or blows up past 1e6 times the current's peak).
+bool run_current_model(const MirrorModel& m, const CurrentFitRecord& r, double current_peak, CurrentFitRun& out) {
+  const Eigen::Index n = r.drive.size();
+  out.i.resize(n);
+  out.x.resize(n);
+  out.v.resize(n);
+  out.a.resize(n);
+  MirrorState s;
+  const double bound = 1e6 * current_peak;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    out.i[k] = s.i;
+    out.x[k] = s.x;
+    out.v[k] = s.v;
+    const Eigen::Index at = k - r.lag;
+    out.a[k] = step_mirror_model(m, s, at >= 0 && at < n ? r.drive[at] : 0.0);
+    if (!(std::abs(s.i) < bound)) return false;
+  }
+  return out.x.allFinite() && out.v.allFinite();
+}
+
+/// The sensor's quantity q from a run.
+const Eigen::VectorXd& sensed_quantity(const CurrentFitRun& run, MirrorSensorKind kind) {
+  switch (kind) {
+    case MirrorSensorKind::velocity: return run.v;
+    case MirrorSensorKind::displacement: return run.x;
+    default: return run.a;  // acceleration, microphone
+  }
+}
+
+/// The rows [first, end) of the sensor's regression y_k = Σ_{j<4} s_j·q_{k−D−j}: its four columns.
+Eigen::MatrixXd sensor_regressors(const Eigen::VectorXd& q, int delay, Eigen::Index first, Eigen::Index end) {
+  Eigen::MatrixXd phi(end - first, 4);
+  for (Eigen::Index k = first; k < end; ++k) {
+    for (int j = 0; j < 4; ++j) {
+      const Eigen::Index at = k - delay - j;
+      phi(k - first, j) = at >= 0 && at < q.size() ? q[at] : 0.0;
+    }
+  }
+  return phi;
+}
+
+/// The first row the sensor's regression uses (its past must be in the record).
+Eigen::Index sensor_first_row(int delay) { return std::max<Eigen::Index>(0, delay + 3); }
+
+/// The residual of a run: current over its norm on [first, end), then the sensor's (taps solved) over its norm.
+/// Writes the sensor's taps when asked.
+Eigen::VectorXd current_fit_residual(const CurrentFitRun& run, const CurrentFitRecord& r, Eigen::Index first,
+                                     Eigen::Index end, std::array<double, 4>* taps = nullptr) {
+  const Eigen::Index rows = end - first;
+  const bool with_sensor = r.sensor.size() > 0;
+  const Eigen::Index sensor_first = std::max(first, sensor_first_row(r.sensor_delay));
+  Eigen::VectorXd res(rows + (with_sensor ? end - sensor_first : 0));
+  res.head(rows) = (run.i.segment(first, rows) - r.current.segment(first, rows)) / r.current.segment(first, rows).norm();
+  if (with_sensor) {
+    const Eigen::MatrixXd phi = sensor_regressors(sensed_quantity(run, r.sensor_kind), r.sensor_delay, sensor_first, end);
+    const Eigen::VectorXd y = r.sensor.segment(sensor_first, end - sensor_first);
+    const Eigen::VectorXd s = least_squares(phi, y).theta;
+    res.tail(end - sensor_first) = (phi * s - y) / y.norm();
+    if (taps != nullptr) {
+      for (int j = 0; j < 4; ++j) (*taps)[static_cast<std::size_t>(j)] = s[j];
+    }
+  }
+  return res;
+}
+
+/// J of one channel, percent, on [first, end) of a run (the sensor's taps solved there).
+double channel_j_pct(const Eigen::VectorXd& modelled, const Eigen::VectorXd& measured, Eigen::Index first, Eigen::Index end) {
+  return 100.0 * (modelled.segment(first, end - first) - measured.segment(first, end - first)).squaredNorm() /
+         measured.segment(first, end - first).squaredNorm();
+}
+
+/// The linear mechanics [M2]–[M3] with c0 = 1 driven by the measured current: v̂ and x̂ at each k.
+void mechanics_from_current(const Eigen::VectorXd& current, double h, double c5, double c6, Eigen::VectorXd& x,
+                            Eigen::VectorXd& v) {
+  const Eigen::Index n = current.size();
+  x.resize(n);
+  v.resize(n);
+  double xs = 0.0, vs = 0.0;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    x[k] = xs;
+    v[k] = vs;
+    // [M2] linear, v̄ = (v_k + v_{k+1})/2 solved in closed form; [M3]
+    const double v1 = (vs * (1.0 + 0.5 * h * c5) + h * (current[k] + c6 * xs)) / (1.0 - 0.5 * h * c5);
+    vs = v1;
+    xs += h * v1;
+  }
+}
+
+/// The linear start (a): the best (f0, ζ, L, A(z), e_R, e5) with c0 = 1.
+struct LinearStart {
+  MirrorModel model;
+  int lag = 0;
+  double residual = std::numeric_limits<double>::infinity();
+  double f0 = 0.0, zeta = 0.0;  // the grid point it came from
+};
+
+/// [M1] solved for the current on the rows [first, end): target i_{k+1}, regressors drive_{k−L−j} (j < taps) and
+/// −v̂_{k+1}; a start when its A(z) is minimum phase and its residual the smallest so far.
+void try_linear_start(const Eigen::VectorXd& drive, const Eigen::VectorXd& current, const Eigen::VectorXd& v,
+                      Eigen::Index first, Eigen::Index end, int lag, double c5, double c6, double fs, LinearStart& best) {
+  const Eigen::Index rows = end - first, n = drive.size();
+  for (int taps = 4; taps >= 1; --taps) {
+    Eigen::MatrixXd phi(rows, taps + 1);
+    for (Eigen::Index k = first; k < end; ++k) {
+      for (int j = 0; j < taps; ++j) {
+        const Eigen::Index at = k - lag - j;
+        phi(k - first, j) = at >= 0 && at < n ? drive[at] : 0.0;
+      }
+      phi(k - first, taps) = -v[k + 1];
+    }
+    const Eigen::VectorXd target = current.segment(first + 1, rows);
+    const Eigen::VectorXd beta = least_squares(phi, target).theta;
+    if (!(beta[0] > 0.0) || !(beta[taps] > 0.0)) continue;  // a positive resistance and back-EMF
+    std::array<double, 4> a{1.0, 0.0, 0.0, 0.0};
+    for (int j = 1; j < taps; ++j) a[static_cast<std::size_t>(j)] = beta[j] / beta[0];
+    if (!minimum_phase(a)) continue;
+    const double residual = (phi * beta - target).squaredNorm();
+    if (residual < best.residual) {
+      best.residual = residual;
+      best.lag = lag;
+      best.model = MirrorModel{};
+      best.model.fs = fs;
+      best.model.drive_taps = a;
+      best.model.electrical[4] = 1.0 / beta[0];
+      best.model.electrical[5] = beta[taps] / beta[0];
+      best.model.mechanical[0] = 1.0;
+      best.model.mechanical[5] = c5;
+      best.model.mechanical[6] = c6;
+    }
+    return;  // the longest minimum-phase A(z) for this (f0, ζ, L)
+  }
+}
+
+/// The linear start over a grid of resonances (10 Hz to 0.4·fs) and mechanical damping ratios, every lag, then a
+/// finer grid around the best.
+LinearStart linear_start(const Eigen::VectorXd& drive, const Eigen::VectorXd& current, double fs, Eigen::Index fit_end,
+                         int max_delay) {
+  const double h = 1.0 / fs;
+  const Eigen::Index first = max_delay + 4, end = fit_end - 1;
+  LinearStart best;
+  Eigen::VectorXd x, v;
+  const auto at = [&](double f0, double zeta, int lag_from, int lag_to) {
+    const double w0 = 2.0 * std::numbers::pi * f0;
+    const double c6 = -(2.0 - 2.0 * std::cos(w0 * h)) / (h * h), c5 = -2.0 * zeta * w0;  // the recursion resonates at f0
+    mechanics_from_current(current, h, c5, c6, x, v);
+    const double before = best.residual;
+    for (int lag = lag_from; lag <= lag_to; ++lag) try_linear_start(drive, current, v, first, end, lag, c5, c6, fs, best);
+    if (best.residual < before) {
+      best.f0 = f0;
+      best.zeta = zeta;
+    }
+  };
+  const double top = 0.4 * fs;
+  constexpr int kCoarse = 40;
+  for (int g = 0; g <= kCoarse; ++g) {
+    const double f0 = 10.0 * std::pow(top / 10.0, static_cast<double>(g) / kCoarse);
+    for (double zeta : {0.02, 0.05, 0.1, 0.2, 0.5, 1.0}) at(f0, zeta, -2, max_delay);
+  }
+  if (!std::isfinite(best.residual)) return best;
+  // finer: ±1 coarse step in f0, ×/÷ 1.6 in ζ, at the lag found
+  const double f_best = best.f0, zeta_best = best.zeta;
+  const double step = std::pow(top / 10.0, 1.0 / kCoarse);
+  const int lag = best.lag;
+  for (int g = -8; g <= 8; ++g) {
+    for (int z = -4; z <= 4; ++z) at(f_best * std::pow(step, g / 8.0), zeta_best * std::pow(1.6, z / 4.0), lag, lag);
+  }
+  return best;
+}
+
+/// The sensor's delay D (−2..max): the largest whose four-tap map fits a run within 1 % of the best (a pure delay
+/// inside the four taps fits at every D up to it; the largest puts it on s_0).
+int best_sensor_delay(const CurrentFitRun& run, const CurrentFitRecord& r, int max_sensor_delay) {
+  std::vector<double> residuals;
+  CurrentFitRecord trial = r;
+  for (int d = -2; d <= max_sensor_delay; ++d) {
+    trial.sensor_delay = d;
+    const Eigen::VectorXd res = current_fit_residual(run, trial, 0, r.fit_end);
+    residuals.push_back(res.tail(res.size() - r.fit_end).squaredNorm());
+  }
+  const double smallest = *std::min_element(residuals.begin(), residuals.end());
+  int best = -2;
+  for (int d = -2; d <= max_sensor_delay; ++d) {
+    if (residuals[static_cast<std::size_t>(d + 2)] <= 1.01 * smallest + 1e-12) best = d;
+  }
+  return best;
+}
+
+/// Levenberg–Marquardt on the free-run residual from θ (its size says which parameters are fitted); returns the
+/// steps taken and writes the loss reached.
+int output_error_fit(const MirrorModel& start, const CurrentFitRecord& r, double current_rms, double current_peak,
+                     int max_iterations, Eigen::VectorXd& theta, double& final_loss) {
+  final_loss = std::numeric_limits<double>::infinity();
+  const Eigen::Index p = theta.size();
+  // the linear model is time-invariant from rest, so its current is A(z) applied to the current g of the model
+  // without A(z): î = g + Σ_{j≥1} a_j·g_{k−j}, and the taps are solved by least squares in each evaluation
+  // (variable projection: no local minima in A(z)); θ's taps are written back, their columns of J are zero
+  const bool solve_taps = p == kLinearParameters;
+  CurrentFitRun run;
+  const auto residual = [&](Eigen::VectorXd& t, Eigen::VectorXd& out) {
+    MirrorModel m = current_fit_model(start, t, current_rms);
+    if (solve_taps) m.drive_taps = {1.0, 0.0, 0.0, 0.0};
+    if (!minimum_phase(m.drive_taps) || !run_current_model(m, r, current_peak, run)) return false;
+    if (solve_taps) {
+      const Eigen::Index rows = r.fit_end;
+      Eigen::MatrixXd phi = Eigen::MatrixXd::Zero(rows, 3);
+      for (int j = 1; j <= 3; ++j) phi.col(j - 1).tail(rows - j) = run.i.head(rows - j);
+      const Eigen::VectorXd a = least_squares(phi, r.current.head(rows) - run.i.head(rows)).theta;
+      if (!minimum_phase({1.0, a[0], a[1], a[2]})) return false;
+      for (int j = 0; j < 3; ++j) t[kTap1 + j] = a[j];
+      run.i.head(rows) += phi * a;
+    }
+    out = current_fit_residual(run, r, 0, r.fit_end);
+    return out.allFinite();
+  };
+  Eigen::VectorXd res;
+  if (!residual(theta, res)) return 0;
+  double loss = res.squaredNorm();
+  final_loss = loss;
+  LmSettings settings;
+  settings.damping = LmDamping::relative_to_largest;
+  LevenbergMarquardt lm(settings, p);
+  Eigen::MatrixXd jacobian(res.size(), p);
+  Eigen::VectorXd plus, minus;
+  int steps = 0;
+  for (; steps < max_iterations; ++steps) {
+    // ∂r/∂θ_j by central differences of the free run, (r(θ + δe_j) − r(θ − δe_j)) / 2δ
+    for (Eigen::Index j = 0; j < p; ++j) {
+      const double delta = 1e-6 * (1.0 + std::abs(theta[j]));
+      Eigen::VectorXd t = theta;
+      t[j] += delta;
+      const bool up = residual(t, plus);
+      t = theta;
+      t[j] -= delta;
+      const bool down = residual(t, minus);
+      if (up && down) {
+        jacobian.col(j) = (plus - minus) / (2.0 * delta);
+      } else {
+        jacobian.col(j).setZero();  // at the edge of the stable region: this parameter holds this step
+      }
+    }
+    const Eigen::MatrixXd hessian = jacobian.transpose() * jacobian;
+    const Eigen::VectorXd gradient = jacobian.transpose() * res;
+    const LmStep step = lm.step(hessian, gradient, loss, theta, [&](const Eigen::VectorXd& candidate) {
+      Eigen::VectorXd t = candidate, trial;
+      return residual(t, trial) ? trial.squaredNorm() : std::numeric_limits<double>::infinity();
+    });
+    if (!step.accepted) break;
+    const double gain = (loss - step.loss) / loss;
+    loss = step.loss;
+    final_loss = loss;
+    residual(theta, res);
+    if (gain < 1e-9) break;
+  }
+  return steps;
+}
+
+}  // namespace
+
+MirrorSensorKind mirror_sensor_kind(const std::string& name) {
+  if (name == "none") return MirrorSensorKind::none;
+  if (name == "acceleration") return MirrorSensorKind::acceleration;
+  if (name == "velocity") return MirrorSensorKind::velocity;
+  if (name == "displacement") return MirrorSensorKind::displacement;
+  if (name == "microphone") return MirrorSensorKind::microphone;
+  throw std::invalid_argument("unknown sensor kind \"" + name +
+                              "\" (known: none, acceleration, velocity, displacement, microphone)");
+}
+
+MirrorModel rescale_displacement(const MirrorModel& model, double alpha) {
+  MirrorModel m = model;
+  std::array<double, 10>& c = m.mechanical;
+  std::array<double, 10>& e = m.electrical;
+  // x = x'/α, v = v'/α: dv'/dt = α·M(x'/α, v'/α, i); E(x'/α)·v'/α
+  c[0] *= alpha;
+  c[2] /= alpha;
+  c[3] *= alpha;
+  c[7] /= alpha;
+  c[8] /= alpha * alpha;
+  c[9] *= alpha;
+  m.friction_velocity *= alpha;
+  e[1] /= alpha;
+  e[2] /= alpha * alpha;
+  e[5] /= alpha;
+  e[6] /= alpha * alpha;
+  e[7] /= alpha * alpha * alpha;
+  e[8] /= alpha;
+  e[9] /= alpha * alpha;
+  return m;
+}
+
+MirrorCurrentFit fit_mirror_model_from_current(const Eigen::VectorXd& drive, const Eigen::VectorXd& current, double fs,
+                                               const MirrorCurrentFitOptions& o, const Eigen::VectorXd& sensor) {
+  const Eigen::Index n = drive.size();
+  if (current.size() != n || (sensor.size() != 0 && sensor.size() != n)) {
+    throw std::invalid_argument("mirror current fit: drive, current and sensor must have the same length (" +
+                                std::to_string(n) + ", " + std::to_string(current.size()) + ", " +
+                                std::to_string(sensor.size()) + ")");
+  }
+  if (n < 1000) throw std::invalid_argument("mirror current fit: at least 1000 samples are needed, got " + std::to_string(n));
+  if (!(fs > 0.0)) throw std::invalid_argument("mirror current fit: fs must be > 0");
+  if (o.max_delay < 0 || o.max_delay > 64) throw std::invalid_argument("mirror current fit: max_delay must be within [0, 64]");
+  if (o.max_sensor_delay < 0 || o.max_sensor_delay > 256) {
+    throw std::invalid_argument("mirror current fit: max_sensor_delay must be within [0, 256]");
+  }
+  if (!(o.validation_share >= 0.1 && o.validation_share <= 0.5)) {
+    throw std::invalid_argument("mirror current fit: validation_share must be within [0.1, 0.5]");
+  }
+  if (sensor.size() != 0 && o.sensor_kind == MirrorSensorKind::none) {
+    throw std::invalid_argument("mirror current fit: a sensor column needs its kind (acceleration, velocity, displacement or microphone)");
+  }
+  for (Eigen::Index k = 0; k < n; ++k) {
+    if (!std::isfinite(drive[k]) || !std::isfinite(current[k]) || (sensor.size() != 0 && !std::isfinite(sensor[k]))) {
+      throw std::invalid_argument("mirror current fit: sample " + std::to_string(k) + " is not finite");
+    }
+  }
+  const double current_peak = current.cwiseAbs().maxCoeff();
+  if (!(current_peak > 0.0)) throw std::invalid_argument("mirror current fit: the current is zero throughout");
+  const double current_rms = std::sqrt(current.squaredNorm() / static_cast<double>(n));
+
+  const Eigen::Index fit_end = n - static_cast<Eigen::Index>(std::round(o.validation_share * static_cast<double>(n)));
+  // (a) the linear start from the current alone
+  LinearStart start = linear_start(drive, current, fs, fit_end, o.max_delay);
+  if (!std::isfinite(start.residual)) {
+    throw std::invalid_argument("mirror current fit: no linear model with a minimum-phase drive path fits the current");
+  }
+  const Eigen::VectorXd no_sensor;
+  const CurrentFitRecord current_record{drive, current, no_sensor, MirrorSensorKind::none, fit_end, start.lag, 0};
+  CurrentFitRecord record{drive, current, sensor, sensor.size() != 0 ? o.sensor_kind : MirrorSensorKind::none, fit_end,
+                          start.lag, 0};
+  // the scale of x: rms 1 over the fitting part, in the linear model's free run
+  CurrentFitRun run;
+  if (!run_current_model(start.model, current_record, current_peak, run)) {
+    throw std::invalid_argument("mirror current fit: the linear start runs away in free run");
+  }
+  const double x_rms = std::sqrt(run.x.head(fit_end).squaredNorm() / static_cast<double>(fit_end));
+  MirrorModel linear = rescale_displacement(start.model, 1.0 / x_rms);
+  const double v_rms = std::sqrt(run.v.head(fit_end).squaredNorm() / static_cast<double>(fit_end)) / x_rms;
+  linear.friction_velocity = 0.2 * v_rms;  // the friction's switch a fifth of the way to the typical velocity
+
+  MirrorCurrentFit fit;
+  // (b) output error: the linear parameters on the current alone, then every parameter (with the sensor)
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(kLinearParameters);
+  double linear_loss = 0.0;
+  fit.iterations = output_error_fit(linear, current_record, current_rms, current_peak, o.max_iterations, theta, linear_loss);
+  const MirrorModel linear_fitted = current_fit_model(linear, theta, current_rms);
+  run_current_model(linear_fitted, current_record, current_peak, run);
+  fit.linear_j_val_pct = channel_j_pct(run.i, current, fit_end, n);
+  if (sensor.size() != 0) {
+    const int max_sensor_delay = o.sensor_kind == MirrorSensorKind::microphone ? std::max(o.max_sensor_delay, 64) : o.max_sensor_delay;
+    record.sensor_delay = best_sensor_delay(run, record, max_sensor_delay);
+  }
+  Eigen::VectorXd full = Eigen::VectorXd::Zero(kCurrentFitParameters);
+  full.head(kLinearParameters) = theta;
+  double loss = 0.0;
+  fit.iterations += output_error_fit(linear, record, current_rms, current_peak, o.max_iterations, full, loss);
+  fit.model = current_fit_model(linear, full, current_rms);
+  fit.current_lag = start.lag;
+  fit.model.delay = std::max(start.lag, 0);
+
+  // (c) free run over the whole record; J per channel on the fitting part and on validation
+  run_current_model(fit.model, record, current_peak, run);
+  fit.current_j_fit_pct = channel_j_pct(run.i, current, 0, fit_end);
+  fit.current_j_val_pct = channel_j_pct(run.i, current, fit_end, n);
+  if (sensor.size() != 0) {
+    // the sensor's taps from the fitting part, judged on validation
+    const Eigen::Index first = sensor_first_row(record.sensor_delay);
+    (void)current_fit_residual(run, record, first, fit_end, &fit.sensor_taps);
+    const Eigen::MatrixXd phi = sensor_regressors(sensed_quantity(run, record.sensor_kind), record.sensor_delay, fit_end, n);
+    const Eigen::Map<const Eigen::Vector4d> taps(fit.sensor_taps.data());
+    fit.sensor_j_val_pct = channel_j_pct(phi * taps, sensor.segment(fit_end, n - fit_end), 0, n - fit_end);
+    fit.sensor_delay = record.sensor_delay;
+  }
+  const double h = 1.0 / fs;
+  fit.resonance_hz = std::acos(std::clamp(1.0 + 0.5 * h * h * fit.model.mechanical[6], -1.0, 1.0)) / (2.0 * std::numbers::pi * h);
+  return fit;
+}
+
+}  // namespace panelbass::models

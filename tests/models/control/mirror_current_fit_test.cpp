@@ -1,0 +1,128 @@
+// The gray-box model [M1]–[M3] fitted from the drive and the coil current alone (mirror_current_fit.h): it recovers
+// a model from the current that model makes (up to the unobservable scale of x), a sensor joins with its scale,
+// sign and delay found, the rescaling leaves the current unchanged, and bad input is named.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "dsp/excitation.h"
+#include "models/control/mirror_current_fit.h"
+#include "tests/support/expect_error.h"
+#include "tests/support/mirror_models.h"
+
+namespace panelbass::models {
+namespace {
+
+/// panel-exciter's model without inductance (the fit leaves the coil's time constant to A(z)), its drive through
+/// A(z) = 1 − 0.5·z⁻¹ + 0.1·z⁻²: a discrete model the current-only fit's structure holds exactly.
+MirrorModel current_fit_truth() {
+  MirrorModel truth = testing_support::panel_exciter_mirror_model();
+  for (std::size_t j : {0u, 1u, 2u, 3u}) truth.electrical[j] = 0.0;
+  truth.drive_taps = {1.0, -0.5, 0.1, 0.0};
+  return truth;
+}
+
+/// The current (and the model's states) of `model` driven by `drive` `lag` samples late; index k holds the state
+/// at the start of sample k.
+struct CurrentFitTestRecord {
+  Eigen::VectorXd current, x, v;
+};
+
+CurrentFitTestRecord current_fit_test_record(const MirrorModel& model, const Eigen::VectorXd& drive, Eigen::Index lag) {
+  MirrorState s;
+  const Eigen::Index n = drive.size();
+  CurrentFitTestRecord r{Eigen::VectorXd(n), Eigen::VectorXd(n), Eigen::VectorXd(n)};
+  for (Eigen::Index k = 0; k < n; ++k) {
+    r.current[k] = s.i;
+    r.x[k] = s.x;
+    r.v[k] = s.v;
+    step_mirror_model(model, s, k >= lag ? drive[k - lag] : 0.0);
+  }
+  return r;
+}
+
+Eigen::VectorXd current_fit_drive(std::size_t n, std::uint64_t seed) {
+  dsp::MultisineSpec spec;
+  spec.period = n;
+  spec.f_min = 10.0;
+  spec.f_max = 300.0;
+  spec.amplitude = 0.5;
+  spec.seed = seed;
+  return dsp::multisine(spec).signal;
+}
+
+TEST(MirrorCurrentFit, RescalingTheDisplacementLeavesTheCurrentUnchanged) {
+  const MirrorModel truth = current_fit_truth();
+  const Eigen::VectorXd drive = current_fit_drive(3000, 5);
+  const Eigen::VectorXd a = current_fit_test_record(truth, drive, 0).current;
+  const Eigen::VectorXd b = current_fit_test_record(rescale_displacement(truth, 37.0), drive, 0).current;
+  EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9 * a.cwiseAbs().maxCoeff());
+}
+
+TEST(MirrorCurrentFit, RecoversTheDiscreteModelFromItsCurrentAlone) {
+  const MirrorModel truth = current_fit_truth();
+  const Eigen::VectorXd drive = current_fit_drive(9000, 3);
+  const CurrentFitTestRecord rec = current_fit_test_record(truth, drive, 2);
+  const MirrorCurrentFit fit = fit_mirror_model_from_current(drive, rec.current, truth.fs);
+  EXPECT_EQ(fit.current_lag, 2);
+  EXPECT_LT(fit.current_j_val_pct, 1e-4);
+  // the fitted model in the truth's units of x (its c0): each coefficient against the truth's, relative to the
+  // linear coefficient it modifies
+  const MirrorModel m = rescale_displacement(fit.model, truth.mechanical[0] / fit.model.mechanical[0]);
+  const std::array<double, 10>& c = m.mechanical;
+  const std::array<double, 10>& t = truth.mechanical;
+  EXPECT_NEAR(c[0], t[0], 1e-9 * t[0]);
+  const double c_tol = 2e-3;
+  EXPECT_NEAR(c[2] / c[0], t[2] / t[0], c_tol * std::abs(t[2] / t[0])) << "Bl(x)'s b2";
+  EXPECT_NEAR(c[5] / t[5], 1.0, 2e-2) << "damping";
+  EXPECT_NEAR(c[6] / t[6], 1.0, 1e-4) << "K0/m";
+  EXPECT_NEAR(c[7] / t[7], 1.0, c_tol) << "k1";
+  EXPECT_NEAR(c[8] / t[8], 1.0, c_tol) << "k2";
+  EXPECT_NEAR(c[9] / t[9], 1.0, 2e-2) << "friction";
+  EXPECT_NEAR(c[3] / t[3], 1.0, 2e-2) << "reluctance";
+  const std::array<double, 10>& e = m.electrical;
+  const std::array<double, 10>& te = truth.electrical;
+  EXPECT_NEAR(e[4] / te[4], 1.0, 1e-4) << "e_R";
+  EXPECT_NEAR(e[5] / te[5], 1.0, 1e-4) << "Bl/gain";
+  EXPECT_NEAR(e[8] / te[8], 1.0, 2e-2) << "i·dLe/dx";
+  for (std::size_t j = 1; j < 4; ++j) EXPECT_NEAR(m.drive_taps[j], truth.drive_taps[j], 1e-4) << "a" << j;
+  EXPECT_NEAR(m.friction_velocity, truth.friction_velocity, 0.05 * truth.friction_velocity);
+}
+
+TEST(MirrorCurrentFit, ASensorJoinsWithItsScaleSignAndDelayFound) {
+  // an accelerometer of negative, unknown sensitivity three samples late: the fit finds the delay and the map
+  const MirrorModel truth = current_fit_truth();
+  const Eigen::VectorXd drive = current_fit_drive(9000, 4);
+  const CurrentFitTestRecord rec = current_fit_test_record(truth, drive, 1);
+  Eigen::VectorXd sensor = Eigen::VectorXd::Zero(drive.size());
+  for (Eigen::Index k = 4; k < drive.size(); ++k) sensor[k] = -2e-4 * (rec.v[k - 2] - rec.v[k - 3]) * truth.fs;
+  MirrorCurrentFitOptions options;
+  options.sensor_kind = MirrorSensorKind::acceleration;
+  const MirrorCurrentFit fit = fit_mirror_model_from_current(drive, rec.current, truth.fs, options, sensor);
+  EXPECT_LT(fit.current_j_val_pct, 1e-3);
+  EXPECT_LT(fit.sensor_j_val_pct, 1e-3);
+  // acceleration a_k = (v_{k+1} − v_k)/h in the run: the sensor reads a_{k−3}
+  EXPECT_EQ(fit.sensor_delay, 3);
+  // the map's gain in the truth's units: s0 · (fit's x units per truth's mm)
+  const double alpha = fit.model.mechanical[0] / truth.mechanical[0];
+  EXPECT_NEAR(fit.sensor_taps[0] * alpha, -2e-4, 1e-6);
+}
+
+TEST(MirrorCurrentFit, NamesBadInput) {
+  const Eigen::VectorXd drive = current_fit_drive(2000, 1);
+  using testing_support::one_line_error;
+  EXPECT_NE(one_line_error<std::invalid_argument>([&] { (void)fit_mirror_model_from_current(drive, Eigen::VectorXd::Zero(1999), 3000.0); })
+                .find("same length"), std::string::npos);
+  EXPECT_NE(one_line_error<std::invalid_argument>([&] { (void)fit_mirror_model_from_current(drive, Eigen::VectorXd::Zero(2000), 3000.0); })
+                .find("current is zero"), std::string::npos);
+  Eigen::VectorXd current = drive;
+  current[17] = std::nan("");
+  EXPECT_NE(one_line_error<std::invalid_argument>([&] { (void)fit_mirror_model_from_current(drive, current, 3000.0); })
+                .find("sample 17"), std::string::npos);
+  EXPECT_NE(one_line_error<std::invalid_argument>([&] { (void)fit_mirror_model_from_current(drive, drive, 3000.0, {}, drive); })
+                .find("needs its kind"), std::string::npos);
+  EXPECT_NE(one_line_error<std::invalid_argument>([&] { (void)mirror_sensor_kind("laser"); }).find("known: none"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace panelbass::models
