@@ -1,6 +1,7 @@
 #include "api/jobs/design_mirror_job.h"
 
 #include <limits>
+#include <stdexcept>
 #include <string>
 
 #include "api/jobs/job_progress.h"
@@ -40,6 +41,8 @@ json design_mirror_params(const json& params, const JobEnvironment& env) {
   r.boolean("adapt", defaults.adapt);
   r.number("stiffness_rate", defaults.stiffness_rate, kAnyFinite);
   r.number("stiffness_spread", defaults.stiffness_spread, kAnyFinite);
+  r.boolean("current_only", defaults.current_only);
+  r.choice("sensor_kind", defaults.sensor_kind, {"none", "acceleration", "velocity", "displacement", "microphone"});
   json filled = r.finish();
   usecases::DesignMirrorRequest q;
   q.fs = env.fs;
@@ -48,6 +51,8 @@ json design_mirror_params(const json& params, const JobEnvironment& env) {
   q.adapt = filled.at("adapt").get<bool>();
   q.stiffness_rate = filled.at("stiffness_rate").get<double>();
   q.stiffness_spread = filled.at("stiffness_spread").get<double>();
+  q.current_only = filled.at("current_only").get<bool>();
+  q.sensor_kind = filled.at("sensor_kind").get<std::string>();
   check_request([&] { usecases::check(q); });
   return filled;
 }
@@ -74,8 +79,16 @@ json design_mirror_work(const json& params, const JobEnvironment& env, JobContro
   q.adapt = params.at("adapt").get<bool>();
   q.stiffness_rate = params.at("stiffness_rate").get<double>();
   q.stiffness_spread = params.at("stiffness_spread").get<double>();
+  q.current_only = params.at("current_only").get<bool>();
+  q.sensor_kind = params.at("sensor_kind").get<std::string>();
+  if (q.current_only) q.displacement.resize(0);  // the fit from the drive and the current: x is not given it
   progress.span(0.2, 0.95);
   const usecases::DesignMirrorReport report = usecases::design_mirror(q, progress);
+  if (!report.usable) {
+    std::string why;
+    for (const std::string& w : report.warnings) why += (why.empty() ? "" : " ") + w;
+    throw std::runtime_error("the fit misses this transducer, so no mirror filter is stored: " + why);
+  }
   const std::string model_id = store_model(env, models::mirror_model_to_json(report.model, report.meta),
                                            "mirror filter (" + control.job_id() + ")", control);
   progress.span(0.0, 1.0);
