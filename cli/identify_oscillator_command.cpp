@@ -44,18 +44,6 @@ std::vector<std::string> parse_terms(const std::string& list) {
   return names;
 }
 
-// A bar that Ctrl-C stops early (the best stage so far is kept).
-class StoppableBar final : public usecases::Progress {
- public:
-  explicit StoppableBar(std::string label) : bar_(std::move(label)) {}
-  void report(double fraction, const std::string&) override { bar_.update(fraction); }
-  bool stopping() const override { return stop_requested(); }
-
- private:
-  StopSignals signals_;
-  ProgressBar bar_;
-};
-
 void run_identify_oscillator(const IdentifyOscillatorOptions& o) {
   const dsp::Record est = o.columns.read(o.data);
   const DataOptions::Validation val = o.columns.read_optional_validation(o.val, est.fs);
@@ -74,7 +62,7 @@ void run_identify_oscillator(const IdentifyOscillatorOptions& o) {
   q.max_iterations = o.max_iterations;
   q.init = o.init;
   q.delay = !o.no_delay;
-  StoppableBar progress("identify oscillator");
+  StoppableBarProgress progress("identify oscillator");
   const usecases::IdentifyOscillatorReport report = run_use_case(
       [&] { return usecases::identify_oscillator(q, progress); },
       {{{"max_iterations", "--max-iter"}, {"delay", "--no-delay"}, {"record", "--data"}}, {}});

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "cli/progress_bar.h"
+#include "cli/stop_signals.h"
 #include "usecases/progress.h"
 #include "usecases/request_error.h"
 
@@ -31,6 +32,21 @@ struct RequestSpelling {
   std::map<std::string, std::string> flags;
   /// Field → the file it was read from: a refusal of such a field is the file's fault (exit 1, "<file>: …").
   std::map<std::string, std::string> files;
+};
+
+/// A use case's progress as a bar, and Ctrl-C (or SIGTERM) as a request to end early and keep what was found.
+class StoppableBarProgress final : public usecases::Progress {
+ public:
+  /// A bar titled `label`; the stop signals are caught while it lives.
+  explicit StoppableBarProgress(std::string label) : bar_(std::move(label)) {}
+  /// Moves the bar.
+  void report(double fraction, const std::string&) override { bar_.update(fraction); }
+  /// True once a stop signal came.
+  bool stopping() const override { return stop_requested(); }
+
+ private:
+  StopSignals signals_;
+  ProgressBar bar_;
 };
 
 /// Runs `verb` (a call of a use case); a RequestError it throws becomes CLI::ValidationError (exit 2) naming the flag

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "api/server.h"
+#include "models/kinds/model_file.h"
 #include "usecases/design_lq.h"
 #include "usecases/design_mirror.h"
 #include "usecases/harmonics.h"
@@ -86,6 +87,14 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
           << "` or \"" << leaf << "\")";
     }
   }
+}
+
+// The OpenAPI document's model kinds are the registry's (models/kinds/model_file.h), in its order.
+TEST(RequestDocs, TheModelFileKindsAreTheRegistrys) {
+  std::vector<std::string> registry;
+  for (const models::ModelKind& k : models::model_kinds()) registry.emplace_back(k.name);
+  const json& kinds = openapi_document().at("components").at("schemas").at("ModelFile").at("properties").at("kind").at("enum");
+  EXPECT_EQ(kinds.get<std::vector<std::string>>(), registry);
 }
 
 // The check above can fail: a field the documents lack is found.
