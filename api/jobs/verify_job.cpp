@@ -132,6 +132,7 @@ json verify_work(const json& params, const JobEnvironment& env, JobControl& cont
   const double level = params.at("level").get<double>();
   const double seconds = params.at("seconds").get<double>(), max_seconds = params.at("max_seconds").get<double>();
   json rows = json::array();
+  std::vector<std::string> warnings;  // a probe the chain makes worse, said in words
   for (std::size_t t = 0; t < tones.size(); ++t) {
     const double f = tones[t];
     progress.at(static_cast<double>(t) / static_cast<double>(tones.size()), "probe " + models::number_text(f) + " Hz");
@@ -163,7 +164,16 @@ json verify_work(const json& params, const JobEnvironment& env, JobControl& cont
     // the THD before is noise-bound too.
     const double thd_before = before.thd.thd_pct, thd_after = after.thd.thd_pct;
     if (!noise_bound(before) && !noise_bound(after) && thd_after > 0.0) {
-      row["thd_change_db"] = 20.0 * std::log10(thd_after / thd_before);
+      const double change = 20.0 * std::log10(thd_after / thd_before);
+      row["thd_change_db"] = change;
+      row["thd_cut_db"] = -change;  // positive: less distortion
+      if (change > 0.0) {
+        warnings.push_back("at " + models::number_text(f) + " Hz the chain makes the distortion worse: THD " +
+                           models::number_text(thd_before, 3) + " % → " + models::number_text(thd_after, 3) + " % (+" +
+                           models::number_text(change, 3) + " dB, at equal program level: the response's level " +
+                           models::number_text(level_of(before.response), 3) + " → " +
+                           models::number_text(level_of(after.response), 3) + "); leave this controller out or redesign it");
+      }
     } else if (!noise_bound(before)) {
       const double bound = 20.0 * std::log10(thd_at_most(after) / thd_before);
       row["thd_change_db"] = nullptr;
@@ -178,7 +188,11 @@ json verify_work(const json& params, const JobEnvironment& env, JobControl& cont
     rows.push_back(row);
   }
   progress.at(1.0, "done");
-  return {{"fs", env.fs}, {"level", level}, {"backend", env.measure ? "alsa" : "virtual"}, {"probes", rows}};
+  return {{"fs", env.fs},
+          {"level", level},
+          {"backend", env.measure ? "alsa" : "virtual"},
+          {"probes", rows},
+          {"warnings", warnings}};
 }
 
 }  // namespace

@@ -43,6 +43,11 @@ TEST_F(VerifyJobTest, AQuietReadingIsTheClosedFormAtTheFirstLength) {
   EXPECT_FALSE(p.at("thd_before_at_floor").get<bool>());
   EXPECT_LT(p.at("thd_before_uncertainty_db").get<double>(), 0.2);
   EXPECT_DOUBLE_EQ(p.at("seconds_before").get<double>(), 0.5) << "no need to play longer";
+  // Both readings above the floor: the change and the cut are one figure, of opposite signs (a cut is less THD).
+  ASSERT_TRUE(p.at("thd_change_db").is_number()) << p.dump();
+  EXPECT_EQ(p.at("thd_cut_db").get<double>(), -p.at("thd_change_db").get<double>());
+  EXPECT_NEAR(p.at("thd_change_db").get<double>(),
+              20.0 * std::log10(p.at("thd_after_pct").get<double>() / p.at("thd_before_pct").get<double>()), 1e-12);
   const double n = 0.75 * 0.5 * kFs;  // about the stretch read
   EXPECT_NEAR(p.at("thd_before_floor_pct").get<double>(), 100.0 * std::sqrt(16.0 * 1e-10 / n) / 0.2,
               0.2 * 100.0 * std::sqrt(16.0 * 1e-10 / n) / 0.2);
