@@ -9,6 +9,7 @@
 
 #include "dsp/decibels.h"
 #include "dsp/spectrum.h"
+#include "models/diagnosis/diagnosis_locate.h"
 #include "models/diagnosis/diagnosis_terms.h"
 
 namespace panelbass::cli {
@@ -25,17 +26,10 @@ struct JudgedSimulations {
   Eigen::VectorXd final_full;  ///< the augmented model's simulation of the whole record (its states need the start)
 };
 
-// The Welch segment locate_residual uses for `n` samples (models/diagnosis/diagnosis_locate.cpp), so that the noise
-// level it found is read off the same resolution.
-std::size_t residual_segment(Eigen::Index n) {
-  std::size_t segment = 256;
-  while (segment * 16 <= static_cast<std::size_t>(n) && segment < 2048) segment *= 2;
-  return segment;
-}
 
 fs::path plot_residual_spectrum(const Diagnosis& d, const JudgedSimulations& s, double fs, const fs::path& dir,
                                 const DiagnosisPlotOptions& o) {
-  const dsp::WelchSpec spec{residual_segment(s.y.size()), 0.5, dsp::Window::hann};
+  const dsp::WelchSpec spec{models::residual_segment(s.y.size()), 0.5, dsp::Window::hann};
   const dsp::PowerSpectrum before = dsp::welch_psd(s.y - s.baseline, fs, spec);
   const dsp::PowerSpectrum after = dsp::welch_psd(s.y - s.final, fs, spec);
   const Eigen::Index n = before.frequency.size() - 1;  // DC left out
