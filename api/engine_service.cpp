@@ -271,6 +271,11 @@ std::optional<std::string> EngineService::active_model(ModelSlotName slot) const
   return active_ids_[static_cast<std::size_t>(slot)];
 }
 
+engine::ChainConfig EngineService::running_chain() const {
+  const std::lock_guard lock(mutex_);
+  return running_;
+}
+
 nlohmann::json EngineService::config() const {
   const std::lock_guard lock(mutex_);
   return api_settings();

@@ -118,6 +118,8 @@ class EngineService {
   std::optional<std::string> active_model(ModelSlotName slot) const;
   /// The settings in the API's form (ROUTES.md "GET /api/config").
   nlohmann::json config() const;
+  /// The chain the engine runs now (its models inline), for a job that runs it offline.
+  engine::ChainConfig running_chain() const;
 
   /// Replaces the settings with `settings` (the API's form, all of it; fs, block and history may be left
   /// out). Validated completely first (unknown fields, types, ranges, models looked up in `lookup` and

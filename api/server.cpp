@@ -79,6 +79,7 @@ Server::Server(ServerOptions options) : options_(std::move(options)) {
   // On a sound card the jobs measure through it; there is no simulated transducer to compare with.
   environment_.excite = [this](const Eigen::VectorXd& drive) { return engine_->excite(drive); };
   environment_.safe_level = engine_->safe_level();
+  environment_.chain = [this] { return engine_->running_chain(); };
   if (engine_->device_status()) {
     environment_.measure = [this](const Eigen::VectorXd& drive) { return engine_->measure(drive); };
   } else {
@@ -137,7 +138,7 @@ void Server::on_job_finished(JobRecord& job) {
       activate_on_success_.erase(it);
     }
   }
-  if (activate && job.state == JobState::succeeded && job.result.contains("model_id")) {
+  if (activate && job.state == JobState::succeeded && job.result.contains("model_id") && job.result["model_id"].is_string()) {
     const std::string id = job.result["model_id"].get<std::string>();
     try {
       const std::optional<StoredModel> entry = store_->find(id);
@@ -157,7 +158,8 @@ void Server::on_job_finished(JobRecord& job) {
   }
 }
 
-std::string Server::submit_job(const std::string& kind, const nlohmann::json& params, bool activate) {
+std::string Server::submit_job(const std::string& kind, const nlohmann::json& params, std::optional<bool> activate_asked) {
+  const bool activate = activate_asked.value_or(activates_by_default(kind));
   if (activate) {
     const std::string made = model_kind_made_by(kind);
     if (made.empty() && std::find(job_kinds().begin(), job_kinds().end(), kind) != job_kinds().end()) {

@@ -11,6 +11,7 @@
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -83,7 +84,7 @@ class Server {
   void request_stop() { stop_requested_.store(true, std::memory_order_relaxed); }
 
   /// Submits a job as POST /api/jobs does (params validated; throws std::invalid_argument); returns its id.
-  std::string submit_job(const std::string& kind, const nlohmann::json& params, bool activate);
+  std::string submit_job(const std::string& kind, const nlohmann::json& params, std::optional<bool> activate);
   /// The job queue (tests and the start-up demo wait on it).
   JobQueue& jobs() { return *jobs_; }
   /// The store.

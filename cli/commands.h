@@ -56,6 +56,9 @@ void register_evaluate(CLI::App& app);
 /// `panelbass diagnose`: locate where a simulation and a recording disagree, name the physics left out, model it.
 void register_diagnose(CLI::App& app);
 
+/// `panelbass tune`: measure, fit from the current, mirror filter, verify at equal output, keep where it helps.
+void register_tune(CLI::App& app);
+
 /// `panelbass serve`: the engine, the HTTP API and the web UI in one process.
 void register_serve(CLI::App& app);
 

@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   panelbass::cli::register_design(app);
   panelbass::cli::register_chain(app);
   panelbass::cli::register_evaluate(app);
+  panelbass::cli::register_tune(app);
   panelbass::cli::register_diagnose(app);
   panelbass::cli::register_serve(app);
   panelbass::cli::register_transducer(app);

@@ -11,6 +11,7 @@
 #include "api/jobs/excitation_record.h"
 #include "api/model_store.h"
 #include "api/record_store.h"
+#include "engine/chain_file.h"
 #include "models/plant/plant_config.h"
 
 namespace panelbass::api {
@@ -24,6 +25,8 @@ struct JobEnvironment {
   /// On a sound card: plays `drive` through it (program paused, chain bypassed, the round trip calibrated
   /// and removed) and returns the aligned response with its report; empty on the virtual transducer.
   std::function<MeasuredResponse(const Eigen::VectorXd& drive)> measure;
+  /// The chain the engine runs now (band-pass, slots, limiter): what a job that verifies a controller runs offline.
+  std::function<engine::ChainConfig()> chain;
   /// The largest drive peak the backend may be excited with (a sound card's configured safe level).
   double safe_level = 1.0;
   /// The virtual transducer when that is the backend (harmonic distortion, noise floor); empty otherwise.

@@ -21,6 +21,9 @@ struct JobKind {
   ParamsCheck params;  ///< its params check
   KindWork work;       ///< its work
   const char* makes = nullptr;  ///< the model kind its result's "model_id" is of (nullptr: it makes none)
+  /// Its result's "model_id" (null when it kept none) is activated unless the request says "activate": false
+  /// (tune: what it verified to help joins the chain).
+  bool activates_by_default = false;
 };
 
 }  // namespace panelbass::api

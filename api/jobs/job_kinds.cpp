@@ -15,6 +15,7 @@
 #include "api/jobs/identify_oscillator_job.h"
 #include "api/jobs/job_kind.h"
 #include "api/jobs/job_plots.h"
+#include "api/jobs/tune_job.h"
 #include "api/jobs/validate_job.h"
 #include "api/jobs/verify_job.h"
 
@@ -28,7 +29,8 @@ const std::vector<JobKind>& registry() {
   static const std::vector<JobKind> kinds{excite_job(),     identify_linear_job(), identify_narx_job(),
                                           identify_oscillator_job(), validate_job(),   design_lq_job(),       design_nn_job(),
                                           design_mirror_job(), evaluate_job(),     analyze_job(),
-                                          harmonics_job(),  diagnose_job(),        verify_job()};
+                                          harmonics_job(),  diagnose_job(),        verify_job(),
+                                          tune_job()};
   return kinds;
 }
 
@@ -58,6 +60,13 @@ std::string model_kind_made_by(const std::string& job_kind) {
     if (job_kind == kind.name) return kind.makes != nullptr ? kind.makes : "";
   }
   return "";
+}
+
+bool activates_by_default(const std::string& job_kind) {
+  for (const JobKind& kind : registry()) {
+    if (job_kind == kind.name) return kind.activates_by_default;
+  }
+  return false;
 }
 
 json validate_job_params(const std::string& kind, const json& params, const JobEnvironment& env) {

@@ -35,7 +35,7 @@ void Server::register_job_routes() {
                 throw HttpError{400, "bad_request", "body.activate: expected true or false"};
               }
               const std::string kind = body["kind"].get<std::string>();
-              const std::string id = submit_job(kind, params, body.value("activate", false));
+              const std::string id = submit_job(kind, params, body.contains("activate") ? std::optional<bool>(body["activate"].get<bool>()) : std::nullopt);
               send_json(res, 202, {{"id", id}, {"kind", kind}, {"state", "queued"}});
             }));
   http.Get(R"(/api/jobs/([^/]+))", guarded([this](const httplib::Request& req, httplib::Response& res) {

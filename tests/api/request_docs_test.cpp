@@ -14,6 +14,7 @@
 #include "usecases/design_mirror.h"
 #include "usecases/harmonics.h"
 #include "usecases/identify_oscillator.h"
+#include "usecases/tune.h"
 #include "usecases/validate_model.h"
 
 namespace panelbass::api {
@@ -69,6 +70,7 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
       {"design-mirror", "DesignMirrorParams", usecases::to_json(usecases::DesignMirrorRequest{})},
       {"harmonics", "HarmonicsParams", usecases::to_json(usecases::HarmonicsRequest{})},
       {"identify-oscillator", "IdentifyOscillatorParams", usecases::to_json(usecases::IdentifyOscillatorRequest{})},
+      {"tune", "TuneParams", usecases::to_json(usecases::TuneRequest{})},
   };
   const json& schemas = openapi_document().at("components").at("schemas");
   for (const DocumentedRequest& r : requests) {

@@ -184,7 +184,7 @@ const summaryOf = (j) => ({ id: j.id, kind: j.kind, state: j.state, progress: j.
                             ...(j.warnings.length ? { warnings: j.warnings } : {}) });
 
 // The slot each controller kind goes into; a plant model (linear, narx) goes into none.
-const SLOT_OF_KIND = { lq_feedforward: 'feedforward', neural_feedback: 'feedback' };
+const SLOT_OF_KIND = { lq_feedforward: 'feedforward', mirror_filter: 'feedforward', neural_feedback: 'feedback' };
 
 function emit(job, type, data) {
   for (const res of job.listeners) res.write(`event: ${type}\ndata: ${JSON.stringify(data)}\n\n`);
@@ -192,6 +192,26 @@ function emit(job, type, data) {
     for (const res of job.listeners) res.end();
     job.listeners = [];
   }
+}
+
+// A tune job's result (api/ROUTES.md "Jobs", usecases/tune.h): its steps, the decision, verify's points at equal
+// output (one cut a number, one a bound where the chain's THD is at the noise, one level the chain cannot reach)
+// and a THD-versus-level plot; the mirror filter kept.
+function tuneResult() {
+  const reading = (thd) => ({ thd_pct: thd, floor_pct: 0.05, noise_bound: false, uncertainty_db: 0.1 });
+  const atNoise = { thd_pct: null, floor_pct: 0.3, noise_bound: true, uncertainty_db: null, at_most_pct: 0.42 };
+  const point = (f, level, extra) => ({ frequency_hz: f, program_level: level, reachable: true, chain_drive_peak: 0.4,
+                                        output_level: 0.5 * level, plant_drive: 0.9 * level, plant_output_level: 0.5 * level, ...extra });
+  const points = [
+    point(80, 0.1, { chain: reading(0.3), plant: reading(3.0), thd_cut_db: 20, thd_cut_at_least_db: null }),
+    point(80, 0.2, { chain: atNoise, plant: reading(8.4), thd_cut_db: null, thd_cut_at_least_db: 20 * Math.log10(8.4 / 0.42) }),
+    point(80, 0.3, { reachable: false, unreachable_because: "the chain's limiter acts (drive peak 1)", chain: reading(0), plant: null,
+                     thd_cut_db: null, thd_cut_at_least_db: null }),
+  ];
+  return { keep: true, decision: 'kept: it cuts the THD by 20 to 26 dB at equal output over the 2 levels verified',
+           steps: ['measure', 'fit', 'verify', 'decide'].map((name, n) => ({ name, seconds: 2 + n, summary: {} })),
+           verify: { points, plays: 3, warnings: [], worst_cut_db: { 80: 20 } }, backend: 'virtual',
+           plots: { thd_vs_level_80: { level: [0.05, 0.1], chain_thd_pct: [0.3, 0.42], plant_thd_pct: [3.0, 8.4] } } };
 }
 
 function runJob(job) {
@@ -230,10 +250,13 @@ function runJob(job) {
                            thd_after_floor_pct: 0.5, thd_after_at_most_pct: Math.SQRT2 * 0.5, thd_change_db: null, thd_change_at_most_db: 20 * Math.log10(Math.SQRT2 * 0.5 / 4.1),
                            note: 'the THD through the chain is at the sensor\'s noise floor', level_before: 0.21, level_after: 0.2 });
     }
+    if (job.kind === 'tune') Object.assign(result, tuneResult());
     if (job.kind !== 'excite' && job.kind !== 'analyze' && job.kind !== 'diagnose' && job.kind !== 'verify') {
-      const kind = { 'identify-linear': 'linear', 'identify-narx': 'narx', 'design-lq': 'lq_feedforward', 'design-nn': 'neural_feedback' }[job.kind];
+      const kind = { 'identify-linear': 'linear', 'identify-narx': 'narx', 'design-lq': 'lq_feedforward', 'design-nn': 'neural_feedback',
+                     tune: 'mirror_filter' }[job.kind];
       const { id } = storeModel({ format: 'panelbass.model/1', kind, fs: FS, params: { job: job.id, p: job.params } }, `${job.kind} ${job.id}`, job.id);
       result.model_id = id;
+      if (job.kind === 'tune') result.mirror_model_id = id;
       if (job.activate) {
         const slot = SLOT_OF_KIND[kind];
         if (slot) {

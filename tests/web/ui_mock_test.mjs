@@ -12,9 +12,9 @@
 //   - a job that finishes is shown without a click (result, plots, and the hint that a click shows another);
 //   - an identify-narx job without nk ends with a warning (J_val 100.3 %, nk 1001): shown in its row and
 //     prominently on its result;
-//   - the Tune button runs measure → identify linear → design LQ → control record → identify NARX → design NN →
-//     verify, each step marked as its job succeeds; the neural feedback it designed is active at the end and the
-//     verify step's THD before/after is shown per probe;
+//   - the Tune button runs the tune job (measure → fit from the current → mirror filter → verify at equal output →
+//     decide), its steps followed to the end; the decision, verify's THD alone and with the filter per probe and
+//     level (a bound at the noise, a level not reached) are shown, and the mirror filter it kept is active;
 //   - plant models (linear, narx) are offered no Activate, in the store or on their result, and the form's
 //     "activate when done" is only offered for controllers; an LQ feedforward is offered "Activate as feedforward";
 //     when the server refuses an activation its error text is shown; accepted, the status shows the model active;
@@ -176,26 +176,29 @@ async function main() {
   check(!(await page.isVisible('#result-activate')), 'the design-lq result offers Activate though the server lists no slot for its model');
   await page.unroute('**/api/models');
 
-  // Tune: one click runs the six jobs one after another, each step marked as its job succeeds, and the two
-  // controllers it designed end up active.
+  // Tune: one click runs the tune job; its four steps are followed to the end, the decision and verify's points
+  // (a cut, a bound at the noise, a level not reached) are shown, and the mirror filter it kept is active.
   run.step = 'tune';
   await page.click('#tune-start');
   const tuned = await until(async () => {
     const s = await page.$$eval('#tune-steps li', (items) => items.map((li) => li.dataset.state));
-    return s.length === 7 && s.every((x) => x === 'succeeded') ? s : null;
-  }, 30_000, 'the tune pipeline did not finish its seven steps');
+    return s.length === 4 && s.every((x) => x === 'succeeded') ? s : null;
+  }, 30_000, 'the tune job did not finish its four steps');
   run.log(`tune: ${tuned.join(', ')}`);
-  const tunedJobs = await page.$$eval('#tune-steps li span', (spans) => spans.map((x) => x.textContent));
+  const tuneJob = (await (await fetch(new URL('/api/jobs', base))).json()).jobs.find((j) => j.kind === 'tune');
+  const mirror = (await (await fetch(new URL(`/api/jobs/${tuneJob.id}`, base))).json()).result.model_id;
   const status = await (await fetch(new URL('/api/status', base))).json();
-  const nnModel = (await (await fetch(new URL(`/api/jobs/${tunedJobs[5]}`, base))).json()).result.model_id;
-  check(status.active_models.feedback === nnModel,
-        `after the tune the feedback slot runs ${JSON.stringify(status.active_models)}, not the designed ${nnModel}`);
+  check(status.active_models.feedforward === mirror,
+        `after the tune the feedforward slot runs ${JSON.stringify(status.active_models)}, not the kept ${mirror}`);
   check(!(await page.isVisible('#tune-error')), 'the tune shows an error');
-  const probes = await page.$$eval('#tune-probes tbody tr', (rows) => rows.map((r) => r.textContent));
-  check(probes.length === 3 && probes[0].includes('4.10 %') && probes[0].includes('1.30 %') && probes[0].includes('-10.0 dB'),
-        `the verify step's probes are not shown: ${JSON.stringify(probes)}`);
-  check(probes[2].includes('≤ 0.71 % (noise floor)') && probes[2].includes('≤ -15.3 dB'),
-        `a THD at the noise floor is not shown as the floor it lies under: ${JSON.stringify(probes[2])}`);
+  const decision = await page.textContent('#tune-decision');
+  check(decision.startsWith('kept: it cuts the THD') && decision.includes(mirror), `the tune's decision is not shown: ${decision}`);
+  const points = await page.$$eval('#tune-probes tbody tr', (rows) => rows.map((r) => r.textContent));
+  check(points.length === 3 && points[0].includes('3.00 %') && points[0].includes('0.30 %') && points[0].includes('20.0 dB'),
+        `verify's points are not shown: ${JSON.stringify(points)}`);
+  check(points[1].includes('≤ 0.42 % (noise)') && points[1].includes('≥ 26.0 dB'),
+        `a THD at the noise is not shown as the bound it gives: ${JSON.stringify(points[1])}`);
+  check(points[2].includes("not reached: the chain's limiter acts"), `an unreachable level is not said: ${JSON.stringify(points[2])}`);
 
   run.step = 'no page errors';
   check(run.pageErrors.length === 0, `${run.pageErrors.length} error(s) in the page`);

@@ -1,8 +1,9 @@
-// The tune pipeline in one action: measure → identify linear → design LQ (activated) → record in the operating
-// regime → identify NARX → design the neural feedback (activated) → verify (probe tones without and with the
-// chain: THD and level of the response, shown here). Each step is an ordinary job (its progress in
-// the jobs table, its result and plots a click away); the list here says where the pipeline is, and a failed
-// step stops it, saying why. The same jobs run on the virtual transducer and on a sound card.
+// Tune in one click: the server's tune job (api/ROUTES.md "Jobs", usecases/tune.h) — measure the transducer,
+// fit its gray-box model from the coil current, design the mirror filter, verify it at equal output level, and
+// keep (activate) it only where it cuts the distortion. The list here follows the job's steps; the decision, the
+// THD of each probe and level (transducer alone against the chain, at the same output) and the THD-versus-level
+// plots (in the job's result, selected when it ends) say what it bought. The same job runs on the virtual
+// transducer and on a sound card.
 
 import { api, FINISHED_STATES } from '../api.js';
 import { $, el, showMessage } from './dom.js';
@@ -12,79 +13,89 @@ import { selectJob } from './job_view.js';
 
 const POLL_MS = 500;
 
-/** The steps: a label, the job's kind, its params from the ids made so far, whether to activate its model, and
- *  what of its result the next steps need. */
+/** The job's steps, and where each begins in its progress (usecases/tune.cpp reports these spans). */
 const STEPS = [
-  { label: 'measure', kind: 'excite', params: () => ({ signal: 'noise', samples: 10000, validation_samples: 5000, seed: 1 }),
-    keep: (job, made) => { made.record = job.id; } },
-  { label: 'identify linear', kind: 'identify-linear', params: (made) => ({ record: made.record, method: 'oe', order: 8 }),
-    keep: (job, made) => { made.linear = job.result.model_id; } },
-  { label: 'design LQ feedforward', kind: 'design-lq', activate: true, params: (made) => ({ plant_model: made.linear }),
-    keep: (job, made) => { made.lq = job.result.model_id; } },
-  { label: 'record in the operating regime', kind: 'excite',
-    params: (made) => ({ signal: 'control', feedforward_model: made.lq, samples: 20000, validation_samples: 5000, seed: 2 }),
-    keep: (job, made) => { made.control = job.id; } },
-  { label: 'identify NARX', kind: 'identify-narx', params: (made) => ({ record: made.control, weighted: true }),
-    keep: (job, made) => { made.narx = job.result.model_id; } },
-  { label: 'design neural feedback', kind: 'design-nn', activate: true,
-    params: (made) => ({ plant_model: made.narx, feedforward_model: made.lq }),
-    keep: (job, made) => { made.nn = job.result.model_id; } },
-  { label: 'verify', kind: 'verify', params: (made) => ({ feedforward_model: made.lq, feedback_model: made.nn }),
-    keep: (job) => showProbes(job.result) },
+  { name: 'measure', label: 'measure (multisine: drive and coil current)', from: 0 },
+  { name: 'fit', label: 'fit the gray-box model from the current; the mirror filter', from: 0.3 },
+  { name: 'verify', label: 'verify at equal output level', from: 0.4 },
+  { name: 'decide', label: 'keep it where it helps', from: 0.98 },
 ];
 
 const fixed = (x, digits) => (typeof x === 'number' && Number.isFinite(x) ? x.toFixed(digits) : '—');
 
-/** The verify step's probes: THD and level of the response without and with the chain, per tone. */
-function showProbes(result) {
-  // A THD at the sensor's noise floor is shown as the floor it lies under, and the change as the bound it gives.
-  const thd = (p, side) => (p[`thd_${side}_at_floor`] ? `≤ ${fixed(p[`thd_${side}_at_most_pct`], 2)} % (noise floor)`
-    : `${fixed(p[`thd_${side}_pct`], 2)} %`);
-  const change = (p) => (typeof p.thd_change_at_most_db === 'number' ? `≤ ${fixed(p.thd_change_at_most_db, 1)} dB`
-    : `${fixed(p.thd_change_db, 1)} dB`);
-  const rows = (result.probes || []).map((p) => el('tr', { title: p.note || '' },
-    el('td', {}, `${p.frequency_hz} Hz`), el('td', {}, thd(p, 'before')), el('td', {}, thd(p, 'after')),
-    el('td', {}, change(p)), el('td', {}, fixed(p.level_before, 4)), el('td', {}, fixed(p.level_after, 4))));
-  $('#tune-probes').replaceChildren(el('thead', {}, el('tr', {}, ...['probe', 'THD before', 'THD after',
-    'THD change (negative: less distortion)', 'level before',
-    'level after'].map((h) => el('th', {}, h)))), el('tbody', {}, ...rows));
+/** A THD reading: its value, or what it is at most when it stands in the sensor's noise. */
+function thdText(r) {
+  if (!r) return '—';
+  return r.noise_bound ? `≤ ${fixed(r.at_most_pct, 2)} % (noise)` : `${fixed(r.thd_pct, 2)} %`;
+}
+
+/** A point's cut: a number, a bound, or why there is none. */
+function cutText(p) {
+  if (!p.reachable) return `not reached: ${p.unreachable_because}`;
+  if (typeof p.thd_cut_db === 'number') return `${fixed(p.thd_cut_db, 1)} dB`;
+  if (typeof p.thd_cut_at_least_db === 'number') return `≥ ${fixed(p.thd_cut_at_least_db, 1)} dB`;
+  return 'unknown (the transducer alone reads at its noise)';
+}
+
+/** Verify's points: per probe and program level, the THD alone and through the chain at equal output, the cut. */
+function showPoints(result) {
+  const points = (result.verify && result.verify.points) || [];
+  const rows = points.map((p) => el('tr', { dataset: { reachable: String(p.reachable) } },
+    el('td', {}, `${p.frequency_hz} Hz`), el('td', {}, fixed(p.program_level, 2)), el('td', {}, fixed(p.output_level, 4)),
+    el('td', {}, thdText(p.plant)), el('td', {}, thdText(p.chain)), el('td', {}, cutText(p))));
+  $('#tune-probes').replaceChildren(el('thead', {}, el('tr', {}, ...['probe', 'program level', 'output (sensor fundamental)',
+    'THD transducer alone', 'THD with the filter', 'THD cut (positive: less distortion)'].map((h) => el('th', {}, h)))),
+  el('tbody', {}, ...rows));
   $('#tune-probes').hidden = false;
 }
 
 const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
 
-/** Waits for job `id` to finish; its final record. */
-async function finished(id) {
-  for (;;) {
-    const job = await api.job(id);
-    if (FINISHED_STATES.has(job.state)) return job;
-    await sleep(POLL_MS);
-  }
+/** Marks the steps up to the one `progress` is in as done, that one running. */
+function follow(items, progress) {
+  let current = 0;
+  STEPS.forEach((s, n) => { if (progress >= s.from) current = n; });
+  items.forEach((item, n) => { item.dataset.state = n < current ? 'succeeded' : n === current ? 'running' : 'waiting'; });
 }
 
-/** Runs the pipeline, step after step, showing each in #tune-steps. */
+/** Runs the tune job, following its steps in #tune-steps; its decision and points when it ends. */
 export async function tune() {
   const button = $('#tune-start');
   const list = $('#tune-steps');
   showMessage('#tune-error', '');
   button.disabled = true;
-  const items = STEPS.map((s) => el('li', { dataset: { state: 'waiting' } }, s.label, ' ', el('span', { class: 'mono' })));
+  const items = STEPS.map((s) => el('li', { dataset: { state: 'waiting', step: s.name } }, s.label, ' ', el('span', { class: 'mono' })));
   list.replaceChildren(...items);
   $('#tune-probes').hidden = true;
-  const made = {};
+  $('#tune-decision').textContent = '';
   try {
-    for (const [n, step] of STEPS.entries()) {
-      const item = items[n];
-      item.dataset.state = 'running';
-      const { id } = await api.startJob(step.kind, step.params(made), step.activate);
-      item.lastChild.textContent = id;
-      await refreshJobs();
-      selectJob(id);
-      const job = await finished(id);
-      item.dataset.state = job.state;
-      if (job.state !== 'succeeded') throw new Error(`${step.label} (${id}) ${job.state}: ${job.error || ''}`);
-      step.keep(job, made);
+    // activate: what the job keeps joins the feedforward slot (it keeps nothing that does not help)
+    const { id } = await api.startJob('tune', {}, true);
+    await refreshJobs();
+    selectJob(id);
+    let job;
+    for (;;) {
+      job = await api.job(id);
+      follow(items, job.progress || 0);
+      items[STEPS.findIndex((s, n) => items[n].dataset.state === 'running')]?.lastChild.replaceChildren(job.message || '');
+      if (FINISHED_STATES.has(job.state)) break;
+      await sleep(POLL_MS);
     }
+    if (job.state !== 'succeeded') {
+      items.forEach((item) => { if (item.dataset.state === 'running') item.dataset.state = job.state; });
+      throw new Error(`tune (${id}) ${job.state}: ${job.error || ''}`);
+    }
+    const seconds = Object.fromEntries((job.result.steps || []).map((s) => [s.name, s.seconds]));
+    items.forEach((item, n) => {
+      item.dataset.state = 'succeeded';
+      item.lastChild.textContent = `${fixed(seconds[STEPS[n].name], 1)} s`;
+    });
+    const kept = job.result.keep;
+    $('#tune-decision').textContent = `${job.result.decision}${kept && job.activated ? ` — active in the ${job.activated.slot} slot (${job.activated.id})` : ''}`;
+    $('#tune-decision').dataset.kept = String(!!kept);
+    showPoints(job.result);
+    await refreshJobs();
+    selectJob(id);
   } catch (e) {
     showMessage('#tune-error', errorText(e));
   } finally {

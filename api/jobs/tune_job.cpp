@@ -1,0 +1,106 @@
+#include "api/jobs/tune_job.h"
+
+#include <algorithm>
+#include <atomic>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "api/jobs/job_progress.h"
+#include "api/jobs/param_reader.h"
+#include "api/jobs/stored_models.h"
+#include "models/plant/virtual_transducer.h"
+#include "usecases/tune.h"
+
+namespace panelbass::api {
+namespace {
+
+using nlohmann::json;
+
+// The request from checked params (the running chain and the backend's rate and safe level from `env`).
+usecases::TuneRequest request_of(const json& p, const JobEnvironment& env) {
+  usecases::TuneRequest q;
+  q.chain = env.chain ? env.chain() : engine::ChainConfig{};
+  q.chain.fs = env.fs;
+  q.safe_level = env.safe_level;
+  q.samples = p.at("samples").get<long long>();
+  q.amplitude = p.at("amplitude").get<double>();
+  q.f_min = p.at("f_min").get<double>();
+  q.f_max = p.at("f_max").get<double>();
+  q.seed = p.at("seed").get<std::uint64_t>();
+  q.sensor_kind = p.at("sensor_kind").get<std::string>();
+  q.max_delay = p.at("max_delay").get<int>();
+  q.verify.frequencies = p.at("frequencies").get<std::vector<double>>();
+  q.verify.levels = p.at("levels").get<std::vector<double>>();
+  q.verify.settle_seconds = p.at("settle_seconds").get<double>();
+  q.verify.analysis_seconds = p.at("analysis_seconds").get<double>();
+  q.verify.max_plays = p.at("max_plays").get<int>();
+  q.keep_min_cut_db = p.at("keep_min_cut_db").get<double>();
+  return q;
+}
+
+json tune_params(const json& params, const JobEnvironment& env) {
+  if (!env.measure && !env.plant) refuse("params", "this server has no backend to measure the transducer through");
+  const usecases::TuneRequest defaults;
+  ParamReader r(params, "params");
+  r.integer("samples", defaults.samples, 3000, 1'000'000);
+  r.number("amplitude", std::min(defaults.amplitude, env.safe_level), {0.0, env.safe_level, false, true});
+  const double f_min = r.number("f_min", defaults.f_min, {0.0, env.fs / 2.0, true, false});
+  r.number("f_max", defaults.f_max, {f_min, env.fs / 2.0, false, false});
+  r.integer("seed", static_cast<long long>(defaults.seed), 0, kMaxSeed);
+  r.choice("sensor_kind", defaults.sensor_kind, {"none", "acceleration", "velocity", "displacement", "microphone"});
+  r.integer("max_delay", defaults.max_delay, 0, 64);
+  r.numbers("frequencies", defaults.verify.frequencies, 1, 16, {10.0, env.fs / 4.0, true, true});
+  r.numbers("levels", defaults.verify.levels, 1, 16, {0.0, 1.0, false, true});
+  r.number("settle_seconds", defaults.verify.settle_seconds, {0.1, 5.0, true, true});
+  r.number("analysis_seconds", defaults.verify.analysis_seconds, {0.2, 10.0, true, true});
+  r.integer("max_plays", defaults.verify.max_plays, 1, 8);
+  r.number("keep_min_cut_db", defaults.keep_min_cut_db, {0.0, 60.0, true, true});
+  json filled = r.finish();
+  check_request([&] { usecases::check(request_of(filled, env)); });
+  return filled;
+}
+
+json tune_work(const json& params, const JobEnvironment& env, JobControl& control) {
+  JobProgress progress(control);
+  const usecases::TuneRequest q = request_of(params, env);
+  // The transducer as the backend plays it: a sound card's measurement (its round trip removed), or the server's
+  // virtual transducer simulated on the drive (a new noise seed for each play).
+  std::atomic<std::uint64_t> plays{0};
+  const usecases::PlayFunction play = [&](const Eigen::VectorXd& drive) {
+    usecases::Playback out;
+    if (env.measure) {
+      MeasuredResponse m = env.measure(drive);
+      out.sensor = std::move(m.y);
+      out.current = std::move(m.i);
+      out.loopback = std::move(m.loopback);
+    } else {
+      models::PlantRecord r = models::simulate(*env.plant, drive, q.seed + 1000 + plays.fetch_add(1));
+      out.sensor = std::move(r.y);
+      out.current = std::move(r.i);
+    }
+    return out;
+  };
+  usecases::TuneReport report = usecases::tune(q, play, progress);
+  json result = report.to_json();
+  const std::string mirror_id = store_model(env, models::mirror_model_to_json(report.mirror->model, report.mirror->meta),
+                                            std::string(report.keep ? "mirror filter" : "mirror filter, left out") + " (" +
+                                                control.job_id() + ")",
+                                            control);
+  result["mirror_model_id"] = mirror_id;
+  result["model_id"] = report.keep ? json(mirror_id) : json(nullptr);  // activated by the server when kept
+  result["backend"] = env.measure ? "alsa" : "virtual";
+  result["summary"] = report.mirror->summary;
+  result["plots"] = report.verify->plots();
+  return result;
+}
+
+}  // namespace
+
+JobKind tune_job() {
+  JobKind kind{"tune", tune_params, tune_work, "mirror_filter"};
+  kind.activates_by_default = true;
+  return kind;
+}
+
+}  // namespace panelbass::api

@@ -1,0 +1,167 @@
+#include "usecases/tune.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "dsp/excitation.h"
+#include "models/io/number_text.h"
+#include "usecases/request_error.h"
+
+namespace panelbass::usecases {
+namespace {
+
+using models::number_text;
+using Clock = std::chrono::steady_clock;
+
+// A cut below this at any verified point leaves the filter out, dB: within the readings' own uncertainty of 0.
+constexpr double kWorstAllowedCutDb = -1.0;
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+// The tune's decision on a verification: keep when it cuts by keep_min_cut_db somewhere and worsens nowhere.
+void decide(const EqualOutputReport& v, double keep_min_cut_db, TuneReport& report) {
+  std::optional<double> best, worst;
+  std::string worst_at;
+  int credited = 0;
+  for (const EqualOutputPoint& p : v.points) {
+    if (!p.reachable) continue;
+    const std::optional<double> cut = EqualOutputReport::credited_cut(p);
+    if (!cut) continue;
+    ++credited;
+    best = best ? std::max(*best, *cut) : *cut;
+    if (!worst || *cut < *worst) {
+      worst = *cut;
+      worst_at = number_text(p.frequency_hz) + " Hz, program level " + number_text(p.program_level);
+    }
+  }
+  if (credited == 0) {
+    report.keep = false;
+    report.decision = "left out: no probe level gave a THD to compare (unreachable, or the transducer alone at its noise floor)";
+  } else if (*worst < kWorstAllowedCutDb) {
+    report.keep = false;
+    report.decision = "left out: it makes the distortion worse at " + worst_at + " (" + number_text(*worst, 3) + " dB at equal output)";
+  } else if (*best < keep_min_cut_db) {
+    report.keep = false;
+    report.decision = "left out: its best cut is " + number_text(*best, 3) + " dB, less than " + number_text(keep_min_cut_db) + " dB";
+  } else {
+    report.keep = true;
+    report.decision = "kept: it cuts the THD by " + number_text(*worst, 3) + " to " + number_text(*best, 3) +
+                      " dB at equal output over the " + std::to_string(credited) + " levels verified";
+  }
+}
+
+}  // namespace
+
+void check(const TuneRequest& q) {
+  const double fs = q.chain.fs;
+  if (!(q.safe_level > 0.0 && q.safe_level <= 1.0)) throw RequestError("safe_level", "must be within (0, 1]");
+  if (q.samples < 3000 || q.samples > 1'000'000) throw RequestError("samples", "must be within 3000..1000000, got " + std::to_string(q.samples));
+  if (!(q.amplitude > 0.0 && q.amplitude <= q.safe_level)) {
+    throw RequestError("amplitude", "must be within (0, safe level " + number_text(q.safe_level) + "], got " + number_text(q.amplitude));
+  }
+  if (!(q.f_min >= 0.0 && q.f_min < q.f_max)) throw RequestError("f_min", "must be ≥ 0 and below f_max");
+  if (!(q.f_max < fs / 2.0)) throw RequestError("f_max", "must be below fs/2 = " + number_text(fs / 2.0) + " Hz");
+  if (q.max_delay < 0 || q.max_delay > 64) throw RequestError("max_delay", "must be within 0..64");
+  if (!(std::isfinite(q.keep_min_cut_db) && q.keep_min_cut_db >= 0.0)) throw RequestError("keep_min_cut_db", "must be ≥ 0");
+  check(q.verify, fs);
+  DesignMirrorRequest fit;  // the fit's own checks on a stand-in record of the right shape
+  fit.fs = fs;
+  fit.current_only = true;
+  fit.sensor_kind = q.sensor_kind;
+  fit.max_delay = q.max_delay;
+  fit.drive = fit.current = fit.sensor = Eigen::VectorXd::Zero(1000);
+  check(fit);
+}
+
+nlohmann::json to_json(const TuneRequest& q) {
+  return {{"samples", q.samples},          {"amplitude", q.amplitude},
+          {"f_min", q.f_min},              {"f_max", q.f_max},
+          {"seed", q.seed},                {"sensor_kind", q.sensor_kind},
+          {"max_delay", q.max_delay},      {"frequencies", q.verify.frequencies},
+          {"levels", q.verify.levels}, {"settle_seconds", q.verify.settle_seconds},
+          {"analysis_seconds", q.verify.analysis_seconds}, {"max_plays", q.verify.max_plays},
+          {"keep_min_cut_db", q.keep_min_cut_db}};
+}
+
+nlohmann::json TuneReport::to_json() const {
+  nlohmann::json steps_json = nlohmann::json::array();
+  for (const TuneStep& s : steps) steps_json.push_back({{"name", s.name}, {"seconds", s.seconds}, {"summary", s.summary}});
+  return {{"steps", steps_json},
+          {"keep", keep},
+          {"decision", decision},
+          {"verify", verify ? verify->to_json() : nlohmann::json(nullptr)},
+          {"warnings", warnings}};
+}
+
+TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progress) {
+  check(q);
+  const double fs = q.chain.fs;
+  TuneReport report;
+  // 1. Measure: a multisine over the working band; the drive as the converters delivered it and the current.
+  Clock::time_point start = Clock::now();
+  progress.report(0.0, "measuring: a " + number_text(q.f_min) + "-" + number_text(q.f_max) + " Hz multisine");
+  dsp::MultisineSpec spec;
+  spec.period = static_cast<std::size_t>(q.samples);
+  spec.fs = fs;
+  spec.f_min = q.f_min;
+  spec.f_max = q.f_max;
+  spec.amplitude = q.amplitude;
+  spec.seed = q.seed;
+  const Eigen::VectorXd drive = dsp::multisine(spec).signal;
+  const Playback record = play(drive);
+  if (record.current.size() != drive.size()) {
+    throw std::runtime_error("measure: the backend records no coil current, and the mirror filter is fitted from it "
+                             "(on a sound card: a capture channel with the current, serve --current-channel)");
+  }
+  const bool looped = record.loopback.size() == drive.size();
+  report.steps.push_back({"measure", seconds_since(start),
+                          {{"samples", drive.size()}, {"seconds", static_cast<double>(drive.size()) / fs},
+                           {"amplitude", q.amplitude}, {"band_hz", {q.f_min, q.f_max}},
+                           {"drive", looped ? "the loopback (as the converters delivered it)" : "as sent"},
+                           {"current_rms_a", std::sqrt(record.current.squaredNorm() / static_cast<double>(drive.size()))}}});
+  // 2. The gray-box model from the current (and the sensor when asked), and its mirror filter.
+  start = Clock::now();
+  DesignMirrorRequest fit;
+  fit.drive = looped ? record.loopback : drive;
+  fit.current = record.current;
+  fit.sensor = record.sensor;
+  fit.current_only = true;
+  fit.sensor_kind = q.sensor_kind;
+  fit.fs = fs;
+  fit.max_delay = q.max_delay;
+  fit.data_name = "tune's multisine (" + number_text(q.f_min) + "-" + number_text(q.f_max) + " Hz, peak " +
+                  number_text(q.amplitude) + ", seed " + std::to_string(q.seed) + ")";
+  ProgressSpan fit_progress(progress, 0.3, 0.4);
+  DesignMirrorReport mirror = design_mirror(fit, fit_progress);
+  report.steps.push_back({"fit", seconds_since(start), mirror.summary});
+  for (const std::string& w : mirror.warnings) report.warnings.push_back("fit: " + w);
+  if (!mirror.usable) {
+    std::string why;
+    for (const std::string& w : mirror.warnings) why += (why.empty() ? "" : " ") + w;
+    throw std::runtime_error("fit: the model misses this transducer, so no mirror filter is made: " + why);
+  }
+  // 3. Verify the chain with the filter at equal output level.
+  start = Clock::now();
+  EqualOutputRequest v;
+  v.chain = q.chain;
+  v.chain.feedforward = engine::SlotConfig{};
+  v.chain.feedforward->model = models::mirror_model_to_json(mirror.model, mirror.meta);
+  v.chain.feedback.reset();
+  v.safe_level = q.safe_level;
+  v.settings = q.verify;
+  ProgressSpan verify_progress(progress, 0.4, 0.98);
+  EqualOutputReport verified = verify_equal_output(v, play, verify_progress);
+  for (const std::string& w : verified.warnings) report.warnings.push_back("verify: " + w);
+  report.steps.push_back({"verify", seconds_since(start), {{"plays", verified.plays}, {"worst_cut_db", verified.to_json()["worst_cut_db"]}}});
+  // 4. Keep it only where it helps.
+  decide(verified, q.keep_min_cut_db, report);
+  report.steps.push_back({"decide", 0.0, {{"keep", report.keep}, {"decision", report.decision}}});
+  report.mirror = std::move(mirror);
+  report.verify = std::move(verified);
+  progress.report(1.0, report.decision);
+  return report;
+}
+
+}  // namespace panelbass::usecases
