@@ -48,7 +48,7 @@ void decide(const EqualOutputReport& v, double keep_min_cut_db, TuneReport& repo
   } else {
     report.keep = true;
     report.decision = "kept: it cuts the THD by " + number_text(*worst, 3) + " to " + number_text(*best, 3) +
-                      " dB at equal output over the " + std::to_string(credited) + " levels verified";
+                      " dB at equal output over the " + std::to_string(credited) + (credited == 1 ? " level" : " levels") + " verified";
   }
 }
 
