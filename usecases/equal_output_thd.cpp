@@ -148,6 +148,11 @@ nlohmann::json reading_json(const ThdReading& r) {
 
 }  // namespace
 
+nlohmann::json to_json(const EqualOutputSettings& s) {
+  return {{"frequencies", s.frequencies},       {"levels", s.levels},          {"settle_seconds", s.settle_seconds},
+          {"analysis_seconds", s.analysis_seconds}, {"max_plays", s.max_plays}};
+}
+
 void check(const EqualOutputSettings& s, double fs) {
   if (s.frequencies.empty() || s.frequencies.size() > 16) throw RequestError("frequencies", "give 1 to 16 probe frequencies");
   for (double f : s.frequencies) {

@@ -74,6 +74,9 @@ struct EqualOutputReport {
   nlohmann::json plots() const;
 };
 
+/// The settings' fields as the API names them (the verify job's params, the tune job's probes).
+nlohmann::json to_json(const EqualOutputSettings& settings);
+
 /// Throws RequestError naming the field ("frequencies", "levels", …) for settings out of range at `fs`.
 void check(const EqualOutputSettings& settings, double fs);
 

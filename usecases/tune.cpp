@@ -76,13 +76,11 @@ void check(const TuneRequest& q) {
 }
 
 nlohmann::json to_json(const TuneRequest& q) {
-  return {{"samples", q.samples},          {"amplitude", q.amplitude},
-          {"f_min", q.f_min},              {"f_max", q.f_max},
-          {"seed", q.seed},                {"sensor_kind", q.sensor_kind},
-          {"max_delay", q.max_delay},      {"frequencies", q.verify.frequencies},
-          {"levels", q.verify.levels}, {"settle_seconds", q.verify.settle_seconds},
-          {"analysis_seconds", q.verify.analysis_seconds}, {"max_plays", q.verify.max_plays},
-          {"keep_min_cut_db", q.keep_min_cut_db}};
+  nlohmann::json fields = to_json(q.verify);  // the probes, as the verify job names them
+  fields.update({{"samples", q.samples},     {"amplitude", q.amplitude},     {"f_min", q.f_min},
+                 {"f_max", q.f_max},         {"seed", q.seed},               {"sensor_kind", q.sensor_kind},
+                 {"max_delay", q.max_delay}, {"keep_min_cut_db", q.keep_min_cut_db}});
+  return fields;
 }
 
 nlohmann::json TuneReport::to_json() const {

@@ -1,15 +1,14 @@
 #include "api/jobs/tune_job.h"
 
 #include <algorithm>
-#include <atomic>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
+#include "api/jobs/backend_play.h"
 #include "api/jobs/job_progress.h"
 #include "api/jobs/param_reader.h"
 #include "api/jobs/stored_models.h"
-#include "models/plant/virtual_transducer.h"
 #include "usecases/tune.h"
 
 namespace panelbass::api {
@@ -64,23 +63,7 @@ json tune_params(const json& params, const JobEnvironment& env) {
 json tune_work(const json& params, const JobEnvironment& env, JobControl& control) {
   JobProgress progress(control);
   const usecases::TuneRequest q = request_of(params, env);
-  // The transducer as the backend plays it: a sound card's measurement (its round trip removed), or the server's
-  // virtual transducer simulated on the drive (a new noise seed for each play).
-  std::atomic<std::uint64_t> plays{0};
-  const usecases::PlayFunction play = [&](const Eigen::VectorXd& drive) {
-    usecases::Playback out;
-    if (env.measure) {
-      MeasuredResponse m = env.measure(drive);
-      out.sensor = std::move(m.y);
-      out.current = std::move(m.i);
-      out.loopback = std::move(m.loopback);
-    } else {
-      models::PlantRecord r = models::simulate(*env.plant, drive, q.seed + 1000 + plays.fetch_add(1));
-      out.sensor = std::move(r.y);
-      out.current = std::move(r.i);
-    }
-    return out;
-  };
+  const usecases::PlayFunction play = backend_play(env, PlayedChannels::sensor_and_current, q.seed + 1000);
   usecases::TuneReport report = usecases::tune(q, play, progress);
   json result = report.to_json();
   const std::string mirror_id = store_model(env, models::mirror_model_to_json(report.mirror->model, report.mirror->meta),

@@ -14,6 +14,7 @@
 #include "usecases/design_mirror.h"
 #include "usecases/harmonics.h"
 #include "usecases/identify_oscillator.h"
+#include "usecases/equal_output_thd.h"
 #include "usecases/tune.h"
 #include "usecases/validate_model.h"
 
@@ -71,6 +72,7 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
       {"harmonics", "HarmonicsParams", usecases::to_json(usecases::HarmonicsRequest{})},
       {"identify-oscillator", "IdentifyOscillatorParams", usecases::to_json(usecases::IdentifyOscillatorRequest{})},
       {"tune", "TuneParams", usecases::to_json(usecases::TuneRequest{})},
+      {"verify", "VerifyParams", usecases::to_json(usecases::EqualOutputSettings{})},
   };
   const json& schemas = openapi_document().at("components").at("schemas");
   for (const DocumentedRequest& r : requests) {
