@@ -90,7 +90,8 @@ nlohmann::json TuneReport::to_json() const {
           {"keep", keep},
           {"decision", decision},
           {"verify", verify ? verify->to_json() : nlohmann::json(nullptr)},
-          {"warnings", warnings}};
+          {"warnings", warnings},
+          {"left_out", left_out}};
 }
 
 TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progress) {
@@ -156,6 +157,11 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
   // 4. Keep it only where it helps.
   decide(verified, q.keep_min_cut_db, report);
   report.steps.push_back({"decide", 0.0, {{"keep", report.keep}, {"decision", report.decision}}});
+  report.left_out = {
+      "an LQ feedforward: the feedforward slot holds one controller, and the LQ flattens the response without "
+      "cutting the distortion (design-lq, then verify it against this filter, if a flat response matters more)",
+      "a neural feedback: it needs a NARX model of the transducer behind this filter (design-nn; verify shows whether "
+      "it cuts more on top of it)"};
   report.mirror = std::move(mirror);
   report.verify = std::move(verified);
   progress.report(1.0, report.decision);

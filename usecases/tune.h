@@ -54,7 +54,9 @@ struct TuneReport {
   bool keep = false;                           ///< the filter helps: it is to join the chain
   std::string decision;                        ///< why it was kept or left out, in words
   std::vector<std::string> warnings;           ///< what the steps warned of
-  /// {"steps":[{"name","seconds","summary"}],"keep","decision","verify":{…},"warnings"}.
+  /// The other stages a chain can have, each with why the tune leaves it out.
+  std::vector<std::string> left_out;
+  /// {"steps":[{"name","seconds","summary"}],"keep","decision","verify":{…},"warnings","left_out"}.
   nlohmann::json to_json() const;
 };
 

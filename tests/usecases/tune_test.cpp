@@ -40,6 +40,7 @@ TEST(Tune, KeepsAMirrorFilterFromTheCurrentAloneThatCutsTheDistortion) {
   EXPECT_EQ(r.keep, *r.verify->points[0].cut_db >= 3.0) << r.decision;
   EXPECT_GT(*r.verify->points[0].cut_db, 3.0) << r.decision;
   EXPECT_EQ(r.decision.rfind("kept", 0), 0u) << r.decision;
+  EXPECT_EQ(r.to_json()["left_out"].size(), 2u);  // the LQ feedforward and the neural feedback, each with why
 }
 
 TEST(Tune, ABackendWithoutTheCoilCurrentIsToldWhatIsMissing) {

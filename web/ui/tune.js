@@ -93,6 +93,7 @@ export async function tune() {
     const kept = job.result.keep;
     $('#tune-decision').textContent = `${job.result.decision}${kept && job.activated ? ` — active in the ${job.activated.slot} slot (${job.activated.id})` : ''}`;
     $('#tune-decision').dataset.kept = String(!!kept);
+    $('#tune-decision').title = (job.result.left_out || []).map((w) => `left out: ${w}`).join('\n');
     showPoints(job.result);
     await refreshJobs();
     selectJob(id);

@@ -1,0 +1,202 @@
+#!/usr/bin/env python3
+"""Tune through a sound card with no sound card, judged from the transducer's side (issue #56).
+
+For each plant: a JACK server with the dummy driver, `panelbass transducer --jack --plant P --thd-log` and
+`panelbass serve --backend alsa` wired as docs/engine.md wires them; one `tune` job with its defaults (or
+--sensor-kind); then, when it kept its filter, `PUT /api/program` sines at each probe and program level, the THD
+read from the transducer's own log (its noise-free acceleration), with the filter active and with it bypassed at
+the program amplitude whose output fundamental (the log's) matches — the cut at equal output level. A level where
+the chain's limiter acts is not reachable. Prints a Markdown table (and --json writes the figures).
+
+  bench/tune_card.py --plants panel-exciter,tests/support/plants/panel-exciter-le-x.json --variants 2
+"""
+import argparse, json, math, os, signal, socket, subprocess, sys, tempfile, time, urllib.request
+
+BIN = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'build', 'bin', 'panelbass')
+CARD_CONF = """pcm.pb_play    {{ type jack name "pb_play"
+                 playback_ports {{ 0 "{t}:drive" 1 "system:playback_1" }} }}
+pcm.pb_capture {{ type jack name "pb_capture"
+                 capture_ports {{ 0 "{t}:sensor" 1 "pb_play:out_000" 2 "{t}:current" }} }}
+"""
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+class Rig:
+    """jackd (dummy) + the transducer client + serve --backend alsa, in a folder of their own."""
+
+    def __init__(self, plant, folder, window):
+        self.folder, self.window, self.procs = folder, window, []
+        self.server = f'pbtc{os.getpid()}'
+        env = dict(os.environ, JACK_NO_AUDIO_RESERVATION='1', JACK_DEFAULT_SERVER=self.server)
+        self.env = env
+        self.start(['jackd', '--no-realtime', '-S', '-n', self.server, '-d', 'dummy', '-r', '48000', '-p', '64'], 'jack.log')
+        time.sleep(1.5)
+        self.log = os.path.join(folder, 'thd.jsonl')
+        self.start([BIN, 'transducer', '--jack', '--plant', plant, '--name', 'tr', '--thd-log', self.log,
+                    '--thd-window', str(window)], 'transducer.log')
+        time.sleep(1.0)
+        conf = os.path.join(folder, 'card.conf')
+        with open(conf, 'w') as f:
+            f.write(CARD_CONF.format(t='tr'))
+        self.port = free_port()
+        self.start([BIN, 'serve', '--port', str(self.port), '--store', os.path.join(folder, 'store'), '--backend', 'alsa',
+                    '--alsa-config', conf, '--playback', 'pb_play', '--capture', 'pb_capture', '--capture-channels', '3',
+                    '--sensor-channel', '0', '--loopback-channel', '1', '--current-channel', '2', '--periods', '8',
+                    '--no-demo'], 'serve.log')
+        for _ in range(100):
+            try:
+                if self.call('GET', '/api/status')['engine']['device']['state'] == 'running':
+                    return
+            except Exception:
+                pass
+            time.sleep(0.2)
+        raise RuntimeError('the server did not start: ' + open(os.path.join(folder, 'serve.log')).read()[-2000:])
+
+    def start(self, argv, log):
+        out = open(os.path.join(self.folder, log), 'w')
+        self.procs.append(subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT, env=self.env))
+
+    def call(self, method, path, body=None):
+        data = None if body is None else json.dumps(body).encode()
+        req = urllib.request.Request(f'http://127.0.0.1:{self.port}{path}', data=data, method=method,
+                                     headers={'Content-Type': 'application/json'})
+        with urllib.request.urlopen(req, timeout=600) as r:
+            return json.loads(r.read() or b'null')
+
+    def lines_after(self, t0, count):
+        """The next `count` log lines whose window began after t0 (unix time)."""
+        deadline = time.time() + 10 + count * self.window * 3
+        while time.time() < deadline:
+            rows = []
+            with open(self.log) as f:
+                for line in f:
+                    row = json.loads(line)
+                    if row['unix_time_s'] - row['window_frames'] / 48000.0 >= t0:
+                        rows.append(row)
+            if len(rows) >= count:
+                return rows[:count]
+            time.sleep(self.window / 2)
+        raise RuntimeError('the transducer wrote no THD log lines')
+
+    def close(self):
+        for p in reversed(self.procs):
+            p.send_signal(signal.SIGINT)
+        for p in reversed(self.procs):
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+def reading(rig, frequency, amplitude, settle):
+    """Plays sine:f at `amplitude`; the log's clean fundamental and THD (two windows' mean), and the limiter's share."""
+    rig.call('PUT', '/api/program', {'signal': f'sine:{frequency:g}', 'amplitude': amplitude})
+    t0 = time.time() + settle
+    rows = rig.lines_after(t0, 2)
+    limited = rig.call('GET', '/api/status')['metrics'].get('limited_fraction', 0) or 0
+    fundamental = sum(r['clean_fundamental'] for r in rows) / len(rows)
+    thd = sum(r['thd_clean_pct'] for r in rows) / len(rows)
+    return fundamental, thd, limited
+
+
+def measure_cuts(rig, frequencies, levels, settle):
+    points = []
+    for f in frequencies:
+        for a in levels:
+            rig.call('PATCH', '/api/config', {'feedforward': {'bypass': False}})
+            out_c, thd_c, limited = reading(rig, f, a, settle)
+            point = {'frequency_hz': f, 'program_level': a, 'chain_thd_pct': thd_c, 'output': out_c}
+            if limited > 0:
+                point['reachable'] = False
+                points.append(point)
+                continue
+            rig.call('PATCH', '/api/config', {'feedforward': {'bypass': True}})
+            b = a
+            for _ in range(5):
+                out_b, thd_b, _ = reading(rig, f, b, settle)
+                ratio = out_c / out_b
+                if abs(20 * math.log10(ratio)) < 0.1:
+                    break
+                b = min(1.0, b * ratio)
+            point.update(reachable=abs(20 * math.log10(out_c / out_b)) < 0.2, plant_drive=b, plant_thd_pct=thd_b,
+                         cut_db=20 * math.log10(thd_b / thd_c) if thd_c > 0 else None)
+            points.append(point)
+    rig.call('PATCH', '/api/config', {'feedforward': {'bypass': False}})
+    rig.call('PUT', '/api/program', {'signal': 'silence', 'amplitude': 0})
+    return points
+
+
+def tune(rig, params):
+    t = time.time()
+    job = rig.call('POST', '/api/jobs', {'kind': 'tune', 'params': params})
+    while True:
+        record = rig.call('GET', f"/api/jobs/{job['id']}")
+        if record['state'] in ('succeeded', 'failed', 'cancelled'):
+            return record, time.time() - t
+        time.sleep(1)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument('--plants', default='panel-exciter', help='presets or plant files, comma-separated')
+    ap.add_argument('--variants', type=int, default=0, help='also N ±20 %% variants of panel-exciter (seeds 1..N)')
+    ap.add_argument('--sensor-kind', default='none', help="the tune's sensor_kind (none: the current alone)")
+    ap.add_argument('--frequencies', default='40,80,160')
+    ap.add_argument('--levels', default='0.1,0.2,0.3')
+    ap.add_argument('--window', type=float, default=0.5, help="the transducer's THD window, s")
+    ap.add_argument('--settle', type=float, default=0.4, help='after a program change, s')
+    ap.add_argument('--json', help='write the figures here')
+    ap.add_argument('--keep', help='keep the rigs\' folders under this folder')
+    a = ap.parse_args()
+    frequencies = [float(x) for x in a.frequencies.split(',')]
+    levels = [float(x) for x in a.levels.split(',')]
+    plants = a.plants.split(',')
+    base = a.keep or tempfile.mkdtemp(prefix='tune_card.')
+    for n in range(1, a.variants + 1):
+        path = os.path.join(base, f'panel-exciter-vary-{n}.json')
+        os.makedirs(base, exist_ok=True)
+        with open(path, 'w') as f:
+            subprocess.run([BIN, 'plant', 'vary', 'panel-exciter', '--by', '0.2', '--seed', str(n)], stdout=f, check=True)
+        plants.append(path)
+    results = []
+    for plant in plants:
+        name = os.path.splitext(os.path.basename(plant))[0]
+        folder = os.path.join(base, name)
+        os.makedirs(folder, exist_ok=True)
+        rig = Rig(plant, folder, a.window)
+        try:
+            record, seconds = tune(rig, {'sensor_kind': a.sensor_kind})
+            row = {'plant': name, 'tune_s': seconds, 'state': record['state']}
+            if record['state'] == 'succeeded':
+                r = record['result']
+                row.update(kept=r['keep'], decision=r['decision'], current_j_val_pct=r['summary'].get('current_j_val_pct'))
+                if r['keep']:
+                    row['points'] = measure_cuts(rig, frequencies, levels, a.settle)
+            else:
+                row['error'] = record.get('error')
+        finally:
+            rig.close()
+        results.append(row)
+        print(json.dumps(row), file=sys.stderr)
+    print(f"| plant | tune | current J_val % | " + ' | '.join(f'{f:g} Hz cut, dB ({"/".join(f"{l:g}" for l in levels)})' for f in frequencies) + ' |')
+    print('|---|---|---|' + '---|' * len(frequencies))
+    for row in results:
+        cells = []
+        for f in frequencies:
+            got = [p for p in row.get('points', []) if p['frequency_hz'] == f]
+            cells.append(' / '.join('n.r.' if not p.get('reachable') else f"{p['cut_db']:.1f}" for p in got) or '–')
+        tune_cell = f"{row['tune_s']:.0f} s, " + ('kept' if row.get('kept') else 'left out' if row['state'] == 'succeeded' else 'failed')
+        j = row.get('current_j_val_pct')
+        print(f"| {row['plant']} | {tune_cell} | {'–' if j is None else f'{j:.4f}'} | " + ' | '.join(cells) + ' |')
+    if a.json:
+        with open(a.json, 'w') as f:
+            json.dump(results, f, indent=1)
+
+
+if __name__ == '__main__':
+    main()
