@@ -117,6 +117,7 @@ struct IdentifyNarxOptions {
   std::string train = "pem,oem-d";
   std::string optimizer = "lm";
   int max_iterations = 100;
+  int pem_max_iterations = models::TrainingOptions{}.pem_max_iterations;  ///< --pem-max-iter
   std::uint64_t seed = 1;
   double step = 0.1;
   long batch = 0;
@@ -212,6 +213,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   options.modes = parse_modes(o.train);
   options.optimizer = models::parse_optimizer(o.optimizer);
   options.max_iterations = o.max_iterations;
+  options.pem_max_iterations = o.pem_max_iterations;
   options.step = o.step;
   options.batch = o.batch;
   options.transient_skip = o.skip;
@@ -416,6 +418,9 @@ void register_identify(CLI::App& app) {
       ->check(CLI::IsMember({"lm", "sd", "linesearch"}))
       ->capture_default_str();
   narx->add_option("--max-iter", n->max_iterations, "Iterations per mode")->check(CLI::Range(0, 1000000))->capture_default_str();
+  narx->add_option("--pem-max-iter", n->pem_max_iterations, "The pem mode's own limit (-1: --max-iter)")
+      ->check(CLI::Range(-1, 1000000))
+      ->capture_default_str();
   narx->add_option("--seed", n->seed, "Seed of the initial weights ([5F])")->capture_default_str();
   narx->add_option("--step", n->step, "Steepest-descent step alpha")->check(CLI::PositiveNumber)->capture_default_str();
   narx->add_option("--batch", n->batch, "Steepest-descent batch L (0 = all samples)")->check(CLI::Range(0L, 100000000L));

@@ -338,6 +338,10 @@ void require_single_record(TrainingMode mode) {
 
 void require_options(const TrainingOptions& o) {
   if (o.modes.empty()) throw std::invalid_argument("NARX training: no training mode given");
+  if (o.pem_max_iterations < -1) {
+    throw std::invalid_argument("NARX training: pem_max_iterations must be ≥ 0 (or −1: max_iterations), got " +
+                                std::to_string(o.pem_max_iterations));
+  }
   if (o.max_iterations < 0) {
     throw std::invalid_argument("NARX training: max_iterations must be ≥ 0, got " + std::to_string(o.max_iterations));
   }
@@ -532,7 +536,9 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
     // Patience counts against this mode's own best: a refinement (oem-d after pem) often has to climb back
     // to the previous mode's best J_val before it improves on it, and is not cut off for that.
     double mode_best = std::numeric_limits<double>::infinity();
-    for (int i = 0; i < options.max_iterations; ++i) {
+    const int limit = mode == TrainingMode::pem && options.pem_max_iterations >= 0 ? options.pem_max_iterations
+                                                                                   : options.max_iterations;
+    for (int i = 0; i < limit; ++i) {
       const Eigen::VectorXd before = current.net.parameters();
       bool moved = false;
       switch (options.optimizer) {

@@ -62,6 +62,9 @@ struct TrainingOptions {
   std::vector<TrainingMode> modes{TrainingMode::pem, TrainingMode::oem_d};  ///< run one after the other
   Optimizer optimizer = Optimizer::lm;
   int max_iterations = 100;          ///< per mode
+  /// The prediction-error mode's own limit (−1: max_iterations): PEM's validation J creeps down long after the
+  /// output-error mode would do better from where it is (docs/identification.md, issue 59)
+  int pem_max_iterations = -1;
   double step = 0.1;                 ///< α for sd
   Eigen::Index batch = 0;            ///< L for sd: samples per update (0 = all, L = N)
   Eigen::Index transient_skip = -1;  ///< [5M] samples left out of the OEM loss; −1 = 2·(na + nb)

@@ -393,6 +393,17 @@ TEST(NarxTrainingHistory, ChainingPemAndOemDRecordsBothModes) {
   for (std::size_t i = 6; i < r.history.size(); ++i) EXPECT_LT(r.history[i].j_est_pct, r.history[i - 1].j_est_pct);
 }
 
+TEST(NarxTrainingHistory, ThePemModeStopsAtItsOwnLimitAndTheNextModeRunsToTheCommonOne) {
+  OverfitCase c;
+  TrainingOptions o = options_for({TrainingMode::pem, TrainingMode::oem_d}, Optimizer::lm, 5);
+  o.pem_max_iterations = 2;
+  const TrainingResult r = train_narx(c.start, c.u, c.y, c.u_val, c.y_val, o);
+  ASSERT_EQ(r.history.size(), 8u);  // the start, 2 pem, 5 oem-d
+  for (std::size_t i = 1; i < r.history.size(); ++i) EXPECT_EQ(r.history[i].mode, i <= 2 ? TrainingMode::pem : TrainingMode::oem_d) << i;
+  o.pem_max_iterations = -2;
+  EXPECT_THROW((void)train_narx(c.start, c.u, c.y, c.u_val, c.y_val, o), std::invalid_argument);
+}
+
 TEST(NarxTrainingSteepestDescent, FullBatchStepIsAlphaTimesTheGradient) {
   // [5C] with L = N: one iteration is θ − α·dV/dθ exactly, in prediction and in simulation
   DampedCase c;
