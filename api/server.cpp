@@ -269,6 +269,7 @@ void Server::register_routes() {
 
   register_service_routes();
   register_config_routes();
+  register_program_routes();
   register_model_routes();
   register_record_routes();
   register_job_routes();
