@@ -30,9 +30,13 @@ void ProgramPlayer::take_pending() noexcept {
   // One hand-over at a time, and only with room to retire the buffer it replaces.
   if (phase_ != Phase::playing || !retired_.has_room()) return;
   if (pending_.load(std::memory_order_relaxed) == nullptr) return;
-  incoming_ = pending_.exchange(nullptr, std::memory_order_acq_rel);
-  if (incoming_ == nullptr) return;
+  // Fading before the hand-over shows: idle() reads pending_ first, so it never sees neither.
   fading_.store(true, std::memory_order_release);
+  incoming_ = pending_.exchange(nullptr, std::memory_order_acq_rel);
+  if (incoming_ == nullptr) {
+    fading_.store(false, std::memory_order_release);
+    return;
+  }
   phase_ = Phase::fading_out;
   ramp_ = 0;
 }
