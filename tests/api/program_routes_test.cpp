@@ -14,7 +14,9 @@
 
 #include <atomic>
 #include <cstdint>
+#include <complex>
 #include <limits>
+#include <numbers>
 #include <span>
 
 #include "dsp/sine_fit.h"
@@ -120,6 +122,34 @@ TEST_F(ProgramRouteTest, TheDrivePlaysTheNewSineOnceTheFadeIsOver) {
   EXPECT_EQ(r.body["amplitude"], 0.0);
   // Only the band-pass's tail of the noise is left (its 20 Hz high-pass rings down over tens of ms).
   EXPECT_LT(tap_.next().cwiseAbs().maxCoeff(), 1e-4);
+}
+
+// The A/B a listener makes: the controllers' bypass flags (PATCH /api/config) switch between the chain with its
+// feedforward and without, on the program PUT /api/program plays. Expectation: the controller
+// u*(k) = u(k) + 0.5·u(k−1) scales an 80 Hz sine by |1 + 0.5·e^(−jω)|, ω = 2π·80/3000, and bypassed by 1.
+TEST_F(ProgramRouteTest, TheBypassFlagsGiveTheAB) {
+  ServerOptions o = options(dir_ / "store");
+  o.engine.on_block = [this](const engine::BlockView& b) { tap_.offer(b.drive); };
+  start(std::move(o));
+  const std::string lq = upload(lq_gain_controller(0.5));
+  ASSERT_EQ(post("/api/models/" + lq + "/activate", std::string()).status, 200);
+  ASSERT_EQ(put_program_and_settle({{"signal", "sine:80"}, {"amplitude", 0.2}}).status, 200);
+  const auto fundamental = [this] {
+    const Eigen::VectorXd drive = tap_.next();
+    const Eigen::Vector3d abc = dsp::fit_sine(drive, 3000.0, 80.0).coefficients;
+    return std::hypot(abc[0], abc[1]);
+  };
+  const double with_controller = fundamental();
+  ASSERT_EQ(patch("/api/config", R"({"feedforward":{"bypass":true}})").status, 200);
+  std::this_thread::sleep_for(100ms);  // the bypass ramps over the crossfade (20 ms)
+  const double bypassed = fundamental();
+  ASSERT_EQ(patch("/api/config", R"({"feedforward":{"bypass":false}})").status, 200);
+  std::this_thread::sleep_for(100ms);
+  const double again = fundamental();
+  const double w = 2.0 * std::numbers::pi * 80.0 / 3000.0;
+  const double gain = std::abs(1.0 + 0.5 * std::polar(1.0, -w));
+  EXPECT_NEAR(with_controller / bypassed, gain, 0.01 * gain);
+  EXPECT_NEAR(again / bypassed, gain, 0.01 * gain);
 }
 
 TEST_F(ProgramRouteTest, BadRequestsAreRefusedNamingTheField) {
