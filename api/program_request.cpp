@@ -32,9 +32,11 @@ ProgramRequest parse_program_request(const nlohmann::json& body, double fs, doub
   const std::optional<engine::SignalName> name = engine::parse_signal_name(text);
   if (!name) bad("signal", "expected \"noise\", \"silence\" or \"sine:HZ\" (e.g. \"sine:80\"), got \"" + text + "\"");
   r.signal = *name;
-  if (r.signal.kind == engine::SignalKind::sine && !(r.signal.frequency_hz > 0.0 && r.signal.frequency_hz < fs / 2.0)) {
-    bad("signal", "the sine's frequency must be within (0, " + models::number_text(fs / 2.0) +
-                      ") Hz, half the engine's rate, got " + models::number_text(r.signal.frequency_hz));
+  if (r.signal.kind == engine::SignalKind::sine &&
+      !(r.signal.frequency_hz >= engine::kLowestSineHz && r.signal.frequency_hz < fs / 2.0)) {
+    bad("signal", "the sine's frequency must be within [" + models::number_text(engine::kLowestSineHz) + ", " +
+                      models::number_text(fs / 2.0) + ") Hz (up to half the engine's rate), got " +
+                      models::number_text(r.signal.frequency_hz));
   }
   r.amplitude = 0.2;
   if (const auto a = body.find("amplitude"); a != body.end()) {

@@ -18,7 +18,7 @@ struct ProgramRequest {
 
 /// The request in `body`: {"signal": "sine:80"|"noise"|"silence", "amplitude": 0.2, "seed": 1} (amplitude 0.2
 /// unless given, seed for noise only, 1 unless given). Throws EngineRequestError 400 naming "program.<key>":
-/// an unknown key, a signal not named so, a sine outside (0, fs/2), an amplitude not finite or outside
+/// an unknown key, a signal not named so, a sine outside [kLowestSineHz, fs/2), an amplitude not finite or outside
 /// [0, 1] or above `safe_level` (the card's, 1 on the virtual transducer), a bad seed.
 ProgramRequest parse_program_request(const nlohmann::json& body, double fs, double safe_level);
 

@@ -42,9 +42,10 @@ LoopedProgram looped_program(const std::string& wav, const std::string& channel,
       return {std::move(s.samples), {{"signal", "noise"}, {"amplitude", amplitude}, {"seed", seed}, {"loop_samples", n}}};
     }
     case engine::SignalKind::sine:
-      if (!(name->frequency_hz > 0.0 && name->frequency_hz < fs / 2.0)) {
-        throw std::invalid_argument("--signal " + signal + ": the frequency must be within (0, " +
-                                    std::to_string(fs / 2.0) + ") Hz, half the chain's rate");
+      if (!(name->frequency_hz >= engine::kLowestSineHz && name->frequency_hz < fs / 2.0)) {
+        throw std::invalid_argument("--signal " + signal + ": the frequency must be within [" +
+                                    std::to_string(engine::kLowestSineHz) + ", " + std::to_string(fs / 2.0) +
+                                    ") Hz, up to half the chain's rate");
       }
       return sine_program(name->frequency_hz, amplitude, fs);
   }

@@ -27,8 +27,9 @@ std::optional<SignalName> parse_signal_name(const std::string& text) {
 }
 
 LoopedSignal looped_sine(double frequency, double amplitude, double fs) {
-  if (!(frequency > 0.0 && frequency < fs / 2.0)) {
-    throw std::invalid_argument("looped sine: the frequency must be within (0, fs/2), got " + std::to_string(frequency));
+  if (!(frequency >= kLowestSineHz && frequency < fs / 2.0)) {
+    throw std::invalid_argument("looped sine: the frequency must be within [" + std::to_string(kLowestSineHz) +
+                                ", fs/2), got " + std::to_string(frequency));
   }
   const double period = fs / frequency;
   const long most = std::max(1L, static_cast<long>(std::floor(fs / period)));

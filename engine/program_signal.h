@@ -27,9 +27,13 @@ struct LoopedSignal {
   double frequency_hz = 0.0;    ///< a sine's frequency after rounding its loop to whole samples
 };
 
+/// The lowest sine a program loops, Hz: one period in at most ten seconds (a lower one is no tone, and its
+/// loop would not fit in memory).
+inline constexpr double kLowestSineHz = 0.1;
+
 /// A sine of `frequency` Hz and peak `amplitude` at rate `fs` that loops without a click: the whole number of
 /// periods (in about one second) whose length is closest to a whole number of samples, at the frequency that
-/// makes it exact. Throws std::invalid_argument unless 0 < frequency < fs/2.
+/// makes it exact. Throws std::invalid_argument unless kLowestSineHz <= frequency < fs/2.
 LoopedSignal looped_sine(double frequency, double amplitude, double fs);
 
 /// Ten seconds of uniform white noise of peak `amplitude` at rate `fs`, seeded by `seed`.

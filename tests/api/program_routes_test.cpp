@@ -164,6 +164,8 @@ TEST_F(ProgramRouteTest, BadRequestsAreRefusedNamingTheField) {
   refused({{"signal", "sine:0"}}, "program.signal");
   refused({{"signal", "sine:1500"}}, "program.signal");  // half the rate: it would alias
   refused({{"signal", "sine:-80"}}, "program.signal");
+  refused({{"signal", "sine:1e-300"}}, "program.signal");  // a loop of one period would not fit in memory
+  refused({{"signal", "sine:nan"}}, "program.signal");
   refused({{"signal", 80}}, "program.signal");
   refused({{"amplitude", 0.2}}, "program.signal");
   refused({{"signal", "sine:80"}, {"amplitude", 1.5}}, "program.amplitude");
