@@ -8,6 +8,7 @@
 #include "dsp/sample_rate.h"
 #include "engine/measurement.h"
 #include "api/alsa_status_json.h"
+#include "api/program_request.h"
 #include "models/io/config_error.h"
 #include "models/io/number_text.h"
 #include "models/kinds/model_file.h"
@@ -155,18 +156,28 @@ EngineService::EngineService(EngineServiceOptions options) : options_(std::move(
   }
   running_ = options_.chain;
   chain_ = engine::make_chain(running_);
+  const std::vector<double>& initial = options_.alsa ? options_.alsa->program : options_.program;
+  program_ = options_.program_description.is_object()
+                 ? options_.program_description
+                 : nlohmann::json{{"signal", initial.empty() ? "silence" : "custom"}};
   if (options_.alsa) {
-    alsa_ = std::make_unique<engine::AlsaBackend>(*chain_, *options_.alsa);
+    std::vector<double> program = std::move(options_.alsa->program);  // the player keeps the one copy
+    engine::AlsaOptions card = *options_.alsa;
+    card.program = std::move(program);
+    card.program_fade_s = options_.program_fade_s;
+    alsa_ = std::make_unique<engine::AlsaBackend>(*chain_, std::move(card));
     return;
   }
   engine::VirtualBackendOptions backend;
   backend.block = engine::Samples{running_.block};
   backend.pacing = options_.pacing;
-  backend.program = options_.program;
+  backend.program = std::move(options_.program);
   backend.loop = true;
   backend.plant = options_.plant;
   backend.noise_seed = options_.seed;
   backend.realtime_priority = options_.realtime_priority;
+  backend.program_fade_s = options_.program_fade_s;
+  backend.on_block = options_.on_block;
   backend_ = std::make_unique<engine::VirtualBackend>(*chain_, std::move(backend));
 }
 
@@ -200,6 +211,7 @@ void EngineService::housekeeping() {
   using clock = std::chrono::steady_clock;
   const std::lock_guard lock(mutex_);
   chain_->collect_retired();
+  if (engine::ProgramPlayer* player = program_player()) player->collect_retired();
   const clock::time_point now = clock::now();
   const engine::MetricsSnapshot m = chain_->metrics().snapshot();
   limiter_samples_.push_back({now, m.samples, m.limited_samples, m.over_range_samples});
@@ -240,6 +252,46 @@ nlohmann::json EngineService::engine_status() const {
                             {"fault_hold_s", hold_s_}};
   if (alsa_) status["device"] = api::alsa_status_to_json(alsa_->status(), alsa_->resampling_latency());
   return status;
+}
+
+engine::ProgramPlayer* EngineService::program_player() const {
+  if (!alsa_) return &backend_->program();
+  return alsa_->options().program_channel == engine::kNoChannel ? &alsa_->program() : nullptr;
+}
+
+nlohmann::json EngineService::program() const {
+  const std::lock_guard lock(mutex_);
+  nlohmann::json p = program_;
+  const engine::ProgramPlayer* player = program_player();
+  if (player == nullptr) {
+    return {{"signal", "capture"},
+            {"source", "capture"},
+            {"channel", alsa_->options().program_channel},
+            {"settled", true}};
+  }
+  p["source"] = "memory";
+  p["rate"] = alsa_ ? alsa_->options().rate.value : running_.fs;
+  p["fade_s"] = options_.program_fade_s;
+  p["settled"] = player->idle();
+  return p;
+}
+
+nlohmann::json EngineService::put_program(const nlohmann::json& request) {
+  {
+    const std::lock_guard lock(mutex_);
+    engine::ProgramPlayer* player = program_player();
+    if (player == nullptr) {
+      throw EngineRequestError(409, "conflict",
+                               "program: the program comes from the card's capture channel " +
+                                   std::to_string(alsa_->options().program_channel) +
+                                   " (serve --program-channel), not from memory; play it at the source instead");
+    }
+    const ProgramRequest r = parse_program_request(request, running_.fs, safe_level());
+    engine::LoopedSignal played = program_samples(r, alsa_ ? alsa_->options().rate.value : running_.fs);
+    program_ = program_json(r, played);
+    player->install(std::move(played.samples));
+  }
+  return program();
 }
 
 std::optional<engine::AlsaStatus> EngineService::device_status() const {

@@ -48,6 +48,9 @@ struct EngineServiceOptions {
   models::PlantConfig plant;                ///< the virtual transducer (its fs is the chain's)
   engine::ChainConfig chain;                ///< band-pass, limiter, crossfade … (slots empty)
   std::vector<double> program;              ///< looped program input at the chain's rate (empty: silence)
+  /// What `program` (or the card's) is, as GET /api/program says it, e.g. {"signal":"sine:80","amplitude":0.2}
+  /// (null: "silence" when empty, else "custom").
+  nlohmann::json program_description;
   std::uint64_t seed = 1;                   ///< sensor noise of the playing plant; excitations use seed + 1, + 2, …
   engine::Pacing pacing = engine::Pacing::real_time;  ///< the audio thread's pacing
   int realtime_priority = 0;  ///< SCHED_FIFO priority of the virtual backend's audio thread (0: none)
@@ -58,6 +61,10 @@ struct EngineServiceOptions {
   double safe_level = 0.5;
   /// On a sound card: the program's fade out before a measurement and back in after it, seconds.
   double measurement_fade_s = 0.02;
+  /// A new program (PUT /api/program): the old one faded out and the new one in, each this long, seconds.
+  double program_fade_s = 0.025;
+  /// The virtual transducer: called on the audio thread after each block (must not allocate, lock or wait).
+  std::function<void(const engine::BlockView&)> on_block;
 };
 
 /// The chain slots a model can be activated in.
@@ -128,6 +135,13 @@ class EngineService {
   nlohmann::json put_config(const nlohmann::json& settings, const ModelLookup& lookup);
   /// Applies a JSON merge patch (RFC 7386) to the settings, then as put_config.
   nlohmann::json patch_config(const nlohmann::json& patch, const ModelLookup& lookup);
+  /// The program the engine loops (ROUTES.md "GET /api/program"): its signal, amplitude, rate, fade, and
+  /// "settled" false while a new one is still being faded in.
+  nlohmann::json program() const;
+  /// Replaces the program with the one `request` names (ROUTES.md "PUT /api/program"), faded: built here,
+  /// handed to the audio thread lock-free. EngineRequestError 400 naming "program.<key>", 409 when the card
+  /// captures the program. Returns program().
+  nlohmann::json put_program(const nlohmann::json& request);
   /// Puts stored model `id` (file object `model`) into `slot`, crossfaded. Returns {"kind","keys"}.
   nlohmann::json activate(ModelSlotName slot, const std::string& id, const nlohmann::json& model);
 
@@ -152,6 +166,7 @@ class EngineService {
   nlohmann::json apply(const nlohmann::json& settings, const ModelLookup& lookup);
   nlohmann::json running_settings() const;
   nlohmann::json api_settings() const;
+  engine::ProgramPlayer* program_player() const;
 
   // The limiter counters at one housekeeping tick.
   struct LimiterSample {
@@ -163,6 +178,7 @@ class EngineService {
   mutable std::mutex mutex_;                 // serialises changes and guards the fields below
   engine::ChainConfig running_;              // what the chain runs now (models inline)
   std::array<std::optional<std::string>, 2> active_ids_;  // store ids in the feedforward and feedback slots
+  nlohmann::json program_;                   // what the program player plays (GET /api/program)
   std::unique_ptr<engine::Chain> chain_;
   std::unique_ptr<engine::VirtualBackend> backend_;  // one of these two plays
   std::unique_ptr<engine::AlsaBackend> alsa_;

@@ -28,6 +28,7 @@ const std::vector<Route> kRoutes = {
     {"get", "/metrics"},
     {"get", "/api/records"},         {"post", "/api/records"},
     {"get", "/api/records/{id}"},    {"delete", "/api/records/{id}"},
+    {"get", "/api/program"},         {"put", "/api/program"},
 };
 
 // The bytes of every file under `folder` (what the store takes on disk); 0 for what cannot be read.
@@ -271,6 +272,7 @@ void Server::register_routes() {
 
   register_service_routes();
   register_config_routes();
+  register_program_routes();
   register_model_routes();
   register_record_routes();
   register_job_routes();

@@ -107,8 +107,14 @@ void run_serve(const ServeOptions& o) {
   options.engine.realtime_priority = o.realtime_priority;
   const bool on_card = o.backend == "alsa";
   // The program at the rate it is played at: the chain's on the virtual transducer, the card's on ALSA.
-  std::vector<double> program =
-      looped_program("", "0", o.signal, o.amplitude, o.seed, on_card ? o.alsa.rate : options.engine.plant.fs).samples;
+  LoopedProgram looped =
+      looped_program("", "0", o.signal, o.amplitude, o.seed, on_card ? o.alsa.rate : options.engine.plant.fs);
+  std::vector<double> program = std::move(looped.samples);
+  // GET /api/program's words for it, as PUT /api/program would say them.
+  nlohmann::json& described = options.engine.program_description;
+  described = {{"signal", o.signal}, {"amplitude", o.signal == "silence" ? 0.0 : o.amplitude}};
+  if (o.signal == "noise") described["seed"] = o.seed;
+  if (looped.description.contains("frequency_hz")) described["frequency_hz"] = looped.description["frequency_hz"];
   if (on_card) {
     options.engine.alsa = alsa_options_of(o.alsa);
     options.engine.alsa->realtime_priority = o.realtime_priority;

@@ -99,6 +99,7 @@ std::optional<SteadyThd> steady_thd(const Eigen::VectorXd& y, double fs, double 
   const double a1 = levels.amplitude[0];
   SteadyThd out;
   out.measured_thd_pct = measured;
+  out.fundamental = a1;
   out.samples = length;
   out.floor_pct = 100.0 * std::sqrt(count * per_bin) / a1;
   const double clean = std::max(0.0, power - count * per_bin);

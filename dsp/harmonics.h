@@ -40,6 +40,7 @@ struct SteadyThd {
   double floor_pct = 0.0;        ///< the THD the noise alone shows: sqrt(count·4σ²/N)/a₁, σ from the residual
   double uncertainty_db = 0.0;   ///< one standard deviation of thd_pct from that noise, dB (inf when thd_pct = 0)
   bool at_floor = false;         ///< the measured THD within 3 dB of the floor: what it reads is the noise's
+  double fundamental = 0.0;      ///< the fundamental's amplitude a₁ over the stretch
   Eigen::Index samples = 0;      ///< the stretch's length N
 };
 

@@ -25,12 +25,13 @@ SineFit fit_sine(const Eigen::VectorXd& x, double fs, double f) {
   return fit;
 }
 
-std::optional<double> sine_frequency(const Eigen::VectorXd& x, double fs) {
+std::optional<double> dominant_frequency(const Eigen::VectorXd& x, double fs) {
   const Eigen::Index n = x.size();
   if (n < 64) return std::nullopt;
   const Eigen::VectorXd centred = x.array() - x.mean();
   const double energy = centred.squaredNorm();
-  if (!(energy > 0.0)) return std::nullopt;
+  // A constant signal (its mean's rounding left over, ~1e-32 of its energy, is no sinusoid).
+  if (!(energy > 1e-20 * x.squaredNorm())) return std::nullopt;
   Eigen::Index size = 1;
   while (size < 2 * n) size *= 2;
   Eigen::VectorXd padded = Eigen::VectorXd::Zero(size);
@@ -64,8 +65,14 @@ std::optional<double> sine_frequency(const Eigen::VectorXd& x, double fs) {
       ra = fit_sine(x, fs, a).residual;
     }
   }
-  const double f = (lo + hi) / 2.0;
-  if (fit_sine(x, fs, f).residual > 1e-3 * energy) return std::nullopt;
+  return (lo + hi) / 2.0;
+}
+
+std::optional<double> sine_frequency(const Eigen::VectorXd& x, double fs) {
+  const std::optional<double> f = dominant_frequency(x, fs);
+  if (!f) return std::nullopt;
+  const double energy = (x.array() - x.mean()).matrix().squaredNorm();
+  if (fit_sine(x, fs, *f).residual > 1e-3 * energy) return std::nullopt;
   return f;
 }
 

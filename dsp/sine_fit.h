@@ -16,9 +16,13 @@ struct SineFit {
 /// The sinusoid with an offset at frequency `f` (Hz) closest to `x` (rate fs) in least squares.
 SineFit fit_sine(const Eigen::VectorXd& x, double fs, double f);
 
-/// The frequency of `x` if it is a sine (with an offset): the strongest FFT bin refined by a golden-section
-/// search for the least-squares sinusoid over the neighbouring bins (the maximum-likelihood frequency),
-/// accepted when that sinusoid leaves less than 0.1 % of the signal's energy about its mean. Empty for
+/// The frequency of the strongest sinusoid in `x`, whatever else it holds: the strongest FFT bin refined by a
+/// golden-section search for the least-squares sinusoid over the neighbouring bins. Empty for fewer than 64
+/// samples or a constant signal.
+std::optional<double> dominant_frequency(const Eigen::VectorXd& x, double fs);
+
+/// The frequency of `x` if it is a sine (with an offset): dominant_frequency (the maximum-likelihood
+/// frequency), accepted when that sinusoid leaves less than 0.1 % of the signal's energy about its mean. Empty for
 /// fewer than 64 samples, a constant signal, or anything that is not one sine.
 std::optional<double> sine_frequency(const Eigen::VectorXd& x, double fs);
 

@@ -47,7 +47,7 @@ void check_channel(const char* name, int channel, int channels, bool allow_none)
   }
 }
 
-void checked(const AlsaOptions& o) {
+AlsaOptions checked(AlsaOptions o) {
   const auto fail = [](const std::string& what) { throw std::invalid_argument("alsa backend: " + what); };
   const bool playback = !o.playback_device.empty(), capture = !o.capture_device.empty();
   if (!playback && !capture) fail("neither a playback nor a capture device is named");
@@ -83,13 +83,18 @@ void checked(const AlsaOptions& o) {
   if (o.realtime_priority < 0 || o.realtime_priority > 99) {
     fail("realtime_priority must be within [0, 99], got " + std::to_string(o.realtime_priority));
   }
+  if (!(o.program_fade_s >= 0.0 && o.program_fade_s <= 10.0)) fail("program_fade_s must be within [0, 10] s");
+  return o;
 }
 
 }  // namespace
 
 AlsaBackend::AlsaBackend(Chain& chain, AlsaOptions options)
-    : chain_(chain), options_(std::move(options)), devices_(std::make_unique<Devices>()) {
-  checked(options_);
+    : chain_(chain),
+      options_(checked(std::move(options))),
+      player_(std::move(options_.program), options_.loop_program,
+              static_cast<std::size_t>(std::lround(options_.program_fade_s * options_.rate.value))),
+      devices_(std::make_unique<Devices>()) {
   const ProcessSpec& spec = chain_.options().spec;
   const auto period = static_cast<std::size_t>(options_.period.value);
   if (!dsp::same_rate(options_.rate.value, spec.fs)) {

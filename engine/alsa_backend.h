@@ -29,6 +29,7 @@
 
 #include "engine/chain.h"
 #include "engine/measurement.h"
+#include "engine/program_player.h"
 #include "engine/rate_bridge.h"
 
 namespace panelbass::engine {
@@ -62,6 +63,7 @@ struct AlsaOptions {
   int loopback_channel = kNoChannel;        ///< capture channel hearing the drive itself (calibrates measurements)
   std::vector<double> program;              ///< program at the device rate when program_channel is none
   bool loop_program = true;                 ///< repeat `program`; else silence after its end
+  double program_fade_s = 0.025;  ///< a new program (program().install): the old faded out, the new in, each this long
   std::string config_text;  ///< ALSA configuration to open both PCMs from (snd_pcm_open_lconf); "" = system's
   ResampleQuality quality = ResampleQuality::low_latency;  ///< the rate bridge's converters
   std::chrono::milliseconds reopen_min{50};    ///< first wait before reopening a lost device
@@ -117,8 +119,11 @@ class AlsaBackend {
   AlsaStatus status() const;
   /// The rate bridge's latency (zeros when the device runs at the chain's rate).
   RateBridgeLatency resampling_latency() const;
-  /// The options the backend was built with.
+  /// The options the backend was built with (`program` moved into the player).
   const AlsaOptions& options() const { return options_; }
+  /// The program player (at the device rate; unused when program_channel is set): install() a new program
+  /// from a control thread, collect_retired() from housekeeping.
+  ProgramPlayer& program() { return player_; }
   /// Plays `m` on the device thread in place of the chain (the program faded out before it and back in
   /// after, the chain's stages not run meanwhile) and waits until it has finished or been aborted, at most
   /// `timeout` (then it is cancelled). Returns its final state; a measurement already under way (from
@@ -145,12 +150,12 @@ class AlsaBackend {
 
   Chain& chain_;
   AlsaOptions options_;
+  ProgramPlayer player_;
   std::unique_ptr<RateBridge> bridge_;
   std::unique_ptr<Devices> devices_;
   // Device-rate channels of one period.
   std::vector<double> program_, sensor_, drive_;
   std::vector<double> current_, loopback_, zeros_;
-  std::size_t program_pos_ = 0;
   // Measurements: handed over through `measurement_request_`, played by the device thread alone.
   std::atomic<Measurement*> measurement_request_{nullptr};
   std::mutex measuring_;  // one measurement at a time (control threads only)

@@ -119,17 +119,12 @@ int AlsaBackend::write_period() noexcept {
 }
 
 void AlsaBackend::process_period() noexcept {
-  // Program input from the vector when no capture channel carries it; paused while a measurement plays.
+  // Program input from the player when no capture channel carries it; paused while a measurement plays.
   if (options_.program_channel == kNoChannel) {
-    const std::vector<double>& p = options_.program;
-    const bool paused = phase_ == MeasurePhase::measuring;
-    for (double& x : program_) {
-      if (paused || p.empty() || (!options_.loop_program && program_pos_ >= p.size())) {
-        x = 0.0;
-        continue;
-      }
-      x = p[program_pos_ % p.size()];
-      program_pos_ = options_.loop_program ? (program_pos_ + 1) % p.size() : program_pos_ + 1;
+    if (phase_ == MeasurePhase::measuring) {
+      std::fill(program_.begin(), program_.end(), 0.0);
+    } else {
+      player_.fill(program_);  // zeros after a program played once has ended
     }
   }
   const bool sensed = options_.sensor_channel != kNoChannel;

@@ -58,6 +58,19 @@ JackTransducer::JackTransducer(JackTransducerOptions options) {
   rate_ = static_cast<double>(jack_get_sample_rate(client));
   try {
     transducer_ = std::make_unique<models::VirtualTransducer>(plant_at_rate(options.plant, rate_), options.noise_seed);
+    if (!(options.record_window_s >= 0.0 && options.record_window_s <= 60.0)) {
+      throw std::invalid_argument("transducer: the record window must be within [0, 60] s");
+    }
+    const auto window = static_cast<std::size_t>(std::lround(options.record_window_s * rate_));
+    if (window > 0) {
+      windows_.resize(3);
+      for (int w = 0; w < 3; ++w) {
+        windows_[w].drive.assign(window, 0.0);
+        windows_[w].sensor.assign(window, 0.0);
+        windows_[w].clean.assign(window, 0.0);
+        free_.push(w);
+      }
+    }
     drive_ = jack_port_register(client, "drive", JACK_DEFAULT_AUDIO_TYPE, JackPortIsInput, 0);
     sensor_ = jack_port_register(client, "sensor", JACK_DEFAULT_AUDIO_TYPE, JackPortIsOutput, 0);
     current_ = jack_port_register(client, "current", JACK_DEFAULT_AUDIO_TYPE, JackPortIsOutput, 0);
@@ -101,10 +114,42 @@ int JackTransducer::process(std::uint32_t frames, void* self_ptr) noexcept {
     const models::PlantSample s = self->transducer_->step(u);
     sensor[k] = static_cast<float>(s.y);
     current[k] = static_cast<float>(s.i);
+    if (!self->windows_.empty()) self->record(u, s, self->frames_.load(std::memory_order_relaxed) + k);
   }
   self->peak_drive_.store(peak, std::memory_order_relaxed);
   self->frames_.fetch_add(frames, std::memory_order_relaxed);
   return 0;
+}
+
+void JackTransducer::record(double drive, const models::PlantSample& s, std::uint64_t frame) noexcept {
+  if (filling_ < 0) {
+    if (!free_.pop(filling_)) {
+      filling_ = -1;
+      dropped_frames_.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    filled_ = 0;
+    windows_[static_cast<std::size_t>(filling_)].first_frame = frame;
+  }
+  RecordedWindow& w = windows_[static_cast<std::size_t>(filling_)];
+  w.drive[filled_] = drive;
+  w.sensor[filled_] = s.y;
+  w.clean[filled_] = s.y_clean;
+  if (++filled_ == w.drive.size()) {
+    full_.push(filling_);  // room: three windows in a queue of four
+    filling_ = -1;
+  }
+}
+
+const RecordedWindow* JackTransducer::next_window() {
+  if (reading_ < 0 && !full_.pop(reading_)) reading_ = -1;
+  return reading_ < 0 ? nullptr : &windows_[static_cast<std::size_t>(reading_)];
+}
+
+void JackTransducer::release_window() {
+  if (reading_ < 0) return;
+  free_.push(reading_);
+  reading_ = -1;
 }
 
 void JackTransducer::on_shutdown(void* self) noexcept {

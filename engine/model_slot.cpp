@@ -59,15 +59,7 @@ void ModelSlot::set_initial(std::unique_ptr<Stage> stage) {
   metrics_.set_active_id(index_, active_->stage->id());
 }
 
-std::size_t ModelSlot::collect_retired() {
-  std::size_t freed = 0;
-  Entry* entry = nullptr;
-  while (retired_.pop(entry)) {
-    delete entry;
-    ++freed;
-  }
-  return freed;
-}
+std::size_t ModelSlot::collect_retired() { return delete_queued(retired_); }
 
 bool ModelSlot::idle() const {
   return pending_.load(std::memory_order_acquire) == nullptr && !fading_.load(std::memory_order_acquire);

@@ -41,4 +41,16 @@ class SpscQueue {
   alignas(64) std::atomic<std::size_t> tail_{0};
 };
 
+/// Consumer: deletes every object whose pointer is queued (the audio thread's retired ones); returns how many.
+template <class T, std::size_t Capacity>
+std::size_t delete_queued(SpscQueue<T*, Capacity>& queue) {
+  std::size_t freed = 0;
+  T* object = nullptr;
+  while (queue.pop(object)) {
+    delete object;
+    ++freed;
+  }
+  return freed;
+}
+
 }  // namespace panelbass::engine

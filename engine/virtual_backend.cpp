@@ -24,6 +24,9 @@ const VirtualBackendOptions& checked(const Chain& chain, const VirtualBackendOpt
     throw std::invalid_argument("virtual backend: the plant runs at " + std::to_string(options.plant.fs) +
                                 " Hz, the chain at " + std::to_string(spec.fs) + " Hz");
   }
+  if (!(options.program_fade_s >= 0.0 && options.program_fade_s <= 10.0)) {
+    throw std::invalid_argument("virtual backend: program_fade_s must be within [0, 10] s");
+  }
   if (options.buffer_periods < 1) {
     throw std::invalid_argument("virtual backend: buffer_periods must be at least 1, got " +
                                 std::to_string(options.buffer_periods));
@@ -37,6 +40,8 @@ VirtualBackend::VirtualBackend(Chain& chain, VirtualBackendOptions options)
     : chain_(chain),
       options_(std::move(options)),
       plant_(checked(chain, options_).plant, options_.noise_seed),
+      program_(std::move(options_.program), options_.loop,
+               static_cast<std::size_t>(std::lround(options_.program_fade_s * chain.options().spec.fs))),
       program_block_(static_cast<std::size_t>(options_.block.value), 0.0),
       drive_(program_block_.size(), 0.0),
       measured_(program_block_.size(), 0.0) {}
@@ -67,28 +72,15 @@ void VirtualBackend::run() noexcept {
   using clock = std::chrono::steady_clock;
   const auto period = std::chrono::duration_cast<clock::duration>(
       std::chrono::duration<double>(options_.block.value / chain_.options().spec.fs));
-  const std::vector<double>& program = options_.program;
   // The buffer's slack: how late a block may be before the card it stands for would run dry.
   const auto slack = period * (options_.buffer_periods - 1);
   auto deadline = clock::now();
   while (!stop_.load(std::memory_order_relaxed)) {
-    // Next block of program input: looped, or up to the end of the program.
-    std::size_t n = program_block_.size();
-    if (program.empty()) {
-      std::fill(program_block_.begin(), program_block_.end(), 0.0);
-    } else if (options_.loop) {
-      for (double& x : program_block_) {
-        x = program[program_pos_];
-        program_pos_ = (program_pos_ + 1) % program.size();
-      }
-    } else {
-      n = std::min(n, program.size() - program_pos_);
-      if (n == 0) {
-        finished_.store(true, std::memory_order_release);
-        return;
-      }
-      std::copy_n(program.begin() + static_cast<std::ptrdiff_t>(program_pos_), n, program_block_.begin());
-      program_pos_ += n;
+    // Next block of program input: looped, or up to the end of a program played once.
+    const std::size_t n = program_.fill(program_block_);
+    if (n == 0 && !options_.loop) {
+      finished_.store(true, std::memory_order_release);
+      return;
     }
     const std::span<const double> in(program_block_.data(), n);
     const std::span<double> drive(drive_.data(), n), measured(measured_.data(), n);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "engine/chain.h"
+#include "engine/program_player.h"
 #include "models/plant/plant_config.h"
 #include "models/plant/virtual_transducer.h"
 
@@ -39,6 +40,7 @@ struct VirtualBackendOptions {
   int buffer_periods = 2;
   std::vector<double> program;         ///< program input from its start (empty: silence)
   bool loop = true;                    ///< repeat the program; else the run ends when it has been played
+  double program_fade_s = 0.025;       ///< a new program (program().install): the old faded out, the new in, each this long
   models::PlantConfig plant;           ///< the simulated transducer (its fs must be the chain's)
   std::uint64_t noise_seed = 1;        ///< the plant's sensor noise seed
   int realtime_priority = 0;           ///< SCHED_FIFO priority of the audio thread (0: normal scheduling)
@@ -70,6 +72,9 @@ class VirtualBackend {
   bool realtime() const { return realtime_.load(std::memory_order_relaxed); }
   /// The process's memory got locked (asked for with the priority, once it was granted).
   bool memory_locked() const { return memory_locked_.load(std::memory_order_relaxed); }
+  /// The program player: install() a new program from a control thread (faded in at the chain's rate),
+  /// collect_retired() from housekeeping.
+  ProgramPlayer& program() { return program_; }
 
  private:
   void run() noexcept;
@@ -77,8 +82,8 @@ class VirtualBackend {
   Chain& chain_;
   VirtualBackendOptions options_;
   models::VirtualTransducer plant_;
+  ProgramPlayer program_;
   std::vector<double> program_block_, drive_, measured_;
-  std::size_t program_pos_ = 0;
   std::thread thread_;
   std::atomic<bool> stop_{false};
   std::atomic<bool> finished_{false};

@@ -4,11 +4,11 @@
 // loopback with cpp-httplib's client. A bad request must be answered 4xx with the JSON error object
 // {"error":{"code","message"}}: a 5xx, a non-JSON error or a failed connection aborts (a crash to libFuzzer).
 //
-// Input: byte 0 → route ((byte − '0') mod 12, so seeds start with a digit); routes with an id in the path
+// Input: byte 0 → route ((byte − '0') mod 13, so seeds start with a digit, or ':' ';' '<' for 10–12); routes with an id in the path
 // take it from the bytes up to the first '\n' (percent-encoded, so the server sees the bytes as they are)
 // and the body from the rest. Routes 9–11 write the request on a socket of their own, as no client library
 // would (issue #57): 9 a chunked body whose chunk sizes the input's bytes choose, 10 a request sent slowly
-// in pieces, 11 a body nested as deep as the input is long.
+// in pieces, 11 a body nested as deep as the input is long. Route 12 is PUT /api/program.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -185,7 +185,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
-  const unsigned route = static_cast<std::uint8_t>(data[0] - '0') % 12;
+  const unsigned route = static_cast<std::uint8_t>(data[0] - '0') % 13;
   const std::string_view rest(reinterpret_cast<const char*>(data + 1), size - 1);
   const std::size_t newline = rest.find('\n');
   const std::string id = percent_encoded(rest.substr(0, newline));
@@ -243,6 +243,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       raw_exchange("POST", "/api/models (deep)", {head_of("POST", "/api/models", deep.size()) + deep});
       break;
     }
+    case 12: request("PUT", "/api/program", body); break;
   }
   return 0;
 }

@@ -63,7 +63,8 @@ bool changes_state(const std::string& method) { return method != "GET" && method
 // The routes whose body is JSON (POST /api/records takes a WAV or CSV file instead).
 bool json_route(const httplib::Request& req) {
   if (req.method != "POST" && req.method != "PUT" && req.method != "PATCH") return false;
-  if (req.path == "/api/jobs" || req.path == "/api/config" || req.path == "/api/models") return true;
+  if (req.path == "/api/jobs" || req.path == "/api/config" || req.path == "/api/models" ||
+      req.path == "/api/program") return true;
   static const std::regex activate(R"(/api/models/[^/]+/activate)");
   return std::regex_match(req.path, activate);
 }

@@ -37,5 +37,17 @@ TEST(SineFrequency, FindsAFrequencyBetweenBinsAndRefusesNoise) {
   EXPECT_FALSE(sine_frequency(Eigen::VectorXd::Ones(10), 3000.0).has_value());
 }
 
+// A distorted sine (30 % third harmonic, a little noise) is not one sine, but its fundamental is still the
+// dominant frequency: within 1e-4 Hz (the third harmonic's leakage at the fundamental over 4000 samples).
+TEST(DominantFrequency, FindsTheFundamentalOfADistortedSineThatSineFrequencyRefuses) {
+  Eigen::VectorXd x = sinusoid(4000, 3000.0, 80.37, 0.2, 0.5, 0.1) + sinusoid(4000, 3000.0, 3 * 80.37, 0.1, 0.1, 0.0) +
+                      uniform_noise(4000, 0.01, 5);
+  EXPECT_FALSE(sine_frequency(x, 3000.0).has_value());
+  const auto f = dominant_frequency(x, 3000.0);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_NEAR(*f, 80.37, 1e-4);
+  EXPECT_FALSE(dominant_frequency(Eigen::VectorXd::Constant(4000, 0.3), 3000.0).has_value());
+}
+
 }  // namespace
 }  // namespace panelbass::dsp

@@ -21,6 +21,7 @@
 #include "engine/chain.h"
 #include "engine/closed_loop.h"
 #include "engine/controller_stages.h"
+#include "engine/program_player.h"
 #include "engine/rate_bridge.h"
 #include "models/control/feedback_training.h"
 #include "models/control/lq_feedforward.h"
@@ -242,6 +243,28 @@ TEST(AllocationCounter, TheVirtualTransducerWithItsNewStructuresStepsWithoutAllo
   EXPECT_TRUE(std::isfinite(sum));
   EXPECT_EQ(counted.allocations, 0);
   EXPECT_EQ(counted.frees, 0);
+}
+
+// A new program (PUT /api/program) is taken over, faded and its predecessor retired on the audio thread
+// without allocating or freeing; the control thread frees the retired buffers.
+TEST(AllocationCounter, TheProgramPlayerSwapsProgramsWithoutAllocatingOrFreeing) {
+  ProgramPlayer player(std::vector<double>(300, 0.1), true, 50);
+  std::vector<double> block(64);
+  double sum = 0.0;
+  for (int swap = 0; swap < 3; ++swap) {
+    player.install(std::vector<double>(200 + 10 * swap, 0.2));
+    const Counted counted = count_during([&] {
+      for (int b = 0; b < 4; ++b) {
+        player.fill(block);
+        sum += block.back();
+      }
+    });
+    EXPECT_EQ(counted.allocations, 0) << swap;
+    EXPECT_EQ(counted.frees, 0) << swap;
+    EXPECT_TRUE(player.idle());
+    EXPECT_EQ(player.collect_retired(), 1u);
+  }
+  EXPECT_TRUE(std::isfinite(sum));
 }
 
 TEST(AllocationCounter, TheChainProcessesSwapsAndFaultsWithoutAllocatingOrFreeing) {

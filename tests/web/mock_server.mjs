@@ -50,6 +50,8 @@ const models = new Map();   // id → {summary, model}
 const jobs = new Map();     // id → record
 let nextJob = 1;
 const active = { feedforward: null, feedback: null };
+// What GET /api/program says plays (PUT /api/program replaces it; /mock/program above only sets the limiter's story).
+let playing = { signal: 'noise', amplitude: 0.2, seed: 1, source: 'memory', rate: FS, fade_s: 0.025 };
 let config = {
   band_pass: { low_hz: 20, high_hz: 1200, order: 2, bypass: false },
   feedforward: { model: null, bypass: false },
@@ -330,6 +332,22 @@ async function handle(req, res) {
     };
     merge(config, patch, '');
     return send(res, 200, { config, change: { kind: keys.some((k) => k.startsWith('band_pass.') && !k.endsWith('bypass')) ? 'rebuild with crossfade' : 'in place', keys } });
+  }
+  if (p === '/api/program' && m === 'GET') return send(res, 200, { ...playing, settled: true });
+  if (p === '/api/program' && m === 'PUT') {
+    let body;
+    try { body = JSON.parse(await readBody(req)); } catch { return fail(res, 400, 'bad_request', 'malformed JSON'); }
+    const sine = /^sine:([0-9.eE+-]+)$/.exec(body?.signal ?? '');
+    if (!(body?.signal === 'noise' || body?.signal === 'silence' || (sine && Number(sine[1]) > 0 && Number(sine[1]) < FS / 2))) {
+      return fail(res, 400, 'bad_request', `program.signal: expected "noise", "silence" or "sine:HZ" (e.g. "sine:80"), got ${JSON.stringify(body?.signal)}`);
+    }
+    const amplitude = body.signal === 'silence' ? 0 : (body.amplitude ?? 0.2);
+    if (typeof amplitude !== 'number' || amplitude < 0 || amplitude > 1) {
+      return fail(res, 400, 'bad_request', `program.amplitude: must be finite and within [0, 1], got ${JSON.stringify(body.amplitude)}`);
+    }
+    playing = { signal: body.signal, amplitude, source: 'memory', rate: FS, fade_s: 0.025,
+                ...(sine ? { frequency_hz: Number(sine[1]) } : {}), ...(body.signal === 'noise' ? { seed: body.seed ?? 1 } : {}) };
+    return send(res, 200, { ...playing, settled: false });
   }
   if (p === '/api/records' && m === 'GET') return send(res, 200, { records: [], total: 0, offset: 0, limit: 1000 });
   if (p === '/api/models' && m === 'GET') return send(res, 200, { models: [...models.keys()].map(modelSummary) });
