@@ -15,8 +15,6 @@ namespace {
 
 using nlohmann::json;
 
-constexpr long long kAnyInteger = std::numeric_limits<int>::max();
-
 // The request of filled-in params, without its records.
 usecases::IdentifyOscillatorRequest oscillator_request(const json& params) {
   usecases::IdentifyOscillatorRequest q;
@@ -60,13 +58,7 @@ json identify_oscillator_work(const json& params, const JobEnvironment& env, Job
   JobProgress progress(control);
   const SourcedRecord data = acquire_record(params, env, progress, control);
   usecases::IdentifyOscillatorRequest q = oscillator_request(params);
-  q.u_est = data.record.u_est;
-  q.y_est = data.record.y_est;
-  q.u_val = data.record.u_val;
-  q.y_val = data.record.y_val;
-  q.fs = env.fs;
-  q.data_name = data.source;
-  q.val_name = q.u_val.size() > 0 ? data.source + " (validation)" : "";
+  put_record(q, data, env.fs);
   progress.span(kExcitationShare, 0.95);
   usecases::IdentifyOscillatorReport report;
   check_request([&] { report = usecases::identify_oscillator(q, progress); });

@@ -13,7 +13,10 @@
 #include "usecases/design_lq.h"
 #include "usecases/design_mirror.h"
 #include "usecases/harmonics.h"
+#include "usecases/identify_average.h"
+#include "usecases/identify_mimo.h"
 #include "usecases/identify_oscillator.h"
+#include "usecases/identify_ss.h"
 #include "usecases/validate_model.h"
 
 namespace panelbass::api {
@@ -69,6 +72,9 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
       {"design-mirror", "DesignMirrorParams", usecases::to_json(usecases::DesignMirrorRequest{})},
       {"harmonics", "HarmonicsParams", usecases::to_json(usecases::HarmonicsRequest{})},
       {"identify-oscillator", "IdentifyOscillatorParams", usecases::to_json(usecases::IdentifyOscillatorRequest{})},
+      {"identify-ss", "IdentifySsParams", usecases::to_json(usecases::IdentifySsRequest{})},
+      {"identify-average", "IdentifyAverageParams", usecases::to_json(usecases::IdentifyAverageRequest{})},
+      {"identify-mimo", "IdentifyMimoParams", usecases::to_json(usecases::IdentifyMimoRequest{})},
   };
   const json& schemas = openapi_document().at("components").at("schemas");
   for (const DocumentedRequest& r : requests) {
