@@ -3,7 +3,7 @@
 #include <limits>
 #include <string>
 
-#include "api/jobs/job_plots.h"
+#include "api/jobs/model_judgement.h"
 #include "api/jobs/job_progress.h"
 #include "api/jobs/param_reader.h"
 #include "api/jobs/record_acquisition.h"
@@ -117,15 +117,9 @@ json identify_ss_work(const json& params, const JobEnvironment& env, JobControl&
   const Eigen::VectorXd y_sim = report.model.simulate(part.u, part.y, q.init);
   progress.span(0.0, 1.0);
   progress.at(1.0, "done");
-  return {{"model_id", model_id},
-          {"j_est_pct", report.summary.at("J_est_pct")},
-          {"j_val_pct", report.summary.at("J_val_pct")},
-          {"summary", report.summary},
-          {"history", report.history},
-          {"warnings", report.warnings},
-          {"plots",
-           {{"fit", fit_plot(part.y, y_sim, env.fs)},
-            {"spectrum", spectrum_plot(part.u, part.y, y_sim, env.fs)}}}};
+  json result = identified_model_result(model_id, report.summary, report.warnings, part, y_sim, env.fs);
+  result["history"] = report.history;
+  return result;
 }
 
 }  // namespace
