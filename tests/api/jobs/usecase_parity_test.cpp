@@ -175,6 +175,17 @@ TEST_F(UseCaseParity, IdentifySsMakesTheSameModelFromBothDoors) {
   EXPECT_NE(bad.err.find("--epochs: must be within 0..1000000, got -1"), std::string::npos) << bad.err;
 }
 
+// A cancelled identify-ss job unwinds from inside the training and stores nothing.
+TEST_F(UseCaseParity, ACancelledIdentifySsJobStoresNothing) {
+  run("excite", {{"samples", 2000}, {"validation_samples", 1000}, {"amplitude", 0.5}, {"seed", 3}}, "j2");
+  FakeControl control("j3", 4);
+  json params = small_ss_params("j2", 2);
+  params["epochs"] = 50;
+  EXPECT_THROW(job_work("identify-ss", env_)(validate_job_params("identify-ss", params, env_), control), JobCancelled);
+  EXPECT_EQ(control.reports.size(), 4u);
+  EXPECT_TRUE(store_->list().empty()) << "a cancelled job stored a model";
+}
+
 TEST_F(UseCaseParity, IdentifyAverageMakesTheSameModelFromBothDoors) {
   const json record = run("excite", {{"samples", 2000}, {"validation_samples", 1000}, {"amplitude", 0.5}, {"seed", 3}}, "j2");
   write_parts(record, dir_);
@@ -193,6 +204,13 @@ TEST_F(UseCaseParity, IdentifyAverageMakesTheSameModelFromBothDoors) {
   EXPECT_EQ(job.at("summary").at("members").size(), printed.at("members").size());
   EXPECT_NEAR(job.at("j_val_pct").get<double>(), printed.at("J_val_pct").get<double>(), 1e-9);
   EXPECT_EQ(job.at("summary").at("states"), printed.at("states"));
+  // Models trained on another record (another scaling) are refused before anything is queued, naming both.
+  run("excite", {{"samples", 2000}, {"validation_samples", 0}, {"amplitude", 0.2}, {"seed", 9}}, "j6");
+  const std::string c = run("identify-ss", small_ss_params("j6", 2), "j7").at("model_id");
+  const std::string mixed = refusal("identify-average", {{"models", {a, c}}});
+  EXPECT_NE(mixed.find("params.models: " + c + " cannot be averaged with " + a + ": it has another scaling"),
+            std::string::npos)
+      << mixed;
   const std::string refused = refusal("identify-average", {{"models", {a, b}}, {"init", -1}});
   const testing_support::RunResult bad = cli("identify average --models a.json b.json --init -1 --out bad.json");
   EXPECT_EQ(bad.status, 2) << bad.err;
