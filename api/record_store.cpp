@@ -235,6 +235,12 @@ dsp::Record RecordStore::data(const std::string& id) const {
   return out;
 }
 
+std::filesystem::path RecordStore::file(const std::string& id) const {
+  const std::optional<StoredRecord> entry = find(id);
+  if (!entry) throw std::invalid_argument("no uploaded record \"" + id + "\"");
+  return file_path(entry->id, entry->file);
+}
+
 bool RecordStore::remove(const std::string& id) {
   const std::lock_guard lock(mutex_);
   const auto it = records_.find(id);

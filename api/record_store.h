@@ -64,6 +64,9 @@ class RecordStore {
   /// The samples of `id`: columns "u", "y" and (with a current channel) "i", at the entry's fs. Throws
   /// std::invalid_argument if `id` is not stored, StoreError if its file can no longer be read.
   dsp::Record data(const std::string& id) const;
+  /// The file of `id` as it was uploaded (a periodic CSV is read from it by its own columns). Throws
+  /// std::invalid_argument if `id` is not stored.
+  std::filesystem::path file(const std::string& id) const;
   /// Deletes `id`'s entry and file; false if it was not stored. Throws StoreError if they cannot be removed.
   bool remove(const std::string& id);
 

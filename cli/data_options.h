@@ -35,6 +35,21 @@ struct DataOptions {
   };
   /// read_validation's input and output columns of `path`, or empty ones when `path` is empty (no --val).
   Validation read_optional_validation(const std::string& path, double est_fs) const;
+
+  /// Reads --data `data` and the optional --val `val` into a use case's request of an estimation and a validation
+  /// record (u_est, y_est, u_val, y_val, fs, data_name, val_name).
+  template <typename Request>
+  void read_into(Request& q, const std::string& data, const std::string& val) const {
+    const dsp::Record est = read(data);
+    const Validation v = read_optional_validation(val, est.fs);
+    q.u_est = est.columns[0];
+    q.y_est = est.columns[1];
+    q.u_val = v.u;
+    q.y_val = v.y;
+    q.fs = est.fs;
+    q.data_name = data;
+    q.val_name = val;
+  }
 };
 
 }  // namespace panelbass::cli

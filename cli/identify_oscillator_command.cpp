@@ -45,16 +45,8 @@ std::vector<std::string> parse_terms(const std::string& list) {
 }
 
 void run_identify_oscillator(const IdentifyOscillatorOptions& o) {
-  const dsp::Record est = o.columns.read(o.data);
-  const DataOptions::Validation val = o.columns.read_optional_validation(o.val, est.fs);
   usecases::IdentifyOscillatorRequest q;
-  q.u_est = est.columns[0];
-  q.y_est = est.columns[1];
-  q.u_val = val.u;
-  q.y_val = val.y;
-  q.fs = est.fs;
-  q.data_name = o.data;
-  q.val_name = o.val;
+  o.columns.read_into(q, o.data, o.val);
   q.terms = parse_terms(o.terms);
   q.substeps = o.substeps;
   q.output_taps = o.output_taps;

@@ -16,6 +16,7 @@
 #include "models/control/model_probes.h"
 #include "models/control/neural_feedback.h"
 #include "models/linear/state_space.h"
+#include "models/validation/performance.h"
 
 namespace panelbass::evaluation {
 
@@ -132,7 +133,9 @@ ChainEvaluation evaluate_chain(const ChainConfig& config, const models::PlantCon
   const Eigen::VectorXd y_desired = models::simulate(ff.desired(), band_pass.process(noise));
   const double desired_power = y_desired.tail(y_desired.size() - kNoiseSkip).squaredNorm() /
                                static_cast<double>(y_desired.size() - kNoiseSkip);
-  result.jc_noise_floor_pct = 100.0 * plant.sensor.noise_rms_V * plant.sensor.noise_rms_V / desired_power;
+  // [2C]'s floor: the sensor's noise power against the desired output's (per sample).
+  result.jc_noise_floor_pct =
+      models::j_ratio_percent(plant.sensor.noise_rms_V * plant.sensor.noise_rms_V, desired_power, "the desired output");
   models::PlantConfig quiet_plant = plant;
   quiet_plant.sensor.noise_rms_V = 0.0;
 

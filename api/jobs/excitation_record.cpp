@@ -1,9 +1,14 @@
 #include "api/jobs/excitation_record.h"
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
+#include <utility>
 
 #include "api/jobs/param_reader.h"
+#include "api/record_store.h"
+#include "dsp/data_error.h"
+#include "dsp/data_file.h"
 #include "dsp/sample_rate.h"
 #include "models/io/json_fields.h"
 #include "models/io/number_text.h"
@@ -52,11 +57,82 @@ json excitation_record_to_json(const ExcitationRecord& record) {
   return out;
 }
 
-ExcitationRecord excitation_record_from_result(const json& result, double fs, const std::string& where) {
-  if (!result.is_object() || !result.contains("record") || !result.at("record").is_object()) {
+std::vector<std::string> excitation_record_columns(const ExcitationRecord& record) {
+  std::vector<std::string> names{"u", "y"};
+  if (record.i_est.size() > 0) names.emplace_back("i");
+  if (record.w_est.size() > 0) names.emplace_back("w");
+  if (record.l_est.size() > 0) names.emplace_back("l");
+  return names;
+}
+
+std::string excitation_record_csv(const ExcitationRecord& record) {
+  const std::vector<std::string> names = excitation_record_columns(record);
+  std::vector<std::pair<const Eigen::VectorXd*, const Eigen::VectorXd*>> parts;
+  for (const std::string& n : names) {
+    if (n == "u") parts.emplace_back(&record.u_est, &record.u_val);
+    if (n == "y") parts.emplace_back(&record.y_est, &record.y_val);
+    if (n == "i") parts.emplace_back(&record.i_est, &record.i_val);
+    if (n == "w") parts.emplace_back(&record.w_est, &record.w_val);
+    if (n == "l") parts.emplace_back(&record.l_est, &record.l_val);
+  }
+  std::string text;
+  for (std::size_t c = 0; c < names.size(); ++c) text += (c ? "," : "") + names[c];
+  text += '\n';
+  char number[32];
+  const auto rows = [&](bool validation) {
+    const Eigen::Index n = validation ? record.u_val.size() : record.u_est.size();
+    for (Eigen::Index k = 0; k < n; ++k) {
+      for (std::size_t c = 0; c < parts.size(); ++c) {
+        const Eigen::VectorXd& x = validation ? *parts[c].second : *parts[c].first;
+        std::snprintf(number, sizeof number, "%s%.17g", c ? "," : "", x[k]);
+        text += number;
+      }
+      text += '\n';
+    }
+  };
+  rows(false);
+  rows(true);
+  return text;
+}
+
+namespace {
+
+// The record kept in the record store for result {"record_id","record_columns","samples"}: read back and split.
+json stored_record_json(const json& result, const std::string& where, const RecordStore* records) {
+  const std::string id = result.at("record_id").is_string() ? result.at("record_id").get<std::string>() : "";
+  if (records == nullptr) fail_after(where, "keeps its record in a record store this server does not have");
+  if (!records->find(id)) fail_after(where, "kept its record as " + id + ", which is no longer stored");
+  if (!result.contains("record_columns") || !result.contains("samples") || !result.at("samples").is_number_integer()) {
+    fail_after(where, "has a record_id without its record_columns and samples");
+  }
+  const std::vector<std::string> names = result.at("record_columns").get<std::vector<std::string>>();
+  dsp::Record data;
+  try {
+    data = dsp::read_data_file(records->file(id), names, records->find(id)->fs, 1);
+  } catch (const dsp::DataError& e) {
+    fail_after(where, "kept its record as " + id + ", which can no longer be read (" + e.what() + ")");
+  }
+  const auto samples = result.at("samples").get<Eigen::Index>();
+  if (samples < 0 || samples > static_cast<Eigen::Index>(data.samples())) fail_after(where, "splits its record beyond its " + std::to_string(data.samples()) + " samples");
+  json out = json::object();
+  for (std::size_t c = 0; c < names.size(); ++c) {
+    const Eigen::VectorXd& x = data.columns[c];
+    out[names[c] + "_est"] = models::to_array(x.head(samples));
+    out[names[c] + "_val"] = models::to_array(x.tail(x.size() - samples));
+  }
+  return out;
+}
+
+}  // namespace
+
+ExcitationRecord excitation_record_from_result(const json& result, double fs, const std::string& where,
+                                               const RecordStore* records) {
+  const bool stored = result.is_object() && result.contains("record_id") && !result.contains("record");
+  if (!stored && (!result.is_object() || !result.contains("record") || !result.at("record").is_object())) {
     fail_after(where, "is not an excite job (its result has no \"record\")");
   }
-  const json& record = result.at("record");
+  const json kept = stored ? stored_record_json(result, where, records) : json();
+  const json& record = stored ? kept : result.at("record");
   ExcitationRecord out;
   out.u_est = numbers_of(record, "u_est", where);
   out.y_est = numbers_of(record, "y_est", where);

@@ -6,8 +6,11 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 namespace panelbass::api {
+
+class RecordStore;
 
 /// The estimation and validation parts of a recording: raw drive u and response y.
 struct ExcitationRecord {
@@ -33,10 +36,19 @@ struct MeasuredResponse {
 /// "i_est", "i_val" when it has the current, "l_est", "l_val" when it has the converters' output.
 nlohmann::json excitation_record_to_json(const ExcitationRecord& record);
 
-/// The record in an excite job's result ({"fs", "record":{…}}), checked: four arrays of finite numbers,
-/// equal lengths per part, at least 200 estimation samples, recorded at `fs`. Throws std::invalid_argument
-/// starting with `where` ("params.record: job j3 …").
-ExcitationRecord excitation_record_from_result(const nlohmann::json& result, double fs, const std::string& where);
+/// The record as one CSV file for the record store: columns u, y and, when the record has them, i, w and l; the
+/// estimation rows first, then the validation rows; every number to 17 significant digits (read back exactly).
+std::string excitation_record_csv(const ExcitationRecord& record);
+
+/// The columns excitation_record_csv writes for `record` ("u", "y", then "i", "w", "l" where present).
+std::vector<std::string> excitation_record_columns(const ExcitationRecord& record);
+
+/// The record in an excite job's result, checked: {"fs", "record":{…}} (inline, as jobs kept it before), or
+/// {"fs", "record_id":"r…", "record_columns":[…], "samples"} (kept once in `records`, the record store). Four arrays
+/// of finite numbers, equal lengths per part, at least 200 estimation samples, recorded at `fs`. Throws
+/// std::invalid_argument starting with `where` ("params.record: job j3 …").
+ExcitationRecord excitation_record_from_result(const nlohmann::json& result, double fs, const std::string& where,
+                                               const RecordStore* records = nullptr);
 
 /// The fewest samples a record part must have.
 inline constexpr long long kMinSamples = 200;

@@ -1,11 +1,14 @@
 #include "api/jobs/excite_job.h"
 
 #include <cmath>
+#include <string>
 
 #include "api/jobs/excitation_record.h"
 #include "api/jobs/job_plots.h"
 #include "api/jobs/job_progress.h"
 #include "api/jobs/record_acquisition.h"
+#include "api/record_store.h"
+#include "api/record_upload.h"
 
 namespace panelbass::api {
 namespace {
@@ -14,6 +17,27 @@ using nlohmann::json;
 
 // The excite kind's own params are an excitation's.
 json excite_job_params(const json& params, const JobEnvironment& env) { return excite_params(params, "params", env); }
+
+// Keeps the record once in the record store, the result naming it ("record_id", "record_columns"; a few hundred
+// bytes instead of megabytes in the job file and in every answer about the job); inline ("record") where there is
+// no record store or the store takes no record of its length.
+void keep_record(const ExcitationRecord& r, const JobEnvironment& env, const JobControl& control, json& result) {
+  const auto total = static_cast<std::size_t>(r.u_est.size() + r.u_val.size());
+  if (env.records == nullptr || total < kMinRecordSamples || total > kMaxRecordSamples) {
+    result["record"] = excitation_record_to_json(r);
+    return;
+  }
+  RecordUpload upload;
+  upload.content_type = "text/csv";
+  upload.fs = env.fs;
+  upload.input = "u";
+  upload.output = "y";
+  upload.current = r.i_est.size() > 0 ? "i" : "";
+  const StoredRecord stored =
+      env.records->put(excitation_record_csv(r), upload, "excitation of " + control.job_id(), env.fs);
+  result["record_id"] = stored.id;
+  result["record_columns"] = excitation_record_columns(r);
+}
 
 // RMS over both parts of a record.
 double rms(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
@@ -36,8 +60,8 @@ json excite_work(const json& params, const JobEnvironment& env, JobControl& cont
                  {"rms_drive", rms(r.u_est, r.u_val)},
                  {"rms_response", rms(r.y_est, r.y_val)},
                  {"plots",
-                  {{"fit", {{"t", column(t)}, {"drive", column(r.u_est.head(n))}, {"measured", column(r.y_est.head(n))}}}}},
-                 {"record", excitation_record_to_json(r)}};
+                  {{"fit", {{"t", column(t)}, {"drive", column(r.u_est.head(n))}, {"measured", column(r.y_est.head(n))}}}}}};
+  keep_record(r, env, control, result);
   if (!r.card.is_null()) result["card"] = r.card;
   progress.span(0.0, 1.0);
   progress.at(1.0, "done");

@@ -120,7 +120,7 @@ json identify_linear_work(const json& params, const JobEnvironment& env, JobCont
     progress.at(base, method + ": " + stage);
   };
   spec.oe.progress = [&](int iteration, double loss) {
-    history.push_back({iteration, output_power > 0.0 ? 100.0 * loss / output_power : kNaN, kNaN});
+    history.push_back({iteration, models::j_ratio_percent(loss, output_power), kNaN});
     progress.at(base + static_cast<double>(iteration) / spec.oe.max_iterations / fits,
                 method + " iteration " + std::to_string(iteration));
   };

@@ -3,7 +3,7 @@
 #include <limits>
 #include <string>
 
-#include "api/jobs/job_plots.h"
+#include "api/jobs/model_judgement.h"
 #include "api/jobs/job_progress.h"
 #include "api/jobs/param_reader.h"
 #include "api/jobs/record_acquisition.h"
@@ -14,8 +14,6 @@ namespace panelbass::api {
 namespace {
 
 using nlohmann::json;
-
-constexpr long long kAnyInteger = std::numeric_limits<int>::max();
 
 // The request of filled-in params, without its records.
 usecases::IdentifyOscillatorRequest oscillator_request(const json& params) {
@@ -60,13 +58,7 @@ json identify_oscillator_work(const json& params, const JobEnvironment& env, Job
   JobProgress progress(control);
   const SourcedRecord data = acquire_record(params, env, progress, control);
   usecases::IdentifyOscillatorRequest q = oscillator_request(params);
-  q.u_est = data.record.u_est;
-  q.y_est = data.record.y_est;
-  q.u_val = data.record.u_val;
-  q.y_val = data.record.y_val;
-  q.fs = env.fs;
-  q.data_name = data.source;
-  q.val_name = q.u_val.size() > 0 ? data.source + " (validation)" : "";
+  put_record(q, data, env.fs);
   progress.span(kExcitationShare, 0.95);
   usecases::IdentifyOscillatorReport report;
   check_request([&] { report = usecases::identify_oscillator(q, progress); });
@@ -76,12 +68,7 @@ json identify_oscillator_work(const json& params, const JobEnvironment& env, Job
   const Eigen::VectorXd y_sim = report.model.simulate(part.u, part.y, q.init);
   progress.span(0.0, 1.0);
   progress.at(1.0, "done");
-  return {{"model_id", model_id},
-          {"j_est_pct", report.summary.at("J_est_pct")},
-          {"j_val_pct", report.summary.at("J_val_pct")},
-          {"summary", report.summary},
-          {"warnings", report.warnings},
-          {"plots", {{"fit", fit_plot(part.y, y_sim, env.fs)}, {"spectrum", spectrum_plot(part.u, part.y, y_sim, env.fs)}}}};
+  return identified_model_result(model_id, report.summary, report.warnings, part, y_sim, env.fs);
 }
 
 }  // namespace

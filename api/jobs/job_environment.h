@@ -36,8 +36,10 @@ struct JobEnvironment {
   /// The result of a finished job (the "record" param of identify/analyze/diagnose); nullopt if unknown
   /// or not succeeded.
   std::function<std::optional<nlohmann::json>(const std::string& job_id)> job_result;
-  /// Uploaded records (a "record" param naming "r…" instead of a job); null when the service keeps none.
-  const RecordStore* records = nullptr;
+  /// Uploaded records (a "record" param naming "r…" instead of a job), and where an excite job keeps the record
+  /// it made (once, not inside its job file); null when the service keeps none (an excite job's result then holds
+  /// its record inline).
+  RecordStore* records = nullptr;
 };
 
 }  // namespace panelbass::api

@@ -11,8 +11,11 @@
 #include "api/jobs/excite_job.h"
 #include "api/jobs/identify_linear_job.h"
 #include "api/jobs/harmonics_job.h"
+#include "api/jobs/identify_average_job.h"
+#include "api/jobs/identify_mimo_job.h"
 #include "api/jobs/identify_narx_job.h"
 #include "api/jobs/identify_oscillator_job.h"
+#include "api/jobs/identify_ss_job.h"
 #include "api/jobs/job_kind.h"
 #include "api/jobs/job_plots.h"
 #include "api/jobs/tune_job.h"
@@ -27,7 +30,8 @@ using nlohmann::json;
 // Every kind, in the order ROUTES.md lists them.
 const std::vector<JobKind>& registry() {
   static const std::vector<JobKind> kinds{excite_job(),     identify_linear_job(), identify_narx_job(),
-                                          identify_oscillator_job(), validate_job(),   design_lq_job(),       design_nn_job(),
+                                          identify_oscillator_job(), identify_ss_job(), identify_average_job(),
+                                          identify_mimo_job(), validate_job(),   design_lq_job(),       design_nn_job(),
                                           design_mirror_job(), evaluate_job(),     analyze_job(),
                                           harmonics_job(),  diagnose_job(),        verify_job(),
                                           tune_job()};

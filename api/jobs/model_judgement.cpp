@@ -36,6 +36,17 @@ nlohmann::json model_plots(const models::AnyModel& model, const ExcitationRecord
           {"spectrum", spectrum_plot(part.u, part.y, model.simulate(part.u), fs)}};
 }
 
+nlohmann::json identified_model_result(const std::string& model_id, const nlohmann::json& summary,
+                                       const std::vector<std::string>& warnings, const JudgedPart& part,
+                                       const Eigen::VectorXd& y_sim, double fs) {
+  return {{"model_id", model_id},
+          {"j_est_pct", summary.at("J_est_pct")},
+          {"j_val_pct", summary.at("J_val_pct")},
+          {"summary", summary},
+          {"warnings", warnings},
+          {"plots", {{"fit", fit_plot(part.y, y_sim, fs)}, {"spectrum", spectrum_plot(part.u, part.y, y_sim, fs)}}}};
+}
+
 std::optional<models::DistortionSpec> harmonic_spec(const JobEnvironment& env, double model_fs,
                                                     const ExcitationRecord& r) {
   if (!env.plant || !dsp::same_rate(env.plant->fs, model_fs)) return std::nullopt;

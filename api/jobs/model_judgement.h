@@ -5,6 +5,8 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "api/jobs/excitation_record.h"
 #include "api/jobs/job_environment.h"
@@ -26,6 +28,13 @@ double simulation_j(const models::AnyModel& model, const Eigen::VectorXd& u, con
 
 /// {"fit", "spectrum"} plots of `model` on the judged part of `r`.
 nlohmann::json model_plots(const models::AnyModel& model, const ExcitationRecord& r, double fs);
+
+/// The result of a job that identified a model through a use case: {"model_id", "j_est_pct" and "j_val_pct" (its
+/// summary's J_est_pct and J_val_pct), "summary", "warnings", "plots":{"fit","spectrum"}} of the model's free run
+/// `y_sim` on the judged part `part` of its record.
+nlohmann::json identified_model_result(const std::string& model_id, const nlohmann::json& summary,
+                                       const std::vector<std::string>& warnings, const JudgedPart& part,
+                                       const Eigen::VectorXd& y_sim, double fs);
 
 /// The stepped-sine harmonic distortion measurement (H2/H3 at the record's drive level) that compares the
 /// server's plant with a model at `model_fs`; nullopt unless the plant is known and runs at that rate.

@@ -37,6 +37,9 @@ struct Interval {
 /// Any finite number: for a field whose range a use case's check says (the same words at both doors).
 inline constexpr Interval kAnyFinite{-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(), true, true};
 
+/// Any int: for an integer field whose range a use case's check says (the same words at both doors).
+inline constexpr long long kAnyInteger = std::numeric_limits<int>::max();
+
 /// Reads one params object: each accessor marks its key as known, checks the value (throwing
 /// std::invalid_argument "<path>.<key>: …") and records it, with the default when absent, in the
 /// filled-in params that finish() returns.

@@ -154,7 +154,7 @@ long long record_source(ParamReader& r, const JobEnvironment& env, std::string& 
       refuse(where, "no succeeded job \"" + id + "\" (the record must name a finished excite job \"j…\" or an uploaded "
                     "record \"r…\")");
     }
-    const ExcitationRecord data = excitation_record_from_result(*result, env.fs, where + ": job " + id);
+    const ExcitationRecord data = excitation_record_from_result(*result, env.fs, where + ": job " + id, env.records);
     r.set("record", id);
     validation_path = where;
     return data.u_val.size();
@@ -172,7 +172,10 @@ RecordSplit split_record(long long samples, double val_fraction) {
 
 bool record_has_weights(const JobEnvironment& env, const std::string& id) {
   const std::optional<json> result = env.job_result ? env.job_result(id) : std::nullopt;
-  return result && result->contains("record") && result->at("record").contains("w_est");
+  if (!result) return false;
+  if (result->contains("record")) return result->at("record").contains("w_est");  // kept inline
+  const json columns = result->value("record_columns", json::array());
+  return std::find(columns.begin(), columns.end(), json("w")) != columns.end();
 }
 
 ExcitationRecord run_excitation(const json& excite, const JobEnvironment& env, JobProgress& progress) {
@@ -251,7 +254,7 @@ SourcedRecord acquire_record(const json& params, const JobEnvironment& env, JobP
     const std::optional<json> result = env.job_result ? env.job_result(id) : std::nullopt;
     if (!result) throw std::runtime_error("params.record: job " + id + " is no longer available");
     progress.at(1.0, "record of " + id);
-    return {excitation_record_from_result(*result, env.fs, "params.record: job " + id), "job " + id};
+    return {excitation_record_from_result(*result, env.fs, "params.record: job " + id, env.records), "job " + id};
   }
   return {run_excitation(params.at("excite"), env, progress), "excitation of " + control.job_id()};
 }

@@ -52,6 +52,19 @@ struct SourcedRecord {
   std::string source;       ///< where it came from
 };
 
+/// Puts `data` into a use case's request of an estimation and a validation record (u_est, y_est, u_val, y_val,
+/// fs: the engine's, data_name, val_name: "<source> (validation)" when it has that part).
+template <typename Request>
+void put_record(Request& q, const SourcedRecord& data, double fs) {
+  q.u_est = data.record.u_est;
+  q.y_est = data.record.y_est;
+  q.u_val = data.record.u_val;
+  q.y_val = data.record.y_val;
+  q.fs = fs;
+  q.data_name = data.source;
+  q.val_name = q.u_val.size() > 0 ? data.source + " (validation)" : "";
+}
+
 /// The data of checked params (record_source), over the first kExcitationShare of the job's progress.
 SourcedRecord acquire_record(const nlohmann::json& params, const JobEnvironment& env, JobProgress& progress,
                              const JobControl& control);

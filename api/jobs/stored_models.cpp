@@ -16,19 +16,22 @@ using nlohmann::json;
 void require_stored_model(ParamReader& r, const std::string& key, bool required, const std::vector<std::string>& kinds,
                           const JobEnvironment& env) {
   const std::optional<std::string> id = r.id(key, required);
-  if (!id) return;
-  const std::string where = r.path_of(key);
-  if (env.store == nullptr) refuse(where, "no model store to read \"" + *id + "\" from");
-  const std::optional<StoredModel> stored = env.store->find(*id);
-  if (!stored) refuse(where, "no stored model \"" + *id + "\"");
+  if (id) require_stored_id(*id, r.path_of(key), kinds, env);
+}
+
+void require_stored_id(const std::string& id, const std::string& where, const std::vector<std::string>& kinds,
+                       const JobEnvironment& env) {
+  if (env.store == nullptr) refuse(where, "no model store to read \"" + id + "\" from");
+  const std::optional<StoredModel> stored = env.store->find(id);
+  if (!stored) refuse(where, "no stored model \"" + id + "\"");
   if (std::find(kinds.begin(), kinds.end(), stored->kind) == kinds.end()) {
     std::string expected;
     for (std::size_t k = 0; k < kinds.size(); ++k) expected += (k ? " or " : "") + kinds[k];
-    refuse(where, "model " + *id + " is of kind \"" + stored->kind + "\", expected " + expected);
+    refuse(where, "model " + id + " is of kind \"" + stored->kind + "\", expected " + expected);
   }
   if (!dsp::same_rate(stored->fs, env.fs)) {
-    refuse(where, "model " + *id + " runs at " + models::number_text(stored->fs) + " Hz, the engine at " +
-                        models::number_text(env.fs) + " Hz");
+    refuse(where, "model " + id + " runs at " + models::number_text(stored->fs) + " Hz, the engine at " +
+                      models::number_text(env.fs) + " Hz");
   }
 }
 

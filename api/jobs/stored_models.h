@@ -18,6 +18,9 @@ namespace panelbass::api {
 void require_stored_model(ParamReader& r, const std::string& key, bool required, const std::vector<std::string>& kinds,
                           const JobEnvironment& env);
 
+/// Checks that the store holds `id`, of one of `kinds`, at the engine's rate; std::invalid_argument "<where>: …".
+void require_stored_id(const std::string& id, const std::string& where, const std::vector<std::string>& kinds,
+                       const JobEnvironment& env);
 /// The names of the model kinds that may take `role` (the registry's), for require_stored_model.
 std::vector<std::string> kinds_taking(models::ModelRole role);
 

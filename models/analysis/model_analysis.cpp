@@ -95,6 +95,7 @@ TrainingHistory refinement_history(const LinearModel& lm, const Eigen::VectorXd&
   const OeResult fit = estimate_oe(lm.scaling.scale_u(u), lm.scaling.scale_y(y), lm.tf, options);
   const Eigen::Index m = y.size() - init;
   const double energy = y.tail(m).squaredNorm();
+  const double scale2 = lm.scaling.y_scale * lm.scaling.y_scale;
   TrainingHistory h;
   h.source = "OE refinement of the model on the analysed data (from rest, first " + std::to_string(init) +
              " samples skipped)";
@@ -102,7 +103,7 @@ TrainingHistory refinement_history(const LinearModel& lm, const Eigen::VectorXd&
     HistoryPoint p;
     p.iteration = static_cast<int>(i);
     p.mode = "oe";
-    p.j_est_pct = 100.0 * lm.scaling.y_scale * lm.scaling.y_scale * fit.history[i] * static_cast<double>(m) / energy;
+    p.j_est_pct = j_ratio_percent(scale2 * fit.history[i] * static_cast<double>(m), energy);  // the OE loss is a mean
     h.points.push_back(p);
   }
   return h;
@@ -243,11 +244,12 @@ ModelAnalysis analyze_model(const AnyModel& model, const Eigen::VectorXd& u, con
   }
   const double df = a.fs / static_cast<double>(welch.segment);
   const double mean_square = a.y.squaredNorm() / static_cast<double>(m);
-  a.j_noncoherent_pct = 100.0 * spectrum.noncoherent_psd.sum() * df / mean_square;
+  // The J of a perfect model: the output's power no model of the input explains (per sample, as the mean square).
+  a.j_noncoherent_pct = j_ratio_percent(spectrum.noncoherent_psd.sum() * df, mean_square);
   if (spec.plant) {
     const double sigma = spec.plant->sensor.noise_rms_V;
     spectrum.sensor_noise_psd = 2.0 * sigma * sigma / a.fs;  // white: σ² spread evenly over 0..fs/2
-    a.j_noise_pct = 100.0 * sigma * sigma / mean_square;
+    a.j_noise_pct = j_ratio_percent(sigma * sigma, mean_square);
   }
 
   a.frf.frequency = h1.frequency;

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <system_error>
 
+#include "models/io/bounded_json.h"
 #include "models/io/config_error.h"
 
 namespace panelbass::models {
@@ -18,10 +19,16 @@ nlohmann::json read_json_file(const std::filesystem::path& path) {
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw ConfigError(path.string() + ": cannot read");
+  // The limits the API puts on JSON from outside (nesting counted while parsing, a key given twice): a file
+  // handed to the CLI is as much from outside as an upload.
   try {
-    return nlohmann::json::parse(text.str());
+    return parse_bounded_json(text.str());
   } catch (const nlohmann::json::parse_error& e) {
     throw ConfigError(path.string() + ": not valid JSON: " + e.what());
+  } catch (const nlohmann::json::out_of_range& e) {
+    throw ConfigError(path.string() + ": not valid JSON: " + e.what());
+  } catch (const JsonLimitError& e) {
+    throw ConfigError(path.string() + ": not acceptable JSON: " + e.what());
   }
 }
 

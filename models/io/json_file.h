@@ -8,8 +8,9 @@
 
 namespace panelbass::models {
 
-/// Parses the JSON file at `path`; ConfigError "<path>: cannot open …", "<path>: is a directory",
-/// "<path>: not valid JSON: …".
+/// Parses the JSON file at `path` with the API's limits (models::parse_bounded_json: nesting at most
+/// kMaxJsonDepth levels, counted while parsing; no key twice in one object); ConfigError "<path>: cannot open …",
+/// "<path>: is a directory", "<path>: not valid JSON: …", "<path>: not acceptable JSON: …" (a limit broken).
 nlohmann::json read_json_file(const std::filesystem::path& path);
 
 /// Reads the JSON file at `path` through `from_json` (a kind's validating reader); its ConfigError is

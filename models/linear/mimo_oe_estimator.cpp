@@ -11,6 +11,7 @@
 #include <unsupported/Eigen/FFT>
 
 #include "models/optimization/levenberg_marquardt.h"
+#include "models/validation/performance.h"
 
 namespace panelbass::models {
 namespace {
@@ -168,7 +169,7 @@ double modal_loss(const ModalStateSpace& model, const PeriodicSpectra& data) {
 }
 
 double modal_j_pct(const ModalStateSpace& model, const PeriodicSpectra& data) {
-  return 100.0 * modal_loss(model, data) / data.output_energy;
+  return j_ratio_percent(modal_loss(model, data), data.output_energy, "the measured outputs");
 }
 
 }  // namespace
@@ -371,7 +372,7 @@ MimoRefinement refine_mimo(const MimoStateSpace& start, const PeriodicSpectra& e
   double V = modal_normal_equations(model, estimation, H, g);
 
   MimoRefinement out;
-  MimoRefinementRecord record{0, 100.0 * V / estimation.output_energy, 0.0, lm.lambda()};
+  MimoRefinementRecord record{0, j_ratio_percent(V, estimation.output_energy, "the measured outputs"), 0.0, lm.lambda()};
   record.j_val_pct = selection_j(model, record.j_est_pct);
   out.history.push_back(record);
   out.model = model.state_space();
@@ -390,7 +391,7 @@ MimoRefinement refine_mimo(const MimoStateSpace& start, const PeriodicSpectra& e
     model.set_theta(theta);
     V = modal_normal_equations(model, estimation, H, g);
     out.iterations = iteration;
-    record = {iteration, 100.0 * V / estimation.output_energy, 0.0, lm.lambda()};
+    record = {iteration, j_ratio_percent(V, estimation.output_energy, "the measured outputs"), 0.0, lm.lambda()};
     record.j_val_pct = selection_j(model, record.j_est_pct);
     out.history.push_back(record);
     if (record.j_val_pct < out.j_val_pct) {

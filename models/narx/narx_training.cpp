@@ -237,8 +237,7 @@ struct Trainer {
     if (!b.yhat.allFinite()) return std::numeric_limits<double>::infinity();
     if (!weighted || b.weight.size() == 0) return j_percent(b.yhat, y, j_start);
     const Eigen::Index M = y.size() - skip;
-    const double energy = b.weight.tail(M).dot(y.tail(M).cwiseAbs2());
-    return energy > 0.0 ? 100.0 * 2.0 * V * b.weight_total / energy : std::numeric_limits<double>::infinity();
+    return j_ratio_percent(2.0 * V * b.weight_total, b.weight.tail(M).dot(y.tail(M).cwiseAbs2()), "the weighted output");
   }
 
   TrainingRecord record(const NarxModel& m, int iteration, TrainingMode mode) {

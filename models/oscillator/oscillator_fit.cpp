@@ -172,7 +172,7 @@ OscillatorFit fit_oscillator(const Eigen::VectorXd& u, const Eigen::VectorXd& y,
       }
       if (options.progress) {
         OscillatorFitProgress progress{plan.name, fit.stages.size(), plans.size(), iteration + 1,
-                                       100.0 * step.loss / ys.squaredNorm()};
+                                       j_ratio_percent(step.loss, ys.squaredNorm(), "the scaled output")};
         stopped = !options.progress(progress);
       }
       if (!step.accepted || V - step.loss <= 1e-9 * V) break;

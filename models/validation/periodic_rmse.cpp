@@ -4,6 +4,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "models/validation/performance.h"
+
 namespace panelbass::models {
 
 PeriodicScore periodic_score(const std::vector<Eigen::MatrixXd>& simulated, const std::vector<Eigen::MatrixXd>& measured,
@@ -38,10 +40,9 @@ PeriodicScore periodic_score(const std::vector<Eigen::MatrixXd>& simulated, cons
       ++terms;
     }
   }
-  if (!(output_energy > 0.0)) throw std::invalid_argument("periodic score: the measured output has no energy");
   score.rmse /= static_cast<double>(terms);
   score.mean_rmse = score.rmse.mean();
-  score.j_pct = 100.0 * error_energy / output_energy;
+  score.j_pct = j_ratio_percent(error_energy, output_energy, "the measured outputs");
   return score;
 }
 

@@ -13,8 +13,11 @@
 #include "usecases/design_lq.h"
 #include "usecases/design_mirror.h"
 #include "usecases/harmonics.h"
+#include "usecases/identify_average.h"
+#include "usecases/identify_mimo.h"
 #include "usecases/identify_oscillator.h"
 #include "usecases/equal_output_thd.h"
+#include "usecases/identify_ss.h"
 #include "usecases/tune.h"
 #include "usecases/validate_model.h"
 
@@ -71,6 +74,9 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
       {"design-mirror", "DesignMirrorParams", usecases::to_json(usecases::DesignMirrorRequest{})},
       {"harmonics", "HarmonicsParams", usecases::to_json(usecases::HarmonicsRequest{})},
       {"identify-oscillator", "IdentifyOscillatorParams", usecases::to_json(usecases::IdentifyOscillatorRequest{})},
+      {"identify-ss", "IdentifySsParams", usecases::to_json(usecases::IdentifySsRequest{})},
+      {"identify-average", "IdentifyAverageParams", usecases::to_json(usecases::IdentifyAverageRequest{})},
+      {"identify-mimo", "IdentifyMimoParams", usecases::to_json(usecases::IdentifyMimoRequest{})},
       {"tune", "TuneParams", usecases::to_json(usecases::TuneRequest{})},
       {"verify", "VerifyParams", usecases::to_json(usecases::EqualOutputSettings{})},
   };

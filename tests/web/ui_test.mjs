@@ -304,10 +304,13 @@ async function main() {
   const exciteBody = (await excitePosted).postDataJSON();
   check(exciteBody.params?.signal === 'control' && exciteBody.params?.feedforward_model === lqModel && exciteBody.params?.sine_peak === 0.5,
         `the control excite request was ${JSON.stringify(exciteBody.params)}`);
+  // The record is kept once in the record store, the job's result naming it and its columns.
   const record = await (await fetch(`${base}api/jobs/${controlJob}`)).json();
-  log(`control record: ${Object.keys(record.result?.record ?? {}).join(", ")}`);
-  check(Array.isArray(record.result?.record?.w_est) && record.result.record.w_est.length === 3000,
-        `the control excitation's record has no harmonic weights w_est of 3000 samples`);
+  log(`control record: ${record.result?.record_id} (${(record.result?.record_columns ?? []).join(", ")})`);
+  check((record.result?.record_columns ?? []).includes('w'), `the control excitation's record has no harmonic weights w`);
+  const kept = await (await fetch(`${base}api/records/${record.result?.record_id}`)).json();
+  check(kept.samples === 5000 && kept.name === `excitation of ${controlJob}`,
+        `the control excitation's record is not kept as ${controlJob}'s 3000 + 2000 samples: ${JSON.stringify(kept).slice(0, 200)}`);
 
   run.step = 'identifying a NARX plant';
   await page.selectOption('#job-kind', 'identify-narx');
@@ -451,6 +454,8 @@ async function main() {
   log(`record ${recordId} uploaded and listed: ${cells.slice(0, 6).join(' | ')}`);
 
   run.step = 'a bad record refused';
+  // (The records listed: the upload and the control excitation's record, kept there by its excite job.)
+  const listed = (await page.$$('#records-table tbody tr')).length;
   const bad = csv.replace(/\n[^,\n]*,/, '\nnan,');  // line 2's u
   await page.setInputFiles('#record-file', { name: 'bad.csv', mimeType: 'text/csv', buffer: Buffer.from(bad) });
   await page.fill('#record-fs', '3000');
@@ -458,7 +463,7 @@ async function main() {
   const refusal = await until(async () => page.$eval('#record-upload-error', (e) => (e.hidden ? '' : e.textContent)),
                               10_000, 'a CSV with a NaN was not refused');
   check(/bad_request: body:2/.test(refusal), `the refusal does not name the line: "${refusal}"`);
-  check((await page.$$('#records-table tbody tr')).length === 1, 'a refused record was listed');
+  check((await page.$$('#records-table tbody tr')).length === listed, 'a refused record was listed');
   log(`refused: ${refusal}`);
 
   run.step = 'identifying from the uploaded record';
@@ -487,7 +492,9 @@ async function main() {
   await page.click(`${recordRow} button.delete`);
   await page.click(`${recordRow} button.delete`);  // the second click confirms
   await page.waitForSelector(recordRow, { state: 'detached', timeout: 8000 });
-  check(await page.isVisible('#records-empty'), 'the records list does not say it is empty after the delete');
+  const left = (await page.$$('#records-table tbody tr')).length;
+  check(left === listed - 1, `${left} records listed after the delete, expected ${listed - 1}`);
+  check((await page.isVisible('#records-empty')) === (left === 0), 'the records list says it is empty when it is not, or not when it is');
 
   run.step = 'no page errors';
   check(run.pageErrors.length === 0, `${run.pageErrors.length} error(s) in the page`);

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include "api/record_store.h"
 #include "tests/api/jobs/job_test_fixture.h"
 
 namespace panelbass::api::job_testing {
@@ -74,6 +75,56 @@ TEST_F(JobKindsTest, ControlExcitationPlaysTheFeedforwardsDriveAndWeighsItsHarmo
   EXPECT_GE(r.w_est.minCoeff(), 0.0);
   EXPECT_GT(r.w_est.maxCoeff(), 0.0);
   EXPECT_EQ(result.at("signal"), "control");
+}
+
+// With a record store (as the server runs it), the record is kept there once: the job's result names it in a few
+// hundred bytes, the jobs that read "record":"j…" read the same samples back, and a result that holds its record
+// inline (a job file written before) still reads.
+TEST_F(JobKindsTest, ExciteKeepsItsRecordOnceInTheRecordStore) {
+  RecordStore records(dir_ / "store");
+  env_.records = &records;
+  const std::string lq = run("design-lq", {{"plant_model", store_reference_model()}, {"r", 3.0}}, "j1").at("model_id");
+  const json result = run("excite",
+                          {{"signal", "control"}, {"feedforward_model", lq}, {"samples", 3000}, {"validation_samples", 1000},
+                           {"sine_peak", 0.5}, {"seed", 4}},
+                          "j2");
+  ASSERT_FALSE(result.contains("record"));
+  ASSERT_TRUE(result.at("record_id").is_string());
+  EXPECT_EQ(result.at("record_columns"), json({"u", "y", "w"}));
+  const std::optional<StoredRecord> entry = records.find(result.at("record_id").get<std::string>());
+  ASSERT_TRUE(entry);
+  EXPECT_EQ(entry->samples, 4000u);
+  EXPECT_EQ(entry->name, "excitation of j2");
+  // Read back: the same samples (17 significant digits), weights included, split where the job split it.
+  const ExcitationRecord back = excitation_record_from_result(result, kFs, "j2", &records);
+  json inline_result = result;
+  inline_result.erase("record_id");
+  inline_result["record"] = excitation_record_to_json(back);
+  const ExcitationRecord old_style = excitation_record_from_result(inline_result, kFs, "j2");
+  // The job file keeps the record's id, not its samples: but for its plot of 2000 samples, a few hundred bytes.
+  json without_plots = result;
+  without_plots.erase("plots");
+  EXPECT_LT(without_plots.dump().size(), 1000u) << without_plots.dump();
+  EXPECT_GT(inline_result.dump().size(), 2 * result.dump().size());
+  ASSERT_EQ(back.u_est.size(), 3000);
+  ASSERT_EQ(back.w_val.size(), 1000);
+  EXPECT_EQ(back.u_est, old_style.u_est);
+  EXPECT_EQ(back.w_val, old_style.w_val);
+  // Against the control record computed independently (seed 4 for estimation, 5 for validation).
+  const models::LqFeedforward ff = models::lq_feedforward_from_json(*store_->model(lq));
+  models::FeedbackDesignOptions design;
+  design.sine_peak = 0.5;
+  design.samples = 3000;
+  EXPECT_EQ(back.u_est, models::control_record(ff, dsp::butterworth_band(2, 20.0, 1200.0, kFs), design, 4).u);
+  // The jobs that take "record":"j2" read it (a weighted NARX needs its weights).
+  const json narx = run("identify-narx", {{"record", "j2"}, {"na", 2}, {"nb", 2}, {"hidden", {2}}, {"max_iterations", 1},
+                                          {"weighted", true}}, "j3");
+  EXPECT_TRUE(narx.contains("model_id"));
+  // Gone from the store: named.
+  ASSERT_TRUE(records.remove(entry->id));
+  const std::string gone = one_line_error<std::invalid_argument>([&] { validate_job_params("identify-linear", {{"record", "j2"}}, env_); });
+  EXPECT_NE(gone.find("params.record: job j2 kept its record as " + entry->id + ", which is no longer stored"), std::string::npos)
+      << gone;
 }
 
 }  // namespace

@@ -13,7 +13,7 @@ namespace {
 
 TEST(JobKinds, ListsTheKindsInTheOrderOfRoutes) {
   EXPECT_EQ(job_kinds(), (std::vector<std::string>{"excite", "identify-linear", "identify-narx", "identify-oscillator",
-                                                   "validate", "design-lq",
+                                                   "identify-ss", "identify-average", "identify-mimo", "validate", "design-lq",
                                                    "design-nn", "design-mirror", "evaluate", "analyze", "harmonics", "diagnose", "verify", "tune"}));
 }
 

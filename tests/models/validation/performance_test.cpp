@@ -1,4 +1,4 @@
-// j_percent ([2A] J = Σ (y_model − y)² / Σ y², in percent) and jc_percent ([2C]) against hand computations and their
+// j_percent ([2A] J = Σ (y_model − y)² / Σ y², in percent), its weighted and energy-ratio forms, and jc_percent ([2C]) against hand computations and their
 // boundary cases: a perfect model, a zero model, a skipped prefix, and every documented error.
 #include "models/validation/performance.h"
 
@@ -108,7 +108,34 @@ TEST(PerformanceTest, JcIsTheThesisRatio) {
   w << 1, 3, 2, 0.5;
   EXPECT_DOUBLE_EQ(jc_percent(y, d, 0, w), 100.0 * 3.5 / 21.0);
   testing_support::expect_invalid([&] { jc_percent(y, d, 0, Eigen::VectorXd::Ones(3)); }, "3 weights");
-  testing_support::expect_invalid([&] { jc_percent(y, Eigen::VectorXd::Zero(4)); }, "zero");
+  testing_support::expect_invalid([&] { jc_percent(y, Eigen::VectorXd::Zero(4)); }, "the desired output has no energy");
+}
+
+TEST(PerformanceTest, WeightedJIsTheRatioOfWeightedEnergies) {
+  // errors 0.5, 0, −1, 2 and weights 2, 1, 0, 0.5: Σ w·e² = 0.5 + 0 + 0 + 2 = 2.5; Σ w·y² = 2 + 4 + 0 + 8 = 14.
+  const Eigen::VectorXd y = vec({1.0, 2.0, 3.0, 4.0});
+  const Eigen::VectorXd ym = vec({1.5, 2.0, 2.0, 6.0});
+  const Eigen::VectorXd w = vec({2.0, 1.0, 0.0, 0.5});
+  EXPECT_NEAR(j_weighted_percent(ym, y, w), 100.0 * 2.5 / 14.0, 1e-12);
+  // Equal weights are the unweighted J.
+  EXPECT_NEAR(j_weighted_percent(ym, y, Eigen::VectorXd::Constant(4, 3.0)), j_percent(ym, y), 1e-12);
+  // From start = 2: (0 + 0.5·4) / (0 + 0.5·16).
+  EXPECT_NEAR(j_weighted_percent(ym, y, w, 2), 100.0 * 2.0 / 8.0, 1e-12);
+  testing_support::expect_invalid([&] { j_weighted_percent(ym, y, Eigen::VectorXd::Ones(3)); }, "weights 3");
+  testing_support::expect_invalid([&] { j_weighted_percent(ym, y, vec({1.0, -1.0, 1.0, 1.0})); }, "negative weight");
+}
+
+// The silent output, one rule for every J: std::invalid_argument naming the channel, never 0, NaN or +∞.
+TEST(PerformanceTest, ASilentOutputIsRefusedNamingItsChannel) {
+  EXPECT_DOUBLE_EQ(j_ratio_percent(1.0, 4.0), 25.0);
+  testing_support::expect_invalid([&] { j_ratio_percent(1.0, 0.0, "output y2"); }, "J: output y2 has no energy");
+  testing_support::expect_invalid([&] { j_ratio_percent(0.0, 0.0); }, "the measured output has no energy");
+  testing_support::expect_invalid([&] { j_ratio_percent(std::nan(""), 1.0); }, "not finite");
+  testing_support::expect_invalid([&] { j_percent(Eigen::VectorXd::Zero(4), Eigen::VectorXd::Zero(4), 0, "the current"); },
+                                  "J: the current has no energy");
+  testing_support::expect_invalid(
+      [&] { j_weighted_percent(Eigen::VectorXd::Ones(4), Eigen::VectorXd::Ones(4), Eigen::VectorXd::Zero(4)); },
+      "the weighted output has no energy");
 }
 
 }  // namespace
