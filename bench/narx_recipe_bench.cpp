@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
   double fs = 1.0, weight_decay = 0.0;
   long est_rows = 0, init = 50;
   int na = 8, nb = 8, max_iterations = 100, restarts = 1, patience = 20;
+  int pem_max_iterations = -1;
   std::vector<int> hidden{17};
   std::uint64_t seed = 1;
   models::MultipleShootingOptions ms;
@@ -39,6 +40,7 @@ int main(int argc, char** argv) {
   app.add_option("--hidden", hidden)->delimiter(',');
   app.add_option("--train", train, "Modes in order, as identify narx --train")->capture_default_str();
   app.add_option("--max-iter", max_iterations)->capture_default_str();
+  app.add_option("--pem-max-iter", pem_max_iterations, "The pem mode's own limit (-1: --max-iter)")->capture_default_str();
   app.add_option("--patience", patience)->capture_default_str();
   app.add_option("--seed", seed)->capture_default_str();
   app.add_option("--restarts", restarts)->capture_default_str();
@@ -76,6 +78,7 @@ int main(int argc, char** argv) {
     start = comma + 1;
   }
   options.max_iterations = max_iterations;
+  options.pem_max_iterations = pem_max_iterations;
   options.patience = patience;
   options.weight_decay = weight_decay;
   options.init = std::min<Eigen::Index>(init, std::min<Eigen::Index>(est_rows, n_val) / 10);
