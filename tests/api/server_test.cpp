@@ -435,7 +435,8 @@ TEST_F(ServerTest, AnOldJobsResultComesFromTheStoreAfterMemoryDroppedIt) {
   const Reply identify = post("/api/jobs", nlohmann::json{{"kind", "identify-linear"},
                                                           {"params", {{"record", ids.front()}, {"order", 2}}}});
   ASSERT_EQ(identify.status, 202) << identify.text;
-  EXPECT_EQ(wait_job(identify.body["id"])["state"], "succeeded");
+  const nlohmann::json done = wait_job(identify.body["id"]);
+  EXPECT_EQ(done["state"], "succeeded");
 }
 
 }  // namespace
