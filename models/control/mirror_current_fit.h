@@ -13,9 +13,10 @@
 //       smallest residual win. A(z) takes the DA path's filter and the fraction of a sample.
 //   (b) Output error, first the linear parameters (A(z) solved by least squares in each evaluation: the linear
 //       model's current is A(z) applied to that of the model without it), then with the nonlinear ones (Bl(x)'s b2
-//       shared by [M1] and [M2], the reluctance force, K(x), the friction and its velocity scale, i·dLe/dx; not the
-//       inductance, Le(x, i) nor the asymmetric b1, c4, e9, which the current does not tell apart from K(x)'s
-//       asymmetry) by Levenberg–Marquardt
+//       shared by [M1] and [M2], K(x), the friction and its velocity scale, and the inductance's slope dLe/dx as the
+//       coil's magnetic energy ½·Le(x)·i² makes it act — Le(x)·di/dt, i·v·dLe/dx and the reluctance force from one
+//       parameter; not the inductance itself (A(z)'s), Le(i) nor the asymmetric b1, c4, e9, which the current does
+//       not tell apart from K(x)'s asymmetry) by Levenberg–Marquardt
 //       (models/optimization/levenberg_marquardt.h) on the free-run current error over the fitting part,
 //       V = Σ (î − i)² / Σ i² (+ the same for the sensor, when one joins), with the Jacobian by central finite
 //       differences of the free run (the friction's Newton solve and the tanh make an exact one long to write;
