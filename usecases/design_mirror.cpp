@@ -106,6 +106,7 @@ DesignMirrorReport design_mirror_from_current(const DesignMirrorRequest& q, Prog
                     {"sensor_delay", fit.sensor_j_val_pct >= 0.0 ? nlohmann::json(fit.sensor_delay) : nlohmann::json(nullptr)},
                     {"sensor_taps", fit.sensor_j_val_pct >= 0.0 ? nlohmann::json(fit.sensor_taps) : nlohmann::json(nullptr)},
                     {"iterations", fit.iterations},
+                    {"force_factor_asymmetry", fit.force_factor_asymmetry},
                     {"adaptive", false}};
   progress.report(1.0, "done");
   return report;
