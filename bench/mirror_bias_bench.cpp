@@ -180,6 +180,7 @@ void adapt_rows(const models::PlantConfig& design_plant, const models::MirrorCur
   adaptive.observer.current_lag = fit.current_lag;
   const double rms = std::sqrt(current.squaredNorm() / static_cast<double>(current.size()));
   adaptive.observer.current_noise = std::max(std::sqrt(fit.current_j_val_pct / 100.0), 1e-3) * rms;
+  if (std::getenv("RATE") != nullptr) adaptive.observer.scale_rate = std::atof(std::getenv("RATE"));
   if (std::getenv("WARMUP") != nullptr) {
     dsp::MultisineSpec spec;
     spec.period = 12000;

@@ -4,7 +4,8 @@
 // current is compared with the measured one, and a Kalman filter on four scales of the model — θ_R on the coil's
 // resistance (its temperature), θ_B on Bl(x) in both equations (the magnet, the coil's rest position), θ_K on K(x)
 // (the suspension: the resonance moves with it) and θ_N on every nonlinear coefficient (the shapes' scale) —
-// follows the transducer as it drifts. Each scale is a random walk; the measurement is
+// follows the transducer as it drifts. Each scale is a random walk (θ_N's at 0.3 of the others' rate and spread: the
+// current tells it from θ_K less well); the measurement is
 //   [A1] i_k = î_k(θ) + n_k,  linearised as  i_k − î_k ≈ Σ_j g_{j,k}·(θ_j − θ̂_j),
 // with g_j = ∂î/∂θ_j propagated by the model's linearisation along its trajectory (its sensitivity states
 // ∂(i, x, v)/∂θ_j; the damping's friction slope and the inductance's share of the current's Jacobian left out):
@@ -53,7 +54,8 @@ class MirrorCurrentAdapter {
   Eigen::Matrix<double, kScales, 1> theta_;
   Eigen::Matrix<double, kScales, kScales> p_;
   std::array<std::array<double, 3>, kScales> sensitivity_{};  // ∂(i, x, v)/∂θ_j
-  double r_ = 1.0, q_ = 0.0, predicted_ = 0.0;
+  Eigen::Matrix<double, kScales, 1> q_;  // each scale's random walk per sample, squared
+  double r_ = 1.0, predicted_ = 0.0;
   int since_refresh_ = 0;
 };
 
