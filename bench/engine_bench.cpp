@@ -317,6 +317,29 @@ int main(int argc, char** argv) {
       stage.observe(0.5 * in[k]);
     }
   };
+  // Issue #56's adaptive form from the coil current: the same filter with its Kalman filter on the scales of the coil's
+  // resistance, Bl(x), K(x) and the nonlinear shapes (mirror_current_adapter.h), fed a current (a scaled copy of the
+  // program), the filter's scales set every MirrorFilterStage::kScaleInterval samples.
+  auto current_adaptive_mirror_stage = [&](Chain&, std::span<const double> in, std::span<double> out, int block) {
+    static MirrorFilterStage stage([] {
+      models::MirrorModel m;
+      m.electrical = {0.0, -2.3e-7, 0.0, -3e-7, 0.204, 8.1e-5, 0.0, -3.6e-5, -2.3e-7, 0.0};
+      m.mechanical = {1.46e5, 0.0, -6.46e4, -1473.0, 0.0, -39.6, -8.72e5, -2.6e4, -5.17e4, -5068.0};
+      m.friction_velocity = 100.0;
+      m.delay = 1;
+      m.drive_taps = {1.0, -0.41, 0.11, 0.02};
+      m.observer.enabled = true;
+      m.observer.measurement = models::MirrorMeasurement::current;
+      m.observer.current_lag = 1;
+      m.observer.current_noise = 1e-3;
+      return m;
+    }());
+    if (block == 0) stage.prepare(options.spec);
+    for (std::size_t k = 0; k < in.size(); ++k) {
+      out[k] = stage.process(in[k]);
+      stage.observe(0.5 * in[k]);
+    }
+  };
   // Issue #34's other compensator: the neural feedback controller stage by itself (fig. 7.10), reading the plant's
   // output from the sensor (process and observe per sample; the sensor read as a scaled copy of the program) —
   // its NARX plant model runs in both modes (the stand-in for a lost sensor) — and in model mode.
@@ -341,6 +364,8 @@ int main(int argc, char** argv) {
       {"mirror filter stage alone (gray-box exciter model's inverse, issue #34)", measure(band_pass, mirror_stage, program)},
       {"adaptive mirror filter stage alone (+ its stiffness observer, issue #34)",
        measure(band_pass, adaptive_mirror_stage, program)},
+      {"adaptive mirror filter stage alone, from the coil current (R, Bl, K, shapes; issue #56)",
+       measure(band_pass, current_adaptive_mirror_stage, program)},
       {"neural feedback stage alone, sensor mode (N1 13-8-1 + its NARX plant model 21-20-1, issue #34)",
        measure(band_pass, neural_stage(FeedbackSource::sensor), program)},
       {"neural feedback stage alone, model mode (the same, its plant model's output fed back)",

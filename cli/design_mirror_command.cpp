@@ -37,13 +37,14 @@ void run_design_mirror(const DesignMirrorOptions& o) {
   const bool joins = o.current_only && o.sensor_given;
   std::vector<std::string> columns{o.input_col, o.current_col};
   if (!o.current_only) columns.push_back(o.displacement_col);
-  if (o.adapt || joins) columns.push_back(o.sensor_col);
+  const bool sensor_read = (o.adapt && !o.current_only) || joins;  // with --current-only, --adapt reads the current
+  if (sensor_read) columns.push_back(o.sensor_col);
   const dsp::Record r = dsp::read_data_file(o.data, columns, o.fs, 1000);
   usecases::DesignMirrorRequest q;
   q.drive = r.column(o.input_col);
   q.current = r.column(o.current_col);
   if (!o.current_only) q.displacement = r.column(o.displacement_col);
-  if (o.adapt || joins) q.sensor = r.column(o.sensor_col);
+  if (sensor_read) q.sensor = r.column(o.sensor_col);
   q.current_only = o.current_only;
   if (joins) q.sensor_kind = o.sensor_kind;
   q.fs = r.fs;
@@ -93,7 +94,8 @@ void add_design_mirror(CLI::App& design) {
       ->capture_default_str();
   cmd->add_flag("--adapt", o->adapt,
                 "Adapt the stiffness on line from the sensor (an extended Kalman filter; fits the sensor map to the "
-                "record's sensor column)");
+                "record's sensor column); with --current-only, adapt the coil's resistance, Bl(x), K(x) and the "
+                "nonlinear shapes' scale from the coil current (the chain's measured input must then be the current)");
   cmd->add_flag("--current-only", o->current_only,
                 "Fit from the drive and the coil current alone, as a sound card records them (the motion from the "
                 "back-EMF; no displacement column read)");

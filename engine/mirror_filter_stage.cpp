@@ -8,7 +8,11 @@
 namespace panelbass::engine {
 
 MirrorFilterStage::MirrorFilterStage(const models::MirrorModel& model) : fs_(model.fs), filter_(model) {
-  if (model.observer.enabled) observer_.emplace(model);
+  if (model.observer.enabled && model.observer.measurement == models::MirrorMeasurement::current) {
+    adapter_.emplace(model);
+  } else if (model.observer.enabled) {
+    observer_.emplace(model);
+  }
 }
 
 void MirrorFilterStage::prepare(const ProcessSpec& spec) {
@@ -23,13 +27,23 @@ double MirrorFilterStage::process(double x) noexcept {
   const double drive = filter_.process(x);
   // the observer's model is driven by what the transducer gets: at most full scale (the limiter's bound)
   if (observer_) observer_->predict(std::clamp(drive, -1.0, 1.0));
+  if (adapter_) adapter_->push_drive(std::clamp(drive, -1.0, 1.0));
   return drive;
 }
 
 void MirrorFilterStage::observe(double measured) noexcept {
   // a chain without a sensor observes exact zeros (Chain::process_block without one): nothing to adapt from, the
   // observer's model runs on without its measurement update
-  if (!observer_ || measured == 0.0) return;
+  if (measured == 0.0) return;
+  if (adapter_) {
+    adapter_->update(measured);
+    if (++since_scales_ >= kScaleInterval) {
+      since_scales_ = 0;
+      filter_.set_scales(adapter_->scales());
+    }
+    return;
+  }
+  if (!observer_) return;
   observer_->update(measured);
   const models::MirrorScales scales = observer_->scales();
   filter_.set_scales(scales.stiffness, scales.force, scales.nonlinear);
@@ -37,10 +51,10 @@ void MirrorFilterStage::observe(double measured) noexcept {
 
 void MirrorFilterStage::reset() noexcept {
   filter_.reset();
-  if (observer_) {
-    observer_->reset();
-    filter_.set_scales(1.0, 1.0, 1.0);
-  }
+  if (observer_) observer_->reset();
+  if (adapter_) adapter_->reset();
+  if (observer_ || adapter_) filter_.set_scales(models::MirrorScales{});
+  since_scales_ = 0;
 }
 
 }  // namespace panelbass::engine

@@ -4,10 +4,14 @@
 // When the model carries observer settings (a sensor map), the stage also watches the sensor: an extended
 // Kalman filter (models/control/mirror_observer.h) adapts the model's stiffness and the scale of its
 // nonlinearity on line, so the filter's model — and its linear reference — follow a transducer that has moved.
+// When they are for the coil current (issue #56), the stage's measurement is the current and a Kalman filter on the
+// scales of the coil's resistance, Bl(x), K(x) and the nonlinear shapes (models/control/mirror_current_adapter.h)
+// adapts the filter from the current's prediction error, every kScaleInterval samples.
 
 #include <optional>
 
 #include "engine/stage.h"
+#include "models/control/mirror_current_adapter.h"
 #include "models/control/mirror_filter.h"
 #include "models/control/mirror_observer.h"
 
@@ -23,21 +27,27 @@ class MirrorFilterStage final : public Stage {
   void prepare(const ProcessSpec& spec) override;
   /// One program sample in, one drive sample out (the observer's time update with that drive).
   double process(double x) noexcept override;
-  /// The sensor's output for the sample just processed: the observer's measurement update, and the filter's
-  /// stiffness and nonlinearity set to the observer's estimates. An exact 0 (a chain run without a sensor) is
-  /// no measurement: the filter keeps its scales.
+  /// Samples between two settings of the filter's scales from the current adapter's estimates.
+  static constexpr int kScaleInterval = 8;
+  /// The sensor's output (or with a current adaptation, the coil current) for the sample just processed: the
+  /// observer's (adapter's) update, and the filter's scales set to its estimates. An exact 0 (a chain run without a
+  /// sensor) is no measurement: the filter keeps its scales.
   void observe(double measured) noexcept override;
   /// True when adaptive.
-  bool observes() const noexcept override { return observer_.has_value(); }
+  bool observes() const noexcept override { return observer_.has_value() || adapter_.has_value(); }
   /// Back to rest (the adapted scales too).
   void reset() noexcept override;
   /// The observer, when the stage adapts (its estimates: scales(), state()).
   const models::MirrorObserver* observer() const { return observer_ ? &*observer_ : nullptr; }
+  /// The current adapter, when the stage adapts from the coil current (its estimates: scales()).
+  const models::MirrorCurrentAdapter* current_adapter() const { return adapter_ ? &*adapter_ : nullptr; }
 
  private:
   double fs_;
   models::MirrorFilter filter_;
   std::optional<models::MirrorObserver> observer_;
+  std::optional<models::MirrorCurrentAdapter> adapter_;
+  int since_scales_ = 0;  // samples since the filter's scales were last set from the adapter
 };
 
 }  // namespace panelbass::engine

@@ -35,10 +35,7 @@ void check(const DesignMirrorRequest& q) {
     throw RequestError("sensor_kind", "needs the sensor's output, as long as the drive (" + std::to_string(q.sensor.size()) +
                                           " samples given)");
   }
-  if (q.adapt && q.current_only) {
-    throw RequestError("adapt", "not with current_only yet: the observer's sensor map needs the displacement's fit");
-  }
-  if (q.adapt && q.sensor.size() != q.drive.size()) {
+  if (q.adapt && !q.current_only && q.sensor.size() != q.drive.size()) {
     throw RequestError("adapt", "needs the sensor's output, as long as the drive (" + std::to_string(q.sensor.size()) +
                                     " samples given)");
   }
@@ -70,6 +67,19 @@ DesignMirrorReport design_mirror_from_current(const DesignMirrorRequest& q, Prog
       q.drive, q.current, q.fs, options, options.sensor_kind == models::MirrorSensorKind::none ? no_sensor : q.sensor);
   DesignMirrorReport report;
   report.model = fit.model;
+  if (q.adapt) {
+    // adapting from the current (mirror_current_adapter.h): the fit's lag, and its current error as the noise
+    if (fit.current_lag < -1 || fit.current_lag > 6) {
+      throw RequestError("adapt", "the current's lag behind the drive (" + std::to_string(fit.current_lag) +
+                                      " samples) is outside the −1..6 the adaptation takes");
+    }
+    models::MirrorObserverSettings& o = report.model.observer;
+    o.enabled = true;
+    o.measurement = models::MirrorMeasurement::current;
+    o.current_lag = fit.current_lag;
+    const double current_rms = std::sqrt(q.current.squaredNorm() / static_cast<double>(q.current.size()));
+    o.current_noise = std::max(std::sqrt(fit.current_j_val_pct / 100.0), 1e-3) * current_rms;
+  }
   const nlohmann::json sensor_j = fit.sensor_j_val_pct >= 0.0 ? nlohmann::json(fit.sensor_j_val_pct) : nlohmann::json(nullptr);
   report.meta = {{"data", q.data_name},
                  {"current_only", true},
@@ -106,7 +116,9 @@ DesignMirrorReport design_mirror_from_current(const DesignMirrorRequest& q, Prog
                     {"sensor_delay", fit.sensor_j_val_pct >= 0.0 ? nlohmann::json(fit.sensor_delay) : nlohmann::json(nullptr)},
                     {"sensor_taps", fit.sensor_j_val_pct >= 0.0 ? nlohmann::json(fit.sensor_taps) : nlohmann::json(nullptr)},
                     {"iterations", fit.iterations},
-                    {"adaptive", false}};
+                    {"force_factor_asymmetry", fit.force_factor_asymmetry},
+                    {"adaptive", q.adapt},
+                    {"adapts_from", q.adapt ? "current" : "none"}};
   progress.report(1.0, "done");
   return report;
 }

@@ -31,7 +31,9 @@ struct DesignMirrorRequest {
   double fs = 0.0;         ///< Hz
   std::string data_name;   ///< where the record came from, kept in the model's meta
   int max_delay = 4;       ///< largest drive-to-voltage delay searched, samples (0..64)
-  bool adapt = false;      ///< adapt the stiffness on line from the sensor (needs `sensor`)
+  /// adapt on line: from the sensor (needs `sensor`), or with current_only from the coil current (the resistance,
+  /// Bl(x), K(x) and the nonlinear shapes' scale; mirror_current_adapter.h)
+  bool adapt = false;
   double stiffness_rate = models::MirrorObserverSettings{}.stiffness_rate;    ///< with adapt, ≥ 0
   double stiffness_spread = models::MirrorObserverSettings{}.stiffness_spread;  ///< with adapt, > 0
 };

@@ -13,8 +13,10 @@
 //       smallest residual win. A(z) takes the DA path's filter and the fraction of a sample.
 //   (b) Output error, first the linear parameters (A(z) solved by least squares in each evaluation: the linear
 //       model's current is A(z) applied to that of the model without it), then with the nonlinear ones (Bl(x)'s b2
-//       shared by [M1] and [M2], the reluctance force, K(x), the friction and its velocity scale, i·dLe/dx; not the
-//       inductance, Le(x, i) nor the asymmetric b1, c4, e9, which the current does not tell apart from K(x)'s
+//       shared by [M1] and [M2], K(x), the friction and its velocity scale, and the inductance's slope dLe/dx as the
+//       coil's magnetic energy ½·Le(x)·i² makes it act — Le(x)·di/dt, i·v·dLe/dx and the reluctance force from one
+//       parameter —, and Le(i); not the inductance itself (A(z)'s), c4 nor e9; Bl(x)'s asymmetry b1 last, kept only
+//       when it cuts the current's J_val by 10 %: on a symmetric Bl the current does not tell it from K(x)'s
 //       asymmetry) by Levenberg–Marquardt
 //       (models/optimization/levenberg_marquardt.h) on the free-run current error over the fitting part,
 //       V = Σ (î − i)² / Σ i² (+ the same for the sensor, when one joins), with the Jacobian by central finite
@@ -62,6 +64,7 @@ struct MirrorCurrentFit {
   int sensor_delay = 0;                    ///< D, samples
   double resonance_hz = 0.0;               ///< the fitted linear model's resonance, √(−c6)/2π
   int iterations = 0;                      ///< Levenberg–Marquardt steps taken
+  bool force_factor_asymmetry = false;     ///< Bl(x)'s b1 kept (it cut the current's J_val by 10 %)
 };
 
 /// Fits [M1]–[M3] to `drive` and coil `current` at `fs` (and `sensor`, empty for none, with options.sensor_kind).

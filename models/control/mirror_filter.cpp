@@ -49,6 +49,44 @@ Eigen::VectorXd scaled_least_squares(const Eigen::MatrixXd& a, const Eigen::Vect
   return theta.cwiseQuotient(scale);
 }
 
+/// One observer setting: its key, where it goes, and whether it must be > 0 (else >= 0); an absent key keeps the
+/// default unless `required`.
+void read_setting(JsonFields& f, const char* key, double& out, bool positive, bool required) {
+  out = required ? f.number(key) : f.number(key, out);
+  if (positive) {
+    require_positive(out, f.path_of(key));
+  } else {
+    require_non_negative(out, f.path_of(key));
+  }
+}
+
+/// The sensor observer's settings (mirror_observer.h): the map [S1] and its noises (the two noises the fit measured
+/// are required).
+void read_sensor_observer(JsonFields& f, MirrorObserverSettings& s) {
+  const nlohmann::json* taps = f.member("sensor_taps");
+  if (taps == nullptr) throw ConfigError(f.path_of("sensor_taps") + ": missing");
+  const Eigen::VectorXd read = read_vector(*taps, f.path_of("sensor_taps"));
+  if (read.size() != 4) throw ConfigError(f.path_of("sensor_taps") + ": 4 taps expected, got " + std::to_string(read.size()));
+  for (int k = 0; k < 4; ++k) s.sensor_taps[static_cast<std::size_t>(k)] = read[k];
+  read_setting(f, "sensor_noise", s.sensor_noise, true, true);
+  read_setting(f, "process_noise_mm_per_s2", s.process_noise, false, true);
+  read_setting(f, "stiffness_rate", s.stiffness_rate, false, false);
+  read_setting(f, "stiffness_spread", s.stiffness_spread, true, false);
+  read_setting(f, "force_rate", s.force_rate, false, false);
+  read_setting(f, "force_spread", s.force_spread, true, false);
+  read_setting(f, "nonlinear_rate", s.nonlinear_rate, false, false);
+  read_setting(f, "nonlinear_spread", s.nonlinear_spread, true, false);
+}
+
+/// The adaptation from the coil current's settings (mirror_current_adapter.h).
+void read_current_adaptation(JsonFields& f, MirrorObserverSettings& s) {
+  s.measurement = MirrorMeasurement::current;
+  s.current_lag = static_cast<int>(f.integer("current_lag", 0, -1, 6));
+  read_setting(f, "current_noise_A", s.current_noise, true, true);
+  read_setting(f, "scale_rate", s.scale_rate, false, false);
+  read_setting(f, "scale_spread", s.scale_spread, true, false);
+}
+
 }  // namespace
 
 bool minimum_phase(const std::array<double, 4>& a) {
@@ -73,8 +111,10 @@ double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noe
   // (the damping and the friction only take energy out, so the residual rises monotonically and the root is unique)
   const double drive_force = (c[0] + c[1] * s.x + c[2] * s.x * s.x) * s.i + (c[3] + c[4] * s.x) * s.i * s.i +
                              c[6] * s.x + c[7] * s.x * s.x + c[8] * s.x * s.x * s.x;
-  double v1 = s.v;
-  for (int it = 0; it < 50; ++it) {
+  // without the friction [M2] is linear in v_{k+1}: its root in closed form, the friction's Newton iteration's start
+  // (the linear reference has none: the closed form is its step)
+  double v1 = (s.v * (1.0 + 0.5 * h * c[5]) + h * drive_force) / (1.0 - 0.5 * h * c[5]);
+  for (int it = 0; it < 50 && c[9] != 0.0; ++it) {
     const double mid = 0.5 * (s.v + v1), t = std::tanh(mid / m.friction_velocity);
     const double f = v1 - s.v - h * (drive_force + c[5] * mid + c[9] * t);
     const double df = 1.0 - h * 0.5 * (c[5] + c[9] * (1.0 - t * t) / m.friction_velocity);
@@ -97,15 +137,34 @@ double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noe
 
 MirrorFilter::MirrorFilter(const MirrorModel& model) : base_(model), model_(model), reference_(model.linear()) {}
 
+MirrorModel with_scales(MirrorModel model, const MirrorScales& scales) noexcept {
+  std::array<double, 10>& c = model.mechanical;
+  std::array<double, 10>& e = model.electrical;
+  for (std::size_t j : {6u, 7u, 8u}) c[j] *= scales.stiffness;
+  c[0] *= scales.force;
+  for (std::size_t j : {1u, 2u, 3u, 4u, 7u, 8u, 9u}) c[j] *= scales.nonlinear;
+  for (std::size_t j : {1u, 2u, 3u, 6u, 7u, 8u, 9u}) e[j] *= scales.nonlinear;
+  e[4] *= scales.resistance;
+  for (std::size_t j : {0u, 1u, 2u}) c[j] *= scales.force_factor;
+  for (std::size_t j : {5u, 6u, 7u}) e[j] *= scales.force_factor;
+  return model;
+}
+
 void MirrorFilter::set_scales(double stiffness, double force, double nonlinear) noexcept {
-  model_.mechanical = base_.mechanical;
-  model_.electrical = base_.electrical;
-  for (std::size_t j : {6u, 7u, 8u}) model_.mechanical[j] *= stiffness;
-  model_.mechanical[0] *= force;
-  for (std::size_t j : {1u, 2u, 3u, 4u, 7u, 8u, 9u}) model_.mechanical[j] *= nonlinear;
-  for (std::size_t j : {1u, 2u, 3u, 6u, 7u, 8u, 9u}) model_.electrical[j] *= nonlinear;
+  MirrorScales scales;
+  scales.stiffness = stiffness;
+  scales.force = force;
+  scales.nonlinear = nonlinear;
+  set_scales(scales);
+}
+
+void MirrorFilter::set_scales(const MirrorScales& scales) noexcept {
+  model_ = with_scales(base_, scales);
+  // the linear reference: the scaled model's rest values (c0, c6, e_R, e5), the target following the transducer
   reference_.mechanical[0] = model_.mechanical[0];
   reference_.mechanical[6] = model_.mechanical[6];
+  reference_.electrical[4] = model_.electrical[4];
+  reference_.electrical[5] = model_.electrical[5];
 }
 
 void MirrorFilter::reset() noexcept {
@@ -294,7 +353,13 @@ nlohmann::json mirror_model_to_json(const MirrorModel& m, const nlohmann::json& 
             {"delay", m.delay},
             {"drive_taps", m.drive_taps}}},
           {"meta", meta.is_null() ? nlohmann::json::object() : meta}};
-  if (m.observer.enabled) {
+  if (m.observer.enabled && m.observer.measurement == MirrorMeasurement::current) {
+    j["params"]["observer"] = {{"measurement", "current"},
+                               {"current_lag", m.observer.current_lag},
+                               {"current_noise_A", m.observer.current_noise},
+                               {"scale_rate", m.observer.scale_rate},
+                               {"scale_spread", m.observer.scale_spread}};
+  } else if (m.observer.enabled) {
     j["params"]["observer"] = {{"sensor_taps", m.observer.sensor_taps},
                                {"sensor_noise", m.observer.sensor_noise},
                                {"process_noise_mm_per_s2", m.observer.process_noise},
@@ -346,31 +411,17 @@ MirrorModel mirror_model_from_json(const nlohmann::json& j) {
     JsonFields f(*o, p.path_of("observer"));
     MirrorObserverSettings& s = m.observer;
     s.enabled = true;
-    const nlohmann::json* taps = f.member("sensor_taps");
-    if (taps == nullptr) throw ConfigError(f.path_of("sensor_taps") + ": missing");
-    const Eigen::VectorXd read = read_vector(*taps, f.path_of("sensor_taps"));
-    if (read.size() != 4) throw ConfigError(f.path_of("sensor_taps") + ": 4 taps expected, got " + std::to_string(read.size()));
-    for (int k = 0; k < 4; ++k) s.sensor_taps[static_cast<std::size_t>(k)] = read[k];
-    // each setting: its key, where it goes, and whether it must be > 0 (else >= 0); absent keys keep their default,
-    // but for the two noises the fit measured
-    const auto setting = [&f](const char* key, double& out, bool positive, bool required) {
-      out = required ? f.number(key) : f.number(key, out);
-      if (positive) {
-        require_positive(out, f.path_of(key));
-      } else {
-        require_non_negative(out, f.path_of(key));
-      }
-    };
-    setting("sensor_noise", s.sensor_noise, true, true);
-    setting("process_noise_mm_per_s2", s.process_noise, false, true);
-    setting("stiffness_rate", s.stiffness_rate, false, false);
-    setting("stiffness_spread", s.stiffness_spread, true, false);
-    setting("force_rate", s.force_rate, false, false);
-    setting("force_spread", s.force_spread, true, false);
-    setting("nonlinear_rate", s.nonlinear_rate, false, false);
-    setting("nonlinear_spread", s.nonlinear_spread, true, false);
+    const std::string measurement = f.string("measurement", "sensor");
+    if (measurement != "sensor" && measurement != "current") {
+      throw ConfigError(f.path_of("measurement") + ": \"sensor\" or \"current\" expected, got \"" + measurement + "\"");
+    }
+    if (measurement == "current") {
+      read_current_adaptation(f, s);
+    } else {
+      read_sensor_observer(f, s);
+      if (m.delay > 4) throw ConfigError(p.path_of("delay") + ": the observer takes a drive delay up to 4 samples");
+    }
     f.finish();
-    if (m.delay > 4) throw ConfigError(p.path_of("delay") + ": the observer takes a drive delay up to 4 samples");
   }
   p.finish();
   top.finish();

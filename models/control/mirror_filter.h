@@ -40,9 +40,14 @@
 
 namespace panelbass::models {
 
-/// What the on-line observer (mirror_observer.h) needs: the sensor map [S1] and the noise it weighs by.
+/// What the adaptation measures: the sensor (mirror_observer.h's extended Kalman filter) or the coil current
+/// (mirror_current_adapter.h's Kalman filter on the scales).
+enum class MirrorMeasurement { sensor, current };
+
+/// What the on-line adaptation needs: with the sensor, the sensor map [S1] and the noise it weighs by (the observer,
+/// mirror_observer.h); with the current, its lag and its noise (mirror_current_adapter.h).
 struct MirrorObserverSettings {
-  bool enabled = false;               ///< adapt the model on line from the sensor (mirror_observer.h)
+  bool enabled = false;               ///< adapt the model on line (from the sensor, or the current)
   std::array<double, 4> sensor_taps{};  ///< s_0..s_3 of [S1], sensor units per mm/s
   double sensor_noise = 0.0;          ///< the sensor's noise, rms, sensor units
   double process_noise = 0.0;         ///< the model's acceleration error, rms, mm/s²
@@ -52,6 +57,11 @@ struct MirrorObserverSettings {
   double force_spread = 0.1;          ///< θ_F's initial standard deviation (around 1)
   double nonlinear_rate = 1e-4;       ///< θ_N's random walk, standard deviation per sample
   double nonlinear_spread = 0.3;      ///< θ_N's initial standard deviation (around 1)
+  MirrorMeasurement measurement = MirrorMeasurement::sensor;  ///< what the adaptation reads
+  int current_lag = 0;                ///< with the current: its lag L behind the drive, samples (−1..6)
+  double current_noise = 0.0;         ///< with the current: the model's current error, rms, A
+  double scale_rate = 2e-4;           ///< with the current: each scale's random walk, standard deviation per sample
+  double scale_spread = 0.2;          ///< with the current: each scale's initial standard deviation (around 1)
 };
 
 /// The identified gray-box exciter model of [M1]–[M3] (x in mm, v in mm/s, i in A, drive dimensionless).
@@ -66,6 +76,18 @@ struct MirrorModel {
   /// The same model with every nonlinear coefficient zero: the linear reference.
   MirrorModel linear() const;
 };
+
+/// Scales on a model's coefficients, each 1 for the model as fitted (an adaptation's estimates).
+struct MirrorScales {
+  double stiffness = 1.0;     ///< θ_K: K(x), c6–c8 of [M2] (the resonance)
+  double force = 1.0;         ///< θ_F: the linear force factor over the mass, c0 of [M2]
+  double nonlinear = 1.0;     ///< θ_N: every nonlinear coefficient, c1–c4, c7–c9 of [M2] and e1–e3, e6–e9 of [M1]
+  double resistance = 1.0;    ///< θ_R: the coil's resistance e_R (e4; its temperature)
+  double force_factor = 1.0;  ///< θ_B: Bl(x) in both equations, c0–c2 of [M2] and e5–e7 of [M1]
+};
+
+/// The model with its coefficients scaled by `scales`.
+MirrorModel with_scales(MirrorModel model, const MirrorScales& scales) noexcept;
 
 /// One step of the model's state (current A, displacement mm, velocity mm/s).
 struct MirrorState {
@@ -93,6 +115,8 @@ class MirrorFilter {
   /// `nonlinear`, relative to the model the filter was made with (as with_scales of mirror_observer.h);
   /// allocation-free.
   void set_scales(double stiffness, double force, double nonlinear) noexcept;
+  /// The same with every scale of `scales` (the linear reference takes the scaled model's linear coefficients).
+  void set_scales(const MirrorScales& scales) noexcept;
 
  private:
   MirrorModel base_, model_, reference_;

@@ -55,17 +55,11 @@ SensorMapFit fit_sensor_map(const Eigen::VectorXd& displacement, const Eigen::Ve
   return fit;
 }
 
-MirrorModel with_scales(MirrorModel model, const MirrorScales& scales) {
-  for (std::size_t j : {6u, 7u, 8u}) model.mechanical[j] *= scales.stiffness;
-  model.mechanical[0] *= scales.force;
-  for (std::size_t j : {1u, 2u, 3u, 4u, 7u, 8u, 9u}) model.mechanical[j] *= scales.nonlinear;
-  for (std::size_t j : {1u, 2u, 3u, 6u, 7u, 8u, 9u}) model.electrical[j] *= scales.nonlinear;
-  return model;
-}
-
 MirrorObserver::MirrorObserver(const MirrorModel& model) : model_(model) {
   const MirrorObserverSettings& o = model.observer;
-  if (!o.enabled) throw std::invalid_argument("mirror observer: the model has no observer settings (sensor map)");
+  if (!o.enabled || o.measurement != MirrorMeasurement::sensor) {
+    throw std::invalid_argument("mirror observer: the model has no observer settings (sensor map)");
+  }
   if (model.delay < 0 || model.delay > kMaxDelay) {
     throw std::invalid_argument("mirror observer: a drive delay of " + std::to_string(model.delay) +
                                 " samples exceeds the " + std::to_string(kMaxDelay) + " it takes");

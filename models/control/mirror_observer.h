@@ -33,16 +33,6 @@ struct SensorMapFit {
 /// non-finite sample.
 SensorMapFit fit_sensor_map(const Eigen::VectorXd& displacement, const Eigen::VectorXd& measured, double fs);
 
-/// The scales an observer adapts, each 1 for the model as fitted.
-struct MirrorScales {
-  double stiffness = 1.0;  ///< θ_K: K(x), c6–c8 of [M2]
-  double force = 1.0;      ///< θ_F: the linear force factor over the mass, c0 of [M2]
-  double nonlinear = 1.0;  ///< θ_N: every nonlinear coefficient, c1–c4, c7–c9 of [M2] and e1–e3, e6–e9 of [M1]
-};
-
-/// The model with its coefficients scaled by `scales`.
-MirrorModel with_scales(MirrorModel model, const MirrorScales& scales);
-
 /// The observer's Jacobian ∂f/∂z by its structure: rows i, x, v_0 depend on (i, x, v_0, θ_K, θ_F, θ_N) alone (this
 /// 3×6 block, columns in that order), the velocity history is a shift (v_j ← v_{j−1}) and the scales are held.
 using MirrorJacobianBlock = Eigen::Matrix<double, 3, 6>;

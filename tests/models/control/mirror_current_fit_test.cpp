@@ -13,11 +13,12 @@
 namespace panelbass::models {
 namespace {
 
-/// panel-exciter's model without inductance (the fit leaves the coil's time constant to A(z)), its drive through
-/// A(z) = 1 − 0.5·z⁻¹ + 0.1·z⁻²: a discrete model the current-only fit's structure holds exactly.
+/// panel-exciter's model without its rest inductance and Le(i) (the fit leaves the coil's time constant to A(z)) but
+/// with Le(x)'s slope, its drive through A(z) = 1 − 0.5·z⁻¹ + 0.1·z⁻²: a discrete model the current-only fit's
+/// structure holds exactly.
 MirrorModel current_fit_truth() {
   MirrorModel truth = testing_support::panel_exciter_mirror_model();
-  for (std::size_t j : {0u, 1u, 2u, 3u}) truth.electrical[j] = 0.0;
+  for (std::size_t j : {0u, 2u, 3u}) truth.electrical[j] = 0.0;
   truth.drive_taps = {1.0, -0.5, 0.1, 0.0};
   return truth;
 }
@@ -85,6 +86,7 @@ TEST(MirrorCurrentFit, RecoversTheDiscreteModelFromItsCurrentAlone) {
   EXPECT_NEAR(e[4] / te[4], 1.0, 1e-4) << "e_R";
   EXPECT_NEAR(e[5] / te[5], 1.0, 1e-4) << "Bl/gain";
   EXPECT_NEAR(e[8] / te[8], 1.0, 2e-2) << "i·dLe/dx";
+  EXPECT_NEAR(e[1] / te[1], 1.0, 2e-2) << "Le(x)'s slope";
   for (std::size_t j = 1; j < 4; ++j) EXPECT_NEAR(m.drive_taps[j], truth.drive_taps[j], 1e-4) << "a" << j;
   EXPECT_NEAR(m.friction_velocity, truth.friction_velocity, 0.05 * truth.friction_velocity);
 }
