@@ -231,6 +231,26 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
   const auto residual = [&](const AugmentedModel& m) -> Eigen::VectorXd {
     return (y_val - simulate_augmented(m, u_val, y_val, r.init)).tail(judged);
   };
+  // Records at several levels: whether a finding's gain (from `before` to `after`) grows with the level, as its
+  // effect's should; one that contradicts its effect is called ambiguous.
+  const auto judge_at_levels = [&](Finding& f, const AugmentedModel& before, const AugmentedModel& after) {
+    if (options.other_levels.empty()) return;
+    std::vector<diagnosis_detail::LevelGain> gains{{options.level_name, rms_after(u_val, r.init), f.j_val_before_pct, f.j_val_after_pct}};
+    for (const LevelRecord& level : options.other_levels)
+      gains.push_back({level.name, rms_after(level.u, r.init),
+                       j_percent(simulate_augmented(before, level.u, level.y, r.init), level.y, r.init),
+                       j_percent(simulate_augmented(after, level.u, level.y, r.init), level.y, r.init)});
+    const diagnosis_detail::LevelVerdict verdict = diagnosis_detail::judge_levels(f.effect, gains);
+    f.evidence["levels"] = diagnosis_detail::levels_to_json(gains, verdict);
+    if (!verdict.judged) return;
+    const std::string sentence = f.confidence.value("sentence", "");
+    if (!verdict.consistent) {
+      f.confidence["word"] = "ambiguous";
+      f.confidence["sentence"] = "ambiguous: " + verdict.sentence + ". " + sentence;
+    } else {
+      f.confidence["sentence"] = sentence + " Levels: " + verdict.sentence + ".";
+    }
+  };
   d.stop = nullptr;
   for (int round = 0; round < options.max_findings; ++round) {
     // Nothing is looked for where J lies within the floor's uncertainty: what is left may be noise.
@@ -311,7 +331,11 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     // Two effects at once: a pair of the leading terms fitted jointly, kept when it beats the best alone and each
     // of its terms earns its place beside the other.
     if (auto pair = diagnosis_detail::best_joint_pair(r, current, scored, best_score, n_val, residual)) {
-      for (Finding& f : diagnosis_detail::pair_findings(r, *pair, current, where_val.effective_samples, where_est)) {
+      std::vector<Finding> found = diagnosis_detail::pair_findings(r, *pair, current, where_val.effective_samples, where_est, force.has_value());
+      const Candidate* alone = found.front().effect == pair->first->effect ? pair->first : pair->second;
+      judge_at_levels(found[0], current.model, alone->fit.model);
+      judge_at_levels(found[1], alone->fit.model, pair->fit.model);
+      for (Finding& f : found) {
         const double excess = f.j_val_before_pct - d.noise_floor_pct;
         f.confidence["explained_share"] = excess > 0.0 ? std::min(1.0, (f.j_val_before_pct - f.j_val_after_pct) / excess) : 1.0;
         progress("found " + to_string(f.effect) + " (jointly): validation J " + fixed(f.j_val_before_pct, 3) + " % → " +
@@ -409,23 +433,8 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
       confidence.explained_share = share;
       confidence.sentence += " It explains " + fixed(100.0 * share, 0) + " % of J above the noise floor.";
     }
-    if (!options.other_levels.empty()) {
-      // Records at several levels: whether the finding's gain grows with the level, as its effect's should.
-      std::vector<diagnosis_detail::LevelGain> gains{{options.level_name, rms_after(u_val, r.init), current.j_val, chosen->fit.j_val}};
-      for (const LevelRecord& level : options.other_levels)
-        gains.push_back({level.name, rms_after(level.u, r.init),
-                         j_percent(simulate_augmented(current.model, level.u, level.y, r.init), level.y, r.init),
-                         j_percent(simulate_augmented(chosen->fit.model, level.u, level.y, r.init), level.y, r.init)});
-      const diagnosis_detail::LevelVerdict verdict = diagnosis_detail::judge_levels(chosen->effect, gains);
-      f.evidence["levels"] = diagnosis_detail::levels_to_json(gains, verdict);
-      if (verdict.judged && !verdict.consistent) {
-        confidence.word = "ambiguous";
-        confidence.sentence = "ambiguous: " + verdict.sentence + ". " + confidence.sentence;
-      } else if (verdict.judged) {
-        confidence.sentence += " Levels: " + verdict.sentence + ".";
-      }
-    }
     f.confidence = confidence_to_json(confidence);
+    judge_at_levels(f, current.model, chosen->fit.model);
     if (!current_verdict.is_null()) f.evidence["current_channel"] = current_verdict;
     if (!failed.empty()) f.evidence["failed_tests_before"] = failed;  // better BIC, but their gains did not pass
     f.parameters = chosen->parameters_json;

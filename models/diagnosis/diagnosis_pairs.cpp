@@ -60,7 +60,10 @@ std::optional<JointPair> best_joint_pair(const Records& r, const Fit& current, c
 }
 
 std::vector<Finding> pair_findings(const Records& r, const JointPair& pair, const Fit& current, double effective_samples,
-                                   const ResidualLocation& where) {
+                                   const ResidualLocation& where, bool with_current) {
+  const auto needs_current = [&](const Candidate& c) {
+    return !with_current && (c.effect == Effect::nonlinear_damping || c.effect == Effect::asymmetric_force_factor);
+  };
   const double n = std::max(effective_samples, 2.0);
   std::vector<Finding> out;
   const auto one = [&](const Candidate& c, const Candidate& partner, const Fit& before, const Fit& after,
@@ -74,14 +77,18 @@ std::vector<Finding> pair_findings(const Records& r, const JointPair& pair, cons
     f.explanation = explain(c, where, correlation) + " Found jointly with " + to_string(partner.effect) + ".";
     // Its margin beside the partner: the pair against the partner alone, on the effective samples.
     const double margin = n * std::log(partner.fit.j_val / pair.fit.j_val) - c.parameters * std::log(n);
-    const std::string word = margin >= kClearMargin ? "clear" : margin >= kLikelyMargin ? "likely" : "ambiguous";
+    const bool alike = needs_current(c);
+    const std::string word = alike ? "ambiguous" : margin >= kClearMargin ? "clear" : margin >= kLikelyMargin ? "likely" : "ambiguous";
     const std::string name = to_string(c.effect), other = to_string(partner.effect);
     const std::string sentence =
-        (word == "ambiguous" ? "ambiguous between " + name + " beside " + other + " and " + other + " alone" : word) +
+        (alike ? "ambiguous between " + name + " and more of " + other + ": from the drive " + name +
+                     " has no signature of its own (a record with the coil current tells them apart)"
+               : word == "ambiguous" ? "ambiguous between " + name + " beside " + other + " and " + other + " alone" : word) +
         ": found jointly with " + other + "; added to it, " + name + " lowers validation J from " + fixed(partner.fit.j_val, 4) +
         " to " + fixed(pair.fit.j_val, 4) + " % (z " + fixed(beside.z, 1) + " against " + fixed(beside.threshold, 1) +
         ", BIC margin " + fixed(margin, 1) + " on the residual's " + fixed(n, 0) + " effective samples).";
-    f.confidence = {{"word", word}, {"runner_up", nullptr}, {"runner_up_variant", nullptr}, {"margin_bic", margin},
+    f.confidence = {{"word", word}, {"runner_up", word == "ambiguous" ? nlohmann::json(other) : nlohmann::json(nullptr)},
+                    {"runner_up_variant", nullptr}, {"margin_bic", margin},
                     {"explained_share", nullptr}, {"joint_with", other}, {"sentence", sentence}};
     f.evidence = {{"added_correlation", correlation},
                   {"J_est_before_pct", before.j_est},
@@ -93,8 +100,12 @@ std::vector<Finding> pair_findings(const Records& r, const JointPair& pair, cons
     f.parameters["terms"] = terms_json(after.model);
     out.push_back(std::move(f));
   };
-  one(*pair.first, *pair.second, current, pair.first->fit, pair.first_given_second);
-  one(*pair.second, *pair.first, pair.first->fit, pair.fit, pair.second_given_first);
+  // The member the drive can name comes first.
+  const bool swap = needs_current(*pair.first) && !needs_current(*pair.second);
+  const Candidate& first = swap ? *pair.second : *pair.first;
+  const Candidate& second = swap ? *pair.first : *pair.second;
+  one(first, second, current, first.fit, swap ? pair.second_given_first : pair.first_given_second);
+  one(second, first, first.fit, pair.fit, swap ? pair.first_given_second : pair.second_given_first);
   return out;
 }
 

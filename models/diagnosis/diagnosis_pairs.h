@@ -38,7 +38,9 @@ std::optional<JointPair> best_joint_pair(const Records& r, const Fit& current, c
 /// The pair's two findings: the first from `current` to it alone, the second from there to the pair, each judged by
 /// what it adds beside the other (BIC margin on `effective_samples` of the validation residual, the t of its gain);
 /// `where` is the estimation residual's location (for the explanations).
+/// Without the coil current (`with_current` false), a member with no drive signature of its own (Rms(v), a coil
+/// offset) comes second and is called ambiguous with its partner, as a single finding of it is.
 std::vector<Finding> pair_findings(const Records& r, const JointPair& pair, const Fit& current, double effective_samples,
-                                   const ResidualLocation& where);
+                                   const ResidualLocation& where, bool with_current);
 
 }  // namespace panelbass::models::diagnosis_detail

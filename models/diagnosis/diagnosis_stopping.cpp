@@ -20,6 +20,8 @@ namespace {
 constexpr Eigen::Index kMinBatch = 100;
 constexpr Eigen::Index kMinBatches = 20;
 constexpr Eigen::Index kMaxBatches = 100;
+// A record too short for kMinBatches batches of kMinBatch samples gets shorter ones, down to this.
+constexpr Eigen::Index kShortestBatch = 10;
 
 // Half the width, in DFT bins, of the running mean that smooths the noise's periodogram into its spectrum.
 constexpr Eigen::Index kSmoothingBins = 16;
@@ -113,10 +115,10 @@ double student_upper_quantile(double p, double dof) {
 }
 
 ValidationGain validation_gain(const Eigen::VectorXd& before, const Eigen::VectorXd& after, int tried) {
-  if (before.size() != after.size() || before.size() < kMinBatches * kMinBatch)
+  if (before.size() != after.size() || before.size() < kMinBatches * kShortestBatch)
     throw std::invalid_argument("validation_gain: residuals of " + std::to_string(before.size()) + " and " +
                                 std::to_string(after.size()) + " samples; at least " +
-                                std::to_string(kMinBatches * kMinBatch) + " needed");
+                                std::to_string(kMinBatches * kShortestBatch) + " needed");
   ValidationGain g;
   g.tried = std::max(1, tried);
   g.gain = before.squaredNorm() > 0.0 ? (before.squaredNorm() - after.squaredNorm()) / before.squaredNorm() : 0.0;

@@ -50,7 +50,7 @@ double student_upper_quantile(double p, double dof);
 
 /// The validation test of an augmentation: both residuals whitened by the spectrum of e_after (the residual with
 /// less of the effect in it; its periodogram smoothed over 33 bins), d_k = ẽ_before(k)² − ẽ_after(k)² averaged
-/// in batches (100 samples or more, 20 to 100 of them), and Wilcoxon's signed-rank statistic of the batch means
+/// in batches (100 samples or more, 20 to 100 of them; shorter when 20 of 100 do not fit), and Wilcoxon's signed-rank statistic of the batch means
 /// (normal approximation) against the normal's upper kFamilyLevel/`tried` quantile (Bonferroni over the candidates
 /// tried).
 struct ValidationGain {
