@@ -194,12 +194,6 @@ const Candidate* decided_by_current(const Candidate* chosen, const std::vector<c
   return pick;
 }
 
-// The rms of `u` after its first `init` samples.
-double rms_after(const Eigen::VectorXd& u, Eigen::Index init) {
-  const Eigen::Index n = u.size() - init;
-  return n > 0 ? std::sqrt(u.tail(n).squaredNorm() / static_cast<double>(n)) : 0.0;
-}
-
 // The candidates of a round whose validation test is run, best BIC first, before the round gives up.
 constexpr std::size_t kTestedAtMost = 8;
 
@@ -231,25 +225,8 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
   const auto residual = [&](const AugmentedModel& m) -> Eigen::VectorXd {
     return (y_val - simulate_augmented(m, u_val, y_val, r.init)).tail(judged);
   };
-  // Records at several levels: whether a finding's gain (from `before` to `after`) grows with the level, as its
-  // effect's should; one that contradicts its effect is called ambiguous.
   const auto judge_at_levels = [&](Finding& f, const AugmentedModel& before, const AugmentedModel& after) {
-    if (options.other_levels.empty()) return;
-    std::vector<diagnosis_detail::LevelGain> gains{{options.level_name, rms_after(u_val, r.init), f.j_val_before_pct, f.j_val_after_pct}};
-    for (const LevelRecord& level : options.other_levels)
-      gains.push_back({level.name, rms_after(level.u, r.init),
-                       j_percent(simulate_augmented(before, level.u, level.y, r.init), level.y, r.init),
-                       j_percent(simulate_augmented(after, level.u, level.y, r.init), level.y, r.init)});
-    const diagnosis_detail::LevelVerdict verdict = diagnosis_detail::judge_levels(f.effect, gains);
-    f.evidence["levels"] = diagnosis_detail::levels_to_json(gains, verdict);
-    if (!verdict.judged) return;
-    const std::string sentence = f.confidence.value("sentence", "");
-    if (!verdict.consistent) {
-      f.confidence["word"] = "ambiguous";
-      f.confidence["sentence"] = "ambiguous: " + verdict.sentence + ". " + sentence;
-    } else {
-      f.confidence["sentence"] = sentence + " Levels: " + verdict.sentence + ".";
-    }
+    diagnosis_detail::judge_at_levels(f, before, after, {options.level_name, u_val, y_val}, options.other_levels, r.init);
   };
   d.stop = nullptr;
   for (int round = 0; round < options.max_findings; ++round) {

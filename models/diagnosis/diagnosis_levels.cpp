@@ -5,8 +5,18 @@
 #include <limits>
 
 #include "models/diagnosis/diagnosis_fit.h"
+#include "models/validation/performance.h"
 
 namespace panelbass::models::diagnosis_detail {
+namespace {
+
+// The rms of `u` after its first `init` samples.
+double rms_after(const Eigen::VectorXd& u, Eigen::Index init) {
+  const Eigen::Index n = u.size() - init;
+  return n > 0 ? std::sqrt(u.tail(n).squaredNorm() / static_cast<double>(n)) : 0.0;
+}
+
+}  // namespace
 
 bool is_linear_effect(Effect effect) {
   return effect == Effect::resonance || effect == Effect::antiresonance || effect == Effect::delay || effect == Effect::creep;
@@ -59,6 +69,25 @@ nlohmann::json levels_to_json(const std::vector<LevelGain>& levels, const LevelV
           {"grows_with_level", verdict.grows},
           {"consistent", verdict.consistent},
           {"sentence", verdict.sentence}};
+}
+
+void judge_at_levels(Finding& f, const AugmentedModel& before, const AugmentedModel& after, const LevelRecord& diagnosed,
+                     const std::vector<LevelRecord>& others, Eigen::Index init) {
+  if (others.empty()) return;
+  std::vector<LevelGain> gains{{diagnosed.name, rms_after(diagnosed.u, init), f.j_val_before_pct, f.j_val_after_pct}};
+  for (const LevelRecord& level : others)
+    gains.push_back({level.name, rms_after(level.u, init), j_percent(simulate_augmented(before, level.u, level.y, init), level.y, init),
+                     j_percent(simulate_augmented(after, level.u, level.y, init), level.y, init)});
+  const LevelVerdict verdict = judge_levels(f.effect, gains);
+  f.evidence["levels"] = levels_to_json(gains, verdict);
+  if (!verdict.judged) return;
+  const std::string sentence = f.confidence.value("sentence", "");
+  if (!verdict.consistent) {
+    f.confidence["word"] = "ambiguous";
+    f.confidence["sentence"] = "ambiguous: " + verdict.sentence + ". " + sentence;
+  } else {
+    f.confidence["sentence"] = sentence + " Levels: " + verdict.sentence + ".";
+  }
 }
 
 }  // namespace panelbass::models::diagnosis_detail

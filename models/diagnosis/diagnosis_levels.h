@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "models/diagnosis/diagnosis.h"
 #include "models/diagnosis/diagnosis_terms.h"
 
 namespace panelbass::models::diagnosis_detail {
@@ -46,5 +47,11 @@ LevelVerdict judge_levels(Effect effect, const std::vector<LevelGain>& levels);
 
 /// The gains and the verdict as the report's JSON.
 nlohmann::json levels_to_json(const std::vector<LevelGain>& levels, const LevelVerdict& verdict);
+
+/// Judges finding `f` (its gain from `before` to `after`; its J on `diagnosed`, the validation record the diagnosis
+/// ran on) on every record of `others` too, judged after `init` samples: sets `evidence.levels`, and when the growth
+/// contradicts the effect calls it ambiguous, saying why; otherwise adds the verdict to its sentence.
+void judge_at_levels(Finding& f, const AugmentedModel& before, const AugmentedModel& after, const LevelRecord& diagnosed,
+                     const std::vector<LevelRecord>& others, Eigen::Index init);
 
 }  // namespace panelbass::models::diagnosis_detail
