@@ -230,13 +230,14 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
   };
   d.stop = nullptr;
   for (int round = 0; round < options.max_findings; ++round) {
-    // Nothing is looked for where J lies within the floor's uncertainty: what is left may be noise.
+    // Nothing is looked for where J is at or below the noise floor. Within the floor's uncertainty above it, what is
+    // left may be noise: a finding there, the first included, must pass the validation test.
     const double floor_reach = floor.pct * (1.0 + diagnosis_detail::kFloorUncertainties * floor.relative_sd);
-    if (current.j_val <= floor_reach) {
+    const bool near_floor = current.j_val <= floor_reach;
+    if (current.j_val <= floor.pct) {
       d.stop = {{"round", round + 1},
-                {"reason", "validation J " + fixed(current.j_val, 4) + " % is within the noise floor's uncertainty (" +
-                               fixed(floor.pct, 4) + " % + " + fixed(diagnosis_detail::kFloorUncertainties, 0) + " × " +
-                               fixed(100.0 * floor.relative_sd, 1) + " %, from " + to_string(floor.source) + ")"}};
+                {"reason", "validation J " + fixed(current.j_val, 4) + " % is at or below the noise floor (" + fixed(floor.pct, 4) +
+                               " %, from " + to_string(floor.source) + ")"}};
       break;
     }
     progress("round " + std::to_string(round + 1) + ": scoring candidate effects");
@@ -280,15 +281,15 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     // the validation residual than noise lets any of the candidates tried remove: its gain in squared error, made
     // consistently over the record (the signed ranks of batch means), beyond a threshold shared over them. A gain
     // made in some stretches and lost in others (a linear change standing in for a spring at one level) does not
-    // pass, and the next is tested. The first finding is the best BIC above the floor (its test is reported): on a
-    // coloured residual the test misses concealed effects that the BIC names right.
+    // pass, and the next is tested. The first finding, beyond the floor's uncertainty, is the best BIC (its test is
+    // reported): on a coloured residual the test misses concealed effects that the BIC names right.
     std::ranges::sort(earning, [](const auto& a, const auto& b) { return a.first > b.first; });
     std::optional<diagnosis_detail::ValidationGain> passed;
     nlohmann::json failed = nlohmann::json::array();
     const Eigen::VectorXd before = residual(current.model);
     for (const auto& [score, c] : earning) {
       const diagnosis_detail::ValidationGain g = diagnosis_detail::validation_gain(before, residual(c->fit.model), tried);
-      if (g.significant || d.findings.empty()) {
+      if (g.significant || (d.findings.empty() && !near_floor)) {
         passed = g, chosen = c, best_score = score;
         break;
       }
@@ -297,7 +298,11 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     }
     if (!passed) {
       d.stop = {{"round", round + 1},
-                {"reason", std::to_string(failed.size()) + " candidate(s) earn their parameters, the best " + to_string(earning.front().second->effect) +
+                {"reason", std::string(near_floor ? "validation J " + fixed(current.j_val, 4) + " % lies within the noise floor's uncertainty (" +
+                                                       fixed(floor.pct, 4) + " % + " + fixed(100.0 * floor.relative_sd, 1) + " %, from " +
+                                                       to_string(floor.source) + "); "
+                                                 : "") +
+                               std::to_string(failed.size()) + " candidate(s) earn their parameters, the best " + to_string(earning.front().second->effect) +
                                ", but none's validation gain passes what noise lets one of the " + std::to_string(tried) +
                                " candidates tried reach (z " + fixed(failed.front()["z"].get<double>(), 2) + " against " +
                                fixed(failed.front()["threshold"].get<double>(), 2) + ")"},
@@ -586,9 +591,9 @@ nlohmann::json diagnosis_to_json(const Diagnosis& d) {
             {"validation", location_to_json(d.located_val)},
             {"validation_after", location_to_json(d.located_val_after)}}},
           {"rounds", d.rounds},
-          {"rule", "no augmentation is looked for while validation J lies within the noise floor's uncertainty; the best "
+          {"rule", "no augmentation is looked for while validation J is at or below the noise floor; the best "
                    "augmentation of a round is kept when N·ln(J_before/J_after) > p·ln(N) on the N validation samples (BIC, "
-                   "p its added parameters, every earlier term refitted with it) and, after the first finding, its gain in "
+                   "p its added parameters, every earlier term refitted with it) and, after the first finding or within the floor's uncertainty, its gain in "
                    "validation squared error passes a signed-rank test (batch means of the whitened residuals) at a family-wise level of 1 % shared over the candidates the round tried"}};
 }
 
