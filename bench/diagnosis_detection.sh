@@ -9,23 +9,11 @@
 # N_EST / N_VAL set the records' lengths (defaults 60000 / 40000 samples, the tests' concealed scenarios).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bin=${1:-build}/bin/diagnosis_detection_bench
+source bench/diagnosis_common.sh
+diagnosis_setup "${1:-build}" 60000 40000
 seeds=${2:-6}
 jobs=${3:-2}
 plain=${4:-20}
-lengths="--n-est ${N_EST:-60000} --n-val ${N_VAL:-40000}"
-if [ -n "${PANELBASS_WORK:-}" ]; then
-  work=$PANELBASS_WORK
-  mkdir -p "$work"
-else
-  work=$(mktemp -d)
-  trap 'rm -rf "$work"' EXIT
-fi
-start=$(date +%s)
-
-all="resonance antiresonance delay cubic_stiffness asymmetric_stiffness force_factor inductance hysteresis saturation
-thermal_compression dc_offset static_nonlinearity nonlinear_damping asymmetric_force_factor creep"
-look_alikes="nonlinear_damping cubic_stiffness hysteresis force_factor asymmetric_force_factor asymmetric_stiffness inductance"
 
 # One process per effect (and channel set), JOBS at a time: the look-alikes with and without the current and the
 # effect-free runs first, then the rest of the vocabulary.

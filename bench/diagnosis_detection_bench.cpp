@@ -82,6 +82,11 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
                          "(coherence %.3f, threshold %.3f)\n",
                  d.located_est.peak_frequency_hz, d.located_est.peak_over_noise, d.located_est.peak_threshold,
                  d.located_est.frf_error.frequency_hz, d.located_est.frf_error.coherence, d.located_est.frf_error.threshold);
+  if (verbose)
+    std::fprintf(stderr, "noise floor: %s; stopped: %s\n", d.noise_floor.dump().c_str(), d.stop.dump().c_str());
+  if (verbose)
+    for (const auto& f : d.findings)
+      std::fprintf(stderr, "finding %s: validation test %s\n", to_string(f.effect).c_str(), f.evidence["validation_test"].dump().c_str());
   if (verbose && !d.findings.empty() && d.findings.front().parameters.contains("J_val_same_structure_refit_pct"))
     std::fprintf(stderr, "first finding's linear refit: J %.4f %%, its structure refitted alone: J %.4f %%\n",
                  d.findings.front().j_val_after_pct,

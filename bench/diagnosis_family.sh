@@ -10,24 +10,12 @@
 # (PANELBASS_MERGE_ONLY=1 then reprints the tables from it without running anything).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bin=${1:-build}/bin/diagnosis_detection_bench
+source bench/diagnosis_common.sh
+diagnosis_setup "${1:-build}" 30000 20000
 family=${2:-second}
 seeds=${3:-3}
 jobs=${4:-2}
 plain=${5:-6}
-lengths="--n-est ${N_EST:-30000} --n-val ${N_VAL:-20000}"
-if [ -n "${PANELBASS_WORK:-}" ]; then
-  work=$PANELBASS_WORK
-  mkdir -p "$work"
-else
-  work=$(mktemp -d)
-  trap 'rm -rf "$work"' EXIT
-fi
-start=$(date +%s)
-
-all="resonance antiresonance delay cubic_stiffness asymmetric_stiffness force_factor inductance hysteresis saturation
-thermal_compression dc_offset static_nonlinearity nonlinear_damping asymmetric_force_factor creep"
-look_alikes="nonlinear_damping cubic_stiffness hysteresis force_factor asymmetric_force_factor asymmetric_stiffness inductance"
 
 pairs="asymmetric_force_factor+asymmetric_stiffness,nonlinear_damping+hysteresis,cubic_stiffness+force_factor"
 runs=("drive none" "current none" "drive pairs" "current pairs")

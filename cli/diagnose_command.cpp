@@ -1,6 +1,7 @@
 // `panelbass diagnose`: where a linear simulation and a recording disagree, the physics left out, that
 // physics modelled, and validation J before and after (models/diagnosis/diagnosis.h does the work).
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -10,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <variant>
+#include <vector>
 
 #include "cli/commands.h"
 #include "cli/data_options.h"
@@ -35,7 +37,8 @@ namespace {
 namespace fs = std::filesystem;
 
 struct DiagnoseOptions {
-  std::string data, val, model;
+  std::vector<std::string> data, val;  ///< one pair per drive level (--data and --val repeated, in order)
+  std::string model;
   DataOptions columns;
   ReportOutputOptions outputs;
   long init = 50;
@@ -94,11 +97,29 @@ void run_diagnose(const DiagnoseOptions& o) {
     baseline = load_baseline(o.model);
     if (!(columns.fs > 0.0)) columns.fs = baseline->fs();
   }
-  const dsp::Record est = baseline ? columns.read_at_model_rate(o.data, baseline->fs()) : columns.read(o.data);
-  const dsp::Record val = baseline ? columns.read_at_model_rate(o.val, baseline->fs()) : columns.read(o.val);
-  if (!dsp::same_rate(val.fs, est.fs))
-    throw std::invalid_argument(o.val + ": sample rate " + std::to_string(val.fs) + " Hz differs from " + o.data + "'s " +
-                                std::to_string(est.fs) + " Hz");
+  if (o.data.size() != o.val.size())
+    throw CLI::ValidationError("--val", "give one --val per --data (records at several levels come in pairs): " +
+                                            std::to_string(o.data.size()) + " --data, " + std::to_string(o.val.size()) + " --val");
+  const auto read = [&](const std::string& path) { return baseline ? columns.read_at_model_rate(path, baseline->fs()) : columns.read(path); };
+  // Records at several levels: the pair with the loudest drive is diagnosed (where a nonlinear effect shows most);
+  // every other pair's validation part judges each finding at its own level.
+  std::vector<dsp::Record> ests, vals;
+  std::size_t main = 0;
+  for (std::size_t k = 0; k < o.data.size(); ++k) {
+    ests.push_back(read(o.data[k]));
+    vals.push_back(read(o.val[k]));
+    if (!dsp::same_rate(vals[k].fs, ests[0].fs) || !dsp::same_rate(ests[k].fs, ests[0].fs))
+      throw std::invalid_argument((dsp::same_rate(ests[k].fs, ests[0].fs) ? o.val[k] : o.data[k]) + ": sample rate " +
+                                  std::to_string(dsp::same_rate(ests[k].fs, ests[0].fs) ? vals[k].fs : ests[k].fs) +
+                                  " Hz differs from " + o.data[0] + "'s " + std::to_string(ests[0].fs) + " Hz");
+    if (ests[k].columns[0].squaredNorm() / std::max<double>(1.0, static_cast<double>(ests[k].columns[0].size())) >
+        ests[main].columns[0].squaredNorm() / std::max<double>(1.0, static_cast<double>(ests[main].columns[0].size())))
+      main = k;
+  }
+  const dsp::Record& est = ests[main];
+  const dsp::Record& val = vals[main];
+  const std::string& data_path = o.data[main];
+  const std::string& val_path = o.val[main];
   // Everything that can be refused is refused before the work starts.
   const PlotFormat format = o.outputs.prepare();
   if (!o.model_out.empty() && baseline && baseline->simulation)
@@ -111,10 +132,13 @@ void run_diagnose(const DiagnoseOptions& o) {
   options.scan_to = o.scan_to;
   options.max_findings = o.max_findings;
   options.output = o.sensor;
-  options.current_est = read_current(o.data, columns, est.fs, o.current_col);
-  if (options.current_est.size() > 0) options.current_val = read_current(o.val, columns, val.fs, o.current_col);
+  options.current_est = read_current(data_path, columns, est.fs, o.current_col);
+  if (options.current_est.size() > 0) options.current_val = read_current(val_path, columns, val.fs, o.current_col);
   if ((options.current_est.size() > 0) != (options.current_val.size() > 0))
-    throw dsp::DataError(o.val + ": has no current column while " + o.data + " has one (give --current-col none to leave it out)");
+    throw dsp::DataError(val_path + ": has no current column while " + data_path + " has one (give --current-col none to leave it out)");
+  options.level_name = val_path;
+  for (std::size_t k = 0; k < vals.size(); ++k)
+    if (k != main) options.other_levels.push_back({o.val[k], vals[k].columns[0], vals[k].columns[1]});
   options.progress = [](const std::string& stage) { std::cerr << "diagnose: " << stage << std::endl; };
   const models::Diagnosis d =
       baseline && baseline->simulation
@@ -122,8 +146,13 @@ void run_diagnose(const DiagnoseOptions& o) {
           : models::diagnose(est.columns[0], est.columns[1], val.columns[0], val.columns[1], est.fs,
                              baseline ? baseline->linear : std::nullopt, options);
   nlohmann::json report = models::diagnosis_to_json(d);
-  report["data"] = o.data;
-  report["val"] = o.val;
+  report["data"] = data_path;
+  report["val"] = val_path;
+  if (o.data.size() > 1) {
+    report["levels"] = nlohmann::json::array();
+    for (std::size_t k = 0; k < o.data.size(); ++k)
+      report["levels"].push_back({{"data", o.data[k]}, {"val", o.val[k]}, {"diagnosed", k == main}});
+  }
   report["fs"] = est.fs;
   if (!o.model.empty()) report["model"] = o.model;
   o.outputs.name_outputs(report);
@@ -176,8 +205,11 @@ void register_diagnose(CLI::App& app) {
   auto o = std::make_shared<DiagnoseOptions>();
   CLI::App* cmd = app.add_subcommand(
       "diagnose", "Locate where a linear simulation and a recording disagree, name the physics left out, model it");
-  cmd->add_option("--data", o->data, "Estimation data, .csv or .wav")->required();
-  cmd->add_option("--val", o->val, "Validation data, .csv or .wav (judges every augmentation)")->required();
+  cmd->add_option("--data", o->data,
+                  "Estimation data, .csv or .wav; repeated (with one --val each) for records at several drive levels: the "
+                  "loudest pair is diagnosed, the others' validation parts say whether each finding's gain grows with level")
+      ->required();
+  cmd->add_option("--val", o->val, "Validation data, .csv or .wav (judges every augmentation); one per --data")->required();
   o->columns.add_to(cmd);
   cmd->add_option("--model", o->model,
                   "Simulation to diagnose: a linear, NARX or neural state-space (ss) model file, or a plant JSON (default: the best OE model of the order scan)");
@@ -204,12 +236,15 @@ void register_diagnose(CLI::App& app) {
   cmd->add_option("--window", o->window, "Samples shown in the fit plot")->check(CLI::Range(2L, 100000000L))->capture_default_str();
   cmd->footer(
       "Each candidate effect (" + models::vocabulary_text() + ")\n"
-      "is fitted on --data and judged on --val; the best is kept while\n"
-      "N·ln(J_before/J_after) > p·ln(N) (BIC, N validation samples, p added parameters).\n"
+      "is fitted on --data and judged on --val; nothing is looked for while validation J is at or\n"
+      "below the noise floor, and the best is kept while N·ln(J_before/J_after) > p·ln(N) (BIC, N\n"
+      "validation samples, p added parameters) and, after the first finding, its validation gain\n"
+      "passes a signed-rank test at a family-wise 1 % over the candidates tried.\n"
       "Example:\n"
       "  panelbass diagnose --data est.csv --val val.csv --fs 3000 --sensor acceleration --out report.json \\\n"
       "      --html report.html --plots plots/ --model-out diagnosed.json\n"
-      "  panelbass diagnose --data est.csv --val val.csv --fs 3000 --current-col i --out report.json");
+      "  panelbass diagnose --data est.csv --val val.csv --fs 3000 --current-col i --out report.json\n"
+      "  panelbass diagnose --data loud-est.csv --val loud-val.csv --data quiet-est.csv --val quiet-val.csv --fs 3000");
   cmd->callback([o] {
     if (o->scan_from > o->scan_to)
       throw CLI::ValidationError("--scan-from", std::to_string(o->scan_from) + " is above --scan-to " +

@@ -80,7 +80,7 @@ void location_table(std::ostream& out, const json& location) {
     const char* label;
   };
   const Row rows[] = {{"residual_pct", "J (%)"},
-                      {"noise_floor_pct", "noise floor: the residual's white-noise share (%)"},
+                      {"noise_floor_pct", "noise floor: J of a model that left only noise (%; its source in noise_floor)"},
                       {"peak_frequency_hz", "largest residual PSD bin (Hz)"},
                       {"peak_over_noise", "that bin over the noise level"},
                       {"peak_threshold", "ratio pure noise exceeds with probability 0.1 %"},

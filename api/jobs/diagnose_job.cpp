@@ -1,9 +1,11 @@
 #include "api/jobs/diagnose_job.h"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <string>
 #include <variant>
+#include <vector>
 
 #include "api/jobs/job_plots.h"
 #include "api/jobs/job_progress.h"
@@ -21,11 +23,41 @@ namespace {
 
 using nlohmann::json;
 
+// The most records at several levels a diagnosis takes ("records").
+constexpr std::size_t kMaxLevelRecords = 8;
+
+// "records": several records (ids of finished excite jobs or uploaded records, one "val_fraction" for the
+// uploaded ones), each checked as "record" is; the checked list, each entry its own record params.
+json level_records(ParamReader& r, const json& records, const JobEnvironment& env) {
+  const std::string where = r.path_of("records");
+  if (!records.is_array() || records.empty() || records.size() > kMaxLevelRecords)
+    refuse(where, "must be a list of 1 to " + std::to_string(kMaxLevelRecords) +
+                      " record ids (finished excite jobs \"j…\" or uploaded records \"r…\"), got " + shown(records));
+  if (r.member("record") != nullptr || r.member("excite") != nullptr)
+    refuse(where, "give \"records\" (several levels) or one \"record\" or \"excite\", not both");
+  const json* fraction = r.member("val_fraction");
+  json checked = json::array();
+  for (std::size_t k = 0; k < records.size(); ++k) {
+    json one = {{"record", records[k]}};
+    if (fraction != nullptr) one["val_fraction"] = *fraction;
+    ParamReader entry(one, where + "[" + std::to_string(k) + "]");
+    std::string validation_path;
+    if (record_source(entry, env, validation_path) == 0)
+      refuse(validation_path, "diagnose needs validation data (it judges every augmentation on it)");
+    checked.push_back(entry.finish());
+  }
+  return checked;
+}
+
 json diagnose_params(const json& params, const JobEnvironment& env) {
   ParamReader r(params, "params");
-  std::string validation_path;
-  const long long validation = record_source(r, env, validation_path);
-  if (validation == 0) refuse(validation_path, "diagnose needs validation data (it judges every augmentation on it)");
+  if (const json* records = r.member("records")) {
+    r.set("records", level_records(r, *records, env));
+  } else {
+    std::string validation_path;
+    const long long validation = record_source(r, env, validation_path);
+    if (validation == 0) refuse(validation_path, "diagnose needs validation data (it judges every augmentation on it)");
+  }
   require_stored_model(r, "baseline_model", false, kinds_taking(models::ModelRole::plant), env);
   r.integer("max_findings", 4, 0, 20);
   std::vector<std::string> quantities;
@@ -38,7 +70,18 @@ json diagnose_params(const json& params, const JobEnvironment& env) {
 
 json diagnose_work(const json& params, const JobEnvironment& env, JobControl& control) {
   JobProgress progress(control);
-  const SourcedRecord data = acquire_record(params, env, progress, control);
+  // Records at several levels: the one with the loudest drive is diagnosed, the others' validation parts judge each
+  // finding at their own level.
+  std::vector<SourcedRecord> levels;
+  if (params.contains("records"))
+    for (const json& one : params.at("records")) levels.push_back(acquire_record(one, env, progress, control));
+  else
+    levels.push_back(acquire_record(params, env, progress, control));
+  const auto loudness = [](const SourcedRecord& s) { return s.record.u_est.squaredNorm() / std::max<double>(1.0, static_cast<double>(s.record.u_est.size())); };
+  std::size_t main = 0;
+  for (std::size_t k = 1; k < levels.size(); ++k)
+    if (loudness(levels[k]) > loudness(levels[main])) main = k;
+  const SourcedRecord& data = levels[main];
   const ExcitationRecord& r = data.record;
   // The simulation diagnosed: a stored model of any kind, or (without one) the best
   // linear OE model.
@@ -53,6 +96,9 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
     if (models::to_string(q) == params.value("sensor", "unknown")) options.output = q;
   if (params.value("use_current", false) && r.i_est.size() > 0)
     options.current_est = r.i_est, options.current_val = r.i_val;  // the force channel
+  options.level_name = data.source;
+  for (std::size_t k = 0; k < levels.size(); ++k)
+    if (k != main) options.other_levels.push_back({levels[k].source, levels[k].record.u_val, levels[k].record.y_val});
   int stages = 0;
   progress.span(kExcitationShare, 0.95);
   // The diagnosis names its stages but not how many remain: each one closes part of the gap to the end.
@@ -75,6 +121,10 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
                                      "gray box (" + control.job_id() + ")", control);
   report["fs"] = env.fs;
   report["data"] = data.source;
+  if (levels.size() > 1) {
+    report["levels"] = json::array();
+    for (std::size_t k = 0; k < levels.size(); ++k) report["levels"].push_back({{"data", levels[k].source}, {"diagnosed", k == main}});
+  }
   report["j_val_pct"] = d.j_val_after_pct;
   const Eigen::Index init = init_samples(r.u_val.size());
   const Eigen::VectorXd y_sim = models::simulate_augmented(d.model, r.u_val, r.y_val, init);

@@ -34,6 +34,12 @@ std::string to_string(OutputQuantity quantity);
 /// Every quantity, in the order of the enum (for the CLI's and the API's choices).
 std::vector<OutputQuantity> all_output_quantities();
 
+/// A record at another drive level than the one diagnosed (its validation part): each finding is judged there too.
+struct LevelRecord {
+  std::string name;     ///< as the report names it (a file, a record id)
+  Eigen::VectorXd u, y; ///< input and output, raw units, at the diagnosis's rate
+};
+
 /// How a diagnosis runs.
 struct DiagnosisOptions {
   OutputQuantity output = OutputQuantity::unknown;  ///< known: mechanical terms act on the displacement proxy only
@@ -47,6 +53,10 @@ struct DiagnosisOptions {
   /// The coil current of the estimation and validation records, when the record carries it (both empty: it
   /// does not). It is the force channel's input: it tells apart the effects that look alike from the drive.
   Eigen::VectorXd current_est, current_val;
+  /// Records at other levels (empty: one level): a finding whose gain in J grows with the level is nonlinear, one
+  /// whose gain does not is a linear mismatch; a finding whose growth contradicts its effect is called ambiguous.
+  std::vector<LevelRecord> other_levels;
+  std::string level_name = "validation";  ///< the diagnosed validation record's name among the levels
 };
 
 /// One augmentation kept: the physics, why, and what it did to validation J.
@@ -97,7 +107,9 @@ struct Diagnosis {
   std::vector<Finding> findings;            ///< in the order applied; empty when nothing significant is left
   double j_val_before_pct = 0.0;
   double j_val_after_pct = 0.0;
-  double noise_floor_pct = 0.0;             ///< the validation residual's white-noise share of Σy²
+  double noise_floor_pct = 0.0;             ///< J of a model that left only noise (see noise_floor's source)
+  nlohmann::json noise_floor;               ///< the floor, its uncertainty, its source and the estimates it was chosen from
+  nlohmann::json stop;                      ///< why the rounds stopped (null: after max_findings)
   bool at_noise_floor = false;              ///< at_noise_floor(j_val_after_pct, noise_floor_pct): nothing but noise is left
   nlohmann::json unexplained;               ///< what is left above the floor and where (null at the floor)
   ResidualLocation located_est, located_val;  ///< the baseline's residual

@@ -27,12 +27,14 @@ StateProxy displacement_proxy(OutputQuantity q) {
 }  // namespace
 
 std::vector<Candidate> candidates(const Records& r, const Fit& current, const ResidualLocation& where,
-                                  int oe_iterations) {
+                                  int oe_iterations, int* tried) {
   std::vector<Candidate> best;
+  int fitted = 0;
   // Of the variants of one effect, the one with the best BIC score against `current` is kept.
   const double n_val = static_cast<double>(r.u_val.size() - r.init);
   auto score = [&](const Candidate& c) { return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val); };
   auto offer = [&](Candidate c) {
+    ++fitted;
     for (auto& b : best)
       if (b.effect == c.effect) {
         if (score(c) > score(b)) b = std::move(c);
@@ -81,7 +83,28 @@ std::vector<Candidate> candidates(const Records& r, const Fit& current, const Re
   // structure): diagnosis_static_nonlinearity.cpp places both.
   static_nonlinearity_candidates(r, current, offer);
   linear_refit_candidates(r, current, where, oe_iterations, offer);
+  if (tried != nullptr) *tried = fitted;
   return best;
+}
+
+Fit every_term_at_once(const Records& r, const Fit& current) {
+  std::vector<DiagnosisTerm> terms = current.model.terms;
+  auto add = [&](DiagnosisTerm t) {
+    if (!has_effect(current.model.terms, t.effect)) terms.push_back(t);
+  };
+  add(term_of(Effect::dc_offset, StateProxy::output, 0.0));
+  for (StateProxy p : {StateProxy::output, StateProxy::integral, StateProxy::double_integral}) {
+    if (r.output != OutputQuantity::unknown && p != displacement_proxy(r.output)) continue;
+    for (Effect e : {Effect::cubic_stiffness, Effect::asymmetric_stiffness, Effect::hysteresis, Effect::force_factor,
+                     Effect::asymmetric_force_factor, Effect::nonlinear_damping})
+      add(term_of(e, p, 0.0));
+    if (20.0 * 0.02 * r.fs <= static_cast<double>(r.u_est.size())) add(term_of(Effect::creep, p, 0.0, 0.02));
+  }
+  for (StateProxy p : {StateProxy::output, StateProxy::integral, StateProxy::double_integral, StateProxy::input})
+    add(term_of(Effect::inductance, p, 0.0));
+  if (4.0 * 2.0 * r.fs <= static_cast<double>(r.u_est.size()))
+    add(term_of(Effect::thermal_compression, StateProxy::input, 0.0, 2.0));
+  return fit_terms(r, current.model.linear, std::move(terms));
 }
 
 }  // namespace panelbass::models::diagnosis_detail

@@ -13,8 +13,14 @@ namespace panelbass::models::diagnosis_detail {
 
 /// Every candidate augmentation of `current`, fitted; the best variant of each effect (by its BIC score
 /// against `current`) is kept. `where` is the estimation residual's location (its spectral peak seeds the
-/// pole and zero pair).
+/// pole and zero pair). `tried`, when given, is set to how many variants were fitted (the count a test over the
+/// round's candidates corrects for).
 std::vector<Candidate> candidates(const Records& r, const Fit& current, const ResidualLocation& where,
-                                  int oe_iterations);
+                                  int oe_iterations, int* tried = nullptr);
+
+/// `current` with every gray-box term of the vocabulary it lacks fitted at once (each state the output's quantity
+/// allows, one time constant of creep and of thermal compression): what no candidate term explains is what it
+/// leaves on the validation record.
+Fit every_term_at_once(const Records& r, const Fit& current);
 
 }  // namespace panelbass::models::diagnosis_detail

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 #include <unsupported/Eigen/FFT>
@@ -234,6 +235,10 @@ ResidualLocation locate_residual(const Eigen::VectorXd& u_all, const Eigen::Vect
   // K averaged segments (50 % overlap, Hann: ≈ 0.95·K independent ones): a bin of pure noise is
   // ≈ normal with relative standard deviation 1/√K; 3.1 of those is the 0.1 % tail.
   const double segments = std::max(1.0, 2.0 * static_cast<double>(n) / static_cast<double>(segment) - 1.0);
+  // The floor's uncertainty: each bin an average of ≈ 0.95·K independent segments (relative sd 1/√(0.95·K)),
+  // neighbouring Hann bins half independent, and a median √(π/2) times as spread as a mean.
+  r.noise_floor_relative_sd =
+      std::sqrt(std::numbers::pi / 2.0) / std::sqrt(0.95 * segments * std::max(1.0, static_cast<double>(top.size()) / 2.0));
   r.peak_threshold = 1.0 + 3.1 / std::sqrt(0.95 * segments);
   r.peak_significant = peak_significant(r.peak_over_noise, r.peak_threshold);
 
@@ -333,6 +338,7 @@ nlohmann::json location_to_json(const ResidualLocation& l) {
                       {"direction_significant", p.direction_significant}});
   return {{"noise_psd", l.noise_psd},
           {"noise_floor_pct", l.noise_floor_pct},
+          {"noise_floor_relative_sd", l.noise_floor_relative_sd},
           {"residual_pct", l.residual_pct},
           {"peak_frequency_hz", l.peak_frequency_hz},
           {"peak_over_noise", l.peak_over_noise},

@@ -69,6 +69,7 @@ struct StateProfile {
 struct ResidualLocation {
   double noise_psd = 0.0;          ///< white-noise level of the residual, units²/Hz (median of the top band)
   double noise_floor_pct = 0.0;    ///< that noise's share of Σy², percent (J of a perfect model)
+  double noise_floor_relative_sd = 0.0;  ///< that estimate's standard uncertainty over it (a median of averaged bins)
   double residual_pct = 0.0;       ///< J of the simulation, percent
   double peak_frequency_hz = 0.0;  ///< frequency of the largest residual PSD bin above DC
   double peak_over_noise = 0.0;    ///< that bin's PSD divided by the noise level

@@ -217,6 +217,33 @@ TEST_F(CliDiagnose, HtmlIntoAMissingFolderIsRefusedBeforeTheWork) {
   EXPECT_FALSE(fs::exists(dir_ / "r.html"));
 }
 
+// Records at two drive levels (--data and --val repeated): the loud pair is diagnosed, and the spring's gain in J,
+// judged on the quiet pair's validation part too, grows with the level.
+TEST_F(CliDiagnose, RecordsAtTwoLevelsSayTheSpringsGainGrowsWithTheDrive) {
+  fs::rename(dir_ / "est.csv", dir_ / "loud-est.csv");
+  fs::rename(dir_ / "val.csv", dir_ / "loud-val.csv");
+  expect_result(run("simulate --plant " + quoted(dir_ / "cubic.json") + " --samples 24000 --amplitude 0.4 --seed 4 --out " +
+                    quoted(dir_ / "quiet.csv")));
+  split_csv(dir_ / "quiet.csv", 16000);
+  const fs::path out = dir_ / "levels.json";
+  // The quiet pair first: the loud one is still the one diagnosed.
+  const json r = expect_result(run("diagnose --data " + est() + " --val " + val() + " --data " + quoted(dir_ / "loud-est.csv") +
+                                   " --val " + quoted(dir_ / "loud-val.csv") + " --fs 3000 --scan-from 12 --scan-to 13 " +
+                                   "--max-findings 1 --out " + quoted(out)));
+  const json report = json::parse(text_of(out));
+  ASSERT_EQ(report["levels"].size(), 2u) << report["levels"];
+  EXPECT_FALSE(report["levels"][0]["diagnosed"].get<bool>());
+  EXPECT_TRUE(report["levels"][1]["diagnosed"].get<bool>());
+  EXPECT_TRUE(contains(report["val"].get<std::string>(), "loud-val.csv")) << report["val"];
+  ASSERT_FALSE(report["findings"].empty()) << r.dump(1);
+  const json& levels = report["findings"][0]["evidence"]["levels"];
+  ASSERT_EQ(levels["records"].size(), 2u) << levels.dump(1);
+  EXPECT_TRUE(levels["grows_with_level"].get<bool>()) << levels.dump(1);
+  // Unpaired records are refused before the work.
+  expect_usage_error(run("diagnose --data " + est() + " --data " + est() + " --val " + val() + " --fs 3000 --out " +
+                         quoted(dir_ / "r.json")));
+}
+
 TEST_F(CliDiagnose, BadInputIsNamed) {
   const std::string out = " --out " + quoted(dir_ / "r.json");
   const RunResult missing = run("diagnose --data " + quoted(dir_ / "nope.csv") + " --val " + val() + " --fs 3000" + out);

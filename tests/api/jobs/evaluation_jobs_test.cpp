@@ -222,6 +222,30 @@ TEST_F(JobKindsTest, DiagnoseStoresAGrayBoxModelThatADiagnosisTakesAsItsBaseline
   EXPECT_LE(second.at("J_val_after_pct").get<double>(), second.at("J_val_before_pct").get<double>());
 }
 
+// Records at several levels ("records"): the loudest is diagnosed, the other's validation part judges each finding,
+// and the result lists both; "records" beside "record" is refused, naming the field.
+TEST_F(JobKindsTest, DiagnoseTakesRecordsAtSeveralLevels) {
+  use_plant("panel-exciter");
+  run("excite", {{"samples", 3000}, {"validation_samples", 2000}, {"amplitude", 0.3}}, "j1");
+  run("excite", {{"samples", 3000}, {"validation_samples", 2000}, {"amplitude", 0.8}}, "j2");
+  const json result = run("diagnose", {{"records", {"j1", "j2"}}, {"max_findings", 1}}, "j3");
+  ASSERT_TRUE(result.contains("levels")) << result.at("data") << " " << result.at("stopped").dump();
+  ASSERT_EQ(result.at("levels").size(), 2u) << result.dump(1);
+  EXPECT_FALSE(result.at("levels")[0].at("diagnosed").get<bool>());
+  EXPECT_TRUE(result.at("levels")[1].at("diagnosed").get<bool>());
+  EXPECT_EQ(result.at("data"), "job j2");
+  for (const json& f : result.at("findings"))
+    EXPECT_EQ(f.at("evidence").at("levels").at("records").size(), 2u) << f.dump(1);
+  for (const json& bad : {json{{"records", {"j1"}}, {"record", "j1"}}, json{{"records", json::array()}}, json{{"records", {"j9"}}}}) {
+    try {
+      validate_job_params("diagnose", bad, env_);
+      ADD_FAILURE() << bad.dump();
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("params.records"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST_F(JobKindsTest, DiagnoseRefusesABaselineThatIsNotASimulation) {
   const std::string lq = run("design-lq", {{"plant_model", store_reference_model()}, {"r", 3.0}}, "j1").at("model_id");
   try {
