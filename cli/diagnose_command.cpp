@@ -236,8 +236,8 @@ void register_diagnose(CLI::App& app) {
   cmd->add_option("--window", o->window, "Samples shown in the fit plot")->check(CLI::Range(2L, 100000000L))->capture_default_str();
   cmd->footer(
       "Each candidate effect (" + models::vocabulary_text() + ")\n"
-      "is fitted on --data and judged on --val; nothing is looked for while validation J is at or\n"
-      "below the noise floor, and the best is kept while N·ln(J_before/J_after) > p·ln(N) (BIC, N\n"
+      "is fitted on --data and judged on --val; nothing is looked for while validation J lies below\n"
+      "the noise floor by more than its uncertainty, and the best is kept while N·ln(J_before/J_after) > p·ln(N) (BIC, N\n"
       "validation samples, p added parameters) and, after the first finding, its validation gain\n"
       "passes a signed-rank test at a family-wise 1 % over the candidates tried.\n"
       "Example:\n"

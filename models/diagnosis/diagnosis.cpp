@@ -230,14 +230,18 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
   };
   d.stop = nullptr;
   for (int round = 0; round < options.max_findings; ++round) {
-    // Nothing is looked for where J is at or below the noise floor. (Requiring the validation test of a first finding
-    // within the floor's uncertainty above it cost the first family's concealed saturation at the tests' length.)
+    // Nothing is looked for where J lies below the noise floor by more than the floor's uncertainty: nothing above
+    // the noise is left to name (a floor lifted by distortion in the top band included). Within the uncertainty a
+    // finding is made as elsewhere, and says so: concealed effects lie there (stopping at J ≤ floor cost the first
+    // family's concealed cubic spring and creep one seed of three each, at floor + σ its resonance two).
+    const double floor_low = floor.pct * (1.0 - diagnosis_detail::kFloorUncertainties * floor.relative_sd);
     const double floor_reach = floor.pct * (1.0 + diagnosis_detail::kFloorUncertainties * floor.relative_sd);
     const bool near_floor = current.j_val <= floor_reach;
-    if (current.j_val <= floor.pct) {
+    if (current.j_val <= floor_low) {
       d.stop = {{"round", round + 1},
-                {"reason", "validation J " + fixed(current.j_val, 4) + " % is at or below the noise floor (" + fixed(floor.pct, 4) +
-                               " %, from " + to_string(floor.source) + ")"}};
+                {"reason", "validation J " + fixed(current.j_val, 4) + " % lies below the noise floor (" + fixed(floor.pct, 4) +
+                               " %, from " + to_string(floor.source) + ") by more than its uncertainty (" +
+                               fixed(100.0 * floor.relative_sd, 1) + " %): nothing above the noise is left to name"}};
       break;
     }
     progress("round " + std::to_string(round + 1) + ": scoring candidate effects");
@@ -592,7 +596,7 @@ nlohmann::json diagnosis_to_json(const Diagnosis& d) {
             {"validation", location_to_json(d.located_val)},
             {"validation_after", location_to_json(d.located_val_after)}}},
           {"rounds", d.rounds},
-          {"rule", "no augmentation is looked for while validation J is at or below the noise floor; the best "
+          {"rule", "no augmentation is looked for while validation J lies below the noise floor by more than its uncertainty; the best "
                    "augmentation of a round is kept when N·ln(J_before/J_after) > p·ln(N) on the N validation samples (BIC, "
                    "p its added parameters, every earlier term refitted with it) and, after the first finding, its gain in "
                    "validation squared error passes a signed-rank test (batch means of the whitened residuals) at a family-wise level of 1 % shared over the candidates the round tried"}};

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "models/diagnosis/diagnosis_confidence.h"
+#include "models/diagnosis/diagnosis_current.h"
 #include "models/diagnosis/diagnosis_explanations.h"
 
 namespace panelbass::models::diagnosis_detail {
@@ -39,6 +40,10 @@ std::optional<JointPair> best_joint_pair(const Records& r, const Fit& current, c
   for (std::size_t i = 0; i < leading.size(); ++i)
     for (std::size_t j = i + 1; j < leading.size(); ++j) {
       const Candidate *a = leading[i], *b = leading[j];
+      // Look-alikes are not paired: on one effect the two terms together fit its shape better than either alone, so
+      // both "earn" (a visible asymmetric spring came out as a coil offset and a spring, both clear); the rounds and
+      // the current's force channel tell them apart instead.
+      if (look_alike(a->effect, b->effect)) continue;
       std::vector<DiagnosisTerm> terms = current.model.terms;
       terms.push_back(a->fit.model.terms.back());
       terms.push_back(b->fit.model.terms.back());

@@ -17,7 +17,8 @@ namespace panelbass::models::diagnosis_detail {
 /// The family-wise level of a round's test: the chance that noise alone lets any of the candidates tried pass.
 inline constexpr double kFamilyLevel = 0.01;
 
-/// How many standard uncertainties of the floor validation J must lie above it before anything is looked for.
+/// How many standard uncertainties of the floor validation J may lie below it before nothing is looked for (and
+/// within how many above it a finding says it lies within the floor's uncertainty).
 inline constexpr double kFloorUncertainties = 1.0;
 
 /// Where a noise floor estimate comes from.
