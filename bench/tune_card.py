@@ -9,10 +9,11 @@ the program amplitude whose output fundamental (the log's) matches — the cut a
 the chain's limiter acts is not reachable. Prints a Markdown table (and --json writes the figures).
 
   bench/tune_card.py --plants panel-exciter,tests/support/plants/panel-exciter-le-x.json --variants 2
+  (PANELBASS_BIN names another binary; a rig takes about 3 minutes a plant, in real time.)
 """
 import argparse, json, math, os, signal, socket, subprocess, sys, tempfile, time, urllib.request
 
-BIN = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'build', 'bin', 'panelbass')
+BIN = os.environ.get('PANELBASS_BIN') or os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'build', 'bin', 'panelbass')
 CARD_CONF = """pcm.pb_play    {{ type jack name "pb_play"
                  playback_ports {{ 0 "{t}:drive" 1 "system:playback_1" }} }}
 pcm.pb_capture {{ type jack name "pb_capture"
@@ -47,7 +48,7 @@ class Rig:
         self.start([BIN, 'serve', '--port', str(self.port), '--store', os.path.join(folder, 'store'), '--backend', 'alsa',
                     '--alsa-config', conf, '--playback', 'pb_play', '--capture', 'pb_capture', '--capture-channels', '3',
                     '--sensor-channel', '0', '--loopback-channel', '1', '--current-channel', '2', '--periods', '8',
-                    '--no-demo'], 'serve.log')
+                    '--no-demo', '--web', ''], 'serve.log')
         for _ in range(100):
             try:
                 if self.call('GET', '/api/status')['engine']['device']['state'] == 'running':
@@ -76,6 +77,8 @@ class Rig:
             with open(self.log) as f:
                 for line in f:
                     row = json.loads(line)
+                    if row.get('thd_clean_pct') is None or not row.get('clean_fundamental'):
+                        continue  # a window with no fundamental to read (the fade, silence)
                     if row['unix_time_s'] - row['window_frames'] / 48000.0 >= t0:
                         rows.append(row)
             if len(rows) >= count:
