@@ -244,14 +244,8 @@ function runJob(job) {
       result.summary = designNnSummary(job.params);
       result.j_val_pct = result.summary.jc_val_after_pct;
     }
-    if (job.kind === 'verify') {
-      result.probes = [40, 80].map((f) => ({ frequency_hz: f, thd_before_pct: 4.1, thd_after_pct: 1.3,
-                                             thd_change_db: 20 * Math.log10(1.3 / 4.1), level_before: 0.21, level_after: 0.2 }));
-      // A THD after the chain at the sensor's noise floor: null, the floor said, the change a bound.
-      result.probes.push({ frequency_hz: 160, thd_before_pct: 4.1, thd_after_pct: null, thd_after_at_floor: true,
-                           thd_after_floor_pct: 0.5, thd_after_at_most_pct: Math.SQRT2 * 0.5, thd_change_db: null, thd_change_at_most_db: 20 * Math.log10(Math.SQRT2 * 0.5 / 4.1),
-                           note: 'the THD through the chain is at the sensor\'s noise floor', level_before: 0.21, level_after: 0.2 });
-    }
+    // verify reports at equal output level, as tune's verify step does (api/ROUTES.md "Jobs").
+    if (job.kind === 'verify') Object.assign(result, tuneResult().verify, { backend: 'virtual' });
     if (job.kind === 'tune') Object.assign(result, tuneResult());
     if (job.kind !== 'excite' && job.kind !== 'analyze' && job.kind !== 'diagnose' && job.kind !== 'verify') {
       const kind = { 'identify-linear': 'linear', 'identify-narx': 'narx', 'design-lq': 'lq_feedforward', 'design-nn': 'neural_feedback',

@@ -77,7 +77,7 @@ export async function tune() {
     for (;;) {
       job = await api.job(id);
       follow(items, job.progress || 0);
-      items[STEPS.findIndex((s, n) => items[n].dataset.state === 'running')]?.lastChild.replaceChildren(job.message || '');
+      items.find((item) => item.dataset.state === 'running')?.lastChild.replaceChildren(job.message || '');
       if (FINISHED_STATES.has(job.state)) break;
       await sleep(POLL_MS);
     }
