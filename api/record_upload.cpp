@@ -42,6 +42,10 @@ std::string media_type(std::string_view content_type) {
 void check_wav_sizes(std::string_view body) {
   const bool big_endian = body.substr(0, 4) == "RIFX";
   if (!big_endian && body.substr(0, 4) != "RIFF") return;
+  if (body.size() < 12) {
+    throw HttpError{400, "bad_request", "body: a WAV header is 12 bytes (RIFF, its size, WAVE), the body has " +
+                                            std::to_string(body.size())};
+  }
   const auto u32 = [&](std::size_t at) -> std::uint64_t {
     std::uint64_t v = 0;
     for (int k = 0; k < 4; ++k) {
