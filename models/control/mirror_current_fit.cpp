@@ -37,6 +37,7 @@ enum CurrentFitParameter : Eigen::Index {
   kCurrentFitParameters
 };
 constexpr Eigen::Index kLinearParameters = kTap3 + 1;
+constexpr double kFrictionVelocityRange = 5.0;  // |log(v0 / its start)| at most: v0 within ×/÷ 148 of a fifth of v_rms
 
 /// The model θ stands for, around the linear start `start` (c0 fixed: it sets the scale of x).
 MirrorModel current_fit_model(const MirrorModel& start, const Eigen::VectorXd& theta, double current_rms) {
@@ -61,7 +62,10 @@ MirrorModel current_fit_model(const MirrorModel& start, const Eigen::VectorXd& t
   e[1] = e[5] * slope;
   e[8] = e[5] * slope;
   c[3] = 0.5 * c[0] * slope;
-  m.friction_velocity = start.friction_velocity * std::exp(theta[kFrictionVelocity]);
+  // v0 held within e^±kFrictionVelocityRange of its start: with no friction in the record it has nothing to fit, and
+  // its θ would otherwise walk off to an infinite v0
+  m.friction_velocity =
+      start.friction_velocity * std::exp(std::clamp(theta[kFrictionVelocity], -kFrictionVelocityRange, kFrictionVelocityRange));
   e[3] = e[4] / m.fs * theta[kInductanceCurrent] / (current_rms * current_rms);
   c[1] = c[0] * theta[kForceFactor1];
   e[6] = e[5] * theta[kForceFactor1];

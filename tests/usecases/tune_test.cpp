@@ -43,6 +43,20 @@ TEST(Tune, KeepsAMirrorFilterFromTheCurrentAloneThatCutsTheDistortion) {
   EXPECT_EQ(r.to_json()["left_out"].size(), 2u);  // the LQ feedforward and the neural feedback, each with why
 }
 
+TEST(Tune, ATransducerWithoutFrictionGetsAFiniteFilter) {
+  // no friction to fit: its velocity scale once walked off to infinity and the filter was refused
+  models::PlantConfig plant = models::without_sensor_noise(models::plant_preset("panel-exciter"));
+  plant.nonlinear.friction.enabled = false;
+  SilentProgress quiet;
+  TuneRequest q = short_request(plant.fs);
+  q.samples = 30000;
+  const TuneReport r = tune(q, simulated(plant, true), quiet);
+  ASSERT_TRUE(r.verify.has_value()) << r.decision;
+  ASSERT_TRUE(r.verify->points[0].cut_db.has_value()) << r.verify->points[0].unreachable_because;
+  EXPECT_GT(*r.verify->points[0].cut_db, 20.0) << r.decision;
+  EXPECT_TRUE(r.keep) << r.decision;
+}
+
 TEST(Tune, ABackendWithoutTheCoilCurrentIsToldWhatIsMissing) {
   const models::PlantConfig plant = models::plant_preset("panel-exciter");
   SilentProgress quiet;
