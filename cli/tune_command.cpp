@@ -94,6 +94,8 @@ void register_tune(CLI::App& app) {
   cmd->add_option("--analysis-seconds", q.verify.analysis_seconds, "Each analysis window")->capture_default_str();
   cmd->add_option("--max-plays", q.verify.max_plays, "Passes searching the plant-alone drive")->capture_default_str();
   cmd->add_option("--keep-min-cut-db", q.keep_min_cut_db, "Keep the filter when it cuts at least this somewhere")->capture_default_str();
+  cmd->add_flag("!--no-refine", q.refine_friction,
+                "Skip refitting the friction's velocity scale on the current's harmonics of two quiet sines");
   cmd->add_option("--out", o->out, "Write the kept mirror filter here");
   cmd->add_option("--report", o->report, "Write the whole report (steps, verify's points) here");
   cmd->footer(

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "dsp/excitation.h"
+#include "models/control/mirror_friction_refit.h"
 #include "models/io/number_text.h"
 #include "usecases/request_error.h"
 
@@ -52,6 +53,54 @@ void decide(const EqualOutputReport& v, double keep_min_cut_db, TuneReport& repo
   }
 }
 
+// The refine step's sines: at a quarter and half the fitted resonance (the motion stiffness-controlled, small beside
+// the friction's transition), each settled for kRefineSettleSeconds and measured for kRefineMeasureSeconds.
+constexpr double kRefineSettleSeconds = 0.5;
+constexpr double kRefineMeasureSeconds = 1.5;
+constexpr double kRefineLowestHz = 5.0;
+
+// Plays the refine step's sines through `play`, refits the friction's velocity scale of `mirror`'s model on the
+// current's harmonics (models::refit_friction_scale) and keeps the refit when it matches them better.
+void refine_friction(const TuneRequest& q, const PlayFunction& play, DesignMirrorReport& mirror, TuneReport& report,
+                     Progress& progress) {
+  const Clock::time_point start = Clock::now();
+  const double fs = q.chain.fs;
+  const double resonance = mirror.summary.at("resonance_hz").get<double>();
+  const double level = std::min(*std::min_element(q.verify.levels.begin(), q.verify.levels.end()), q.safe_level);
+  dsp::SteppedSineSpec spec;
+  spec.fs = fs;
+  spec.amplitude = level;
+  spec.frequencies = {std::max(resonance / 4.0, kRefineLowestHz), std::max(resonance / 2.0, kRefineLowestHz)};
+  spec.settle = static_cast<std::size_t>(std::llround(kRefineSettleSeconds * fs));
+  spec.measure = static_cast<std::size_t>(std::llround(kRefineMeasureSeconds * fs));
+  const dsp::SteppedSine sines = dsp::stepped_sine(spec);
+  progress.report(0.4, "refining the friction: sines at " + number_text(sines.steps[0].frequency, 3) + " and " +
+                           number_text(sines.steps[1].frequency, 3) + " Hz, level " + number_text(level));
+  const Playback played = play(sines.signal);
+  if (played.current.size() != sines.signal.size()) throw std::runtime_error("refine: the backend recorded no coil current");
+  models::CurrentSineRecord record;
+  record.drive = played.loopback.size() == sines.signal.size() ? played.loopback : sines.signal;
+  record.current = played.current;
+  record.steps = sines.steps;
+  const models::FrictionScaleRefit refit =
+      models::refit_friction_scale(mirror.model, mirror.summary.at("current_lag").get<int>(), record, fs);
+  if (refit.used) {
+    mirror.model = refit.model;
+    mirror.summary["friction_velocity_mm_per_s"] = refit.model.friction_velocity;
+    mirror.meta["friction_velocity_refit"] = refit.scale;
+  }
+  nlohmann::json frequencies = nlohmann::json::array();
+  for (const dsp::SineStep& step : sines.steps) frequencies.push_back(step.frequency);
+  report.steps.push_back({"refine", seconds_since(start),
+                          {{"frequencies_hz", frequencies},
+                           {"level", level},
+                           {"used", refit.used},
+                           {"friction_velocity_scale", refit.scale},
+                           {"harmonic_error_before", refit.error_before},
+                           {"harmonic_error_after", refit.error_after},
+                           {"current_harmonics_rms", refit.harmonics_rms}}});
+}
+
 }  // namespace
 
 void check(const TuneRequest& q) {
@@ -79,7 +128,7 @@ nlohmann::json to_json(const TuneRequest& q) {
   nlohmann::json fields = to_json(q.verify);  // the probes, as the verify job names them
   fields.update({{"samples", q.samples},     {"amplitude", q.amplitude},     {"f_min", q.f_min},
                  {"f_max", q.f_max},         {"seed", q.seed},               {"sensor_kind", q.sensor_kind},
-                 {"max_delay", q.max_delay}, {"keep_min_cut_db", q.keep_min_cut_db}});
+                 {"max_delay", q.max_delay}, {"keep_min_cut_db", q.keep_min_cut_db}, {"refine_friction", q.refine_friction}});
   return fields;
 }
 
@@ -141,7 +190,9 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
     for (const std::string& w : mirror.warnings) why += (why.empty() ? "" : " ") + w;
     throw std::runtime_error("fit: the model misses this transducer, so no mirror filter is made: " + why);
   }
-  // 3. Verify the chain with the filter at equal output level.
+  // 3. The friction's velocity scale from the current's harmonics where it shows: quiet sines below the resonance.
+  if (q.refine_friction) refine_friction(q, play, mirror, report, progress);
+  // 4. Verify the chain with the filter at equal output level.
   start = Clock::now();
   EqualOutputRequest v;
   v.chain = q.chain;
@@ -150,11 +201,11 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
   v.chain.feedback.reset();
   v.safe_level = q.safe_level;
   v.settings = q.verify;
-  ProgressSpan verify_progress(progress, 0.4, 0.98);
+  ProgressSpan verify_progress(progress, 0.45, 0.98);
   EqualOutputReport verified = verify_equal_output(v, play, verify_progress);
   for (const std::string& w : verified.warnings) report.warnings.push_back("verify: " + w);
   report.steps.push_back({"verify", seconds_since(start), {{"plays", verified.plays}, {"worst_cut_db", verified.to_json()["worst_cut_db"]}}});
-  // 4. Keep it only where it helps.
+  // 5. Keep it only where it helps.
   decide(verified, q.keep_min_cut_db, report);
   report.steps.push_back({"decide", 0.0, {{"keep", report.keep}, {"decision", report.decision}}});
   report.left_out = {

@@ -1,8 +1,9 @@
 #pragma once
 // Tune (issue #56): the whole pipeline that cancels a transducer's distortion, through whatever plays it —
 // measure (a multisine; the drive, or its loopback, and the coil current recorded) → the gray-box model from the
-// current (and the sensor when asked: models/control/mirror_current_fit.h) → the mirror filter → verify at equal
-// output level (usecases/equal_output_thd.h) → keep the filter only where it helps. Each step is reported with
+// current (and the sensor when asked: models/control/mirror_current_fit.h) → the friction refined on quiet sines
+// (models/control/mirror_friction_refit.h) → the mirror filter → verify at equal output level
+// (usecases/equal_output_thd.h) → keep the filter only where it helps. Each step is reported with
 // what it found; a step that fails ends the tune and says why.
 
 #include <Eigen/Core>
@@ -34,6 +35,9 @@ struct TuneRequest {
   /// What the sensor measures, for it to join the fit ("none": the current alone, as Klippel's controller)
   std::string sensor_kind = "none";
   int max_delay = 4;               ///< largest drive-to-voltage delay the fit searches, samples
+  /// Refit the friction's velocity scale on the current's harmonics of two quiet sines below the resonance
+  /// (models/control/mirror_friction_refit.h), played at verify's lowest level
+  bool refine_friction = true;
   EqualOutputSettings verify;      ///< the probes verify plays
   /// The filter is kept when verify credits it with at least this cut somewhere and nowhere less than −1 dB.
   double keep_min_cut_db = 3.0;
@@ -41,7 +45,7 @@ struct TuneRequest {
 
 /// One step of a tune: what it did and found.
 struct TuneStep {
-  std::string name;        ///< "measure", "fit", "verify", "decide"
+  std::string name;        ///< "measure", "fit", "refine", "verify", "decide"
   double seconds = 0.0;    ///< wall time it took
   nlohmann::json summary;  ///< its figures
 };

@@ -35,6 +35,7 @@ usecases::TuneRequest request_of(const json& p, const JobEnvironment& env) {
   q.verify.analysis_seconds = p.at("analysis_seconds").get<double>();
   q.verify.max_plays = p.at("max_plays").get<int>();
   q.keep_min_cut_db = p.at("keep_min_cut_db").get<double>();
+  q.refine_friction = p.at("refine_friction").get<bool>();
   return q;
 }
 
@@ -55,6 +56,7 @@ json tune_params(const json& params, const JobEnvironment& env) {
   r.number("analysis_seconds", defaults.verify.analysis_seconds, {0.2, 10.0, true, true});
   r.integer("max_plays", defaults.verify.max_plays, 1, 8);
   r.number("keep_min_cut_db", defaults.keep_min_cut_db, {0.0, 60.0, true, true});
+  r.boolean("refine_friction", defaults.refine_friction);
   json filled = r.finish();
   check_request([&] { usecases::check(request_of(filled, env)); });
   return filled;

@@ -211,7 +211,7 @@ function tuneResult() {
                      thd_cut_db: null, thd_cut_at_least_db: null }),
   ];
   return { keep: true, decision: 'kept: it cuts the THD by 20 to 26 dB at equal output over the 2 levels verified',
-           steps: ['measure', 'fit', 'verify', 'decide'].map((name, n) => ({ name, seconds: 2 + n, summary: {} })),
+           steps: ['measure', 'fit', 'refine', 'verify', 'decide'].map((name, n) => ({ name, seconds: 2 + n, summary: {} })),
            verify: { points, plays: 3, warnings: [], worst_cut_db: { 80: 20 } }, backend: 'virtual',
            plots: { thd_vs_level_80: { level: [0.05, 0.1], chain_thd_pct: [0.3, 0.42], plant_thd_pct: [3.0, 8.4] } } };
 }

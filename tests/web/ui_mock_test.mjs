@@ -176,14 +176,14 @@ async function main() {
   check(!(await page.isVisible('#result-activate')), 'the design-lq result offers Activate though the server lists no slot for its model');
   await page.unroute('**/api/models');
 
-  // Tune: one click runs the tune job; its four steps are followed to the end, the decision and verify's points
+  // Tune: one click runs the tune job; its five steps are followed to the end, the decision and verify's points
   // (a cut, a bound at the noise, a level not reached) are shown, and the mirror filter it kept is active.
   run.step = 'tune';
   await page.click('#tune-start');
   const tuned = await until(async () => {
     const s = await page.$$eval('#tune-steps li', (items) => items.map((li) => li.dataset.state));
-    return s.length === 4 && s.every((x) => x === 'succeeded') ? s : null;
-  }, 30_000, 'the tune job did not finish its four steps');
+    return s.length === 5 && s.every((x) => x === 'succeeded') ? s : null;
+  }, 30_000, 'the tune job did not finish its five steps');
   run.log(`tune: ${tuned.join(', ')}`);
   const tuneJob = (await (await fetch(new URL('/api/jobs', base))).json()).jobs.find((j) => j.kind === 'tune');
   const mirror = (await (await fetch(new URL(`/api/jobs/${tuneJob.id}`, base))).json()).result.model_id;

@@ -17,7 +17,8 @@ const POLL_MS = 500;
 const STEPS = [
   { name: 'measure', label: 'measure (multisine: drive and coil current)', from: 0 },
   { name: 'fit', label: 'fit the gray-box model from the current; the mirror filter', from: 0.3 },
-  { name: 'verify', label: 'verify at equal output level', from: 0.4 },
+  { name: 'refine', label: 'refine the friction on two quiet sines (the current\'s harmonics)', from: 0.4 },
+  { name: 'verify', label: 'verify at equal output level', from: 0.45 },
   { name: 'decide', label: 'keep it where it helps', from: 0.98 },
 ];
 

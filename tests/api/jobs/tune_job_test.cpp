@@ -28,7 +28,7 @@ TEST_F(ServerTest, TuneKeepsAndActivatesTheMirrorFilterOnlyWhereVerifyShowsItCut
   const nlohmann::json job = wait_job(submitted.body["id"], 180s);
   ASSERT_EQ(job["state"], "succeeded") << job.dump();
   const nlohmann::json& r = job["result"];
-  ASSERT_EQ(r["steps"].size(), 4u) << r.dump();
+  ASSERT_EQ(r["steps"].size(), 5u) << r.dump();
   const nlohmann::json& point = r["verify"]["points"][0];
   ASSERT_TRUE(point["reachable"].get<bool>()) << point.dump();
   // equal output: the transducer alone was driven to the chain's sensor fundamental within 0.1 dB
