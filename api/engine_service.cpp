@@ -448,7 +448,12 @@ Eigen::VectorXd EngineService::excite(const Eigen::VectorXd& drive) {
                                   models::number_text(drive[k]) + ", outside [-1, 1]");
     }
   }
-  if (alsa_) return measure(drive).y;
+  if (alsa_) {
+    if (options_.alsa->sensor_channel == engine::kNoChannel) {
+      throw EngineRequestError(409, "conflict", "excite: the card captures no sensor (panelbass serve --sensor-channel)");
+    }
+    return measure(drive).y;
+  }
   std::uint64_t seed = 0;
   {
     const std::lock_guard lock(mutex_);
@@ -466,8 +471,11 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
                                 models::number_text(safe) + " (panelbass serve --safe-level)");
   }
   const engine::AlsaOptions& card = *options_.alsa;
-  if (card.sensor_channel == engine::kNoChannel) {
-    throw EngineRequestError(409, "conflict", "excite: the card captures no sensor (panelbass serve --sensor-channel)");
+  const bool sensed = card.sensor_channel != engine::kNoChannel;
+  if (!sensed && card.loopback_channel == engine::kNoChannel) {
+    throw EngineRequestError(409, "conflict", "excite: the card captures neither a sensor nor the drive's loopback, so a "
+                                              "measurement's round trip cannot be found (panelbass serve --sensor-channel "
+                                              "or --loopback-channel)");
   }
   // The played sequence: a calibration sweep (faded in and out), a gap, the drive, and a tail of silence
   // long enough for the longest round trip looked for.
@@ -534,7 +542,7 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
     const auto moved = [&](const Eigen::VectorXd& heard, int tolerance) {
       return std::abs(over(heard, second).samples - over(heard, 0).samples) > tolerance;
     };
-    if (moved(reference, loopback ? 1 : 2) || (loopback && moved(sensor, 2))) {
+    if (moved(reference, loopback ? 1 : 2) || (loopback && sensed && moved(sensor, 2))) {
       slip = "the round trip differed between the sweeps before and after the drive";
       continue;
     }
@@ -551,7 +559,7 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
   const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
   const Eigen::VectorXd heard_sensor = as_vector(m->captured(engine::MeasuredChannel::sensor));
   MeasuredResponse out;
-  out.y = heard_sensor.segment(offset + trip.samples, drive.size());
+  if (sensed) out.y = heard_sensor.segment(offset + trip.samples, drive.size());
   if (card.current_channel != engine::kNoChannel) {
     out.i = as_vector(m->captured(engine::MeasuredChannel::current)).segment(offset + trip.samples, drive.size());
   }

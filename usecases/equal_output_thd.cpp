@@ -124,6 +124,9 @@ ChainRun run_chain(const engine::ChainConfig& config, const Stepped& program, do
 
 // The sensor of `played`, checked to be as long as the drive.
 const Eigen::VectorXd& sensor_of(const Playback& played, Eigen::Index samples) {
+  if (played.sensor.size() == 0) {
+    throw std::runtime_error("the backend records no sensor, and verify reads each THD from it (on a card: panelbass serve --sensor-channel)");
+  }
   if (played.sensor.size() != samples) {
     throw std::runtime_error("the backend returned " + std::to_string(played.sensor.size()) + " sensor samples for a drive of " +
                              std::to_string(samples));

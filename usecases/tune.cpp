@@ -53,6 +53,14 @@ void decide(const EqualOutputReport& v, double keep_min_cut_db, TuneReport& repo
   }
 }
 
+// The stages a tune does not add, each with why.
+std::vector<std::string> left_out_stages() {
+  return {"an LQ feedforward: the feedforward slot holds one controller, and the LQ flattens the response without "
+          "cutting the distortion (design-lq, then verify it against this filter, if a flat response matters more)",
+          "a neural feedback: it needs a NARX model of the transducer behind this filter (design-nn; verify shows whether "
+          "it cuts more on top of it)"};
+}
+
 // The refine step's sines: at a quarter and half the fitted resonance (the motion stiffness-controlled, small beside
 // the friction's transition), each settled for kRefineSettleSeconds and measured for kRefineMeasureSeconds.
 constexpr double kRefineSettleSeconds = 0.5;
@@ -82,15 +90,21 @@ void refine_friction(const TuneRequest& q, const PlayFunction& play, DesignMirro
   record.drive = played.loopback.size() == sines.signal.size() ? played.loopback : sines.signal;
   record.current = played.current;
   record.steps = sines.steps;
-  const models::FrictionScaleRefit refit =
-      models::refit_friction_scale(mirror.model, mirror.summary.at("current_lag").get<int>(), record, fs);
+  nlohmann::json frequencies = nlohmann::json::array();
+  for (const dsp::SineStep& step : sines.steps) frequencies.push_back(step.frequency);
+  models::FrictionScaleRefit refit;
+  try {
+    refit = models::refit_friction_scale(mirror.model, mirror.summary.at("current_lag").get<int>(), record, fs);
+  } catch (const std::invalid_argument& e) {  // a record it cannot read: the fit's v0 stays, and the step says why
+    report.warnings.push_back(std::string("refine: skipped, ") + e.what());
+    report.steps.push_back({"refine", seconds_since(start), {{"frequencies_hz", frequencies}, {"level", level}, {"used", false}, {"error", e.what()}}});
+    return;
+  }
   if (refit.used) {
     mirror.model = refit.model;
     mirror.summary["friction_velocity_mm_per_s"] = refit.model.friction_velocity;
     mirror.meta["friction_velocity_refit"] = refit.scale;
   }
-  nlohmann::json frequencies = nlohmann::json::array();
-  for (const dsp::SineStep& step : sines.steps) frequencies.push_back(step.frequency);
   report.steps.push_back({"refine", seconds_since(start),
                           {{"frequencies_hz", frequencies},
                            {"level", level},
@@ -164,6 +178,10 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
                              "(on a sound card: a capture channel with the current, serve --current-channel)");
   }
   const bool looped = record.loopback.size() == drive.size();
+  const bool sensed = record.sensor.size() == drive.size();
+  if (!sensed && q.sensor_kind != "none") {
+    throw std::runtime_error("measure: sensor_kind \"" + q.sensor_kind + "\" asks the fit to read a sensor the backend does not record");
+  }
   report.steps.push_back({"measure", seconds_since(start),
                           {{"samples", drive.size()}, {"seconds", static_cast<double>(drive.size()) / fs},
                            {"amplitude", q.amplitude}, {"band_hz", {q.f_min, q.f_max}},
@@ -192,6 +210,20 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
   }
   // 3. The friction's velocity scale from the current's harmonics where it shows: quiet sines below the resonance.
   if (q.refine_friction) refine_friction(q, play, mirror, report, progress);
+  if (!sensed) {
+    // Klippel's current-only configuration: nothing hears the output, so the cut cannot be measured; the filter is
+    // the model's (its current J said it follows the transducer) and joins the chain on that.
+    report.keep = true;
+    report.decision = "kept without verification: the backend records no sensor, so the cut is not measured (the model "
+                      "follows the coil current to " + number_text(mirror.summary.at("current_j_val_pct").get<double>(), 3) +
+                      " % J on validation); listen with PUT /api/program and the feedforward bypass";
+    report.warnings.push_back("verify: skipped, the backend records no sensor to read the THD from");
+    report.steps.push_back({"decide", 0.0, {{"keep", report.keep}, {"decision", report.decision}}});
+    report.left_out = left_out_stages();
+    report.mirror = std::move(mirror);
+    progress.report(1.0, report.decision);
+    return report;
+  }
   // 4. Verify the chain with the filter at equal output level.
   start = Clock::now();
   EqualOutputRequest v;
@@ -208,11 +240,7 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
   // 5. Keep it only where it helps.
   decide(verified, q.keep_min_cut_db, report);
   report.steps.push_back({"decide", 0.0, {{"keep", report.keep}, {"decision", report.decision}}});
-  report.left_out = {
-      "an LQ feedforward: the feedforward slot holds one controller, and the LQ flattens the response without "
-      "cutting the distortion (design-lq, then verify it against this filter, if a flat response matters more)",
-      "a neural feedback: it needs a NARX model of the transducer behind this filter (design-nn; verify shows whether "
-      "it cuts more on top of it)"};
+  report.left_out = left_out_stages();
   report.mirror = std::move(mirror);
   report.verify = std::move(verified);
   progress.report(1.0, report.decision);

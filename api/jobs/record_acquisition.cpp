@@ -52,6 +52,7 @@ Eigen::VectorXd play(const JobEnvironment& env, const Eigen::VectorXd& drive, Ex
   Eigen::VectorXd response;
   if (env.measure) {
     MeasuredResponse measured = env.measure(drive);
+    if (measured.y.size() == 0) throw std::runtime_error("the card captures no sensor, and this job reads one (panelbass serve --sensor-channel)");
     response = std::move(measured.y);
     current = std::move(measured.i);
     loopback = std::move(measured.loopback);

@@ -76,7 +76,7 @@ json tune_work(const json& params, const JobEnvironment& env, JobControl& contro
   result["model_id"] = report.keep ? json(mirror_id) : json(nullptr);  // activated by the server when kept
   result["backend"] = env.measure ? "alsa" : "virtual";
   result["summary"] = report.mirror->summary;
-  result["plots"] = report.verify->plots();
+  result["plots"] = report.verify ? report.verify->plots() : json(nullptr);
   return result;
 }
 

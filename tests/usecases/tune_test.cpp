@@ -96,6 +96,33 @@ TEST(Tune, ATransducerWithoutFrictionGetsAFiniteFilter) {
   EXPECT_TRUE(r.keep) << r.decision;
 }
 
+TEST(Tune, WithoutASensorTheFilterIsKeptOnTheFitAndSaysItIsUnverified) {
+  // Klippel's current-only configuration: the backend records the current (and no sensor), so nothing can measure
+  // the cut; the filter joins on the fit, the decision says so, and a sensor asked for is refused
+  const models::PlantConfig plant = models::without_sensor_noise(models::plant_preset("panel-exciter"));
+  const PlayFunction current_only = [plant, seed = std::uint64_t{3}](const Eigen::VectorXd& drive) mutable {
+    const models::PlantRecord r = models::simulate(plant, drive, seed++);
+    return Playback{Eigen::VectorXd(), r.i, Eigen::VectorXd()};
+  };
+  SilentProgress quiet;
+  TuneRequest q = short_request(plant.fs);
+  const TuneReport r = tune(q, current_only, quiet);
+  EXPECT_TRUE(r.keep);
+  EXPECT_EQ(r.decision.rfind("kept without verification: the backend records no sensor", 0), 0u) << r.decision;
+  EXPECT_FALSE(r.verify.has_value());
+  ASSERT_EQ(r.steps.size(), 4u);
+  EXPECT_EQ(r.steps[2].name, "refine");
+  EXPECT_EQ(r.steps[3].name, "decide");
+  EXPECT_TRUE(r.to_json()["verify"].is_null());
+  q.sensor_kind = "acceleration";
+  try {
+    (void)tune(q, current_only, quiet);
+    ADD_FAILURE() << "a sensor asked of a backend without one was not refused";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("sensor_kind \"acceleration\" asks the fit to read a sensor"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Tune, ABackendWithoutTheCoilCurrentIsToldWhatIsMissing) {
   const models::PlantConfig plant = models::plant_preset("panel-exciter");
   SilentProgress quiet;
