@@ -30,12 +30,15 @@ def free_port():
 class Rig:
     """jackd (dummy) + the transducer client + serve --backend alsa, in a folder of their own."""
 
-    def __init__(self, plant, folder, window):
+    def __init__(self, plant, folder, window, realtime=False):
         self.folder, self.window, self.procs = folder, window, []
         self.server = f'pbtc{os.getpid()}'
         env = dict(os.environ, JACK_NO_AUDIO_RESERVATION='1', JACK_DEFAULT_SERVER=self.server)
         self.env = env
-        self.start(['jackd', '--no-realtime', '-S', '-n', self.server, '-d', 'dummy', '-r', '48000', '-p', '64'], 'jack.log')
+        # --realtime: the JACK server and its clients' process threads at SCHED_FIFO (a machine busy with builds
+        # otherwise makes the dummy driver run late: thousands of xruns, and measurements interrupted)
+        mode = ['-R', '-P', '60'] if realtime else ['--no-realtime']
+        self.start(['jackd', *mode, '-S', '-n', self.server, '-d', 'dummy', '-r', '48000', '-p', '64'], 'jack.log')
         time.sleep(1.5)
         self.log = os.path.join(folder, 'thd.jsonl')
         self.start([BIN, 'transducer', '--jack', '--plant', plant, '--name', 'tr', '--thd-log', self.log,
@@ -52,6 +55,7 @@ class Rig:
         for _ in range(100):
             try:
                 if self.call('GET', '/api/status')['engine']['device']['state'] == 'running':
+                    time.sleep(3)  # the ALSA jack plugin's ports connected and the loop settled
                     return
             except Exception:
                 pass
@@ -155,6 +159,7 @@ def main():
     ap.add_argument('--settle', type=float, default=0.4, help='after a program change, s')
     ap.add_argument('--json', help='write the figures here')
     ap.add_argument('--keep', help='keep the rigs\' folders under this folder')
+    ap.add_argument('--realtime', action='store_true', help='run the JACK server (and its clients) in real-time mode')
     a = ap.parse_args()
     frequencies = [float(x) for x in a.frequencies.split(',')]
     levels = [float(x) for x in a.levels.split(',')]
@@ -171,7 +176,7 @@ def main():
         name = os.path.splitext(os.path.basename(plant))[0]
         folder = os.path.join(base, name)
         os.makedirs(folder, exist_ok=True)
-        rig = Rig(plant, folder, a.window)
+        rig = Rig(plant, folder, a.window, a.realtime)
         try:
             record, seconds = tune(rig, {'sensor_kind': a.sensor_kind})
             row = {'plant': name, 'tune_s': seconds, 'state': record['state']}
