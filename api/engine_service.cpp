@@ -499,7 +499,7 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
   // counted) shifts part of a measurement: the loopback, when captured, must be explained by the drive
   // sample by sample (engine::check_loop), and the round trips found on the sweep after the drive (on the
   // loopback and on the sensor) must agree with the one before; else the measurement is played again (at
-  // most three times in all).
+  // most three times in all), as it is when an xrun interrupted it.
   std::unique_ptr<engine::Measurement> m;
   engine::RoundTrip trip;
   engine::LoopConsistency loop;
@@ -507,13 +507,19 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
   int attempts = 0;
   for (bool consistent = false; !consistent;) {
     if (++attempts > 3) {
-      throw std::runtime_error("excite: the capture slipped against the playback in each of 3 measurements (" + slip +
-                               "): is the machine overloaded?");
+      throw std::runtime_error("excite: the capture slipped against the playback, or an xrun interrupted it, in each of 3 "
+                               "measurements (the last: " + slip + "): is the machine overloaded?");
     }
     m = std::make_unique<engine::Measurement>(played, static_cast<std::size_t>(std::max<Eigen::Index>(1, samples(options_.measurement_fade_s))));
     if (alsa_->measure(*m, duration + std::chrono::seconds(10)) != engine::Measurement::State::finished) {
-      throw std::runtime_error("excite: the measurement through the card was interrupted (an xrun, the device lost, or "
-                               "no device streaming: see GET /api/status, engine.device)");
+      // An xrun on a device still streaming (a loaded machine: the device thread late once) is played again, as a
+      // slip is; a device lost or not streaming is not.
+      if (alsa_->status().state != engine::AlsaState::running) {
+        throw std::runtime_error("excite: the measurement through the card was interrupted (the device lost, or no "
+                                 "device streaming: see GET /api/status, engine.device)");
+      }
+      slip = "an xrun interrupted it";
+      continue;
     }
     const Eigen::VectorXd sent = as_vector(m->drive());
     const Eigen::VectorXd sensor = as_vector(m->captured(engine::MeasuredChannel::sensor));
