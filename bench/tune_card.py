@@ -35,7 +35,7 @@ def free_port():
 class Rig:
     """jackd (dummy) + the transducer client + serve --backend alsa, in a folder of their own."""
 
-    def __init__(self, plant, folder, window):
+    def __init__(self, plant, folder, window, periods=8):
         self.folder, self.window, self.procs = folder, window, []
         self.server = f'pbtc{os.getpid()}'
         env = dict(os.environ, JACK_NO_AUDIO_RESERVATION='1', JACK_DEFAULT_SERVER=self.server)
@@ -52,7 +52,7 @@ class Rig:
         self.port = free_port()
         self.start([BIN, 'serve', '--port', str(self.port), '--store', os.path.join(folder, 'store'), '--backend', 'alsa',
                     '--alsa-config', conf, '--playback', 'pb_play', '--capture', 'pb_capture', '--capture-channels', '3',
-                    '--sensor-channel', '0', '--loopback-channel', '1', '--current-channel', '2', '--periods', '8',
+                    '--sensor-channel', '0', '--loopback-channel', '1', '--current-channel', '2', '--periods', str(periods),
                     '--no-demo', '--web', ''], 'serve.log')
         for _ in range(100):
             try:
@@ -210,6 +210,7 @@ def main():
     ap.add_argument('--bare', action='store_true', help='no tune: the bare plant through the card, each sine held --hold s')
     ap.add_argument('--hold', type=float, default=6.0, help='--bare: how long each sine plays, s')
     ap.add_argument('--settle', type=float, default=0.4, help='after a program change, s')
+    ap.add_argument('--periods', type=int, default=8, help="serve's device buffer, periods of 64 frames (16 on a loaded machine)")
     ap.add_argument('--json', help='write the figures here')
     ap.add_argument('--keep', help='keep the rigs\' folders under this folder')
     a = ap.parse_args()
@@ -230,7 +231,7 @@ def main():
         name = os.path.splitext(os.path.basename(plant))[0]
         folder = os.path.join(base, name)
         os.makedirs(folder, exist_ok=True)
-        rig = Rig(plant, folder, a.window)
+        rig = Rig(plant, folder, a.window, a.periods)
         if a.bare:
             try:
                 row = {'plant': name, 'rows': bare_rows(rig, frequencies, levels, a.hold)}
