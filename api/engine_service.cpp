@@ -1,8 +1,11 @@
 #include "api/engine_service.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
+#include <string>
+#include <thread>
 
 #include "dsp/excitation.h"
 #include "dsp/sample_rate.h"
@@ -18,6 +21,9 @@ namespace panelbass::api {
 namespace {
 
 constexpr std::array<const char*, 2> kSlotKeys = {"feedforward", "feedback"};
+// How long a measurement waits for a device lost under it to be reopened (the backend's back-off starts at 50 ms and
+// doubles up to 2 s) before it fails.
+constexpr std::chrono::seconds kDeviceBack{5};
 
 // "chain.band_pass.low_hz: …" (the chain file's wording) → "config.band_pass.low_hz: …".
 std::string as_config_message(const std::string& message) {
@@ -507,7 +513,7 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
   // counted) shifts part of a measurement: the loopback, when captured, must be explained by the drive
   // sample by sample (engine::check_loop), and the round trips found on the sweep after the drive (on the
   // loopback and on the sensor) must agree with the one before; else the measurement is played again (at
-  // most three times in all).
+  // most three times in all), as it is when an xrun interrupted it.
   std::unique_ptr<engine::Measurement> m;
   engine::RoundTrip trip;
   engine::LoopConsistency loop;
@@ -515,13 +521,26 @@ MeasuredResponse EngineService::measure(const Eigen::VectorXd& drive) {
   int attempts = 0;
   for (bool consistent = false; !consistent;) {
     if (++attempts > 3) {
-      throw std::runtime_error("excite: the capture slipped against the playback in each of 3 measurements (" + slip +
-                               "): is the machine overloaded?");
+      throw std::runtime_error("excite: the capture slipped against the playback, or an xrun interrupted it, in each of 3 "
+                               "measurements (the last: " + slip + "): is the machine overloaded?");
     }
     m = std::make_unique<engine::Measurement>(played, static_cast<std::size_t>(std::max<Eigen::Index>(1, samples(options_.measurement_fade_s))));
     if (alsa_->measure(*m, duration + std::chrono::seconds(10)) != engine::Measurement::State::finished) {
-      throw std::runtime_error("excite: the measurement through the card was interrupted (an xrun, the device lost, or "
-                               "no device streaming: see GET /api/status, engine.device)");
+      // An xrun (a loaded machine: the device thread late once) is played again, as a slip is, and so is a device
+      // lost and reopened by the backend within kDeviceBack; a device that does not stream again is not.
+      const engine::AlsaStatus was = alsa_->status();
+      const auto give_up = std::chrono::steady_clock::now() + kDeviceBack;
+      while (alsa_->status().state != engine::AlsaState::running && std::chrono::steady_clock::now() < give_up) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+      if (alsa_->status().state != engine::AlsaState::running) {
+        throw std::runtime_error(std::string("excite: the measurement through the card was interrupted and the device "
+                                             "did not stream again (last error: ") + was.last_error.data() +
+                                 "; see GET /api/status, engine.device)");
+      }
+      slip = std::string(was.state == engine::AlsaState::running ? "an xrun interrupted it" : "the device was lost") +
+             " (" + was.last_error.data() + ")";
+      continue;
     }
     const Eigen::VectorXd sent = as_vector(m->drive());
     const Eigen::VectorXd sensor = as_vector(m->captured(engine::MeasuredChannel::sensor));

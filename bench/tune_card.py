@@ -8,10 +8,15 @@ read from the transducer's own log (its noise-free acceleration), with the filte
 the program amplitude whose output fundamental (the log's) matches — the cut at equal output level. A level where
 the chain's limiter acts is not reachable. Prints a Markdown table (and --json writes the figures).
 
+--bare: no tune (no model active: the chain is its band-pass and limiter); each sine is held --hold seconds and
+the log's windows wholly inside the hold (after the fade) give one row: their median drive fundamental, the
+noise-free acceleration's THD (median, min–max), the sensor's fundamental, THD (the noise's share out) and floor.
+
   bench/tune_card.py --plants panel-exciter,tests/support/plants/panel-exciter-le-x.json --variants 2
-  (PANELBASS_BIN names another binary; a rig takes about 3 minutes a plant, in real time.)
+  bench/tune_card.py --bare --frequencies 40,80,160 --hold 6
+  (PANELBASS_BIN names another binary; a rig takes about 3 minutes a plant in real time, --bare 20 s a frequency.)
 """
-import argparse, json, math, os, signal, socket, subprocess, sys, tempfile, time, urllib.request
+import argparse, json, math, os, signal, socket, statistics, subprocess, sys, tempfile, time, urllib.request
 
 BIN = os.environ.get('PANELBASS_BIN') or os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'build', 'bin', 'panelbass')
 CARD_CONF = """pcm.pb_play    {{ type jack name "pb_play"
@@ -30,7 +35,7 @@ def free_port():
 class Rig:
     """jackd (dummy) + the transducer client + serve --backend alsa, in a folder of their own."""
 
-    def __init__(self, plant, folder, window, realtime=False):
+    def __init__(self, plant, folder, window, periods=8, realtime=False):
         self.folder, self.window, self.procs = folder, window, []
         self.server = f'pbtc{os.getpid()}'
         env = dict(os.environ, JACK_NO_AUDIO_RESERVATION='1', JACK_DEFAULT_SERVER=self.server)
@@ -50,7 +55,7 @@ class Rig:
         self.port = free_port()
         self.start([BIN, 'serve', '--port', str(self.port), '--store', os.path.join(folder, 'store'), '--backend', 'alsa',
                     '--alsa-config', conf, '--playback', 'pb_play', '--capture', 'pb_capture', '--capture-channels', '3',
-                    '--sensor-channel', '0', '--loopback-channel', '1', '--current-channel', '2', '--periods', '8',
+                    '--sensor-channel', '0', '--loopback-channel', '1', '--current-channel', '2', '--periods', str(periods),
                     '--no-demo', '--web', ''], 'serve.log')
         for _ in range(100):
             try:
@@ -104,8 +109,15 @@ def reading(rig, frequency, amplitude, settle):
     """Plays sine:f at `amplitude`; the log's clean fundamental and THD (two windows' mean), and the limiter's share."""
     rig.call('PUT', '/api/program', {'signal': f'sine:{frequency:g}', 'amplitude': amplitude})
     t0 = time.time() + settle
-    rows = rig.lines_after(t0, 2)
+    try:
+        rows = rig.lines_after(t0, 2)
+    except RuntimeError:
+        rows = []  # no window with the fundamental: a limiter that acts says why (not reachable), else it is an error
     limited = rig.call('GET', '/api/status')['metrics'].get('limited_fraction', 0) or 0
+    if not rows:
+        if limited > 0:
+            return None, None, limited
+        raise RuntimeError(f'the transducer logged no window with a fundamental at sine:{frequency:g} {amplitude:g}')
     fundamental = sum(r['clean_fundamental'] for r in rows) / len(rows)
     thd = sum(r['thd_clean_pct'] for r in rows) / len(rows)
     return fundamental, thd, limited
@@ -138,6 +150,49 @@ def measure_cuts(rig, frequencies, levels, settle):
     return points
 
 
+def bare_rows(rig, frequencies, levels, hold):
+    """Each sine held `hold` s with no model active; one row of the log's windows wholly inside each hold."""
+    marks = []
+    for f in frequencies:
+        for a in levels:
+            rig.call('PUT', '/api/program', {'signal': f'sine:{f:g}', 'amplitude': a})
+            marks.append((time.time(), f, a))
+            time.sleep(hold)
+    marks.append((time.time(), None, None))
+    rig.call('PUT', '/api/program', {'signal': 'silence', 'amplitude': 0})
+    with open(rig.log) as fh:
+        lines = [json.loads(line) for line in fh]
+    rows = []
+    for (t0, f, a), (t1, _, _) in zip(marks, marks[1:]):
+        # a line is written within ~0.1 s of its window's end; the window must start after the change and its fade
+        inside = [l for l in lines if l['unix_time_s'] - rig.window - 0.1 > t0 + 0.1 and l['unix_time_s'] < t1
+                  and l['thd_clean_pct'] is not None]
+        row = {'frequency_hz': f, 'program_level': a, 'windows': len(inside)}
+        if inside:
+            med = lambda key: statistics.median(l[key] for l in inside)
+            clean = [l['thd_clean_pct'] for l in inside]
+            row.update(drive_fundamental=med('drive_fundamental'), thd_clean_pct=statistics.median(clean),
+                       thd_clean_min_pct=min(clean), thd_clean_max_pct=max(clean),
+                       sensor_fundamental=med('sensor_fundamental'), thd_sensor_pct=med('thd_sensor_pct'),
+                       thd_sensor_floor_pct=med('thd_sensor_floor_pct'))
+        rows.append(row)
+    return rows
+
+
+def print_bare(results):
+    print('| plant | sine | program | windows | drive fundamental | THD noise-free % | sensor fundamental (V) | sensor THD % | sensor floor % |')
+    print('|---|---|---|---|---|---|---|---|---|')
+    for result in results:
+        for r in result['rows']:
+            head = f"| {result['plant']} | {r['frequency_hz']:g} Hz | {r['program_level']:g} | {r['windows']} |"
+            if not r['windows']:
+                print(head + ' | | | | |')
+                continue
+            print(head + f" {r['drive_fundamental']:.4f} | {r['thd_clean_pct']:.3f} ({r['thd_clean_min_pct']:.3f}–"
+                  f"{r['thd_clean_max_pct']:.3f}) | {r['sensor_fundamental']:.4f} | {r['thd_sensor_pct']:.2f} | "
+                  f"{r['thd_sensor_floor_pct']:.2f} |")
+
+
 def tune(rig, params):
     t = time.time()
     job = rig.call('POST', '/api/jobs', {'kind': 'tune', 'params': params})
@@ -155,12 +210,17 @@ def main():
     ap.add_argument('--sensor-kind', default='none', help="the tune's sensor_kind (none: the current alone)")
     ap.add_argument('--frequencies', default='40,80,160')
     ap.add_argument('--levels', default='0.1,0.2,0.3')
-    ap.add_argument('--window', type=float, default=0.5, help="the transducer's THD window, s")
+    ap.add_argument('--window', type=float, help="the transducer's THD window, s (0.5; --bare: 1)")
+    ap.add_argument('--bare', action='store_true', help='no tune: the bare plant through the card, each sine held --hold s')
+    ap.add_argument('--hold', type=float, default=6.0, help='--bare: how long each sine plays, s')
     ap.add_argument('--settle', type=float, default=0.4, help='after a program change, s')
+    ap.add_argument('--periods', type=int, default=8, help="serve's device buffer, periods of 64 frames (16 on a loaded machine)")
     ap.add_argument('--json', help='write the figures here')
     ap.add_argument('--keep', help='keep the rigs\' folders under this folder')
     ap.add_argument('--realtime', action='store_true', help='run the JACK server (and its clients) in real-time mode')
     a = ap.parse_args()
+    if a.window is None:
+        a.window = 1.0 if a.bare else 0.5
     frequencies = [float(x) for x in a.frequencies.split(',')]
     levels = [float(x) for x in a.levels.split(',')]
     plants = a.plants.split(',')
@@ -176,7 +236,15 @@ def main():
         name = os.path.splitext(os.path.basename(plant))[0]
         folder = os.path.join(base, name)
         os.makedirs(folder, exist_ok=True)
-        rig = Rig(plant, folder, a.window, a.realtime)
+        rig = Rig(plant, folder, a.window, a.periods, a.realtime)
+        if a.bare:
+            try:
+                row = {'plant': name, 'rows': bare_rows(rig, frequencies, levels, a.hold)}
+            finally:
+                rig.close()
+            results.append(row)
+            print(json.dumps(row), file=sys.stderr)
+            continue
         try:
             record, seconds = tune(rig, {'sensor_kind': a.sensor_kind})
             row = {'plant': name, 'tune_s': seconds, 'state': record['state']}
@@ -191,19 +259,27 @@ def main():
             rig.close()
         results.append(row)
         print(json.dumps(row), file=sys.stderr)
+    if a.bare:
+        print_bare(results)
+    else:
+        print_tune(results, frequencies, levels)
+    if a.json:
+        with open(a.json, 'w') as f:
+            json.dump(results, f, indent=1)
+
+
+def print_tune(results, frequencies, levels):
     print(f"| plant | tune | current J_val % | " + ' | '.join(f'{f:g} Hz cut, dB ({"/".join(f"{l:g}" for l in levels)})' for f in frequencies) + ' |')
     print('|---|---|---|' + '---|' * len(frequencies))
     for row in results:
         cells = []
         for f in frequencies:
             got = [p for p in row.get('points', []) if p['frequency_hz'] == f]
-            cells.append(' / '.join('n.r.' if not p.get('reachable') else f"{p['cut_db']:.1f}" for p in got) or '–')
+            cells.append(' / '.join('n.r.' if not p.get('reachable') else '–' if p['cut_db'] is None else f"{p['cut_db']:.1f}"
+                                    for p in got) or '–')
         tune_cell = f"{row['tune_s']:.0f} s, " + ('kept' if row.get('kept') else 'left out' if row['state'] == 'succeeded' else 'failed')
         j = row.get('current_j_val_pct')
         print(f"| {row['plant']} | {tune_cell} | {'–' if j is None else f'{j:.4f}'} | " + ' | '.join(cells) + ' |')
-    if a.json:
-        with open(a.json, 'w') as f:
-            json.dump(results, f, indent=1)
 
 
 if __name__ == '__main__':

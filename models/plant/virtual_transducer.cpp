@@ -1,5 +1,6 @@
 #include "models/plant/virtual_transducer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -18,6 +19,10 @@ constexpr int kTemperature = 3;
 constexpr double kMmPerM = 1000.0;
 // Keeps a strongly nonlinear inductance (user-configured) from reaching zero and blowing up di/dt.
 constexpr double kMinInductanceFraction = 0.05;
+// The coil's time constant Le/R held at half an integration step at least: explicit RK4 follows a decay
+// exp(−t·R/Le) only while h·R/Le < 2.785, and past it the current grows without bound, to NaN for good
+// (panel-exciter-le-i's Le(i) = Le0·(1 − 0.08·i²) at a 160 Hz drive of 0.8: its 5 % floor gave h·R/Le = 5.6).
+constexpr double kMinCoilTimeConstantSteps = 0.5;
 
 // Soft clipper: identity up to `level`, then a tanh knee of width `knee` (continuous slope).
 double soft_clip(double u, double level, double knee) noexcept {
@@ -108,13 +113,16 @@ void VirtualTransducer::derivatives(const Eigen::VectorXd& s, double drive, Eige
     spring -= c.stiffness_N_per_m * c.creep.fraction * z;
     ds[creep_state_] = (x - z) / c.creep.time_constant_s;
   }
-  const double gl = n.inductance.gain();
-  const double le = c.Le_H * std::max(kMinInductanceFraction,
-                                      1.0 + gl * (n.inductance.l1_per_mm * xm + n.inductance.l2_per_mm2 * xm * xm +
-                                                  n.inductance.li2_per_A2 * i * i));
-  const double dle_dx = c.Le_H * gl * (n.inductance.l1_per_mm + 2.0 * n.inductance.l2_per_mm2 * xm) * kMmPerM;
   const double gt = n.thermal.gain();
   const double re = c.Re_ohm * (1.0 + gt * n.thermal.alpha_per_K * temperature);
+  const double gl = n.inductance.gain();
+  // the floor: a share of Le0, and what the integrator can follow at its step with the coil's whole resistance
+  const double step = 1.0 / (c.fs * c.oversample);
+  const double coil_ohm = re + (eddy_state_ >= 0 ? c.eddy.R2_ohm : 0.0);
+  const double le = std::max({c.Le_H * kMinInductanceFraction, kMinCoilTimeConstantSteps * step * coil_ohm,
+                              c.Le_H * (1.0 + gl * (n.inductance.l1_per_mm * xm + n.inductance.l2_per_mm2 * xm * xm +
+                                                    n.inductance.li2_per_A2 * i * i))});
+  const double dle_dx = c.Le_H * gl * (n.inductance.l1_per_mm + 2.0 * n.inductance.l2_per_mm2 * xm) * kMmPerM;
   const double friction =
       n.friction.gain() * n.friction.coulomb_N * std::tanh(v / n.friction.velocity_scale_m_per_s);
 

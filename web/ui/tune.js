@@ -41,9 +41,11 @@ function cutText(p) {
 /** Verify's points: per probe and program level, the THD alone and through the chain at equal output, the cut. */
 function showPoints(result) {
   const points = (result.verify && result.verify.points) || [];
+  // a level not reached was not played: it has no output or THD to show (the server's zeros are not readings)
   const rows = points.map((p) => el('tr', { dataset: { reachable: String(p.reachable) } },
-    el('td', {}, `${p.frequency_hz} Hz`), el('td', {}, fixed(p.program_level, 2)), el('td', {}, fixed(p.output_level, 4)),
-    el('td', {}, thdText(p.plant)), el('td', {}, thdText(p.chain)), el('td', {}, cutText(p))));
+    el('td', {}, `${p.frequency_hz} Hz`), el('td', {}, fixed(p.program_level, 2)),
+    el('td', {}, p.reachable ? fixed(p.output_level, 4) : '—'),
+    el('td', {}, p.reachable ? thdText(p.plant) : '—'), el('td', {}, p.reachable ? thdText(p.chain) : '—'), el('td', {}, cutText(p))));
   $('#tune-probes').replaceChildren(el('thead', {}, el('tr', {}, ...['probe', 'program level', 'output (sensor fundamental)',
     'THD transducer alone', 'THD with the filter', 'THD cut (positive: less distortion)'].map((h) => el('th', {}, h)))),
   el('tbody', {}, ...rows));

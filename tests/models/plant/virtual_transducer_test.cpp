@@ -142,6 +142,24 @@ TEST(VirtualTransducer, Rk4ConvergesAtFourthOrderAsTheStepHalves) {
   }
 }
 
+TEST(VirtualTransducer, ACoilWhoseInductanceCollapsesWithCurrentStaysFiniteAtFullScale) {
+  // Le(i) = Le0·(1 − 0.08·i²) (tests/support/plants/panel-exciter-le-i.json) reaches its floor above 3.4 A, which a
+  // 160 Hz drive of 0.8 or more gives; with the floor at 5 % of Le0 the coil's time constant was 0.18 of the RK4 step
+  // (h·Re/Le = 5.6, past RK4's 2.785) and the current grew to NaN within 300 samples, never to come back. A coil of
+  // resistance Re driven by at most gain_V volts carries at most gain_V/Re at DC and less at 160 Hz (its inductance
+  // and back-EMF only take from it): the whole second of full scale stays finite and under 1.5·gain_V/Re.
+  PlantConfig plant = quiet(plant_preset("panel-exciter"));
+  plant.nonlinear.inductance.l1_per_mm = 0.0;
+  plant.nonlinear.inductance.li2_per_A2 = -0.08;
+  Eigen::VectorXd u(3000);
+  for (Eigen::Index k = 0; k < u.size(); ++k) u[k] = std::sin(2.0 * kPi * 160.0 * k / plant.fs);
+  const PlantRecord r = simulate(plant, u, 1);
+  EXPECT_TRUE(r.y.allFinite() && r.i.allFinite() && r.x.allFinite());
+  const double bound = 1.5 * plant.amplifier_gain_V / plant.Re_ohm;
+  EXPECT_LT(r.i.cwiseAbs().maxCoeff(), bound);
+  EXPECT_GT(r.i.cwiseAbs().maxCoeff(), 3.4);  // the floor was reached
+}
+
 TEST(VirtualTransducer, LinearPresetObeysSuperpositionAndPanelExciterDoesNot) {
   const Eigen::VectorXd u1 = dsp::uniform_noise(3000, 0.6, 1);
   const Eigen::VectorXd u2 = dsp::uniform_noise(3000, 0.4, 2);
