@@ -18,6 +18,9 @@ constexpr const char* kMirrorFilterKind = "mirror_filter";
 // session, at its middle; such a file is refused rather than run with another meaning).
 constexpr long kMirrorStructure = 2;
 constexpr double kMmPerM = 1000.0;
+// The smallest share of its rest value the filter lets the model's force factor Bl(x) fall to (the filter then asks
+// at most 1/kMinForceShare times the reference's current for the force, and says it is saturated).
+constexpr double kMinForceShare = 0.25;
 // Friction velocity scales tried by the fit, mm/s.
 constexpr double kFrictionVelocities[] = {5.0, 7.0, 10.0, 14.0, 20.0, 30.0, 50.0, 70.0, 100.0, 140.0, 200.0};
 
@@ -186,11 +189,17 @@ double MirrorFilter::process(double program) noexcept {
   // [M2] at k+1: the current ĩ that gives the nonlinear model the reference's acceleration,
   //   (c3 + c4·x)·ĩ² + (c0 + c1·x + c2·x²)·ĩ = (v_{k+2} − v_{k+1})/h − (the nonlinear model's restoring terms)
   const double qa = c[3] + c[4] * x1;
-  const double qb = c[0] + c[1] * x1 + c[2] * x1 * x1;
+  // the force factor Bl(x)/m held at kMinForceShare of its rest value at least: where the fitted polynomial falls
+  // further (or changes sign, beyond the record's displacements) its inverse would ask for an unbounded current
+  double qb = c[0] + c[1] * x1 + c[2] * x1 * x1;
+  saturated_ = false;
+  if (c[0] != 0.0 && qb / c[0] < kMinForceShare) {
+    qb = kMinForceShare * c[0];
+    saturated_ = true;
+  }
   const double qr = (v2 - v1) / h - restoring(c, x1, mid1, model_.friction_velocity);
   const double disc = qb * qb + 4.0 * qa * qr;
   double next = 0.0;
-  saturated_ = false;
   if (disc >= 0.0 && qb != 0.0) {
     next = 2.0 * qr / (qb + std::copysign(std::sqrt(disc), qb));  // the root that tends to qr/qb as qa → 0
   } else {

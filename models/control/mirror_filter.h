@@ -108,7 +108,8 @@ class MirrorFilter {
   /// Back to rest.
   void reset() noexcept;
   /// True when the last sample's force equation had no real solution (the current was clamped to the
-  /// linear one): the program asks for more than the model's force factor can give.
+  /// linear one), or the model's force factor Bl(x) had fallen below a quarter of its rest value there (it was
+  /// held at that quarter): the program asks for more than the model's force factor can give.
   bool saturated() const { return saturated_; }
   /// Scales the stiffness K(x) and the linear force factor c0 of both the model and its linear reference (the
   /// resonance and the gain move with them) by `stiffness` and `force`, and the model's nonlinear coefficients by

@@ -3,6 +3,7 @@
 // and the model file's round trip and bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -90,6 +91,56 @@ TEST(MirrorFilter, LinearModelPassesTheProgramUnchanged) {
   const MirrorModel model = exciter_model().linear();
   const Eigen::VectorXd program = two_tone(3000, model.fs);
   EXPECT_LT((mirror_filter(model, program) - program).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+TEST(MirrorFilter, AForceFactorPastItsZeroIsHeldAtAQuarterOfItsRestValue) {
+  // A model whose only nonlinearity is Bl(x)/m = c0·(1 − x²/X0²), with no inductance and A(z) = 1, driven so that
+  // its linear reference swings to twice X0, where the fitted polynomial has changed sign (Le(i)'s card run: the
+  // reference at 160 Hz left the record's displacements and the filter asked for ±150 at the drive). There the
+  // filter's current is the reference's over β = max(Bl(x)/Bl(0), 1/4), so in closed form
+  //   drive_k = program_k + e_R·i_ref,k+1·(1/β_k − 1)
+  // (the reference's own [M1]: program_k = e_R·i_ref,k+1 + e5·v_ref,k+1; its [M2] shares c0, c5, c6 with the model).
+  MirrorModel model;
+  model.fs = 3000.0;
+  model.electrical[4] = 0.25;                                   // e_R
+  model.electrical[5] = 2e-4;                                   // Bl/gain
+  model.mechanical = {5e5, 0.0, 0.0, 0.0, 0.0, -40.0, -8.9e5, 0.0, 0.0, 0.0};
+  const double x0 = 2.0, quarter = 0.25;
+  model.mechanical[2] = -model.mechanical[0] / (x0 * x0);
+  const MirrorModel reference = model.linear();
+  const auto sine = [&](double amplitude) {
+    Eigen::VectorXd p(6000);
+    for (Eigen::Index k = 0; k < p.size(); ++k) p[k] = amplitude * std::sin(2.0 * std::numbers::pi * 150.0 * k / model.fs);
+    return p;
+  };
+  // the amplitude that takes the linear reference to 2·X0 (it is linear: its peak scales with the amplitude)
+  double unit_peak = 0.0;
+  {
+    MirrorState s;
+    const Eigen::VectorXd unit = sine(1.0);
+    for (Eigen::Index k = 0; k < unit.size(); ++k) {
+      step_mirror_model(reference, s, unit[k]);
+      unit_peak = std::max(unit_peak, std::abs(s.x));
+    }
+  }
+  const Eigen::VectorXd program = sine(2.0 * x0 / unit_peak);
+  MirrorFilter filter(model);
+  MirrorState ref;
+  int held = 0, flagged = 0;
+  double worst = 0.0, scale = 0.0;
+  for (Eigen::Index k = 0; k < program.size(); ++k) {
+    const double drive = filter.process(program[k]);
+    step_mirror_model(reference, ref, program[k]);
+    const double share = 1.0 - ref.x * ref.x / (x0 * x0);
+    held += share < quarter;
+    flagged += filter.saturated();
+    const double expected = program[k] + model.electrical[4] * ref.i * (1.0 / std::max(share, quarter) - 1.0);
+    worst = std::max(worst, std::abs(drive - expected));
+    scale = std::max(scale, std::abs(expected));
+  }
+  EXPECT_GT(held, 100);  // the reference does pass the force factor's zero, often
+  EXPECT_EQ(flagged, held);
+  EXPECT_LT(worst, 1e-9 * scale);
 }
 
 TEST(MirrorFilter, FitRecoversTheModelFromItsOwnRecord) {
