@@ -18,6 +18,7 @@
 #include "usecases/identify_oscillator.h"
 #include "usecases/equal_output_thd.h"
 #include "usecases/identify_ss.h"
+#include "usecases/plant_survey.h"
 #include "usecases/tune.h"
 #include "usecases/validate_model.h"
 
@@ -79,6 +80,7 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
       {"identify-mimo", "IdentifyMimoParams", usecases::to_json(usecases::IdentifyMimoRequest{})},
       {"tune", "TuneParams", usecases::to_json(usecases::TuneRequest{})},
       {"verify", "VerifyParams", usecases::to_json(usecases::EqualOutputSettings{})},
+      {"plant-survey", "PlantSurveyParams", usecases::to_json(usecases::PlantSurveyRequest{})},
   };
   const json& schemas = openapi_document().at("components").at("schemas");
   for (const DocumentedRequest& r : requests) {

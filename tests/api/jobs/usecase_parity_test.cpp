@@ -1,6 +1,6 @@
 // One verb, two doors: the CLI and the API's job run the same use case (usecases/), so given the same model (or
 // record) and the same options they make the same model and the same figures, and refuse the same bad input with the
-// same words: design lq, validate, identify ss, identify average and identify mimo.
+// same words: design lq, validate, identify ss, identify average, identify mimo and plant survey.
 // The CLI runs as a user runs it (the panelbass binary); the job through the job kinds' registry.
 #include <gtest/gtest.h>
 
@@ -284,6 +284,29 @@ TEST_F(UseCaseParity, IdentifyMimoMakesTheSameModelFromBothDoors) {
   const std::string missing = refusal("identify-mimo", {{"record", id}, {"inputs", {"u1", "u3"}}, {"outputs", {"y1", "y2"}}});
   EXPECT_NE(missing.find("params.record: "), std::string::npos) << missing;
   EXPECT_NE(missing.find("no column \"u3\""), std::string::npos) << missing;
+}
+
+TEST_F(UseCaseParity, PlantSurveyGivesTheSameFiguresFromBothDoors) {
+  const json job = run("plant-survey", {{"plant", "panel-exciter"}, {"samples", 2000}, {"seed", 3}}, "j1");
+  const testing_support::RunResult r = cli("plant survey panel-exciter --samples 2000 --seed 3");
+  ASSERT_EQ(r.status, 0) << r.err;
+  // The same simulation from the same seed: the same figures, to the last digit the JSON keeps.
+  EXPECT_EQ(job.at("summary"), json::parse(r.out));
+  EXPECT_EQ(job.at("summary").at("plant"), "panel-exciter");
+  // The default plant is the server's own transducer when it runs one, else the first preset.
+  EXPECT_EQ(validate_job_params("plant-survey", json::object(), env_).at("plant"), models::plant_preset_names().front());
+  use_plant("linear");
+  EXPECT_EQ(validate_job_params("plant-survey", json::object(), env_).at("plant"), "server");
+  // A field out of range, the same words at both doors.
+  const std::string refused = refusal("plant-survey", {{"plant", "panel-exciter"}, {"samples", 10}});
+  const testing_support::RunResult bad = cli("plant survey panel-exciter --samples 10");
+  EXPECT_EQ(bad.status, 2) << bad.err;
+  EXPECT_NE(refused.find("params.samples: must be within 1000..10000000, got 10"), std::string::npos) << refused;
+  EXPECT_NE(bad.err.find("--samples: must be within 1000..10000000, got 10"), std::string::npos) << bad.err;
+  const std::string loud = refusal("plant-survey", {{"amplitude", 1.5}});
+  const testing_support::RunResult bad_loud = cli("plant survey panel-exciter --amplitude 1.5");
+  EXPECT_NE(loud.find("params.amplitude: must be within (0, 1], got 1.5"), std::string::npos) << loud;
+  EXPECT_NE(bad_loud.err.find("--amplitude: must be within (0, 1], got 1.5"), std::string::npos) << bad_loud.err;
 }
 
 }  // namespace
