@@ -39,6 +39,7 @@
 #include "models/plant/plant_presets.h"
 #include "models/linear/transfer_function.h"
 #include "models/plant/virtual_transducer.h"
+#include "tests/support/model_stages.h"
 
 namespace {
 

@@ -13,6 +13,7 @@
 #include "cli/data_options.h"
 #include "cli/json_output.h"
 #include "cli/progress_bar.h"
+#include "cli/usecase_door.h"
 #include "dsp/data_file.h"
 #include "dsp/sample_rate.h"
 #include "models/io/roots_json.h"
@@ -26,12 +27,13 @@
 #include "models/narx/narx_structure.h"
 #include "models/narx/narx_training.h"
 #include "models/validation/performance.h"
+#include "usecases/narx_restarts.h"
 
 namespace panelbass::cli {
 namespace {
 
 /// Each of `warnings` on stderr, prefixed by the command.
-void print_warnings(const std::string& command, const std::vector<std::string>& warnings) {
+void print_warnings_prefixed(const std::string& command, const std::vector<std::string>& warnings) {
   for (const std::string& w : warnings) std::fprintf(stderr, "%s: warning: %s\n", command.c_str(), w.c_str());
 }
 
@@ -101,11 +103,12 @@ void run_identify_linear(const IdentifyLinearOptions& o) {
     for (const std::string& why : id.scan_skipped) std::fprintf(stderr, "identify linear: scan skipped %s\n", why.c_str());
   }
   const bool validated = u_val.size() > 0;
-  print_warnings("identify linear",
-                 models::fit_warnings(validated ? id.j_val_pct : id.j_est_pct, validated ? "J_val" : "J_est",
-                                      std::numeric_limits<double>::quiet_NaN(),
-                                      "Check the delay (--delay; " + std::to_string(id.model.tf.nk) + ", " + id.nk_source +
-                                          "); then try another --method, an order --scan, or more --max-iter."));
+  print_warnings_prefixed(
+      "identify linear",
+      models::fit_warnings(validated ? id.j_val_pct : id.j_est_pct, validated ? "J_val" : "J_est",
+                           std::numeric_limits<double>::quiet_NaN(),
+                           "Check the delay (--delay; " + std::to_string(id.model.tf.nk) + ", " + id.nk_source +
+                               "); then try another --method, an order --scan, or more --max-iter."));
   print_result(result);
 }
 
@@ -193,10 +196,8 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
     w_val = read_weights(o.val, o.weight_col, est.fs);
   }
   const Eigen::VectorXd w_est = read_weights(o.data, o.weight_col, est.fs);
-  if (o.restarts > 1 && (o.val.empty() || !o.start_from.empty() || o.grow > 0 || !o.friction_gains.empty())) {
-    throw std::invalid_argument("--restarts needs --val (it keeps the lowest J_val) and a fresh start (not with "
-                                "--start-from, --grow or --friction-units)");
-  }
+  const bool fresh_start = o.start_from.empty() && o.grow == 0 && o.friction_gains.empty();
+  run_use_case([&] { usecases::check_restarts(o.restarts, fresh_start, !o.val.empty()); });
   models::NarxModel model = o.start_from.empty() ? fresh_narx_model(o, est) : start_narx_model(o, est.fs);
   const models::Scaling& scaling = model.scaling;
   const models::NarxStructure& structure = model.structure;
@@ -244,18 +245,18 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
                   {"finite_difference", models::loss_gradient(model, us, ys, models::TrainingMode::oem_n, skip)[p]}});
     return;
   }
-  ProgressBar bar("identify narx");
-  const int total = std::max(1, o.max_iterations * static_cast<int>(options.modes.size()) * o.restarts);  // no 0/0
-  int done = 0;
-  options.progress = [&](const models::TrainingRecord& r) {
-    if (r.iteration > 0) ++done;
-    bar.update(static_cast<double>(done) / total);
-    (void)r;
-  };
+  BarProgress bar("identify narx");
   nlohmann::json structure_report = nlohmann::json::object();
   models::TrainingResult result;
+  std::uint64_t chosen_seed = o.seed;
   if (o.grow > 0) {
     // The thesis's dX/N rule (ch. 6): one hidden node, then one more while it pays.
+    const int total = std::max(1, o.max_iterations * static_cast<int>(options.modes.size()));  // no 0/0
+    int done = 0;
+    options.progress = [&](const models::TrainingRecord& r) {
+      if (r.iteration > 0) ++done;
+      bar.report(static_cast<double>(done) / total, "");
+    };
     const models::GrowthResult grown =
         models::grow_hidden_nodes(structure, scaling, est.fs, us, ys, uv, yv, options, o.grow, o.seed);
     result.model = grown.model;
@@ -266,33 +267,21 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
     }
     structure_report["growth"] = {{"chosen_hidden", grown.chosen_hidden}, {"rule", grown.rule}, {"steps", steps}};
   } else {
-    result = models::train_narx(model, us, ys, uv, yv, options);
-  }
-  std::uint64_t chosen_seed = o.seed;
-  if (o.restarts > 1) {
-    // The same training from other seeds' initial weights ([5F]); the model of the lowest J_val is kept.
-    // the J reported below (raw units)
-    const auto j_val_of = [&](const models::NarxModel& m) { return models::j_percent(m.simulate(u_val, y_val, init), y_val, init); };
-    double best = j_val_of(result.model);
-    nlohmann::json tried = nlohmann::json::array({{{"seed", o.seed}, {"J_val_pct", models::number_or_null(best)}}});
-    for (int r = 1; r < o.restarts; ++r) {
-      models::NarxModel restart = model;
-      restart.net.initialize(1.0, o.seed + static_cast<std::uint64_t>(r));
-      models::TrainingResult other = models::train_narx(restart, us, ys, uv, yv, options);
-      const double j = j_val_of(other.model);
-      tried.push_back({{"seed", o.seed + static_cast<std::uint64_t>(r)}, {"J_val_pct", models::number_or_null(j)}});
-      other.seconds += result.seconds;
-      other.iterations += result.iterations;
-      if (j < best) {
-        best = j;
-        chosen_seed = o.seed + static_cast<std::uint64_t>(r);
-        result = std::move(other);
-      } else {
-        result.seconds = other.seconds;
-        result.iterations = other.iterations;
-      }
-    }
-    structure_report["restarts"] = {{"tried", tried}, {"chosen_seed", chosen_seed}};
+    // One training, or --restarts: the same from other seeds' initial weights ([5F]), the lowest J_val kept.
+    usecases::NarxRestartsRequest q;
+    q.start = model;
+    q.fresh_start = fresh_start;
+    q.u_est = est.columns[0];
+    q.y_est = est.columns[1];
+    q.u_val = u_val;
+    q.y_val = y_val;
+    q.options = options;
+    q.seed = o.seed;
+    q.restarts = o.restarts;
+    usecases::NarxRestartsReport trained = run_use_case([&] { return usecases::train_narx_restarts(q, bar); });
+    result = std::move(trained.result);
+    chosen_seed = trained.chosen_seed;
+    if (!trained.restarts.is_null()) structure_report["restarts"] = trained.restarts;
   }
   if (o.prune) {
     if (uv.size() == 0) throw std::invalid_argument("--prune needs validation data (--val)");
@@ -311,7 +300,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
                                    {"J_est_after_pct", pruned.j_est_after_pct},
                                    {"stop_reason", pruned.stop_reason}};
   }
-  bar.update(1.0);
+  bar.report(1.0, "done");
   nlohmann::json history = nlohmann::json::array();
   for (const auto& r : result.history) {
     history.push_back({{"iter", r.iteration}, {"mode", models::to_string(r.mode)}, {"J_est_pct", models::number_or_null(r.j_est_pct)},
@@ -355,10 +344,10 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   const double j_linear = models::linear_reference_j_pct(est.columns[0], est.columns[1], u_val, y_val,
                                                          std::max(structure.na, structure.nb), structure.nk,
                                                          std::min<Eigen::Index>(o.init, (validated ? u_val : est.columns[0]).size() / 10));
-  print_warnings("identify narx", models::fit_warnings(j_judged, validated ? "J_val" : "J_est", j_linear,
-                                                      "Check the delay (--nk " + std::to_string(structure.nk) + ", " +
-                                                          nk_source +
-                                                          "); then try more --max-iter, another --seed, or other --na/--nb."));
+  print_warnings_prefixed("identify narx",
+                          models::fit_warnings(j_judged, validated ? "J_val" : "J_est", j_linear,
+                                               "Check the delay (--nk " + std::to_string(structure.nk) + ", " + nk_source +
+                                                   "); then try more --max-iter, another --seed, or other --na/--nb."));
   print_result({{"J_est_pct", j_est},
                 {"J_val_pct", models::number_or_null(j_val)},
                 {"iterations", result.iterations},

@@ -4,9 +4,10 @@
 
 #include "cli/commands.h"
 #include "cli/json_output.h"
+#include "cli/usecase_door.h"
 #include "models/plant/plant_presets.h"
-#include "models/plant/plant_survey.h"
 #include "models/plant/plant_variants.h"
+#include "usecases/plant_survey.h"
 
 namespace panelbass::cli {
 
@@ -36,24 +37,20 @@ void register_plant(CLI::App& app) {
   });
 
   auto survey_name = std::make_shared<std::string>();
-  auto spec = std::make_shared<models::PlantSurveySpec>();
+  auto survey_request = std::make_shared<usecases::PlantSurveyRequest>();
   CLI::App* survey = plant->add_subcommand(
       "survey", "Measure a plant from simulated data: delay, impulse length, resonances, notch, J, distortion");
   survey->add_option("plant", *survey_name, "Preset (panel-exciter, linear) or plant JSON file")->required();
-  survey->add_option("--seed", spec->seed, "Seed of the excitations and the noise")->capture_default_str();
-  survey->add_option("--samples", spec->estimation_samples, "Estimation samples of uniform noise")
-      ->check(CLI::Range(1000, 10000000))
+  survey->add_option("--seed", survey_request->seed, "Seed of the excitations and the noise")->capture_default_str();
+  survey->add_option("--samples", survey_request->samples, "Estimation samples of uniform noise (1000..10000000)")
       ->capture_default_str();
-  survey->add_option("--amplitude", spec->amplitude, "Peak drive of the noise")
-      ->check(CLI::Range(1e-6, 1.0))
-      ->capture_default_str();
+  survey->add_option("--amplitude", survey_request->amplitude, "Peak drive of the noise, (0, 1]")->capture_default_str();
   survey->footer("Example:\n  panelbass plant survey panel-exciter --seed 1");
-  survey->callback([survey_name, spec] {
-    const models::PlantConfig plant = models::plant_from_name_or_file(*survey_name);
-    nlohmann::json result = models::survey_to_json(models::survey_plant(plant, *spec));
-    result["plant"] = plant.name;
-    result["seed"] = spec->seed;
-    print_result(result);
+  survey->callback([survey_name, survey_request] {
+    usecases::PlantSurveyRequest q = *survey_request;
+    q.plant = models::plant_from_name_or_file(*survey_name);
+    usecases::SilentProgress quiet;
+    print_result(run_use_case([&] { return usecases::survey_plant(q, quiet); }).summary);
   });
 }
 

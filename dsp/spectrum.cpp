@@ -105,6 +105,13 @@ Eigen::VectorXd bin_frequencies(std::size_t segment, double fs) {
 
 }  // namespace
 
+std::size_t welch_segment(Eigen::Index samples, std::size_t longest) {
+  const auto limit = std::min<Eigen::Index>(static_cast<Eigen::Index>(longest), samples / 4);
+  std::size_t segment = 64;
+  while (static_cast<Eigen::Index>(2 * segment) <= limit) segment *= 2;
+  return segment;
+}
+
 PowerSpectrum welch_psd(const Eigen::VectorXd& x, double fs, const WelchSpec& spec) {
   constexpr const char* where = "welch_psd";
   check_spec(where, fs, spec);

@@ -21,6 +21,11 @@ struct PowerSpectrum {
   Eigen::VectorXd psd;        ///< units²/Hz; integrates (sum * df) to the signal's mean square
 };
 
+/// The Welch segment for a record of `samples`: the longest power of 2 from 64 up to `longest` that the record holds
+/// four times over (seven averages at 50 % overlap; a segment not much longer than the impulse response leaks), 64
+/// when it holds fewer than four of 128.
+std::size_t welch_segment(Eigen::Index samples, std::size_t longest = 1024);
+
 /// Welch PSD of `x` at sample rate `fs`. Throws std::invalid_argument if x is shorter than a segment.
 PowerSpectrum welch_psd(const Eigen::VectorXd& x, double fs, const WelchSpec& spec = {});
 

@@ -11,11 +11,6 @@
 #include "dsp/biquad.h"
 #include "engine/metrics.h"
 #include "models/linear/linear_model.h"
-#include "models/narx/mlp.h"
-#include "models/narx/mlp_kernel.h"
-#include "models/narx/narx_history.h"
-#include "models/narx/narx_model.h"
-#include "models/linear/state_space_runner.h"
 
 namespace panelbass::engine {
 
@@ -135,71 +130,18 @@ class BandPassStage final : public Stage {
   dsp::SosFilter filter_;
 };
 
-/// The most states a stage runs (LinearStage and StateSpaceStage alike): a dense state space costs O(n²)
-/// per sample and a LinearStage's realisation (order max(na, nb + nk)) O(n³) when it is prepared, so a long
-/// pure delay would stall a model swap; identified models stay far below this.
+/// The most states a stage runs (a StateSpaceStage's, and a linear model's realisation, which api/ validates
+/// against it): a dense state space costs O(n²) per sample and a realisation of order max(na, nb + nk) O(n³)
+/// when it is prepared, so a long pure delay would stall a model swap; identified models stay far below this.
 inline constexpr Eigen::Index kMaxStageStates = 64;
-/// kMaxStageStates under the name the model validation of api/ uses.
-inline constexpr Eigen::Index kMaxLinearStageStates = kMaxStageStates;
 
-/// The order of the state space a LinearStage realizes for `tf`: max(na, nb + nk).
+/// The order of the state space a linear model's realisation has for `tf`: max(na, nb + nk).
 Eigen::Index linear_stage_states(const models::TransferFunction& tf);
 
-/// A linear model as a stage: its state-space realisation run on raw input, giving raw output.
-class LinearStage : public Stage {
- public:
-  /// The stage of `model` (realised in prepare()); a ConfigError if it has more than kMaxStageStates.
-  explicit LinearStage(models::LinearModel model);
-  /// Realises the model; throws if its fs differs from spec.fs (resampling is not the stage's job).
-  void prepare(const ProcessSpec& spec) override;
-  /// y(k) = C·x(k) + D·u(k), x(k+1) = A·x(k) + B·u(k), in scaled units.
-  double process(double x) noexcept override;
-  /// A block of process() (StateSpaceRunner::step_block: the state kept in registers).
-  void process_block(std::span<const double> in, std::span<double> out) noexcept override;
-  /// Ignores the plant.
-  bool observes() const noexcept override { return false; }
-  /// State to zero.
-  void reset() noexcept override;
-  /// The model.
-  const models::LinearModel& model() const { return model_; }
-
- private:
-  models::LinearModel model_;
-  models::StateSpaceRunner runner_;
-};
-
-/// Where a NARX stage takes its past outputs y(k−1..k−na) from.
+/// Where a feedback stage takes its past outputs y(k−1..k−na) from.
 enum class FeedbackSource {
   model,   ///< its own predictions (free run: no sensor wired)
   sensor,  ///< the measured outputs passed to observe()
-};
-
-/// A NARX model as a stage: raw input in, the model's raw output out.
-class NarxStage : public Stage {
- public:
-  /// The stage of `model`, its past outputs taken from `source`.
-  explicit NarxStage(models::NarxModel model, FeedbackSource source = FeedbackSource::model);
-  /// Sizes the regressor and the network's workspace; throws if the fs or the network shape is wrong.
-  void prepare(const ProcessSpec& spec) override;
-  /// [5G] y(k) = F(y(k−1..k−na), u(k−nk..k−nk−nb)) in scaled units.
-  double process(double x) noexcept override;
-  /// In sensor mode, the measured output becomes the newest past output.
-  void observe(double measured) noexcept override;
-  /// In model mode, a block of process() without a call per sample; in sensor mode, process() and
-  /// observe(0) per sample are the chain's business (observes() is true).
-  void process_block(std::span<const double> in, std::span<double> out) noexcept override;
-  /// True in sensor mode.
-  bool observes() const noexcept override { return source_ == FeedbackSource::sensor; }
-  /// Past inputs and outputs to zero.
-  void reset() noexcept override;
-  /// The model.
-  const models::NarxModel& model() const { return model_; }
-
- private:
-  models::NarxModel model_;
-  FeedbackSource source_;
-  models::MlpKernel network_;    // model_.net prepared for the per-sample path
-  models::NarxHistory history_;  // scaled u(k..k−nk−nb) and y(k−1..k−na)
 };
 
 }  // namespace panelbass::engine

@@ -21,6 +21,7 @@
 #include "models/narx/narx_model.h"
 #include "models/narx/narx_training.h"
 #include "models/preprocess/scaling.h"
+#include "usecases/narx_restarts.h"
 
 namespace panelbass::api {
 namespace {
@@ -30,7 +31,7 @@ using nlohmann::json;
 json identify_narx_params(const json& params, const JobEnvironment& env) {
   ParamReader r(params, "params");
   std::string validation_path;
-  record_source(r, env, validation_path);
+  const long long validation = record_source(r, env, validation_path);
   r.integer("na", 2, 0, kMaxOrder);
   r.integer("nb", 3, 0, kMaxOrder);
   r.integer("nk", -1, -1, 1000);
@@ -62,6 +63,9 @@ json identify_narx_params(const json& params, const JobEnvironment& env) {
     refuse(r.path_of("friction_units"), std::to_string(gains.size()) + " gains x " + std::to_string(lags) +
                                             " lags need as many first-layer nodes, hidden[0] is " + std::to_string(hidden[0]));
   }
+  // Trainings from seeds seed … seed + restarts − 1 (usecases/narx_restarts.h), refused as the CLI refuses them.
+  const long long restarts = r.integer("restarts", usecases::NarxRestartsRequest{}.restarts, -kAnyInteger, kAnyInteger);
+  check_request([&] { usecases::check_restarts(static_cast<int>(restarts), gains.empty(), validation > 0); });
   return r.finish();
 }
 
@@ -80,16 +84,22 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
   }
   const models::NarxStructure structure{params.at("na").get<int>(), params.at("nb").get<int>(), nk,
                                         hidden_widths(params.at("hidden"))};
-  const std::uint64_t seed = params.at("seed").get<std::uint64_t>();
-  models::NarxModel model = models::NarxModel::with_structure(structure, scaling, env.fs);
-  model.net.initialize(1.0, seed);
+  usecases::NarxRestartsRequest q;
+  q.seed = params.at("seed").get<std::uint64_t>();
+  q.restarts = params.at("restarts").get<int>();
+  q.start = models::NarxModel::with_structure(structure, scaling, env.fs);
+  q.start.net.initialize(1.0, q.seed);
+  q.u_est = r.u_est;
+  q.y_est = r.y_est;
+  q.u_val = r.u_val;
+  q.y_val = r.y_val;
   const Eigen::VectorXd us = scaling.scale_u(r.u_est), ys = scaling.scale_y(r.y_est);
-  const Eigen::VectorXd uv = r.u_val.size() ? scaling.scale_u(r.u_val) : Eigen::VectorXd(),
-                        yv = r.y_val.size() ? scaling.scale_y(r.y_val) : Eigen::VectorXd();
+  const Eigen::VectorXd uv = r.u_val.size() ? scaling.scale_u(r.u_val) : Eigen::VectorXd();
   json friction = nullptr;
   if (const auto gains = params.value("friction_units", std::vector<double>{}); !gains.empty()) {
     friction = models::friction_seed_report(
-        models::seed_friction_units(model, us, ys, gains, params.value("friction_lags", 1)));
+        models::seed_friction_units(q.start, us, ys, gains, params.value("friction_lags", 1)));
+    q.fresh_start = false;
   }
 
   models::TrainingOptions options;
@@ -112,13 +122,11 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
   // Training selects and stops on the J the job reports (simulation_j): the first init_samples() measured
   // outputs set the state, then free run.
   options.init = init_samples(std::min(us.size(), uv.size() ? uv.size() : us.size()));
-  const int total = std::max(1, options.max_iterations * static_cast<int>(options.modes.size()));
+  q.options = options;
   progress.span(kExcitationShare, 0.85);
-  options.progress = [&](const models::TrainingRecord& rec) {
-    progress.at(static_cast<double>(rec.iteration) / total,
-                models::to_string(rec.mode) + " iteration " + std::to_string(rec.iteration));
-  };
-  models::TrainingResult trained = models::train_narx(model, us, ys, uv, yv, options);
+  usecases::NarxRestartsReport restarted;
+  check_request([&] { restarted = usecases::train_narx_restarts(q, progress); });
+  models::TrainingResult& trained = restarted.result;
 
   progress.span(0.85, 1.0);
   progress.at(0.0, "judging the model");
@@ -139,7 +147,7 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
                         {"optimizer", "lm"},
                         {"J_est_pct", j_est},
                         {"J_val_pct", models::number_or_null(j_val)},
-                        {"seed", seed},
+                        {"seed", restarted.chosen_seed},
                         {"weighted", weighted},
                         {"history", meta_history}};
   if (!friction.is_null()) trained.model.meta["friction_units"] = friction;
@@ -182,6 +190,7 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
                    {"data", data.source}}},
                  {"plots", plots}};
   if (!friction.is_null()) result["summary"]["friction_units"] = friction;
+  if (!restarted.restarts.is_null()) result["summary"]["restarts"] = restarted.restarts;
   result["warnings"] = warnings;
   return result;
 }

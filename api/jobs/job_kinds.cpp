@@ -18,6 +18,7 @@
 #include "api/jobs/identify_ss_job.h"
 #include "api/jobs/job_kind.h"
 #include "api/jobs/job_plots.h"
+#include "api/jobs/plant_survey_job.h"
 #include "api/jobs/tune_job.h"
 #include "api/jobs/validate_job.h"
 #include "api/jobs/verify_job.h"
@@ -27,14 +28,14 @@ namespace {
 
 using nlohmann::json;
 
-// Every kind, in the order ROUTES.md lists them.
+// Every kind, in the order the OpenAPI document lists them (a server test compares the two).
 const std::vector<JobKind>& registry() {
   static const std::vector<JobKind> kinds{excite_job(),     identify_linear_job(), identify_narx_job(),
                                           identify_oscillator_job(), identify_ss_job(), identify_average_job(),
                                           identify_mimo_job(), validate_job(),   design_lq_job(),       design_nn_job(),
                                           design_mirror_job(), evaluate_job(),     analyze_job(),
                                           harmonics_job(),  diagnose_job(),        verify_job(),
-                                          tune_job()};
+                                          tune_job(),       plant_survey_job()};
   return kinds;
 }
 

@@ -30,12 +30,6 @@ json column(const Eigen::VectorXd& x) {
   return out;
 }
 
-Eigen::Index welch_segment(Eigen::Index samples) {
-  Eigen::Index segment = 64;
-  while (segment * 2 <= std::min<Eigen::Index>(1024, samples / 4)) segment *= 2;
-  return segment;
-}
-
 json fit_plot(const Eigen::VectorXd& measured, const Eigen::VectorXd& simulated, double fs, Eigen::Index first_sample,
               Eigen::Index max_points) {
   if (measured.size() != simulated.size()) throw std::invalid_argument("fit plot: measured and simulated lengths differ");
@@ -64,7 +58,7 @@ json spectrum_plot(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const Eig
   if (u.size() != y.size() || u.size() != y_model.size()) throw std::invalid_argument("spectrum plot: lengths differ");
   if (u.size() < 64) throw std::invalid_argument("spectrum plot: fewer than 64 samples");
   dsp::WelchSpec spec;
-  spec.segment = static_cast<std::size_t>(welch_segment(u.size()));
+  spec.segment = dsp::welch_segment(u.size());
   const dsp::FrequencyResponse measured = dsp::h1_frf(u, y, fs, spec);
   const dsp::FrequencyResponse model = dsp::h1_frf(u, y_model, fs, spec);
   return spectrum_plot(measured.frequency, measured.h, model.h);
@@ -75,11 +69,11 @@ json residual_spectrum_plot(const Eigen::VectorXd& residual_before, const Eigen:
   if (residual_before.size() != residual_after.size()) throw std::invalid_argument("residual spectrum plot: lengths differ");
   if (residual_before.size() < 64) throw std::invalid_argument("residual spectrum plot: fewer than 64 samples");
   dsp::WelchSpec spec;
-  // As the diagnosis reads the residual's spectrum and noise level; a record too short for it, by welch_segment.
+  // As the diagnosis reads the residual's spectrum and noise level; a record too short for it, by dsp's rule.
   const std::size_t located = models::residual_segment(residual_before.size());
   spec.segment = located * 4 <= static_cast<std::size_t>(residual_before.size())
                      ? located
-                     : static_cast<std::size_t>(welch_segment(residual_before.size()));
+                     : dsp::welch_segment(residual_before.size());
   const dsp::PowerSpectrum before = dsp::welch_psd(residual_before, fs, spec);
   const dsp::PowerSpectrum after = dsp::welch_psd(residual_after, fs, spec);
   const Eigen::Index n = before.frequency.size() - 1;  // DC left out

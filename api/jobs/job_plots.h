@@ -17,23 +17,20 @@ nlohmann::json without_non_finite(const nlohmann::json& value);
 /// The samples of `x` as a column (non-finite entries null).
 nlohmann::json column(const Eigen::VectorXd& x);
 
-/// The Welch segment for a record of `samples`: the largest power of 2 ≤ min(1024, samples/4), at least 64.
-Eigen::Index welch_segment(Eigen::Index samples);
-
 /// "fit": {"t":[s],"measured","simulated"} of the first ≤ `max_points` samples; sample k is at
 /// (first_sample + k)/fs seconds. Throws std::invalid_argument for unequal lengths.
 nlohmann::json fit_plot(const Eigen::VectorXd& measured, const Eigen::VectorXd& simulated, double fs,
                         Eigen::Index first_sample = 0, Eigen::Index max_points = 2000);
 
 /// "spectrum": {"f":[Hz],"measured_db","model_db"}: magnitudes of the H1 estimates u → y and u → y_model
-/// (Welch, welch_segment()), the bins above DC. Throws std::invalid_argument for unequal lengths or a
+/// (Welch, dsp::welch_segment()), the bins above DC. Throws std::invalid_argument for unequal lengths or a
 /// record shorter than 64 samples.
 nlohmann::json spectrum_plot(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const Eigen::VectorXd& y_model, double fs);
 
 /// "spectrum" of two responses on the frequencies `f` (Hz), the bins above DC (f > 0) only.
 nlohmann::json spectrum_plot(const Eigen::VectorXd& f, const Eigen::VectorXcd& measured, const Eigen::VectorXcd& model);
 
-/// "residual_spectrum": {"frequency_hz","before_db","after_db","noise_floor_db"}: Welch PSDs (welch_segment(),
+/// "residual_spectrum": {"frequency_hz","before_db","after_db","noise_floor_db"}: Welch PSDs (the diagnosis's residual segment,
 /// dB re 1 unit²/Hz) of two residuals of one record, the bins above DC, with the constant `noise_psd`
 /// (units²/Hz; null where not positive) beside them. Throws std::invalid_argument for unequal lengths or
 /// fewer than 64 samples.

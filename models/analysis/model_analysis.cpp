@@ -38,16 +38,13 @@ std::size_t welch_segment(std::size_t requested, Eigen::Index samples) {
     }
     return requested;
   }
-  // Long segments: a segment not much longer than the impulse response leaks, which lowers the coherence
-  // and raises the non-coherent floor; N/4 still leaves 7 averages at 50 % overlap.
-  const auto limit = std::min<Eigen::Index>(4096, samples / 4);
-  if (limit < 64) {
+  if (samples / 4 < 64) {
     throw std::invalid_argument("analysis: " + std::to_string(samples) +
                                 " samples after init are too few for spectra (at least 256 needed)");
   }
-  std::size_t segment = 64;
-  while (static_cast<Eigen::Index>(2 * segment) <= limit) segment *= 2;
-  return segment;
+  // Long segments (up to 4096): a segment not much longer than the impulse response leaks, which lowers the
+  // coherence and raises the non-coherent floor.
+  return dsp::welch_segment(samples, 4096);
 }
 
 json loop_json(const ClosedLoop& loop) {

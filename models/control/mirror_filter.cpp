@@ -9,6 +9,7 @@
 #include "models/io/config_error.h"
 #include "models/io/json_fields.h"
 #include "models/io/model_header.h"
+#include "models/validation/performance.h"
 
 namespace panelbass::models {
 namespace {
@@ -294,7 +295,8 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
       for (int j = 0; j < 10; ++j) fit.model.mechanical[static_cast<std::size_t>(j)] = c[j];
     }
   }
-  fit.mechanical_fit_pct = 100.0 * best / accel_target.squaredNorm();
+  // [2A] of the fit: the share of the acceleration's energy the best friction scale's regression misses
+  fit.mechanical_fit_pct = j_ratio_percent(best, accel_target.squaredNorm(), "the record's acceleration");
   fit.mechanical_residual_rms = std::sqrt(best / static_cast<double>(used_rows));
   if (sampled && fit.model.mechanical[6] < 0.0) {
     // the one-step recursion's resonance put where the plant's is: 2 − 2·cos θ = −h²·c6 with θ = ω₀h
@@ -343,10 +345,10 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
     }
   }
   if (!std::isfinite(best)) throw std::invalid_argument("mirror fit: no electrical model the filter can invert fits the record");
-  const double drive_power = target.squaredNorm();
   fit.model.electrical[6] = fit.model.electrical[5] * b1;
   fit.model.electrical[7] = fit.model.electrical[5] * b2;
-  fit.electrical_fit_pct = 100.0 * best / drive_power;
+  // [2A] of the fit: the share of the current's energy the chosen A(z) and back-EMF miss
+  fit.electrical_fit_pct = j_ratio_percent(best, target.squaredNorm(), "the record's coil current");
   return fit;
 }
 

@@ -140,8 +140,8 @@ Eigen::VectorXd simulate_mirror_model(const MirrorModel& model, const Eigen::Vec
 /// How a gray-box fit went.
 struct MirrorFit {
   MirrorModel model;               ///< the fitted model
-  double electrical_fit_pct = 0.0; ///< residual power of [M1] (solved for the current) over the current's, percent
-  double mechanical_fit_pct = 0.0; ///< residual power of [M2] over the acceleration's power, percent
+  double electrical_fit_pct = 0.0; ///< J [2A] of [M1] solved for the current: its residual's energy over the current's, %
+  double mechanical_fit_pct = 0.0; ///< J [2A] of [M2]: its residual's energy over the acceleration's, %
   double mechanical_residual_rms = 0.0;  ///< rms of [M2]'s residual, mm/s²
 };
 
@@ -153,8 +153,8 @@ enum class MirrorRecordKind { sampled_plant, discrete_model };
 /// squares (velocity from the displacement's differences, as [M3] has it), choosing the drive's delay in
 /// 0..max_delay samples, the length of A(z) (1–4 taps, kept only when minimum phase) and the friction velocity
 /// scale on a grid by the smallest residual. Throws
-/// std::invalid_argument naming the problem for columns of unequal length, fewer than 1000 samples or a
-/// non-finite sample.
+/// std::invalid_argument naming the problem for columns of unequal length, fewer than 1000 samples, a
+/// non-finite sample, or a current or displacement without energy (J's silent output, validation/performance.h).
 MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& current,
                            const Eigen::VectorXd& displacement, double fs, int max_delay = 4,
                            MirrorRecordKind kind = MirrorRecordKind::sampled_plant);

@@ -1,6 +1,6 @@
 #pragma once
 // The one state-space step: a system and its state x, stepped sample by sample. models::simulate, the
-// engine's LinearStage and its StateSpaceStage all run it, so the three compute the same numbers.
+// engine's StateSpaceStage and the tests' LinearStage all run it, so the three compute the same numbers.
 
 #include <Eigen/Core>
 #include <span>

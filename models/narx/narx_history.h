@@ -1,7 +1,7 @@
 #pragma once
 // The one NARX regressor and output history ([5G]): the layout x(k) = [y(k−1)..y(k−na), u(k−nk)..u(k−nk−nb)]
 // written once, read from whole records (NarxModel::regressor, training) or from histories kept sample by
-// sample (the engine's NarxStage, the neural feedback controller's plant model).
+// sample (the neural feedback controller's plant model, the tests' NarxStage).
 
 #include <Eigen/Core>
 #include <algorithm>

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "api/jobs/job_kinds.h"
 #include "api/server.h"
 #include "models/kinds/model_file.h"
 #include "usecases/design_lq.h"
@@ -18,6 +19,7 @@
 #include "usecases/identify_oscillator.h"
 #include "usecases/equal_output_thd.h"
 #include "usecases/identify_ss.h"
+#include "usecases/plant_survey.h"
 #include "usecases/tune.h"
 #include "usecases/validate_model.h"
 
@@ -79,6 +81,7 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
       {"identify-mimo", "IdentifyMimoParams", usecases::to_json(usecases::IdentifyMimoRequest{})},
       {"tune", "TuneParams", usecases::to_json(usecases::TuneRequest{})},
       {"verify", "VerifyParams", usecases::to_json(usecases::EqualOutputSettings{})},
+      {"plant-survey", "PlantSurveyParams", usecases::to_json(usecases::PlantSurveyRequest{})},
   };
   const json& schemas = openapi_document().at("components").at("schemas");
   for (const DocumentedRequest& r : requests) {
@@ -96,6 +99,28 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
           << "api/ROUTES.md's entry of " << r.kind << " does not mention the field " << path << " (as `" << leaf
           << "` or \"" << leaf << "\")";
     }
+  }
+}
+
+// A job kind whose params are read by its job (identify-narx, its restarts a use case's request): every param the job
+// fills in is in the OpenAPI schema and the ROUTES.md entry of its kind, with the schema's default the job's.
+TEST(RequestDocs, EveryIdentifyNarxParamIsDocumentedWithTheJobsDefault) {
+  JobEnvironment env;
+  env.excite = [](const Eigen::VectorXd& drive) { return drive; };  // a backend to excite (the default source)
+  const json filled = validate_job_params("identify-narx", json::object(), env);
+  const json& schema = openapi_document().at("components").at("schemas").at("IdentifyNarxParams");
+  const std::string entry = routes_entry("identify-narx");
+  ASSERT_FALSE(entry.empty());
+  ASSERT_TRUE(filled.contains("restarts")) << filled;
+  for (const auto& [field, value] : filled.items()) {
+    const json* documented = schema_of(schema, field);
+    ASSERT_NE(documented, nullptr) << "the OpenAPI schema IdentifyNarxParams lacks the param " << field;
+    if (documented->contains("default")) EXPECT_EQ(documented->at("default"), value) << field;
+    // The data's source is written "record|excite" in every entry that takes one (ROUTES.md "record" says how).
+    const bool source = (field == "record" || field == "excite") && entry.find("record|excite") != std::string::npos;
+    EXPECT_TRUE(source || entry.find("`" + field + "`") != std::string::npos ||
+                entry.find("\"" + field + "\"") != std::string::npos)
+        << "api/ROUTES.md's entry of identify-narx does not mention the param " << field;
   }
 }
 

@@ -127,6 +127,19 @@ TEST(SpectrumFrfTest, CoherenceDropsWithOutputNoise) {
   EXPECT_NEAR(mean_h.imag(), 0.0, 0.01);
 }
 
+// The segment rule: the longest power of 2 from 64 to the cap that the record holds four times, counted by hand.
+TEST(SpectrumWelchTest, TheSegmentIsTheLongestPowerOfTwoARecordHoldsFourTimes) {
+  EXPECT_EQ(welch_segment(100), 64u);     // fewer than four of 64: still 64
+  EXPECT_EQ(welch_segment(511), 64u);     // 511/4 = 127 < 128
+  EXPECT_EQ(welch_segment(512), 128u);
+  EXPECT_EQ(welch_segment(3000), 512u);   // 750 ≥ 512, < 1024
+  EXPECT_EQ(welch_segment(4096), 1024u);
+  EXPECT_EQ(welch_segment(1000000), 1024u);           // the default cap
+  EXPECT_EQ(welch_segment(1000000, 4096), 4096u);     // the analysis's cap
+  EXPECT_EQ(welch_segment(20000, 4096), 4096u);       // 5000 ≥ 4096
+  EXPECT_EQ(welch_segment(16383, 4096), 2048u);       // 4095 < 4096
+}
+
 TEST(SpectrumTest, InvalidInputsThrow) {
   const Eigen::VectorXd x = gaussian(100, 1.0, 1);
   EXPECT_THROW(welch_psd(x, 1000.0, WelchSpec{128, 0.5, Window::hann}), std::invalid_argument);

@@ -28,6 +28,7 @@
 #include "models/plant/plant_presets.h"
 #include "models/plant/virtual_transducer.h"
 #include "tests/engine/engine_test_models.h"
+#include "tests/support/model_stages.h"
 #include "tests/support/ss_models.h"
 
 namespace {

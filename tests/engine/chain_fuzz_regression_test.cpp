@@ -2,10 +2,10 @@
 // validated, and what cannot run is a ConfigError naming the key path), kept byte for byte.
 //
 // LinearModelTooLongToRealize…: a linear model's loader accepts a delay nk up to 384000·60 samples, but the
-// engine's LinearStage realizes the model as a dense state space of order max(na, nb + nk) (models::realize:
+// LinearStage (then the engine's, now the tests', tests/support/model_stages.h) realizes the model as a dense state space of order max(na, nb + nk) (models::realize:
 // n×n long-double matrices, a Jacobi SVD, a complex LU per frequency; then an n×n product per sample).
 // nk = 102 took 15 s in the fuzzer; nk = 100000 asked for 160 GB, an out-of-memory crash. The stage now
-// refuses more than kMaxLinearStageStates states when it is made; a chain now refuses a linear model in any slot
+// refuses more than kMaxStageStates states when it is made; a chain now refuses a linear model in any slot
 // (a plant model: the model-kind registry gives it none) before realising anything.
 #include <gtest/gtest.h>
 
@@ -20,6 +20,7 @@
 #include "models/linear/linear_model.h"
 #include "models/io/config_error.h"
 #include "tests/support/expect_error.h"
+#include "tests/support/model_stages.h"
 
 namespace panelbass::engine {
 namespace {

@@ -18,6 +18,7 @@
 #include "dsp/random.h"
 #include "engine/safety_limiter.h"
 #include "tests/engine/engine_test_models.h"
+#include "tests/support/model_stages.h"
 
 namespace panelbass::engine {
 namespace {

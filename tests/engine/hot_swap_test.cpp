@@ -20,6 +20,7 @@
 #include "engine/virtual_backend.h"
 #include "models/plant/plant_presets.h"
 #include "tests/engine/engine_test_models.h"
+#include "tests/support/model_stages.h"
 
 namespace panelbass::engine {
 namespace {

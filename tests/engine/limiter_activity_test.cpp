@@ -13,6 +13,7 @@
 #include "engine/chain.h"
 #include "engine/controller_stages.h"
 #include "tests/engine/engine_test_models.h"
+#include "tests/support/model_stages.h"
 
 namespace panelbass::engine {
 namespace {

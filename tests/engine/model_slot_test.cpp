@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "tests/engine/engine_test_models.h"
+#include "tests/support/model_stages.h"
 
 namespace panelbass::engine {
 namespace {

@@ -9,6 +9,7 @@
 
 #include "dsp/butterworth.h"
 #include "tests/engine/engine_test_models.h"
+#include "tests/support/model_stages.h"
 
 namespace panelbass::engine {
 namespace {

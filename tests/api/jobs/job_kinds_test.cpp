@@ -14,7 +14,7 @@ namespace {
 TEST(JobKinds, ListsTheKindsInTheOrderOfRoutes) {
   EXPECT_EQ(job_kinds(), (std::vector<std::string>{"excite", "identify-linear", "identify-narx", "identify-oscillator",
                                                    "identify-ss", "identify-average", "identify-mimo", "validate", "design-lq",
-                                                   "design-nn", "design-mirror", "evaluate", "analyze", "harmonics", "diagnose", "verify", "tune"}));
+                                                   "design-nn", "design-mirror", "evaluate", "analyze", "harmonics", "diagnose", "verify", "tune", "plant-survey"}));
 }
 
 TEST_F(JobKindsTest, UnknownKindIsRefusedWithTheKindsThereAre) {

@@ -1,6 +1,7 @@
 // One verb, two doors: the CLI and the API's job run the same use case (usecases/), so given the same model (or
 // record) and the same options they make the same model and the same figures, and refuse the same bad input with the
-// same words: design lq, validate, identify ss, identify average and identify mimo.
+// same words: design lq, validate, identify ss, identify average, identify mimo, identify narx's restarts and plant
+// survey.
 // The CLI runs as a user runs it (the panelbass binary); the job through the job kinds' registry.
 #include <gtest/gtest.h>
 
@@ -15,6 +16,7 @@
 #include "api/record_store.h"
 #include "dsp/periodic_record.h"
 #include "models/linear/mimo_model.h"
+#include "models/narx/narx_model.h"
 #include "models/state_space_nn/ss_model.h"
 #include "usecases/design_lq.h"
 
@@ -284,6 +286,87 @@ TEST_F(UseCaseParity, IdentifyMimoMakesTheSameModelFromBothDoors) {
   const std::string missing = refusal("identify-mimo", {{"record", id}, {"inputs", {"u1", "u3"}}, {"outputs", {"y1", "y2"}}});
   EXPECT_NE(missing.find("params.record: "), std::string::npos) << missing;
   EXPECT_NE(missing.find("no column \"u3\""), std::string::npos) << missing;
+}
+
+// identify narx --restarts and the identify-narx job's restarts: one use case (usecases/narx_restarts.h), so the same
+// record, structure and seed give the same trainings, the same one kept and the same model.
+TEST_F(UseCaseParity, IdentifyNarxRestartsKeepTheSameModelFromBothDoors) {
+  const json record = run("excite", {{"samples", 2000}, {"validation_samples", 1000}, {"amplitude", 0.5}, {"seed", 3}}, "j2");
+  write_parts(record, dir_);
+  const json job = run("identify-narx", {{"record", "j2"}, {"na", 2}, {"nb", 2}, {"nk", 1}, {"hidden", {3}},
+                                         {"max_iterations", 3}, {"seed", 4}, {"restarts", 3}}, "j3");
+  const testing_support::RunResult r = cli("identify narx --data est.csv --val val.csv --fs 3000 --na 2 --nb 2 --nk 1 "
+                                           "--hidden 3 --max-iter 3 --seed 4 --restarts 3 --out narx.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json printed = json::parse(r.out);
+  const json& from_job_restarts = job.at("summary").at("restarts");
+  const json& from_cli_restarts = printed.at("structure").at("restarts");
+  // The same three trainings, from seeds 4, 5, 6, with the same validation J each.
+  ASSERT_EQ(from_job_restarts.at("tried").size(), 3u) << from_job_restarts;
+  ASSERT_EQ(from_cli_restarts.at("tried").size(), 3u) << from_cli_restarts;
+  double lowest = 1e300;
+  std::uint64_t lowest_seed = 0;
+  for (std::size_t k = 0; k < 3; ++k) {
+    const json &a = from_job_restarts.at("tried")[k], &b = from_cli_restarts.at("tried")[k];
+    EXPECT_EQ(a.at("seed"), 4 + k);
+    EXPECT_EQ(b.at("seed"), 4 + k);
+    EXPECT_NEAR(a.at("J_val_pct").get<double>(), b.at("J_val_pct").get<double>(), 1e-9 * b.at("J_val_pct").get<double>());
+    if (a.at("J_val_pct").get<double>() < lowest) {
+      lowest = a.at("J_val_pct").get<double>();
+      lowest_seed = a.at("seed").get<std::uint64_t>();
+    }
+  }
+  EXPECT_NE(from_job_restarts.at("tried")[0].at("J_val_pct"), from_job_restarts.at("tried")[1].at("J_val_pct"))
+      << "restarts start from different weights";
+  // The one of the lowest validation J kept, at both doors: the same weights, the same J.
+  EXPECT_EQ(from_job_restarts.at("chosen_seed"), lowest_seed);
+  EXPECT_EQ(from_cli_restarts.at("chosen_seed"), lowest_seed);
+  const models::NarxModel from_cli = models::narx_model_from_json(models::read_json_file(dir_ / "narx.json"));
+  const models::NarxModel from_job = models::narx_model_from_json(*store_->model(job.at("model_id")));
+  EXPECT_EQ(from_job.meta.at("seed"), lowest_seed);
+  EXPECT_EQ(from_cli.meta.at("seed"), lowest_seed);
+  ASSERT_EQ(from_cli.net.parameters().size(), from_job.net.parameters().size());
+  EXPECT_LE((from_cli.net.parameters() - from_job.net.parameters()).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_NEAR(job.at("j_val_pct").get<double>(), printed.at("J_val_pct").get<double>(), 1e-9 * lowest);
+  EXPECT_NEAR(job.at("j_val_pct").get<double>(), lowest, 1e-9 * lowest);
+  EXPECT_EQ(job.at("summary").at("iterations"), printed.at("iterations"));
+
+  // Refused with the same words: no validation part to choose by, or a start that is not a seed's draw.
+  const std::string no_val = refusal("identify-narx", {{"excite", {{"validation_samples", 0}}}, {"restarts", 2}});
+  const testing_support::RunResult cli_no_val = cli("identify narx --data est.csv --fs 3000 --restarts 2 --out no.json");
+  EXPECT_EQ(cli_no_val.status, 2) << cli_no_val.err;
+  const std::string words = "2 trainings need validation data: the one of the lowest validation J is kept";
+  EXPECT_NE(no_val.find("params.restarts: " + words), std::string::npos) << no_val;
+  EXPECT_NE(cli_no_val.err.find("--restarts: " + words), std::string::npos) << cli_no_val.err;
+  const std::string seeded = refusal("identify-narx", {{"record", "j2"}, {"friction_units", {3.0}}, {"restarts", 2}});
+  const testing_support::RunResult cli_seeded =
+      cli("identify narx --data est.csv --val val.csv --fs 3000 --friction-units 3 --restarts 2 --out no.json");
+  const std::string fresh = "2 trainings start from their seeds' weights";
+  EXPECT_NE(seeded.find("params.restarts: " + fresh), std::string::npos) << seeded;
+  EXPECT_NE(cli_seeded.err.find("--restarts: " + fresh), std::string::npos) << cli_seeded.err;
+}
+
+TEST_F(UseCaseParity, PlantSurveyGivesTheSameFiguresFromBothDoors) {
+  const json job = run("plant-survey", {{"plant", "panel-exciter"}, {"samples", 2000}, {"seed", 3}}, "j1");
+  const testing_support::RunResult r = cli("plant survey panel-exciter --samples 2000 --seed 3");
+  ASSERT_EQ(r.status, 0) << r.err;
+  // The same simulation from the same seed: the same figures, to the last digit the JSON keeps.
+  EXPECT_EQ(job.at("summary"), json::parse(r.out));
+  EXPECT_EQ(job.at("summary").at("plant"), "panel-exciter");
+  // The default plant is the server's own transducer when it runs one, else the first preset.
+  EXPECT_EQ(validate_job_params("plant-survey", json::object(), env_).at("plant"), models::plant_preset_names().front());
+  use_plant("linear");
+  EXPECT_EQ(validate_job_params("plant-survey", json::object(), env_).at("plant"), "server");
+  // A field out of range, the same words at both doors.
+  const std::string refused = refusal("plant-survey", {{"plant", "panel-exciter"}, {"samples", 10}});
+  const testing_support::RunResult bad = cli("plant survey panel-exciter --samples 10");
+  EXPECT_EQ(bad.status, 2) << bad.err;
+  EXPECT_NE(refused.find("params.samples: must be within 1000..10000000, got 10"), std::string::npos) << refused;
+  EXPECT_NE(bad.err.find("--samples: must be within 1000..10000000, got 10"), std::string::npos) << bad.err;
+  const std::string loud = refusal("plant-survey", {{"amplitude", 1.5}});
+  const testing_support::RunResult bad_loud = cli("plant survey panel-exciter --amplitude 1.5");
+  EXPECT_NE(loud.find("params.amplitude: must be within (0, 1], got 1.5"), std::string::npos) << loud;
+  EXPECT_NE(bad_loud.err.find("--amplitude: must be within (0, 1], got 1.5"), std::string::npos) << bad_loud.err;
 }
 
 }  // namespace
