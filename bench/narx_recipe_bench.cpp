@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
   long est_rows = 0, init = 50;
   int na = 8, nb = 8, max_iterations = 100, restarts = 1, patience = 20;
   int pem_max_iterations = -1;
+  double pem_min_progress = models::kDefaultPemMinProgress;
   std::vector<int> hidden{17};
   std::uint64_t seed = 1;
   models::MultipleShootingOptions ms;
@@ -42,6 +43,9 @@ int main(int argc, char** argv) {
   app.add_option("--max-iter", max_iterations)->capture_default_str();
   app.add_option("--pem-max-iter", pem_max_iterations, "The pem mode's own limit (-1: --max-iter)")->capture_default_str();
   app.add_option("--patience", patience)->capture_default_str();
+  app.add_option("--pem-min-progress", pem_min_progress,
+                 "pem also stops once its best J_val fell by less than this fraction over 10 iterations (0: off)")
+      ->capture_default_str();
   app.add_option("--seed", seed)->capture_default_str();
   app.add_option("--restarts", restarts)->capture_default_str();
   app.add_option("--weight-decay", weight_decay)->capture_default_str();
@@ -80,6 +84,7 @@ int main(int argc, char** argv) {
   options.max_iterations = max_iterations;
   options.pem_max_iterations = pem_max_iterations;
   options.patience = patience;
+  options.pem_min_progress = pem_min_progress;
   options.weight_decay = weight_decay;
   options.init = std::min<Eigen::Index>(init, std::min<Eigen::Index>(est_rows, n_val) / 10);
   options.multiple_shooting = ms;

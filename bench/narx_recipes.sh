@@ -17,8 +17,10 @@
 # Usage: bash bench/narx_recipes.sh [RECORD...]   (exciter-noise exciter-low a099 silverbox; default all)
 #   env: PEER_BUDGET=120 seconds for the whole peer recipe, PB_RECIPES="--train …; --train …" (flags of
 #        narx_recipe_bench, as identify narx's; its --weight-decay defaults to the library's 0, not the CLI's 0.01,
-#        so the recipes name theirs),
-#        PANELBASS_DATA=../shared/data, PYTHON=/usr/bin/python3
+#        so the recipes name theirs; its --pem-min-progress is the library's and the CLI's 0.1, --pem-min-progress 0
+#        turns the rule off),
+#        PANELBASS_DATA=../shared/data, PYTHON=/usr/bin/python3, NARX_WORK=DIR (keep the records, RECORD.csv,
+#        and the logs, RECORD-pbI.csv per recipe I and RECORD-peer.csv, there instead of a temporary folder)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=build/bin/panelbass
@@ -28,8 +30,11 @@ budget=${PEER_BUDGET:-120}
 data=${PANELBASS_DATA:-../shared/data}
 recipes=${PB_RECIPES:-"--train pem,oem-d --weight-decay 0; --train pem,oem-d --weight-decay 0.01; --train pem,oem-ms,oem-d --weight-decay 0.01; --train pem,oem-ms,oem-d --ms-window 100 --weight-decay 0.01; --train pem,oem-d --weight-decay 0.1; --train pem,oem-d --weight-decay 0.01 --restarts 3"}
 IFS=';' read -r -a recipe_list <<< "$recipes"
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+if [[ -n ${NARX_WORK:-} ]]; then  # keep the records and the per-iteration logs there
+  work=$NARX_WORK; mkdir -p "$work"
+else
+  work=$(mktemp -d); trap 'rm -rf "$work"' EXIT
+fi
 
 for b in "$bin" "$bench"; do [[ -x $b ]] || { echo "narx_recipes: $b not found; build it first" >&2; exit 1; }; done
 if ! "$python" -c 'import torch' 2>/dev/null || ! command -v jq >/dev/null; then

@@ -121,6 +121,7 @@ struct IdentifyNarxOptions {
   std::string optimizer = "lm";
   int max_iterations = 100;
   int pem_max_iterations = models::TrainingOptions{}.pem_max_iterations;  ///< --pem-max-iter
+  double pem_min_progress = models::kDefaultPemMinProgress;               ///< --pem-min-progress
   std::uint64_t seed = 1;
   double step = 0.1;
   long batch = 0;
@@ -215,6 +216,7 @@ void run_identify_narx(const IdentifyNarxOptions& o) {
   options.optimizer = models::parse_optimizer(o.optimizer);
   options.max_iterations = o.max_iterations;
   options.pem_max_iterations = o.pem_max_iterations;
+  options.pem_min_progress = o.pem_min_progress;
   options.step = o.step;
   options.batch = o.batch;
   options.transient_skip = o.skip;
@@ -409,6 +411,11 @@ void register_identify(CLI::App& app) {
   narx->add_option("--max-iter", n->max_iterations, "Iterations per mode")->check(CLI::Range(0, 1000000))->capture_default_str();
   narx->add_option("--pem-max-iter", n->pem_max_iterations, "The pem mode's own limit (-1: --max-iter)")
       ->check(CLI::Range(-1, 1000000))
+      ->capture_default_str();
+  narx->add_option("--pem-min-progress", n->pem_min_progress,
+                   "pem also stops once its best validation J fell by less than this fraction over its last 10 "
+                   "iterations, leaving them to the output-error mode (0: off)")
+      ->check(CLI::Range(0.0, 0.999))
       ->capture_default_str();
   narx->add_option("--seed", n->seed, "Seed of the initial weights ([5F])")->capture_default_str();
   narx->add_option("--step", n->step, "Steepest-descent step alpha")->check(CLI::PositiveNumber)->capture_default_str();

@@ -39,6 +39,7 @@ json identify_narx_params(const json& params, const JobEnvironment& env) {
   r.choices("modes", {"pem", "oem-d"}, {"pem", "oem-s", "oem-d", "oem-n"});
   r.integer("max_iterations", 30, 0, kMaxIterations);
   r.integer("pem_max_iterations", models::TrainingOptions{}.pem_max_iterations, -1, kMaxIterations);
+  r.number("pem_min_progress", models::kDefaultPemMinProgress, {0.0, 1.0, false, true});
   r.number("weight_decay", models::kDefaultLmWeightDecay, {0.0, 1e6, false, false});
   r.integer("seed", 1, 0, kMaxSeed);
   // The control excitation's harmonic weights in the loss (identify narx --weight-col w).
@@ -112,6 +113,7 @@ json identify_narx_work(const json& params, const JobEnvironment& env, JobContro
   options.optimizer = models::Optimizer::lm;
   options.max_iterations = params.at("max_iterations").get<int>();
   options.pem_max_iterations = params.at("pem_max_iterations").get<int>();
+  options.pem_min_progress = params.at("pem_min_progress").get<double>();
   options.weight_decay = params.at("weight_decay").get<double>();
   const bool weighted = params.value("weighted", false);
   if (weighted) {

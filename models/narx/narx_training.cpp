@@ -341,6 +341,10 @@ void require_options(const TrainingOptions& o) {
     throw std::invalid_argument("NARX training: pem_max_iterations must be ≥ 0 (or −1: max_iterations), got " +
                                 std::to_string(o.pem_max_iterations));
   }
+  if (!(o.pem_min_progress >= 0.0 && o.pem_min_progress < 1.0)) {
+    throw std::invalid_argument("NARX training: pem_min_progress must be within [0, 1) (0: off), got " +
+                                std::to_string(o.pem_min_progress));
+  }
   if (o.max_iterations < 0) {
     throw std::invalid_argument("NARX training: max_iterations must be ≥ 0, got " + std::to_string(o.max_iterations));
   }
@@ -525,6 +529,7 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
   Eigen::VectorXd best_theta = current.net.parameters();
 
   int iteration = 0;
+  int handed_on = 0;  // iterations the pem mode left to the next mode (pem_min_progress)
   // Each mode in turn ([5N]'s loss, [5O]'s gradient): iterations of LM, the line search or [5C]'s passes,
   // stopped early on the validation J (fig. 6.4)
   for (const TrainingMode mode : options.modes) {
@@ -536,7 +541,9 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
     // to the previous mode's best J_val before it improves on it, and is not cut off for that.
     double mode_best = std::numeric_limits<double>::infinity();
     const int limit = mode == TrainingMode::pem && options.pem_max_iterations >= 0 ? options.pem_max_iterations
-                                                                                   : options.max_iterations;
+                                                                                   : options.max_iterations + handed_on;
+    handed_on = 0;
+    std::vector<double> mode_bests;  // the mode's best J_val after each of its iterations
     for (int i = 0; i < limit; ++i) {
       const Eigen::VectorXd before = current.net.parameters();
       bool moved = false;
@@ -567,6 +574,15 @@ TrainingResult train_narx(const NarxModel& initial, const Eigen::VectorXd& u_est
         mode_best = r.j_val_weighted_pct;
         without_improvement = 0;
       } else if (++without_improvement >= options.patience) {
+        break;
+      }
+      // PEM is the warm start: once its best J_val has fallen by less than pem_min_progress over the last
+      // kPemProgressWindow iterations, the output-error mode that follows spends the rest of its iterations better
+      mode_bests.push_back(mode_best);
+      const auto window = static_cast<std::size_t>(kPemProgressWindow);
+      if (mode == TrainingMode::pem && options.pem_min_progress > 0.0 && mode_bests.size() > window &&
+          mode_best > (1.0 - options.pem_min_progress) * mode_bests[mode_bests.size() - 1 - window]) {
+        handed_on = limit - (i + 1);
         break;
       }
     }

@@ -57,6 +57,11 @@ struct TrainingRecord {
 /// bench/narx_recipes.sh it reached a lower validation J than none at little cost (docs/identification.md, issue 59).
 inline constexpr double kDefaultLmWeightDecay = 0.01;
 
+/// The default of TrainingOptions::pem_min_progress: the fraction measured best on bench/narx_recipes.sh.
+inline constexpr double kDefaultPemMinProgress = 0.1;
+/// Iterations over which TrainingOptions::pem_min_progress is judged.
+inline constexpr int kPemProgressWindow = 10;
+
 /// How training runs.
 struct TrainingOptions {
   std::vector<TrainingMode> modes{TrainingMode::pem, TrainingMode::oem_d};  ///< run one after the other
@@ -65,6 +70,12 @@ struct TrainingOptions {
   /// The prediction-error mode's own limit (−1: max_iterations): PEM's validation J creeps down long after the
   /// output-error mode would do better from where it is (docs/identification.md, issue 59)
   int pem_max_iterations = -1;
+  /// The prediction-error mode also stops once its best validation J has fallen by less than this fraction over
+  /// its last kPemProgressWindow iterations (0: off; needs validation data and early stopping), and the mode after
+  /// it gets the iterations it left. PEM is the output-error mode's warm start: on bench/narx_recipes.sh's records
+  /// its J_val creeps for tens of iterations that oem-d spends better, while a fixed short limit left the
+  /// lightly damped A = 0.99 record a worse start (docs/identification.md, issue 59)
+  double pem_min_progress = kDefaultPemMinProgress;
   double step = 0.1;                 ///< α for sd
   Eigen::Index batch = 0;            ///< L for sd: samples per update (0 = all, L = N)
   Eigen::Index transient_skip = -1;  ///< [5M] samples left out of the OEM loss; −1 = 2·(na + nb)

@@ -45,6 +45,7 @@ TEST_F(JobKindsTest, WrongTypesAndRangesAreNamed) {
   EXPECT_NE(refusal("identify-narx", {{"hidden", json::array()}}).find("params.hidden"), std::string::npos);
   EXPECT_NE(refusal("identify-narx", {{"hidden", {8, 0}}}).find("params.hidden[1]"), std::string::npos);
   EXPECT_NE(refusal("identify-narx", {{"modes", {"pem", "gradient"}}}).find("params.modes[1]"), std::string::npos);
+  EXPECT_NE(refusal("identify-narx", {{"pem_min_progress", 1.0}}).find("params.pem_min_progress"), std::string::npos);
   EXPECT_NE(refusal("identify-narx", {{"friction_units", {3.0, -1.0}}}).find("params.friction_units[1]"), std::string::npos);
   EXPECT_NE(refusal("identify-narx", {{"friction_units", {3.0, 10.0}}, {"friction_lags", 5}, {"hidden", {8}}})
                 .find("params.friction_units: 2 gains x 5 lags"),

@@ -346,6 +346,7 @@ TEST(NarxTrainingEarlyStopping, KeepsTheParametersWithTheBestValidationJ) {
   TrainingOptions o = options_for({TrainingMode::pem}, Optimizer::lm, 200);
   o.early_stopping = true;
   o.patience = 10;
+  o.pem_min_progress = 0.0;  // patience alone (the progress rule: below)
   const TrainingResult r = train_narx(c.start, c.u, c.y, c.u_val, c.y_val, o);
   ASSERT_GE(r.history.size(), 2u);
   auto best = std::min_element(r.history.begin(), r.history.end(),
@@ -402,6 +403,47 @@ TEST(NarxTrainingHistory, ThePemModeStopsAtItsOwnLimitAndTheNextModeRunsToTheCom
   for (std::size_t i = 1; i < r.history.size(); ++i) EXPECT_EQ(r.history[i].mode, i <= 2 ? TrainingMode::pem : TrainingMode::oem_d) << i;
   o.pem_max_iterations = -2;
   EXPECT_THROW((void)train_narx(c.start, c.u, c.y, c.u_val, c.y_val, o), std::invalid_argument);
+}
+
+TEST(NarxTrainingHistory, ThePemModeStopsWhenItsBestJValFellByLessThanTheMinimumProgressOverTenAndHandsOnTheRest) {
+  OverfitCase c;
+  TrainingOptions o = options_for({TrainingMode::pem}, Optimizer::lm, 200);
+  o.early_stopping = true;
+  o.patience = 200;  // the progress rule alone
+  o.pem_min_progress = 0.1;
+  const TrainingResult r = train_narx(c.start, c.u, c.y, c.u_val, c.y_val, o);
+  // the mode's best J_val after each iteration, from the history; the first iteration i > 10 whose best is above
+  // 0.9 × the best 10 iterations before is where it must have stopped
+  std::vector<double> best;
+  for (std::size_t i = 1; i < r.history.size(); ++i) {
+    best.push_back(std::min(best.empty() ? r.history[i].j_val_pct : best.back(), r.history[i].j_val_pct));
+  }
+  const auto window = static_cast<std::size_t>(kPemProgressWindow);
+  std::size_t expected_stop = 0;
+  for (std::size_t i = window; i < best.size() && expected_stop == 0; ++i) {
+    if (best[i] > 0.9 * best[i - window]) expected_stop = i + 1;
+  }
+  ASSERT_GT(expected_stop, window) << "the rule never applied";
+  EXPECT_EQ(static_cast<std::size_t>(r.iterations), expected_stop);
+  EXPECT_LT(r.iterations, o.max_iterations);
+  // the next mode gets the iterations pem left: with a limit 5 above where pem stopped, oem-d runs 5 more than it
+  const int stop = r.iterations;
+  TrainingOptions both = o;
+  both.modes = {TrainingMode::pem, TrainingMode::oem_d};
+  both.max_iterations = stop + 5;
+  const TrainingResult r2 = train_narx(c.start, c.u, c.y, c.u_val, c.y_val, both);
+  const auto in_mode = [&](TrainingMode m) {
+    return std::count_if(r2.history.begin() + 1, r2.history.end(), [&](const TrainingRecord& x) { return x.mode == m; });
+  };
+  EXPECT_EQ(in_mode(TrainingMode::pem), stop);
+  EXPECT_EQ(in_mode(TrainingMode::oem_d), stop + 10);
+  // without the rule the mode runs on
+  o.pem_min_progress = 0.0;
+  EXPECT_GT(train_narx(c.start, c.u, c.y, c.u_val, c.y_val, o).iterations, r.iterations);
+  for (const double bad : {-0.1, 1.0, std::numeric_limits<double>::quiet_NaN()}) {
+    o.pem_min_progress = bad;
+    EXPECT_THROW((void)train_narx(c.start, c.u, c.y, c.u_val, c.y_val, o), std::invalid_argument) << bad;
+  }
 }
 
 TEST(NarxTrainingSteepestDescent, FullBatchStepIsAlphaTimesTheGradient) {
