@@ -205,6 +205,29 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     }
     d.rounds.push_back(round_json);
     if (earning.empty()) {
+      // With the current, a first force the drive's candidates are too small to earn may still show on the output
+      // explained from the current (Rms(v) and friction together, whose nonlinear parts partly cancel in the drive's
+      // residual): it is found there, with a second force beside it if the channel shows one.
+      if (force && d.findings.empty())
+        if (auto lead = diagnosis_detail::force_lead(*force, r, current, scored, kept)) {
+          const Fit before = current;
+          Finding f = diagnosis_detail::partner_finding(r, *lead, nullptr, current, where_est, d.noise_floor_pct);
+          judge_at_levels(f, before.model, current.model);
+          progress("found " + to_string(f.effect) + " (the force channel)");
+          d.findings.push_back(std::move(f));
+          if (auto partner = diagnosis_detail::force_partner(*force, r, before, *lead->candidate, scored, kept)) {
+            kept.push_back(lead->candidate->effect);
+            const Fit with_lead = current;
+            Finding g = diagnosis_detail::partner_finding(r, *partner, lead->candidate, current, where_est, d.noise_floor_pct);
+            judge_at_levels(g, with_lead.model, current.model);
+            progress("found " + to_string(g.effect) + " beside it (the force channel)");
+            kept.push_back(g.effect);
+            d.findings.push_back(std::move(g));
+          } else {
+            kept.push_back(lead->candidate->effect);
+          }
+          continue;
+        }
       d.stop = {{"round", round + 1}, {"reason", "no candidate earns its parameters (BIC on the validation samples)"}};
       break;
     }
@@ -365,7 +388,7 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     kept.push_back(chosen->effect);
     current = chosen->fit;
     if (partner) {
-      Finding g = diagnosis_detail::partner_finding(r, *partner, *chosen, current, where_est, d.noise_floor_pct);
+      Finding g = diagnosis_detail::partner_finding(r, *partner, chosen, current, where_est, d.noise_floor_pct);
       judge_at_levels(g, chosen->fit.model, current.model);
       progress("found " + to_string(g.effect) + " beside " + to_string(chosen->effect) + " (the force channel)");
       kept.push_back(g.effect);

@@ -60,11 +60,17 @@ std::optional<ForcePartner> force_partner(const ForceChannel& channel, const Rec
                                           const Candidate& chosen, const std::vector<Candidate>& scored,
                                           const std::vector<Effect>& kept);
 
-/// The partner's finding, after the round's `chosen`: its drive-side term is fitted jointly with every term of
+/// With the current, in the first round when no candidate earns its parameters on the drive: the force whose
+/// features earn most on the force channel, when that is kPartnerMargin or more (on the effect-free records of
+/// both families every force scored −51 to −37: docs/diagnosis.md); its runner-up the next force.
+std::optional<ForcePartner> force_lead(const ForceChannel& channel, const Records& r, const Fit& current,
+                                       const std::vector<Candidate>& scored, const std::vector<Effect>& kept);
+
+/// The partner's finding, after the round's `chosen` (nullptr: a force the force channel leads with): its drive-side term is fitted jointly with every term of
 /// `current` (the model with `chosen`, replaced by the joint fit when that lowers validation J; else the partner is
 /// reported and its term not applied); its word from the force channel's margin over the next-best force,
 /// `where` the estimation residual's location, `noise_floor_pct` for the share of J it explains.
-Finding partner_finding(const Records& r, const ForcePartner& partner, const Candidate& chosen, Fit& current,
+Finding partner_finding(const Records& r, const ForcePartner& partner, const Candidate* chosen, Fit& current,
                         const ResidualLocation& where, double noise_floor_pct);
 
 }  // namespace panelbass::models::diagnosis_detail
