@@ -127,6 +127,10 @@ std::optional<ForcePartner> force_partner(const ForceChannel& channel, const Rec
   with_chosen.push_back(chosen.effect);
   std::optional<ForcePartner> best = best_force(channel, r, current, scored, kept, with_chosen, chosen.effect);
   if (!best || best->beside.score < kPartnerMargin) return std::nullopt;
+  // Beside a spring's x², a coil offset's x·i earns on the force channel of a concealed asymmetric spring alone (BIC
+  // 108–254 on four records of both families, while x² beside x·i earns ≤ 0 on a coil offset alone and 265–540 on
+  // the pair): what the spring's force leaves there is not a second effect. The pair is found the other way round.
+  if (chosen.effect == Effect::asymmetric_stiffness && best->candidate->effect == Effect::asymmetric_force_factor) return std::nullopt;
   std::vector<Effect> with_partner = kept;
   with_partner.push_back(best->candidate->effect);
   best->chosen_beside = force_score(channel, r, current, chosen.effect, with_partner);

@@ -55,7 +55,8 @@ struct ForcePartner {
 /// earlier findings', earn kPartnerMargin on the force channel, while `chosen`'s own force still earns
 /// kLikelyMargin beside it (else the partner explains the same force, and is no second effect); it needs a
 /// candidate of its own among `scored` that adds one term to `current`; a look-alike of `chosen` must also have
-/// scored alone less than 1/kLookAlikeDominance of `chosen`'s own score. Only when `chosen` acts as a force.
+/// scored alone less than 1/kLookAlikeDominance of `chosen`'s own score; a coil offset is no partner of an asymmetric
+/// spring (it earns beside a spring alone). Only when `chosen` acts as a force.
 std::optional<ForcePartner> force_partner(const ForceChannel& channel, const Records& r, const Fit& current,
                                           const Candidate& chosen, const std::vector<Candidate>& scored,
                                           const std::vector<Effect>& kept);
