@@ -263,7 +263,7 @@ int main(int argc, char** argv) {
   std::printf("confidently wrong (a wrong first name called clear): %d/%d; a wrong name not called ambiguous: %d/%d\n",
               confidently_wrong, runs, wrong_named, runs);
   if (!pairs.empty()) {
-    std::printf("\n| pair | both found | first is one of them | findings seen |\n|---|---:|---:|---|\n");
+    std::printf("\n| pair | both found | first is one of them | median concealment | findings seen |\n|---|---:|---:|---:|---|\n");
     for (const std::string& pair : pairs) {
       const std::size_t plus = pair.find('+');
       if (plus == std::string::npos) {
@@ -280,9 +280,11 @@ int main(int argc, char** argv) {
       const DiagnosisScenario s = combined_scenario(concealed_scenario(a, 1.0, family), concealed_scenario(b, 1.0, family));
       int both = 0, first_in = 0;
       std::map<std::string, int> seen;
+      std::vector<double> concealment;
       for (int k = 0; k < seeds; ++k) {
         const std::uint64_t seed = first_seed + static_cast<std::uint64_t>(k);
         const Run run = run_once(s, seed, n_est, n_val);
+        concealment.push_back(run.concealment);
         const auto found = [&](Effect e) {
           return std::find(run.names.begin(), run.names.end(), to_string(e)) != run.names.end();
         };
@@ -291,11 +293,13 @@ int main(int argc, char** argv) {
         std::string list;
         for (const auto& n : run.names) list += (list.empty() ? "" : " → ") + n;
         ++seen[list.empty() ? "none" : list];
-        std::fprintf(stderr, "%s seed %llu: %s\n", s.name.c_str(), static_cast<unsigned long long>(seed), list.c_str());
+        std::fprintf(stderr, "%s seed %llu: %s (concealment %.2f, J %.4f -> %.4f %%)\n", s.name.c_str(),
+                     static_cast<unsigned long long>(seed), list.c_str(), run.concealment, run.j_before, run.j_after);
       }
       std::string firsts;
       for (const auto& [id, count] : seen) firsts += (firsts.empty() ? "" : ", ") + id + " " + std::to_string(count);
-      std::printf("| %s | %d/%d | %d/%d | %s |\n", s.name.c_str(), both, seeds, first_in, seeds, firsts.c_str());
+      std::printf("| %s | %d/%d | %d/%d | %.2f | %s |\n", s.name.c_str(), both, seeds, first_in, seeds, median(concealment),
+                  firsts.c_str());
       std::fflush(stdout);
     }
   }

@@ -46,7 +46,7 @@ struct DiagnoseOptions {
   int max_findings = 4;
   long window = 300;
   models::OutputQuantity sensor = models::OutputQuantity::unknown;
-  std::string current_col = "none";  ///< opt-in: the force channel does not yet tell a visible x³ from v³ reliably
+  std::string current_col = "auto";  ///< the coil current when the records have one (docs/diagnosis.md: better on both families)
   std::string model_out;  ///< the diagnosed model as a gray_box model file (empty: not written)
 };
 
@@ -134,6 +134,9 @@ void run_diagnose(const DiagnoseOptions& o) {
   options.output = o.sensor;
   options.current_est = read_current(data_path, columns, est.fs, o.current_col);
   if (options.current_est.size() > 0) options.current_val = read_current(val_path, columns, val.fs, o.current_col);
+  // Found by default in one record only: neither is used (a named column must be in both).
+  if ((options.current_est.size() > 0) != (options.current_val.size() > 0) && o.current_col == "auto")
+    options.current_est = options.current_val = Eigen::VectorXd();
   if ((options.current_est.size() > 0) != (options.current_val.size() > 0))
     throw dsp::DataError(val_path + ": has no current column while " + data_path + " has one (give --current-col none to leave it out)");
   options.level_name = val_path;
@@ -225,9 +228,9 @@ void register_diagnose(CLI::App& app) {
       ->transform(CLI::CheckedTransformer(output_quantities()))
       ->capture_default_str();
   cmd->add_option("--current-col", o->current_col,
-                  "The coil current's column, opt-in: it tells apart effects that look alike from the drive (a spring from a "
-                  "damping, a coil offset from an asymmetric spring); auto: \"i\" or \"current\" when the file has one; none "
-                  "(the default: on a visible spring the force channel may still favour a damping): leave it out")
+                  "The coil current's column: it tells apart effects that look alike from the drive (a spring from a "
+                  "damping, a coil offset from an asymmetric spring) and finds a second force beside the first; auto (the "
+                  "default): \"i\" or \"current\" when both records have one; none: leave it out")
       ->capture_default_str();
   cmd->add_option("--model-out", o->model_out,
                   "Write the diagnosed model (the linear baseline with its gray-box terms) as a model file of kind gray_box, "

@@ -63,8 +63,9 @@ json diagnose_params(const json& params, const JobEnvironment& env) {
   std::vector<std::string> quantities;
   for (auto q : models::all_output_quantities()) quantities.push_back(models::to_string(q));
   r.choice("sensor", "unknown", quantities);
-  // Opt-in, as diagnose --current-col: on a visible spring the force channel may still favour a damping.
-  r.boolean("use_current", false);
+  // The record's coil current, when it has one, as diagnose --current-col auto (docs/diagnosis.md: better on both
+  // families of the detection bench); false leaves it out.
+  r.boolean("use_current", true);
   return r.finish();
 }
 
@@ -94,7 +95,7 @@ json diagnose_work(const json& params, const JobEnvironment& env, JobControl& co
   options.max_findings = params.at("max_findings").get<int>();
   for (auto q : models::all_output_quantities())
     if (models::to_string(q) == params.value("sensor", "unknown")) options.output = q;
-  if (params.value("use_current", false) && r.i_est.size() > 0)
+  if (params.value("use_current", true) && r.i_est.size() > 0)
     options.current_est = r.i_est, options.current_val = r.i_val;  // the force channel
   options.level_name = data.source;
   for (std::size_t k = 0; k < levels.size(); ++k)

@@ -15,6 +15,7 @@
 #include "models/diagnosis/diagnosis_current.h"
 #include "models/diagnosis/diagnosis_explanations.h"
 #include "models/diagnosis/diagnosis_levels.h"
+#include "models/diagnosis/diagnosis_look_alikes.h"
 #include "models/diagnosis/diagnosis_linear_refits.h"
 #include "models/diagnosis/diagnosis_pairs.h"
 #include "models/diagnosis/diagnosis_stopping.h"
@@ -30,6 +31,8 @@ using diagnosis_detail::Candidate;
 using diagnosis_detail::explain;
 using diagnosis_detail::confidence_to_json;
 using diagnosis_detail::judge_finding;
+using diagnosis_detail::look_alikes_of;
+using diagnosis_detail::decided_by_current;
 using diagnosis_detail::unexplained_residual;
 using diagnosis_detail::Fit;
 using diagnosis_detail::ForceChannel;
@@ -118,82 +121,6 @@ std::optional<ForceChannel> force_channel_of(const Records& r, const DiagnosisOp
   return c;
 }
 
-// The look-alikes of `chosen` among `scored` that earned their parameters (BIC score > 0).
-std::vector<const Candidate*> look_alikes_of(const Candidate& chosen, const std::vector<Candidate>& scored,
-                                             const std::function<double(const Candidate&)>& score) {
-  std::vector<const Candidate*> out;
-  for (const Candidate& c : scored)
-    if (diagnosis_detail::look_alike(chosen.effect, c.effect) && score(c) > 0.0) out.push_back(&c);
-  return out;
-}
-
-// Between `chosen` and its look-alikes the force channel decides: the best force score of the effects that act as
-// a force of the motion, if it clearly earns its parameters; otherwise an effect of the look-alikes that is no
-// such force (the channel shows none missing: inductance); otherwise `chosen`. The verdict as JSON in `verdict`,
-// the confidence in `confidence`.
-const Candidate* decided_by_current(const Candidate* chosen, const std::vector<const Candidate*>& alikes,
-                                    const ForceChannel& channel, const Records& r, const Fit& current,
-                                    const std::vector<Effect>& kept, nlohmann::json& verdict,
-                                    diagnosis_detail::FindingConfidence& confidence) {
-  std::vector<const Candidate*> group{chosen};
-  group.insert(group.end(), alikes.begin(), alikes.end());
-  std::vector<double> scores;
-  verdict = nlohmann::json::array();
-  for (const Candidate* c : group) {
-    const diagnosis_detail::ForceScore f = diagnosis_detail::force_score(channel, r, current, c->effect, kept);
-    const bool force = diagnosis_detail::acts_as_force(c->effect) && c->effect != Effect::inductance;
-    scores.push_back(force ? f.score : -std::numeric_limits<double>::infinity());
-    verdict.push_back({{"effect", to_string(c->effect)}, {"force", force}, {"force_score_bic", f.score},
-                       {"J_before_pct", f.j_before_pct}, {"J_after_pct", f.j_after_pct}});
-  }
-  std::size_t best = 0;
-  for (std::size_t k = 1; k < group.size(); ++k)
-    if (scores[k] > scores[best]) best = k;
-  double second = -std::numeric_limits<double>::infinity();
-  for (std::size_t k = 0; k < group.size(); ++k)
-    if (k != best) second = std::max(second, scores[k]);
-  const Candidate* pick = nullptr;
-  double margin = 0.0;
-  std::string why;
-  if (scores[best] >= diagnosis_detail::kLikelyMargin) {
-    pick = group[best];
-    margin = std::isfinite(second) ? scores[best] - std::max(second, 0.0) : scores[best];
-    why = "its force on the output explained from the current earns BIC " + fixed(scores[best], 1);
-  } else {
-    for (const Candidate* c : group)
-      if (!diagnosis_detail::acts_as_force(c->effect) || c->effect == Effect::inductance) pick = c;
-    if (pick != nullptr) {
-      margin = -std::max(scores[best], -1e300);
-      margin = std::isfinite(margin) ? std::max(margin, 0.0) + diagnosis_detail::kLikelyMargin : diagnosis_detail::kClearMargin;
-      why = "the output explained from the current shows no missing force (the best, " + to_string(group[best]->effect) +
-            ", earns BIC " + fixed(scores[best], 1) + "): the effect acts in the electrical loop, which the measured current absorbs";
-    } else {
-      pick = chosen;
-      margin = 0.0;
-      why = "no force of the motion earns its parameters on the output explained from the current";
-    }
-  }
-  std::string rivals;
-  for (const Candidate* c : group)
-    if (c != pick) rivals += (rivals.empty() ? "" : " and ") + to_string(c->effect);
-  confidence.runner_up = rivals;
-  confidence.runner_up_variant.clear();
-  confidence.margin_bic = margin;
-  const std::string name = to_string(pick->effect);
-  if (margin >= diagnosis_detail::kClearMargin) {
-    confidence.word = "clear";
-    confidence.sentence = "clear: the current tells " + name + " from its look-alike " + rivals + ": " + why + ".";
-  } else if (margin >= diagnosis_detail::kLikelyMargin) {
-    confidence.word = "likely";
-    confidence.sentence = "likely: the current favours " + name + " over its look-alike " + rivals + ": " + why +
-                          ", but not by a margin that settles it.";
-  } else {
-    confidence.word = "ambiguous";
-    confidence.sentence = "ambiguous between " + name + " and " + rivals + ": even with the current, " + why + ".";
-  }
-  return pick;
-}
-
 // The candidates of a round whose validation test is run, best BIC first, before the round gives up.
 constexpr std::size_t kTestedAtMost = 8;
 
@@ -278,6 +205,29 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     }
     d.rounds.push_back(round_json);
     if (earning.empty()) {
+      // With the current, a first force the drive's candidates are too small to earn may still show on the output
+      // explained from the current (Rms(v) and friction together, whose nonlinear parts partly cancel in the drive's
+      // residual): it is found there, with a second force beside it if the channel shows one.
+      if (force && d.findings.empty())
+        if (auto lead = diagnosis_detail::force_lead(*force, r, current, scored, kept)) {
+          const Fit before = current;
+          Finding f = diagnosis_detail::partner_finding(r, *lead, nullptr, current, where_est, d.noise_floor_pct);
+          judge_at_levels(f, before.model, current.model);
+          progress("found " + to_string(f.effect) + " (the force channel)");
+          d.findings.push_back(std::move(f));
+          if (auto partner = diagnosis_detail::force_partner(*force, r, before, *lead->candidate, scored, kept)) {
+            kept.push_back(lead->candidate->effect);
+            const Fit with_lead = current;
+            Finding g = diagnosis_detail::partner_finding(r, *partner, lead->candidate, current, where_est, d.noise_floor_pct);
+            judge_at_levels(g, with_lead.model, current.model);
+            progress("found " + to_string(g.effect) + " beside it (the force channel)");
+            kept.push_back(g.effect);
+            d.findings.push_back(std::move(g));
+          } else {
+            kept.push_back(lead->candidate->effect);
+          }
+          continue;
+        }
       d.stop = {{"round", round + 1}, {"reason", "no candidate earns its parameters (BIC on the validation samples)"}};
       break;
     }
@@ -339,7 +289,9 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     const auto y_score = [&](const Candidate& c) {
       return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val);
     };
-    const std::vector<const Candidate*> alikes = look_alikes_of(*chosen, scored, y_score);
+    // With the current every look-alike of a look-alike joins the force channel's verdict (a force factor's Rms(v)
+    // brings in the cubic spring Rms(v) looks like: a cubic spring and a Bl(x²) came out as Rms(v), clear).
+    const std::vector<const Candidate*> alikes = look_alikes_of(*chosen, scored, y_score, force.has_value());
     std::optional<diagnosis_detail::FindingConfidence> alike_confidence;
     nlohmann::json current_verdict;
     // The drive's own margin over the best look-alike, on the validation residual's effective samples (as
@@ -430,9 +382,20 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     progress("found " + to_string(f.effect) + ": validation J " + fixed(f.j_val_before_pct, 3) + " % → " +
              fixed(f.j_val_after_pct, 3) + " %");
     d.findings.push_back(std::move(f));
+    // Two effects at once, with the current: a second force the force channel shows beside this one.
+    std::optional<diagnosis_detail::ForcePartner> partner;
+    if (force) partner = diagnosis_detail::force_partner(*force, r, current, *chosen, scored, kept);
     kept.push_back(chosen->effect);
     current = chosen->fit;
+    if (partner) {
+      Finding g = diagnosis_detail::partner_finding(r, *partner, chosen, current, where_est, d.noise_floor_pct);
+      judge_at_levels(g, chosen->fit.model, current.model);
+      progress("found " + to_string(g.effect) + " beside " + to_string(chosen->effect) + " (the force channel)");
+      kept.push_back(g.effect);
+      d.findings.push_back(std::move(g));
+    }
   }
+
   d.j_val_after_pct = current.j_val;
   d.at_noise_floor = at_noise_floor(d.j_val_after_pct, d.noise_floor_pct);
   d.located_val_after = locate_residual(u_val, y_val, simulate_augmented(current.model, u_val, y_val, r.init), fs, r.init);

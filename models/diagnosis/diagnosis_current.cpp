@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "models/optimization/least_squares.h"
+#include "models/validation/performance.h"
 
 namespace panelbass::models::diagnosis_detail {
 namespace {
@@ -115,7 +116,7 @@ ForceChannel force_channel(const Records& r, const LinearModel& path, const Eige
   const Eigen::Index n = r.y_val.size() - r.init;
   const Eigen::VectorXd y = path.scaling.scale_y(r.y_val).tail(n);
   c.y_energy_val = y.squaredNorm();
-  c.j_val_pct = 100.0 * c.residual_val.tail(n).squaredNorm() / std::max(c.y_energy_val, 1e-300);
+  c.j_val_pct = j_ratio_percent(c.residual_val.tail(n).squaredNorm(), c.y_energy_val, "the force channel's output");
   return c;
 }
 
@@ -161,14 +162,14 @@ ForceScore force_score(const ForceChannel& channel, const Records& r, const Fit&
   const Motion m_est = motion_of(s_est, r.output, *channel.i_est, *channel.i_est);
   const Motion m_val = motion_of(s_val, r.output, *channel.i_val, *channel.i_est);
   const Eigen::Index n_est = r.y_est.size() - r.init, n_val = r.y_val.size() - r.init;
-  const double energy = std::max(channel.y_energy_val, 1e-300);
-  // J of the channel's residual with the features of `effects` fitted on the estimation record.
+  // [2A] J of the channel's residual with the features of `effects` fitted on the estimation record.
   auto j_with = [&](const std::vector<Effect>& effects) {
-    if (effects.empty()) return 100.0 * channel.residual_val.tail(n_val).squaredNorm() / energy;
+    const std::string channel_name = "the force channel's output";
+    if (effects.empty()) return j_ratio_percent(channel.residual_val.tail(n_val).squaredNorm(), channel.y_energy_val, channel_name);
     const Eigen::MatrixXd phi_est = stacked_force_regressors(effects, m_est, channel.path.tf).bottomRows(n_est);
     const Eigen::MatrixXd phi_val = stacked_force_regressors(effects, m_val, channel.path.tf).bottomRows(n_val);
     const Eigen::VectorXd c = least_squares(phi_est, channel.residual_est.tail(n_est)).theta;
-    return 100.0 * (channel.residual_val.tail(n_val) - phi_val * c).squaredNorm() / energy;
+    return j_ratio_percent((channel.residual_val.tail(n_val) - phi_val * c).squaredNorm(), channel.y_energy_val, channel_name);
   };
   out.j_before_pct = j_with(base);
   if (already || !acts_as_force(effect)) {

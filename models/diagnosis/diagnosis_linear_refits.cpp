@@ -90,7 +90,8 @@ double one_sample_shift_j(const Records& r, const Fit& fit) {
   if (n < 2 || m < 1) return 0.0;
   const double energy = r.y_val.tail(n).squaredNorm();
   if (!(energy > 0.0)) return 0.0;
-  return 100.0 * (y_sim.tail(m) - y_sim.segment(start - 1, m)).squaredNorm() / energy;
+  if (!y_sim.allFinite()) return std::numeric_limits<double>::infinity();  // no refit recovers a share of it
+  return j_ratio_percent((y_sim.tail(m) - y_sim.segment(start - 1, m)).squaredNorm(), energy, "the validation output");
 }
 
 /// The share of one_sample_shift_j() a delay refit must recover to be named a dead time.

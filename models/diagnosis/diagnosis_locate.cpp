@@ -15,6 +15,7 @@
 #include "dsp/spectrum.h"
 #include "models/diagnosis/diagnosis_terms.h"
 #include "models/io/json_fields.h"
+#include "models/validation/performance.h"
 
 namespace panelbass::models {
 namespace {
@@ -213,7 +214,7 @@ ResidualLocation locate_residual(const Eigen::VectorXd& u_all, const Eigen::Vect
   const Eigen::VectorXd e = y - y_sim;
   ResidualLocation r;
   const double y_energy = y.squaredNorm();
-  r.residual_pct = y_energy > 0.0 ? 100.0 * e.squaredNorm() / y_energy : 0.0;
+  r.residual_pct = y_energy > 0.0 ? j_ratio_percent(e.squaredNorm(), y_energy) : 0.0;
 
   // Frequency: Welch PSD; the noise level is the median over the top quarter of the band, where a
   // band-limited plant puts least energy and sensor noise is white.
@@ -226,7 +227,7 @@ ResidualLocation locate_residual(const Eigen::VectorXd& u_all, const Eigen::Vect
   // is under 5 %, so the median is used as it is.
   r.noise_psd = median(top);
   const double noise_variance = r.noise_psd * fs / 2.0;
-  r.noise_floor_pct = y_energy > 0.0 ? 100.0 * noise_variance * static_cast<double>(n) / y_energy : 0.0;
+  r.noise_floor_pct = y_energy > 0.0 ? j_ratio_percent(noise_variance * static_cast<double>(n), y_energy) : 0.0;
   Eigen::Index peak = 2;
   for (Eigen::Index k = 2; k < bins - 1; ++k)
     if (psd.psd[k] > psd.psd[peak]) peak = k;

@@ -11,6 +11,7 @@
 
 #include "dsp/period.h"
 #include "models/diagnosis/diagnosis_candidates.h"
+#include "models/validation/performance.h"
 
 namespace panelbass::models::diagnosis_detail {
 namespace {
@@ -89,7 +90,7 @@ std::optional<NoiseFloor> periodic_noise_floor(const Eigen::VectorXd& u, const E
   const double energy = y_judged.squaredNorm();
   if (!(energy > 0.0)) return std::nullopt;
   NoiseFloor f;
-  f.pct = 100.0 * variance * static_cast<double>(n) / energy;
+  f.pct = j_ratio_percent(variance * static_cast<double>(n), energy);  // [2A] of a model that left only the noise
   // A variance from (P − 1)·L degrees of freedom (white noise) is good to √(2/dof).
   f.relative_sd = std::sqrt(2.0 / static_cast<double>((whole - 1) * period));
   f.source = FloorSource::repeated_periods;

@@ -56,8 +56,8 @@ TEST_F(CliDiagnose, FindsTheCubicSpringAndWritesTheReport) {
   }
   EXPECT_LT(r["J_val_after_pct"].get<double>(), r["J_val_before_pct"].get<double>());
   EXPECT_EQ(r["baseline"]["kind"], "linear");
-  // `simulate` writes the coil current (column i), but the current is opt-in (--current-col): not used.
-  EXPECT_EQ(r["channels"], json::parse(R"(["drive", "output"])")) << r.dump(1);
+  // `simulate` writes the coil current (column i) in both records: used by default (--current-col auto).
+  EXPECT_EQ(r["channels"], json::parse(R"(["drive", "output", "current"])")) << r.dump(1);
   // The report file: the contract's keys, and the same figures as stdout.
   const json report = json::parse(text_of(out));
   for (const char* key : {"baseline", "findings", "J_val_before_pct", "J_val_after_pct", "noise_floor_pct"})
@@ -112,7 +112,7 @@ TEST_F(CliDiagnose, HtmlReportShowsTheFindingsAndEmbedsEveryFigure) {
   EXPECT_EQ(page.rfind("<!DOCTYPE html>", 0), 0u);
   EXPECT_FALSE(contains(page, "src=\"http")) << "the page must not load external assets";
   for (const char* part : {"<h2>Baseline</h2>", "<h2>Findings</h2>", "noise floor", "J before", "J after",
-                           "channels used</th><td>drive, output<"})
+                           "channels used</th><td>drive, output, current<"})
     EXPECT_TRUE(contains(page, part)) << part;
   EXPECT_TRUE(contains(page, "<code>" + r["findings"][0]["effect"].get<std::string>() + "</code>"));
   std::size_t images = 0;
