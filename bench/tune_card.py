@@ -14,6 +14,7 @@ noise-free acceleration's THD (median, min–max), the sensor's fundamental, THD
 
   bench/tune_card.py --plants panel-exciter,tests/support/plants/panel-exciter-le-x.json --variants 2
   bench/tune_card.py --bare --frequencies 40,80,160 --hold 6
+  bench/tune_card.py --no-sensor --realtime --plants panel-exciter   (a card with the loopback and the current only)
   (PANELBASS_BIN names another binary; a rig takes about 3 minutes a plant in real time, --bare 20 s a frequency.)
 """
 import argparse, json, math, os, signal, socket, statistics, subprocess, sys, tempfile, time, urllib.request
@@ -23,6 +24,12 @@ CARD_CONF = """pcm.pb_play    {{ type jack name "pb_play"
                  playback_ports {{ 0 "{t}:drive" 1 "system:playback_1" }} }}
 pcm.pb_capture {{ type jack name "pb_capture"
                  capture_ports {{ 0 "{t}:sensor" 1 "pb_play:out_000" 2 "{t}:current" }} }}
+"""
+# Klippel's current-only configuration: the card captures the loopback and the coil current, no sensor
+CARD_CONF_NO_SENSOR = """pcm.pb_play    {{ type jack name "pb_play"
+                 playback_ports {{ 0 "{t}:drive" 1 "system:playback_1" }} }}
+pcm.pb_capture {{ type jack name "pb_capture"
+                 capture_ports {{ 0 "pb_play:out_000" 1 "{t}:current" }} }}
 """
 
 
@@ -35,7 +42,7 @@ def free_port():
 class Rig:
     """jackd (dummy) + the transducer client + serve --backend alsa, in a folder of their own."""
 
-    def __init__(self, plant, folder, window, periods=8, realtime=False):
+    def __init__(self, plant, folder, window, periods=8, realtime=False, sensor=True):
         self.folder, self.window, self.procs = folder, window, []
         self.server = f'pbtc{os.getpid()}'
         env = dict(os.environ, JACK_NO_AUDIO_RESERVATION='1', JACK_DEFAULT_SERVER=self.server)
@@ -51,12 +58,13 @@ class Rig:
         time.sleep(1.0)
         conf = os.path.join(folder, 'card.conf')
         with open(conf, 'w') as f:
-            f.write(CARD_CONF.format(t='tr'))
+            f.write((CARD_CONF if sensor else CARD_CONF_NO_SENSOR).format(t='tr'))
         self.port = free_port()
+        channels = (['--capture-channels', '3', '--sensor-channel', '0', '--loopback-channel', '1', '--current-channel', '2']
+                    if sensor else ['--capture-channels', '2', '--loopback-channel', '0', '--current-channel', '1'])
         self.start([BIN, 'serve', '--port', str(self.port), '--store', os.path.join(folder, 'store'), '--backend', 'alsa',
-                    '--alsa-config', conf, '--playback', 'pb_play', '--capture', 'pb_capture', '--capture-channels', '3',
-                    '--sensor-channel', '0', '--loopback-channel', '1', '--current-channel', '2', '--periods', str(periods),
-                    '--no-demo', '--web', ''], 'serve.log')
+                    '--alsa-config', conf, '--playback', 'pb_play', '--capture', 'pb_capture', *channels,
+                    '--periods', str(periods), '--no-demo', '--web', ''], 'serve.log')
         for _ in range(100):
             try:
                 if self.call('GET', '/api/status')['engine']['device']['state'] == 'running':
@@ -218,6 +226,8 @@ def main():
     ap.add_argument('--json', help='write the figures here')
     ap.add_argument('--keep', help='keep the rigs\' folders under this folder')
     ap.add_argument('--realtime', action='store_true', help='run the JACK server (and its clients) in real-time mode')
+    ap.add_argument('--no-sensor', action='store_true',
+                    help="the card captures no sensor (the loopback and the current only): tune keeps its filter unverified")
     a = ap.parse_args()
     if a.window is None:
         a.window = 1.0 if a.bare else 0.5
@@ -236,7 +246,7 @@ def main():
         name = os.path.splitext(os.path.basename(plant))[0]
         folder = os.path.join(base, name)
         os.makedirs(folder, exist_ok=True)
-        rig = Rig(plant, folder, a.window, a.periods, a.realtime)
+        rig = Rig(plant, folder, a.window, a.periods, a.realtime, not a.no_sensor)
         if a.bare:
             try:
                 row = {'plant': name, 'rows': bare_rows(rig, frequencies, levels, a.hold)}
