@@ -78,6 +78,9 @@ long_repeats+='|^LinearIdentification\.PanelExciterOrderScanShowsItsKnee$'
 long_repeats+='|^SsTraining\.ThePolynomialExtrapolatesACubicSpringBeyondTheTrainingAmplitude$'
 long_repeats+='|^ChainEvaluationTest\.OnALinearPlantTheFeedforwardFlattensAndNothingDistorts$'
 long_repeats+='|^ProcessAloneTest\.TheProcessAloneIsTheMechanicsAndSensorWithoutTheConverters$'
+# Two tunes of a 10 s multisine each (the refine step with and without): Tune.KeepsAMirrorFilter... and
+# Tune.WithoutASensor... walk the same tune, its refine step included, under the sanitizer. Run in the main stage.
+long_repeats+='|^Tune\.TheFrictionRefinedOnQuietSinesLiftsTheCutAtLowLevelsToTheIssuesBar$'
 # The whole Tune pipeline through a JACK card (CardPipelineTest: excite, identify, design, verify while the
 # card streams, asserting no xrun): under ASan the engine's periods run slower than JACK's real-time clock on
 # a shared machine. Its parts run under the sanitizer in AlsaBackend.Jack*, ServerOnACardTest.* and the measurement's
