@@ -53,14 +53,6 @@ void decide(const EqualOutputReport& v, double keep_min_cut_db, TuneReport& repo
   }
 }
 
-// The stages a tune does not add, each with why.
-std::vector<std::string> left_out_stages() {
-  return {"an LQ feedforward: the feedforward slot holds one controller, and the LQ flattens the response without "
-          "cutting the distortion (design-lq, then verify it against this filter, if a flat response matters more)",
-          "a neural feedback: it needs a NARX model of the transducer behind this filter (design-nn; verify shows whether "
-          "it cuts more on top of it)"};
-}
-
 // The refine step's sines: at a quarter and half the fitted resonance (the motion stiffness-controlled, small beside
 // the friction's transition), each settled for kRefineSettleSeconds and measured for kRefineMeasureSeconds.
 constexpr double kRefineSettleSeconds = 0.5;
@@ -210,7 +202,24 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
   }
   // 3. The friction's velocity scale from the current's harmonics where it shows: quiet sines below the resonance.
   if (q.refine_friction) refine_friction(q, play, mirror, report, progress);
-  if (!sensed) {
+  if (sensed) {
+    // 4. Verify the chain with the filter at equal output level.
+    start = Clock::now();
+    EqualOutputRequest v;
+    v.chain = q.chain;
+    v.chain.feedforward = engine::SlotConfig{};
+    v.chain.feedforward->model = models::mirror_model_to_json(mirror.model, mirror.meta);
+    v.chain.feedback.reset();
+    v.safe_level = q.safe_level;
+    v.settings = q.verify;
+    ProgressSpan verify_progress(progress, 0.45, 0.98);
+    EqualOutputReport verified = verify_equal_output(v, play, verify_progress);
+    for (const std::string& w : verified.warnings) report.warnings.push_back("verify: " + w);
+    report.steps.push_back({"verify", seconds_since(start), {{"plays", verified.plays}, {"worst_cut_db", verified.to_json()["worst_cut_db"]}}});
+    // 5. Keep it only where it helps.
+    decide(verified, q.keep_min_cut_db, report);
+    report.verify = std::move(verified);
+  } else {
     // Klippel's current-only configuration: nothing hears the output, so the cut cannot be measured; the filter is
     // the model's (its current J said it follows the transducer) and joins the chain on that.
     report.keep = true;
@@ -218,31 +227,14 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
                       "follows the coil current to " + number_text(mirror.summary.at("current_j_val_pct").get<double>(), 3) +
                       " % J on validation); listen with PUT /api/program and the feedforward bypass";
     report.warnings.push_back("verify: skipped, the backend records no sensor to read the THD from");
-    report.steps.push_back({"decide", 0.0, {{"keep", report.keep}, {"decision", report.decision}}});
-    report.left_out = left_out_stages();
-    report.mirror = std::move(mirror);
-    progress.report(1.0, report.decision);
-    return report;
   }
-  // 4. Verify the chain with the filter at equal output level.
-  start = Clock::now();
-  EqualOutputRequest v;
-  v.chain = q.chain;
-  v.chain.feedforward = engine::SlotConfig{};
-  v.chain.feedforward->model = models::mirror_model_to_json(mirror.model, mirror.meta);
-  v.chain.feedback.reset();
-  v.safe_level = q.safe_level;
-  v.settings = q.verify;
-  ProgressSpan verify_progress(progress, 0.45, 0.98);
-  EqualOutputReport verified = verify_equal_output(v, play, verify_progress);
-  for (const std::string& w : verified.warnings) report.warnings.push_back("verify: " + w);
-  report.steps.push_back({"verify", seconds_since(start), {{"plays", verified.plays}, {"worst_cut_db", verified.to_json()["worst_cut_db"]}}});
-  // 5. Keep it only where it helps.
-  decide(verified, q.keep_min_cut_db, report);
   report.steps.push_back({"decide", 0.0, {{"keep", report.keep}, {"decision", report.decision}}});
-  report.left_out = left_out_stages();
+  report.left_out = {
+      "an LQ feedforward: the feedforward slot holds one controller, and the LQ flattens the response without "
+      "cutting the distortion (design-lq, then verify it against this filter, if a flat response matters more)",
+      "a neural feedback: it needs a NARX model of the transducer behind this filter (design-nn; verify shows whether "
+      "it cuts more on top of it)"};
   report.mirror = std::move(mirror);
-  report.verify = std::move(verified);
   progress.report(1.0, report.decision);
   return report;
 }
