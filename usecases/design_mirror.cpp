@@ -117,6 +117,7 @@ DesignMirrorReport design_mirror_from_current(const DesignMirrorRequest& q, Prog
                     {"sensor_taps", fit.sensor_j_val_pct >= 0.0 ? nlohmann::json(fit.sensor_taps) : nlohmann::json(nullptr)},
                     {"iterations", fit.iterations},
                     {"force_factor_asymmetry", fit.force_factor_asymmetry},
+                    {"damping_rise", fit.damping_rise},
                     {"adaptive", q.adapt},
                     {"adapts_from", q.adapt ? "current" : "none"}};
   progress.report(1.0, "done");

@@ -67,7 +67,7 @@ void MirrorCurrentAdapter::push_drive(double drive) noexcept {
 void MirrorCurrentAdapter::update(double measured_current) noexcept {
   const MirrorModel& m = model_;
   const double h = 1.0 / m.fs;
-  const std::array<double, 10>& c = m.mechanical;
+  const std::array<double, 11>& c = m.mechanical;
   const std::array<double, 10>& e = m.electrical;
   // the measured current at k is the model's after the drive L + 1 samples back (the fit's alignment)
   const int back = base_.observer.current_lag + 1;

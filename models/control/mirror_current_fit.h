@@ -64,6 +64,7 @@ struct MirrorCurrentFit {
   int sensor_delay = 0;                    ///< D, samples
   double resonance_hz = 0.0;               ///< the fitted linear model's resonance, √(−c6)/2π
   int iterations = 0;                      ///< Levenberg–Marquardt steps taken
+  bool damping_rise = false;               ///< Rms(v)'s rise c10 kept (not negligible, it cut the current's J_val by 0.5 %)
   bool force_factor_asymmetry = false;     ///< Bl(x)'s b1 kept (it cut the current's J_val by 10 %)
 };
 

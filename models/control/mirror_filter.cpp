@@ -34,10 +34,10 @@ Electrical electrical_terms(const std::array<double, 10>& e, double x, double i)
   return {e[0] + e[1] * x + e[2] * x * x + e[3] * i * i, e[5] + e[6] * x + e[7] * x * x + e[8] * i + e[9] * i * x};
 }
 
-/// The force of [M2] without the current's terms: damping, K(x)·x and friction, over the mass (v the velocity at
+/// The force of [M2] without the current's terms: damping, K(x)·x, friction and Rms(v)'s rise, over the mass (v the velocity at
 /// the sample instant).
-double restoring(const std::array<double, 10>& c, double x, double v, double v0) noexcept {
-  return c[5] * v + c[6] * x + c[7] * x * x + c[8] * x * x * x + c[9] * std::tanh(v / v0);
+double restoring(const std::array<double, 11>& c, double x, double v, double v0) noexcept {
+  return c[5] * v + c[6] * x + c[7] * x * x + c[8] * x * x * x + c[9] * std::tanh(v / v0) + c[10] * v * v * v;
 }
 
 /// Least squares with each column scaled to unit norm first (the regressors differ by orders of magnitude);
@@ -104,24 +104,25 @@ bool minimum_phase(const std::array<double, 4>& a) {
 MirrorModel MirrorModel::linear() const {
   MirrorModel l = *this;
   for (int j : {1, 2, 3, 6, 7, 8, 9}) l.electrical[j] = 0.0;
-  for (int j : {1, 2, 3, 4, 7, 8, 9}) l.mechanical[j] = 0.0;
+  for (int j : {1, 2, 3, 4, 7, 8, 9, 10}) l.mechanical[j] = 0.0;
   return l;
 }
 
 double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noexcept {
   const double h = 1.0 / m.fs;
-  const std::array<double, 10>& c = m.mechanical;
+  const std::array<double, 11>& c = m.mechanical;
   // [M2] with the velocity at the sample instant, v̄ = (v_k + v_{k+1})/2: implicit in v_{k+1}, solved by Newton
-  // (the damping and the friction only take energy out, so the residual rises monotonically and the root is unique)
+  // (the damping, the friction and Rms(v) only take energy out, so the residual rises monotonically and the root is
+  // unique)
   const double drive_force = (c[0] + c[1] * s.x + c[2] * s.x * s.x) * s.i + (c[3] + c[4] * s.x) * s.i * s.i +
                              c[6] * s.x + c[7] * s.x * s.x + c[8] * s.x * s.x * s.x;
-  // without the friction [M2] is linear in v_{k+1}: its root in closed form, the friction's Newton iteration's start
-  // (the linear reference has none: the closed form is its step)
+  // without the friction and Rms(v) [M2] is linear in v_{k+1}: its root in closed form, Newton's start (the linear
+  // reference has neither: the closed form is its step)
   double v1 = (s.v * (1.0 + 0.5 * h * c[5]) + h * drive_force) / (1.0 - 0.5 * h * c[5]);
-  for (int it = 0; it < 50 && c[9] != 0.0; ++it) {
+  for (int it = 0; it < 50 && (c[9] != 0.0 || c[10] != 0.0); ++it) {
     const double mid = 0.5 * (s.v + v1), t = std::tanh(mid / m.friction_velocity);
-    const double f = v1 - s.v - h * (drive_force + c[5] * mid + c[9] * t);
-    const double df = 1.0 - h * 0.5 * (c[5] + c[9] * (1.0 - t * t) / m.friction_velocity);
+    const double f = v1 - s.v - h * (drive_force + c[5] * mid + c[9] * t + c[10] * mid * mid * mid);
+    const double df = 1.0 - h * 0.5 * (c[5] + c[9] * (1.0 - t * t) / m.friction_velocity + 3.0 * c[10] * mid * mid);
     const double step = f / df;
     v1 -= step;
     if (std::abs(step) <= 1e-15 * (1.0 + std::abs(v1))) break;
@@ -142,11 +143,11 @@ double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noe
 MirrorFilter::MirrorFilter(const MirrorModel& model) : base_(model), model_(model), reference_(model.linear()) {}
 
 MirrorModel with_scales(MirrorModel model, const MirrorScales& scales) noexcept {
-  std::array<double, 10>& c = model.mechanical;
+  std::array<double, 11>& c = model.mechanical;
   std::array<double, 10>& e = model.electrical;
   for (std::size_t j : {6u, 7u, 8u}) c[j] *= scales.stiffness;
   c[0] *= scales.force;
-  for (std::size_t j : {1u, 2u, 3u, 4u, 7u, 8u, 9u}) c[j] *= scales.nonlinear;
+  for (std::size_t j : {1u, 2u, 3u, 4u, 7u, 8u, 9u, 10u}) c[j] *= scales.nonlinear;
   for (std::size_t j : {1u, 2u, 3u, 6u, 7u, 8u, 9u}) e[j] *= scales.nonlinear;
   e[4] *= scales.resistance;
   for (std::size_t j : {0u, 1u, 2u}) c[j] *= scales.force_factor;
@@ -181,8 +182,8 @@ void MirrorFilter::reset() noexcept {
 double MirrorFilter::process(double program) noexcept {
   const double h = 1.0 / model_.fs;
   step_mirror_model(reference_, ref_, program);  // the reference at k+1
-  const std::array<double, 10>& c = model_.mechanical;
-  const std::array<double, 10>& r = reference_.mechanical;
+  const std::array<double, 11>& c = model_.mechanical;
+  const std::array<double, 11>& r = reference_.mechanical;
   // the reference's velocity at k+2 (its [M2] is linear: v̄ = (v_{k+1} + v_{k+2})/2 solved in closed form)
   const double x1 = ref_.x, v1 = ref_.v;
   const double v2 = (v1 * (1.0 + 0.5 * h * r[5]) + h * (r[0] * ref_.i + r[6] * x1)) / (1.0 - 0.5 * h * r[5]);
@@ -267,18 +268,19 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
   fit.model.fs = fs;
   // [M2] for each friction velocity scale; the smallest residual wins
   Eigen::VectorXd accel(rows);
-  Eigen::MatrixXd mech(rows, 10);
+  Eigen::MatrixXd mech(rows, 11);
   for (Eigen::Index r = 0; r < rows; ++r) {
     const Eigen::Index k = first + r;
     const double xk = x[k], ik = i[k];
     accel[r] = (v[k + 1] - v[k]) / h;
-    mech.row(r) << ik, ik * xk, ik * xk * xk, ik * ik, ik * ik * xk, mid[k], xk, xk * xk, xk * xk * xk, 0.0;
+    mech.row(r) << ik, ik * xk, ik * xk * xk, ik * ik, ik * ik * xk, mid[k], xk, xk * xk, xk * xk * xk, 0.0,
+        mid[k] * mid[k] * mid[k];
   }
   // a sampled plant: Numerov's weights on the rows (the model's docs), one row fewer at each end
   const bool sampled = kind == MirrorRecordKind::sampled_plant;
   const Eigen::Index used_rows = sampled ? rows - 2 : rows;
   const Eigen::VectorXd accel_target = sampled ? Eigen::VectorXd(accel.segment(1, used_rows)) : accel;
-  Eigen::MatrixXd weighted(used_rows, 10);
+  Eigen::MatrixXd weighted(used_rows, 11);
   double best = std::numeric_limits<double>::infinity();
   for (double v0 : kFrictionVelocities) {
     for (Eigen::Index r = 0; r < rows; ++r) mech(r, 9) = std::tanh(mid[first + r] / v0);
@@ -292,7 +294,7 @@ MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& 
     if (residual < best) {
       best = residual;
       fit.model.friction_velocity = v0;
-      for (int j = 0; j < 10; ++j) fit.model.mechanical[static_cast<std::size_t>(j)] = c[j];
+      for (int j = 0; j < 11; ++j) fit.model.mechanical[static_cast<std::size_t>(j)] = c[j];
     }
   }
   // [2A] of the fit: the share of the acceleration's energy the best friction scale's regression misses
@@ -390,21 +392,26 @@ MirrorModel mirror_model_from_json(const nlohmann::json& j) {
   m.fs = read_model_header(top, kMirrorFilterKind);
   (void)read_model_meta(top);
   JsonFields p(read_model_params(top), "model.params");
-  const auto coefficients = [&p](const char* key, std::array<double, 10>& out) {
+  // `count` coefficients, or `count` − 1 where the last is optional (then 0)
+  const auto coefficients = [&p](const char* key, auto& out, bool last_optional) {
     const nlohmann::json* v = p.member(key);
     if (v == nullptr) throw ConfigError(p.path_of(key) + ": missing");
     const Eigen::VectorXd read = read_vector(*v, p.path_of(key));
-    if (read.size() != 10) {
-      throw ConfigError(p.path_of(key) + ": 10 coefficients expected, got " + std::to_string(read.size()));
+    const Eigen::Index count = static_cast<Eigen::Index>(out.size());
+    if (read.size() != count && !(last_optional && read.size() == count - 1)) {
+      throw ConfigError(p.path_of(key) + ": " + std::to_string(count) + " coefficients expected" +
+                        (last_optional ? " (or " + std::to_string(count - 1) + ")" : "") + ", got " +
+                        std::to_string(read.size()));
     }
-    for (int k = 0; k < 10; ++k) out[static_cast<std::size_t>(k)] = read[k];
+    out.fill(0.0);
+    for (Eigen::Index k = 0; k < read.size(); ++k) out[static_cast<std::size_t>(k)] = read[k];
   };
   if (p.member("structure") == nullptr || p.integer("structure", 0, 0, 1000) != kMirrorStructure) {
     throw ConfigError(p.path_of("structure") + ": " + std::to_string(kMirrorStructure) +
                       " expected (a mirror filter fitted by an older panelbass: fit it again with `design mirror`)");
   }
-  coefficients("electrical", m.electrical);
-  coefficients("mechanical", m.mechanical);
+  coefficients("electrical", m.electrical, false);
+  coefficients("mechanical", m.mechanical, true);
   m.friction_velocity = p.number("friction_velocity_mm_per_s");
   require_positive(m.friction_velocity, "model.params.friction_velocity_mm_per_s");
   m.delay = static_cast<int>(p.integer("delay", 0, 0, 64));

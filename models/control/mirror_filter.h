@@ -17,13 +17,15 @@
 //        E_L = e0 + e1·x + e2·x² + e3·i²          (Le(x, i) / gain)
 //        E_v = e5 + e6·x + e7·x² + e8·i + e9·i·x  (Bl(x)/gain and i·dLe/dx / gain)
 //   [M2] v_{k+1} = v_k + h·M(x_k, v̄_k, i_k),  v̄_k = (v_k + v_{k+1})/2 the velocity at the sample instant
-//        M = c0·i + c1·i·x + c2·i·x² + c3·i² + c4·i²·x + c5·v + c6·x + c7·x² + c8·x³ + c9·tanh(v/v0)
-//        (Bl(x)·i, reluctance force ½i²·dLe/dx, damping, K(x)·x, Coulomb friction — all over the mass)
+//        M = c0·i + c1·i·x + c2·i·x² + c3·i² + c4·i²·x + c5·v + c6·x + c7·x² + c8·x³ + c9·tanh(v/v0) + c10·v³
+//        (Bl(x)·i, reluctance force ½i²·dLe/dx, damping, K(x)·x, Coulomb friction, the mechanical resistance's rise
+//        with velocity Rms(v) = Rms·(1 + r2·v²) — all over the mass)
 //   [M3] x_{k+1} = x_k + h·v_{k+1}
 // The mirror runs the reference one step ahead: at k it knows the reference's state at k+1 (and, its [M2] being
 // linear, its velocity at k+2), solves [M2] at k+1 for the current ĩ_{k+1} that gives the reference's next
 // acceleration, [M1] at k for the w that makes it, and the drive from w by 1/A(z).
-// The linear reference keeps e0, e_R, e5, c0, c5, c6 and drops every other coefficient.
+// The linear reference keeps e0, e_R, e5, c0, c5, c6 and drops every other coefficient. A file's mechanical list may
+// stop at c9 (written before issue #56's third session): c10 is then 0.
 //
 // The record is of a continuous plant sampled: its second difference (x_{k+1} − 2x_k + x_{k−1})/h² is the
 // acceleration averaged over two samples with a triangular weight, which shrinks a component at f by
@@ -68,7 +70,7 @@ struct MirrorObserverSettings {
 struct MirrorModel {
   double fs = 3000.0;                ///< sample rate, Hz
   std::array<double, 10> electrical{};  ///< e0..e9 of [M1]; e4 is e_R (the coil resistance over the gain)
-  std::array<double, 10> mechanical{};  ///< c0..c9 of [M2]
+  std::array<double, 11> mechanical{};  ///< c0..c10 of [M2]
   double friction_velocity = 50.0;   ///< v0 of the friction term, mm/s
   int delay = 0;                     ///< samples between the drive and the coil voltage found by the fit
   std::array<double, 4> drive_taps{1.0, 0.0, 0.0, 0.0};  ///< a_0..a_3 of [M1]'s A(z) (a_0 = 1, minimum phase)
@@ -81,7 +83,7 @@ struct MirrorModel {
 struct MirrorScales {
   double stiffness = 1.0;     ///< θ_K: K(x), c6–c8 of [M2] (the resonance)
   double force = 1.0;         ///< θ_F: the linear force factor over the mass, c0 of [M2]
-  double nonlinear = 1.0;     ///< θ_N: every nonlinear coefficient, c1–c4, c7–c9 of [M2] and e1–e3, e6–e9 of [M1]
+  double nonlinear = 1.0;     ///< θ_N: every nonlinear coefficient, c1–c4, c7–c10 of [M2] and e1–e3, e6–e9 of [M1]
   double resistance = 1.0;    ///< θ_R: the coil's resistance e_R (e4; its temperature)
   double force_factor = 1.0;  ///< θ_B: Bl(x) in both equations, c0–c2 of [M2] and e5–e7 of [M1]
 };

@@ -70,8 +70,8 @@ TEST(MirrorCurrentFit, RecoversTheDiscreteModelFromItsCurrentAlone) {
   // the fitted model in the truth's units of x (its c0): each coefficient against the truth's, relative to the
   // linear coefficient it modifies
   const MirrorModel m = rescale_displacement(fit.model, truth.mechanical[0] / fit.model.mechanical[0]);
-  const std::array<double, 10>& c = m.mechanical;
-  const std::array<double, 10>& t = truth.mechanical;
+  const std::array<double, 11>& c = m.mechanical;
+  const std::array<double, 11>& t = truth.mechanical;
   EXPECT_NEAR(c[0], t[0], 1e-9 * t[0]);
   const double c_tol = 2e-3;
   EXPECT_NEAR(c[2] / c[0], t[2] / t[0], c_tol * std::abs(t[2] / t[0])) << "Bl(x)'s b2";
@@ -89,6 +89,24 @@ TEST(MirrorCurrentFit, RecoversTheDiscreteModelFromItsCurrentAlone) {
   EXPECT_NEAR(e[1] / te[1], 1.0, 2e-2) << "Le(x)'s slope";
   for (std::size_t j = 1; j < 4; ++j) EXPECT_NEAR(m.drive_taps[j], truth.drive_taps[j], 1e-4) << "a" << j;
   EXPECT_NEAR(m.friction_velocity, truth.friction_velocity, 0.05 * truth.friction_velocity);
+  EXPECT_FALSE(fit.damping_rise) << "no Rms(v) in the truth: c10 must not earn a place";
+  EXPECT_FALSE(fit.force_factor_asymmetry) << "a symmetric Bl(x) in the truth";
+}
+
+TEST(MirrorCurrentFit, RecoversTheMechanicalResistancesRiseWithVelocity) {
+  // Rms(v) = Rms·(1 + r2·v²) with r2 set so that the resistance doubles at the record's peak velocity
+  MirrorModel truth = current_fit_truth();
+  const Eigen::VectorXd drive = current_fit_drive(9000, 3);
+  const double v_peak = current_fit_test_record(truth, drive, 0).v.cwiseAbs().maxCoeff();
+  const double r2 = 1.0 / (v_peak * v_peak);
+  truth.mechanical[10] = truth.mechanical[5] * r2;
+  const CurrentFitTestRecord rec = current_fit_test_record(truth, drive, 1);
+  const MirrorCurrentFit fit = fit_mirror_model_from_current(drive, rec.current, truth.fs);
+  EXPECT_TRUE(fit.damping_rise);
+  EXPECT_LT(fit.current_j_val_pct, 1e-3);
+  const MirrorModel m = rescale_displacement(fit.model, truth.mechanical[0] / fit.model.mechanical[0]);
+  EXPECT_NEAR(m.mechanical[10] / m.mechanical[5], r2, 0.03 * r2) << "r2 in the truth's (mm/s)⁻²";
+  EXPECT_NEAR(m.mechanical[5] / truth.mechanical[5], 1.0, 2e-2) << "damping at rest";
 }
 
 TEST(MirrorCurrentFit, ASensorJoinsWithItsScaleSignAndDelayFound) {
