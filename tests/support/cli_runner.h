@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -45,8 +47,12 @@ inline RunResult run_panelbass_in(const fs::path& dir, const std::string& args) 
   const int raw = std::system(command.c_str());
   RunResult r;
   r.status = (raw != -1 && WIFEXITED(raw)) ? WEXITSTATUS(raw) : -1;
-  r.out = text_of(out);
-  r.err = text_of(err);
+  const auto bytes = [](const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  r.out = bytes(out);
+  r.err = bytes(err);
   return r;
 }
 

@@ -175,8 +175,10 @@ TEST_F(UseCaseParityVerbs, TuneMakesTheSameFilterAndDecisionFromBothDoors) {
       EXPECT_EQ(printed.at("steps").at(k).at("summary"), job.at("steps").at(k).at("summary")) << k;
     }
   }
-  expect_same_refusal("tune", {{"keep_min_cut_db", -1}}, "tune --keep-min-cut-db -1", "keep_min_cut_db",
-                      "--keep-min-cut-db", "must be");
+  expect_same_refusal("tune", {{"samples", 10}}, "tune --samples 10", "samples", "--samples",
+                      "must be within 3000..1000000, got 10");
+  expect_same_refusal("tune", {{"amplitude", 1.5}}, "tune --amplitude 1.5", "amplitude", "--amplitude",
+                      "must be within (0, safe level 1], got 1.5");
 }
 
 TEST_F(UseCaseParityVerbs, DesignMirrorFitsTheSameFilterFromBothDoors) {
@@ -229,7 +231,8 @@ TEST_F(UseCaseParityVerbs, HarmonicsGivesTheSameLevelsFromBothDoors) {
   const json printed = json::parse(r.out);
   const std::vector<std::string> names = {"plant", "model", "source", "model_name"};
   EXPECT_EQ(without(job.at("summary"), names), without(printed, names));
-  expect_same_refusal("harmonics", {{"frequencies", {2000}}}, "harmonics --freqs 2000", "frequencies", "--freqs", "");
+  expect_same_refusal("harmonics", {{"measure", 10}}, "harmonics --measure 10", "measure", "--measure",
+                      "must be within 16..10000000, got 10");
 }
 
 TEST_F(UseCaseParityVerbs, IdentifyOscillatorFitsTheSameModelFromBothDoors) {
@@ -251,7 +254,8 @@ TEST_F(UseCaseParityVerbs, IdentifyOscillatorFitsTheSameModelFromBothDoors) {
   const std::vector<std::string> door_only = {"seconds", "out", "warnings", "data", "val"};
   EXPECT_EQ(without(job.at("summary"), door_only), without(printed, door_only));
   expect_same_refusal("identify-oscillator", {{"record", "j2"}, {"substeps", 0}},
-                      "identify oscillator --data est.csv --fs 3000 --substeps 0 --out bad.json", "substeps", "--substeps", "");
+                      "identify oscillator --data est.csv --fs 3000 --substeps 0 --out bad.json", "substeps", "--substeps",
+                      "must be within 1..64, got 0");
 }
 
 }  // namespace
