@@ -37,26 +37,26 @@ struct DesignNnOptions {
 
 void run_design_nn(DesignNnOptions o, bool order_given) {
   usecases::DesignNnRequest& q = o.request;
-  q.plant_model = models::read_json_file(o.plant);
   q.plant_name = o.plant;
-  q.feedforward_model = models::read_json_file(o.ff);
   q.feedforward_name = o.ff;
   if (!o.bandpass.empty()) {
     const auto [lo, hi] = parse_bandpass(o.bandpass);
     q.band_pass = usecases::BandPass{lo, hi, o.order};
-  } else if (order_given) {  // the feedforward's corners at another order
+  }
+  if (!o.tune_on.empty()) q.tune_on = models::plant_from_name_or_file(o.tune_on);
+  q.start_from = o.start_from;
+  const RequestSpelling spelling{kDesignNnFlags,
+                                 {{"plant_model", o.plant}, {"feedforward_model", o.ff}, {"start_from", o.start_from}}};
+  run_use_case([&] { usecases::check(q); }, spelling);  // bad usage before any file is read
+  q.plant_model = models::read_json_file(o.plant);
+  q.feedforward_model = models::read_json_file(o.ff);
+  if (!q.band_pass && order_given) {  // the feedforward's corners at another order
     q.band_pass = usecases::band_pass_of(models::lq_feedforward_from_json(q.feedforward_model));
     q.band_pass->order = o.order;
   }
-  if (!o.tune_on.empty()) q.tune_on = models::plant_from_name_or_file(o.tune_on);
-  if (!o.start_from.empty()) {
-    q.start_from = o.start_from;
-    q.start_from_model = models::read_json_file(o.start_from);
-  }
+  if (!o.start_from.empty()) q.start_from_model = models::read_json_file(o.start_from);
   BarProgress bar("design nn");
-  const usecases::DesignNnReport report = run_use_case(
-      [&] { return usecases::design_nn(q, bar); },
-      {kDesignNnFlags, {{"plant_model", o.plant}, {"feedforward_model", o.ff}, {"start_from", o.start_from}}});
+  const usecases::DesignNnReport report = run_use_case([&] { return usecases::design_nn(q, bar); }, spelling);
   models::write_json_file(o.out, models::neural_feedback_to_json(report.controller));
   nlohmann::json result = report.summary;
   result["out"] = o.out;
