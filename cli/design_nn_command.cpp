@@ -79,7 +79,8 @@ void add_design_nn(CLI::App& design) {
   add_bandpass_option(cmd, o->bandpass,
                       "Band-pass corners LO,HI in Hz in front of the controllers (LO = 0: low-pass only; default: the "
                       "band the feedforward was designed behind, as its file records it)");
-  CLI::Option* order = cmd->add_option("--order", o->order, "Band-pass order")->capture_default_str();
+  CLI::Option* order = cmd->add_option(
+      "--order", o->order, "Band-pass order: of --bandpass (default 2), or alone the feedforward's corners at this order");
   cmd->add_option("--hidden", d.structure.hidden, "Hidden layer widths of N1")
       ->delimiter(',')
       ->capture_default_str();
