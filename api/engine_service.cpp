@@ -451,7 +451,7 @@ Eigen::VectorXd EngineService::excite(const Eigen::VectorXd& drive) {
     if (options_.alsa->sensor_channel == engine::kNoChannel) {
       throw EngineRequestError(409, "conflict", "excite: the card captures no sensor (panelbass serve --sensor-channel)");
     }
-    return measure(drive).y;
+    return measure(drive).sensor;
   }
   std::uint64_t seed = 0;
   {

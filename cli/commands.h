@@ -59,6 +59,12 @@ void register_diagnose(CLI::App& app);
 /// `panelbass tune`: measure, fit from the current, mirror filter, verify at equal output, keep where it helps.
 void register_tune(CLI::App& app);
 
+/// `panelbass measure`: a record measured through a backend (virtual or a sound card), written as CSV.
+void register_measure(CLI::App& app);
+
+/// `panelbass verify`: controllers verified through a backend at equal output level.
+void register_verify(CLI::App& app);
+
 /// `panelbass serve`: the engine, the HTTP API and the web UI in one process.
 void register_serve(CLI::App& app);
 

@@ -25,6 +25,8 @@ int main(int argc, char** argv) {
   panelbass::cli::register_chain(app);
   panelbass::cli::register_evaluate(app);
   panelbass::cli::register_tune(app);
+  panelbass::cli::register_measure(app);
+  panelbass::cli::register_verify(app);
   panelbass::cli::register_diagnose(app);
   panelbass::cli::register_serve(app);
   panelbass::cli::register_transducer(app);

@@ -48,7 +48,7 @@ void run_tune(TuneOptions o) {
   std::uint64_t seed = q.seed + 1000;
   const usecases::PlayFunction play = [&plant, &seed](const Eigen::VectorXd& drive) {
     models::PlantRecord r = models::simulate(plant, drive, seed++);
-    return usecases::Playback{std::move(r.y), std::move(r.i), Eigen::VectorXd()};
+    return usecases::Playback{std::move(r.y), std::move(r.i), Eigen::VectorXd(), nullptr};
   };
   BarProgress bar("tune");
   const usecases::TuneReport report = run_use_case(

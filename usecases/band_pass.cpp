@@ -1,5 +1,6 @@
 #include "usecases/band_pass.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "dsp/butterworth.h"
@@ -29,5 +30,24 @@ std::vector<dsp::Biquad> BandPass::sections(const std::string& field, double fs)
 }
 
 nlohmann::json to_json(const BandPass& b) { return {{"low_hz", b.low_hz}, {"high_hz", b.high_hz}, {"order", b.order}}; }
+
+BandPass band_pass_of(const models::LqFeedforward& ff) {
+  BandPass band;
+  band.high_hz = std::min(band.high_hz, 0.45 * ff.fs);
+  const nlohmann::json& meta = ff.meta;
+  if (meta.is_object() && meta.contains("bandpass") && meta["bandpass"].is_array() && meta["bandpass"].size() == 2 &&
+      meta["bandpass"][0].is_number() && meta["bandpass"][1].is_number()) {
+    const double l = meta["bandpass"][0].get<double>(), h = meta["bandpass"][1].get<double>();
+    if (l >= 0.0 && h > l && h < ff.fs / 2.0) {
+      band.low_hz = l;
+      band.high_hz = h;
+    }
+  }
+  if (meta.is_object() && meta.contains("bandpass_order") && meta["bandpass_order"].is_number_integer()) {
+    const int o = meta["bandpass_order"].get<int>();
+    if (o >= 1 && o <= 16) band.order = o;
+  }
+  return band;
+}
 
 }  // namespace panelbass::usecases

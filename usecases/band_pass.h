@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "dsp/biquad.h"
+#include "models/control/lq_feedforward.h"
 
 namespace panelbass::usecases {
 
@@ -23,5 +24,10 @@ struct BandPass {
 
 /// {"low_hz","high_hz","order"}.
 nlohmann::json to_json(const BandPass& b);
+
+/// The band-pass an LQ feedforward was designed behind, as its meta records it ("bandpass": [lo, hi],
+/// "bandpass_order", as `design lq` writes them), else 20-1200 Hz of order 2 (the upper corner kept below 0.45·fs);
+/// a meta entry out of range is ignored.
+BandPass band_pass_of(const models::LqFeedforward& ff);
 
 }  // namespace panelbass::usecases

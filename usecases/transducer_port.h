@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <nlohmann/json.hpp>
 
 namespace panelbass::usecases {
 
@@ -13,6 +14,7 @@ struct Playback {
   Eigen::VectorXd sensor;    ///< the sensor's output (an accelerometer on panel-exciter)
   Eigen::VectorXd current;   ///< the coil current, A; empty when nothing captures it
   Eigen::VectorXd loopback;  ///< the drive as the converters delivered it; empty when nothing loops it back
+  nlohmann::json report;     ///< what the backend found playing it (a card's calibration); null when nothing
 };
 
 /// Plays a drive (every sample within the backend's safe level) and returns what was recorded; throws

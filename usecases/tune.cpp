@@ -9,6 +9,7 @@
 #include "models/control/mirror_friction_refit.h"
 #include "models/io/number_text.h"
 #include "usecases/request_error.h"
+#include "usecases/verify.h"
 
 namespace panelbass::usecases {
 namespace {
@@ -205,15 +206,14 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
   if (sensed) {
     // 4. Verify the chain with the filter at equal output level.
     start = Clock::now();
-    EqualOutputRequest v;
+    VerifyRequest v;  // the verify verb's request: the filter in the feedforward slot of the engine's chain
+    v.feedforward_model = models::mirror_model_to_json(mirror.model, mirror.meta);
+    v.feedforward_name = "the tune's mirror filter";
     v.chain = q.chain;
-    v.chain.feedforward = engine::SlotConfig{};
-    v.chain.feedforward->model = models::mirror_model_to_json(mirror.model, mirror.meta);
-    v.chain.feedback.reset();
     v.safe_level = q.safe_level;
     v.settings = q.verify;
     ProgressSpan verify_progress(progress, 0.45, 0.98);
-    EqualOutputReport verified = verify_equal_output(v, play, verify_progress);
+    EqualOutputReport verified = verify(v, play, verify_progress);
     for (const std::string& w : verified.warnings) report.warnings.push_back("verify: " + w);
     report.steps.push_back({"verify", seconds_since(start), {{"plays", verified.plays}, {"worst_cut_db", verified.to_json()["worst_cut_db"]}}});
     // 5. Keep it only where it helps.

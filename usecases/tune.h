@@ -3,7 +3,7 @@
 // measure (a multisine; the drive, or its loopback, and the coil current recorded) → the gray-box model from the
 // current (and the sensor when asked: models/control/mirror_current_fit.h) → the friction refined on quiet sines
 // (models/control/mirror_friction_refit.h) → the mirror filter → verify at equal output level
-// (usecases/equal_output_thd.h) → keep the filter only where it helps. Each step is reported with
+// (usecases/verify.h, the verify verb's) → keep the filter only where it helps. Each step is reported with
 // what it found; a step that fails ends the tune and says why.
 
 #include <Eigen/Core>

@@ -13,10 +13,7 @@ usecases::PlayFunction backend_play(const JobEnvironment& env, PlayedChannels ch
   return [&env, channels, next_seed](const Eigen::VectorXd& drive) {
     usecases::Playback out;
     if (env.measure) {
-      MeasuredResponse m = env.measure(drive);
-      out.sensor = std::move(m.y);
-      out.current = std::move(m.i);
-      out.loopback = std::move(m.loopback);
+      out = env.measure(drive);
     } else if (channels == PlayedChannels::sensor_and_current && env.plant) {
       models::PlantRecord r = models::simulate(*env.plant, drive, next_seed->fetch_add(1));
       out.sensor = std::move(r.y);

@@ -8,29 +8,19 @@
 #include <string>
 #include <vector>
 
+#include "usecases/excite.h"
+#include "usecases/transducer_port.h"
+
 namespace panelbass::api {
 
 class RecordStore;
 
-/// The estimation and validation parts of a recording: raw drive u and response y.
-struct ExcitationRecord {
-  Eigen::VectorXd u_est, y_est, u_val, y_val;
-  Eigen::VectorXd w_est, w_val;  ///< per-sample harmonic weights of a control excitation; empty otherwise
-  Eigen::VectorXd i_est, i_val;  ///< the transducer's current, when an uploaded record has it; empty otherwise
-  /// The drive as the converters delivered it (a sound card's loopback channel, the virtual transducer's
-  /// converters alone), aligned like the response: the input of the process alone; empty otherwise.
-  Eigen::VectorXd l_est, l_val;
-  nlohmann::json card;  ///< measured through a sound card: each part's calibration report (null otherwise)
-};
+/// The estimation and validation parts of a recording (usecases/excite.h).
+using ExcitationRecord = usecases::ExcitationRecord;
 
-/// What playing a drive through a sound card gave: the response, the current (empty unless captured) and
-/// what the calibration measured ({"round_trip_samples", "round_trip_ms", "calibrated_on", …}).
-struct MeasuredResponse {
-  Eigen::VectorXd y;       ///< the sensor, aligned to the drive (the card's round trip removed)
-  Eigen::VectorXd i;       ///< the coil current, aligned likewise; empty when the card captures none
-  Eigen::VectorXd loopback;  ///< the drive looped back, aligned likewise; empty when the card captures none
-  nlohmann::json report;   ///< the calibration's figures
-};
+/// What playing a drive through a sound card gave (usecases/card_measurement.h): the sensor, the current and the
+/// loopback aligned to the drive (empty when not captured), and what the calibration measured in `report`.
+using MeasuredResponse = usecases::Playback;
 
 /// {"u_est":[…],"y_est":[…],"u_val":[…],"y_val":[…]}, "w_est", "w_val" when the record has weights, and
 /// "i_est", "i_val" when it has the current, "l_est", "l_val" when it has the converters' output.
@@ -51,9 +41,9 @@ ExcitationRecord excitation_record_from_result(const nlohmann::json& result, dou
                                                const RecordStore* records = nullptr);
 
 /// The fewest samples a record part must have.
-inline constexpr long long kMinSamples = 200;
+inline constexpr long long kMinSamples = usecases::kMinRecordSamples;
 /// The most samples a record part may have.
-inline constexpr long long kMaxSamples = 10'000'000;
+inline constexpr long long kMaxSamples = usecases::kMaxRecordSamples;
 
 /// The part of a record a model is judged on: validation when there is one, else estimation.
 struct JudgedPart {

@@ -11,6 +11,7 @@
 #include "api/jobs/job_environment.h"
 #include "api/jobs/job_progress.h"
 #include "api/jobs/param_reader.h"
+#include "usecases/excite.h"
 
 namespace panelbass::api {
 
@@ -42,6 +43,14 @@ RecordSplit split_record(long long samples, double val_fraction);
 
 /// True when the succeeded excite job `id` recorded harmonic weights (a control excitation).
 bool record_has_weights(const JobEnvironment& env, const std::string& id);
+
+/// The excitation use case's request of filled-in excite params at `env`'s rate and safe level; the feedforward of a
+/// control excitation read from the store when `with_model`.
+usecases::ExciteRequest excite_request(const nlohmann::json& excite, const JobEnvironment& env, bool with_model);
+
+/// Plays a drive through `env`'s backend as an excitation reads it: on a sound card by the card measurement protocol
+/// (env.measure), on the virtual transducer env.excite with the drive through its converters alone as the loopback.
+usecases::PlayFunction excitation_play(const JobEnvironment& env);
 
 /// Runs the excitation of filled-in excite params: estimation part (seed), then validation part (seed + 1).
 ExcitationRecord run_excitation(const nlohmann::json& excite, const JobEnvironment& env, JobProgress& progress);

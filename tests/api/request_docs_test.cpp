@@ -13,6 +13,8 @@
 #include "models/kinds/model_file.h"
 #include "usecases/design_lq.h"
 #include "usecases/design_mirror.h"
+#include "usecases/design_nn.h"
+#include "usecases/excite.h"
 #include "usecases/harmonics.h"
 #include "usecases/identify_average.h"
 #include "usecases/identify_mimo.h"
@@ -22,6 +24,7 @@
 #include "usecases/plant_survey.h"
 #include "usecases/tune.h"
 #include "usecases/validate_model.h"
+#include "usecases/verify.h"
 
 namespace panelbass::api {
 namespace {
@@ -80,7 +83,9 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
       {"identify-average", "IdentifyAverageParams", usecases::to_json(usecases::IdentifyAverageRequest{})},
       {"identify-mimo", "IdentifyMimoParams", usecases::to_json(usecases::IdentifyMimoRequest{})},
       {"tune", "TuneParams", usecases::to_json(usecases::TuneRequest{})},
-      {"verify", "VerifyParams", usecases::to_json(usecases::EqualOutputSettings{})},
+      {"verify", "VerifyParams", usecases::to_json(usecases::VerifyRequest{})},
+      {"design-nn", "DesignNnParams", usecases::to_json(usecases::DesignNnRequest{})},
+      {"excite", "ExciteParams", usecases::to_json(usecases::ExciteRequest{.signal = "control"})},
       {"plant-survey", "PlantSurveyParams", usecases::to_json(usecases::PlantSurveyRequest{})},
   };
   const json& schemas = openapi_document().at("components").at("schemas");

@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -35,6 +37,24 @@ inline std::string quoted(const std::string& text) {
 }
 
 inline std::string quoted(const fs::path& path) { return quoted(path.string()); }
+
+/// Runs `panelbass <args>` (args already quoted for the shell) in folder `dir` (relative paths are its), with stdin
+/// from /dev/null and its output captured in files there.
+inline RunResult run_panelbass_in(const fs::path& dir, const std::string& args) {
+  const fs::path out = dir / "cli-out.txt", err = dir / "cli-err.txt";
+  const std::string command = "cd " + quoted(dir) + " && " + quoted(std::string(PANELBASS_BIN)) + " " + args +
+                              " </dev/null >" + quoted(out) + " 2>" + quoted(err);
+  const int raw = std::system(command.c_str());
+  RunResult r;
+  r.status = (raw != -1 && WIFEXITED(raw)) ? WEXITSTATUS(raw) : -1;
+  const auto bytes = [](const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  r.out = bytes(out);
+  r.err = bytes(err);
+  return r;
+}
 
 /// A fresh directory per test (removed afterwards) and a way to run the binary with its output
 /// captured in files there.

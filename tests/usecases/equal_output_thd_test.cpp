@@ -25,7 +25,7 @@ struct SimulatedPort {
     return [this](const Eigen::VectorXd& drive) {
       largest_drive = std::max(largest_drive, drive.cwiseAbs().maxCoeff());
       const models::PlantRecord r = models::simulate(plant, drive, seed++);
-      return Playback{r.y, r.i, Eigen::VectorXd()};
+      return Playback{r.y, r.i, Eigen::VectorXd(), nullptr};
     };
   }
 };

@@ -16,7 +16,7 @@ namespace {
 PlayFunction simulated(const models::PlantConfig& plant, bool with_current) {
   return [plant, with_current, seed = std::uint64_t{11}](const Eigen::VectorXd& drive) mutable {
     const models::PlantRecord r = models::simulate(plant, drive, seed++);
-    return Playback{r.y, with_current ? r.i : Eigen::VectorXd(), Eigen::VectorXd()};
+    return Playback{r.y, with_current ? r.i : Eigen::VectorXd(), Eigen::VectorXd(), nullptr};
   };
 }
 
@@ -120,7 +120,7 @@ TEST(Tune, WithoutASensorTheFilterIsKeptOnTheFitAndSaysItIsUnverified) {
   const models::PlantConfig plant = models::without_sensor_noise(models::plant_preset("panel-exciter"));
   const PlayFunction current_only = [plant, seed = std::uint64_t{3}](const Eigen::VectorXd& drive) mutable {
     const models::PlantRecord r = models::simulate(plant, drive, seed++);
-    return Playback{Eigen::VectorXd(), r.i, Eigen::VectorXd()};
+    return Playback{Eigen::VectorXd(), r.i, Eigen::VectorXd(), nullptr};
   };
   SilentProgress quiet;
   TuneRequest q = short_request(plant.fs);

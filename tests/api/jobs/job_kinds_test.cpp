@@ -105,9 +105,11 @@ TEST_F(JobKindsTest, DesignNnDefaultsComeFromTheDesignOptions) {
   EXPECT_EQ(nn.at("probes_hz"), json({40.0, 80.0, 160.0, 320.0}));
   EXPECT_EQ(nn.at("rail_penalty"), design.training.rail_penalty);
   EXPECT_EQ(nn.at("dc_penalty"), design.training.dc_penalty);
-  EXPECT_EQ(nn.at("samples"), 3000);
-  EXPECT_EQ(nn.at("max_iterations"), 20);
-  EXPECT_EQ(nn.at("hidden"), json({6}));
+  EXPECT_EQ(nn.at("samples"), design.samples);  // the request's (usecases/design_nn.h), as `design nn` has them
+  EXPECT_EQ(nn.at("max_iterations"), design.training.max_iterations);
+  EXPECT_EQ(nn.at("hidden"), json(design.structure.hidden));
+  EXPECT_EQ(nn.at("sine_band"), json({design.sine_low_hz, design.sine_high_hz}));
+  EXPECT_EQ(nn.at("band_pass"), nullptr);
   EXPECT_EQ(nn.at("tune_on"), "none");
   EXPECT_EQ(nn.at("tune_playbacks"), design.device_playbacks);
   EXPECT_EQ(nn.at("start_from"), nullptr);
