@@ -14,25 +14,20 @@
 #include "cli/gnuplot.h"
 #include "cli/html_report.h"
 #include "cli/json_output.h"
-#include "cli/progress_bar.h"
-#include "evaluation/chain_evaluation.h"
+#include "cli/usecase_door.h"
 #include "engine/chain_file.h"
-#include "evaluation/distortion_attribution.h"
-#include "evaluation/evaluation_json.h"
-#include "evaluation/level_sweep.h"
 #include "models/io/json_file.h"
 #include "models/plant/plant_presets.h"
+#include "usecases/evaluate.h"
 
 namespace panelbass::cli {
 namespace {
 
+// The options of `evaluate`; the defaults are the request's (usecases::EvaluateRequest).
 struct EvaluateOptions {
-  std::string plant = "panel-exciter", chain, out, plots, html;
+  std::string chain, out, plots, html;
   std::string plot_format = "png";
-  bool attribute = false;
-  bool level_sweep = false;
-  evaluation::EvaluationOptions evaluation;
-  evaluation::LevelSweepOptions sweep;
+  usecases::EvaluateRequest q;  ///< the flags' values (chain and plant filled in by run_evaluate)
 };
 
 // The level sweep on stderr: per probe and level, the output level, THD of the chain and of the plant alone at
@@ -130,67 +125,41 @@ void print_attribution(const evaluation::ChainEvaluation& whole, const std::vect
 }
 
 void run_evaluate(EvaluateOptions o) {
+  usecases::EvaluateRequest& q = o.q;
   const PlotFormat format = parse_plot_format(o.plot_format);
+  q.level_sweep = q.level_sweep || !o.html.empty();  // the page is the level sweep's
+  const RequestSpelling spelling{{{"probes_hz", "--probes"}, {"levels", "--levels"}}, {{"chain", o.chain}}};
+  q.chain = engine::load_chain_file(o.chain);
+  q.chain_name = o.chain;
+  const std::vector<std::string> presets = models::plant_preset_names();
+  if (std::find(presets.begin(), presets.end(), q.plant) == presets.end()) q.plant_config = models::plant_from_name_or_file(q.plant);
+  run_use_case([&] { usecases::check(q); }, spelling);
   if (!o.plots.empty() || !o.html.empty()) find_gnuplot();  // before the work, not after it
-  const models::PlantConfig plant = models::plant_from_name_or_file(o.plant);
-  const engine::ChainConfig config = engine::load_chain_file(o.chain);
-  // The Control issue's table needs an LQ feedforward stage (its desired response is the J_c reference: any other
-  // chain is refused by evaluate_chain); a chain whose feedforward is a mirror filter is judged by the level sweep.
-  const bool lq = !(config.feedforward && config.feedforward->model.value("kind", "") == "mirror_filter");
-  evaluation::ChainEvaluation e;
-  if (lq) {
-    e = evaluation::evaluate_chain(config, plant, o.evaluation);
-    print_table(e);
-    std::fprintf(stderr, "(J_c noise floor of the sensor: %.2f %%)\n", e.jc_noise_floor_pct);
+  BarProgress bar("evaluate");
+  const usecases::EvaluateReport report = run_use_case([&] { return usecases::evaluate(q, bar); }, spelling);
+  if (report.evaluation) {
+    print_table(*report.evaluation);
+    std::fprintf(stderr, "(J_c noise floor of the sensor: %.2f %%)\n", report.evaluation->jc_noise_floor_pct);
   }
-  nlohmann::json rows = nlohmann::json::array();
-  for (const evaluation::EvaluationRow& row : e.rows) rows.push_back(evaluation::evaluation_row_to_json(row));
-  nlohmann::json result = {{"plant", plant.name},
-                                 {"chain", o.chain},
-                                 {"noise_amplitude", e.noise_amplitude},
-                                 {"jc_noise_floor_pct", e.jc_noise_floor_pct},
-                                 {"probe_peak", o.evaluation.probe_peak},
-                                 {"ripple_band_hz", {o.evaluation.ripple_low_hz, o.evaluation.ripple_high_hz}},
-                                 {"rows", rows},
-                                 {"plots", nullptr}};
-  std::optional<evaluation::LevelSweep> sweep;
-  if (o.level_sweep || !lq || !o.html.empty()) {
-    o.sweep.seed = o.evaluation.seed;
-    {
-      ProgressBar bar("evaluate: THD against output level");
-      sweep = evaluation::sweep_levels(config, plant, o.sweep, [&](std::size_t done, std::size_t total) {
-        bar.update(static_cast<double>(done) / static_cast<double>(total));
-      });
-    }
-    print_level_sweep(*sweep);
-    result["level_sweep"] = evaluation::level_sweep_to_json(*sweep);
-  }
-  if (o.attribute && lq) {
-    std::vector<evaluation::TermDistortion> terms;
-    {
-      ProgressBar bar("evaluate: each nonlinear term alone");
-      terms = evaluation::attribute_distortion(config, plant, o.evaluation,
-                                           [&](std::size_t done, std::size_t total, const std::string&) {
-                                             bar.update(static_cast<double>(done) / static_cast<double>(total));
-                                           });
-      bar.update(1.0);
-    }
-    print_attribution(e, terms);
-    result["attribution"] = evaluation::attribution_to_json(terms);
-  }
+  if (report.sweep) print_level_sweep(*report.sweep);
+  if (report.evaluation && q.attribute) print_attribution(*report.evaluation, report.attribution);
+  nlohmann::json result = report.summary;
+  result["plots"] = nullptr;
   if (!o.plots.empty() || !o.html.empty()) {
     const std::filesystem::path dir = !o.plots.empty() ? std::filesystem::path(o.plots)
                                                        : std::filesystem::path(o.html + ".figures");
     std::filesystem::create_directories(dir);
     result["plots"] = nlohmann::json::object();
-    if (lq) {
-      result["plots"]["response"] = plot_evaluation_response(e, o.evaluation, dir, format).string();
-      result["plots"]["harmonics"] = plot_evaluation_harmonics(e, dir, format).string();
+    if (report.evaluation) {
+      evaluation::EvaluationOptions shown;
+      shown.probe_hz = q.probes_hz;
+      result["plots"]["response"] = plot_evaluation_response(*report.evaluation, shown, dir, format).string();
+      result["plots"]["harmonics"] = plot_evaluation_harmonics(*report.evaluation, dir, format).string();
     }
-    if (sweep) {
-      const std::filesystem::path chart = plot_level_sweep(*sweep, dir, format);
+    if (report.sweep) {
+      const std::filesystem::path chart = plot_level_sweep(*report.sweep, dir, format);
       result["plots"]["thd_vs_level"] = chart.string();
-      if (!o.html.empty()) write_sweep_html(o.html, o.chain, plant.name, *sweep, chart, format);
+      if (!o.html.empty()) write_sweep_html(o.html, o.chain, report.summary.at("plant"), *report.sweep, chart, format);
     }
   }
   if (!o.out.empty()) models::write_json_file(o.out, result);
@@ -203,27 +172,25 @@ void register_evaluate(CLI::App& app) {
   auto o = std::make_shared<EvaluateOptions>();
   CLI::App* cmd = app.add_subcommand(
       "evaluate", "Evaluate a controller chain on a simulated transducer: response ripple, THD and J_c ([2C])");
-  cmd->add_option("--plant", o->plant, "Preset (panel-exciter, linear) or plant JSON file")->capture_default_str();
+  cmd->add_option("--plant", o->q.plant, "Preset (panel-exciter, linear) or plant JSON file")->capture_default_str();
   cmd->add_option("--chain", o->chain, "Chain file (panelbass chain)")->required();
-  cmd->add_option("--probes", o->evaluation.probe_hz, "Probe sine frequencies, Hz (of the table and the level sweep)")
+  cmd->add_option("--probes", o->q.probes_hz, "Probe sine frequencies, Hz (of the table and the level sweep)")
       ->delimiter(',')
       ->capture_default_str();
-  cmd->add_option("--probe-peak", o->evaluation.probe_peak,
+  cmd->add_option("--probe-peak", o->q.probe_peak,
                  "Steady peak of the band-pass + feedforward output at each probe sine (0: the limiter's knee)")
-      ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
-  cmd->add_option("--seed", o->evaluation.seed, "Seed of the noise program and the sensor noise")->capture_default_str();
-  cmd->add_option("--noise-samples", o->evaluation.noise_samples, "Length of the white-noise record")
-      ->check(CLI::Range(4096L, 100000000L))
+  cmd->add_option("--seed", o->q.seed, "Seed of the noise program and the sensor noise")->capture_default_str();
+  cmd->add_option("--noise-samples", o->q.noise_samples, "Length of the white-noise record")
       ->capture_default_str();
-  cmd->add_flag("--attribute", o->attribute,
+  cmd->add_flag("--attribute", o->q.attribute,
                "Also evaluate on copies of the plant with one nonlinear term on at a time (every other off): "
                "which physics makes each probe's distortion (\"attribution\" in the result)");
-  cmd->add_flag("--level-sweep", o->level_sweep,
+  cmd->add_flag("--level-sweep", o->q.level_sweep,
                "Also sweep the program level at each probe: THD, H2, H3 against the sensor's fundamental, the chain "
                "beside the plant alone at equal output level, and two-tone IMD (\"level_sweep\" in the result; always "
                "run for a chain whose feedforward is a mirror filter, which has no J_c table)");
-  cmd->add_option("--levels", o->sweep.program_amplitudes, "Program sine amplitudes of the level sweep")
+  cmd->add_option("--levels", o->q.levels, "Program sine amplitudes of the level sweep")
       ->delimiter(',')
       ->capture_default_str();
   cmd->add_option("--html", o->html, "Also write the level sweep's THD-versus-level chart and table as an HTML page");
@@ -234,11 +201,7 @@ void register_evaluate(CLI::App& app) {
       "Examples:\n  panelbass evaluate --plant panel-exciter --chain chain.json --probe-peak 0.6 --out eval.json --plot plots/\n"
       "  panelbass evaluate --plant panel-exciter --chain chain.json --probe-peak 0.6 --attribute   # which term distorts where\n"
       "  panelbass evaluate --plant panel-exciter --chain mirror-chain.json --levels 0.1,0.2,0.4 --html thd.html");
-  cmd->callback([o] {
-    EvaluateOptions run = *o;
-    run.sweep.frequencies_hz = run.evaluation.probe_hz;
-    run_evaluate(std::move(run));
-  });
+  cmd->callback([o] { run_evaluate(*o); });
 }
 
 }  // namespace panelbass::cli

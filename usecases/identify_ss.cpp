@@ -13,27 +13,13 @@
 #include "models/state_space_nn/ss_training.h"
 #include "models/state_space_nn/ss_wiener_hammerstein.h"
 #include "models/validation/performance.h"
+#include "usecases/request_checks.h"
 #include "usecases/request_error.h"
 
 namespace panelbass::usecases {
 namespace {
 
 using nlohmann::json;
-
-// Throws RequestError(field, "must be within lo..hi, got v") for v outside [lo, hi].
-void within(const char* field, long long v, long long lo, long long hi) {
-  if (v < lo || v > hi) {
-    throw RequestError(field, "must be within " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " + std::to_string(v));
-  }
-}
-
-// Throws RequestError(field, …) for a number outside [lo, hi] (or not a number).
-void within_real(const char* field, double v, double lo, double hi) {
-  if (!(v >= lo && v <= hi)) {
-    throw RequestError(field, "must be within [" + models::number_text(lo) + ", " + models::number_text(hi) + "], got " +
-                                  models::number_text(v));
-  }
-}
 
 // The structure of the network around the linear start, from the request.
 models::SsStructure structure_of(const IdentifySsRequest& q) {

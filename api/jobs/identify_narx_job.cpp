@@ -1,6 +1,5 @@
 #include "api/jobs/identify_narx_job.h"
 
-#include <algorithm>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -13,14 +12,9 @@
 #include "api/jobs/param_reader.h"
 #include "api/jobs/record_acquisition.h"
 #include "api/jobs/stored_models.h"
-#include "models/io/json_fields.h"
 #include "models/kinds/model_file.h"
-#include "models/linear/data_survey.h"
-#include "models/linear/fit_warnings.h"
-#include "models/narx/friction_seed.h"
 #include "models/narx/narx_model.h"
-#include "models/narx/narx_training.h"
-#include "models/preprocess/scaling.h"
+#include "usecases/identify_narx.h"
 #include "usecases/narx_restarts.h"
 
 namespace panelbass::api {
@@ -28,20 +22,81 @@ namespace {
 
 using nlohmann::json;
 
+// The request of filled-in params, without its records and models.
+usecases::IdentifyNarxRequest narx_request(const json& params) {
+  usecases::IdentifyNarxRequest q;
+  q.na = params.at("na").get<int>();
+  q.nb = params.at("nb").get<int>();
+  q.nk = params.at("nk").get<int>();
+  q.hidden = params.at("hidden").get<std::vector<int>>();
+  q.modes = params.at("modes").get<std::vector<std::string>>();
+  q.optimizer = params.at("optimizer").get<std::string>();
+  q.max_iterations = params.at("max_iterations").get<int>();
+  q.pem_max_iterations = params.at("pem_max_iterations").get<int>();
+  q.pem_min_progress = params.at("pem_min_progress").get<double>();
+  q.step = params.at("step").get<double>();
+  q.batch = params.at("batch").get<long>();
+  q.skip = params.at("skip").get<long>();
+  q.patience = params.at("patience").get<int>();
+  if (params.at("weight_decay").is_number()) q.weight_decay = params.at("weight_decay").get<double>();
+  q.init = params.at("init").get<long>();
+  q.seed = params.at("seed").get<std::uint64_t>();
+  q.restarts = params.at("restarts").get<int>();
+  q.grow = params.at("grow").get<int>();
+  q.prune = params.at("prune").get<bool>();
+  q.friction_units = params.at("friction_units").get<std::vector<double>>();
+  q.friction_lags = params.at("friction_lags").get<int>();
+  const json& ms = params.at("multiple_shooting");
+  q.multiple_shooting.window = ms.at("window").get<Eigen::Index>();
+  q.multiple_shooting.penalty = ms.at("penalty").get<double>();
+  q.multiple_shooting.penalty_growth = ms.at("penalty_growth").get<double>();
+  q.multiple_shooting.penalty_max = ms.at("penalty_max").get<double>();
+  return q;
+}
+
 json identify_narx_params(const json& params, const JobEnvironment& env) {
+  const usecases::IdentifyNarxRequest d;
   ParamReader r(params, "params");
   std::string validation_path;
   const long long validation = record_source(r, env, validation_path);
-  r.integer("na", 2, 0, kMaxOrder);
-  r.integer("nb", 3, 0, kMaxOrder);
-  r.integer("nk", -1, -1, 1000);
-  const std::vector<long long> hidden = hidden_layers(r, {8});
-  r.choices("modes", {"pem", "oem-d"}, {"pem", "oem-s", "oem-d", "oem-n"});
-  r.integer("max_iterations", 30, 0, kMaxIterations);
-  r.integer("pem_max_iterations", models::TrainingOptions{}.pem_max_iterations, -1, kMaxIterations);
-  r.number("pem_min_progress", models::kDefaultPemMinProgress, {0.0, 1.0, false, true});
-  r.number("weight_decay", models::kDefaultLmWeightDecay, {0.0, 1e6, false, false});
-  r.integer("seed", 1, 0, kMaxSeed);
+  require_stored_model(r, "start_from", false, {"narx"}, env);
+  const json* start_from_id = r.member("start_from");
+  const bool start_from = start_from_id != nullptr && start_from_id->is_string();
+  if (!start_from) r.set("start_from", nullptr);
+  r.integer("na", d.na, -kAnyInteger, kAnyInteger);
+  r.integer("nb", d.nb, -kAnyInteger, kAnyInteger);
+  r.integer("nk", d.nk, -kAnyInteger, kAnyInteger);
+  r.integers("hidden", {d.hidden.begin(), d.hidden.end()}, 0, 64, -kAnyInteger, kAnyInteger);
+  r.texts("modes", d.modes);
+  r.text("optimizer", d.optimizer);
+  r.integer("max_iterations", d.max_iterations, -kAnyInteger, kAnyInteger);
+  r.integer("pem_max_iterations", d.pem_max_iterations, -kAnyInteger, kAnyInteger);
+  r.number("pem_min_progress", d.pem_min_progress, kAnyFinite);
+  r.number("step", d.step, kAnyFinite);
+  r.integer("batch", d.batch, -kAnyInteger, kAnyInteger);
+  r.integer("skip", d.skip, -kAnyInteger, kAnyInteger);
+  r.integer("patience", d.patience, -kAnyInteger, kAnyInteger);
+  if (const json* wd = r.member("weight_decay"); wd == nullptr || wd->is_null()) {
+    r.set("weight_decay", nullptr);  // the optimizer's default (usecases::IdentifyNarxRequest::weight_decay)
+  } else {
+    r.number("weight_decay", 0.0, kAnyFinite);
+  }
+  r.integer("init", d.init, -kAnyInteger, kAnyInteger);
+  r.integer("seed", static_cast<long long>(d.seed), 0, kMaxSeed);
+  r.integer("restarts", d.restarts, -kAnyInteger, kAnyInteger);
+  r.integer("grow", d.grow, -kAnyInteger, kAnyInteger);
+  r.boolean("prune", d.prune);
+  r.numbers("friction_units", d.friction_units, 0, 64, kAnyFinite);
+  r.integer("friction_lags", d.friction_lags, -kAnyInteger, kAnyInteger);
+  {
+    ParamReader ms(r.member("multiple_shooting") ? *r.member("multiple_shooting") : json(nullptr),
+                   r.path_of("multiple_shooting"));
+    ms.integer("window", d.multiple_shooting.window, -kAnyInteger, kAnyInteger);
+    ms.number("penalty", d.multiple_shooting.penalty, kAnyFinite);
+    ms.number("penalty_growth", d.multiple_shooting.penalty_growth, kAnyFinite);
+    ms.number("penalty_max", d.multiple_shooting.penalty_max, kAnyFinite);
+    r.set("multiple_shooting", ms.finish());
+  }
   // The control excitation's harmonic weights in the loss (identify narx --weight-col w).
   if (r.boolean("weighted", false)) {
     const json* excite = r.member("excite");
@@ -57,144 +112,60 @@ json identify_narx_params(const json& params, const JobEnvironment& env) {
       refuse(r.path_of("weighted"), "the weights come with a control excitation (excite.signal \"control\"), and " + which);
     }
   }
-  // Hidden nodes seeded as Coulomb friction (models::seed_friction_units): one per gain and lag.
-  const std::vector<double> gains = r.numbers("friction_units", {}, 0, 16, {0.0, 1000.0, true, false});
-  const long long lags = r.integer("friction_lags", 1, 1, 20);
-  if (static_cast<long long>(gains.size()) * lags > hidden[0]) {
-    refuse(r.path_of("friction_units"), std::to_string(gains.size()) + " gains x " + std::to_string(lags) +
-                                            " lags need as many first-layer nodes, hidden[0] is " + std::to_string(hidden[0]));
-  }
-  // Trainings from seeds seed … seed + restarts − 1 (usecases/narx_restarts.h), refused as the CLI refuses them.
-  const long long restarts = r.integer("restarts", usecases::NarxRestartsRequest{}.restarts, -kAnyInteger, kAnyInteger);
-  check_request([&] { usecases::check_restarts(static_cast<int>(restarts), gains.empty(), validation > 0); });
-  return r.finish();
+  json filled = r.finish();
+  usecases::IdentifyNarxRequest q = narx_request(filled);
+  check_request([&] {
+    // start_from's model is read when the job runs: a placeholder of it here, for the checks that only need to know
+    // there is one.
+    if (start_from) q.start_from = models::NarxModel{};
+    usecases::check(q);
+    usecases::check_restarts(q.restarts, !start_from && q.grow == 0 && q.friction_units.empty(), validation > 0);
+  });
+  return filled;
 }
 
 json identify_narx_work(const json& params, const JobEnvironment& env, JobControl& control) {
   JobProgress progress(control);
   const SourcedRecord data = acquire_record(params, env, progress, control);
   const ExcitationRecord& r = data.record;
-
-  const models::Scaling scaling = models::scaling_from_data(r.u_est, r.y_est);
-  int nk = params.at("nk").get<int>();
-  std::string nk_source = "given";
-  if (nk < 0) {
-    const models::DataSurvey survey = models::survey_data(r.u_est, r.y_est);
-    nk = survey.delay;
-    nk_source = models::delay_finding(survey);
-  }
-  const models::NarxStructure structure{params.at("na").get<int>(), params.at("nb").get<int>(), nk,
-                                        hidden_widths(params.at("hidden"))};
-  usecases::NarxRestartsRequest q;
-  q.seed = params.at("seed").get<std::uint64_t>();
-  q.restarts = params.at("restarts").get<int>();
-  q.start = models::NarxModel::with_structure(structure, scaling, env.fs);
-  q.start.net.initialize(1.0, q.seed);
-  q.u_est = r.u_est;
-  q.y_est = r.y_est;
-  q.u_val = r.u_val;
-  q.y_val = r.y_val;
-  const Eigen::VectorXd us = scaling.scale_u(r.u_est), ys = scaling.scale_y(r.y_est);
-  const Eigen::VectorXd uv = r.u_val.size() ? scaling.scale_u(r.u_val) : Eigen::VectorXd();
-  json friction = nullptr;
-  if (const auto gains = params.value("friction_units", std::vector<double>{}); !gains.empty()) {
-    friction = models::friction_seed_report(
-        models::seed_friction_units(q.start, us, ys, gains, params.value("friction_lags", 1)));
-    q.fresh_start = false;
-  }
-
-  models::TrainingOptions options;
-  options.modes.clear();
-  std::string train;
-  for (const json& m : params.at("modes")) {
-    options.modes.push_back(models::parse_training_mode(m.get<std::string>()));
-    train += (train.empty() ? "" : ",") + m.get<std::string>();
-  }
-  options.optimizer = models::Optimizer::lm;
-  options.max_iterations = params.at("max_iterations").get<int>();
-  options.pem_max_iterations = params.at("pem_max_iterations").get<int>();
-  options.pem_min_progress = params.at("pem_min_progress").get<double>();
-  options.weight_decay = params.at("weight_decay").get<double>();
-  const bool weighted = params.value("weighted", false);
-  if (weighted) {
+  usecases::IdentifyNarxRequest q = narx_request(params);
+  put_record(q, data, env.fs);
+  if (params.value("weighted", false)) {
     if (r.w_est.size() == 0) throw std::invalid_argument("params.weighted: the record has no harmonic weights");
-    options.weights = r.w_est;
-    options.validation_weights = r.w_val;
+    q.w_est = r.w_est;
+    q.w_val = r.w_val;
   }
-  // Training selects and stops on the J the job reports (simulation_j): the first init_samples() measured
-  // outputs set the state, then free run.
-  options.init = init_samples(std::min(us.size(), uv.size() ? uv.size() : us.size()));
-  q.options = options;
+  if (params.contains("start_from") && params.at("start_from").is_string()) {
+    q.start_from_name = params.at("start_from").get<std::string>();
+    q.start_from = models::narx_model_from_json(stored_model_file(env, q.start_from_name));
+  }
   progress.span(kExcitationShare, 0.85);
-  usecases::NarxRestartsReport restarted;
-  check_request([&] { restarted = usecases::train_narx_restarts(q, progress); });
-  models::TrainingResult& trained = restarted.result;
+  usecases::IdentifyNarxReport report;
+  check_request([&] { report = usecases::identify_narx(q, progress); });
 
   progress.span(0.85, 1.0);
-  progress.at(0.0, "judging the model");
-  const models::AnyModel judged{trained.model};
-  const double j_est = simulation_j(judged, r.u_est, r.y_est);
-  const double j_val = simulation_j(judged, r.u_val, r.y_val);
-  json meta_history = json::array();
-  std::vector<HistoryPoint> history;
-  for (std::size_t k = 0; k < trained.history.size(); ++k) {
-    const models::TrainingRecord& rec = trained.history[k];
-    meta_history.push_back({{"iter", rec.iteration}, {"mode", models::to_string(rec.mode)},
-                            {"J_est_pct", models::number_or_null(rec.j_est_pct)}, {"J_val_pct", models::number_or_null(rec.j_val_pct)}});
-    history.push_back({rec.iteration, rec.j_est_pct, rec.j_val_pct});
-  }
-  trained.model.meta = {{"data", data.source + " (estimation)"},
-                        {"val", r.u_val.size() ? json(data.source + " (validation)") : json("")},
-                        {"train", train},
-                        {"optimizer", "lm"},
-                        {"J_est_pct", j_est},
-                        {"J_val_pct", models::number_or_null(j_val)},
-                        {"seed", restarted.chosen_seed},
-                        {"weighted", weighted},
-                        {"history", meta_history}};
-  if (!friction.is_null()) trained.model.meta["friction_units"] = friction;
-  progress.at(0.1, "a linear model of the same order on the same record, for comparison");
-  const double j_judged = r.u_val.size() ? j_val : j_est;
-  const double j_linear = models::linear_reference_j_pct(r.u_est, r.y_est, r.u_val, r.y_val,
-                                                         std::max(structure.na, structure.nb), structure.nk,
-                                                         init_samples(r.u_val.size() ? r.u_val.size() : r.u_est.size()));
-  const std::vector<std::string> warnings = models::fit_warnings(
-      j_judged, r.u_val.size() ? "J_val" : "J_est", j_linear,
-      "Check the delay (nk = " + std::to_string(structure.nk) + ", " + nk_source +
-          "); then try more iterations (max_iterations), another seed, or other lags (na, nb).");
   progress.at(0.2, "storing the model");
-  const std::string name = "narx " + std::to_string(structure.na) + "/" + std::to_string(structure.nb) + "/" +
-                           std::to_string(structure.nk) + " " + hidden_text(structure.hidden) + " (" + control.job_id() + ")";
-  const std::string model_id = store_model(env, models::narx_model_to_json(trained.model), name, control);
+  const models::NarxStructure& s = report.model.structure;
+  const std::string name = "narx " + std::to_string(s.na) + "/" + std::to_string(s.nb) + "/" + std::to_string(s.nk) + " " +
+                           hidden_text(s.hidden) + " (" + control.job_id() + ")";
+  const std::string model_id = store_model(env, models::narx_model_to_json(report.model), name, control);
 
-  const models::AnyModel any{trained.model};
+  std::vector<HistoryPoint> history;
+  for (const models::TrainingRecord& rec : report.history) history.push_back({rec.iteration, rec.j_est_pct, rec.j_val_pct});
+  const models::AnyModel any{report.model};
   json plots = model_plots(any, r, env.fs);
   plots["history"] = history_plot(history);
   progress.span(0.9, 1.0);
   const json harmonics = harmonics_if_known(env, any, r, progress);
   if (!harmonics.is_null()) plots["harmonics"] = harmonics;
   progress.at(1.0, "done");
-  json result = {{"model_id", model_id},
-                 {"j_est_pct", j_est},
-                 {"j_val_pct", models::number_or_null(j_val)},
-                 {"summary",
-                  {{"na", structure.na},
-                   {"nb", structure.nb},
-                   {"nk", structure.nk},
-                   {"nk_source", nk_source},
-                   {"linear_reference_j_pct", models::number_or_null(j_linear)},
-                   {"hidden", structure.hidden},
-                   {"modes", params.at("modes")},
-                   {"params", trained.model.net.parameter_count()},
-                   {"iterations", trained.iterations},
-                   {"seconds", trained.seconds},
-                   {"weighted", weighted},
-                   {"data", data.source}}},
-                 {"plots", plots}};
-  if (!friction.is_null()) result["summary"]["friction_units"] = friction;
-  if (!restarted.restarts.is_null()) result["summary"]["restarts"] = restarted.restarts;
-  result["warnings"] = warnings;
-  return result;
+  json summary = report.summary;
+  summary["data"] = data.source;
+  // The job's summary has always named these beside "structure" (ROUTES.md).
+  for (const char* key : {"restarts", "friction_units"}) {
+    if (summary.at("structure").contains(key)) summary[key] = summary.at("structure").at(key);
+  }
+  return identified_model_result(model_id, summary, report.warnings, plots);
 }
 
 }  // namespace

@@ -47,17 +47,6 @@ usecases::IdentifySsRequest ss_request(const json& params) {
   return q;
 }
 
-// A string field (the use case's check says which values it takes); `fallback` when absent.
-void text(ParamReader& r, const std::string& key, const std::string& fallback) {
-  const json* v = r.member(key);
-  if (v == nullptr || v->is_null()) {
-    r.set(key, fallback);
-    return;
-  }
-  if (!v->is_string()) refuse(r.path_of(key), "expected a string, got " + shown(*v));
-  r.set(key, *v);
-}
-
 json identify_ss_params(const json& params, const JobEnvironment& env) {
   const usecases::IdentifySsRequest d;
   ParamReader r(params, "params");
@@ -71,7 +60,7 @@ json identify_ss_params(const json& params, const JobEnvironment& env) {
   r.integer("poly_degree", d.poly_degree, -kAnyInteger, kAnyInteger);
   r.integer("poly_states", d.poly_states, -kAnyInteger, kAnyInteger);
   r.boolean("poly_states_only", d.poly_states_only);
-  text(r, "activation", d.activation);
+  r.text("activation", d.activation);
   r.boolean("hidden_states_only", d.hidden_states_only);
   r.boolean("wiener_hammerstein", d.wiener_hammerstein);
   r.integer("wh_iterations", d.wh_iterations, -kAnyInteger, kAnyInteger);
@@ -87,7 +76,7 @@ json identify_ss_params(const json& params, const JobEnvironment& env) {
   r.number("final_learning_rate", d.final_learning_rate, kAnyFinite);
   r.integer("polish_iterations", d.polish_iterations, -kAnyInteger, kAnyInteger);
   r.integer("polish_window", d.polish_window, -kAnyInteger, kAnyInteger);
-  text(r, "initial_state", d.initial_state);
+  r.text("initial_state", d.initial_state);
   r.integer("init", d.init, -kAnyInteger, kAnyInteger);
   r.integer("seed", static_cast<long long>(d.seed), 0, kMaxSeed);
   json filled = r.finish();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "api/jobs/job_plots.h"
@@ -39,12 +40,19 @@ nlohmann::json model_plots(const models::AnyModel& model, const ExcitationRecord
 nlohmann::json identified_model_result(const std::string& model_id, const nlohmann::json& summary,
                                        const std::vector<std::string>& warnings, const JudgedPart& part,
                                        const Eigen::VectorXd& y_sim, double fs) {
+  return identified_model_result(
+      model_id, summary, warnings,
+      {{"fit", fit_plot(part.y, y_sim, fs)}, {"spectrum", spectrum_plot(part.u, part.y, y_sim, fs)}});
+}
+
+nlohmann::json identified_model_result(const std::string& model_id, const nlohmann::json& summary,
+                                       const std::vector<std::string>& warnings, nlohmann::json plots) {
   return {{"model_id", model_id},
           {"j_est_pct", summary.at("J_est_pct")},
           {"j_val_pct", summary.at("J_val_pct")},
           {"summary", summary},
           {"warnings", warnings},
-          {"plots", {{"fit", fit_plot(part.y, y_sim, fs)}, {"spectrum", spectrum_plot(part.u, part.y, y_sim, fs)}}}};
+          {"plots", std::move(plots)}};
 }
 
 std::optional<models::DistortionSpec> harmonic_spec(const JobEnvironment& env, double model_fs,

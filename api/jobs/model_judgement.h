@@ -36,6 +36,10 @@ nlohmann::json identified_model_result(const std::string& model_id, const nlohma
                                        const std::vector<std::string>& warnings, const JudgedPart& part,
                                        const Eigen::VectorXd& y_sim, double fs);
 
+/// The same result with its plots given.
+nlohmann::json identified_model_result(const std::string& model_id, const nlohmann::json& summary,
+                                       const std::vector<std::string>& warnings, nlohmann::json plots);
+
 /// The stepped-sine harmonic distortion measurement (H2/H3 at the record's drive level) that compares the
 /// server's plant with a model at `model_fs`; nullopt unless the plant is known and runs at that rate.
 std::optional<models::DistortionSpec> harmonic_spec(const JobEnvironment& env, double model_fs,

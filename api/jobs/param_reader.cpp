@@ -118,6 +118,30 @@ std::string ParamReader::choice(const std::string& key, const std::string& fallb
   return value;
 }
 
+std::string ParamReader::text(const std::string& key, const std::string& fallback) {
+  const json* v = fields_.member(key);
+  std::string value = fallback;
+  if (v != nullptr && !v->is_null()) {
+    if (!v->is_string()) refuse(path_of(key), "expected a string, got " + shown(*v));
+    value = v->get<std::string>();
+  }
+  filled_[key] = value;
+  return value;
+}
+
+std::vector<std::string> ParamReader::texts(const std::string& key, const std::vector<std::string>& fallback) {
+  const json* v = fields_.member(key);
+  std::vector<std::string> value = fallback;
+  if (v != nullptr && !v->is_null()) {
+    if (!v->is_array() || std::any_of(v->begin(), v->end(), [](const json& s) { return !s.is_string(); })) {
+      refuse(path_of(key), "expected a list of strings, got " + shown(*v));
+    }
+    value = v->get<std::vector<std::string>>();
+  }
+  filled_[key] = value;
+  return value;
+}
+
 std::vector<long long> ParamReader::integers(const std::string& key, const std::vector<long long>& fallback,
                                              std::size_t min_count, std::size_t max_count, long long lo, long long hi) {
   const json* v = fields_.member(key);

@@ -326,7 +326,7 @@ TEST_F(RecordRoutesTest, JobParamsNamingAnUploadedRecordAreChecked) {
   // No validation part at all is a split too (no order scan then).
   const Reply ok = post("/api/jobs", json{{"kind", "identify-linear"}, {"params", {{"record", id}, {"val_fraction", 0.0}}}});
   EXPECT_EQ(ok.status, 202) << ok.text;
-  refused({{"record", id}, {"val_fraction", 0.0}, {"scan", {2, 4}}}, "needs validation data (params.val_fraction");
+  refused({{"record", id}, {"val_fraction", 0.0}, {"scan", {2, 4}}}, "params.scan: an order scan needs validation data");
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include "api/jobs/job_kinds.h"
 #include "api/server.h"
 #include "models/kinds/model_file.h"
+#include "usecases/analyze.h"
 #include "usecases/design_lq.h"
 #include "usecases/design_mirror.h"
 #include "usecases/design_nn.h"
@@ -20,6 +21,9 @@
 #include "usecases/identify_mimo.h"
 #include "usecases/identify_oscillator.h"
 #include "usecases/equal_output_thd.h"
+#include "usecases/evaluate.h"
+#include "usecases/identify_linear.h"
+#include "usecases/identify_narx.h"
 #include "usecases/identify_ss.h"
 #include "usecases/plant_survey.h"
 #include "usecases/tune.h"
@@ -87,6 +91,10 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
       {"design-nn", "DesignNnParams", usecases::to_json(usecases::DesignNnRequest{})},
       {"excite", "ExciteParams", usecases::to_json(usecases::ExciteRequest{.signal = "control"})},
       {"plant-survey", "PlantSurveyParams", usecases::to_json(usecases::PlantSurveyRequest{})},
+      {"identify-linear", "IdentifyLinearParams", usecases::to_json(usecases::IdentifyLinearRequest{})},
+      {"identify-narx", "IdentifyNarxParams", usecases::to_json(usecases::IdentifyNarxRequest{})},
+      {"analyze", "AnalyzeParams", usecases::to_json(usecases::AnalyzeRequest{})},
+      {"evaluate", "EvaluateParams", usecases::to_json(usecases::EvaluateRequest{})},
   };
   const json& schemas = openapi_document().at("components").at("schemas");
   for (const DocumentedRequest& r : requests) {

@@ -188,8 +188,10 @@ TEST_F(CliAnalyze, WrongKindFailsWithOneLine) {
 TEST_F(CliAnalyze, BadDataAndUsage) {
   // A rate that is not the model's.
   expect_failure(run("analyze --model " + model() + " --data " + val() + " --fs 8000 --out " + quoted(dir_ / "r.json")));
-  // --init as long as the data.
-  expect_failure(run("analyze --model " + model() + " --data " + val() + " --init 2000 --out " + quoted(dir_ / "r.json")));
+  // --init as long as the data: a usage error naming the flag (usecases/analyze.h).
+  const RunResult init = run("analyze --model " + model() + " --data " + val() + " --init 2000 --out " + quoted(dir_ / "r.json"));
+  expect_usage_error(init);
+  EXPECT_TRUE(contains(init.err, "--init: 2000 is not shorter than the data")) << init.err;
   // --out in a directory that does not exist.
   expect_failure(run("analyze --model " + model() + " --data " + val() + " --out " + quoted(dir_ / "no" / "r.json")));
   // No --out.

@@ -227,7 +227,9 @@ TEST_F(CliControl, ClosedLoopRecordsRefineThePlantModelFromWhereItIs) {
 
   // what a refinement cannot take, named
   expect_failure(run(refine + " --hidden 6 --out " + quoted(path("x.json"))), "--start-from");
-  expect_failure(run(refine + " --friction-units 3 --out " + quoted(path("x.json"))), "--friction-units");
+  const RunResult seeded = run(refine + " --friction-units 3 --out " + quoted(path("x.json")));
+  expect_usage_error(seeded);
+  EXPECT_NE(seeded.err.find("--friction-units: cannot be combined with a start_from model"), std::string::npos) << seeded.err;
   expect_failure(run("identify narx --data " + quoted(path("est.csv")) + " --fs 3000 --start-from " +
                      quoted(dir_ / "lin.json") + " --out " + quoted(path("x.json"))),
                  "expected a NARX model");
