@@ -132,6 +132,12 @@ inline void expect_progress(const FakeControl& control) {
   EXPECT_DOUBLE_EQ(control.reports.back().fraction, 1.0);
 }
 
+/// The samples of array `a` (an excite job's record column).
+inline Eigen::VectorXd samples_of(const nlohmann::json& a) {
+  const std::vector<double> v = a.get<std::vector<double>>();
+  return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+}
+
 class JobKindsTest : public testing_support::ScratchDirectoryTest {
  protected:
   JobKindsTest() {

@@ -23,12 +23,6 @@
 namespace panelbass::api::job_testing {
 namespace {
 
-// The samples of array `a` (an excite job's record column).
-Eigen::VectorXd samples_of(const json& a) {
-  const std::vector<double> v = a.get<std::vector<double>>();
-  return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
-}
-
 class UseCaseParity : public JobKindsTest {
  protected:
   // `panelbass <args>` in the test's folder; its exit status, stdout and stderr.

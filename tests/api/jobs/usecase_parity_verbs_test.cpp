@@ -17,12 +17,6 @@
 namespace panelbass::api::job_testing {
 namespace {
 
-// The samples of array `a` (an excite job's record column).
-Eigen::VectorXd samples_of(const json& a) {
-  const std::vector<double> v = a.get<std::vector<double>>();
-  return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
-}
-
 // `j` without the keys only one door has (where a model went, what a file or a stored model is called, timing).
 json without(json j, const std::vector<std::string>& keys) {
   for (const std::string& k : keys) j.erase(k);
