@@ -16,24 +16,23 @@
 #include "models/validation/performance.h"
 
 namespace panelbass::models {
-namespace {
 
-// The selection J; infinite when the free run overflows (a cubic term run away), so that the candidate is
-// passed over and training goes on.
-double selection_j(const SsModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) {
+double ss_selection_j(const SsModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) {
   const Eigen::VectorXd simulated = m.simulate(u, y, init);
   if (!simulated.allFinite()) return std::numeric_limits<double>::infinity();
   return j_percent(simulated, y, init);
 }
 
-// Whether candidate `m` of selection J `j` replaces the kept model of `out`: a finite J below the kept one's
-// (any finite J while the kept one runs away), and a bounded free run — tested only then, as it costs a run.
-bool replaces_kept(const SsModel& m, double j, const SsTraining& out) {
-  if (!std::isfinite(j) || !(j < out.j_val_pct || out.runaway)) return false;
-  return !ss_free_run_runaway(m);
+bool ss_keep_if_better(const SsModel& m, double j, int iteration, SsTraining& out) {
+  // a finite J below the kept one's (any finite J while the kept one runs away), and a bounded free run —
+  // tested only then, as it costs a run
+  if (!std::isfinite(j) || !(j < out.j_val_pct || out.runaway) || ss_free_run_runaway(m)) return false;
+  out.j_val_pct = j;
+  out.model = m;
+  out.runaway.reset();
+  out.best_epoch = iteration;
+  return true;
 }
-
-}  // namespace
 
 void ss_fit_encoder(SsModel& m, const Eigen::VectorXd& us, const Eigen::VectorXd& ys, const Eigen::MatrixXd& states) {
   const Eigen::Index n = m.structure.states, L = m.structure.lags, samples = us.size();
@@ -118,7 +117,7 @@ SsTraining train_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen:
   SsTraining out;
   SsModel m = start;
   out.model = m;
-  out.j_val_pct = selection_j(m, us_sel, ys_sel, options.init);
+  out.j_val_pct = ss_selection_j(m, us_sel, ys_sel, options.init);
   out.runaway = ss_free_run_runaway(m);
   out.history.push_back({0, ss_window_loss(m, us, ys, {std::vector<Eigen::Index>{L}, T}, nullptr), out.j_val_pct, seconds()});
   if (options.progress && !options.progress(out.history.back())) return out;
@@ -147,13 +146,9 @@ SsTraining train_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen:
       loss_sum += loss;
       ++steps;
     }
-    const double j = selection_j(m, us_sel, ys_sel, options.init);
+    const double j = ss_selection_j(m, us_sel, ys_sel, options.init);
     out.history.push_back({epoch, steps > 0 ? loss_sum / static_cast<double>(steps) : NAN, j, seconds()});
-    if (replaces_kept(m, j, out)) {
-      out.j_val_pct = j;
-      out.model = m;
-      out.runaway.reset();
-      out.best_epoch = epoch;
+    if (ss_keep_if_better(m, j, epoch, out)) {
       since_best = 0;
     } else {
       ++since_best;
@@ -197,15 +192,10 @@ int polish_progress(void* instance, const lbfgsfloatval_t* x, const lbfgsfloatva
                     lbfgsfloatval_t, lbfgsfloatval_t, int n, int k, int) {
   auto& run = *static_cast<PolishRun*>(instance);
   run.model.theta = Eigen::Map<const Eigen::VectorXd>(x, n);
-  const double j = selection_j(run.model, *run.u_sel, *run.y_sel, run.options->init);
+  const double j = ss_selection_j(run.model, *run.u_sel, *run.y_sel, run.options->init);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run.began).count();
   run.out->history.push_back({k, fx, j, seconds});
-  if (replaces_kept(run.model, j, *run.out)) {
-    run.out->j_val_pct = j;
-    run.out->model = run.model;
-    run.out->runaway.reset();
-    run.out->best_epoch = k;
-  }
+  ss_keep_if_better(run.model, j, k, *run.out);
   return run.options->progress && !run.options->progress(run.out->history.back()) ? 1 : 0;
 }
 
@@ -229,7 +219,7 @@ SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen
   PolishRun run{start, &us, &ys, has_val ? &u_val : &u, has_val ? &y_val : &y, {}, &options, &out,
                 std::chrono::steady_clock::now(), {}, 0.0};
   for (Eigen::Index k0 = L; k0 + T <= u.size(); k0 += T) run.starts.push_back(k0);
-  out.j_val_pct = selection_j(start, *run.u_sel, *run.y_sel, options.init);
+  out.j_val_pct = ss_selection_j(start, *run.u_sel, *run.y_sel, options.init);
   out.runaway = ss_free_run_runaway(start);
   run.start_loss = ss_window_loss(start, us, ys, {run.starts, T}, nullptr);
   out.history.push_back({0, run.start_loss, out.j_val_pct, 0.0});

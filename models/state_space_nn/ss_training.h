@@ -61,6 +61,14 @@ struct SsTraining {
   std::optional<Runaway> runaway;
 };
 
+/// The selection J of `m` on raw data u, y (the `init` protocol); +∞ when its free run overflows (a cubic
+/// term run away), so that the candidate is passed over and training goes on.
+double ss_selection_j(const SsModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init);
+
+/// Keeps candidate `m` of selection J `j` in `out` (model, J, best_epoch = iteration, runaway cleared) when j is
+/// finite and below the kept one's (any finite J while the kept one runs away) and its free run is bounded.
+bool ss_keep_if_better(const SsModel& m, double j, int iteration, SsTraining& out);
+
 /// How to polish.
 struct SsPolishOptions {
   Eigen::Index window = 100;  ///< T of the fixed windows tiling the estimation data
