@@ -29,7 +29,7 @@ double ss_shooting_loss(const SsModel& m, const Eigen::VectorXd& u, const Eigen:
 struct SsShootingOptions {
   Eigen::Index window = 100;  ///< T: samples per window; the windows tile the estimation data from `lags` on
   double penalty = 1.0;       ///< ρ: a unit of continuity (or encoder) mismatch weighs as one sample's error
-  int iterations = 100;       ///< L-BFGS iterations at most
+  int iterations = 100;       ///< L-BFGS iterations at most (≥ 1)
   Eigen::Index init = 50;     ///< measured samples that set the state before J
   /// After each iteration; returning false stops.
   std::function<bool(const SsTrainingRecord&)> progress;

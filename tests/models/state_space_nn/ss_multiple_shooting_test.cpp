@@ -6,43 +6,36 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <random>
 #include <vector>
 
-#include "models/linear/linear_model.h"
 #include "models/state_space_nn/ss_gradients.h"
 #include "models/state_space_nn/ss_multiple_shooting.h"
 #include "models/state_space_nn/ss_training.h"
 #include "models/validation/performance.h"
+#include "tests/support/wiener_hammerstein_record.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd shooting_noise(Eigen::Index n, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> d(-1.0, 1.0);
-  Eigen::VectorXd x(n);
-  for (auto& v : x) v = d(rng);
-  return x;
-}
+using testing_support::mt_uniform_noise;
 
 // nx = 3, 5 tanh nodes, 4 lags, an encoder with `encoder_hidden` nodes; every part of θ non-zero, A stable.
 SsModel shooting_model(int encoder_hidden) {
   SsModel m;
   m.structure = {3, 5, 4, encoder_hidden};
   m.fs = 1000.0;
-  m.theta = 0.3 * shooting_noise(m.structure.parameter_count(), 17);
-  ss_parts(m.structure, m.theta.data()).A = Eigen::MatrixXd::Identity(3, 3) * 0.8 + 0.1 * shooting_noise(9, 18).reshaped(3, 3);
+  m.theta = 0.3 * mt_uniform_noise(m.structure.parameter_count(), 17);
+  ss_parts(m.structure, m.theta.data()).A = Eigen::MatrixXd::Identity(3, 3) * 0.8 + 0.1 * mt_uniform_noise(9, 18).reshaped(3, 3);
   return m;
 }
 
 TEST(SsMultipleShooting, GradientEqualsCentralFiniteDifferences) {
-  const Eigen::VectorXd u = shooting_noise(70, 1), y = 0.5 * shooting_noise(70, 2);
+  const Eigen::VectorXd u = mt_uniform_noise(70, 1), y = 0.5 * mt_uniform_noise(70, 2);
   const std::vector<Eigen::Index> starts{6, 18, 30, 42};  // consecutive windows of 12 after 4 lags
   const SsWindows windows{starts, 12};
   for (const int encoder_hidden : {0, 2}) {
     const SsModel m = shooting_model(encoder_hidden);
-    const Eigen::MatrixXd x0 = 0.4 * shooting_noise(12, 3).reshaped(3, 4);
+    const Eigen::MatrixXd x0 = 0.4 * mt_uniform_noise(12, 3).reshaped(3, 4);
     const double rho = 0.7;
     Eigen::VectorXd gradient;
     Eigen::MatrixXd state_gradient;
@@ -72,7 +65,7 @@ TEST(SsMultipleShooting, GradientEqualsCentralFiniteDifferences) {
 }
 
 TEST(SsMultipleShooting, ChainedStatesGiveTheLongWindowsErrorAndThePenaltiesWrittenOut) {
-  const Eigen::VectorXd u = shooting_noise(70, 4), y = 0.5 * shooting_noise(70, 5);
+  const Eigen::VectorXd u = mt_uniform_noise(70, 4), y = 0.5 * mt_uniform_noise(70, 5);
   const SsModel m = shooting_model(2);
   const std::vector<Eigen::Index> starts{6, 21, 36};
   const SsWindows windows{starts, 15};
@@ -106,7 +99,7 @@ TEST(SsMultipleShooting, ChainedStatesGiveTheLongWindowsErrorAndThePenaltiesWrit
 }
 
 TEST(SsMultipleShooting, RefusesWindowsThatAreNotConsecutive) {
-  const Eigen::VectorXd u = shooting_noise(70, 6), y = shooting_noise(70, 7);
+  const Eigen::VectorXd u = mt_uniform_noise(70, 6), y = mt_uniform_noise(70, 7);
   const std::vector<Eigen::Index> starts{6, 20};
   EXPECT_THROW(ss_shooting_loss(shooting_model(0), u, y, {starts, 12}, Eigen::MatrixXd::Zero(3, 2), 1.0, nullptr, nullptr),
                std::invalid_argument);
@@ -115,27 +108,10 @@ TEST(SsMultipleShooting, RefusesWindowsThatAreNotConsecutive) {
                std::invalid_argument);
 }
 
-// Wiener–Hammerstein: a first-order low-pass, a saturation, another first-order filter.
-Eigen::VectorXd shooting_wiener_hammerstein(const Eigen::VectorXd& u) {
-  Eigen::VectorXd y(u.size());
-  double a = 0.0, b = 0.0;
-  for (Eigen::Index k = 0; k < u.size(); ++k) {
-    y(k) = b;
-    a = 0.8 * a + 0.2 * u(k);
-    b = 0.7 * b + 0.3 * std::tanh(2.0 * a);
-  }
-  return y;
-}
-
 TEST(SsMultipleShooting, TrainingLowersTheValidationJAndKeepsItsBest) {
-  const Eigen::VectorXd u = shooting_noise(3000, 10), y = shooting_wiener_hammerstein(u);
+  const Eigen::VectorXd u = mt_uniform_noise(3000, 10), y = testing_support::wiener_hammerstein(u);
   const Eigen::VectorXd ue = u.head(2000), ye = y.head(2000), uv = u.tail(1000), yv = y.tail(1000);
-  LinearModel linear;
-  linear.fs = 1000.0;
-  linear.tf.a = Eigen::Vector2d(-1.5, 0.56);
-  linear.tf.b = Eigen::VectorXd::Constant(1, 0.12);
-  linear.tf.nk = 1;
-  const SsModel start = ss_initial_model(linear, {2, 8, 5, 0}, ue, ye, 3);
+  const SsModel start = ss_initial_model(testing_support::wiener_hammerstein_linearisation(), {2, 8, 5, 0}, ue, ye, 3);
   SsShootingOptions options;
   options.window = 50;
   options.iterations = 40;
