@@ -49,6 +49,10 @@ int main(int argc, char** argv) {
   app.add_option("--seed", seed)->capture_default_str();
   app.add_option("--restarts", restarts)->capture_default_str();
   app.add_option("--weight-decay", weight_decay)->capture_default_str();
+  std::string evidence_decay = "off";
+  app.add_option("--evidence-decay", evidence_decay,
+                 "Re-estimate the weight decay each LM iteration by MacKay's evidence: off, all (modes), oem (after pem)")
+      ->capture_default_str();
   app.add_option("--init", init, "Measured outputs setting the state (at most a tenth of the shorter part)")
       ->capture_default_str();
   app.add_option("--ms-window", ms.window)->capture_default_str();
@@ -86,19 +90,21 @@ int main(int argc, char** argv) {
   options.patience = patience;
   options.pem_min_progress = pem_min_progress;
   options.weight_decay = weight_decay;
+  options.evidence_decay = models::parse_evidence_decay(evidence_decay);
   options.init = std::min<Eigen::Index>(init, std::min<Eigen::Index>(est_rows, n_val) / 10);
   options.multiple_shooting = ms;
   if (name.empty()) name = train;
 
   std::ofstream log(out);
-  log << "run,epoch,seconds,J_val_pct,mode\n";
+  log << "run,epoch,seconds,J_val_pct,mode,weight_decay\n";
   const auto started = std::chrono::steady_clock::now();
   const auto seconds = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   };
   int epoch = 0;
   options.progress = [&](const models::TrainingRecord& r) {
-    log << name << ',' << epoch++ << ',' << seconds() << ',' << r.j_val_pct << ',' << models::to_string(r.mode) << '\n';
+    log << name << ',' << epoch++ << ',' << seconds() << ',' << r.j_val_pct << ',' << models::to_string(r.mode) << ','
+        << r.weight_decay << '\n';
   };
   double best = std::numeric_limits<double>::infinity();
   for (int r = 0; r < restarts; ++r) {

@@ -18,7 +18,8 @@
 #   env: PEER_BUDGET=120 seconds for the whole peer recipe, PB_RECIPES="--train …; --train …" (flags of
 #        narx_recipe_bench, as identify narx's; its --weight-decay defaults to the library's 0, not the CLI's 0.01,
 #        so the recipes name theirs; its --pem-min-progress is the library's and the CLI's 0.1, --pem-min-progress 0
-#        turns the rule off),
+#        turns the rule off; --evidence-decay all|oem re-estimates the decay every LM iteration, or pem's excepted, from
+#        --weight-decay on),
 #        PANELBASS_DATA=../shared/data, PYTHON=/usr/bin/python3, NARX_WORK=DIR (keep the records, RECORD.csv,
 #        and the logs, RECORD-pbI.csv per recipe I and RECORD-peer.csv, there instead of a temporary folder)
 set -euo pipefail
@@ -28,7 +29,7 @@ bench=build/bin/narx_recipe_bench
 python=${PYTHON:-/usr/bin/python3}
 budget=${PEER_BUDGET:-120}
 data=${PANELBASS_DATA:-../shared/data}
-recipes=${PB_RECIPES:-"--train pem,oem-d --weight-decay 0; --train pem,oem-d --weight-decay 0.01; --train pem,oem-ms,oem-d --weight-decay 0.01; --train pem,oem-ms,oem-d --ms-window 100 --weight-decay 0.01; --train pem,oem-d --weight-decay 0.1; --train pem,oem-d --weight-decay 0.01 --restarts 3"}
+recipes=${PB_RECIPES:-"--train pem,oem-d --weight-decay 0.01; --train pem,oem-d --weight-decay 0.01 --evidence-decay all; --train pem,oem-d --weight-decay 0.01 --evidence-decay oem; --train pem,oem-ms,oem-d --weight-decay 0.01 --evidence-decay all"}
 IFS=';' read -r -a recipe_list <<< "$recipes"
 if [[ -n ${NARX_WORK:-} ]]; then  # keep the records and the per-iteration logs there
   work=$NARX_WORK; mkdir -p "$work"

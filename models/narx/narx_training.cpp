@@ -22,6 +22,7 @@
 #include <utility>
 
 #include "models/narx/narx_gradients.h"
+#include "models/optimization/evidence_decay.h"
 #include "models/optimization/levenberg_marquardt.h"
 #include "models/validation/performance.h"
 
@@ -150,6 +151,7 @@ struct Trainer {
   Eigen::VectorXd g;
   Eigen::MatrixXd H;
   LevenbergMarquardt lm;    ///< its λ is reset per mode
+  double decay;             ///< the weight decay D now: options.weight_decay, re-estimated with evidence_decay
   // oem_ms: the windows and histories, LM over the stack z = [θ; h_0; …], its gradient, matrix and mask
   std::optional<MultipleShooting> shooting;
   std::optional<LevenbergMarquardt> shooting_lm;
@@ -164,7 +166,8 @@ struct Trainer {
         val(weighted_buffers(model, uv, has_validation ? skip_ : 0, has_validation ? opt.validation_weights : Eigen::VectorXd(),
                              "validation")),
         trial(model),
-        lm(kLmSettings, opt.optimizer == Optimizer::lm ? model.net.parameter_count() : 0) {
+        lm(kLmSettings, opt.optimizer == Optimizer::lm ? model.net.parameter_count() : 0),
+        decay(opt.weight_decay) {
     const Eigen::Index P = model.net.parameter_count();
     g.resize(P);
     if (opt.optimizer == Optimizer::lm) H.resize(P, P);
@@ -189,8 +192,8 @@ struct Trainer {
   bool shooting_step(NarxModel& m) {
     const Eigen::Index P = m.net.parameter_count();
     double V = shooting->gradient(m, shooting->histories(), gz, &Hz);
-    if (options.weight_decay != 0.0) {
-      const double c = options.weight_decay / est.weight_total;
+    if (decay != 0.0) {
+      const double c = decay / est.weight_total;
       V += 0.5 * c * m.net.parameters().squaredNorm();
       gz.head(P).noalias() += c * m.net.parameters();
       Hz.diagonal().head(P).array() += c;
@@ -216,13 +219,13 @@ struct Trainer {
 
   /// D/(2·Σw)·‖θ‖² (NNSYSID's regularisation with D = weight_decay·I).
   double decay_term(const Eigen::VectorXd& theta) const {
-    return options.weight_decay == 0.0 ? 0.0 : 0.5 * options.weight_decay / est.weight_total * theta.squaredNorm();
+    return decay == 0.0 ? 0.0 : 0.5 * decay / est.weight_total * theta.squaredNorm();
   }
 
   /// Adds the weight decay's share to V, g = dW/dθ (+ D/Σw·θ) and, if given, H (+ D/Σw·I).
   void add_decay(const Eigen::VectorXd& theta, double& V, Eigen::VectorXd& grad, Eigen::MatrixXd* hessian) const {
-    if (options.weight_decay == 0.0) return;
-    const double c = options.weight_decay / est.weight_total;
+    if (decay == 0.0) return;
+    const double c = decay / est.weight_total;
     V += 0.5 * c * theta.squaredNorm();
     grad.noalias() += c * theta;
     if (hessian != nullptr) hessian->diagonal().array() += c;
@@ -247,6 +250,7 @@ struct Trainer {
     r.j_est_pct = j_sim(m, u_est, y_est, est);
     r.j_val_pct = has_validation ? j_sim(m, u_val, y_val, val) : std::numeric_limits<double>::quiet_NaN();
     r.j_val_weighted_pct = val.weight.size() == 0 ? r.j_val_pct : j_sim(m, u_val, y_val, val, true);
+    r.weight_decay = decay;
     return r;
   }
 
@@ -261,12 +265,20 @@ struct Trainer {
       // oem_s: the static Jacobian ∂F/∂θ with the simulation loss (the approximation of table 5.1)
       V = gradient_sweep(m, u_est, y_est, mode, skip, est, g, &H);
     }
+    const double squared_error = 2.0 * V * est.weight_total;  // Σw·e² (w = 1: Σe²)
     add_decay(m.net.parameters(), V, g, &H);
     apply_mask(options.mask, g, &H);  // the reduced system over the free parameters
-    return lm.step(H, g, V, m.net.parameters(), [&](const Eigen::VectorXd& candidate) {
-               trial.net.parameters() = candidate;
-               return loss(trial, mode);
-             }, options.mask).accepted;
+    const Eigen::VectorXd theta = m.net.parameters();  // H, g and V are of this θ
+    const bool accepted = lm.step(H, g, V, m.net.parameters(), [&](const Eigen::VectorXd& candidate) {
+                            trial.net.parameters() = candidate;
+                            return loss(trial, mode);
+                          }, options.mask).accepted;
+    const EvidenceDecay rule = options.evidence_decay;
+    if (rule == EvidenceDecay::all_modes || (rule == EvidenceDecay::output_error && mode != TrainingMode::pem)) {
+      // the next iteration's criterion; JᵀJ + D·I = Σw·H
+      decay = evidence_weight_decay(est.weight_total * H, squared_error, est.weight_total, decay, theta, options.mask);
+    }
+    return accepted;
   }
 
   /// Steepest descent along −dV/dθ with backtracking until Armijo's condition V(θ − t·g) ≤ V − c·t·‖g‖² holds.
@@ -358,7 +370,7 @@ void require_options(const TrainingOptions& o) {
     throw std::invalid_argument("NARX training: weight_decay must be a finite number ≥ 0, got " +
                                 std::to_string(o.weight_decay));
   }
-  if (o.weight_decay > 0.0 && o.optimizer == Optimizer::sd) {
+  if ((o.weight_decay > 0.0 || o.evidence_decay != EvidenceDecay::off) && o.optimizer == Optimizer::sd) {
     throw std::invalid_argument("NARX training: weight_decay needs --optimizer lm or linesearch (sd has none)");
   }
   if (o.transient_skip < -1) {
@@ -395,6 +407,13 @@ std::string to_string(TrainingMode mode) {
     case TrainingMode::oem_ms: return "oem-ms";
   }
   return "?";
+}
+
+EvidenceDecay parse_evidence_decay(const std::string& name) {
+  if (name == "off") return EvidenceDecay::off;
+  if (name == "all") return EvidenceDecay::all_modes;
+  if (name == "oem") return EvidenceDecay::output_error;
+  throw std::invalid_argument("unknown evidence decay \"" + name + "\" (expected off, all or oem)");
 }
 
 Optimizer parse_optimizer(const std::string& name) {

@@ -25,6 +25,16 @@ enum class TrainingMode {
   oem_ms,
 };
 
+/// Which iterations re-estimate the weight decay (TrainingOptions::evidence_decay).
+enum class EvidenceDecay {
+  off,           ///< D stays TrainingOptions::weight_decay
+  all_modes,     ///< every LM iteration, PEM's included
+  output_error,  ///< the output-error modes' iterations: PEM, the warm start, keeps weight_decay
+};
+
+/// "off", "all", "oem" → EvidenceDecay; throws std::invalid_argument.
+EvidenceDecay parse_evidence_decay(const std::string& name);
+
 /// How parameters are updated.
 enum class Optimizer {
   sd,          ///< steepest descent θ ← θ − α·dV/dθ, updated every `batch` samples ([5C])
@@ -51,6 +61,7 @@ struct TrainingRecord {
   double j_val_weighted_pct = 0.0;  ///< Σw·e²/Σw·y² on the validation data with its weights (= j_val_pct
                                     ///< without): what early stopping watches
   double seconds = 0.0;     ///< since training started
+  double weight_decay = 0.0;  ///< the D of the criterion the next iteration minimises (TrainingOptions::evidence_decay)
 };
 
 /// The weight decay both doors train with by Levenberg–Marquardt unless told otherwise: on the records of
@@ -93,6 +104,13 @@ struct TrainingOptions {
   /// Gauss–Newton matrix gaining D/Σw on its diagonal. 0 = none; sd refuses D > 0. The J figures, and
   /// so early stopping, stay the unregularised ones.
   double weight_decay = 0.0;
+  /// Re-estimate the weight decay after every Levenberg–Marquardt iteration by MacKay's evidence approximation
+  /// (Bayesian regularisation: MacKay 1992; Foresee & Hagan 1997, MATLAB's trainbr), starting at weight_decay:
+  /// D = γ·Σw·e² / ((Σw − γ)·‖θ‖²), γ = P − D·tr((JᵀJ + D·I)⁻¹) the effective number of parameters — the
+  /// noise variance over the prior variance of the weights, so a noisy record gets a strong decay and a clean
+  /// one almost none (docs/identification.md, issue 59). Only the free parameters count; the oem_ms and line
+  /// search iterations keep the D they start with. Needs Optimizer::lm or linesearch.
+  EvidenceDecay evidence_decay = EvidenceDecay::off;
   /// Which parameters train (size P; 1 = free, 0 = pruned); empty = all free. Pruned parameters are set to
   /// exactly 0 at the start and stay there: LM solves the reduced system over the free parameters (the
   /// pruned rows and columns of H and entries of g are zeroed), sd and the line search step along the

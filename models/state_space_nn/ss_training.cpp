@@ -16,24 +16,23 @@
 #include "models/validation/performance.h"
 
 namespace panelbass::models {
-namespace {
 
-// The selection J; infinite when the free run overflows (a cubic term run away), so that the candidate is
-// passed over and training goes on.
-double selection_j(const SsModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) {
+double ss_selection_j(const SsModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init) {
   const Eigen::VectorXd simulated = m.simulate(u, y, init);
   if (!simulated.allFinite()) return std::numeric_limits<double>::infinity();
   return j_percent(simulated, y, init);
 }
 
-// Whether candidate `m` of selection J `j` replaces the kept model of `out`: a finite J below the kept one's
-// (any finite J while the kept one runs away), and a bounded free run — tested only then, as it costs a run.
-bool replaces_kept(const SsModel& m, double j, const SsTraining& out) {
-  if (!std::isfinite(j) || !(j < out.j_val_pct || out.runaway)) return false;
-  return !ss_free_run_runaway(m);
+bool ss_keep_if_better(const SsModel& m, double j, int iteration, SsTraining& out) {
+  // a finite J below the kept one's (any finite J while the kept one runs away), and a bounded free run —
+  // tested only then, as it costs a run
+  if (!std::isfinite(j) || !(j < out.j_val_pct || out.runaway) || ss_free_run_runaway(m)) return false;
+  out.j_val_pct = j;
+  out.model = m;
+  out.runaway.reset();
+  out.best_epoch = iteration;
+  return true;
 }
-
-}  // namespace
 
 void ss_fit_encoder(SsModel& m, const Eigen::VectorXd& us, const Eigen::VectorXd& ys, const Eigen::MatrixXd& states) {
   const Eigen::Index n = m.structure.states, L = m.structure.lags, samples = us.size();
@@ -118,7 +117,7 @@ SsTraining train_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen:
   SsTraining out;
   SsModel m = start;
   out.model = m;
-  out.j_val_pct = selection_j(m, us_sel, ys_sel, options.init);
+  out.j_val_pct = ss_selection_j(m, us_sel, ys_sel, options.init);
   out.runaway = ss_free_run_runaway(m);
   out.history.push_back({0, ss_window_loss(m, us, ys, {std::vector<Eigen::Index>{L}, T}, nullptr), out.j_val_pct, seconds()});
   if (options.progress && !options.progress(out.history.back())) return out;
@@ -147,13 +146,9 @@ SsTraining train_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen:
       loss_sum += loss;
       ++steps;
     }
-    const double j = selection_j(m, us_sel, ys_sel, options.init);
+    const double j = ss_selection_j(m, us_sel, ys_sel, options.init);
     out.history.push_back({epoch, steps > 0 ? loss_sum / static_cast<double>(steps) : NAN, j, seconds()});
-    if (replaces_kept(m, j, out)) {
-      out.j_val_pct = j;
-      out.model = m;
-      out.runaway.reset();
-      out.best_epoch = epoch;
+    if (ss_keep_if_better(m, j, epoch, out)) {
       since_best = 0;
     } else {
       ++since_best;
@@ -168,21 +163,21 @@ SsTraining train_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen:
 namespace {
 
 // What liblbfgs's C callbacks reach through their `instance` pointer.
-struct PolishRun {
+struct LbfgsRun {
   SsModel model;
-  const Eigen::VectorXd *us, *ys, *u_sel, *y_sel;
-  std::vector<Eigen::Index> starts;
-  const SsPolishOptions* options;
+  const SsStackedLoss* loss;
+  const Eigen::VectorXd *u_sel, *y_sel;
+  Eigen::Index init;
+  const std::function<bool(const SsTrainingRecord&)>* progress;
   SsTraining* out;
   std::chrono::steady_clock::time_point began;
   Eigen::VectorXd gradient;
-  double start_loss = 0.0;  ///< the loss at the start
+  double start_loss;
 };
 
-lbfgsfloatval_t polish_evaluate(void* instance, const lbfgsfloatval_t* x, lbfgsfloatval_t* g, int n, lbfgsfloatval_t) {
-  auto& run = *static_cast<PolishRun*>(instance);
-  run.model.theta = Eigen::Map<const Eigen::VectorXd>(x, n);
-  const double loss = ss_window_loss(run.model, *run.us, *run.ys, {run.starts, run.options->window}, &run.gradient);
+lbfgsfloatval_t lbfgs_evaluate(void* instance, const lbfgsfloatval_t* x, lbfgsfloatval_t* g, int n, lbfgsfloatval_t) {
+  auto& run = *static_cast<LbfgsRun*>(instance);
+  const double loss = (*run.loss)(Eigen::Map<const Eigen::VectorXd>(x, n), &run.gradient);
   if (!std::isfinite(loss) || !run.gradient.allFinite()) {
     // A trial step so long that a window's simulation ran away (a cubic state term grows fast): a finite
     // loss far above the start's, so that More–Thuente's interpolation stays finite and shortens the step.
@@ -193,23 +188,52 @@ lbfgsfloatval_t polish_evaluate(void* instance, const lbfgsfloatval_t* x, lbfgsf
   return loss;
 }
 
-int polish_progress(void* instance, const lbfgsfloatval_t* x, const lbfgsfloatval_t*, lbfgsfloatval_t fx, lbfgsfloatval_t,
-                    lbfgsfloatval_t, lbfgsfloatval_t, int n, int k, int) {
-  auto& run = *static_cast<PolishRun*>(instance);
-  run.model.theta = Eigen::Map<const Eigen::VectorXd>(x, n);
-  const double j = selection_j(run.model, *run.u_sel, *run.y_sel, run.options->init);
+int lbfgs_progress(void* instance, const lbfgsfloatval_t* x, const lbfgsfloatval_t*, lbfgsfloatval_t fx, lbfgsfloatval_t,
+                   lbfgsfloatval_t, lbfgsfloatval_t, int, int k, int) {
+  auto& run = *static_cast<LbfgsRun*>(instance);
+  run.model.theta = Eigen::Map<const Eigen::VectorXd>(x, run.model.theta.size());
+  const double j = ss_selection_j(run.model, *run.u_sel, *run.y_sel, run.init);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run.began).count();
   run.out->history.push_back({k, fx, j, seconds});
-  if (replaces_kept(run.model, j, *run.out)) {
-    run.out->j_val_pct = j;
-    run.out->model = run.model;
-    run.out->runaway.reset();
-    run.out->best_epoch = k;
-  }
-  return run.options->progress && !run.options->progress(run.out->history.back()) ? 1 : 0;
+  ss_keep_if_better(run.model, j, k, *run.out);
+  return *run.progress && !(*run.progress)(run.out->history.back()) ? 1 : 0;
 }
 
 }  // namespace
+
+SsTraining ss_lbfgs(const SsModel& start, const Eigen::VectorXd& z0, const SsStackedLoss& loss,
+                    const Eigen::VectorXd& u_sel, const Eigen::VectorXd& y_sel, Eigen::Index init, int iterations,
+                    const std::function<bool(const SsTrainingRecord&)>& progress) {
+  SsTraining out;
+  out.model = start;
+  LbfgsRun run{start, &loss, &u_sel, &y_sel, init, &progress, &out, std::chrono::steady_clock::now(), {}, 0.0};
+  out.j_val_pct = ss_selection_j(start, u_sel, y_sel, init);
+  out.runaway = ss_free_run_runaway(start);
+  run.start_loss = loss(z0, nullptr);
+  out.history.push_back({0, run.start_loss, out.j_val_pct, 0.0});
+  if (progress && !progress(out.history.back())) return out;
+
+  const int n = static_cast<int>(z0.size());
+  lbfgsfloatval_t* x = lbfgs_malloc(n);
+  if (x == nullptr) throw std::bad_alloc();
+  Eigen::Map<Eigen::VectorXd>(x, n) = z0;
+  lbfgs_parameter_t param;
+  lbfgs_parameter_init(&param);
+  param.max_iterations = iterations;
+  param.epsilon = 0.0;  // no gradient-norm stop: the iterations and the selection J decide
+  param.delta = 0.0;
+  // With the polynomial or cubic nodes, a long trial step runs a window's simulation away (the loss above):
+  // halving the step until the loss falls (Armijo, then Wolfe's curvature condition) recovers where
+  // More–Thuente's interpolation gives up.
+  if (start.structure.poly_degree > 0 || start.structure.activation == SsActivation::cubic) {
+    param.linesearch = LBFGS_LINESEARCH_BACKTRACKING_WOLFE;
+  }
+  lbfgsfloatval_t fx = 0.0;
+  out.status = lbfgs(n, x, &fx, lbfgs_evaluate, lbfgs_progress, &run, &param);  // any iterate kept
+  lbfgs_free(x);
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run.began).count();
+  return out;
+}
 
 SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
                      const Eigen::VectorXd& u_val, const Eigen::VectorXd& y_val, const SsPolishOptions& options) {
@@ -224,37 +248,15 @@ SsTraining polish_ss(const SsModel& start, const Eigen::VectorXd& u, const Eigen
   const bool has_val = u_val.size() != 0;
   if (options.init >= (has_val ? u_val : u).size()) throw std::invalid_argument("polish_ss: init is not shorter than the selection data");
   const Eigen::VectorXd us = start.scaling.scale_u(u), ys = start.scaling.scale_y(y);
-  SsTraining out;
-  out.model = start;
-  PolishRun run{start, &us, &ys, has_val ? &u_val : &u, has_val ? &y_val : &y, {}, &options, &out,
-                std::chrono::steady_clock::now(), {}, 0.0};
-  for (Eigen::Index k0 = L; k0 + T <= u.size(); k0 += T) run.starts.push_back(k0);
-  out.j_val_pct = selection_j(start, *run.u_sel, *run.y_sel, options.init);
-  out.runaway = ss_free_run_runaway(start);
-  run.start_loss = ss_window_loss(start, us, ys, {run.starts, T}, nullptr);
-  out.history.push_back({0, run.start_loss, out.j_val_pct, 0.0});
-  if (options.progress && !options.progress(out.history.back())) return out;
-
-  const int n = static_cast<int>(start.theta.size());
-  lbfgsfloatval_t* x = lbfgs_malloc(n);
-  if (x == nullptr) throw std::bad_alloc();
-  Eigen::Map<Eigen::VectorXd>(x, n) = start.theta;
-  lbfgs_parameter_t param;
-  lbfgs_parameter_init(&param);
-  param.max_iterations = options.iterations;
-  param.epsilon = 0.0;  // no gradient-norm stop: the iterations and the selection J decide
-  param.delta = 0.0;
-  // With the polynomial or cubic nodes, a long trial step runs a window's simulation away (the loss above):
-  // halving the step until the loss falls (Armijo, then Wolfe's curvature condition) recovers where
-  // More–Thuente's interpolation gives up.
-  if (start.structure.poly_degree > 0 || start.structure.activation == SsActivation::cubic) {
-    param.linesearch = LBFGS_LINESEARCH_BACKTRACKING_WOLFE;
-  }
-  lbfgsfloatval_t fx = 0.0;
-  out.status = lbfgs(n, x, &fx, polish_evaluate, polish_progress, &run, &param);  // any iterate kept
-  lbfgs_free(x);
-  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - run.began).count();
-  return out;
+  std::vector<Eigen::Index> starts;
+  for (Eigen::Index k0 = L; k0 + T <= u.size(); k0 += T) starts.push_back(k0);
+  SsModel model = start;
+  const SsStackedLoss loss = [&](const Eigen::VectorXd& theta, Eigen::VectorXd* gradient) {
+    model.theta = theta;
+    return ss_window_loss(model, us, ys, {starts, T}, gradient);
+  };
+  return ss_lbfgs(start, start.theta, loss, has_val ? u_val : u, has_val ? y_val : y, options.init, options.iterations,
+                  options.progress);
 }
 
 }  // namespace panelbass::models

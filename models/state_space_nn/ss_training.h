@@ -61,6 +61,27 @@ struct SsTraining {
   std::optional<Runaway> runaway;
 };
 
+/// The selection J of `m` on raw data u, y (the `init` protocol); +∞ when its free run overflows (a cubic
+/// term run away), so that the candidate is passed over and training goes on.
+double ss_selection_j(const SsModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y, Eigen::Index init);
+
+/// Keeps candidate `m` of selection J `j` in `out` (model, J, best_epoch = iteration, runaway cleared) when j is
+/// finite and below the kept one's (any finite J while the kept one runs away) and its free run is bounded.
+bool ss_keep_if_better(const SsModel& m, double j, int iteration, SsTraining& out);
+
+/// A loss of the stacked vector z = [θ; …] (the model's parameters first, then whatever else is trained with
+/// them), filling dV/dz when `gradient` is non-null; non-finite when a trial runs a simulation away.
+using SsStackedLoss = std::function<double(const Eigen::VectorXd& z, Eigen::VectorXd* gradient)>;
+
+/// The L-BFGS run of polish_ss and train_ss_shooting: liblbfgs (More–Thuente; backtracking to Wolfe's conditions
+/// with the polynomial or cubic nodes, whose long trial steps run a window away) minimises `loss` from z0 for at
+/// most `iterations`, with no gradient-norm stop; a runaway trial gets a finite loss far above the start's. Every
+/// iterate's θ = z.head(P) is judged by its selection J on raw u_sel, y_sel (the `init` protocol) and the lowest
+/// kept, the start (recorded first) included.
+SsTraining ss_lbfgs(const SsModel& start, const Eigen::VectorXd& z0, const SsStackedLoss& loss,
+                    const Eigen::VectorXd& u_sel, const Eigen::VectorXd& y_sel, Eigen::Index init, int iterations,
+                    const std::function<bool(const SsTrainingRecord&)>& progress);
+
 /// How to polish.
 struct SsPolishOptions {
   Eigen::Index window = 100;  ///< T of the fixed windows tiling the estimation data

@@ -16,6 +16,7 @@
 
 #include "dsp/excitation.h"
 #include "dsp/random.h"
+#include "models/optimization/evidence_decay.h"
 #include "models/validation/performance.h"
 
 namespace panelbass::models {
@@ -704,6 +705,31 @@ TEST(NarxTrainingWeightDecay, LmStopsWhereTheRegularisedCriterionIsStationary) {
   const Eigen::VectorXd stationarity = loss_gradient(decayed, c.u, c.y, TrainingMode::pem, skip) + per_sample * theta;
   EXPECT_LT(stationarity.norm(), 1e-4 * (per_sample * theta).norm());
   EXPECT_LT(theta.norm(), free.net.parameters().norm());
+}
+
+TEST(NarxTrainingWeightDecay, TheEvidenceRuleSetsTheNextDecayFromTheGaussNewtonMatrix) {
+  // The D after the first PEM iteration is MacKay's update at the start θ, computed here from the public
+  // Gauss–Newton matrix and loss (M·H = JᵀJ, 2·M·V = Σe², M = N − skip); with the rule for the output-error
+  // modes alone, PEM keeps the D it was given.
+  DampedCase c;
+  constexpr double D = 0.05;
+  constexpr Eigen::Index skip = 4;
+  TrainingOptions o = options_for({TrainingMode::pem}, Optimizer::lm, 3);
+  o.transient_skip = skip;
+  o.weight_decay = D;
+  o.evidence_decay = EvidenceDecay::all_modes;
+  const TrainingResult r = train_narx(c.model, c.u, c.y, {}, {}, o);
+  ASSERT_GE(r.history.size(), 2u);
+  const double M = static_cast<double>(c.u.size() - skip);
+  const Eigen::MatrixXd H = gauss_newton_hessian(c.model, c.u, c.y, TrainingMode::pem, skip);
+  const double V = training_loss(c.model, c.u, c.y, TrainingMode::pem, skip);
+  const Eigen::Index P = c.model.net.parameter_count();
+  const double expected = evidence_weight_decay(M * H + D * Eigen::MatrixXd::Identity(P, P), 2.0 * M * V, M, D,
+                                                c.model.net.parameters());
+  EXPECT_NEAR(r.history[1].weight_decay, expected, 1e-9 * expected);
+  EXPECT_NE(expected, D);
+  o.evidence_decay = EvidenceDecay::output_error;
+  for (const TrainingRecord& rec : train_narx(c.model, c.u, c.y, {}, {}, o).history) EXPECT_EQ(rec.weight_decay, D);
 }
 
 TEST(NarxTrainingSelection, RefusesABadInitAndABadWeightDecay) {

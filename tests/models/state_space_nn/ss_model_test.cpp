@@ -23,26 +23,22 @@
 #include "models/state_space_nn/ss_model.h"
 #include "models/state_space_nn/ss_training.h"
 #include "models/validation/performance.h"
+#include "tests/support/wiener_hammerstein_record.h"
 
 namespace panelbass::models {
 namespace {
 
-Eigen::VectorXd noise(Eigen::Index n, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> d(-1.0, 1.0);
-  Eigen::VectorXd x(n);
-  for (auto& v : x) v = d(rng);
-  return x;
-}
+using testing_support::mt_uniform_noise;
+using testing_support::wiener_hammerstein;
 
 // A small model with every part of θ non-zero (random, seeded), a stable A.
 SsModel random_model(int encoder_hidden, int poly_degree = 0, bool poly_input = true, int poly_states = 0) {
   SsModel m;
   m.structure = {3, 5, 4, encoder_hidden, poly_degree, poly_input, poly_states};
   m.fs = 1000.0;
-  m.theta = 0.3 * noise(m.structure.parameter_count(), 7);
+  m.theta = 0.3 * mt_uniform_noise(m.structure.parameter_count(), 7);
   auto p = ss_parts(m.structure, m.theta.data());
-  p.A = Eigen::MatrixXd::Identity(3, 3) * 0.8 + 0.1 * noise(9, 8).reshaped(3, 3);
+  p.A = Eigen::MatrixXd::Identity(3, 3) * 0.8 + 0.1 * mt_uniform_noise(9, 8).reshaped(3, 3);
   return m;
 }
 
@@ -56,22 +52,10 @@ Eigen::VectorXd ss_test_regressor(const Eigen::VectorXd& u, const Eigen::VectorX
   return z;
 }
 
-// Wiener–Hammerstein: a first-order low-pass, a saturation, another first-order filter.
-Eigen::VectorXd wiener_hammerstein(const Eigen::VectorXd& u) {
-  Eigen::VectorXd y(u.size());
-  double a = 0.0, b = 0.0;
-  for (Eigen::Index k = 0; k < u.size(); ++k) {
-    y(k) = b;
-    a = 0.8 * a + 0.2 * u(k);
-    b = 0.7 * b + 0.3 * std::tanh(2.0 * a);
-  }
-  return y;
-}
-
 // Expects the window loss's gradient on a small record to equal central differences (θ entry by entry) to
 // 1e-6 relative; returns the differences.
 Eigen::VectorXd expect_gradient_equals_central_differences(const SsModel& m, const std::string& label) {
-  const Eigen::VectorXd u = noise(60, 1), y = 0.5 * noise(60, 2);
+  const Eigen::VectorXd u = mt_uniform_noise(60, 1), y = 0.5 * mt_uniform_noise(60, 2);
   const std::vector<Eigen::Index> starts{0, 5, 17, 40};
   const SsWindows windows{starts, 12};
   Eigen::VectorXd gradient;
@@ -131,7 +115,7 @@ TEST(SsGradients, CubicNodesEqualCentralFiniteDifferences) {
 
 TEST(SsModel, CubicStatesOnlyNodesRoundTripTheFile) {
   const SsModel m = random_cubic_model(false);
-  const Eigen::VectorXd u = noise(30, 3), y = noise(30, 4);
+  const Eigen::VectorXd u = mt_uniform_noise(30, 3), y = mt_uniform_noise(30, 4);
   const Eigen::Index init = 6;
   const Eigen::VectorXd sim = m.simulate_scaled(u, y, init);
   // the file keeps both choices, and refuses an unknown activation by name
@@ -162,7 +146,7 @@ TEST(SsModel, FreeRunFollowsTheRecursionWrittenOut) {
   for (const bool cubic : {false, true}) {
     const SsModel m = cubic ? random_cubic_model(false) : random_model(2);
     const auto p = ss_parts(m.structure, m.theta.data());
-    const Eigen::VectorXd u = noise(30, 3), y = noise(30, 4);
+    const Eigen::VectorXd u = mt_uniform_noise(30, 3), y = mt_uniform_noise(30, 4);
     const Eigen::Index init = 6;
     // x(init) = E·z + V2·tanh(V1·z + c1) + c2 with z = [y(5..2), u(5..2)]
     const Eigen::VectorXd z = ss_test_regressor(u, y, init, 4);
@@ -212,10 +196,10 @@ TEST(SsModel, PolynomialTermsAreTheMonomialsWrittenOut) {
   m.structure = {2, 0, 3, 0, 3};
   m.fs = 1000.0;
   EXPECT_EQ(m.structure.monomial_count(), 16);
-  m.theta = 0.2 * noise(m.structure.parameter_count(), 11);
+  m.theta = 0.2 * mt_uniform_noise(m.structure.parameter_count(), 11);
   auto p = ss_parts(m.structure, m.theta.data());
   p.A << 0.5, 0.2, -0.1, 0.6;
-  expect_polynomial_recursion(m, noise(25, 12), noise(25, 13), 4, [](const Eigen::VectorXd& x, double c) {
+  expect_polynomial_recursion(m, mt_uniform_noise(25, 12), mt_uniform_noise(25, 13), 4, [](const Eigen::VectorXd& x, double c) {
     const double a = x(0), b = x(1);
     Eigen::VectorXd zeta(16);
     zeta << a * a, a * b, a * c, b * b, b * c, c * c, a * a * a, a * a * b, a * a * c, a * b * b, a * b * c, a * c * c,
@@ -225,7 +209,7 @@ TEST(SsModel, PolynomialTermsAreTheMonomialsWrittenOut) {
 }
 
 TEST(SsModel, StartsExactlyAtTheLinearModel) {
-  const Eigen::VectorXd u = noise(400, 5);
+  const Eigen::VectorXd u = mt_uniform_noise(400, 5);
   LinearModel linear;
   linear.fs = 1000.0;
   linear.tf.a = Eigen::Vector2d(-1.2, 0.5);
@@ -245,7 +229,7 @@ TEST(SsModel, FileRoundTripsAndRefusesBadInput) {
   const nlohmann::json j = ss_model_to_json(m);
   const AnyModel any = model_from_json(j);
   ASSERT_EQ(any.kind(), "ss");
-  const Eigen::VectorXd u = noise(50, 6);
+  const Eigen::VectorXd u = mt_uniform_noise(50, 6);
   EXPECT_EQ(any.simulate(u), m.simulate(u));
   nlohmann::json short_theta = j;
   short_theta["params"]["theta"].erase(0);
@@ -265,10 +249,10 @@ TEST(SsModel, StatesOnlyPolynomialTermsAreTheStatesMonomialsWrittenOut) {
   m.structure = {2, 0, 3, 0, 3, false};
   m.fs = 1000.0;
   EXPECT_EQ(m.structure.monomial_count(), 7);
-  m.theta = 0.2 * noise(m.structure.parameter_count(), 31);
+  m.theta = 0.2 * mt_uniform_noise(m.structure.parameter_count(), 31);
   auto p = ss_parts(m.structure, m.theta.data());
   p.A << 0.5, 0.2, -0.1, 0.6;
-  const Eigen::VectorXd u = noise(25, 32), y = noise(25, 33);
+  const Eigen::VectorXd u = mt_uniform_noise(25, 32), y = mt_uniform_noise(25, 33);
   const Eigen::Index init = 4;
   expect_polynomial_recursion(m, u, y, init, leading_pair_cubic);
   const Eigen::VectorXd sim = m.simulate_scaled(u, y, init);
@@ -284,11 +268,11 @@ TEST(SsModel, LeadingStatesPolynomialTermsAreWrittenOutAndTheFileKeepsThem) {
   m.structure = {3, 0, 3, 0, 3, false, 2};
   m.fs = 1000.0;
   EXPECT_EQ(m.structure.monomial_count(), 7);
-  m.theta = 0.2 * noise(m.structure.parameter_count(), 41);
+  m.theta = 0.2 * mt_uniform_noise(m.structure.parameter_count(), 41);
   auto p = ss_parts(m.structure, m.theta.data());
-  p.A = 0.5 * Eigen::MatrixXd::Identity(3, 3) + 0.1 * noise(9, 42).reshaped(3, 3);
+  p.A = 0.5 * Eigen::MatrixXd::Identity(3, 3) + 0.1 * mt_uniform_noise(9, 42).reshaped(3, 3);
   p.P *= 0.1;  // a bounded free run on full-scale noise, so that the file loads
-  const Eigen::VectorXd u = noise(25, 43), y = noise(25, 44);
+  const Eigen::VectorXd u = mt_uniform_noise(25, 43), y = mt_uniform_noise(25, 44);
   const Eigen::Index init = 4;
   expect_polynomial_recursion(m, u, y, init, leading_pair_cubic);  // x2 in no monomial
   const Eigen::VectorXd sim = m.simulate_scaled(u, y, init);
@@ -327,7 +311,7 @@ TEST(SsModel, PolynomialFileRoundTripsAndRefusesBadDegrees) {
   EXPECT_EQ(j["params"]["poly_degree"], 2);
   const SsModel back = ss_model_from_json(j);
   EXPECT_EQ(back.structure.poly_degree, 2);
-  const Eigen::VectorXd u = noise(40, 14);
+  const Eigen::VectorXd u = mt_uniform_noise(40, 14);
   EXPECT_EQ(back.simulate(u), m.simulate(u));
   nlohmann::json degree_one = j;
   degree_one["params"]["poly_degree"] = 1;
@@ -360,7 +344,7 @@ TEST(SsModel, LinearizationIsTheSmallSignalResponseAtTheEquilibrium) {
     ss_step(p, x, input, work, output, next);
     ASSERT_LT((next - x).norm(), 1e-13) << "the zero-input recursion settles";
     const double y_rest = output(0);
-    const Eigen::VectorXd v = noise(200, 31);
+    const Eigen::VectorXd v = mt_uniform_noise(200, 31);
     const double eps = 1e-5;
     auto response = [&](double sign) {
       Eigen::VectorXd state = x, y(v.size());
@@ -380,14 +364,10 @@ TEST(SsModel, LinearizationIsTheSmallSignalResponseAtTheEquilibrium) {
 }
 
 TEST(SsTraining, LowersTheValidationJBelowTheLinearStart) {
-  const Eigen::VectorXd u = noise(6000, 9), y = wiener_hammerstein(u);
+  const Eigen::VectorXd u = mt_uniform_noise(6000, 9), y = wiener_hammerstein(u);
   const Eigen::VectorXd ue = u.head(4000), ye = y.head(4000), uv = u.tail(2000), yv = y.tail(2000);
-  // The start: the small-signal linearisation, 0.2·2·0.3 q⁻¹ / ((1 − 0.8 q⁻¹)(1 − 0.7 q⁻¹)).
-  LinearModel linear;
-  linear.fs = 1000.0;
-  linear.tf.a = Eigen::Vector2d(-1.5, 0.56);
-  linear.tf.b = Eigen::VectorXd::Constant(1, 0.12);
-  linear.tf.nk = 1;
+  // The start: the small-signal linearisation.
+  const LinearModel linear = testing_support::wiener_hammerstein_linearisation();
   SsTrainingOptions options;
   options.window = 30;
   options.batch = 16;
@@ -403,13 +383,9 @@ TEST(SsTraining, LowersTheValidationJBelowTheLinearStart) {
 }
 
 TEST(SsTraining, LbfgsPolishLowersTheSelectedJAndKeepsItsBest) {
-  const Eigen::VectorXd u = noise(3000, 10), y = wiener_hammerstein(u);
+  const Eigen::VectorXd u = mt_uniform_noise(3000, 10), y = wiener_hammerstein(u);
   const Eigen::VectorXd ue = u.head(2000), ye = y.head(2000), uv = u.tail(1000), yv = y.tail(1000);
-  LinearModel linear;
-  linear.fs = 1000.0;
-  linear.tf.a = Eigen::Vector2d(-1.5, 0.56);
-  linear.tf.b = Eigen::VectorXd::Constant(1, 0.12);
-  linear.tf.nk = 1;
+  const LinearModel linear = testing_support::wiener_hammerstein_linearisation();
   const SsModel start = ss_initial_model(linear, {2, 8, 5, 0}, ue, ye, 3);
   SsPolishOptions options;
   options.window = 50;
@@ -425,11 +401,7 @@ TEST(SsTraining, LbfgsPolishLowersTheSelectedJAndKeepsItsBest) {
 
 // The Wiener–Hammerstein system's linear start with A = 1.5·I: its free run runs away.
 SsModel ss_runaway_start(const Eigen::VectorXd& ue, const Eigen::VectorXd& ye) {
-  LinearModel linear;
-  linear.fs = 1000.0;
-  linear.tf.a = Eigen::Vector2d(-1.5, 0.56);
-  linear.tf.b = Eigen::VectorXd::Constant(1, 0.12);
-  linear.tf.nk = 1;
+  const LinearModel linear = testing_support::wiener_hammerstein_linearisation();
   SsModel start = ss_initial_model(linear, {2, 4, 5, 0}, ue, ye, 4);
   ss_parts(start.structure, start.theta.data()).A = 1.5 * Eigen::MatrixXd::Identity(2, 2);
   return start;
@@ -447,7 +419,7 @@ SsTrainingOptions stuck_options(int epochs) {
 }
 
 TEST(SsTraining, KeepsNoCandidateWhoseFreeRunRunsAway) {
-  const Eigen::VectorXd u = noise(1500, 12), y = wiener_hammerstein(u);
+  const Eigen::VectorXd u = mt_uniform_noise(1500, 12), y = wiener_hammerstein(u);
   const Eigen::VectorXd ue = u.head(1000), ye = y.head(1000), uv = u.tail(500), yv = y.tail(500);
   const SsModel start = ss_runaway_start(ue, ye);
   ASSERT_TRUE(ss_free_run_runaway(start));
@@ -472,7 +444,7 @@ TEST(SsTraining, ACandidateWhoseFreeRunOverflowsIsPassedOver) {
   // J is not a number to compare), and training goes on past it instead of failing.
   SsModel m = random_cubic_model(false);
   ss_parts(m.structure, m.theta.data()).W2 *= 1e3;
-  const Eigen::VectorXd u = noise(400, 41), y = 0.5 * noise(400, 42);
+  const Eigen::VectorXd u = mt_uniform_noise(400, 41), y = 0.5 * mt_uniform_noise(400, 42);
   ASSERT_FALSE(m.simulate(u, y, 20).allFinite());
   SsTraining trained;
   EXPECT_NO_THROW(trained = train_ss(m, u, y, u, y, stuck_options(2)));
@@ -498,7 +470,7 @@ std::pair<double, double> cubic_spring_extrapolation(const SsStructure& structur
     }
     return out;
   };
-  const Eigen::VectorXd ue = 0.1 * noise(3000, 15), ut = 0.15 * noise(1500, 16);
+  const Eigen::VectorXd ue = 0.1 * mt_uniform_noise(3000, 15), ut = 0.15 * mt_uniform_noise(1500, 16);
   const Eigen::VectorXd ye = cubic_spring(ue), yt = cubic_spring(ut);
   LinearModel linear;
   linear.fs = 1000.0;
