@@ -56,6 +56,8 @@ class ParamReader {
   double number(const std::string& key, double fallback, const Interval& range);
   /// true or false; `fallback` when absent.
   bool boolean(const std::string& key, bool fallback);
+  /// Any string (a use case's check says which values it takes); `fallback` when absent or null.
+  std::string text(const std::string& key, const std::string& fallback);
   /// One of `choices`; `fallback` when absent.
   std::string choice(const std::string& key, const std::string& fallback, const std::vector<std::string>& choices);
   /// A list of `min_count`..`max_count` integers, each within [lo, hi]; `fallback` when absent.

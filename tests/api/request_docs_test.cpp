@@ -13,6 +13,7 @@
 #include "models/kinds/model_file.h"
 #include "usecases/design_lq.h"
 #include "usecases/design_mirror.h"
+#include "usecases/diagnose.h"
 #include "usecases/harmonics.h"
 #include "usecases/identify_average.h"
 #include "usecases/identify_mimo.h"
@@ -75,6 +76,7 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
       {"validate", "ValidateParams", usecases::to_json(usecases::ValidateRequest{})},
       {"design-mirror", "DesignMirrorParams", usecases::to_json(usecases::DesignMirrorRequest{})},
       {"harmonics", "HarmonicsParams", usecases::to_json(usecases::HarmonicsRequest{})},
+      {"diagnose", "DiagnoseParams", usecases::to_json(usecases::DiagnoseRequest{})},
       {"identify-oscillator", "IdentifyOscillatorParams", usecases::to_json(usecases::IdentifyOscillatorRequest{})},
       {"identify-ss", "IdentifySsParams", usecases::to_json(usecases::IdentifySsRequest{})},
       {"identify-average", "IdentifyAverageParams", usecases::to_json(usecases::IdentifyAverageRequest{})},
