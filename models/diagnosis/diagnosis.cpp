@@ -394,6 +394,16 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
       confidence.explained_share = share;
       confidence.sentence += " It explains " + fixed(100.0 * share, 0) + " % of J above the noise floor.";
     }
+    // With the current, a coil offset after an asymmetric spring is as often the spring's own force in another shape
+    // (x·i beside x² earns 108–254 on the force channel of a concealed spring alone) as a second effect: never clear.
+    if (force && chosen->effect == Effect::asymmetric_force_factor && confidence.word != "ambiguous" &&
+        std::ranges::find(kept, Effect::asymmetric_stiffness) != kept.end()) {
+      confidence.word = "ambiguous";
+      confidence.runner_up = to_string(Effect::asymmetric_stiffness);
+      confidence.runner_up_variant.clear();
+      confidence.sentence = "ambiguous between asymmetric_force_factor and more of asymmetric_stiffness: beside the spring's x², a "
+                            "coil offset's x·i also fits what the spring's own force leaves (alone the verdict was \"" + confidence.sentence + "\").";
+    }
     f.confidence = confidence_to_json(confidence);
     judge_at_levels(f, current.model, chosen->fit.model);
     if (!current_verdict.is_null()) f.evidence["current_channel"] = current_verdict;

@@ -177,6 +177,19 @@ TEST(DiagnosisScenarios, RmsOfVelocityAndFrictionAreFoundTogetherOnTheForceChann
   }
 }
 
+// A concealed asymmetric spring alone, with the current (first family, seed 4, half length, the bench's two rounds):
+// the spring first, then a coil offset earns on the drive and the current's verdict favours it — the spring's own
+// force in another shape as often as a second effect, so it is called ambiguous, never clear (it was clear before).
+TEST(DiagnosisScenarios, ACoilOffsetAfterAnAsymmetricSpringIsNeverCalledClearWithTheCurrent) {
+  const Diagnosis d =
+      diagnose_scenario(concealed_scenario(Effect::asymmetric_stiffness), 4, 2, true, kEstimation / 2, kValidation / 2).diagnosis;
+  ASSERT_EQ(d.findings.size(), 2u) << diagnosis_to_json(d)["findings"].dump(1);
+  EXPECT_EQ(to_string(d.findings[0].effect), "asymmetric_stiffness");
+  ASSERT_EQ(to_string(d.findings[1].effect), "asymmetric_force_factor") << "the case this test is about did not occur";
+  EXPECT_EQ(d.findings[1].confidence["word"], "ambiguous") << d.findings[1].confidence.dump(1);
+  EXPECT_EQ(d.findings[1].confidence["runner_up"], "asymmetric_stiffness");
+}
+
 // The effects that look alike from the drive: a spring's x³ and a damping's v³ near one resonance, a coil
 // offset's x·i and a spring's x² or an inductance's Le(x). With the coil current each is named first, and the
 // finding says the current decided; without it, each is named first or reported ambiguous with the right one —
