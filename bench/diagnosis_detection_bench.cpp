@@ -193,7 +193,12 @@ int main(int argc, char** argv) {
   std::string family_name = "panel";
   bool concealment_only = false;
   std::vector<std::string> pairs;
-  app.add_option("--pairs", pairs, "Pairs of effects at once, a+b (each at its concealed size; both must be found)")->delimiter(',');
+  app.add_option("--pairs", pairs, "Pairs of effects at once, a+b (each at --pair-size; both must be found)")->delimiter(',');
+  double pair_size = 1.0;
+  app.add_option("--pair-size", pair_size, "Each effect's size in a pair, a multiple of its concealed size (where a pair's "
+                                           "detection limit lies)")
+      ->check(CLI::Range(0.01, 100.0))
+      ->capture_default_str();
   app.add_option("--family", family_name, "The plants: panel (the linear preset) or second (issue 58's second family: "
                                           "tests/support/plants/second-exciter-linear.json)")
       ->check(CLI::IsMember({"panel", "second"}))
@@ -277,7 +282,7 @@ int main(int argc, char** argv) {
       } catch (const CLI::Error& e) {
         return app.exit(e);
       }
-      const DiagnosisScenario s = combined_scenario(concealed_scenario(a, 1.0, family), concealed_scenario(b, 1.0, family));
+      const DiagnosisScenario s = combined_scenario(concealed_scenario(a, pair_size, family), concealed_scenario(b, pair_size, family));
       int both = 0, first_in = 0;
       std::map<std::string, int> seen;
       std::vector<double> concealment;

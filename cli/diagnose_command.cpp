@@ -20,6 +20,7 @@
 #include "cli/gnuplot.h"
 #include "cli/json_output.h"
 #include "cli/report_output.h"
+#include "cli/usecase_door.h"
 #include "dsp/data_error.h"
 #include "dsp/data_file.h"
 #include "dsp/sample_rate.h"
@@ -30,23 +31,24 @@
 #include "models/linear/linear_model.h"
 #include "models/kinds/model_file.h"
 #include "models/plant/plant_config.h"
+#include "usecases/diagnose.h"
 
 namespace panelbass::cli {
 namespace {
 
 namespace fs = std::filesystem;
 
+// The flags; the request's settings start at its defaults (usecases::DiagnoseRequest), the doors' one place for them.
 struct DiagnoseOptions {
   std::vector<std::string> data, val;  ///< one pair per drive level (--data and --val repeated, in order)
   std::string model;
   DataOptions columns;
   ReportOutputOptions outputs;
-  long init = 50;
-  int scan_from = 2, scan_to = 14;
-  int max_findings = 4;
+  usecases::DiagnoseRequest settings;  ///< init, the scan, max_findings, sensor, use_current
   long window = 300;
-  models::OutputQuantity sensor = models::OutputQuantity::unknown;
-  std::string current_col = "auto";  ///< the coil current when the records have one (docs/diagnosis.md: better on both families)
+  /// The coil current's column: "auto" (the request's use_current: "i" or "current" when both records have one) or
+  /// "none" (docs/diagnosis.md: the current is better on both families).
+  std::string current_col = usecases::DiagnoseRequest{}.use_current ? "auto" : "none";
   std::string model_out;  ///< the diagnosed model as a gray_box model file (empty: not written)
 };
 
@@ -65,99 +67,86 @@ Eigen::VectorXd read_current(const std::string& path, const DataOptions& columns
   return {};
 }
 
-// The simulation --model names: a linear model, or a simulation that is not linear (a NARX model, a
-// virtual-transducer plant JSON run without sensor noise).
-struct Baseline {
-  std::optional<models::LinearModel> linear;
-  std::optional<models::SimulationBaseline> simulation;
-  double fs() const { return linear ? linear->fs : simulation->fs; }
-};
-
-Baseline load_baseline(const std::string& path) {
-  Baseline b;
+// The baseline --model names in the request: a linear model, or a simulation that is not linear (a NARX, ss,
+// gray_box or oscillator model, a virtual-transducer plant JSON run without sensor noise); its rate.
+double load_baseline(const std::string& path, usecases::DiagnoseRequest& q) {
+  q.baseline_name = path;
   const nlohmann::json j = models::read_json_file(path);
   if (j.is_object() && j.contains("format") && j["format"].is_string() &&
       j["format"].get<std::string>().starts_with("panelbass.plant")) {
-    b.simulation = models::plant_baseline(models::load_plant_file(path));
-    return b;
+    q.simulation_baseline = models::plant_baseline(models::load_plant_file(path));
+    return q.simulation_baseline->fs;
   }
   const models::AnyModel model = models::load_model(path);
   if (const auto* linear = std::get_if<models::LinearModel>(&model.model)) {
-    b.linear = *linear;
-  } else {
-    b.simulation = std::visit([&](const auto& m) { return models::model_baseline(model.kind(), m); }, model.model);
+    q.linear_baseline = *linear;
+    return linear->fs;
   }
-  return b;
+  q.simulation_baseline = std::visit([&](const auto& m) { return models::model_baseline(model.kind(), m); }, model.model);
+  return q.simulation_baseline->fs;
 }
 
+// The use case's stages on standard error, one line each.
+class StageLines final : public usecases::Progress {
+ public:
+  void report(double, const std::string& message) override { std::cerr << "diagnose: " << message << std::endl; }
+};
+
 void run_diagnose(const DiagnoseOptions& o) {
-  std::optional<Baseline> baseline;
+  usecases::DiagnoseRequest q = o.settings;
+  q.use_current = o.current_col != "none";
   DataOptions columns = o.columns;
   if (!o.model.empty()) {
-    baseline = load_baseline(o.model);
-    if (!(columns.fs > 0.0)) columns.fs = baseline->fs();
+    const double model_fs = load_baseline(o.model, q);
+    if (!(columns.fs > 0.0)) columns.fs = model_fs;
   }
   if (o.data.size() != o.val.size())
     throw CLI::ValidationError("--val", "give one --val per --data (records at several levels come in pairs): " +
                                             std::to_string(o.data.size()) + " --data, " + std::to_string(o.val.size()) + " --val");
-  const auto read = [&](const std::string& path) { return baseline ? columns.read_at_model_rate(path, baseline->fs()) : columns.read(path); };
-  // Records at several levels: the pair with the loudest drive is diagnosed (where a nonlinear effect shows most);
-  // every other pair's validation part judges each finding at its own level.
-  std::vector<dsp::Record> ests, vals;
-  std::size_t main = 0;
+  const bool has_baseline = q.linear_baseline || q.simulation_baseline;
+  const double baseline_fs = q.linear_baseline ? q.linear_baseline->fs : has_baseline ? q.simulation_baseline->fs : 0.0;
+  const auto read = [&](const std::string& path) { return has_baseline ? columns.read_at_model_rate(path, baseline_fs) : columns.read(path); };
+  // Records at several levels: the use case diagnoses the pair with the loudest drive (where a nonlinear effect
+  // shows most); every other pair's validation part judges each finding at its own level.
   for (std::size_t k = 0; k < o.data.size(); ++k) {
-    ests.push_back(read(o.data[k]));
-    vals.push_back(read(o.val[k]));
-    if (!dsp::same_rate(vals[k].fs, ests[0].fs) || !dsp::same_rate(ests[k].fs, ests[0].fs))
-      throw std::invalid_argument((dsp::same_rate(ests[k].fs, ests[0].fs) ? o.val[k] : o.data[k]) + ": sample rate " +
-                                  std::to_string(dsp::same_rate(ests[k].fs, ests[0].fs) ? vals[k].fs : ests[k].fs) +
-                                  " Hz differs from " + o.data[0] + "'s " + std::to_string(ests[0].fs) + " Hz");
-    if (ests[k].columns[0].squaredNorm() / std::max<double>(1.0, static_cast<double>(ests[k].columns[0].size())) >
-        ests[main].columns[0].squaredNorm() / std::max<double>(1.0, static_cast<double>(ests[main].columns[0].size())))
-      main = k;
+    const dsp::Record est = read(o.data[k]);
+    const dsp::Record val = read(o.val[k]);
+    if (k == 0) q.fs = est.fs;
+    if (!dsp::same_rate(val.fs, q.fs) || !dsp::same_rate(est.fs, q.fs))
+      throw std::invalid_argument((dsp::same_rate(est.fs, q.fs) ? o.val[k] : o.data[k]) + ": sample rate " +
+                                  std::to_string(dsp::same_rate(est.fs, q.fs) ? val.fs : est.fs) + " Hz differs from " +
+                                  o.data[0] + "'s " + std::to_string(q.fs) + " Hz");
+    usecases::DiagnoseLevel level{o.val[k], est.columns[0], est.columns[1], val.columns[0], val.columns[1], {}, {}};
+    level.i_est = read_current(o.data[k], columns, est.fs, o.current_col);
+    if (level.i_est.size() > 0) level.i_val = read_current(o.val[k], columns, val.fs, o.current_col);
+    // Found by default in one record only: neither is used (a named column must be in both).
+    if ((level.i_est.size() > 0) != (level.i_val.size() > 0) && o.current_col == "auto") level.i_est = level.i_val = Eigen::VectorXd();
+    if ((level.i_est.size() > 0) != (level.i_val.size() > 0))
+      throw dsp::DataError(o.val[k] + ": has no current column while " + o.data[k] + " has one (give --current-col none to leave it out)");
+    q.levels.push_back(std::move(level));
   }
-  const dsp::Record& est = ests[main];
-  const dsp::Record& val = vals[main];
-  const std::string& data_path = o.data[main];
-  const std::string& val_path = o.val[main];
   // Everything that can be refused is refused before the work starts.
+  RequestSpelling spelling;
+  spelling.flags = {{"record", "--val"}, {"use_current", "--current-col"}};
+  run_use_case([&] { usecases::check(q); }, spelling);
   const PlotFormat format = o.outputs.prepare();
-  if (!o.model_out.empty() && baseline && baseline->simulation)
+  if (!o.model_out.empty() && q.simulation_baseline)
     throw std::invalid_argument("--model-out: the baseline " + o.model +
                                 " is not a linear model; only a linear baseline with its gray-box terms is written as a model file");
 
-  models::DiagnosisOptions options;
-  options.init = o.init;
-  options.scan_from = o.scan_from;
-  options.scan_to = o.scan_to;
-  options.max_findings = o.max_findings;
-  options.output = o.sensor;
-  options.current_est = read_current(data_path, columns, est.fs, o.current_col);
-  if (options.current_est.size() > 0) options.current_val = read_current(val_path, columns, val.fs, o.current_col);
-  // Found by default in one record only: neither is used (a named column must be in both).
-  if ((options.current_est.size() > 0) != (options.current_val.size() > 0) && o.current_col == "auto")
-    options.current_est = options.current_val = Eigen::VectorXd();
-  if ((options.current_est.size() > 0) != (options.current_val.size() > 0))
-    throw dsp::DataError(val_path + ": has no current column while " + data_path + " has one (give --current-col none to leave it out)");
-  options.level_name = val_path;
-  for (std::size_t k = 0; k < vals.size(); ++k)
-    if (k != main) options.other_levels.push_back({o.val[k], vals[k].columns[0], vals[k].columns[1]});
-  options.progress = [](const std::string& stage) { std::cerr << "diagnose: " << stage << std::endl; };
-  const models::Diagnosis d =
-      baseline && baseline->simulation
-          ? models::diagnose(est.columns[0], est.columns[1], val.columns[0], val.columns[1], est.fs, *baseline->simulation, options)
-          : models::diagnose(est.columns[0], est.columns[1], val.columns[0], val.columns[1], est.fs,
-                             baseline ? baseline->linear : std::nullopt, options);
-  nlohmann::json report = models::diagnosis_to_json(d);
-  report["data"] = data_path;
-  report["val"] = val_path;
+  StageLines stages;
+  const usecases::DiagnoseReport result = run_use_case([&] { return usecases::diagnose(q, stages); }, spelling);
+  const models::Diagnosis& d = result.diagnosis;
+  const std::size_t main = result.diagnosed_level;
+  const usecases::DiagnoseLevel& val = q.levels[main];
+  nlohmann::json report = result.report;
+  report["data"] = o.data[main];
+  report["val"] = o.val[main];
   if (o.data.size() > 1) {
     report["levels"] = nlohmann::json::array();
     for (std::size_t k = 0; k < o.data.size(); ++k)
       report["levels"].push_back({{"data", o.data[k]}, {"val", o.val[k]}, {"diagnosed", k == main}});
   }
-  report["fs"] = est.fs;
-  if (!o.model.empty()) report["model"] = o.model;
   o.outputs.name_outputs(report);
   DiagnosisPlotOptions plot_options;
   plot_options.format = format;
@@ -165,12 +154,12 @@ void run_diagnose(const DiagnoseOptions& o) {
   o.outputs.draw_figures(
       "panelbass-diagnose", report,
       [&](const fs::path& dir) {
-        options.progress("drawing the figures");
-        return plot_diagnosis(d, DiagnosisValidation{val.columns[0], val.columns[1], o.init}, dir, plot_options);
+        stages.report(1.0, "drawing the figures");
+        return plot_diagnosis(d, DiagnosisValidation{val.u_val, val.y_val, q.init}, dir, plot_options);
       },
       [&](const std::vector<ReportFigure>& figures) { write_diagnosis_html(o.outputs.html, report, figures, format); });
   if (!o.model_out.empty()) {
-    models::write_json_file(o.model_out, models::gray_box_model_to_json(models::gray_box_model_of(d)));
+    models::write_json_file(o.model_out, result.model_file);
     report["model_out"] = o.model_out;
   }
   models::write_json_file(o.outputs.out, report);
@@ -195,13 +184,6 @@ void run_diagnose(const DiagnoseOptions& o) {
   print_result(summary);
 }
 
-// --sensor's names and values.
-std::map<std::string, models::OutputQuantity> output_quantities() {
-  std::map<std::string, models::OutputQuantity> out;
-  for (auto q : models::all_output_quantities()) out[models::to_string(q)] = q;
-  return out;
-}
-
 }  // namespace
 
 void register_diagnose(CLI::App& app) {
@@ -216,16 +198,14 @@ void register_diagnose(CLI::App& app) {
   o->columns.add_to(cmd);
   cmd->add_option("--model", o->model,
                   "Simulation to diagnose: a linear, NARX or neural state-space (ss) model file, or a plant JSON (default: the best OE model of the order scan)");
-  cmd->add_option("--init", o->init, "Measured outputs that set a simulation's state before J is computed")
-      ->check(CLI::Range(0L, 100000000L))
+  cmd->add_option("--init", o->settings.init, "Measured outputs that set a simulation's state before J is computed")
       ->capture_default_str();
-  cmd->add_option("--scan-from", o->scan_from, "Without --model: lowest OE order scanned")->check(CLI::Range(1, 60))->capture_default_str();
-  cmd->add_option("--scan-to", o->scan_to, "Without --model: highest OE order scanned")->check(CLI::Range(1, 60))->capture_default_str();
-  cmd->add_option("--max-findings", o->max_findings, "Augmentation rounds at most")->check(CLI::Range(0, 20))->capture_default_str();
-  cmd->add_option("--sensor", o->sensor,
+  cmd->add_option("--scan-from", o->settings.scan_from, "Without --model: lowest OE order scanned (1..60)")->capture_default_str();
+  cmd->add_option("--scan-to", o->settings.scan_to, "Without --model: highest OE order scanned (1..60)")->capture_default_str();
+  cmd->add_option("--max-findings", o->settings.max_findings, "Augmentation rounds at most (0..20)")->capture_default_str();
+  cmd->add_option("--sensor", o->settings.sensor,
                   "What the output measures: displacement, velocity or acceleration (a spring and a damping then act on "
                   "the displacement and its rate of change, not on the cube of one signal); unknown tries every state")
-      ->transform(CLI::CheckedTransformer(output_quantities()))
       ->capture_default_str();
   cmd->add_option("--current-col", o->current_col,
                   "The coil current's column: it tells apart effects that look alike from the drive (a spring from a "
@@ -248,12 +228,7 @@ void register_diagnose(CLI::App& app) {
       "      --html report.html --plots plots/ --model-out diagnosed.json\n"
       "  panelbass diagnose --data est.csv --val val.csv --fs 3000 --current-col i --out report.json\n"
       "  panelbass diagnose --data loud-est.csv --val loud-val.csv --data quiet-est.csv --val quiet-val.csv --fs 3000");
-  cmd->callback([o] {
-    if (o->scan_from > o->scan_to)
-      throw CLI::ValidationError("--scan-from", std::to_string(o->scan_from) + " is above --scan-to " +
-                                                   std::to_string(o->scan_to));
-    run_diagnose(*o);
-  });
+  cmd->callback([o] { run_diagnose(*o); });
 }
 
 }  // namespace panelbass::cli

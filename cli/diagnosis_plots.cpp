@@ -29,7 +29,7 @@ struct JudgedSimulations {
 
 fs::path plot_residual_spectrum(const Diagnosis& d, const JudgedSimulations& s, double fs, const fs::path& dir,
                                 const DiagnosisPlotOptions& o) {
-  const dsp::WelchSpec spec{models::residual_segment(s.y.size()), 0.5, dsp::Window::hann};
+  const dsp::WelchSpec spec{dsp::residual_welch_segment(s.y.size()), 0.5, dsp::Window::hann};
   const dsp::PowerSpectrum before = dsp::welch_psd(s.y - s.baseline, fs, spec);
   const dsp::PowerSpectrum after = dsp::welch_psd(s.y - s.final, fs, spec);
   const Eigen::Index n = before.frequency.size() - 1;  // DC left out

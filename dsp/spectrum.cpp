@@ -112,6 +112,14 @@ std::size_t welch_segment(Eigen::Index samples, std::size_t longest) {
   return segment;
 }
 
+std::size_t residual_welch_segment(Eigen::Index samples) {
+  constexpr std::size_t shortest = 256, longest = 2048, times = 8;
+  if (samples < static_cast<Eigen::Index>(shortest)) return welch_segment(samples);
+  std::size_t segment = shortest;
+  while (2 * segment * times <= static_cast<std::size_t>(samples) && segment < longest) segment *= 2;
+  return segment;
+}
+
 PowerSpectrum welch_psd(const Eigen::VectorXd& x, double fs, const WelchSpec& spec) {
   constexpr const char* where = "welch_psd";
   check_spec(where, fs, spec);

@@ -26,6 +26,12 @@ struct PowerSpectrum {
 /// when it holds fewer than four of 128.
 std::size_t welch_segment(Eigen::Index samples, std::size_t longest = 1024);
 
+/// The Welch segment a residual's spectrum is read by (its noise level and peaks: the diagnosis, and its figures at
+/// either door): the longest power of 2 from 256 up to 2048 that the record holds eight times over (≥ 15 averages
+/// at 50 % overlap), 256 when it holds fewer, and welch_segment()'s for a record
+/// shorter than 256 samples.
+std::size_t residual_welch_segment(Eigen::Index samples);
+
 /// Welch PSD of `x` at sample rate `fs`. Throws std::invalid_argument if x is shorter than a segment.
 PowerSpectrum welch_psd(const Eigen::VectorXd& x, double fs, const WelchSpec& spec = {});
 

@@ -9,14 +9,13 @@
 
 #include "api/jobs/job_plots.h"
 #include "api/jobs/job_progress.h"
-#include "api/jobs/model_judgement.h"
 #include "api/jobs/param_reader.h"
 #include "api/jobs/record_acquisition.h"
 #include "api/jobs/stored_models.h"
 #include "models/diagnosis/diagnosis.h"
 #include "models/diagnosis/diagnosis_baselines.h"
-#include "models/diagnosis/gray_box_model.h"
 #include "models/kinds/model_file.h"
+#include "usecases/diagnose.h"
 
 namespace panelbass::api {
 namespace {
@@ -49,7 +48,20 @@ json level_records(ParamReader& r, const json& records, const JobEnvironment& en
   return checked;
 }
 
+// The request's settings of filled-in params, without its records and baseline.
+usecases::DiagnoseRequest diagnose_request(const json& params) {
+  usecases::DiagnoseRequest q;
+  q.init = params.at("init").get<long>();
+  q.scan_from = params.at("scan_from").get<int>();
+  q.scan_to = params.at("scan_to").get<int>();
+  q.max_findings = params.at("max_findings").get<int>();
+  q.sensor = params.at("sensor").get<std::string>();
+  q.use_current = params.at("use_current").get<bool>();
+  return q;
+}
+
 json diagnose_params(const json& params, const JobEnvironment& env) {
+  const usecases::DiagnoseRequest d;
   ParamReader r(params, "params");
   if (const json* records = r.member("records")) {
     r.set("records", level_records(r, *records, env));
@@ -59,75 +71,60 @@ json diagnose_params(const json& params, const JobEnvironment& env) {
     if (validation == 0) refuse(validation_path, "diagnose needs validation data (it judges every augmentation on it)");
   }
   require_stored_model(r, "baseline_model", false, kinds_taking(models::ModelRole::plant), env);
-  r.integer("max_findings", 4, 0, 20);
-  std::vector<std::string> quantities;
-  for (auto q : models::all_output_quantities()) quantities.push_back(models::to_string(q));
-  r.choice("sensor", "unknown", quantities);
-  // The record's coil current, when it has one, as diagnose --current-col auto (docs/diagnosis.md: better on both
-  // families of the detection bench); false leaves it out.
-  r.boolean("use_current", true);
-  return r.finish();
+  r.integer("init", d.init, -kAnyInteger, kAnyInteger);
+  r.integer("scan_from", d.scan_from, -kAnyInteger, kAnyInteger);
+  r.integer("scan_to", d.scan_to, -kAnyInteger, kAnyInteger);
+  r.integer("max_findings", d.max_findings, -kAnyInteger, kAnyInteger);
+  r.text("sensor", d.sensor);
+  // The record's coil current, when it has one, as diagnose --current-col auto; false leaves it out.
+  r.boolean("use_current", d.use_current);
+  json filled = r.finish();
+  check_request([&] { usecases::check_settings(diagnose_request(filled)); });
+  return filled;
 }
 
 json diagnose_work(const json& params, const JobEnvironment& env, JobControl& control) {
   JobProgress progress(control);
-  // Records at several levels: the one with the loudest drive is diagnosed, the others' validation parts judge each
-  // finding at their own level.
-  std::vector<SourcedRecord> levels;
+  // Records at several levels: the use case diagnoses the one with the loudest drive, the others' validation parts
+  // judge each finding at their own level.
+  std::vector<SourcedRecord> sources;
   if (params.contains("records"))
-    for (const json& one : params.at("records")) levels.push_back(acquire_record(one, env, progress, control));
+    for (const json& one : params.at("records")) sources.push_back(acquire_record(one, env, progress, control));
   else
-    levels.push_back(acquire_record(params, env, progress, control));
-  const auto loudness = [](const SourcedRecord& s) { return s.record.u_est.squaredNorm() / std::max<double>(1.0, static_cast<double>(s.record.u_est.size())); };
-  std::size_t main = 0;
-  for (std::size_t k = 1; k < levels.size(); ++k)
-    if (loudness(levels[k]) > loudness(levels[main])) main = k;
-  const SourcedRecord& data = levels[main];
-  const ExcitationRecord& r = data.record;
-  // The simulation diagnosed: a stored model of any kind, or (without one) the best
-  // linear OE model.
-  std::optional<models::AnyModel> baseline;
+    sources.push_back(acquire_record(params, env, progress, control));
+  usecases::DiagnoseRequest q = diagnose_request(params);
+  q.fs = env.fs;
+  for (const SourcedRecord& s : sources)
+    q.levels.push_back({s.source, s.record.u_est, s.record.y_est, s.record.u_val, s.record.y_val, s.record.i_est, s.record.i_val});
+  // The simulation diagnosed: a stored model of any plant kind, or (without one) the best linear OE model.
   if (params.contains("baseline_model") && params.at("baseline_model").is_string()) {
-    baseline = models::model_from_json(stored_model_file(env, params.at("baseline_model").get<std::string>()));
+    q.baseline_name = params.at("baseline_model").get<std::string>();
+    const models::AnyModel baseline = models::model_from_json(stored_model_file(env, q.baseline_name));
+    if (const auto* linear = std::get_if<models::LinearModel>(&baseline.model))
+      q.linear_baseline = *linear;
+    else
+      q.simulation_baseline = std::visit([&](const auto& m) { return models::model_baseline(baseline.kind(), m); }, baseline.model);
   }
-  models::DiagnosisOptions options;
-  options.init = kInit;
-  options.max_findings = params.at("max_findings").get<int>();
-  for (auto q : models::all_output_quantities())
-    if (models::to_string(q) == params.value("sensor", "unknown")) options.output = q;
-  if (params.value("use_current", true) && r.i_est.size() > 0)
-    options.current_est = r.i_est, options.current_val = r.i_val;  // the force channel
-  options.level_name = data.source;
-  for (std::size_t k = 0; k < levels.size(); ++k)
-    if (k != main) options.other_levels.push_back({levels[k].source, levels[k].record.u_val, levels[k].record.y_val});
-  int stages = 0;
   progress.span(kExcitationShare, 0.95);
-  // The diagnosis names its stages but not how many remain: each one closes part of the gap to the end.
-  options.progress = [&](const std::string& stage) { progress.at(1.0 - std::pow(0.8, ++stages), "diagnose: " + stage); };
-  const auto* linear = baseline ? std::get_if<models::LinearModel>(&baseline->model) : nullptr;
-  const models::Diagnosis d =
-      baseline && linear == nullptr
-          ? models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs,
-                             std::visit([&](const auto& m) { return models::model_baseline(baseline->kind(), m); }, baseline->model),
-                             options)
-          : models::diagnose(r.u_est, r.y_est, r.u_val, r.y_val, env.fs,
-                             linear ? std::optional(*linear) : std::nullopt, options);
+  usecases::DiagnoseReport result;
+  check_request([&] { result = usecases::diagnose(q, progress); });
+  const models::Diagnosis& d = result.diagnosis;
+  const std::size_t main = result.diagnosed_level;
 
   progress.span(0.95, 1.0);
-  json report = models::diagnosis_to_json(d);
+  json report = result.report;
   // The diagnosed model (a linear baseline and the terms found) is stored as a gray_box model, as diagnose
   // --model-out writes it; a baseline that is not linear has no such file.
-  if (env.store != nullptr && !d.findings.empty() && !d.model.simulate_baseline)
-    report["model_id"] = store_model(env, models::gray_box_model_to_json(models::gray_box_model_of(d)),
-                                     "gray box (" + control.job_id() + ")", control);
-  report["fs"] = env.fs;
-  report["data"] = data.source;
-  if (levels.size() > 1) {
+  if (env.store != nullptr && !d.findings.empty() && result.model_file.is_object())
+    report["model_id"] = store_model(env, result.model_file, "gray box (" + control.job_id() + ")", control);
+  report["data"] = sources[main].source;
+  if (sources.size() > 1) {
     report["levels"] = json::array();
-    for (std::size_t k = 0; k < levels.size(); ++k) report["levels"].push_back({{"data", levels[k].source}, {"diagnosed", k == main}});
+    for (std::size_t k = 0; k < sources.size(); ++k) report["levels"].push_back({{"data", sources[k].source}, {"diagnosed", k == main}});
   }
   report["j_val_pct"] = d.j_val_after_pct;
-  const Eigen::Index init = init_samples(r.u_val.size());
+  const usecases::DiagnoseLevel& r = q.levels[main];
+  const Eigen::Index init = q.init;  // as the diagnosis judged it (and the CLI's figures show it)
   const Eigen::VectorXd y_sim = models::simulate_augmented(d.model, r.u_val, r.y_val, init);
   const Eigen::VectorXd y_baseline = models::simulate_augmented(d.baseline_model, r.u_val, r.y_val, init);
   const Eigen::Index n = r.u_val.size() - init;

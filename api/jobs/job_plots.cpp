@@ -6,7 +6,6 @@
 
 #include "dsp/decibels.h"
 #include "dsp/spectrum.h"
-#include "models/diagnosis/diagnosis_locate.h"
 #include "models/io/json_fields.h"
 
 namespace panelbass::api {
@@ -69,11 +68,7 @@ json residual_spectrum_plot(const Eigen::VectorXd& residual_before, const Eigen:
   if (residual_before.size() != residual_after.size()) throw std::invalid_argument("residual spectrum plot: lengths differ");
   if (residual_before.size() < 64) throw std::invalid_argument("residual spectrum plot: fewer than 64 samples");
   dsp::WelchSpec spec;
-  // As the diagnosis reads the residual's spectrum and noise level; a record too short for it, by dsp's rule.
-  const std::size_t located = models::residual_segment(residual_before.size());
-  spec.segment = located * 4 <= static_cast<std::size_t>(residual_before.size())
-                     ? located
-                     : dsp::welch_segment(residual_before.size());
+  spec.segment = dsp::residual_welch_segment(residual_before.size());  // as the diagnosis reads the residual
   const dsp::PowerSpectrum before = dsp::welch_psd(residual_before, fs, spec);
   const dsp::PowerSpectrum after = dsp::welch_psd(residual_after, fs, spec);
   const Eigen::Index n = before.frequency.size() - 1;  // DC left out

@@ -105,6 +105,14 @@ bool ParamReader::boolean(const std::string& key, bool fallback) {
   return value;
 }
 
+std::string ParamReader::text(const std::string& key, const std::string& fallback) {
+  const json* v = fields_.member(key);
+  if (v != nullptr && !v->is_null() && !v->is_string()) refuse(path_of(key), "expected a string, got " + shown(*v));
+  const std::string value = v != nullptr && v->is_string() ? v->get<std::string>() : fallback;
+  filled_[key] = value;
+  return value;
+}
+
 std::string ParamReader::choice(const std::string& key, const std::string& fallback, const std::vector<std::string>& choices) {
   const json* v = fields_.member(key);
   std::string value = fallback;
@@ -112,17 +120,6 @@ std::string ParamReader::choice(const std::string& key, const std::string& fallb
     if (!v->is_string() || std::find(choices.begin(), choices.end(), v->get<std::string>()) == choices.end()) {
       refuse(path_of(key), "must be one of " + list_text(choices) + ", got " + shown(*v));
     }
-    value = v->get<std::string>();
-  }
-  filled_[key] = value;
-  return value;
-}
-
-std::string ParamReader::text(const std::string& key, const std::string& fallback) {
-  const json* v = fields_.member(key);
-  std::string value = fallback;
-  if (v != nullptr && !v->is_null()) {
-    if (!v->is_string()) refuse(path_of(key), "expected a string, got " + shown(*v));
     value = v->get<std::string>();
   }
   filled_[key] = value;

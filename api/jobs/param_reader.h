@@ -56,10 +56,10 @@ class ParamReader {
   double number(const std::string& key, double fallback, const Interval& range);
   /// true or false; `fallback` when absent.
   bool boolean(const std::string& key, bool fallback);
+  /// Any string (a use case's check says which values it takes); `fallback` when absent or null.
+  std::string text(const std::string& key, const std::string& fallback);
   /// One of `choices`; `fallback` when absent.
   std::string choice(const std::string& key, const std::string& fallback, const std::vector<std::string>& choices);
-  /// Any string (a use case's check says which it takes); `fallback` when absent or null.
-  std::string text(const std::string& key, const std::string& fallback);
   /// Any list of strings (a use case's check says which it takes); `fallback` when absent or null.
   std::vector<std::string> texts(const std::string& key, const std::vector<std::string>& fallback);
   /// A list of `min_count`..`max_count` integers, each within [lo, hi]; `fallback` when absent.

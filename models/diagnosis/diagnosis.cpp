@@ -208,7 +208,7 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
       // With the current, a first force the drive's candidates are too small to earn may still show on the output
       // explained from the current (Rms(v) and friction together, whose nonlinear parts partly cancel in the drive's
       // residual): it is found there, with a second force beside it if the channel shows one.
-      if (force && d.findings.empty())
+      if (force && d.findings.empty()) {
         if (auto lead = diagnosis_detail::force_lead(*force, r, current, scored, kept)) {
           const Fit before = current;
           Finding f = diagnosis_detail::partner_finding(r, *lead, nullptr, current, where_est, d.noise_floor_pct);
@@ -228,6 +228,28 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
           }
           continue;
         }
+      }
+      // No force alone earns there, two together may (their nonlinear parts cancel in part alone): looked for in the
+      // first round, or after findings that are no force (a small linear refit, a delay, can earn first on the drive).
+      if (force && std::ranges::none_of(kept, diagnosis_detail::acts_as_force)) {
+        if (auto pair = diagnosis_detail::force_pair_lead(*force, r, current, scored, kept)) {
+          for (const diagnosis_detail::ForcePartner* p : {&pair->lead, &pair->partner}) {
+            const Fit before = current;
+            Finding f = diagnosis_detail::partner_finding(r, *p, p == &pair->lead ? nullptr : pair->lead.candidate, current,
+                                                          where_est, d.noise_floor_pct);
+            const diagnosis_detail::ForcePartner& other = p == &pair->lead ? pair->partner : pair->lead;
+            f.explanation += " Its force and " + to_string(other.candidate->effect) + "'s together earn BIC " +
+                             fixed(pair->joint_score, 1) + " on the output explained from the current.";
+            f.evidence["force_channel"]["pair_joint_bic"] = pair->joint_score;
+            f.evidence["force_channel"]["pairs_tried"] = pair->pairs_tried;
+            judge_at_levels(f, before.model, current.model);
+            progress("found " + to_string(f.effect) + " (the force channel, jointly)");
+            kept.push_back(f.effect);
+            d.findings.push_back(std::move(f));
+          }
+          continue;
+        }
+      }
       d.stop = {{"round", round + 1}, {"reason", "no candidate earns its parameters (BIC on the validation samples)"}};
       break;
     }
@@ -371,6 +393,16 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
       confidence = *alike_confidence;
       confidence.explained_share = share;
       confidence.sentence += " It explains " + fixed(100.0 * share, 0) + " % of J above the noise floor.";
+    }
+    // With the current, a coil offset after an asymmetric spring is as often the spring's own force in another shape
+    // (x·i beside x² earns 108–254 on the force channel of a concealed spring alone) as a second effect: never clear.
+    if (force && chosen->effect == Effect::asymmetric_force_factor && confidence.word != "ambiguous" &&
+        std::ranges::find(kept, Effect::asymmetric_stiffness) != kept.end()) {
+      confidence.word = "ambiguous";
+      confidence.runner_up = to_string(Effect::asymmetric_stiffness);
+      confidence.runner_up_variant.clear();
+      confidence.sentence = "ambiguous between asymmetric_force_factor and more of asymmetric_stiffness: beside the spring's x², a "
+                            "coil offset's x·i also fits what the spring's own force leaves (alone the verdict was \"" + confidence.sentence + "\").";
     }
     f.confidence = confidence_to_json(confidence);
     judge_at_levels(f, current.model, chosen->fit.model);

@@ -194,12 +194,6 @@ bool t_significant(double t) { return std::abs(t) > kTSignificant; }
 
 bool peak_significant(double peak_over_noise, double peak_threshold) { return peak_over_noise > peak_threshold; }
 
-std::size_t residual_segment(Eigen::Index n) {
-  std::size_t segment = 256;
-  while (segment * 16 <= static_cast<std::size_t>(n) && segment < 2048) segment *= 2;
-  return segment;
-}
-
 ResidualLocation locate_residual(const Eigen::VectorXd& u_all, const Eigen::VectorXd& y_all,
                                  const Eigen::VectorXd& y_sim_all, double fs, Eigen::Index start) {
   if (u_all.size() != y_all.size() || y_sim_all.size() != y_all.size())
@@ -218,7 +212,7 @@ ResidualLocation locate_residual(const Eigen::VectorXd& u_all, const Eigen::Vect
 
   // Frequency: Welch PSD; the noise level is the median over the top quarter of the band, where a
   // band-limited plant puts least energy and sensor noise is white.
-  const std::size_t segment = residual_segment(n);
+  const std::size_t segment = dsp::residual_welch_segment(n);
   const dsp::PowerSpectrum psd = dsp::welch_psd(e, fs, {segment, 0.5, dsp::Window::hann});
   const Eigen::Index bins = psd.psd.size();
   std::vector<double> top;

@@ -97,10 +97,6 @@ struct ResidualLocation {
 /// states are the input and the simulated output with its leaky single and double integrals
 /// (state_signals): velocity and displacement for an accelerometer, their integrals for a displacement
 /// sensor. Throws std::invalid_argument for unequal lengths or fewer than 256 samples after `start`.
-/// The Welch segment of a residual of `n` samples, as the location reads its spectrum and noise level (256 points,
-/// doubled while at least 16 segments fit, at most 2048): every residual spectrum shown beside it uses it too.
-std::size_t residual_segment(Eigen::Index n);
-
 ResidualLocation locate_residual(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const Eigen::VectorXd& y_sim,
                                  double fs, Eigen::Index start);
 

@@ -153,6 +153,45 @@ std::optional<ForcePartner> force_lead(const ForceChannel& channel, const Record
   return best;
 }
 
+std::optional<ForcePair> force_pair_lead(const ForceChannel& channel, const Records& r, const Fit& current,
+                                         const std::vector<Candidate>& scored, const std::vector<Effect>& kept) {
+  std::vector<Effect> forces;
+  for (const Candidate& c : scored)
+    if (is_force(c.effect) && std::ranges::find(kept, c.effect) == kept.end() && std::ranges::find(forces, c.effect) == forces.end() &&
+        c.fit.model.terms.size() == current.model.terms.size() + 1 && c.fit.model.terms.back().effect == c.effect)
+      forces.push_back(c.effect);
+  const auto with = [&](Effect e) {
+    std::vector<Effect> base = kept;
+    base.push_back(e);
+    return base;
+  };
+  // The pair's joint BIC: the first alone, then the second beside it (N·ln(J₀/J_ab) − 2p·ln N).
+  int tried = 0;
+  double best_joint = -std::numeric_limits<double>::infinity();
+  std::pair<Effect, Effect> best{};
+  for (std::size_t i = 0; i < forces.size(); ++i)
+    for (std::size_t j = i + 1; j < forces.size(); ++j) {
+      ++tried;
+      const double joint = force_score(channel, r, current, forces[i], kept).score +
+                           force_score(channel, r, current, forces[j], with(forces[i])).score;
+      if (joint > best_joint) best_joint = joint, best = {forces[i], forces[j]};
+    }
+  if (tried == 0 || best_joint < kPartnerMargin + std::log(static_cast<double>(tried))) return std::nullopt;
+  ForcePair out;
+  out.joint_score = best_joint;
+  out.pairs_tried = tried;
+  // Each is the best force beside the other, and earns a clear margin there.
+  auto lead = best_force(channel, r, current, scored, kept, with(best.second), best.second);
+  auto partner = best_force(channel, r, current, scored, kept, with(best.first), best.first);
+  if (!lead || !partner || lead->candidate->effect != best.first || partner->candidate->effect != best.second) return std::nullopt;
+  if (lead->beside.score < kClearMargin || partner->beside.score < kClearMargin) return std::nullopt;
+  if (partner->beside.score > lead->beside.score) std::swap(lead, partner);  // the stronger beside the other leads
+  partner->chosen_beside = lead->beside;
+  out.lead = std::move(*lead);
+  out.partner = std::move(*partner);
+  return out;
+}
+
 Finding partner_finding(const Records& r, const ForcePartner& partner, const Candidate* chosen, Fit& current,
                         const ResidualLocation& where, double noise_floor_pct) {
   const Candidate& c = *partner.candidate;

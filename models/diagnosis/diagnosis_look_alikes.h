@@ -67,6 +67,22 @@ std::optional<ForcePartner> force_partner(const ForceChannel& channel, const Rec
 std::optional<ForcePartner> force_lead(const ForceChannel& channel, const Records& r, const Fit& current,
                                        const std::vector<Candidate>& scored, const std::vector<Effect>& kept);
 
+/// Two forces found together on the force channel.
+struct ForcePair {
+  ForcePartner lead;     ///< the first: its score beside the second, its runner-up the next force beside the second
+  ForcePartner partner;  ///< the second: its score beside the first (chosen_beside: the first's beside it)
+  double joint_score = 0.0;  ///< the two features' BIC together against neither
+  int pairs_tried = 0;
+};
+
+/// With the current, in the first round when no candidate earns on the drive and no force alone earns kPartnerMargin
+/// on the force channel: the pair of forces whose features together earn most there, when that is kPartnerMargin
+/// plus ln of the pairs tried, and each earns kClearMargin beside the other (two forces whose nonlinear parts cancel
+/// in part, as Rms(v) rising with the velocity and friction falling with it: alone each is mostly the other's
+/// opposite, together their sum is fitted).
+std::optional<ForcePair> force_pair_lead(const ForceChannel& channel, const Records& r, const Fit& current,
+                                         const std::vector<Candidate>& scored, const std::vector<Effect>& kept);
+
 /// The partner's finding, after the round's `chosen` (nullptr: a force the force channel leads with): its drive-side term is fitted jointly with every term of
 /// `current` (the model with `chosen`, replaced by the joint fit when that lowers validation J; else the partner is
 /// reported and its term not applied); its word from the force channel's margin over the next-best force,

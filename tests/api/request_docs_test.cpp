@@ -15,6 +15,7 @@
 #include "usecases/design_lq.h"
 #include "usecases/design_mirror.h"
 #include "usecases/design_nn.h"
+#include "usecases/diagnose.h"
 #include "usecases/excite.h"
 #include "usecases/harmonics.h"
 #include "usecases/identify_average.h"
@@ -82,6 +83,7 @@ TEST(RequestDocs, EveryRequestFieldIsInTheOpenApiSchemaAndRoutesEntryOfItsJobKin
       {"validate", "ValidateParams", usecases::to_json(usecases::ValidateRequest{})},
       {"design-mirror", "DesignMirrorParams", usecases::to_json(usecases::DesignMirrorRequest{})},
       {"harmonics", "HarmonicsParams", usecases::to_json(usecases::HarmonicsRequest{})},
+      {"diagnose", "DiagnoseParams", usecases::to_json(usecases::DiagnoseRequest{})},
       {"identify-oscillator", "IdentifyOscillatorParams", usecases::to_json(usecases::IdentifyOscillatorRequest{})},
       {"identify-ss", "IdentifySsParams", usecases::to_json(usecases::IdentifySsRequest{})},
       {"identify-average", "IdentifyAverageParams", usecases::to_json(usecases::IdentifyAverageRequest{})},

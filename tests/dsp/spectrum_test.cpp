@@ -140,6 +140,17 @@ TEST(SpectrumWelchTest, TheSegmentIsTheLongestPowerOfTwoARecordHoldsFourTimes) {
   EXPECT_EQ(welch_segment(16383, 4096), 2048u);       // 4095 < 4096
 }
 
+// The residual's rule: the longest power of 2 from 256 to 2048 that the record holds eight times, counted by hand.
+TEST(SpectrumWelchTest, TheResidualSegmentIsTheLongestPowerOfTwoFrom256ARecordHoldsEightTimes) {
+  EXPECT_EQ(residual_welch_segment(100), 64u);     // shorter than 256: the general rule's
+  EXPECT_EQ(residual_welch_segment(1000), 256u);   // fewer than eight of 256: still 256
+  EXPECT_EQ(residual_welch_segment(4095), 256u);   // 4095/8 = 511 < 512
+  EXPECT_EQ(residual_welch_segment(4096), 512u);
+  EXPECT_EQ(residual_welch_segment(20000), 2048u);   // 2500 ≥ 2048
+  EXPECT_EQ(residual_welch_segment(16383), 1024u);   // 2047 < 2048
+  EXPECT_EQ(residual_welch_segment(1000000), 2048u);  // the cap
+}
+
 TEST(SpectrumTest, InvalidInputsThrow) {
   const Eigen::VectorXd x = gaussian(100, 1.0, 1);
   EXPECT_THROW(welch_psd(x, 1000.0, WelchSpec{128, 0.5, Window::hann}), std::invalid_argument);

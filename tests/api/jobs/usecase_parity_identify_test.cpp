@@ -11,6 +11,7 @@
 #include "models/io/json_file.h"
 #include "models/linear/linear_model.h"
 #include "models/narx/narx_model.h"
+#include "tests/api/jobs/usecase_parity_fixture.h"
 #include "tests/api/jobs/job_test_fixture.h"
 #include "tests/support/cli_runner.h"
 #include "usecases/analyze.h"
@@ -21,17 +22,10 @@
 namespace panelbass::api::job_testing {
 namespace {
 
-class IdentifyDoors : public JobKindsTest {
+class IdentifyDoors : public UseCaseParityTest {
  protected:
   // `panelbass <args>` run in the test's folder: its exit status, stdout and stderr.
-  testing_support::RunResult panelbass(const std::string& args) {
-    const std::filesystem::path out = dir_ / "door-out.txt", err = dir_ / "door-err.txt";
-    const std::string line = "cd " + testing_support::quoted(dir_) + " && " +
-                             testing_support::quoted(std::string(PANELBASS_BIN)) + " " + args + " </dev/null >" +
-                             testing_support::quoted(out) + " 2>" + testing_support::quoted(err);
-    const int status = std::system(line.c_str());
-    return {(status != -1 && WIFEXITED(status)) ? WEXITSTATUS(status) : -1, text_of(out), text_of(err)};
-  }
+  testing_support::RunResult panelbass(const std::string& args) { return cli(args); }
 
   // Runs an excite job `id` (2000 estimation and 1000 validation samples of the reference system) and writes its two
   // parts as est.csv and val.csv (u, y at 3000 Hz; 17 significant digits: the same doubles at both doors).
@@ -49,12 +43,6 @@ class IdentifyDoors : public JobKindsTest {
     }
   }
 };
-
-// `summary` without the keys only one door has.
-json without(json summary, const std::vector<std::string>& door_only) {
-  for (const std::string& key : door_only) summary.erase(key);
-  return summary;
-}
 
 // One refusal, the same words after each door's spelling of the field.
 void expect_same_refusal(const std::string& job_message, const testing_support::RunResult& cli, const std::string& param,

@@ -11,8 +11,7 @@
 
 #include "dsp/data_file.h"
 #include "models/io/json_file.h"
-#include "tests/api/jobs/job_test_fixture.h"
-#include "tests/support/cli_runner.h"
+#include "tests/api/jobs/usecase_parity_fixture.h"
 #include "api/record_store.h"
 #include "dsp/periodic_record.h"
 #include "models/linear/mimo_model.h"
@@ -23,22 +22,8 @@
 namespace panelbass::api::job_testing {
 namespace {
 
-class UseCaseParity : public JobKindsTest {
+class UseCaseParity : public UseCaseParityTest {
  protected:
-  // `panelbass <args>` in the test's folder; its exit status, stdout and stderr.
-  testing_support::RunResult cli(const std::string& args) {
-    const std::filesystem::path out = dir_ / "cli-out.txt", err = dir_ / "cli-err.txt";
-    const std::string command = "cd " + testing_support::quoted(dir_) + " && " +
-                                testing_support::quoted(std::string(PANELBASS_BIN)) + " " + args + " </dev/null >" +
-                                testing_support::quoted(out) + " 2>" + testing_support::quoted(err);
-    const int raw = std::system(command.c_str());
-    testing_support::RunResult r;
-    r.status = (raw != -1 && WIFEXITED(raw)) ? WEXITSTATUS(raw) : -1;
-    r.out = text_of(out);
-    r.err = text_of(err);
-    return r;
-  }
-
   // Stores the reference model and writes the same file as lin.json; returns its id.
   std::string reference_model_in_both() {
     const std::string id = store_reference_model();

@@ -12,22 +12,14 @@
 #include "models/oscillator/oscillator_model.h"
 #include "models/plant/plant_config.h"
 #include "tests/api/jobs/job_test_fixture.h"
+#include "tests/api/jobs/usecase_parity_fixture.h"
 #include "tests/support/cli_runner.h"
 
 namespace panelbass::api::job_testing {
 namespace {
 
-// `j` without the keys only one door has (where a model went, what a file or a stored model is called, timing).
-json without(json j, const std::vector<std::string>& keys) {
-  for (const std::string& k : keys) j.erase(k);
-  return j;
-}
-
-class UseCaseParityVerbs : public JobKindsTest {
+class UseCaseParityVerbs : public UseCaseParityTest {
  protected:
-  // `panelbass <args>` in the test's folder; its exit status, stdout and stderr.
-  testing_support::RunResult cli(const std::string& args) { return testing_support::run_panelbass_in(dir_, args); }
-
   // The backend: panel-exciter without its sensor noise, so that both doors' plays record the same samples whatever
   // noise seed each draws (the CLI's --quiet-sensor); the plant known to jobs.
   void use_quiet_exciter() {
