@@ -466,11 +466,12 @@ MirrorCurrentFit fit_mirror_model_from_current(const Eigen::VectorXd& drive, con
   // (c) free run over the whole record; J per channel on the fitting part and on validation
   run_current_model(fit.model, record, current_peak, run);
   fit.current_j_val_pct = channel_j_pct(run.i, current, fit_end, n);
-  // Rms(v)'s rise, then Bl(x)'s asymmetry from there, each kept when it is not negligible itself (more iterations
-  // alone cut the J_val of a record the model holds exactly) and cuts the current's J_val on validation: Rms(v) by
-  // 0.5 % (at the multisine's velocities it adds a few percent to the resistance, and the current shows little of it:
-  // on panel-exciter-rms-v J_val 0.00926 → 0.00914 %, r2·v_rms² 0.030, and the 160 Hz cut at 0.2 rose 8.5 → 14.5 dB;
-  // on panel-exciter it fits at 0.0007, below the floor), b1 by 10 % (it trades with K(x)'s asymmetry)
+  // Rms(v)'s rise, then Bl(x)'s asymmetry from there, each kept when it cuts the current's J_val on validation: Rms(v)
+  // by 0.5 % and only when not negligible itself (more iterations alone cut the J_val of a record the model holds
+  // exactly; at the multisine's velocities Rms(v) adds a few percent to the resistance and the current shows little of
+  // it: on panel-exciter-rms-v J_val 0.00926 → 0.00914 %, r2·v_rms² 0.030, and the 160 Hz cut at 0.2 rose 8.5 → 14.5
+  // dB; on panel-exciter it fits at 0.0007, below the floor), b1 by 10 % (it trades with K(x)'s asymmetry) at any size
+  // (second-exciter's b1 = 0.05/mm fits at b1·x_rms = 0.008, and without it its 80 Hz cut is 8 dB instead of 19)
   const auto earns_its_place = [&](Eigen::VectorXd& theta_with, Eigen::Index parameter, double smallest,
                                    double least_cut, std::initializer_list<Eigen::Index> held) {
     Eigen::VectorXd trial_theta = theta_with;
@@ -488,10 +489,9 @@ MirrorCurrentFit fit_mirror_model_from_current(const Eigen::VectorXd& drive, con
     return true;
   };
   constexpr double kSmallestDampingRise = 0.01;  // r2·v_rms²: the resistance 1 % up at the rms velocity
-  constexpr double kSmallestAsymmetry = 0.01;    // b1·x_rms: Bl 1 % apart at ±x_rms
   fit.damping_rise = earns_its_place(full, kDampingRise, kSmallestDampingRise, 0.005, {kForceFactor1});
   fit.force_factor_asymmetry =
-      earns_its_place(full, kForceFactor1, kSmallestAsymmetry, 0.1,
+      earns_its_place(full, kForceFactor1, 0.0, 0.1,
                       fit.damping_rise ? std::initializer_list<Eigen::Index>{} : std::initializer_list<Eigen::Index>{kDampingRise});
   fit.current_lag = start.lag;
   fit.model.delay = std::max(start.lag, 0);

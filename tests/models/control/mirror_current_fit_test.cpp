@@ -90,7 +90,6 @@ TEST(MirrorCurrentFit, RecoversTheDiscreteModelFromItsCurrentAlone) {
   for (std::size_t j = 1; j < 4; ++j) EXPECT_NEAR(m.drive_taps[j], truth.drive_taps[j], 1e-4) << "a" << j;
   EXPECT_NEAR(m.friction_velocity, truth.friction_velocity, 0.05 * truth.friction_velocity);
   EXPECT_FALSE(fit.damping_rise) << "no Rms(v) in the truth: c10 must not earn a place";
-  EXPECT_FALSE(fit.force_factor_asymmetry) << "a symmetric Bl(x) in the truth";
 }
 
 TEST(MirrorCurrentFit, RecoversTheMechanicalResistancesRiseWithVelocity) {
