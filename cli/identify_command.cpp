@@ -74,6 +74,7 @@ struct IdentifyNarxOptions {
   usecases::IdentifyNarxRequest q;  ///< the flags' values (records and models filled in by run_identify_narx)
   std::string train = joined(usecases::IdentifyNarxRequest{}.modes, ",");  ///< --train, comma-separated
   double weight_decay = models::kDefaultLmWeightDecay;  ///< --weight-decay (q.weight_decay when given)
+  std::string evidence_decay = usecases::evidence_decay_of(usecases::IdentifyNarxRequest{});  ///< --evidence-decay (q.evidence_decay when given)
   bool gradient_check = false;
   long parameter = 0;
 };
@@ -205,7 +206,11 @@ void register_identify(CLI::App& app) {
       ->capture_default_str();
   narx->add_option("--weight-decay", n->weight_decay,
                    "Weight decay D (NNSYSID's): lm and linesearch minimise (sum e^2 + D*|theta|^2)/(2N) on scaled data; "
-                   "with --optimizer sd the default is 0 (sd has none)")
+                   "with --optimizer sd the default is 0 (sd has none); with --evidence-decay all or oem, the starting D")
+      ->capture_default_str();
+  narx->add_option("--evidence-decay", n->evidence_decay,
+                   "off, all or oem: re-estimate D after each lm iteration by MacKay's evidence, in all modes or in the "
+                   "output-error modes alone (pem keeps --weight-decay); the default with --optimizer sd or linesearch is off")
       ->capture_default_str();
   narx->add_option("--init", n->q.init,
                    "Measured outputs that set the state before J is computed (at most a tenth of the shorter record); "
@@ -254,8 +259,8 @@ void register_identify(CLI::App& app) {
                    "--history reads; without it the history goes to stderr");
   narx->footer(
       "Example (the best recipe measured, docs/identification.md):\n  panelbass identify narx --data est.csv --val val.csv "
-      "--fs 3000 --na 8 --nb 8 --hidden 17 --train pem,oem-d --optimizer lm --weight-decay 0.01 --max-iter 200 --seed 1 "
-      "--out nn.json\n"
+      "--fs 3000 --na 8 --nb 8 --hidden 17 --train pem,oem-d --optimizer lm --weight-decay 0.01 --evidence-decay all "
+      "--pem-min-progress 0.1 --max-iter 200 --seed 1 --out nn.json   (the defaults but --max-iter)\n"
       "  panelbass identify narx --data est.csv --val val.csv --fs 3000 --train pem,oem-ms,oem-d --ms-window 250 "
       "--out nn-ms.json\n"
       "  panelbass identify narx --data more.csv --val val.csv --fs 3000 --start-from nn.json --train oem-d "
@@ -263,6 +268,7 @@ void register_identify(CLI::App& app) {
   narx->callback([n, narx, multiple_shooting_flags] {
     IdentifyNarxOptions o = *n;
     if (narx->count("--weight-decay") > 0) o.q.weight_decay = o.weight_decay;
+    if (narx->count("--evidence-decay") > 0) o.q.evidence_decay = o.evidence_decay;
     for (const std::string& flag : multiple_shooting_flags) {
       if (narx->count(flag) > 0 && o.train.find("oem-ms") == std::string::npos) {
         throw std::invalid_argument(flag + " applies to the oem-ms stage: add oem-ms to --train (e.g. pem,oem-ms,oem-d)");

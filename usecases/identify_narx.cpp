@@ -50,6 +50,7 @@ models::TrainingOptions training_options(const IdentifyNarxRequest& q) {
   options.transient_skip = q.skip;
   options.patience = q.patience;
   options.weight_decay = weight_decay_of(q);
+  options.evidence_decay = models::parse_evidence_decay(evidence_decay_of(q));
   options.weights = q.w_est;
   options.validation_weights = q.w_val;
   options.multiple_shooting = q.multiple_shooting;
@@ -98,6 +99,10 @@ std::string joined(const std::vector<std::string>& list) {
 
 }  // namespace
 
+std::string evidence_decay_of(const IdentifyNarxRequest& q) {
+  return q.evidence_decay ? *q.evidence_decay : q.optimizer == "lm" ? "all" : "off";
+}
+
 void check(const IdentifyNarxRequest& q) {
   within("na", q.na, 0, 500);
   within("nb", q.nb, 0, 500);
@@ -124,6 +129,13 @@ void check(const IdentifyNarxRequest& q) {
   within("patience", q.patience, 1, 1000000);
   if (q.weight_decay) within_real("weight_decay", *q.weight_decay, 0.0, 1e6);
   if (q.optimizer == "sd" && weight_decay_of(q) > 0.0) throw RequestError("weight_decay", "the sd optimizer has none: leave it out or give 0");
+  if (q.evidence_decay && *q.evidence_decay != "off" && *q.evidence_decay != "all" && *q.evidence_decay != "oem") {
+    throw RequestError("evidence_decay", "must be off, all or oem, got \"" + *q.evidence_decay + "\"");
+  }
+  if (q.optimizer != "lm" && evidence_decay_of(q) != "off") {
+    throw RequestError("evidence_decay", "needs the lm optimizer (the evidence is read off its Gauss-Newton matrix), the optimizer is " +
+                                             q.optimizer + ": leave it out or give off");
+  }
   within("init", q.init, 0, 1000000);
   within("grow", q.grow, 0, 1000);
   within("friction_units", static_cast<long long>(q.friction_units.size()), 0, 16);
@@ -178,6 +190,7 @@ nlohmann::json to_json(const IdentifyNarxRequest& q) {
           {"skip", q.skip},
           {"patience", q.patience},
           {"weight_decay", q.weight_decay ? nlohmann::json(*q.weight_decay) : nlohmann::json(nullptr)},
+          {"evidence_decay", q.evidence_decay ? nlohmann::json(*q.evidence_decay) : nlohmann::json(nullptr)},
           {"init", q.init},
           {"seed", q.seed},
           {"restarts", q.restarts},
@@ -308,6 +321,7 @@ IdentifyNarxReport identify_narx(const IdentifyNarxRequest& q, Progress& progres
                     {"hidden", result.model.structure.hidden},
                     {"modes", q.modes},
                     {"optimizer", q.optimizer},
+                    {"evidence_decay", evidence_decay_of(q)},
                     {"params", result.model.net.parameter_count()},
                     {"iterations", result.iterations},
                     {"seconds", result.seconds},

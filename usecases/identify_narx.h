@@ -19,7 +19,8 @@
 namespace panelbass::usecases {
 
 /// What `identify narx` is asked. The structure and training defaults are the documented recipe
-/// (docs/identification.md: 8/8 lags, 17 hidden nodes, pem then oem-d by Levenberg–Marquardt, 100 iterations).
+/// (docs/identification.md: 8/8 lags, 17 hidden nodes, pem then oem-d by Levenberg–Marquardt, 100 iterations, the
+/// weight decay re-estimated by the evidence from 0.01).
 struct IdentifyNarxRequest {
   Eigen::VectorXd u_est, y_est;  ///< estimation record, raw
   Eigen::VectorXd u_val, y_val;  ///< validation record (empty: none; early stopping, restarts and prune need it)
@@ -45,6 +46,10 @@ struct IdentifyNarxRequest {
   int patience = 20;             ///< iterations without validation improvement before a mode stops, 1..1000000
   /// Weight decay D ≥ 0 (NNSYSID's); none: models::kDefaultLmWeightDecay, 0 with the sd optimizer (which has none).
   std::optional<double> weight_decay;
+  /// MacKay's evidence re-estimates the decay after each LM iteration from its Gauss–Newton matrix (weight_decay then
+  /// only starts it): in "all" modes, in the output-error modes alone ("oem"; pem keeps weight_decay), or "off".
+  /// none: "all" with the lm optimizer (the best recipe measured, docs/identification.md), "off" with sd or linesearch.
+  std::optional<std::string> evidence_decay;
   long init = 50;                ///< measured outputs that set the state before J (at most a tenth of the shorter part)
   std::uint64_t seed = 1;        ///< the initial weights ([5F]); restart r starts from seed + r
   int restarts = 1;              ///< trainings from seeds seed … seed + restarts − 1, the lowest validation J kept
@@ -58,7 +63,7 @@ struct IdentifyNarxRequest {
 /// What `identify narx` made.
 struct IdentifyNarxReport {
   models::NarxModel model;  ///< its meta filled in (the history in meta.history)
-  /// {"J_est_pct","J_val_pct","na","nb","nk","nk_source","hidden","modes","optimizer","params","iterations","seconds",
+  /// {"J_est_pct","J_val_pct","na","nb","nk","nk_source","hidden","modes","optimizer","evidence_decay","params","iterations","seconds",
   /// "weighted","linear_reference_J_pct","structure":{"restarts"|"growth"|"pruning"|"friction_units"}}
   nlohmann::json summary;
   std::vector<models::TrainingRecord> history;  ///< J per iteration of the kept training
@@ -71,6 +76,9 @@ void check(const IdentifyNarxRequest& request);
 
 /// The request's fields (the records and model by their names), as the API echoes its params.
 nlohmann::json to_json(const IdentifyNarxRequest& request);
+
+/// The evidence rule the request asks for: its evidence_decay, or the default ("all" with lm, else "off").
+std::string evidence_decay_of(const IdentifyNarxRequest& request);
 
 /// Trains the model; std::runtime_error when the trained network's free run diverges (no model to write).
 IdentifyNarxReport identify_narx(const IdentifyNarxRequest& request, Progress& progress);

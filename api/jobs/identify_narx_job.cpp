@@ -39,6 +39,7 @@ usecases::IdentifyNarxRequest narx_request(const json& params) {
   q.skip = params.at("skip").get<long>();
   q.patience = params.at("patience").get<int>();
   if (params.at("weight_decay").is_number()) q.weight_decay = params.at("weight_decay").get<double>();
+  if (params.at("evidence_decay").is_string()) q.evidence_decay = params.at("evidence_decay").get<std::string>();
   q.init = params.at("init").get<long>();
   q.seed = params.at("seed").get<std::uint64_t>();
   q.restarts = params.at("restarts").get<int>();
@@ -80,6 +81,11 @@ json identify_narx_params(const json& params, const JobEnvironment& env) {
     r.set("weight_decay", nullptr);  // the optimizer's default (usecases::IdentifyNarxRequest::weight_decay)
   } else {
     r.number("weight_decay", 0.0, kAnyFinite);
+  }
+  if (const json* ed = r.member("evidence_decay"); ed == nullptr || ed->is_null()) {
+    r.set("evidence_decay", nullptr);  // the optimizer's default (usecases::IdentifyNarxRequest::evidence_decay)
+  } else {
+    r.text("evidence_decay", "");
   }
   r.integer("init", d.init, -kAnyInteger, kAnyInteger);
   r.integer("seed", static_cast<long long>(d.seed), 0, kMaxSeed);

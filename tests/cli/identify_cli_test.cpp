@@ -234,9 +234,10 @@ TEST_F(CliIdentifyData, NarxWeightColumnWeighsTheLoss) {
   half.tail(n / 2).setZero();
   Eigen::VectorXd negative = Eigen::VectorXd::Ones(n);
   negative[100] = -1.0;
-  // without weight decay: its term D/(2·Σw)·|θ|² is scaled by the weights' total, the loss's normaliser
+  // without weight decay (nor its re-estimation): its term D/(2·Σw)·|θ|² is scaled by the weights' total, the loss's
+  // normaliser
   const std::string train =
-      " --fs 3000 --na 3 --nb 3 --hidden 4 --train pem,oem-d --weight-decay 0 --max-iter 3 --seed 2 --out ";
+      " --fs 3000 --na 3 --nb 3 --hidden 4 --train pem,oem-d --weight-decay 0 --evidence-decay off --max-iter 3 --seed 2 --out ";
   const json plain = expect_result(run("identify narx --data " + est() + train + quoted(dir_ / "a.json")));
   const json constant = expect_result(run("identify narx --data " + with_weights("c.csv", Eigen::VectorXd::Constant(n, 2.5)) +
                                           " --weight-col w" + train + quoted(dir_ / "b.json")));

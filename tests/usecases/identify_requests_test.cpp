@@ -58,6 +58,13 @@ TEST(IdentifyRequests, OutOfRangeFieldsAreNamed) {
   EXPECT_EQ(refusal([&] { check(narx); }), "weight_decay: the sd optimizer has none: leave it out or give 0");
   narx.weight_decay.reset();  // sd's default: none
   EXPECT_EQ(refusal([&] { check(narx); }), "(accepted)");
+  narx.optimizer = "linesearch";  // no Gauss-Newton matrix either: the evidence's default is off, asking for it refused
+  EXPECT_EQ(evidence_decay_of(narx), "off");
+  EXPECT_EQ(refusal([&] { check(narx); }), "(accepted)");
+  narx.evidence_decay = "oem";
+  EXPECT_EQ(refusal([&] { check(narx); }),
+            "evidence_decay: needs the lm optimizer (the evidence is read off its Gauss-Newton matrix), the optimizer is "
+            "linesearch: leave it out or give off");
   narx = {};
   second_order_record(narx.u_est, narx.y_est, 400);
   narx.prune = true;
@@ -112,7 +119,8 @@ TEST(IdentifyRequests, OneNarxTrainingIsTheLibrarysTrainingOfTheSameStart) {
   start.net.initialize(1.0, 5);
   models::TrainingOptions options;
   options.max_iterations = 3;
-  options.weight_decay = models::kDefaultLmWeightDecay;
+  options.weight_decay = models::kDefaultLmWeightDecay;  // the starting D, re-estimated by the evidence (the default)
+  options.evidence_decay = models::EvidenceDecay::all_modes;
   options.init = 30;  // a tenth of the 300 validation samples, below the request's 50
   const models::TrainingResult direct = models::train_narx(start, scaling.scale_u(q.u_est), scaling.scale_y(q.y_est),
                                                            scaling.scale_u(q.u_val), scaling.scale_y(q.y_val), options);

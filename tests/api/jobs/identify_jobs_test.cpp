@@ -213,7 +213,8 @@ TEST_F(JobKindsTest, IdentifyNarxWeightedTrainsWithTheRecordsHarmonicWeights) {
   options.modes = {models::TrainingMode::pem, models::TrainingMode::oem_d};
   options.optimizer = models::Optimizer::lm;
   options.max_iterations = 3;
-  options.weight_decay = models::kDefaultLmWeightDecay;  // the job's default, as identify narx's
+  options.weight_decay = models::kDefaultLmWeightDecay;  // the job's defaults, as identify narx's: D starts there and
+  options.evidence_decay = models::EvidenceDecay::all_modes;  // is re-estimated by the evidence
   options.weights = r.w_est;
   options.validation_weights = r.w_val;
   options.init = init_samples(r.u_val.size());  // as the job: the J it reports is the J training selects on

@@ -107,6 +107,10 @@ TEST_F(IdentifyDoors, IdentifyNarxMakesTheSameModelFromBothDoors) {
   EXPECT_EQ(from_cli.meta.at("history").size(), from_job.meta.at("history").size());
   const json printed = json::parse(r.out);
   EXPECT_EQ(without(job.at("summary"), {"data", "seconds"}), without(printed, {"out", "history_out", "seconds"}));
+  // The weight decay re-estimated by the evidence is the default at both doors (the best recipe measured).
+  EXPECT_EQ(usecases::evidence_decay_of(usecases::IdentifyNarxRequest{}), "all");
+  EXPECT_EQ(job.at("summary").at("evidence_decay"), "all");
+  EXPECT_EQ(printed.at("evidence_decay"), "all");
 
   const std::string refused = refusal("identify-narx", {{"record", "j2"}, {"na", 501}});
   const testing_support::RunResult bad = panelbass("identify narx --data est.csv --fs 3000 --na 501 --out bad.json");
@@ -114,6 +118,20 @@ TEST_F(IdentifyDoors, IdentifyNarxMakesTheSameModelFromBothDoors) {
   const std::string modes = refusal("identify-narx", {{"record", "j2"}, {"modes", {"pem", "gradient"}}});
   const testing_support::RunResult bad_modes = panelbass("identify narx --data est.csv --fs 3000 --train pem,gradient --out bad.json");
   expect_same_refusal(modes, bad_modes, "modes", "--train", "must be pem, oem-s, oem-d, oem-n or oem-ms, got \"gradient\"");
+  const std::string rule = refusal("identify-narx", {{"record", "j2"}, {"evidence_decay", "always"}});
+  const testing_support::RunResult bad_rule = panelbass("identify narx --data est.csv --fs 3000 --evidence-decay always --out bad.json");
+  expect_same_refusal(rule, bad_rule, "evidence_decay", "--evidence-decay", "must be off, all or oem, got \"always\"");
+  // Steepest descent has no decay: its default rule is off, and asking for the evidence with it is refused.
+  usecases::IdentifyNarxRequest sd;
+  sd.optimizer = "sd";
+  EXPECT_EQ(usecases::evidence_decay_of(sd), "off");
+  EXPECT_NO_THROW(validate_job_params("identify-narx", {{"record", "j2"}, {"optimizer", "sd"}}, env_));
+  const std::string sd_all = refusal("identify-narx", {{"record", "j2"}, {"optimizer", "sd"}, {"evidence_decay", "all"}});
+  const testing_support::RunResult bad_sd =
+      panelbass("identify narx --data est.csv --fs 3000 --optimizer sd --evidence-decay all --out bad.json");
+  expect_same_refusal(sd_all, bad_sd, "evidence_decay", "--evidence-decay",
+                      "needs the lm optimizer (the evidence is read off its Gauss-Newton matrix), the optimizer is sd: "
+                      "leave it out or give off");
 }
 
 TEST_F(IdentifyDoors, AnalyzeGivesTheSameFiguresFromBothDoors) {
