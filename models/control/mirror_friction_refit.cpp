@@ -1,5 +1,6 @@
 #include "models/control/mirror_friction_refit.h"
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <limits>
@@ -14,6 +15,10 @@ namespace {
 
 constexpr int kHighestHarmonic = 5;
 constexpr double kGridHalfWidth = 1.5;  // log(v0 scale) searched within ±1.5: ×/÷ 4.5
+
+/// log(v0's scale) held within twice the grid's reach (×/÷ 20): where the harmonics do not depend on v0 (a transducer
+/// whose friction the quiet sines do not show) the step would otherwise walk θ off to an infinite scale.
+double bounded_log_scale(double theta) { return std::clamp(theta, -2.0 * kGridHalfWidth, 2.0 * kGridHalfWidth); }
 constexpr double kGridStep = 0.1;
 constexpr double kRequiredGain = 0.01;  // the refit is used when it lowers the error by 1 %
 
@@ -54,7 +59,7 @@ std::vector<std::vector<std::complex<double>>> record_harmonics(const CurrentSin
 Eigen::VectorXd harmonic_residual(const MirrorModel& model, int lag, const CurrentSineRecord& r,
                                   const std::vector<std::vector<std::complex<double>>>& target, double fs, double theta) {
   MirrorModel m = model;
-  m.friction_velocity *= std::exp(theta);
+  m.friction_velocity *= std::exp(bounded_log_scale(theta));
   const Eigen::Index n = r.drive.size();
   Eigen::VectorXd current(n);
   MirrorState s;
@@ -134,7 +139,7 @@ FrictionScaleRefit refit_friction_scale(const MirrorModel& model, int current_la
   // a gain under 1e-9 of the harmonics' own power is rounding: the model matched them already
   if (best <= (1.0 - kRequiredGain) * out.error_before && out.error_before - best > 1e-9 * power) {
     out.used = true;
-    out.scale = std::exp(th[0]);
+    out.scale = std::exp(bounded_log_scale(th[0]));
     out.model.friction_velocity *= out.scale;
     out.error_after = best;
   }

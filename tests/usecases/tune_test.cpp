@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "models/plant/plant_config.h"
 #include "models/plant/plant_presets.h"
@@ -112,6 +113,25 @@ TEST(Tune, AMechanicalResistanceRisingWithVelocityIsFittedAndCutNearTheResonance
   ASSERT_TRUE(r.verify.has_value()) << r.decision;
   ASSERT_TRUE(r.verify->points[0].cut_db.has_value()) << r.verify->points[0].unreachable_because;
   EXPECT_GT(*r.verify->points[0].cut_db, 12.0) << r.decision;
+}
+
+TEST(Tune, TheRefinedFrictionScaleStaysFiniteWhereTheQuietSinesBarelyShowIt) {
+  // second-exciter without its L2R2 branch: the refine's step once walked v0's scale off to infinity there, and the
+  // filter file was refused ("friction_velocity_refit: not finite")
+  models::PlantConfig plant = models::without_sensor_noise(
+      models::load_plant_file(std::string(PANELBASS_SOURCE_DIR) + "/tests/support/plants/second-exciter.json"));
+  plant.eddy = {};
+  SilentProgress quiet;
+  TuneRequest q = short_request(plant.fs);
+  q.samples = 30000;
+  q.verify.levels = {0.1};
+  const TuneReport r = tune(q, simulated(plant, true), quiet);
+  ASSERT_EQ(r.steps[2].name, "refine");
+  const double scale = r.steps[2].summary["friction_velocity_scale"].get<double>();
+  EXPECT_TRUE(std::isfinite(scale) && scale > 0.0) << r.steps[2].summary.dump();
+  ASSERT_TRUE(r.verify.has_value()) << r.decision;
+  ASSERT_TRUE(r.verify->points[0].cut_db.has_value()) << r.verify->points[0].unreachable_because;
+  EXPECT_GT(*r.verify->points[0].cut_db, 20.0) << r.decision;
 }
 
 TEST(Tune, WithoutASensorTheFilterIsKeptOnTheFitAndSaysItIsUnverified) {
