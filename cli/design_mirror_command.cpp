@@ -98,7 +98,8 @@ void add_design_mirror(CLI::App& design) {
                 "nonlinear shapes' scale from the coil current (the chain's measured input must then be the current)");
   cmd->add_flag("--current-only", o->current_only,
                 "Fit from the drive and the coil current alone, as a sound card records them (the motion from the "
-                "back-EMF; no displacement column read)");
+                "back-EMF; no displacement column read). The friction's refine on sines (tune's) is not run: it "
+                "plays sines, and this verb only reads a record; the friction's refine needs a backend: use tune");
   CLI::Option* sensor_col = cmd->add_option("--sensor-col", o->sensor_col,
                                             "Sensor column, read with --adapt; given with --current-only, the sensor "
                                             "joins the fit (its scale, sign and delay fitted)")

@@ -94,33 +94,14 @@ struct CurrentFitRecord {
   int sensor_delay = 0;   // D
 };
 
-/// The model's free run on the record: index k holds the state at the start of sample k, before drive[k − L] acts.
-struct CurrentFitRun {
-  Eigen::VectorXd i, x, v, a;
-};
-
-/// Runs `m` free over the record; false if it leaves the finite (or blows up past 1e6 times the current's peak).
-bool run_current_model(const MirrorModel& m, const CurrentFitRecord& r, double current_peak, CurrentFitRun& out) {
-  const Eigen::Index n = r.drive.size();
-  out.i.resize(n);
-  out.x.resize(n);
-  out.v.resize(n);
-  out.a.resize(n);
-  MirrorState s;
-  const double bound = 1e6 * current_peak;
-  for (Eigen::Index k = 0; k < n; ++k) {
-    out.i[k] = s.i;
-    out.x[k] = s.x;
-    out.v[k] = s.v;
-    const Eigen::Index at = k - r.lag;
-    out.a[k] = step_mirror_model(m, s, at >= 0 && at < n ? r.drive[at] : 0.0);
-    if (!(std::abs(s.i) < bound)) return false;
-  }
-  return out.x.allFinite() && out.v.allFinite();
+/// Runs `m` free over the record (mirror_filter.h); false if it leaves the finite (or blows up past 1e6 times the
+/// current's peak).
+bool run_current_model(const MirrorModel& m, const CurrentFitRecord& r, double current_peak, MirrorRun& out) {
+  return run_mirror_model(m, r.drive, r.lag, out, 1e6 * current_peak);
 }
 
 /// The sensor's quantity q from a run.
-const Eigen::VectorXd& sensed_quantity(const CurrentFitRun& run, MirrorSensorKind kind) {
+const Eigen::VectorXd& sensed_quantity(const MirrorRun& run, MirrorSensorKind kind) {
   switch (kind) {
     case MirrorSensorKind::velocity: return run.v;
     case MirrorSensorKind::displacement: return run.x;
@@ -145,7 +126,7 @@ Eigen::Index sensor_first_row(int delay) { return std::max<Eigen::Index>(0, dela
 
 /// The residual of a run: current over its norm on [first, end), then the sensor's (taps solved) over its norm.
 /// Writes the sensor's taps when asked.
-Eigen::VectorXd current_fit_residual(const CurrentFitRun& run, const CurrentFitRecord& r, Eigen::Index first,
+Eigen::VectorXd current_fit_residual(const MirrorRun& run, const CurrentFitRecord& r, Eigen::Index first,
                                      Eigen::Index end, std::array<double, 4>* taps = nullptr) {
   const Eigen::Index rows = end - first;
   const bool with_sensor = r.sensor.size() > 0;
@@ -270,7 +251,7 @@ LinearStart linear_start(const Eigen::VectorXd& drive, const Eigen::VectorXd& cu
 
 /// The sensor's delay D (−2..max): the largest whose four-tap map fits a run within 1 % of the best (a pure delay
 /// inside the four taps fits at every D up to it; the largest puts it on s_0).
-int best_sensor_delay(const CurrentFitRun& run, const CurrentFitRecord& r, int max_sensor_delay) {
+int best_sensor_delay(const MirrorRun& run, const CurrentFitRecord& r, int max_sensor_delay) {
   std::vector<double> residuals;
   CurrentFitRecord trial = r;
   for (int d = -2; d <= max_sensor_delay; ++d) {
@@ -297,7 +278,7 @@ int output_error_fit(const MirrorModel& start, const CurrentFitRecord& r, const 
   // without A(z): î = g + Σ_{j≥1} a_j·g_{k−j}, and the taps are solved by least squares in each evaluation
   // (variable projection: no local minima in A(z)); θ's taps are written back, their columns of J are zero
   const bool solve_taps = p == kLinearParameters;
-  CurrentFitRun run;
+  MirrorRun run;
   const auto residual = [&](Eigen::VectorXd& t, Eigen::VectorXd& out) {
     MirrorModel m = current_fit_model(start, t, scales);
     if (solve_taps) m.drive_taps = {1.0, 0.0, 0.0, 0.0};
@@ -435,7 +416,7 @@ MirrorCurrentFit fit_mirror_model_from_current(const Eigen::VectorXd& drive, con
   CurrentFitRecord record{drive, current, sensor, sensor.size() != 0 ? o.sensor_kind : MirrorSensorKind::none, fit_end,
                           start.lag, 0};
   // the scale of x: rms 1 over the fitting part, in the linear model's free run
-  CurrentFitRun run;
+  MirrorRun run;
   if (!run_current_model(start.model, current_record, current_peak, run)) {
     throw std::invalid_argument("mirror current fit: the linear start runs away in free run");
   }
@@ -478,7 +459,7 @@ MirrorCurrentFit fit_mirror_model_from_current(const Eigen::VectorXd& drive, con
     fit.iterations += output_error_fit(linear, record, scales, current_peak, o.max_iterations, trial_theta, loss, held);
     if (!(std::abs(trial_theta[parameter]) >= smallest)) return false;
     const MirrorModel with = current_fit_model(linear, trial_theta, scales);
-    CurrentFitRun trial;
+    MirrorRun trial;
     if (!run_current_model(with, record, current_peak, trial)) return false;
     const double j_val = channel_j_pct(trial.i, current, fit_end, n);
     if (!(j_val < (1.0 - least_cut) * fit.current_j_val_pct)) return false;

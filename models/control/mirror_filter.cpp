@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -232,10 +233,35 @@ Eigen::VectorXd mirror_filter(const MirrorModel& model, const Eigen::VectorXd& p
 }
 
 Eigen::VectorXd simulate_mirror_model(const MirrorModel& model, const Eigen::VectorXd& drive) {
+  return run_mirror_model(model, drive).a;
+}
+
+bool run_mirror_model(const MirrorModel& model, const Eigen::VectorXd& drive, Eigen::Index lag, MirrorRun& out,
+                      double current_bound) {
+  const Eigen::Index n = drive.size();
+  out.i.resize(n);
+  out.x.resize(n);
+  out.v.resize(n);
+  out.a.resize(n);
   MirrorState s;
-  Eigen::VectorXd accel(drive.size());
-  for (Eigen::Index k = 0; k < drive.size(); ++k) accel[k] = step_mirror_model(model, s, drive[k]);
-  return accel;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    out.i[k] = s.i;
+    out.x[k] = s.x;
+    out.v[k] = s.v;
+    const Eigen::Index at = k - lag;
+    out.a[k] = step_mirror_model(model, s, at >= 0 && at < n ? drive[at] : 0.0);
+    if (!(std::abs(s.i) < current_bound)) {
+      for (Eigen::VectorXd* q : {&out.i, &out.x, &out.v, &out.a}) q->tail(n - k - 1).setConstant(std::nan(""));
+      return false;
+    }
+  }
+  return out.x.allFinite() && out.v.allFinite();
+}
+
+MirrorRun run_mirror_model(const MirrorModel& model, const Eigen::VectorXd& drive, Eigen::Index lag) {
+  MirrorRun run;
+  (void)run_mirror_model(model, drive, lag, run);
+  return run;
 }
 
 MirrorFit fit_mirror_model(const Eigen::VectorXd& drive, const Eigen::VectorXd& current,

@@ -38,6 +38,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 namespace panelbass::models {
@@ -138,6 +139,21 @@ Eigen::VectorXd mirror_filter(const MirrorModel& model, const Eigen::VectorXd& p
 
 /// Simulates the model [M1]–[M3] from rest on `drive`; returns the acceleration, mm/s².
 Eigen::VectorXd simulate_mirror_model(const MirrorModel& model, const Eigen::VectorXd& drive);
+
+/// The model's states along a free run: index k holds the state at the start of sample k (i A, x mm, v mm/s) and
+/// the acceleration over sample k, (v_{k+1} − v_k)/h in mm/s².
+struct MirrorRun {
+  Eigen::VectorXd i, x, v, a;
+};
+
+/// Runs the model [M1]–[M3] from rest on `drive` held `lag` samples late (zero outside the record) into `out`
+/// (resized, so that a caller running many times reuses its memory); false when the current's magnitude reaches
+/// `current_bound` or leaves the finite (the run stops there and the rest of `out` is NaN) or x or v leave the finite.
+bool run_mirror_model(const MirrorModel& model, const Eigen::VectorXd& drive, Eigen::Index lag, MirrorRun& out,
+                      double current_bound = std::numeric_limits<double>::infinity());
+
+/// The same, returned, with no bound: NaN from where the current left the finite.
+MirrorRun run_mirror_model(const MirrorModel& model, const Eigen::VectorXd& drive, Eigen::Index lag = 0);
 
 /// How a gray-box fit went.
 struct MirrorFit {

@@ -60,14 +60,7 @@ Eigen::VectorXd harmonic_residual(const MirrorModel& model, int lag, const Curre
                                   const std::vector<std::vector<std::complex<double>>>& target, double fs, double theta) {
   MirrorModel m = model;
   m.friction_velocity *= std::exp(bounded_log_scale(theta));
-  const Eigen::Index n = r.drive.size();
-  Eigen::VectorXd current(n);
-  MirrorState s;
-  for (Eigen::Index k = 0; k < n; ++k) {
-    current[k] = s.i;
-    const Eigen::Index at = k - lag;
-    step_mirror_model(m, s, at >= 0 && at < n ? r.drive[at] : 0.0);
-  }
+  const Eigen::VectorXd current = run_mirror_model(m, r.drive, lag).i;
   if (!current.allFinite()) return {};
   std::vector<double> out;
   for (std::size_t k = 0; k < r.steps.size(); ++k) {

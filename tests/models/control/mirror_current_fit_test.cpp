@@ -23,25 +23,6 @@ MirrorModel current_fit_truth() {
   return truth;
 }
 
-/// The current (and the model's states) of `model` driven by `drive` `lag` samples late; index k holds the state
-/// at the start of sample k.
-struct CurrentFitTestRecord {
-  Eigen::VectorXd current, x, v;
-};
-
-CurrentFitTestRecord current_fit_test_record(const MirrorModel& model, const Eigen::VectorXd& drive, Eigen::Index lag) {
-  MirrorState s;
-  const Eigen::Index n = drive.size();
-  CurrentFitTestRecord r{Eigen::VectorXd(n), Eigen::VectorXd(n), Eigen::VectorXd(n)};
-  for (Eigen::Index k = 0; k < n; ++k) {
-    r.current[k] = s.i;
-    r.x[k] = s.x;
-    r.v[k] = s.v;
-    step_mirror_model(model, s, k >= lag ? drive[k - lag] : 0.0);
-  }
-  return r;
-}
-
 Eigen::VectorXd current_fit_drive(std::size_t n, std::uint64_t seed) {
   dsp::MultisineSpec spec;
   spec.period = n;
@@ -55,16 +36,16 @@ Eigen::VectorXd current_fit_drive(std::size_t n, std::uint64_t seed) {
 TEST(MirrorCurrentFit, RescalingTheDisplacementLeavesTheCurrentUnchanged) {
   const MirrorModel truth = current_fit_truth();
   const Eigen::VectorXd drive = current_fit_drive(3000, 5);
-  const Eigen::VectorXd a = current_fit_test_record(truth, drive, 0).current;
-  const Eigen::VectorXd b = current_fit_test_record(rescale_displacement(truth, 37.0), drive, 0).current;
+  const Eigen::VectorXd a = run_mirror_model(truth, drive, 0).i;
+  const Eigen::VectorXd b = run_mirror_model(rescale_displacement(truth, 37.0), drive, 0).i;
   EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9 * a.cwiseAbs().maxCoeff());
 }
 
 TEST(MirrorCurrentFit, RecoversTheDiscreteModelFromItsCurrentAlone) {
   const MirrorModel truth = current_fit_truth();
   const Eigen::VectorXd drive = current_fit_drive(9000, 3);
-  const CurrentFitTestRecord rec = current_fit_test_record(truth, drive, 2);
-  const MirrorCurrentFit fit = fit_mirror_model_from_current(drive, rec.current, truth.fs);
+  const MirrorRun rec = run_mirror_model(truth, drive, 2);
+  const MirrorCurrentFit fit = fit_mirror_model_from_current(drive, rec.i, truth.fs);
   EXPECT_EQ(fit.current_lag, 2);
   EXPECT_LT(fit.current_j_val_pct, 1e-4);
   // the fitted model in the truth's units of x (its c0): each coefficient against the truth's, relative to the
@@ -96,11 +77,11 @@ TEST(MirrorCurrentFit, RecoversTheMechanicalResistancesRiseWithVelocity) {
   // Rms(v) = Rms·(1 + r2·v²) with r2 set so that the resistance doubles at the record's peak velocity
   MirrorModel truth = current_fit_truth();
   const Eigen::VectorXd drive = current_fit_drive(9000, 3);
-  const double v_peak = current_fit_test_record(truth, drive, 0).v.cwiseAbs().maxCoeff();
+  const double v_peak = run_mirror_model(truth, drive, 0).v.cwiseAbs().maxCoeff();
   const double r2 = 1.0 / (v_peak * v_peak);
   truth.mechanical[10] = truth.mechanical[5] * r2;
-  const CurrentFitTestRecord rec = current_fit_test_record(truth, drive, 1);
-  const MirrorCurrentFit fit = fit_mirror_model_from_current(drive, rec.current, truth.fs);
+  const MirrorRun rec = run_mirror_model(truth, drive, 1);
+  const MirrorCurrentFit fit = fit_mirror_model_from_current(drive, rec.i, truth.fs);
   EXPECT_TRUE(fit.damping_rise);
   EXPECT_LT(fit.current_j_val_pct, 1e-3);
   const MirrorModel m = rescale_displacement(fit.model, truth.mechanical[0] / fit.model.mechanical[0]);
@@ -112,12 +93,12 @@ TEST(MirrorCurrentFit, ASensorJoinsWithItsScaleSignAndDelayFound) {
   // an accelerometer of negative, unknown sensitivity three samples late: the fit finds the delay and the map
   const MirrorModel truth = current_fit_truth();
   const Eigen::VectorXd drive = current_fit_drive(9000, 4);
-  const CurrentFitTestRecord rec = current_fit_test_record(truth, drive, 1);
+  const MirrorRun rec = run_mirror_model(truth, drive, 1);
   Eigen::VectorXd sensor = Eigen::VectorXd::Zero(drive.size());
   for (Eigen::Index k = 4; k < drive.size(); ++k) sensor[k] = -2e-4 * (rec.v[k - 2] - rec.v[k - 3]) * truth.fs;
   MirrorCurrentFitOptions options;
   options.sensor_kind = MirrorSensorKind::acceleration;
-  const MirrorCurrentFit fit = fit_mirror_model_from_current(drive, rec.current, truth.fs, options, sensor);
+  const MirrorCurrentFit fit = fit_mirror_model_from_current(drive, rec.i, truth.fs, options, sensor);
   EXPECT_LT(fit.current_j_val_pct, 1e-3);
   EXPECT_LT(fit.sensor_j_val_pct, 1e-3);
   // acceleration a_k = (v_{k+1} − v_k)/h in the run: the sensor reads a_{k−3}

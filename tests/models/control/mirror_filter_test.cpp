@@ -20,23 +20,6 @@ namespace {
 
 MirrorModel exciter_model() { return testing_support::panel_exciter_mirror_model(); }
 
-/// A record made by `model`: drive in, current (A) and displacement (m) out; index k holds the state at the start
-/// of sample k, before drive[k − delay] acts.
-struct MirrorFilterTestRecord {
-  Eigen::VectorXd current, displacement;
-};
-
-MirrorFilterTestRecord mirror_filter_test_record(const MirrorModel& model, const Eigen::VectorXd& drive, Eigen::Index delay) {
-  MirrorState s;
-  MirrorFilterTestRecord r{Eigen::VectorXd(drive.size()), Eigen::VectorXd(drive.size())};
-  for (Eigen::Index k = 0; k < drive.size(); ++k) {
-    r.current[k] = s.i;
-    r.displacement[k] = s.x / 1000.0;
-    step_mirror_model(model, s, k >= delay ? drive[k - delay] : 0.0);
-  }
-  return r;
-}
-
 Eigen::VectorXd two_tone(Eigen::Index n, double fs) {
   Eigen::VectorXd p(n);
   for (Eigen::Index k = 0; k < n; ++k) {
@@ -59,6 +42,30 @@ TEST(MirrorFilter, CompensatedOutputEqualsTheLinearTargetOnAPlantItsModelDescrib
   EXPECT_LT((compensated - target).cwiseAbs().maxCoeff() / scale, 1e-6);
 }
 
+TEST(MirrorFilter, AFreeRunHoldsEachSamplesStartAndStopsAtItsBound) {
+  const MirrorModel model = exciter_model();
+  const Eigen::VectorXd drive = two_tone(600, model.fs);
+  const MirrorRun run = run_mirror_model(model, drive, 3);
+  // the drive held three samples late: the run's first three samples at rest, then [M3] and the acceleration's
+  // definition between consecutive states
+  const double h = 1.0 / model.fs;
+  for (Eigen::Index k = 0; k < 4; ++k) EXPECT_EQ(run.x[k], 0.0) << k;
+  EXPECT_NE(run.i[5], 0.0);  // drive[0] is 0 (a sine from its zero), drive[1] acts over sample 4
+  for (Eigen::Index k = 0; k + 1 < drive.size(); ++k) {
+    ASSERT_NEAR(run.x[k + 1], run.x[k] + h * run.v[k + 1], 1e-12 * (1.0 + std::abs(run.x[k]))) << k;
+    ASSERT_NEAR(run.a[k], (run.v[k + 1] - run.v[k]) / h, 1e-6 * (1.0 + std::abs(run.a[k]))) << k;
+  }
+  // the same drive on time gives the same run three samples earlier
+  const MirrorRun early = run_mirror_model(model, drive, 0);
+  EXPECT_EQ(early.i.head(500), run.i.segment(3, 500));
+  // a bound under the current's peak stops the run, the rest NaN
+  MirrorRun bounded;
+  const double peak = run.i.cwiseAbs().maxCoeff();
+  EXPECT_TRUE(run_mirror_model(model, drive, 3, bounded, 2.0 * peak));
+  EXPECT_FALSE(run_mirror_model(model, drive, 3, bounded, 0.5 * peak));
+  EXPECT_TRUE(std::isnan(bounded.i[drive.size() - 1]));
+}
+
 TEST(MirrorFilter, ExactThroughADrivePathFilter) {
   // the DA path as A(z) = 1 − 0.6·z⁻¹ + 0.2·z⁻² + 0.05·z⁻³ (minimum phase): the filter inverts it by 1/A(z)
   MirrorModel model = exciter_model();
@@ -76,8 +83,8 @@ TEST(MirrorFilter, FitRecoversTheDrivePathFilter) {
   for (std::size_t j : {0u, 1u, 2u, 3u, 8u}) truth.electrical[j] = 0.0;  // no inductance, no i·dLe/dx back-EMF
   truth.drive_taps = {1.0, -1.1, 0.5, -0.1};
   const Eigen::VectorXd drive = 0.5 * dsp::gaussian_noise(12000, 0.4, 4).cwiseMax(-1.0).cwiseMin(1.0);
-  const MirrorFilterTestRecord rec = mirror_filter_test_record(truth, drive, 2);
-  const MirrorFit fit = fit_mirror_model(drive, rec.current, rec.displacement, truth.fs, 4, MirrorRecordKind::discrete_model);
+  const MirrorRun rec = run_mirror_model(truth, drive, 2);
+  const MirrorFit fit = fit_mirror_model(drive, rec.i, rec.x / 1000.0, truth.fs, 4, MirrorRecordKind::discrete_model);
   EXPECT_EQ(fit.model.delay, 2);
   for (std::size_t j = 0; j < 4; ++j) EXPECT_NEAR(fit.model.drive_taps[j], truth.drive_taps[j], 1e-6) << "a" << j;
   EXPECT_NEAR(fit.model.electrical[4], truth.electrical[4], 1e-6 * truth.electrical[4]);
@@ -149,8 +156,8 @@ TEST(MirrorFilter, FitRecoversTheModelFromItsOwnRecord) {
   for (std::size_t j : {0u, 1u, 2u, 3u}) truth.electrical[j] = 0.0;
   // a record made by the model: drive in, current and displacement (m) out
   const Eigen::VectorXd drive = 0.8 * dsp::gaussian_noise(12000, 0.4, 3).cwiseMax(-1.0).cwiseMin(1.0);
-  const MirrorFilterTestRecord rec = mirror_filter_test_record(truth, drive, 0);
-  const MirrorFit fit = fit_mirror_model(drive, rec.current, rec.displacement, truth.fs, 4, MirrorRecordKind::discrete_model);
+  const MirrorRun rec = run_mirror_model(truth, drive, 0);
+  const MirrorFit fit = fit_mirror_model(drive, rec.i, rec.x / 1000.0, truth.fs, 4, MirrorRecordKind::discrete_model);
   EXPECT_EQ(fit.model.delay, 0);  // record[k] is the state drive[k] starts from: no delay
   EXPECT_DOUBLE_EQ(fit.model.friction_velocity, 50.0);
   for (std::size_t j = 0; j < 10; ++j) {

@@ -26,12 +26,7 @@ CurrentSineRecord sines_through(const MirrorModel& truth, double level, int lag)
   CurrentSineRecord r;
   r.drive = sines.signal;
   r.steps = sines.steps;
-  r.current.resize(r.drive.size());
-  MirrorState s;
-  for (Eigen::Index k = 0; k < r.drive.size(); ++k) {
-    r.current[k] = s.i;
-    step_mirror_model(truth, s, k >= lag ? r.drive[k - lag] : 0.0);
-  }
+  r.current = run_mirror_model(truth, r.drive, lag).i;
   return r;
 }
 
