@@ -22,13 +22,24 @@ constexpr double kWorstAllowedCutDb = -1.0;
 
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-// The tune's decision on a verification: keep when it cuts by keep_min_cut_db somewhere and worsens nowhere.
-void decide(const EqualOutputReport& v, double keep_min_cut_db, TuneReport& report) {
+// The decision when nothing measures the cut: the filter is the model's, kept on its current J (`why`: what hid it).
+void keep_unverified(const std::string& why, const DesignMirrorReport& mirror, TuneReport& report) {
+  report.keep = true;
+  report.decision = "kept without verification: " + why + ", so the cut is not measured (the model follows the coil "
+                    "current to " + number_text(mirror.summary.at("current_j_val_pct").get<double>(), 3) +
+                    " % J on validation); listen with PUT /api/program and the feedforward bypass";
+}
+
+// The tune's decision on a verification: keep when it cuts by keep_min_cut_db somewhere and worsens nowhere; when
+// every reachable level has the transducer alone at the sensor's noise floor (a displacement sensor hears little
+// distortion), kept unverified as without a sensor.
+void decide(const EqualOutputReport& v, double keep_min_cut_db, const DesignMirrorReport& mirror, TuneReport& report) {
   std::optional<double> best, worst;
   std::string worst_at;
-  int credited = 0;
+  int credited = 0, reachable = 0;
   for (const EqualOutputPoint& p : v.points) {
     if (!p.reachable) continue;
+    ++reachable;
     const std::optional<double> cut = EqualOutputReport::credited_cut(p);
     if (!cut) continue;
     ++credited;
@@ -38,9 +49,12 @@ void decide(const EqualOutputReport& v, double keep_min_cut_db, TuneReport& repo
       worst_at = number_text(p.frequency_hz) + " Hz, program level " + number_text(p.program_level);
     }
   }
-  if (credited == 0) {
+  if (credited == 0 && reachable > 0) {
+    keep_unverified("at every reachable probe level the transducer alone is at the sensor's noise floor", mirror, report);
+    report.warnings.push_back("verify: the sensor hears no distortion above its noise floor at any level");
+  } else if (credited == 0) {
     report.keep = false;
-    report.decision = "left out: no probe level gave a THD to compare (unreachable, or the transducer alone at its noise floor)";
+    report.decision = "left out: no probe level is reachable with the chain's limiter untouched";
   } else if (*worst < kWorstAllowedCutDb) {
     report.keep = false;
     report.decision = "left out: it makes the distortion worse at " + worst_at + " (" + number_text(*worst, 3) + " dB at equal output)";
@@ -217,15 +231,12 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
     for (const std::string& w : verified.warnings) report.warnings.push_back("verify: " + w);
     report.steps.push_back({"verify", seconds_since(start), {{"plays", verified.plays}, {"worst_cut_db", verified.to_json()["worst_cut_db"]}}});
     // 5. Keep it only where it helps.
-    decide(verified, q.keep_min_cut_db, report);
+    decide(verified, q.keep_min_cut_db, mirror, report);
     report.verify = std::move(verified);
   } else {
     // Klippel's current-only configuration: nothing hears the output, so the cut cannot be measured; the filter is
     // the model's (its current J said it follows the transducer) and joins the chain on that.
-    report.keep = true;
-    report.decision = "kept without verification: the backend records no sensor, so the cut is not measured (the model "
-                      "follows the coil current to " + number_text(mirror.summary.at("current_j_val_pct").get<double>(), 3) +
-                      " % J on validation); listen with PUT /api/program and the feedforward bypass";
+    keep_unverified("the backend records no sensor", mirror, report);
     report.warnings.push_back("verify: skipped, the backend records no sensor to read the THD from");
   }
   report.steps.push_back({"decide", 0.0, {{"keep", report.keep}, {"decision", report.decision}}});

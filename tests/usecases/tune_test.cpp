@@ -134,6 +134,23 @@ TEST(Tune, TheRefinedFrictionScaleStaysFiniteWhereTheQuietSinesBarelyShowIt) {
   EXPECT_GT(*r.verify->points[0].cut_db, 20.0) << r.decision;
 }
 
+TEST(Tune, ASensorThatHearsNoDistortionKeepsTheFilterUnverifiedAsWithoutOne) {
+  // a displacement sensor with its noise: the plant alone is at the floor at every level (the harmonics of x fall as
+  // 1/n²), so no cut can be measured — the filter is kept on its fit, as with no sensor, and the decision says why
+  const models::PlantConfig plant =
+      models::load_plant_file(std::string(PANELBASS_SOURCE_DIR) + "/tests/support/plants/panel-exciter-displacement.json");
+  SilentProgress quiet;
+  TuneRequest q = short_request(plant.fs);
+  q.samples = 30000;
+  const TuneReport r = tune(q, simulated(plant, true), quiet);
+  ASSERT_TRUE(r.verify.has_value()) << r.decision;
+  for (const EqualOutputPoint& p : r.verify->points) {
+    if (p.reachable) EXPECT_FALSE(EqualOutputReport::credited_cut(p).has_value()) << "the premise: nothing measurable";
+  }
+  EXPECT_TRUE(r.keep) << r.decision;
+  EXPECT_EQ(r.decision.rfind("kept without verification: at every reachable probe level", 0), 0u) << r.decision;
+}
+
 TEST(Tune, WithoutASensorTheFilterIsKeptOnTheFitAndSaysItIsUnverified) {
   // Klippel's current-only configuration: the backend records the current (and no sensor), so nothing can measure
   // the cut; the filter joins on the fit, the decision says so, and a sensor asked for is refused
