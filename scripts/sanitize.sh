@@ -81,6 +81,11 @@ long_repeats+='|^ProcessAloneTest\.TheProcessAloneIsTheMechanicsAndSensorWithout
 # Two tunes of a 10 s multisine each (the refine step with and without): Tune.KeepsAMirrorFilter... and
 # Tune.WithoutASensor... walk the same tune, its refine step included, under the sanitizer. Run in the main stage.
 long_repeats+='|^Tune\.TheFrictionRefinedOnQuietSinesLiftsTheCutAtLowLevelsToTheIssuesBar$'
+# Three more tunes of a 10 s multisine on other plants (Rms(v), second-exciter without L2R2, a displacement sensor):
+# the same path as the two above, other numbers. Run in the main stage.
+long_repeats+='|^Tune\.AMechanicalResistanceRisingWithVelocityIsFittedAndCutNearTheResonance$'
+long_repeats+='|^Tune\.TheRefinedFrictionScaleStaysFiniteWhereTheQuietSinesBarelyShowIt$'
+long_repeats+='|^Tune\.ASensorThatHearsNoDistortionKeepsTheFilterUnverifiedAsWithoutOne$'
 # The whole Tune pipeline through a JACK card (CardPipelineTest: excite, identify, design, verify while the
 # card streams, asserting no xrun): under ASan the engine's periods run slower than JACK's real-time clock on
 # a shared machine. Its parts run under the sanitizer in AlsaBackend.Jack*, ServerOnACardTest.* and the measurement's
