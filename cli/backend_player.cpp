@@ -4,9 +4,9 @@
 #include <stdexcept>
 #include <thread>
 
-#include "engine/chain_file.h"
 #include "models/plant/converter_loop.h"
 #include "models/plant/plant_presets.h"
+#include "models/io/number_text.h"
 #include "models/plant/virtual_transducer.h"
 #include "usecases/card_measurement.h"
 
@@ -80,6 +80,20 @@ usecases::PlayFunction BackendPlayer::play() {
     if (options_.virtual_loopback) p.loopback = models::converters_alone(plant_, drive);
     return p;
   };
+}
+
+engine::ChainConfig BackendPlayer::chain(const std::string& path) const {
+  if (path.empty()) {
+    engine::ChainConfig c;
+    c.fs = fs();
+    return c;
+  }
+  engine::ChainConfig c = engine::load_chain_file(path);
+  if (c.fs != fs()) {
+    throw std::invalid_argument(path + ": the chain runs at " + models::number_text(c.fs) + " Hz, the plant at " +
+                                models::number_text(fs()) + " Hz");
+  }
+  return c;
 }
 
 }  // namespace panelbass::cli

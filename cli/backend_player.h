@@ -12,6 +12,7 @@
 #include "cli/alsa_options.h"
 #include "engine/alsa_backend.h"
 #include "engine/chain.h"
+#include "engine/chain_file.h"
 #include "models/plant/plant_config.h"
 #include "usecases/transducer_port.h"
 
@@ -51,6 +52,8 @@ class BackendPlayer {
   const std::string& name() const { return options_.backend; }
   /// The plant simulated (on a card: the one whose rate the chain runs at).
   const models::PlantConfig& plant() const { return plant_; }
+  /// The chain file `path` (the default chain when empty), refused naming both rates when it runs at another than fs().
+  engine::ChainConfig chain(const std::string& path) const;
 
  private:
   BackendOptions options_;

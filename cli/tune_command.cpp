@@ -12,9 +12,7 @@
 #include "cli/commands.h"
 #include "cli/json_output.h"
 #include "cli/usecase_door.h"
-#include "engine/chain_file.h"
 #include "models/io/json_file.h"
-#include "models/io/number_text.h"
 #include "usecases/tune.h"
 
 namespace panelbass::cli {
@@ -37,16 +35,7 @@ void run_tune(TuneOptions o, bool amplitude_given, bool levels_given) {
   // stretch of its sensor noise.
   o.backend.virtual_loopback = false;
   BackendPlayer player(o.backend, q.seed + 1000);
-  if (!o.chain.empty()) {
-    q.chain = engine::load_chain_file(o.chain);
-    if (q.chain.fs != player.fs()) {
-      throw std::invalid_argument(o.chain + ": the chain runs at " + models::number_text(q.chain.fs) + " Hz, the plant at " +
-                                  models::number_text(player.fs()) + " Hz");
-    }
-  } else {
-    q.chain = engine::ChainConfig{};
-    q.chain.fs = player.fs();
-  }
+  q.chain = player.chain(o.chain);
   // the defaults within the card's safe level, as the tune job has them; a level given above it is refused
   q.safe_level = player.safe_level();
   if (!amplitude_given) q.amplitude = std::min(q.amplitude, q.safe_level);

@@ -12,9 +12,7 @@
 #include "cli/commands.h"
 #include "cli/json_output.h"
 #include "cli/usecase_door.h"
-#include "engine/chain_file.h"
 #include "models/io/json_file.h"
-#include "models/io/number_text.h"
 #include "usecases/verify.h"
 
 namespace panelbass::cli {
@@ -39,16 +37,7 @@ void run_verify(VerifyOptions o, bool levels_given) {
     q.feedback_model = models::read_json_file(o.fb);
     q.feedback_name = o.fb;
   }
-  if (!o.chain.empty()) {
-    q.chain = engine::load_chain_file(o.chain);
-    if (q.chain.fs != player.fs()) {
-      throw std::invalid_argument(o.chain + ": the chain runs at " + models::number_text(q.chain.fs) + " Hz, the plant at " +
-                                  models::number_text(player.fs()) + " Hz");
-    }
-  } else {
-    q.chain = engine::ChainConfig{};
-    q.chain.fs = player.fs();
-  }
+  q.chain = player.chain(o.chain);
   q.safe_level = player.safe_level();
   if (!levels_given) {
     for (double& level : q.settings.levels) level = std::min(level, q.safe_level);
