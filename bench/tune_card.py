@@ -42,7 +42,7 @@ def free_port():
 class Rig:
     """jackd (dummy) + the transducer client + serve --backend alsa, in a folder of their own."""
 
-    def __init__(self, plant, folder, window, periods=8, realtime=False, sensor=True):
+    def __init__(self, plant, folder, window, periods=8, realtime=False, sensor=True, quality='low-latency'):
         self.folder, self.window, self.procs = folder, window, []
         self.server = f'pbtc{os.getpid()}'
         env = dict(os.environ, JACK_NO_AUDIO_RESERVATION='1', JACK_DEFAULT_SERVER=self.server)
@@ -64,7 +64,7 @@ class Rig:
                     if sensor else ['--capture-channels', '2', '--loopback-channel', '0', '--current-channel', '1'])
         self.start([BIN, 'serve', '--port', str(self.port), '--store', os.path.join(folder, 'store'), '--backend', 'alsa',
                     '--alsa-config', conf, '--playback', 'pb_play', '--capture', 'pb_capture', *channels,
-                    '--periods', str(periods), '--no-demo', '--web', ''], 'serve.log')
+                    '--periods', str(periods), '--quality', quality, '--no-demo', '--web', ''], 'serve.log')
         for _ in range(100):
             try:
                 if self.call('GET', '/api/status')['engine']['device']['state'] == 'running':
@@ -226,6 +226,8 @@ def main():
     ap.add_argument('--json', help='write the figures here')
     ap.add_argument('--keep', help='keep the rigs\' folders under this folder')
     ap.add_argument('--realtime', action='store_true', help='run the JACK server (and its clients) in real-time mode')
+    ap.add_argument('--quality', default='low-latency',
+                    help="serve's resampler between the chain's rate and the card's (serve --quality)")
     ap.add_argument('--no-sensor', action='store_true',
                     help="the card captures no sensor (the loopback and the current only): tune keeps its filter unverified")
     a = ap.parse_args()
@@ -246,7 +248,7 @@ def main():
         name = os.path.splitext(os.path.basename(plant))[0]
         folder = os.path.join(base, name)
         os.makedirs(folder, exist_ok=True)
-        rig = Rig(plant, folder, a.window, a.periods, a.realtime, not a.no_sensor)
+        rig = Rig(plant, folder, a.window, a.periods, a.realtime, not a.no_sensor, a.quality)
         if a.bare:
             try:
                 row = {'plant': name, 'rows': bare_rows(rig, frequencies, levels, a.hold)}

@@ -8,6 +8,7 @@
 
 #include "cli/backend_player.h"
 #include "cli/commands.h"
+#include "cli/data_options.h"
 #include "cli/json_output.h"
 #include "cli/usecase_door.h"
 #include "dsp/data_file.h"
@@ -24,20 +25,6 @@ struct MeasureOptions {
   std::string ff;  // control: the LQ feedforward whose drive is played
   std::string out, val_out;
 };
-
-// One part of the record as a data file: u, y and, where recorded, i (the current), w (a control excitation's
-// harmonic weights) and l (the drive as the converters delivered it), at `fs`.
-void write_part(const std::string& path, double fs, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                const Eigen::VectorXd& i, const Eigen::VectorXd& w, const Eigen::VectorXd& l) {
-  dsp::Record record;
-  record.fs = fs;
-  record.add("u", u);
-  record.add("y", y);
-  if (i.size() == u.size()) record.add("i", i);
-  if (w.size() == u.size()) record.add("w", w);
-  if (l.size() == u.size()) record.add("l", l);
-  dsp::write_data_file(path, record);
-}
 
 void run_measure(MeasureOptions o, bool amplitude_given) {
   usecases::ExciteRequest& q = o.request;
@@ -57,8 +44,8 @@ void run_measure(MeasureOptions o, bool amplitude_given) {
   const usecases::ExciteReport report = run_use_case([&] { return usecases::excite(q, player.play(), bar); },
                                                      {{{"feedforward_model", "--ff"}}, {{"feedforward_model", o.ff}}});
   const usecases::ExcitationRecord& r = report.record;
-  write_part(o.out, q.fs, r.u_est, r.y_est, r.i_est, r.w_est, r.l_est);
-  if (r.u_val.size() > 0) write_part(o.val_out, q.fs, r.u_val, r.y_val, r.i_val, r.w_val, r.l_val);
+  write_measured_record(o.out, q.fs, r.u_est, r.y_est, r.i_est, r.w_est, r.l_est);
+  if (r.u_val.size() > 0) write_measured_record(o.val_out, q.fs, r.u_val, r.y_val, r.i_val, r.w_val, r.l_val);
   nlohmann::json result = report.summary;
   result["backend"] = player.name();
   result["plant"] = player.plant().name;

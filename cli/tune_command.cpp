@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "cli/backend_player.h"
+#include "cli/data_options.h"
 #include "cli/commands.h"
 #include "cli/json_output.h"
 #include "cli/usecase_door.h"
@@ -25,15 +26,12 @@ struct TuneOptions {
   usecases::TuneRequest request;
   std::string out;
   std::string report;
+  std::string record;  // the measurement's CSV
 };
 
 void run_tune(TuneOptions o, bool amplitude_given, bool levels_given) {
   usecases::TuneRequest& q = o.request;
-  // On the virtual transducer the fit reads the drive as sent, as the server's tune job plays it
-  // (api/jobs/backend_play.cpp), not its converters' loopback: with it the fit's current lag came out at its earliest
-  // (−2) and panel-exciter's cuts at 40 Hz fell 31–32 → 8–16 dB (the docs' block, quiet sensor). Each play a new
-  // stretch of its sensor noise.
-  o.backend.virtual_loopback = false;
+  // Each play a new stretch of the virtual transducer's sensor noise (the fit reads the drive as sent, usecases/tune.cpp)
   BackendPlayer player(o.backend, q.seed + 1000);
   q.chain = player.chain(o.chain);
   // the defaults within the card's safe level, as the tune job has them; a level given above it is refused
@@ -53,6 +51,11 @@ void run_tune(TuneOptions o, bool amplitude_given, bool levels_given) {
   result["summary"] = report.mirror->summary;
   print_warnings("tune", report.warnings);
   if (!o.report.empty()) models::write_json_file(o.report, result);
+  if (!o.record.empty()) {
+    const usecases::Playback& m = report.measurement;
+    write_measured_record(o.record, player.fs(), report.drive, m.sensor, m.current, Eigen::VectorXd(), m.loopback);
+    result["record"] = o.record;
+  }
   if (report.keep && !o.out.empty()) {
     models::write_json_file(o.out, models::mirror_model_to_json(report.mirror->model, report.mirror->meta));
     result["out"] = o.out;
@@ -91,6 +94,9 @@ void register_tune(CLI::App& app) {
                 "Skip refitting the friction's velocity scale on the current's harmonics of two quiet sines");
   cmd->add_option("--out", o->out, "Write the kept mirror filter here");
   cmd->add_option("--report", o->report, "Write the whole report (steps, verify's points) here");
+  cmd->add_option("--record", o->record,
+                  "Write the measurement here (CSV: u the multisine as sent, i the current, y the sensor and l the loopback "
+                  "where recorded), which design mirror --current-only --input-col l reads again");
   cmd->footer(
       "Examples:\n  panelbass tune --plant panel-exciter --out mirror.json\n"
       "  panelbass tune --plant my-exciter.json --probes 80 --levels 0.2 --quiet-sensor --report tune.json\n"

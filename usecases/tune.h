@@ -60,6 +60,8 @@ struct TuneReport {
   std::vector<std::string> warnings;           ///< what the steps warned of
   /// The other stages a chain can have, each with why the tune leaves it out.
   std::vector<std::string> left_out;
+  Eigen::VectorXd drive;                       ///< the measurement's multisine as sent (step 1)
+  Playback measurement;                        ///< what playing it recorded: the fit's record (step 1)
   /// {"steps":[{"name","seconds","summary"}],"keep","decision","verify":{…},"warnings","left_out"}.
   nlohmann::json to_json() const;
 };

@@ -24,6 +24,22 @@ TEST_F(CliTest, TuneHelpShowsTheSoundCardsExample) {
   EXPECT_TRUE(contains(help.out, "--safe-level")) << help.out;
 }
 
+TEST_F(CliTest, TuneWritesItsMeasurementWhichDesignMirrorReadsAgain) {
+  const RunResult tuned = run("tune --plant panel-exciter --quiet-sensor --samples 3000 --probes 80 --levels 0.2"
+                              " --no-refine --record " + quoted(dir_ / "tune.csv"));
+  EXPECT_EQ(tuned.status, 0) << tuned.err;
+  std::ifstream csv(dir_ / "tune.csv");
+  std::string header;
+  std::getline(csv, header);
+  EXPECT_EQ(header, "u,y,i,l");  // the multisine as sent, the sensor, the current, the converters' loopback
+  std::size_t rows = 0;
+  for (std::string line; std::getline(csv, line);) rows += !line.empty();
+  EXPECT_EQ(rows, 3000u);
+  const RunResult again = run("design mirror --data " + quoted(dir_ / "tune.csv") + " --fs 3000 --current-only --out " +
+                              quoted(dir_ / "mirror.json"));
+  EXPECT_EQ(again.status, 0) << again.err;
+}
+
 TEST_F(CliTest, TuneThroughACardMeasuresThereAndNamesAMissingCurrent) {
   if (skip_jack()) GTEST_SKIP() << "PANELBASS_SKIP_JACK=1";
   const std::string tag = "pbt" + std::to_string(::getpid());

@@ -178,6 +178,38 @@ TEST(Tune, WithoutASensorTheFilterIsKeptOnTheFitAndSaysItIsUnverified) {
   }
 }
 
+TEST(Tune, TheFitReadsTheDriveAsSentNotTheLoopbackAndTheReportKeepsTheMeasurement) {
+  // A card's loopback passes its own capture path (a filter, a fraction of a sample, noise) that the current's path
+  // does not share: the fit reads the drive as sent, so a loopback departing from it changes nothing in the model
+  const models::PlantConfig plant = models::without_sensor_noise(models::plant_preset("panel-exciter"));
+  const auto current_only = [&plant](bool looped) {
+    return PlayFunction([&plant, looped, seed = std::uint64_t{3}](const Eigen::VectorXd& drive) mutable {
+      const models::PlantRecord r = models::simulate(plant, drive, seed++);
+      Eigen::VectorXd loopback;
+      if (looped) {  // half a sample later, averaged, with a noise of its own
+        loopback = drive;
+        for (Eigen::Index k = 1; k < drive.size(); ++k) loopback[k] = 0.5 * (drive[k] + drive[k - 1]) + 1e-3 * std::sin(0.37 * k);
+      }
+      return Playback{Eigen::VectorXd(), r.i, loopback, nullptr};
+    });
+  };
+  SilentProgress quiet;
+  TuneRequest q = short_request(plant.fs);
+  q.refine_friction = false;
+  const TuneReport plain = tune(q, current_only(false), quiet);
+  const TuneReport looped = tune(q, current_only(true), quiet);
+  EXPECT_EQ(looped.steps[0].summary["drive"], "as sent");
+  for (const char* key : {"current_j_val_pct", "current_lag", "drive_taps", "mechanical", "electrical"}) {
+    EXPECT_EQ(looped.mirror->summary[key], plain.mirror->summary[key]) << key;
+  }
+  // the measurement as played and recorded, for the CLI's --record
+  ASSERT_EQ(looped.drive.size(), q.samples);
+  EXPECT_NEAR(looped.drive.cwiseAbs().maxCoeff(), q.amplitude, 1e-9);
+  const models::PlantRecord again = models::simulate(plant, looped.drive, 3);
+  EXPECT_TRUE(looped.measurement.current.isApprox(again.i));
+  EXPECT_EQ(looped.measurement.loopback.size(), q.samples);
+}
+
 TEST(Tune, ABackendWithoutTheCoilCurrentIsToldWhatIsMissing) {
   const models::PlantConfig plant = models::plant_preset("panel-exciter");
   SilentProgress quiet;
