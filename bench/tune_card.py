@@ -262,7 +262,8 @@ def main():
             row = {'plant': name, 'tune_s': seconds, 'state': record['state']}
             if record['state'] == 'succeeded':
                 r = record['result']
-                row.update(kept=r['keep'], decision=r['decision'], current_j_val_pct=r['summary'].get('current_j_val_pct'))
+                row.update(kept=r['keep'], decision=r['decision'], current_j_val_pct=r['summary'].get('current_j_val_pct'),
+                           drive=r['summary'].get('drive'), current_j_val_pct_by_drive=r['summary'].get('current_j_val_pct_by_drive'))
                 if r['keep']:
                     row['points'] = measure_cuts(rig, frequencies, levels, a.settle)
             else:
@@ -281,7 +282,7 @@ def main():
 
 
 def print_tune(results, frequencies, levels):
-    print(f"| plant | tune | current J_val % | " + ' | '.join(f'{f:g} Hz cut, dB ({"/".join(f"{l:g}" for l in levels)})' for f in frequencies) + ' |')
+    print(f"| plant | tune | current J_val %, as sent / loopback (the fit's drive) | " + ' | '.join(f'{f:g} Hz cut, dB ({"/".join(f"{l:g}" for l in levels)})' for f in frequencies) + ' |')
     print('|---|---|---|' + '---|' * len(frequencies))
     for row in results:
         cells = []
@@ -290,8 +291,10 @@ def print_tune(results, frequencies, levels):
             cells.append(' / '.join('n.r.' if not p.get('reachable') else '–' if p['cut_db'] is None else f"{p['cut_db']:.1f}"
                                     for p in got) or '–')
         tune_cell = f"{row['tune_s']:.0f} s, " + ('kept' if row.get('kept') else 'left out' if row['state'] == 'succeeded' else 'failed')
+        by = row.get('current_j_val_pct_by_drive') or {}
+        j_cell = ' / '.join(f'**{by[d]:.4f}**' if row.get('drive') == d else f'{by[d]:.4f}' for d in ('as sent', 'loopback') if d in by)
         j = row.get('current_j_val_pct')
-        print(f"| {row['plant']} | {tune_cell} | {'–' if j is None else f'{j:.4f}'} | " + ' | '.join(cells) + ' |')
+        print(f"| {row['plant']} | {tune_cell} | {j_cell or ('–' if j is None else f'{j:.4f}')} | " + ' | '.join(cells) + ' |')
 
 
 if __name__ == '__main__':
