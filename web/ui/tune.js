@@ -89,9 +89,11 @@ export async function tune() {
       throw new Error(`tune (${id}) ${job.state}: ${job.error || ''}`);
     }
     const seconds = Object.fromEntries((job.result.steps || []).map((s) => [s.name, s.seconds]));
+    // a step the job did not run (verify without a sensor, refine when turned off) says so
     items.forEach((item, n) => {
-      item.dataset.state = 'succeeded';
-      item.lastChild.textContent = `${fixed(seconds[STEPS[n].name], 1)} s`;
+      const ran = STEPS[n].name in seconds;
+      item.dataset.state = ran ? 'succeeded' : 'skipped';
+      item.lastChild.textContent = ran ? `${fixed(seconds[STEPS[n].name], 1)} s` : '— skipped';
     });
     const kept = job.result.keep;
     $('#tune-decision').textContent = `${job.result.decision}${kept && job.activated ? ` — active in the ${job.activated.slot} slot (${job.activated.id})` : ''}`;
