@@ -76,7 +76,8 @@ MirrorCurrentFit fit_mirror_model_from_current(const Eigen::VectorXd& drive, con
                                                const Eigen::VectorXd& sensor = Eigen::VectorXd());
 
 /// `model` with `branch` in [M1] (r_b in `model`'s units of e_R), its drive path A(z) and [M1]'s coefficients
-/// rescaled so that the linear model's current from the drive stays as it was, to A(z)'s four taps: A'(z) =
+/// rescaled so that the linear model's current from the drive stays as it was, but for the product's taps past z⁻³
+/// (dropped: A(z) keeps four): A'(z) =
 /// A(z)·(1 + G_b(z)/e_R)/(1 + g/e_R), G_b(z) = g·(1 − z⁻¹)/(1 − p·z⁻¹) the branch's voltage per current, g and p its
 /// step (eddy_step). Only the back-EMF's path then changes: the start of a refit with the branch.
 MirrorModel add_eddy_branch(const MirrorModel& model, const MirrorEddyBranch& branch);
