@@ -77,8 +77,8 @@ constexpr double kRefineLowestHz = 5.0;
 
 // Plays the refine step's sines through `play`, refits the friction's velocity scale of `mirror`'s model on the
 // current's harmonics (models::refit_friction_scale) and keeps the refit when it matches them better.
-void refine_friction(const TuneRequest& q, const PlayFunction& play, DesignMirrorReport& mirror, TuneReport& report,
-                     Progress& progress) {
+void refine_friction(const TuneRequest& q, const PlayFunction& play, const DesignMirrorRequest& fit,
+                     DesignMirrorReport& mirror, TuneReport& report, Progress& progress) {
   const bool from_loopback = mirror.summary.at("drive") == "loopback";
   const Clock::time_point start = Clock::now();
   const double fs = q.chain.fs;
@@ -115,14 +115,31 @@ void refine_friction(const TuneRequest& q, const PlayFunction& play, DesignMirro
     mirror.summary["friction_velocity_mm_per_s"] = refit.model.friction_velocity;
     mirror.meta["friction_velocity_refit"] = refit.scale;
   }
-  report.steps.push_back({"refine", seconds_since(start),
-                          {{"frequencies_hz", frequencies},
-                           {"level", level},
-                           {"used", refit.used},
-                           {"friction_velocity_scale", refit.scale},
-                           {"harmonic_error_before", refit.error_before},
-                           {"harmonic_error_after", refit.error_after},
-                           {"current_harmonics_rms", refit.harmonics_rms}}});
+  nlohmann::json summary = {{"frequencies_hz", frequencies},
+                            {"level", level},
+                            {"used", refit.used},
+                            {"friction_velocity_scale", refit.scale},
+                            {"harmonic_error_before", refit.error_before},
+                            {"harmonic_error_after", refit.error_after},
+                            {"current_harmonics_rms", refit.harmonics_rms}};
+  if (q.sensor_kind == "none") {
+    // the eddy-current branch, judged on the same sines (the multisine fit continued with each branch tried)
+    const models::EddyBranchSearch eddy = models::search_eddy_branch(
+        mirror.model, mirror.summary.at("current_lag").get<int>(), fit.drive, fit.current, record, fs);
+    nlohmann::json trials = nlohmann::json::array();
+    for (const models::EddyBranchTrial& t : eddy.trials) {
+      trials.push_back({t.branch.resistance / mirror.model.electrical[4], t.branch.rate, t.current_j_val_pct, t.harmonic_error});
+    }
+    summary["eddy"] = {{"used", eddy.used}, {"harmonic_error_without", eddy.error_without},
+                       {"harmonic_error_with", eddy.error_with}, {"trials", trials}};
+    if (eddy.used) {
+      mirror.model = eddy.model;
+      mirror.summary["eddy"] = {{"resistance", eddy.model.eddy.resistance}, {"rate", eddy.model.eddy.rate}};
+      mirror.summary["current_j_val_pct"] = eddy.current_j_val_pct;
+      mirror.summary["friction_velocity_mm_per_s"] = eddy.model.friction_velocity;
+    }
+  }
+  report.steps.push_back({"refine", seconds_since(start), summary});
 }
 
 }  // namespace
@@ -234,6 +251,7 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
       from_loopback = true;
     }
   }
+  fit.drive = from_loopback ? record.loopback : drive;  // the chosen drive, which the refine step's search reads
   mirror.summary["drive"] = from_loopback ? "loopback" : "as sent";
   mirror.summary["current_j_val_pct_by_drive"] = drives;
   report.steps.push_back({"fit", seconds_since(start), mirror.summary});
@@ -244,7 +262,7 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
     throw std::runtime_error("fit: the model misses this transducer, so no mirror filter is made: " + why);
   }
   // 3. The friction's velocity scale from the current's harmonics where it shows: quiet sines below the resonance.
-  if (q.refine_friction) refine_friction(q, play, mirror, report, progress);
+  if (q.refine_friction) refine_friction(q, play, fit, mirror, report, progress);
   if (sensed) {
     // 4. Verify the chain with the filter at equal output level.
     start = Clock::now();

@@ -18,7 +18,8 @@ constexpr double kShapeRelative = 0.3;
 
 }  // namespace
 
-MirrorCurrentAdapter::MirrorCurrentAdapter(const MirrorModel& model) : base_(model), model_(model) {
+MirrorCurrentAdapter::MirrorCurrentAdapter(const MirrorModel& model)
+    : base_(model), model_(model), eddy_(eddy_step(model.eddy)) {
   const MirrorObserverSettings& o = model.observer;
   if (!o.enabled || o.measurement != MirrorMeasurement::current) {
     throw std::invalid_argument("mirror current adapter: the model's adaptation is not set for the coil current");
@@ -73,7 +74,7 @@ void MirrorCurrentAdapter::update(double measured_current) noexcept {
   const int back = base_.observer.current_lag + 1;
   const double drive = drives_[static_cast<std::size_t>((newest_ - back + kDrives) % kDrives)];
   const double i = state_.i, x = state_.x, v = state_.v;
-  const double acceleration = step_mirror_model(m, state_, drive);
+  const double acceleration = step_mirror_model(m, eddy_, state_, drive);
   const double i1 = state_.i, x1 = state_.x, v1 = state_.v;
 
   // [A2]: the step's linearisation at this sample
@@ -85,7 +86,7 @@ void MirrorCurrentAdapter::update(double measured_current) noexcept {
   const double nonlinear_force = acceleration - c[0] * i - 0.5 * c[5] * (v + v1) - c[6] * x;
   const double over_lo = 1.0 / (1.0 - 0.5 * h * c[5]), hi = 1.0 + 0.5 * h * c[5];
   const double inductance = e[0] + e[1] * x1 + e[2] * x1 * x1 + e[3] * i * i;
-  const double over_denominator = 1.0 / (inductance / h + e[4]);
+  const double over_denominator = 1.0 / (inductance / h + e[4] + eddy_.resistance);
   const double emf = e[5] + e[6] * x1 + e[7] * x1 * x1 + e[8] * i + e[9] * i * x1;
   const double emf_x = e[6] + 2.0 * e[7] * x1 + e[9] * i;
   const double bl_emf = e[5] + e[6] * x1 + e[7] * x1 * x1;
@@ -98,13 +99,14 @@ void MirrorCurrentAdapter::update(double measured_current) noexcept {
                                                    -bl_emf / theta_[kForceFactorScale] * v1 * over_denominator, 0.0,
                                                    -nonlinear_emf / theta_[kNonlinearScale] * v1 * over_denominator};
   Eigen::Matrix<double, kScales, 1> g;
-  for (std::size_t j = 0; j < kScales; ++j) {
-    std::array<double, 3>& s = sensitivity_[j];  // δi, δx, δv
-    const double dv = (s[2] * hi + h * (m_x * s[1] + m_i * s[0] + direct_force[j])) * over_lo;
+  for (std::size_t q = 0; q < kScales; ++q) {
+    std::array<double, 4>& s = sensitivity_[q];  // δi, δx, δv, δj
+    const double dv = (s[2] * hi + h * (m_x * s[1] + m_i * s[0] + direct_force[q])) * over_lo;
     const double dx = s[1] + h * dv;
-    const double di = (inductance / h * s[0] - emf * dv - emf_x * v1 * dx) * over_denominator + direct_current[j];
-    s = {di, dx, dv};
-    g[static_cast<Eigen::Index>(j)] = di;
+    const double di =
+        (inductance / h * s[0] - emf * dv - emf_x * v1 * dx + eddy_.resistance * s[3]) * over_denominator + direct_current[q];
+    s = {di, dx, dv, eddy_.pole * s[3] + (1.0 - eddy_.pole) * di};
+    g[static_cast<Eigen::Index>(q)] = di;
   }
 
   // [A1]: the Kalman filter on the scales, each a random walk

@@ -10,9 +10,10 @@
 // with g_j = ∂î/∂θ_j propagated by the model's linearisation along its trajectory (its sensitivity states
 // ∂(i, x, v)/∂θ_j; the damping's friction slope and the inductance's share of the current's Jacobian left out):
 //   [A2] δv⁺·(1 − h·c5/2) = δv·(1 + h·c5/2) + h·(M_x·δx + M_i·δi + ∂M/∂θ_j),  δx⁺ = δx + h·δv⁺,
-//        δi⁺ = −(E_v·δv⁺ + ∂E_v/∂x·v⁺·δx⁺)/e_R' + ∂i⁺/∂θ_j|direct
-// (M the acceleration of [M2], E_v the back-EMF factor of [M1], e_R' = E_L/h + e_R). Per sample: one model step,
-// 4×3 sensitivity updates and a 4×4 covariance update; allocation-free.
+//        δi⁺ = −(E_v·δv⁺ + ∂E_v/∂x·v⁺·δx⁺ − g_b·δj)/e_R' + ∂i⁺/∂θ_j|direct,  δj⁺ = p·δj + (1 − p)·δi⁺
+// (M the acceleration of [M2], E_v the back-EMF factor of [M1], g_b and p the eddy-current branch's step — 0 and 1
+// without one —, e_R' = E_L/h + e_R + g_b). Per sample: one model step, 4×4 sensitivity updates and a 4×4 covariance
+// update; allocation-free.
 
 #include <Eigen/Core>
 #include <array>
@@ -48,12 +49,13 @@ class MirrorCurrentAdapter {
 
  private:
   MirrorModel base_, model_;
+  EddyStep eddy_;  // the eddy-current branch's step (no scale moves it)
   MirrorState state_;
   std::array<double, kDrives> drives_{};
   int newest_ = 0;
   Eigen::Matrix<double, kScales, 1> theta_;
   Eigen::Matrix<double, kScales, kScales> p_;
-  std::array<std::array<double, 3>, kScales> sensitivity_{};  // ∂(i, x, v)/∂θ_j
+  std::array<std::array<double, 4>, kScales> sensitivity_{};  // ∂(i, x, v, j)/∂θ_q (j: the eddy branch's current)
   Eigen::Matrix<double, kScales, 1> q_;  // each scale's random walk per sample, squared
   double r_ = 1.0, predicted_ = 0.0;
   int since_refresh_ = 0;

@@ -83,6 +83,24 @@ MirrorModel current_fit_model(const MirrorModel& start, const Eigen::VectorXd& t
   return m;
 }
 
+/// θ of `m` around itself as the start (current_fit_model's inverse with start = m): the linear log-factors 0, A(z)'s
+/// taps and the nonlinear coefficients m's own.
+Eigen::VectorXd theta_of(const MirrorModel& m, const CurrentFitScales& scales) {
+  const std::array<double, 10>& e = m.electrical;
+  const std::array<double, 11>& c = m.mechanical;
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(kCurrentFitParameters);
+  for (int j = 1; j <= 3; ++j) theta[kTap1 + j - 1] = m.drive_taps[static_cast<std::size_t>(j)];
+  theta[kForceFactor2] = c[2] / c[0];
+  theta[kStiffness1] = c[7] / c[6];
+  theta[kStiffness2] = c[8] / c[6];
+  theta[kFriction] = c[9] / (c[0] * scales.current_rms);
+  theta[kInductanceSlope] = e[5] != 0.0 ? e[1] / e[5] * scales.current_rms : 0.0;
+  theta[kInductanceCurrent] = e[3] * m.fs * scales.current_rms * scales.current_rms / e[4];
+  theta[kDampingRise] = c[5] != 0.0 ? c[10] * scales.velocity_rms * scales.velocity_rms / c[5] : 0.0;
+  theta[kForceFactor1] = c[1] / c[0];
+  return theta;
+}
+
 /// The record's drive, current and sensor with the fit's split and lags.
 struct CurrentFitRecord {
   const Eigen::VectorXd& drive;
@@ -487,6 +505,80 @@ MirrorCurrentFit fit_mirror_model_from_current(const Eigen::VectorXd& drive, con
     fit.sensor_j_val_pct = channel_j_pct(phi * taps, sensor.segment(fit_end, n - fit_end), 0, n - fit_end);
     fit.sensor_delay = record.sensor_delay;
   }
+  const double h = 1.0 / fs;
+  fit.resonance_hz = std::acos(std::clamp(1.0 + 0.5 * h * h * fit.model.mechanical[6], -1.0, 1.0)) / (2.0 * std::numbers::pi * h);
+  return fit;
+}
+
+MirrorModel add_eddy_branch(const MirrorModel& model, const MirrorEddyBranch& branch) {
+  MirrorModel m = model;
+  m.eddy = branch;
+  const EddyStep step = eddy_step(branch);
+  // the branch's voltage g·(1 − z⁻¹)/(1 − p·z⁻¹)·i over e_R: g/e_R·(1 − (1 − p)·Σ_{k≥1} p^{k−1}·z⁻ᵏ)
+  const double share = step.resistance / model.electrical[4];
+  std::array<double, 4> series{1.0 + share, 0.0, 0.0, 0.0};
+  for (std::size_t k = 1; k < 4; ++k) series[k] = -share * (1.0 - step.pole) * std::pow(step.pole, static_cast<double>(k - 1));
+  // A'(z) = A(z)·(1 + G_b(z)/e_R) to four taps, and [M1] over its first tap (so that a'_0 = 1)
+  std::array<double, 4> taps{};
+  for (std::size_t j = 0; j < 4; ++j) {
+    for (std::size_t k = 0; k + j < 4; ++k) taps[j + k] += model.drive_taps[j] * series[k];
+  }
+  const double scale = 1.0 / taps[0];
+  for (double& a : taps) a *= scale;
+  m.drive_taps = taps;
+  for (double& e : m.electrical) e *= scale;
+  m.eddy.resistance *= scale;
+  return m;
+}
+
+MirrorCurrentFit refit_mirror_model_from_current(const Eigen::VectorXd& drive, const Eigen::VectorXd& current, double fs,
+                                                 const MirrorModel& from, int lag, const MirrorCurrentFitOptions& o) {
+  const Eigen::Index n = drive.size();
+  if (current.size() != n || n < 1000 || !(fs > 0.0) || !drive.allFinite() || !current.allFinite()) {
+    throw std::invalid_argument("mirror current refit: drive and current must be finite, of equal length and ≥ 1000 samples");
+  }
+  if (!(o.validation_share >= 0.1 && o.validation_share <= 0.5)) {
+    throw std::invalid_argument("mirror current refit: validation_share must be within [0.1, 0.5]");
+  }
+  if (!(from.mechanical[0] != 0.0 && from.mechanical[6] != 0.0 && from.electrical[4] != 0.0)) {
+    throw std::invalid_argument("mirror current refit: the model has no force factor, stiffness or resistance to start from");
+  }
+  const double current_peak = current.cwiseAbs().maxCoeff();
+  if (!(current_peak > 0.0)) throw std::invalid_argument("mirror current refit: the current is zero throughout");
+  const Eigen::Index fit_end = n - static_cast<Eigen::Index>(std::round(o.validation_share * static_cast<double>(n)));
+  const Eigen::VectorXd no_sensor;
+  const CurrentFitRecord record{drive, current, no_sensor, MirrorSensorKind::none, fit_end, lag, 0};
+  MirrorRun run;
+  if (!run_current_model(from, record, current_peak, run)) {
+    throw std::invalid_argument("mirror current refit: the model to start from runs away on the record");
+  }
+  const CurrentFitScales scales{std::sqrt(current.squaredNorm() / static_cast<double>(n)),
+                                std::sqrt(run.v.head(fit_end).squaredNorm() / static_cast<double>(fit_end))};
+  Eigen::VectorXd theta = theta_of(from, scales);
+  double loss = 0.0;
+  MirrorCurrentFit fit;
+  fit.damping_rise = from.mechanical[10] != 0.0;
+  fit.force_factor_asymmetry = from.mechanical[1] != 0.0;
+  // Rms(v)'s rise and Bl(x)'s asymmetry stay out where the fit left them out
+  if (fit.damping_rise && fit.force_factor_asymmetry) {
+    fit.iterations = output_error_fit(from, record, scales, current_peak, o.max_iterations, theta, loss);
+  } else if (fit.damping_rise) {
+    fit.iterations = output_error_fit(from, record, scales, current_peak, o.max_iterations, theta, loss, {kForceFactor1});
+  } else if (fit.force_factor_asymmetry) {
+    fit.iterations = output_error_fit(from, record, scales, current_peak, o.max_iterations, theta, loss, {kDampingRise});
+  } else {
+    fit.iterations =
+        output_error_fit(from, record, scales, current_peak, o.max_iterations, theta, loss, {kDampingRise, kForceFactor1});
+  }
+  fit.model = current_fit_model(from, theta, scales);
+  fit.model.observer = from.observer;
+  fit.model.delay = std::max(lag, 0);
+  fit.current_lag = lag;
+  if (!run_current_model(fit.model, record, current_peak, run)) {
+    throw std::invalid_argument("mirror current refit: the refitted model runs away on the record");
+  }
+  fit.current_j_fit_pct = channel_j_pct(run.i, current, 0, fit_end);
+  fit.current_j_val_pct = channel_j_pct(run.i, current, fit_end, n);
   const double h = 1.0 / fs;
   fit.resonance_hz = std::acos(std::clamp(1.0 + 0.5 * h * h * fit.model.mechanical[6], -1.0, 1.0)) / (2.0 * std::numbers::pi * h);
   return fit;

@@ -75,6 +75,21 @@ MirrorCurrentFit fit_mirror_model_from_current(const Eigen::VectorXd& drive, con
                                                const MirrorCurrentFitOptions& options = {},
                                                const Eigen::VectorXd& sensor = Eigen::VectorXd());
 
+/// `model` with `branch` in [M1] (r_b in `model`'s units of e_R), its drive path A(z) and [M1]'s coefficients
+/// rescaled so that the linear model's current from the drive stays as it was, but for the product's taps past z⁻³
+/// (dropped: A(z) keeps four): A'(z) =
+/// A(z)·(1 + G_b(z)/e_R)/(1 + g/e_R), G_b(z) = g·(1 − z⁻¹)/(1 − p·z⁻¹) the branch's voltage per current, g and p its
+/// step (eddy_step). Only the back-EMF's path then changes: the start of a refit with the branch.
+MirrorModel add_eddy_branch(const MirrorModel& model, const MirrorEddyBranch& branch);
+
+/// The fit continued from `from` (a model fit_mirror_model_from_current made, its current `lag` samples behind the
+/// drive) on the same record, with its eddy-current branch held as `from` has it (none, or one put there to try) and
+/// every other coefficient the fit fits refitted by output error from where `from` has it — Rms(v)'s rise and Bl(x)'s
+/// asymmetry only where `from` has them —, options.max_iterations steps at most; no sensor. std::invalid_argument for a
+/// record the fit would refuse or a model that runs away on it.
+MirrorCurrentFit refit_mirror_model_from_current(const Eigen::VectorXd& drive, const Eigen::VectorXd& current, double fs,
+                                                 const MirrorModel& from, int lag, const MirrorCurrentFitOptions& options = {});
+
 /// The same model with its displacement in units α times as large (x' = α·x): the current, and the mirror filter,
 /// are unchanged.
 MirrorModel rescale_displacement(const MirrorModel& model, double alpha);

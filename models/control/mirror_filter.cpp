@@ -109,7 +109,18 @@ MirrorModel MirrorModel::linear() const {
   return l;
 }
 
+EddyStep eddy_step(const MirrorEddyBranch& b) noexcept {
+  if (!b.present()) return {};
+  const double pole = std::exp(-b.rate);
+  // (1 − e^{−ρ})/ρ → 1 as ρ → 0: expm1 keeps it exact for a slow branch
+  return {b.resistance * -std::expm1(-b.rate) / b.rate, pole};
+}
+
 double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noexcept {
+  return step_mirror_model(m, eddy_step(m.eddy), s, drive);
+}
+
+double step_mirror_model(const MirrorModel& m, const EddyStep& eddy, MirrorState& s, double drive) noexcept {
   const double h = 1.0 / m.fs;
   const std::array<double, 11>& c = m.mechanical;
   // [M2] with the velocity at the sample instant, v̄ = (v_k + v_{k+1})/2: implicit in v_{k+1}, solved by Newton
@@ -128,12 +139,14 @@ double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noe
     v1 -= step;
     if (std::abs(step) <= 1e-15 * (1.0 + std::abs(v1))) break;
   }
-  // [M1] solved for i_{k+1}, the back-EMF at x_{k+1}, v_{k+1}
+  // [M1] solved for i_{k+1}, the back-EMF at x_{k+1}, v_{k+1}, the eddy-current branch's u_b = g·(i_{k+1} − j_k)
   const Electrical el = electrical_terms(m.electrical, s.x + h * v1, s.i);
   const std::array<double, 4>& a = m.drive_taps;
   const double w = a[0] * drive + a[1] * s.past[0] + a[2] * s.past[1] + a[3] * s.past[2];
   s.past = {drive, s.past[0], s.past[1]};
-  const double i1 = (w - el.back_emf * v1 + el.inductance * s.i / h) / (el.inductance / h + m.electrical[4]);
+  const double i1 = (w - el.back_emf * v1 + el.inductance * s.i / h + eddy.resistance * s.eddy) /
+                    (el.inductance / h + m.electrical[4] + eddy.resistance);
+  s.eddy = eddy.pole * s.eddy + (1.0 - eddy.pole) * i1;
   const double accel = (v1 - s.v) / h;
   s.i = i1;
   s.v = v1;
@@ -141,7 +154,8 @@ double step_mirror_model(const MirrorModel& m, MirrorState& s, double drive) noe
   return accel;
 }
 
-MirrorFilter::MirrorFilter(const MirrorModel& model) : base_(model), model_(model), reference_(model.linear()) {}
+MirrorFilter::MirrorFilter(const MirrorModel& model)
+    : base_(model), model_(model), reference_(model.linear()), eddy_(eddy_step(model.eddy)) {}
 
 MirrorModel with_scales(MirrorModel model, const MirrorScales& scales) noexcept {
   std::array<double, 11>& c = model.mechanical;
@@ -176,13 +190,14 @@ void MirrorFilter::set_scales(const MirrorScales& scales) noexcept {
 void MirrorFilter::reset() noexcept {
   ref_ = {};
   current_ = 0.0;
+  eddy_current_ = 0.0;
   past_ = {};
   saturated_ = false;
 }
 
 double MirrorFilter::process(double program) noexcept {
   const double h = 1.0 / model_.fs;
-  step_mirror_model(reference_, ref_, program);  // the reference at k+1
+  step_mirror_model(reference_, eddy_, ref_, program);  // the reference at k+1
   const std::array<double, 11>& c = model_.mechanical;
   const std::array<double, 11>& r = reference_.mechanical;
   // the reference's velocity at k+2 (its [M2] is linear: v̄ = (v_{k+1} + v_{k+2})/2 solved in closed form)
@@ -211,7 +226,10 @@ double MirrorFilter::process(double program) noexcept {
   }
   // [M1] at k: the drive that takes the current from ĩ_k to ĩ_{k+1} at the reference's motion
   const Electrical el = electrical_terms(model_.electrical, x1, current_);
-  const double w = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * v1;
+  double w = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * v1;
+  // the eddy-current branch's voltage for ĩ_{k+1}, and its current j moved on (0 and 0 without one)
+  w += eddy_.resistance * (next - eddy_current_);
+  eddy_current_ = eddy_.pole * eddy_current_ + (1.0 - eddy_.pole) * next;
   // the drive whose A(z)-filtered value is w: drive_k = (w − Σ_{j≥1} a_j·drive_{k−j}) / a_0
   const std::array<double, 4>& a = model_.drive_taps;
   const double drive = (w - a[1] * past_[0] - a[2] * past_[1] - a[3] * past_[2]) / a[0];
@@ -244,12 +262,13 @@ bool run_mirror_model(const MirrorModel& model, const Eigen::VectorXd& drive, Ei
   out.v.resize(n);
   out.a.resize(n);
   MirrorState s;
+  const EddyStep eddy = eddy_step(model.eddy);
   for (Eigen::Index k = 0; k < n; ++k) {
     out.i[k] = s.i;
     out.x[k] = s.x;
     out.v[k] = s.v;
     const Eigen::Index at = k - lag;
-    out.a[k] = step_mirror_model(model, s, at >= 0 && at < n ? drive[at] : 0.0);
+    out.a[k] = step_mirror_model(model, eddy, s, at >= 0 && at < n ? drive[at] : 0.0);
     if (!(std::abs(s.i) < current_bound)) {
       for (Eigen::VectorXd* q : {&out.i, &out.x, &out.v, &out.a}) q->tail(n - k - 1).setConstant(std::nan(""));
       return false;
@@ -392,6 +411,7 @@ nlohmann::json mirror_model_to_json(const MirrorModel& m, const nlohmann::json& 
             {"delay", m.delay},
             {"drive_taps", m.drive_taps}}},
           {"meta", meta.is_null() ? nlohmann::json::object() : meta}};
+  if (m.eddy.present()) j["params"]["eddy"] = {{"resistance", m.eddy.resistance}, {"rate", m.eddy.rate}};
   if (m.observer.enabled && m.observer.measurement == MirrorMeasurement::current) {
     j["params"]["observer"] = {{"measurement", "current"},
                                {"current_lag", m.observer.current_lag},
@@ -451,6 +471,15 @@ MirrorModel mirror_model_from_json(const nlohmann::json& j) {
       throw ConfigError(p.path_of("drive_taps") + ": A(z) must be minimum phase (roots inside |z| < 0.95)");
     }
   }
+  if (const nlohmann::json* b = p.member("eddy")) {
+    // the eddy-current branch (absent in a file written before issue #56's fourth session: none)
+    JsonFields f(*b, p.path_of("eddy"));
+    m.eddy.resistance = f.number("resistance");
+    require_positive(m.eddy.resistance, f.path_of("resistance"));
+    m.eddy.rate = f.number("rate");
+    require_positive(m.eddy.rate, f.path_of("rate"));
+    f.finish();
+  }
   if (const nlohmann::json* o = p.member("observer")) {
     JsonFields f(*o, p.path_of("observer"));
     MirrorObserverSettings& s = m.observer;
@@ -464,6 +493,7 @@ MirrorModel mirror_model_from_json(const nlohmann::json& j) {
     } else {
       read_sensor_observer(f, s);
       if (m.delay > 4) throw ConfigError(p.path_of("delay") + ": the observer takes a drive delay up to 4 samples");
+      if (m.eddy.present()) throw ConfigError(p.path_of("eddy") + ": the sensor's observer takes no eddy-current branch");
     }
     f.finish();
   }

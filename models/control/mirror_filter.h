@@ -10,8 +10,12 @@
 // and displacement in mm, so that it can be fitted by linear least squares to a record of drive, coil
 // current and displacement alone (fit_mirror_model), with no knowledge of the amplifier's gain or of
 // the moving mass:
-//   [M1] w_k = E_L(x_k, i_k)·(i_{k+1} − i_k)/h + e_R·i_{k+1} + E_v(x_{k+1}, i_k)·v_{k+1}
+//   [M1] w_k = E_L(x_k, i_k)·(i_{k+1} − i_k)/h + e_R·i_{k+1} + E_v(x_{k+1}, i_k)·v_{k+1} + u_{b,k}
 //        (the back-EMF at the end of the sample, where the current is taken: v_{k+1} = (x_{k+1} − x_k)/h),
+//        u_{b,k} = r_b·(1 − p)/ρ·(i_{k+1} − j_k),  j_{k+1} = p·j_k + (1 − p)·i_{k+1},  p = e^{−ρ}
+//        (an eddy-current branch, an inductance L2 parallel to a resistance R2 in series with the coil: r_b = R2/gain,
+//        ρ = h·R2/L2, j the current in L2; with the current held at i_{k+1} over the sample, j relaxes exactly so and
+//        u_b is the branch's voltage R2·(i − j) averaged over the sample; none when r_b = 0),
 //        w_k = Σ_{j<4} a_j·drive_{k−j}, a_0 = 1 (the DA path: its filter and the fraction of a sample of delay
 //        that the whole-sample delay leaves, as a short minimum-phase FIR, so that the filter can invert it)
 //        E_L = e0 + e1·x + e2·x² + e3·i²          (Le(x, i) / gain)
@@ -24,8 +28,9 @@
 // The mirror runs the reference one step ahead: at k it knows the reference's state at k+1 (and, its [M2] being
 // linear, its velocity at k+2), solves [M2] at k+1 for the current ĩ_{k+1} that gives the reference's next
 // acceleration, [M1] at k for the w that makes it, and the drive from w by 1/A(z).
-// The linear reference keeps e0, e_R, e5, c0, c5, c6 and drops every other coefficient. A file's mechanical list may
-// stop at c9 (written before issue #56's third session): c10 is then 0.
+// The linear reference keeps e0, e_R, e5, c0, c5, c6 and the eddy-current branch, and drops every other coefficient. A
+// file's mechanical list may stop at c9 (written before issue #56's third session): c10 is then 0; a file without
+// "eddy" (written before its fourth) has no branch.
 //
 // The record is of a continuous plant sampled: its second difference (x_{k+1} − 2x_k + x_{k−1})/h² is the
 // acceleration averaged over two samples with a triangular weight, which shrinks a component at f by
@@ -67,6 +72,14 @@ struct MirrorObserverSettings {
   double scale_spread = 0.2;          ///< with the current: each scale's initial standard deviation (around 1)
 };
 
+/// [M1]'s eddy-current branch: an inductance L2 parallel to a resistance R2, in series with the coil.
+struct MirrorEddyBranch {
+  double resistance = 0.0;  ///< r_b = R2 over the amplifier's gain (e_R's units); 0: no branch
+  double rate = 1.0;        ///< ρ = h·R2/L2, the branch's relaxation per sample (> 0)
+  /// True when the model has the branch.
+  bool present() const noexcept { return resistance != 0.0; }
+};
+
 /// The identified gray-box exciter model of [M1]–[M3] (x in mm, v in mm/s, i in A, drive dimensionless).
 struct MirrorModel {
   double fs = 3000.0;                ///< sample rate, Hz
@@ -75,6 +88,7 @@ struct MirrorModel {
   double friction_velocity = 50.0;   ///< v0 of the friction term, mm/s
   int delay = 0;                     ///< samples between the drive and the coil voltage found by the fit
   std::array<double, 4> drive_taps{1.0, 0.0, 0.0, 0.0};  ///< a_0..a_3 of [M1]'s A(z) (a_0 = 1, minimum phase)
+  MirrorEddyBranch eddy;             ///< [M1]'s eddy-current branch (none unless fitted)
   MirrorObserverSettings observer;   ///< the on-line stiffness adaptation (off unless fitted with a sensor)
   /// The same model with every nonlinear coefficient zero: the linear reference.
   MirrorModel linear() const;
@@ -96,10 +110,23 @@ MirrorModel with_scales(MirrorModel model, const MirrorScales& scales) noexcept;
 struct MirrorState {
   double i = 0.0, x = 0.0, v = 0.0;
   std::array<double, 3> past{};  ///< drive_{k−1..k−3}, for [M1]'s A(z)
+  double eddy = 0.0;  ///< j, the current in the eddy-current branch's inductance, A
 };
+
+/// [M1]'s eddy-current branch in one step: u_b = resistance·(i_{k+1} − j_k) and j_{k+1} = pole·j_k + (1 − pole)·i_{k+1}.
+struct EddyStep {
+  double resistance = 0.0;  ///< r_b·(1 − p)/ρ (0: no branch)
+  double pole = 1.0;        ///< p = e^{−ρ}
+};
+
+/// The branch's step coefficients for `branch` (none: resistance 0).
+EddyStep eddy_step(const MirrorEddyBranch& branch) noexcept;
 
 /// Steps [M1]–[M3] once with `drive` held; returns the acceleration (v_{k+1} − v_k)/h, mm/s².
 double step_mirror_model(const MirrorModel& model, MirrorState& state, double drive) noexcept;
+
+/// The same with the eddy-current branch's step given (eddy_step(model.eddy), computed once by a caller that steps often).
+double step_mirror_model(const MirrorModel& model, const EddyStep& eddy, MirrorState& state, double drive) noexcept;
 
 /// The mirror filter on a model: program sample in, drive sample out, allocation-free and noexcept.
 class MirrorFilter {
@@ -126,6 +153,8 @@ class MirrorFilter {
   MirrorModel base_, model_, reference_;
   MirrorState ref_;
   double current_ = 0.0;  // the nonlinear model's current, ĩ_k
+  double eddy_current_ = 0.0;  // its eddy-current branch's j_k
+  EddyStep eddy_;  // the branch's step (the same for the model and its reference)
   std::array<double, 3> past_{};  // the filter's drive_{k−1..k−3}, for 1/A(z)
   bool saturated_ = false;
 };

@@ -45,4 +45,32 @@ struct FrictionScaleRefit {
 /// harmonic is not below fs/2, or a step whose current has no fundamental.
 FrictionScaleRefit refit_friction_scale(const MirrorModel& model, int current_lag, const CurrentSineRecord& record, double fs);
 
+/// One eddy-current branch tried.
+struct EddyBranchTrial {
+  MirrorEddyBranch branch;         ///< r_b (over the gain) and ρ
+  double current_j_val_pct = 0.0;  ///< the current's J on validation of the multisine, refitted with it
+  double harmonic_error = 0.0;     ///< the sines' harmonic error with it, v0 refitted (FrictionScaleRefit::error_after)
+};
+
+/// How the search for an eddy-current branch went.
+struct EddyBranchSearch {
+  MirrorModel model;                    ///< with the branch chosen, refitted, v0 refitted (as given when none earned it)
+  bool used = false;                    ///< a branch earned its place
+  double error_without = 0.0;           ///< the harmonic error of the model given, v0 refitted
+  double error_with = 0.0;              ///< the chosen branch's (error_without when none)
+  double current_j_val_pct = -1.0;      ///< the chosen model's current J on validation (−1: none chosen)
+  std::vector<EddyBranchTrial> trials;  ///< every branch tried, in order
+};
+
+/// Searches [M1]'s eddy-current branch (mirror_filter.h) where it shows, in the current's harmonics on quiet sines
+/// (issue #56): the multisine fit's current error barely tells the branch from A(z) and the other coefficients (on
+/// panel-exciter-l2r2 the branch that makes the best filter raises J_val 0.004 → 0.011 %), the harmonics do. For each
+/// rate ρ of a grid and r_b/e_R doubled from 0.3 while the harmonics improve, the multisine fit is continued with the
+/// branch held (add_eddy_branch, then refit_mirror_model_from_current on `drive` and `current` from `model`, its current
+/// `current_lag` samples behind), v0 refitted on `record`'s sines (refit_friction_scale), and the harmonic error
+/// compared; the best branch is used when it cuts the error of `model` (v0 refitted the same way) by 20 %.
+/// std::invalid_argument as refit_friction_scale's for a bad sine record.
+EddyBranchSearch search_eddy_branch(const MirrorModel& model, int current_lag, const Eigen::VectorXd& drive,
+                                    const Eigen::VectorXd& current, const CurrentSineRecord& record, double fs);
+
 }  // namespace panelbass::models

@@ -64,6 +64,10 @@ MirrorObserver::MirrorObserver(const MirrorModel& model) : model_(model) {
     throw std::invalid_argument("mirror observer: a drive delay of " + std::to_string(model.delay) +
                                 " samples exceeds the " + std::to_string(kMaxDelay) + " it takes");
   }
+  if (model.eddy.present()) {
+    // its state holds i, x and v only (the sensor's fit, fit_mirror_model, fits no branch)
+    throw std::invalid_argument("mirror observer: the model has an eddy-current branch, which the observer does not follow");
+  }
   if (!(o.sensor_noise > 0.0 && o.process_noise >= 0.0 && o.stiffness_rate >= 0.0 && o.stiffness_spread > 0.0 &&
         o.nonlinear_rate >= 0.0 && o.nonlinear_spread > 0.0 && o.force_rate >= 0.0 && o.force_spread > 0.0)) {
     throw std::invalid_argument("mirror observer: sensor noise and the spreads must be > 0, the rates >= 0");

@@ -41,6 +41,26 @@ TEST(MirrorCurrentFit, RescalingTheDisplacementLeavesTheCurrentUnchanged) {
   EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9 * a.cwiseAbs().maxCoeff());
 }
 
+TEST(MirrorCurrentFit, AddingAnEddyBranchKeepsTheDrivesPathAndChangesTheBackEmfs) {
+  // add_eddy_branch's A'(z) = A(z)·(1 + G_b(z)/e_R) over its first tap is exact but for the product's taps past z⁻³:
+  // with A(z) = 1 only the branch's series past z⁻³ (g/e_R·(1 − p)·p³, p = e^{−ρ}: 1e-8 at ρ = 6) is dropped, so the
+  // current of a model without back-EMF stays what it was; with the back-EMF the current moves (its path now has the
+  // branch)
+  MirrorModel truth = current_fit_truth();
+  truth.drive_taps = {1.0, 0.0, 0.0, 0.0};
+  const Eigen::VectorXd drive = current_fit_drive(3000, 5);
+  MirrorModel still = truth;
+  for (std::size_t j : {1u, 5u, 6u, 7u, 8u, 9u}) still.electrical[j] = 0.0;  // no back-EMF, no Le(x)
+  const MirrorEddyBranch branch{0.6 * truth.electrical[4], 6.0};
+  const Eigen::VectorXd before = run_mirror_model(still, drive, 0).i;
+  const Eigen::VectorXd after = run_mirror_model(add_eddy_branch(still, branch), drive, 0).i;
+  EXPECT_LT((after - before).cwiseAbs().maxCoeff(), 1e-6 * before.cwiseAbs().maxCoeff());
+  EXPECT_EQ(add_eddy_branch(still, branch).drive_taps[0], 1.0);
+  const Eigen::VectorXd moving = run_mirror_model(truth, drive, 0).i;
+  const Eigen::VectorXd moving_after = run_mirror_model(add_eddy_branch(truth, branch), drive, 0).i;
+  EXPECT_GT((moving_after - moving).cwiseAbs().maxCoeff(), 1e-3 * moving.cwiseAbs().maxCoeff());
+}
+
 TEST(MirrorCurrentFit, RecoversTheDiscreteModelFromItsCurrentAlone) {
   const MirrorModel truth = current_fit_truth();
   const Eigen::VectorXd drive = current_fit_drive(9000, 3);

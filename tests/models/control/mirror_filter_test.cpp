@@ -42,6 +42,40 @@ TEST(MirrorFilter, CompensatedOutputEqualsTheLinearTargetOnAPlantItsModelDescrib
   EXPECT_LT((compensated - target).cwiseAbs().maxCoeff() / scale, 1e-6);
 }
 
+TEST(MirrorFilter, CompensatedOutputEqualsTheLinearTargetWithAnEddyCurrentBranch) {
+  // the branch is linear: the reference keeps it, and the filter inverts it with the rest of [M1]
+  MirrorModel model = exciter_model();
+  model.eddy = {0.6 * model.electrical[4], 2.0};
+  const Eigen::VectorXd program = two_tone(6000, model.fs);
+  const Eigen::VectorXd target = simulate_mirror_model(model.linear(), program);
+  const Eigen::VectorXd compensated = simulate_mirror_model(model, mirror_filter(model, program));
+  const double scale = target.cwiseAbs().maxCoeff();
+  EXPECT_LT((compensated - target).cwiseAbs().maxCoeff() / scale, 1e-6);
+  // and the branch changes the model: without it the filter misses the target
+  MirrorModel without = model;
+  without.eddy = {};
+  EXPECT_GT((simulate_mirror_model(model, mirror_filter(without, program)) - target).cwiseAbs().maxCoeff() / scale, 1e-3);
+}
+
+TEST(MirrorFilter, TheEddyCurrentBranchIsTheContinuousBranchWithTheCurrentHeld) {
+  // no motion, no inductance, A(z) = 1: i_{k+1} = (w + g·j_k)/(e_R + g). With the current held at I over a sample,
+  // L2·dj/dt = R2·(I − j) gives j(h) = I + (j_0 − I)·e^{−ρ} and the branch's voltage averaged over the sample
+  // R2·(I − j_0)·(1 − e^{−ρ})/ρ: from rest, a held w makes I = w/(e_R + r_b·(1 − e^{−ρ})/ρ) in the first sample, and
+  // w/e_R once L2 carries the current (at DC the branch is a short)
+  MirrorModel m;
+  m.electrical[4] = 0.2;
+  m.mechanical[0] = 1.0;
+  m.eddy = {0.125, 2.0};
+  MirrorState s;
+  const double w = 0.3, r2 = 0.125, rho = 2.0;
+  step_mirror_model(m, s, w);
+  const double first = w / (0.2 + r2 * (1.0 - std::exp(-rho)) / rho);
+  EXPECT_NEAR(s.i, first, 1e-12);
+  EXPECT_NEAR(s.eddy, first * (1.0 - std::exp(-rho)), 1e-12);
+  for (int k = 0; k < 200; ++k) step_mirror_model(m, s, w);
+  EXPECT_NEAR(s.i, w / 0.2, 1e-9);
+}
+
 TEST(MirrorFilter, AFreeRunHoldsEachSamplesStartAndStopsAtItsBound) {
   const MirrorModel model = exciter_model();
   const Eigen::VectorXd drive = two_tone(600, model.fs);
@@ -211,6 +245,24 @@ TEST(MirrorFilter, ModelFileRoundTripsAndNamesBadInput) {
   MirrorModel expected = model;
   expected.mechanical[10] = 0.0;
   EXPECT_EQ(mirror_model_from_json(older).mechanical, expected.mechanical);
+  // the eddy-current branch: written when there is one, read back; a file without it (before issue #56's fourth
+  // session) has none; its values and its company named
+  MirrorModel eddy = model;
+  eddy.eddy = {0.07, 2.5};
+  const nlohmann::json with_eddy = mirror_model_to_json(eddy);
+  EXPECT_EQ(mirror_model_from_json(with_eddy).eddy.resistance, 0.07);
+  EXPECT_EQ(mirror_model_from_json(with_eddy).eddy.rate, 2.5);
+  EXPECT_FALSE(mirror_model_to_json(model)["params"].contains("eddy"));
+  EXPECT_FALSE(mirror_model_from_json(mirror_model_to_json(model)).eddy.present());
+  bad = with_eddy;
+  bad["params"]["eddy"]["rate"] = 0.0;
+  EXPECT_NE(testing_support::one_line_error<ConfigError>([&] { (void)mirror_model_from_json(bad); }).find("model.params.eddy.rate"), std::string::npos);
+  bad = with_eddy;
+  bad["params"]["eddy"].erase("resistance");
+  EXPECT_NE(testing_support::one_line_error<ConfigError>([&] { (void)mirror_model_from_json(bad); }).find("model.params.eddy.resistance"), std::string::npos);
+  bad = with_eddy;
+  bad["params"]["observer"] = {{"sensor_taps", {1.0, 0.0, 0.0, 0.0}}, {"sensor_noise", 0.01}, {"process_noise_mm_per_s2", 1.0}};
+  EXPECT_NE(testing_support::one_line_error<ConfigError>([&] { (void)mirror_model_from_json(bad); }).find("takes no eddy-current branch"), std::string::npos);
   bad = mirror_model_to_json(model);
   bad["params"].erase("electrical");
   EXPECT_NE(testing_support::one_line_error<ConfigError>([&] { (void)mirror_model_from_json(bad); }).find("model.params.electrical: missing"), std::string::npos);

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "dsp/excitation.h"
+#include "models/control/mirror_current_fit.h"
 #include "models/control/mirror_friction_refit.h"
 #include "tests/support/expect_error.h"
 #include "tests/support/mirror_models.h"
@@ -58,6 +59,45 @@ TEST(MirrorFrictionRefit, AModelThatAlreadyMatchesOrHasNoFrictionIsLeftAsItIs) {
   const FrictionScaleRefit none = refit_friction_scale(frictionless, 1, sines_through(frictionless, 0.1, 1), truth.fs);
   EXPECT_FALSE(none.used);  // v0 does nothing: no change lowers the error by 1 %
   EXPECT_EQ(none.model.friction_velocity, truth.friction_velocity);
+}
+
+/// A 10–300 Hz multisine at peak 0.5, `n` samples.
+Eigen::VectorXd multisine_drive(std::size_t n) {
+  dsp::MultisineSpec spec;
+  spec.period = n;
+  spec.f_min = 10.0;
+  spec.f_max = 300.0;
+  spec.amplitude = 0.5;
+  spec.seed = 3;
+  return dsp::multisine(spec).signal;
+}
+
+TEST(MirrorFrictionRefit, AnEddyCurrentBranchIsFoundOnTheSinesWhereThereIsOneAndLeftOutWhereNot) {
+  // panel-exciter's model without its rest inductance (the current fit's structure) with an eddy-current branch on the
+  // search's grid (r_b = 0.6·e_R, ρ = 3): fitted from its multisine current without the branch, the search finds
+  // that branch on its quiet sines; the same model without a branch gets none
+  MirrorModel plain = testing_support::panel_exciter_mirror_model();
+  for (std::size_t j : {0u, 3u}) plain.electrical[j] = 0.0;
+  MirrorModel truth = plain;
+  truth.eddy = {0.6 * truth.electrical[4], 3.0};
+  const Eigen::VectorXd drive = multisine_drive(9000);
+  for (const MirrorModel& m : {truth, plain}) {
+    const Eigen::VectorXd current = run_mirror_model(m, drive, 1).i;
+    const MirrorCurrentFit fit = fit_mirror_model_from_current(drive, current, m.fs);
+    const EddyBranchSearch found = search_eddy_branch(fit.model, fit.current_lag, drive, current, sines_through(m, 0.1, 1), m.fs);
+    ASSERT_FALSE(found.trials.empty());
+    if (m.eddy.present()) {
+      ASSERT_TRUE(found.used) << found.error_with << " vs " << found.error_without;
+      // the refit moves e_R by a little beside the branch it holds
+      EXPECT_NEAR(found.model.eddy.resistance / found.model.electrical[4], 0.6, 0.03);
+      EXPECT_EQ(found.model.eddy.rate, 3.0);
+      EXPECT_LT(found.error_with, 0.1 * found.error_without);
+    } else {
+      EXPECT_FALSE(found.used) << found.error_with << " vs " << found.error_without;
+      EXPECT_FALSE(found.model.eddy.present());
+      EXPECT_EQ(found.trials.size(), 3u);  // each rate's smallest branch made the harmonics worse: no larger one tried
+    }
+  }
 }
 
 TEST(MirrorFrictionRefit, NamesBadInput) {
