@@ -49,7 +49,8 @@ struct Run {
   std::string runner_up;  ///< the first finding's runner-up (of an ambiguous finding: the other name)
   int findings = 0;
   std::vector<std::string> names;  ///< every finding's effect, in order
-  std::vector<std::string> words;  ///< every finding's word, and of an ambiguous one the other name ("ambiguous: x")
+  std::vector<std::string> words;  ///< every finding's word, of an ambiguous one the other name ("ambiguous: x"), and
+                                   ///< the effects it does not exclude ("; not excluded: y")
   double concealment = 0.0, j_before = 0.0, j_after = 0.0;
   std::string baseline;
 };
@@ -75,7 +76,10 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
     run.names.push_back(to_string(f.effect));
     const nlohmann::json& other = f.confidence["runner_up"];
     const std::string word = f.confidence.value("word", "");
-    run.words.push_back(word == "ambiguous" && other.is_string() ? word + ": " + other.get<std::string>() : word);
+    std::string worded = word == "ambiguous" && other.is_string() ? word + ": " + other.get<std::string>() : word;
+    if (f.confidence.contains("not_excluded"))
+      for (const auto& e : f.confidence["not_excluded"]) worded += "; not excluded: " + e.get<std::string>();
+    run.words.push_back(worded);
   }
   if (!d.findings.empty()) {
     run.first = to_string(d.findings.front().effect);
@@ -193,8 +197,8 @@ double median(std::vector<double> v) {
 // where the main resonance moves (diagnosis_levels.h), for each effect, size and seed; the verdicts' counts.
 void print_resonance_shifts(const std::vector<Effect>& effects, const std::vector<double>& sizes, int seeds,
                             std::uint64_t first_seed, Eigen::Index n) {
-  std::printf("| effect | size | frequency (a spring) | decay (a damping) | neither | median |Δf| Hz | median |Δσ| 1/s |\n"
-              "|---|---:|---:|---:|---:|---:|---:|\n");
+  std::printf("| effect | size | frequency (a spring) | decay rises (Rms(v)) | decay falls (friction) | neither | median Δf Hz | "
+              "median Δσ 1/s |\n|---|---:|---:|---:|---:|---:|---:|---:|\n");
   for (Effect e : effects)
     for (double size : sizes) {
       const DiagnosisScenario s = concealed_scenario(e, size, family);
@@ -220,13 +224,14 @@ void print_resonance_shifts(const std::vector<Effect>& effects, const std::vecto
         }
         const diagnosis_detail::ResonanceShift shift = diagnosis_detail::resonance_shift(baseline, levels, kInit);
         ++moves[shift.judged ? shift.moves : "not judged"];
-        d_f.push_back(std::abs(shift.d_omega) / (2.0 * M_PI));
-        d_sigma.push_back(std::abs(shift.d_sigma));
+        d_f.push_back(shift.d_omega / (2.0 * M_PI));
+        d_sigma.push_back(shift.d_sigma);
         std::fprintf(stderr, "%s size %.2f seed %llu: %s — %s\n", s.name.c_str(), size, static_cast<unsigned long long>(seed),
                      shift.moves.c_str(), shift.sentence.c_str());
       }
-      std::printf("| %s | %.2f | %d/%d | %d/%d | %d/%d | %.3f | %.2f |\n", s.name.c_str(), size, moves["frequency"], seeds,
-                  moves["decay"], seeds, moves["neither"] + moves["not judged"], seeds, median(d_f), median(d_sigma));
+      std::printf("| %s | %.2f | %d/%d | %d/%d | %d/%d | %d/%d | %.3f | %.2f |\n", s.name.c_str(), size, moves["frequency"], seeds,
+                  moves["decay"], seeds, moves["decay_falls"], seeds, moves["neither"] + moves["not judged"], seeds, median(d_f),
+                  median(d_sigma));
       std::fflush(stdout);
     }
 }
@@ -335,7 +340,7 @@ int main(int argc, char** argv) {
   std::printf("confidently wrong (a wrong first name called clear): %d/%d; a wrong name not called ambiguous: %d/%d\n",
               confidently_wrong, runs, wrong_named, runs);
   if (!pairs.empty()) {
-    std::printf("\n| pair | both found | one found, the other only named as its ambiguous alternative | first is one of them | "
+    std::printf("\n| pair | both found | one found, the other only named beside it (ambiguous with it, or not excluded) | first is one of them | "
                 "median concealment | findings seen |\n|---|---:|---:|---:|---:|---|\n");
     for (const std::string& pair : pairs) {
       const std::size_t plus = pair.find('+');
@@ -362,12 +367,14 @@ int main(int argc, char** argv) {
           return std::find(run.names.begin(), run.names.end(), to_string(e)) != run.names.end();
         };
         both += found(a) && found(b);
-        // Not found, but named: a finding of the one is called ambiguous with the other (the drive cannot tell
-        // them apart). Counted apart from "both found": it says one effect is there, which of the two is open.
+        // Not found, but named: a finding of the one is called ambiguous with the other, or does not exclude it
+        // beside it (the drive cannot tell them apart). Counted apart from "both found": it says one effect is
+        // there and the other may be, not that both are.
         const auto named_beside = [&](Effect found_one, Effect other) {
           for (std::size_t j = 0; j < run.names.size(); ++j)
-            if (run.names[j] == to_string(found_one) && run.words[j].starts_with("ambiguous: ") &&
-                run.words[j].find(to_string(other)) != std::string::npos)
+            if (run.names[j] == to_string(found_one) &&
+                (run.words[j].find("ambiguous: " + to_string(other)) != std::string::npos ||
+                 run.words[j].find("not excluded: " + to_string(other)) != std::string::npos))
               return true;
           return false;
         };

@@ -157,6 +157,8 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
   };
   // Where the main resonance moves over the levels (computed once, when a spring and a damping look alike).
   std::optional<diagnosis_detail::ResonanceShift> level_shift;
+  std::vector<diagnosis_detail::EarnedAlone> earned_before;  // the last round's earners, and the findings before it
+  std::size_t findings_before = 0;
   d.stop = nullptr;
   for (int round = 0; round < options.max_findings; ++round) {
     // Nothing is looked for where J lies below the noise floor by more than the floor's uncertainty: nothing above
@@ -206,6 +208,12 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
       if (score > 0.0) earning.emplace_back(score, &c);
     }
     d.rounds.push_back(round_json);
+    // What earned alone in the last finding's round and earns nothing beside it now: its term took that in.
+    const auto round_score = [&](const Candidate& c) { return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val); };
+    if (d.findings.size() > findings_before) diagnosis_detail::note_not_excluded(d.findings.back(), earned_before, scored, round_score, kept);
+    findings_before = d.findings.size();
+    earned_before.clear();
+    for (const auto& [score, c] : earning) earned_before.push_back({c->effect, score});
     if (earning.empty()) {
       // With the current, a first force the drive's candidates are too small to earn may still show on the output
       // explained from the current (Rms(v) and friction together, whose nonlinear parts partly cancel in the drive's

@@ -112,15 +112,17 @@ ResonanceShift resonance_shift(const LinearModel& baseline, const std::vector<Le
   const double z_omega = std::abs(out.d_omega) / out.sd_omega, z_sigma = std::abs(out.d_sigma) / out.sd_sigma;
   // ω and σ are both rad/s: the pole's path in the s-plane must lie along one axis (within atan(1/kShiftDirection)).
   const double along_omega = std::abs(out.d_omega), along_sigma = std::abs(out.d_sigma);
+  // Along σ, its sign says which damping: Rms(v) = Rm·(1 + r₂v²) damps more at speed, friction's share falls.
   out.moves = z_omega >= kShiftZ && along_omega >= kShiftDirection * along_sigma   ? "frequency"
-              : z_sigma >= kShiftZ && along_sigma >= kShiftDirection * along_omega ? "decay"
+              : z_sigma >= kShiftZ && along_sigma >= kShiftDirection * along_omega ? (out.d_sigma > 0.0 ? "decay" : "decay_falls")
                                                                                   : "neither";
   const std::string numbers = "from drive rms " + fixed(low.drive_rms, 3) + " to " + fixed(high.drive_rms, 3) +
                               " the main resonance's frequency moves " + fixed(out.d_omega / (2.0 * M_PI), 3) + " Hz (z " +
                               fixed(z_omega, 1) + ") and its decay rate " + fixed(out.d_sigma, 2) + " 1/s (z " + fixed(z_sigma, 1) + ")";
-  out.sentence = out.moves == "frequency" ? numbers + ": the stiffness changes with the level, not the damping (a spring)"
-                 : out.moves == "decay"   ? numbers + ": the damping changes with the level, not the stiffness (a damping)"
-                                          : numbers + ": neither moves alone, so the levels do not tell a spring from a damping";
+  out.sentence = out.moves == "frequency"     ? numbers + ": the stiffness changes with the level, not the damping (a spring)"
+                 : out.moves == "decay"       ? numbers + ": the damping grows with the level, not the stiffness (a damping that rises with the speed)"
+                 : out.moves == "decay_falls" ? numbers + ": the damping falls with the level, as a friction's share does, not as Rms(v)'s rises"
+                                              : numbers + ": neither moves alone, so the levels do not tell a spring from a damping";
   return out;
 }
 
@@ -138,7 +140,7 @@ bool spring_or_damping(Effect a, Effect b) {
 void name_by_resonance_shift(const ResonanceShift& shift, const Candidate*& chosen, const Candidate*& rival, double drive_margin,
                              FindingConfidence& confidence) {
   if (!shift.judged) return;
-  if (shift.moves == "neither") {
+  if (shift.moves != "frequency" && shift.moves != "decay") {
     confidence.sentence += " At several levels " + shift.sentence + ".";
     return;
   }

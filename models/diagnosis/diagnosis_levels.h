@@ -76,7 +76,8 @@ struct ResonanceShift {
   bool judged = false;           ///< a main resonance at both ends, levels at least kLevelSpan apart
   double d_omega = 0.0, d_sigma = 0.0;    ///< loudest − quietest, rad/s and 1/s
   double sd_omega = 0.0, sd_sigma = 0.0;  ///< their standard uncertainty, from the parts' spread
-  std::string moves;             ///< "frequency" (a spring), "decay" (a damping), or "neither" (not told)
+  std::string moves;             ///< "frequency" (a spring), "decay" (a damping that rises with the speed: Rms(v)),
+                                 ///< "decay_falls" (one that falls: friction), or "neither" (not told)
   std::string sentence;
   std::vector<LevelResonance> levels;
 };
@@ -102,9 +103,9 @@ ResonanceShift resonance_shift(const LinearModel& baseline, const LevelRecord& d
 bool spring_or_damping(Effect a, Effect b);
 
 /// Between a cubic spring and a nonlinear damping that look alike from the drive (`chosen` and `rival`, BIC margin
-/// `drive_margin` on the effective samples; `confidence` their "ambiguous" verdict): when `shift` moves along one
-/// axis, the effect it names becomes `chosen`, the other `rival`, and the word "likely"; otherwise the sentence says
-/// what the levels showed.
+/// `drive_margin` on the effective samples; `confidence` their "ambiguous" verdict): when `shift` moves along ω, or
+/// along σ with the damping rising, the effect it names becomes `chosen`, the other `rival`, and the word "likely";
+/// otherwise the sentence says what the levels showed.
 void name_by_resonance_shift(const ResonanceShift& shift, const Candidate*& chosen, const Candidate*& rival, double drive_margin,
                              FindingConfidence& confidence);
 
