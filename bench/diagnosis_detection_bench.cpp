@@ -5,15 +5,22 @@
 //
 //   build/bin/diagnosis_detection_bench --seeds 10 --sizes 0.5,1,2 [--effects cubic_stiffness,delay] [--plain 20]
 //   build/bin/diagnosis_detection_bench --family second ...   (issue 58's second family; a confusion matrix at the end)
+//   build/bin/diagnosis_detection_bench --resonance-shift --effects cubic_stiffness,nonlinear_damping --sizes 1,2 --seeds 3
+//     (records at two levels: where the main resonance moves, no diagnosis)
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <string>
 #include <vector>
 
 #include "dsp/spectrum.h"
+#include "dsp/excitation.h"
 #include "models/diagnosis/diagnosis.h"
+#include "models/diagnosis/diagnosis_levels.h"
+#include "models/linear/linear_identification.h"
+#include "models/plant/virtual_transducer.h"
 #include "tests/support/diagnosis_scenarios.h"
 
 namespace {
@@ -42,6 +49,8 @@ struct Run {
   std::string runner_up;  ///< the first finding's runner-up (of an ambiguous finding: the other name)
   int findings = 0;
   std::vector<std::string> names;  ///< every finding's effect, in order
+  std::vector<std::string> words;  ///< every finding's word, of an ambiguous one the other name ("ambiguous: x"), and
+                                   ///< the effects it does not exclude ("; not excluded: y")
   double concealment = 0.0, j_before = 0.0, j_after = 0.0;
   std::string baseline;
 };
@@ -63,7 +72,15 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
   const Diagnosis d = diagnose(r.u_est, r.y_est, r.u_val, r.y_val, r.fs, scenario_baseline(s), o);
   Run run;
   run.findings = static_cast<int>(d.findings.size());
-  for (const auto& f : d.findings) run.names.push_back(to_string(f.effect));
+  for (const auto& f : d.findings) {
+    run.names.push_back(to_string(f.effect));
+    const nlohmann::json& other = f.confidence["runner_up"];
+    const std::string word = f.confidence.value("word", "");
+    std::string worded = word == "ambiguous" && other.is_string() ? word + ": " + other.get<std::string>() : word;
+    if (f.confidence.contains("not_excluded"))
+      for (const auto& e : f.confidence["not_excluded"]) worded += "; not excluded: " + e.get<std::string>();
+    run.words.push_back(worded);
+  }
   if (!d.findings.empty()) {
     run.first = to_string(d.findings.front().effect);
     run.word = d.findings.front().confidence.value("word", "");
@@ -99,12 +116,16 @@ Run run_once(const DiagnosisScenario& s, std::uint64_t seed, Eigen::Index n_est,
     for (const auto& round : d.rounds) {
       std::string line;
       for (const auto& c : round)
-        if (!c.contains("ruled_out"))
+        if (c.contains("pair"))
+          line += "  pair " + c["pair"][0].get<std::string>() + "+" + c["pair"][1].get<std::string>() + " J " +
+                  std::to_string(c["J_val_pct"].get<double>()).substr(0, 6);
+        else if (!c.contains("ruled_out"))
           line += "  " + c["effect"].get<std::string>() + " (" + c["variant"].get<std::string>() + ") J " +
                 std::to_string(c["J_val_pct"].get<double>()).substr(0, 6) + " score " + std::to_string(static_cast<int>(c["score"].get<double>()));
       std::fprintf(stderr, "round:%s\n", line.c_str());
       for (const auto& c : round)
-        if (c.contains("details")) std::fprintf(stderr, "  %s: %s\n", c["effect"].get<std::string>().c_str(), c["details"].dump().c_str());
+        if (c.contains("pair")) continue;
+        else if (c.contains("details")) std::fprintf(stderr, "  %s: %s\n", c["effect"].get<std::string>().c_str(), c["details"].dump().c_str());
         else if (c.contains("ruled_out"))
           std::fprintf(stderr, "  %s ruled out: %s\n", c["effect"].get<std::string>().c_str(), c["ruled_out"].get<std::string>().c_str());
     }
@@ -172,6 +193,50 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// Records at two levels (full and half drive, `n` samples each, the loud one's first half identifies the baseline):
+// where the main resonance moves (diagnosis_levels.h), for each effect, size and seed; the verdicts' counts.
+void print_resonance_shifts(const std::vector<Effect>& effects, const std::vector<double>& sizes, int seeds,
+                            std::uint64_t first_seed, Eigen::Index n) {
+  std::printf("| effect | size | frequency (a spring) | decay rises (Rms(v)) | decay falls (friction) | neither | median Δf Hz | "
+              "median Δσ 1/s |\n|---|---:|---:|---:|---:|---:|---:|---:|\n");
+  for (Effect e : effects)
+    for (double size : sizes) {
+      const DiagnosisScenario s = concealed_scenario(e, size, family);
+      std::map<std::string, int> moves;
+      std::vector<double> d_f, d_sigma;
+      for (int k = 0; k < seeds; ++k) {
+        const std::uint64_t seed = first_seed + static_cast<std::uint64_t>(k);
+        std::vector<LevelRecord> levels;
+        LinearModel baseline;
+        for (const double level : {1.0, 0.5}) {
+          const std::uint64_t record_seed = 10 * seed + (level < 1.0 ? 1 : 0);
+          const Eigen::VectorXd u = level * panelbass::dsp::uniform_noise(static_cast<std::size_t>(2 * n), 1.0, record_seed);
+          const Eigen::VectorXd y = simulate(s.plant, u, record_seed + 100).y;
+          if (level == 1.0) {
+            LinearIdentificationSpec spec;
+            spec.method = LinearMethod::oe;
+            spec.order = family_order(s.family);
+            spec.fs = s.plant.fs;
+            spec.init = kInit;
+            baseline = identify_linear(u.head(n), y.head(n), u.tail(n), y.tail(n), spec).model;
+          }
+          levels.push_back({level == 1.0 ? "loud" : "quiet", u.tail(n), y.tail(n)});
+        }
+        const diagnosis_detail::ResonanceShift shift = diagnosis_detail::resonance_shift(baseline, levels, kInit);
+        ++moves[shift.judged ? shift.moves : "not judged"];
+        d_f.push_back(shift.d_omega / (2.0 * M_PI));
+        d_sigma.push_back(shift.d_sigma);
+        std::fprintf(stderr, "%s size %.2f seed %llu: %s — %s\n", s.name.c_str(), size, static_cast<unsigned long long>(seed),
+                     shift.moves.c_str(), shift.sentence.c_str());
+      }
+      std::printf("| %s | %.2f | %d/%d | %d/%d | %d/%d | %d/%d | %.3f | %.2f |\n", s.name.c_str(), size, moves["frequency"], seeds,
+                  moves["decay"], seeds, moves["decay_falls"], seeds, moves["neither"] + moves["not judged"], seeds, median(d_f),
+                  median(d_sigma));
+      std::fflush(stdout);
+    }
+}
+
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -203,6 +268,9 @@ int main(int argc, char** argv) {
                                           "tests/support/plants/second-exciter-linear.json)")
       ->check(CLI::IsMember({"panel", "second"}))
       ->capture_default_str();
+  bool level_shift = false;
+  app.add_flag("--resonance-shift", level_shift, "Records at two levels (full and half drive, --n-val samples each): where the "
+                                                 "main resonance moves, a spring's frequency or a damping's decay (no diagnosis)");
   app.add_flag("--concealment-only", concealment_only, "Print each effect's own size against the sensor noise (largest PSD ratio); no diagnosis");
   app.footer("Example:\n  build/bin/diagnosis_detection_bench --seeds 5 --sizes 1,2 --effects cubic_stiffness,hysteresis --plain 5");
   CLI11_PARSE(app, argc, argv);
@@ -215,6 +283,10 @@ int main(int argc, char** argv) {
   }
   if (chosen.empty()) chosen = all_effects();
   family = plant_family_named(family_name);
+  if (level_shift) {
+    print_resonance_shifts(chosen, sizes, seeds, first_seed, n_val);
+    return 0;
+  }
   if (concealment_only) {
     print_effect_sizes(chosen, sizes, n_est, n_val);
     return 0;
@@ -268,7 +340,8 @@ int main(int argc, char** argv) {
   std::printf("confidently wrong (a wrong first name called clear): %d/%d; a wrong name not called ambiguous: %d/%d\n",
               confidently_wrong, runs, wrong_named, runs);
   if (!pairs.empty()) {
-    std::printf("\n| pair | both found | first is one of them | median concealment | findings seen |\n|---|---:|---:|---:|---|\n");
+    std::printf("\n| pair | both found | one found, the other only named beside it (ambiguous with it, or not excluded) | first is one of them | "
+                "median concealment | findings seen |\n|---|---:|---:|---:|---:|---|\n");
     for (const std::string& pair : pairs) {
       const std::size_t plus = pair.find('+');
       if (plus == std::string::npos) {
@@ -283,7 +356,7 @@ int main(int argc, char** argv) {
         return app.exit(e);
       }
       const DiagnosisScenario s = combined_scenario(concealed_scenario(a, pair_size, family), concealed_scenario(b, pair_size, family));
-      int both = 0, first_in = 0;
+      int both = 0, first_in = 0, other_named = 0;
       std::map<std::string, int> seen;
       std::vector<double> concealment;
       for (int k = 0; k < seeds; ++k) {
@@ -294,17 +367,30 @@ int main(int argc, char** argv) {
           return std::find(run.names.begin(), run.names.end(), to_string(e)) != run.names.end();
         };
         both += found(a) && found(b);
+        // Not found, but named: a finding of the one is called ambiguous with the other, or does not exclude it
+        // beside it (the drive cannot tell them apart). Counted apart from "both found": it says one effect is
+        // there and the other may be, not that both are.
+        const auto named_beside = [&](Effect found_one, Effect other) {
+          for (std::size_t j = 0; j < run.names.size(); ++j)
+            if (run.names[j] == to_string(found_one) &&
+                (run.words[j].find("ambiguous: " + to_string(other)) != std::string::npos ||
+                 run.words[j].find("not excluded: " + to_string(other)) != std::string::npos))
+              return true;
+          return false;
+        };
+        other_named += !(found(a) && found(b)) && ((found(a) && named_beside(a, b)) || (found(b) && named_beside(b, a)));
         first_in += run.first == to_string(a) || run.first == to_string(b);
-        std::string list;
-        for (const auto& n : run.names) list += (list.empty() ? "" : " → ") + n;
-        ++seen[list.empty() ? "none" : list];
+        std::string worded;
+        for (std::size_t k = 0; k < run.names.size(); ++k)
+          worded += (worded.empty() ? "" : " → ") + run.names[k] + " (" + run.words[k] + ")";
+        ++seen[worded.empty() ? "none" : worded];
         std::fprintf(stderr, "%s seed %llu: %s (concealment %.2f, J %.4f -> %.4f %%)\n", s.name.c_str(),
-                     static_cast<unsigned long long>(seed), list.c_str(), run.concealment, run.j_before, run.j_after);
+                     static_cast<unsigned long long>(seed), worded.c_str(), run.concealment, run.j_before, run.j_after);
       }
       std::string firsts;
       for (const auto& [id, count] : seen) firsts += (firsts.empty() ? "" : ", ") + id + " " + std::to_string(count);
-      std::printf("| %s | %d/%d | %d/%d | %.2f | %s |\n", s.name.c_str(), both, seeds, first_in, seeds, median(concealment),
-                  firsts.c_str());
+      std::printf("| %s | %d/%d | %d/%d | %d/%d | %.2f | %s |\n", s.name.c_str(), both, seeds, other_named, seeds, first_in, seeds,
+                  median(concealment), firsts.c_str());
       std::fflush(stdout);
     }
   }

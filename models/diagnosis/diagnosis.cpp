@@ -155,6 +155,10 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
   const auto judge_at_levels = [&](Finding& f, const AugmentedModel& before, const AugmentedModel& after) {
     diagnosis_detail::judge_at_levels(f, before, after, {options.level_name, u_val, y_val}, options.other_levels, r.init);
   };
+  // Where the main resonance moves over the levels (computed once, when a spring and a damping look alike).
+  std::optional<diagnosis_detail::ResonanceShift> level_shift;
+  std::vector<diagnosis_detail::EarnedAlone> earned_before;  // the last round's earners, and the findings before it
+  std::size_t findings_before = 0;
   d.stop = nullptr;
   for (int round = 0; round < options.max_findings; ++round) {
     // Nothing is looked for where J lies below the noise floor by more than the floor's uncertainty: nothing above
@@ -204,6 +208,12 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
       if (score > 0.0) earning.emplace_back(score, &c);
     }
     d.rounds.push_back(round_json);
+    // What earned alone in the last finding's round and earns nothing beside it now: its term took that in.
+    const auto round_score = [&](const Candidate& c) { return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val); };
+    if (d.findings.size() > findings_before) diagnosis_detail::note_not_excluded(d.findings.back(), earned_before, scored, round_score, kept);
+    findings_before = d.findings.size();
+    earned_before.clear();
+    for (const auto& [score, c] : earning) earned_before.push_back({c->effect, score});
     if (earning.empty()) {
       // With the current, a first force the drive's candidates are too small to earn may still show on the output
       // explained from the current (Rms(v) and friction together, whose nonlinear parts partly cancel in the drive's
@@ -337,6 +347,17 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     // and the mode's refit (every coefficient moved) fits concealed creep better than creep's own term does.
     const bool drive_settles =
         rival == nullptr || (!needs_current && force_pair && drive_margin >= diagnosis_detail::kClearMargin);
+    // Without the current, records at several levels tell a spring from a damping that look alike from the drive:
+    // a stiffness that changes with the level moves the main resonance in frequency, a damping in decay rate.
+    std::optional<diagnosis_detail::ResonanceShift> shift;
+    if (!force && rival != nullptr && !drive_settles && !options.other_levels.empty() &&
+        diagnosis_detail::spring_or_damping(chosen->effect, rival->effect)) {
+      if (!level_shift) {
+        progress("identifying the main resonance at each level (a spring moves it in frequency, a damping in decay)");
+        level_shift = diagnosis_detail::resonance_shift(current.model.linear, {options.level_name, u_val, y_val}, options.other_levels, r.init);
+      }
+      shift = level_shift;
+    }
     if (rival != nullptr && force && force_pair) {
       diagnosis_detail::FindingConfidence c;
       const Candidate* pick = decided_by_current(chosen, alikes, *force, r, current, kept, current_verdict, c);
@@ -369,6 +390,7 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
                    (force_pair ? "a record with the coil current tells them apart."
                                : "both are linear: a creeping suspension shows far below the resonance, where an "
                                  "accelerometer sees little; a displacement sensor or more drive there tells them apart.");
+      if (shift) diagnosis_detail::name_by_resonance_shift(*shift, chosen, rival, drive_margin, c);
       alike_confidence = c;
     }
     const double correlation = added_correlation(r, current, chosen->fit);
@@ -407,6 +429,7 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     f.confidence = confidence_to_json(confidence);
     judge_at_levels(f, current.model, chosen->fit.model);
     if (!current_verdict.is_null()) f.evidence["current_channel"] = current_verdict;
+    if (shift) f.evidence["resonance_shift"] = diagnosis_detail::resonance_shift_to_json(*shift);
     if (!failed.empty()) f.evidence["failed_tests_before"] = failed;  // better BIC, but their gains did not pass
     f.parameters = chosen->parameters_json;
     f.parameters["added"] = chosen->parameters;

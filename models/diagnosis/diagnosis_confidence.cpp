@@ -57,6 +57,28 @@ nlohmann::json confidence_to_json(const FindingConfidence& c) {
           {"sentence", c.sentence}};
 }
 
+void note_not_excluded(Finding& f, const std::vector<EarnedAlone>& earned, const std::vector<Candidate>& scored,
+                       const std::function<double(const Candidate&)>& score, const std::vector<Effect>& kept) {
+  nlohmann::json absorbed = nlohmann::json::array();
+  std::vector<std::string> names;
+  std::string said;
+  for (const EarnedAlone& e : earned) {
+    if (e.effect == f.effect || std::find(kept.begin(), kept.end(), e.effect) != kept.end()) continue;
+    const auto c = std::find_if(scored.begin(), scored.end(), [&](const Candidate& s) { return s.effect == e.effect; });
+    if (c == scored.end()) continue;
+    const double beside = score(*c);
+    if (beside > 0.0) continue;  // it still earns: a later round judges it
+    names.push_back(to_string(e.effect));
+    absorbed.push_back({{"effect", to_string(e.effect)}, {"score_alone", e.score_alone}, {"score_beside", beside}});
+    said += (said.empty() ? "" : ", ") + to_string(e.effect) + " (BIC " + fixed(e.score_alone, 0) + " alone, " + fixed(beside, 0) + " beside it)";
+  }
+  if (names.empty()) return;
+  f.evidence["not_excluded"] = absorbed;
+  f.confidence["not_excluded"] = names;
+  f.confidence["sentence"] = f.confidence.value("sentence", "") + " Not excluded beside it: " + said +
+                             " — its term takes in their shape, so the drive cannot tell whether they are there too.";
+}
+
 nlohmann::json unexplained_residual(double j_val_pct, double noise_floor_pct, const ResidualLocation& after) {
   if (at_noise_floor(j_val_pct, noise_floor_pct)) return nullptr;
   const double excess_share = noise_floor_pct > 0.0 ? std::max(0.0, 1.0 - noise_floor_pct / j_val_pct) : 1.0;

@@ -4,6 +4,7 @@
 // diagnosis leaves unexplained above the noise floor, with where it lies. Folder-internal
 // (namespace diagnosis_detail), used by the driver (diagnosis.cpp).
 
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -33,6 +34,19 @@ FindingConfidence judge_finding(const Candidate& chosen, const std::vector<Candi
 
 /// The confidence as the report's JSON.
 nlohmann::json confidence_to_json(const FindingConfidence& c);
+
+/// An effect that earned its parameters alone in the round of a finding (BIC `score_alone` on the validation samples).
+struct EarnedAlone {
+  Effect effect;
+  double score_alone = 0.0;
+};
+
+/// After finding `f` (its round's earners `earned`, the effects kept since in `kept`): each earner that no longer earns
+/// beside it in the next round (`scored`, BIC `score`) is one its term took in — a cubic spring's x³ inside Bl(x²)'s
+/// x²·u — so the drive does not exclude it beside the finding: listed in `confidence.not_excluded` and
+/// `evidence.not_excluded` (with both scores), and said in the sentence.
+void note_not_excluded(Finding& f, const std::vector<EarnedAlone>& earned, const std::vector<Candidate>& scored,
+                       const std::function<double(const Candidate&)>& score, const std::vector<Effect>& kept);
 
 /// What is left above the noise floor after the findings (null when J is at the floor): its share of J, and
 /// where the residual `after` lies — the frequency, the input level, the state, the time — in a sentence.

@@ -89,5 +89,31 @@ TEST(DiagnosisConfidence, WhatIsLeftAboveTheFloorIsUnexplainedWithWhereItLies) {
   EXPECT_TRUE(contains(sentence, "152 Hz") && contains(sentence, "follows the integral")) << sentence;
 }
 
+// An effect that earned alone in the finding's round and earns nothing beside it in the next is one the finding's
+// term took in (Bl(x²)'s x²·u holds a cubic spring's x³): listed as not excluded, with both scores; one that still
+// earns (a later round judges it), the finding's own effect and one kept since are not.
+TEST(DiagnosisConfidence, WhatEarnedAloneAndNothingBesideTheFindingIsNotExcluded) {
+  Finding f;
+  f.effect = Effect::force_factor;
+  f.confidence = {{"word", "clear"}, {"sentence", "clear: force_factor."}};
+  const std::vector<EarnedAlone> earned = {{Effect::force_factor, 947.0}, {Effect::cubic_stiffness, 744.0},
+                                           {Effect::hysteresis, 177.0}, {Effect::delay, 30.0}, {Effect::nonlinear_damping, 459.0}};
+  // The next round starts at J 1.0; BIC = N ln(1/J) − p ln N with N = 1000 here.
+  const double n = 1000.0;
+  const auto score = [&](const Candidate& c) { return n * std::log(1.0 / c.fit.j_val) - c.parameters * std::log(n); };
+  const std::vector<Candidate> next = {candidate(Effect::cubic_stiffness, "x", 8, 1.0),      // −8 ln N: taken in
+                                       candidate(Effect::hysteresis, "x", 8, 0.9),           // still earns
+                                       candidate(Effect::nonlinear_damping, "x", 8, 0.999)};  // kept since
+  note_not_excluded(f, earned, next, score, {Effect::force_factor, Effect::nonlinear_damping});
+  ASSERT_TRUE(f.confidence.contains("not_excluded")) << f.confidence.dump(1);
+  EXPECT_EQ(f.confidence["not_excluded"], nlohmann::json::array({"cubic_stiffness"}));  // delay: not offered again
+  EXPECT_EQ(f.confidence["word"], "clear");  // the word is the finding's own
+  ASSERT_EQ(f.evidence["not_excluded"].size(), 1u);
+  EXPECT_DOUBLE_EQ(f.evidence["not_excluded"][0]["score_alone"].get<double>(), 744.0);
+  EXPECT_NEAR(f.evidence["not_excluded"][0]["score_beside"].get<double>(), -8.0 * std::log(n), 1e-9);
+  EXPECT_TRUE(contains(f.confidence["sentence"].get<std::string>(), "Not excluded beside it: cubic_stiffness (BIC 744 alone"))
+      << f.confidence["sentence"];
+}
+
 }  // namespace
 }  // namespace panelbass::models::diagnosis_detail

@@ -1,6 +1,7 @@
 // The stopping rule on whole diagnoses (issue 58): the linear plant at its noise gives no finding on at least
 // 19 of 20 seeds; what follows a right finding is never a spurious "clear"; and records at several drive levels
-// tell a nonlinear effect (its gain grows with the level) from a linear mismatch (its gain does not).
+// tell a nonlinear effect (its gain grows with the level) from a linear mismatch (its gain does not), and a spring
+// from a damping (where the main resonance moves).
 #include "models/diagnosis/diagnosis.h"
 #include "models/diagnosis/diagnosis_levels.h"
 #include "tests/support/diagnosis_scenarios.h"
@@ -8,9 +9,12 @@
 #include <gtest/gtest.h>
 
 #include <optional>
+#include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "dsp/excitation.h"
+#include "models/linear/linear_identification.h"
 #include "models/plant/plant_presets.h"
 #include "models/plant/virtual_transducer.h"
 
@@ -122,6 +126,76 @@ TEST(DiagnosisStoppingRule, AtSeveralLevelsASpringsGainGrowsWithTheDriveAndADela
   EXPECT_TRUE(flat["judged"].get<bool>()) << flat.dump(1);
   EXPECT_FALSE(flat["grows_with_level"].get<bool>()) << flat.dump(1);
   EXPECT_TRUE(flat["consistent"].get<bool>()) << flat.dump(1);
+}
+
+// `scenario`'s plant driven by uniform noise of peak `level` (seeded by `seed`), `n` samples.
+LevelRecord scenario_at_level(const DiagnosisScenario& scenario, double level, std::uint64_t seed, Eigen::Index n,
+                              const std::string& name) {
+  const Eigen::VectorXd u = level * dsp::uniform_noise(static_cast<std::size_t>(n), 1.0, seed);
+  return {name, u, simulate(scenario.plant, u, seed + 100).y};
+}
+
+// Where the main resonance moves from half to full drive (20 000 samples at each; the baseline from another loud
+// record): a spring that hardens with the level raises its frequency and leaves its decay rate σ = c/2m; Rms(v)
+// rising with the velocity raises σ and leaves ω = √(k/m); the linear plant moves neither beyond its uncertainty.
+TEST(DiagnosisLevels, TheMainResonanceMovesInFrequencyForASpringAndInDecayForADamping) {
+  const auto shift_of = [](const DiagnosisScenario& s) {
+    const LevelRecord fit = scenario_at_level(s, 1.0, 30, 20000, "fit");
+    LinearIdentificationSpec spec;
+    spec.method = LinearMethod::oe;
+    spec.order = 13;  // the linear preset's true order
+    spec.fs = s.plant.fs;
+    spec.init = kStoppingInit;
+    const LinearModel baseline = identify_linear(fit.u.head(10000), fit.y.head(10000), fit.u.tail(10000), fit.y.tail(10000), spec).model;
+    return diagnosis_detail::resonance_shift(
+        baseline, {scenario_at_level(s, 1.0, 31, 20000, "loud"), scenario_at_level(s, 0.5, 32, 20000, "quiet")}, kStoppingInit);
+  };
+  const diagnosis_detail::ResonanceShift spring = shift_of(concealed_scenario(Effect::cubic_stiffness, 4.0));
+  ASSERT_TRUE(spring.judged) << diagnosis_detail::resonance_shift_to_json(spring).dump(1);
+  EXPECT_EQ(spring.moves, "frequency") << spring.sentence;
+  EXPECT_GT(spring.d_omega, 0.0) << spring.sentence;  // k₂ > 0 hardens
+  const diagnosis_detail::ResonanceShift damping = shift_of(concealed_scenario(Effect::nonlinear_damping, 4.0));
+  ASSERT_TRUE(damping.judged) << diagnosis_detail::resonance_shift_to_json(damping).dump(1);
+  EXPECT_EQ(damping.moves, "decay") << damping.sentence;
+  EXPECT_GT(damping.d_sigma, 0.0) << damping.sentence;  // r₂ > 0 damps more at speed
+  const diagnosis_detail::ResonanceShift none = shift_of(plain_scenario());
+  ASSERT_TRUE(none.judged) << diagnosis_detail::resonance_shift_to_json(none).dump(1);
+  EXPECT_EQ(none.moves, "neither") << none.sentence;
+}
+
+// The second family's Rms(v) or cubic spring at `size` times its concealed size, 20 000 samples at each of two levels
+// (full and half drive), diagnosed from the drive for one round.
+Finding diagnosed_with_a_quieter_record(Effect truth, double size) {
+  const DiagnosisScenario s = concealed_scenario(truth, size, PlantFamily::second);
+  const LevelRecord est = scenario_at_level(s, 1.0, 41, 20000, "estimation"), val = scenario_at_level(s, 1.0, 42, 20000, "loud");
+  DiagnosisOptions o = single_round();
+  o.scan_from = family_order(s.family) - 1;  // the family's true order and one less
+  o.scan_to = family_order(s.family);
+  o.level_name = "loud";
+  o.other_levels.push_back(scenario_at_level(s, 0.5, 43, 20000, "quiet"));
+  const Diagnosis d = diagnose(est.u, est.y, val.u, val.y, s.plant.fs, std::nullopt, o);
+  if (d.findings.empty()) throw std::runtime_error("no finding: " + d.stop.dump());
+  return d.findings.front();
+}
+
+// From the drive a Rms(v) and a cubic spring are both read as x³, ambiguous with each other (near the resonance v³
+// is x³ with a phase); a record at half the drive tells them apart by where the main resonance moves. The Rms(v) at
+// its concealed size, the spring at twice it: at the concealed size its frequency moves 0.036 Hz on this record
+// (z 2.0), which the rule leaves ambiguous — never a damping.
+TEST(DiagnosisLevels, ARecordAtHalfTheDriveTellsADampingFromASpringTheDriveCannot) {
+  for (const auto& [truth, size] : {std::pair{Effect::nonlinear_damping, 1.0}, std::pair{Effect::cubic_stiffness, 2.0}}) {
+    const Finding f = diagnosed_with_a_quieter_record(truth, size);
+    const Effect other = truth == Effect::cubic_stiffness ? Effect::nonlinear_damping : Effect::cubic_stiffness;
+    EXPECT_EQ(to_string(f.effect), to_string(truth)) << f.confidence.dump(1);
+    EXPECT_EQ(f.confidence["runner_up"], to_string(other)) << f.confidence.dump(1);
+    EXPECT_EQ(f.confidence["word"], "likely") << f.confidence.dump(1);
+    ASSERT_TRUE(f.evidence.contains("resonance_shift")) << f.evidence.dump(1);
+    EXPECT_EQ(f.evidence["resonance_shift"]["moves"], truth == Effect::cubic_stiffness ? "frequency" : "decay")
+        << f.evidence["resonance_shift"].dump(1);
+  }
+  const Finding concealed = diagnosed_with_a_quieter_record(Effect::cubic_stiffness, 1.0);
+  EXPECT_TRUE(concealed.effect == Effect::cubic_stiffness || concealed.confidence["word"] == "ambiguous") << concealed.confidence.dump(1);
+  EXPECT_NE(concealed.evidence["resonance_shift"]["moves"], "decay") << concealed.evidence.dump(1);
 }
 
 }  // namespace
