@@ -186,7 +186,19 @@ EddyBranchSearch search_eddy_branch(const MirrorModel& model, int current_lag, c
       best_here = t.harmonic_error;
     }
   }
-  out.used = out.error_with <= (1.0 - kEddyRequiredGain) * out.error_without;
+  // used when it cuts the error by kEddyRequiredGain and makes no sine's worse (louder sines showed other mismatches
+  // that a branch absorbed at one sine and not the other)
+  bool no_step_worse = true;
+  if (out.error_with < out.error_without) {
+    const std::vector<std::vector<std::complex<double>>> target = record_harmonics(record, fs);
+    const Eigen::VectorXd before = harmonic_residual(without.model, current_lag, record, target, fs, 0.0);
+    const Eigen::VectorXd after = harmonic_residual(out.model, current_lag, record, target, fs, 0.0);
+    const Eigen::Index per = before.size() / static_cast<Eigen::Index>(record.steps.size());
+    for (Eigen::Index k = 0; k * per < before.size() && after.size() == before.size(); ++k) {
+      if (after.segment(k * per, per).squaredNorm() > before.segment(k * per, per).squaredNorm()) no_step_worse = false;
+    }
+  }
+  out.used = no_step_worse && out.error_with <= (1.0 - kEddyRequiredGain) * out.error_without;
   if (!out.used) {
     out.model = without.model;
     out.error_with = out.error_without;

@@ -44,16 +44,6 @@ Eigen::VectorXd adapter_test_current(const MirrorModel& plant, const Eigen::Vect
   return current;
 }
 
-Eigen::VectorXd adapter_test_drive(std::size_t n) {
-  dsp::MultisineSpec spec;
-  spec.period = n;
-  spec.f_min = 10.0;
-  spec.f_max = 300.0;
-  spec.amplitude = 0.5;
-  spec.seed = 9;
-  return dsp::multisine(spec).signal;
-}
-
 MirrorScales scales_of(double resistance, double force_factor, double stiffness, double nonlinear) {
   MirrorScales s;
   s.resistance = resistance;
@@ -69,7 +59,7 @@ TEST(MirrorCurrentAdapter, FindsTheScalesADriftedPlantWasMadeWith) {
   const MirrorScales truths[] = {scales_of(1.15, 1.0, 1.0, 1.0), scales_of(1.0, 0.85, 1.0, 1.0),
                                  scales_of(1.0, 1.0, 1.25, 1.0), scales_of(1.0, 1.0, 1.0, 1.2),
                                  scales_of(1.1, 0.85, 0.8, 1.2)};
-  const Eigen::VectorXd drive = adapter_test_drive(12000);
+  const Eigen::VectorXd drive = testing_support::mirror_test_drive(12000, 9);
   for (const MirrorScales& truth : truths) {
     const int lag = 1;
     const MirrorModel model = adapted_exciter_model(lag, 1.0);
