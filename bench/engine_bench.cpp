@@ -70,6 +70,24 @@ models::LinearModel feedforward_model() {
 
 /// The neural feedback controller as bench/cancel.sh designs it (N1 8 hidden, nu 6, nv 2, ny 4, on a NARX plant
 /// model 10/10/20) with random weights: the cost is the shape's, not the weights'.
+// Issue #56's mirror filter adapting from the coil current (its coefficients as the current-only fit finds them on
+// panel-exciter); with `eddy`, an eddy-current branch in [M1] too (r_b = 0.6·e_R, ρ = 1.5, as tune finds it on
+// panel-exciter-l2r2: one more state in the model's step and in each scale's sensitivity).
+models::MirrorModel current_adaptive_mirror_model(bool eddy) {
+  models::MirrorModel m;
+  m.electrical = {0.0, -2.3e-7, 0.0, -3e-7, 0.204, 8.1e-5, 0.0, -3.6e-5, -2.3e-7, 0.0};
+  m.mechanical = {1.46e5, 0.0, -6.46e4, -1473.0, 0.0, -39.6, -8.72e5, -2.6e4, -5.17e4, -5068.0};
+  m.friction_velocity = 100.0;
+  m.delay = 1;
+  m.drive_taps = {1.0, -0.41, 0.11, 0.02};
+  m.observer.enabled = true;
+  m.observer.measurement = models::MirrorMeasurement::current;
+  m.observer.current_lag = 1;
+  m.observer.current_noise = 1e-3;
+  if (eddy) m.eddy = {0.6 * m.electrical[4], 1.5};
+  return m;
+}
+
 models::NeuralFeedback neural_feedback_controller() {
   models::NarxModel plant =
       models::NarxModel::with_structure(models::NarxStructure{.na = 10, .nb = 10, .nk = 1, .hidden = {20}}, {}, kFs);
@@ -321,25 +339,17 @@ int main(int argc, char** argv) {
   // Issue #56's adaptive form from the coil current: the same filter with its Kalman filter on the scales of the coil's
   // resistance, Bl(x), K(x) and the nonlinear shapes (mirror_current_adapter.h), fed a current (a scaled copy of the
   // program), the filter's scales set every MirrorFilterStage::kScaleInterval samples.
-  auto current_adaptive_mirror_stage = [&](Chain&, std::span<const double> in, std::span<double> out, int block) {
-    static MirrorFilterStage stage([] {
-      models::MirrorModel m;
-      m.electrical = {0.0, -2.3e-7, 0.0, -3e-7, 0.204, 8.1e-5, 0.0, -3.6e-5, -2.3e-7, 0.0};
-      m.mechanical = {1.46e5, 0.0, -6.46e4, -1473.0, 0.0, -39.6, -8.72e5, -2.6e4, -5.17e4, -5068.0};
-      m.friction_velocity = 100.0;
-      m.delay = 1;
-      m.drive_taps = {1.0, -0.41, 0.11, 0.02};
-      m.observer.enabled = true;
-      m.observer.measurement = models::MirrorMeasurement::current;
-      m.observer.current_lag = 1;
-      m.observer.current_noise = 1e-3;
-      return m;
-    }());
-    if (block == 0) stage.prepare(options.spec);
-    for (std::size_t k = 0; k < in.size(); ++k) {
-      out[k] = stage.process(in[k]);
-      stage.observe(0.5 * in[k]);
-    }
+  auto current_adaptive_mirror_stage = [&](bool eddy) {
+    return [&, eddy](Chain&, std::span<const double> in, std::span<double> out, int block) {
+      static MirrorFilterStage plain_stage(current_adaptive_mirror_model(false));
+      static MirrorFilterStage eddy_stage(current_adaptive_mirror_model(true));
+      MirrorFilterStage& stage = eddy ? eddy_stage : plain_stage;
+      if (block == 0) stage.prepare(options.spec);
+      for (std::size_t k = 0; k < in.size(); ++k) {
+        out[k] = stage.process(in[k]);
+        stage.observe(0.5 * in[k]);
+      }
+    };
   };
   // Issue #34's other compensator: the neural feedback controller stage by itself (fig. 7.10), reading the plant's
   // output from the sensor (process and observe per sample; the sensor read as a scaled copy of the program) —
@@ -366,7 +376,8 @@ int main(int argc, char** argv) {
       {"adaptive mirror filter stage alone (+ its stiffness observer, issue #34)",
        measure(band_pass, adaptive_mirror_stage, program)},
       {"adaptive mirror filter stage alone, from the coil current (R, Bl, K, shapes; issue #56)",
-       measure(band_pass, current_adaptive_mirror_stage, program)},
+       measure(band_pass, current_adaptive_mirror_stage(false), program)},
+      {"the same with an eddy-current branch in its model (issue #56)", measure(band_pass, current_adaptive_mirror_stage(true), program)},
       {"neural feedback stage alone, sensor mode (N1 13-8-1 + its NARX plant model 21-20-1, issue #34)",
        measure(band_pass, neural_stage(FeedbackSource::sensor), program)},
       {"neural feedback stage alone, model mode (the same, its plant model's output fed back)",

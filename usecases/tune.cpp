@@ -122,8 +122,9 @@ void refine_friction(const TuneRequest& q, const PlayFunction& play, const Desig
                             {"harmonic_error_before", refit.error_before},
                             {"harmonic_error_after", refit.error_after},
                             {"current_harmonics_rms", refit.harmonics_rms}};
-  if (q.sensor_kind == "none") {
-    // the eddy-current branch, judged on the same sines (the multisine fit continued with each branch tried)
+  if (q.sensor_kind == "none" && level <= models::kEddySearchLargestLevel) {
+    // the eddy-current branch, judged on the same sines when they are quiet (the multisine fit continued with each
+    // branch tried)
     const models::EddyBranchSearch eddy = models::search_eddy_branch(
         mirror.model, mirror.summary.at("current_lag").get<int>(), fit.drive, fit.current, record, fs);
     nlohmann::json trials = nlohmann::json::array();

@@ -36,7 +36,8 @@ struct TuneRequest {
   std::string sensor_kind = "none";
   int max_delay = 4;               ///< largest drive-to-voltage delay the fit searches, samples
   /// Refit the friction's velocity scale on the current's harmonics of two quiet sines below the resonance
-  /// (models/control/mirror_friction_refit.h), played at verify's lowest level
+  /// (models/control/mirror_friction_refit.h), played at verify's lowest level, and, when no sensor joins the fit and
+  /// that level is at most models::kEddySearchLargestLevel, search [M1]'s eddy-current branch on the same sines
   bool refine_friction = true;
   EqualOutputSettings verify;      ///< the probes verify plays
   /// The filter is kept when verify credits it with at least this cut somewhere and nowhere less than −1 dB.

@@ -99,13 +99,16 @@ void MirrorCurrentAdapter::update(double measured_current) noexcept {
                                                    -bl_emf / theta_[kForceFactorScale] * v1 * over_denominator, 0.0,
                                                    -nonlinear_emf / theta_[kNonlinearScale] * v1 * over_denominator};
   Eigen::Matrix<double, kScales, 1> g;
+  const double eddy_g = eddy_.resistance, eddy_p = eddy_.pole;  // (locals: the stores below cannot alias them)
   for (std::size_t q = 0; q < kScales; ++q) {
     std::array<double, 4>& s = sensitivity_[q];  // δi, δx, δv, δj
     const double dv = (s[2] * hi + h * (m_x * s[1] + m_i * s[0] + direct_force[q])) * over_lo;
     const double dx = s[1] + h * dv;
-    const double di =
-        (inductance / h * s[0] - emf * dv - emf_x * v1 * dx + eddy_.resistance * s[3]) * over_denominator + direct_current[q];
-    s = {di, dx, dv, eddy_.pole * s[3] + (1.0 - eddy_.pole) * di};
+    const double di = (inductance / h * s[0] - emf * dv - emf_x * v1 * dx + eddy_g * s[3]) * over_denominator + direct_current[q];
+    s[0] = di;
+    s[1] = dx;
+    s[2] = dv;
+    if (eddy_g != 0.0) s[3] = eddy_p * s[3] + (1.0 - eddy_p) * di;
     g[static_cast<Eigen::Index>(q)] = di;
   }
 

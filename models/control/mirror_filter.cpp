@@ -144,9 +144,13 @@ double step_mirror_model(const MirrorModel& m, const EddyStep& eddy, MirrorState
   const std::array<double, 4>& a = m.drive_taps;
   const double w = a[0] * drive + a[1] * s.past[0] + a[2] * s.past[1] + a[3] * s.past[2];
   s.past = {drive, s.past[0], s.past[1]};
-  const double i1 = (w - el.back_emf * v1 + el.inductance * s.i / h + eddy.resistance * s.eddy) /
-                    (el.inductance / h + m.electrical[4] + eddy.resistance);
-  s.eddy = eddy.pole * s.eddy + (1.0 - eddy.pole) * i1;
+  double i1 = 0.0;
+  if (const double g = eddy.resistance; g != 0.0) {
+    i1 = (w - el.back_emf * v1 + el.inductance * s.i / h + g * s.eddy) / (el.inductance / h + m.electrical[4] + g);
+    s.eddy = eddy.pole * s.eddy + (1.0 - eddy.pole) * i1;
+  } else {
+    i1 = (w - el.back_emf * v1 + el.inductance * s.i / h) / (el.inductance / h + m.electrical[4]);
+  }
   const double accel = (v1 - s.v) / h;
   s.i = i1;
   s.v = v1;
@@ -227,9 +231,11 @@ double MirrorFilter::process(double program) noexcept {
   // [M1] at k: the drive that takes the current from ĩ_k to ĩ_{k+1} at the reference's motion
   const Electrical el = electrical_terms(model_.electrical, x1, current_);
   double w = el.inductance * (next - current_) / h + model_.electrical[4] * next + el.back_emf * v1;
-  // the eddy-current branch's voltage for ĩ_{k+1}, and its current j moved on (0 and 0 without one)
-  w += eddy_.resistance * (next - eddy_current_);
-  eddy_current_ = eddy_.pole * eddy_current_ + (1.0 - eddy_.pole) * next;
+  if (const double g = eddy_.resistance; g != 0.0) {
+    // the eddy-current branch's voltage for ĩ_{k+1}, and its current j moved on
+    w += g * (next - eddy_current_);
+    eddy_current_ = eddy_.pole * eddy_current_ + (1.0 - eddy_.pole) * next;
+  }
   // the drive whose A(z)-filtered value is w: drive_k = (w − Σ_{j≥1} a_j·drive_{k−j}) / a_0
   const std::array<double, 4>& a = model_.drive_taps;
   const double drive = (w - a[1] * past_[0] - a[2] * past_[1] - a[3] * past_[2]) / a[0];

@@ -2,6 +2,10 @@
 // Mirror-filter models written by hand from a plant's physics, shared by the mirror filter's and its
 // observer's tests.
 
+#include <cstddef>
+#include <cstdint>
+
+#include "dsp/excitation.h"
 #include "models/control/mirror_filter.h"
 
 namespace panelbass::testing_support {
@@ -21,6 +25,17 @@ inline models::MirrorModel panel_exciter_mirror_model() {
   model.mechanical = {c0, 0.0, c0 * -0.45, c3, 0.0, -rm / m, c6, c6 * 0.03, c6 * 0.06, -1000.0 * 0.05 / m};
   model.friction_velocity = 50.0;
   return model;
+}
+
+/// The identification drive the mirror tests fit from: a 10–300 Hz multisine at peak 0.5, `n` samples, phases from `seed`.
+inline Eigen::VectorXd mirror_test_drive(std::size_t n, std::uint64_t seed) {
+  dsp::MultisineSpec spec;
+  spec.period = n;
+  spec.f_min = 10.0;
+  spec.f_max = 300.0;
+  spec.amplitude = 0.5;
+  spec.seed = seed;
+  return dsp::multisine(spec).signal;
 }
 
 }  // namespace panelbass::testing_support

@@ -23,19 +23,9 @@ MirrorModel current_fit_truth() {
   return truth;
 }
 
-Eigen::VectorXd current_fit_drive(std::size_t n, std::uint64_t seed) {
-  dsp::MultisineSpec spec;
-  spec.period = n;
-  spec.f_min = 10.0;
-  spec.f_max = 300.0;
-  spec.amplitude = 0.5;
-  spec.seed = seed;
-  return dsp::multisine(spec).signal;
-}
-
 TEST(MirrorCurrentFit, RescalingTheDisplacementLeavesTheCurrentUnchanged) {
   const MirrorModel truth = current_fit_truth();
-  const Eigen::VectorXd drive = current_fit_drive(3000, 5);
+  const Eigen::VectorXd drive = testing_support::mirror_test_drive(3000, 5);
   const Eigen::VectorXd a = run_mirror_model(truth, drive, 0).i;
   const Eigen::VectorXd b = run_mirror_model(rescale_displacement(truth, 37.0), drive, 0).i;
   EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9 * a.cwiseAbs().maxCoeff());
@@ -48,7 +38,7 @@ TEST(MirrorCurrentFit, AddingAnEddyBranchKeepsTheDrivesPathAndChangesTheBackEmfs
   // branch)
   MirrorModel truth = current_fit_truth();
   truth.drive_taps = {1.0, 0.0, 0.0, 0.0};
-  const Eigen::VectorXd drive = current_fit_drive(3000, 5);
+  const Eigen::VectorXd drive = testing_support::mirror_test_drive(3000, 5);
   MirrorModel still = truth;
   for (std::size_t j : {1u, 5u, 6u, 7u, 8u, 9u}) still.electrical[j] = 0.0;  // no back-EMF, no Le(x)
   const MirrorEddyBranch branch{0.6 * truth.electrical[4], 6.0};
@@ -63,7 +53,7 @@ TEST(MirrorCurrentFit, AddingAnEddyBranchKeepsTheDrivesPathAndChangesTheBackEmfs
 
 TEST(MirrorCurrentFit, RecoversTheDiscreteModelFromItsCurrentAlone) {
   const MirrorModel truth = current_fit_truth();
-  const Eigen::VectorXd drive = current_fit_drive(9000, 3);
+  const Eigen::VectorXd drive = testing_support::mirror_test_drive(9000, 3);
   const MirrorRun rec = run_mirror_model(truth, drive, 2);
   const MirrorCurrentFit fit = fit_mirror_model_from_current(drive, rec.i, truth.fs);
   EXPECT_EQ(fit.current_lag, 2);
@@ -96,7 +86,7 @@ TEST(MirrorCurrentFit, RecoversTheDiscreteModelFromItsCurrentAlone) {
 TEST(MirrorCurrentFit, RecoversTheMechanicalResistancesRiseWithVelocity) {
   // Rms(v) = Rms·(1 + r2·v²) with r2 set so that the resistance doubles at the record's peak velocity
   MirrorModel truth = current_fit_truth();
-  const Eigen::VectorXd drive = current_fit_drive(9000, 3);
+  const Eigen::VectorXd drive = testing_support::mirror_test_drive(9000, 3);
   const double v_peak = run_mirror_model(truth, drive, 0).v.cwiseAbs().maxCoeff();
   const double r2 = 1.0 / (v_peak * v_peak);
   truth.mechanical[10] = truth.mechanical[5] * r2;
@@ -112,7 +102,7 @@ TEST(MirrorCurrentFit, RecoversTheMechanicalResistancesRiseWithVelocity) {
 TEST(MirrorCurrentFit, ASensorJoinsWithItsScaleSignAndDelayFound) {
   // an accelerometer of negative, unknown sensitivity three samples late: the fit finds the delay and the map
   const MirrorModel truth = current_fit_truth();
-  const Eigen::VectorXd drive = current_fit_drive(9000, 4);
+  const Eigen::VectorXd drive = testing_support::mirror_test_drive(9000, 4);
   const MirrorRun rec = run_mirror_model(truth, drive, 1);
   Eigen::VectorXd sensor = Eigen::VectorXd::Zero(drive.size());
   for (Eigen::Index k = 4; k < drive.size(); ++k) sensor[k] = -2e-4 * (rec.v[k - 2] - rec.v[k - 3]) * truth.fs;
@@ -129,7 +119,7 @@ TEST(MirrorCurrentFit, ASensorJoinsWithItsScaleSignAndDelayFound) {
 }
 
 TEST(MirrorCurrentFit, NamesBadInput) {
-  const Eigen::VectorXd drive = current_fit_drive(2000, 1);
+  const Eigen::VectorXd drive = testing_support::mirror_test_drive(2000, 1);
   using testing_support::one_line_error;
   EXPECT_NE(one_line_error<std::invalid_argument>([&] { (void)fit_mirror_model_from_current(drive, Eigen::VectorXd::Zero(1999), 3000.0); })
                 .find("same length"), std::string::npos);

@@ -61,16 +61,6 @@ TEST(MirrorFrictionRefit, AModelThatAlreadyMatchesOrHasNoFrictionIsLeftAsItIs) {
   EXPECT_EQ(none.model.friction_velocity, truth.friction_velocity);
 }
 
-/// A 10–300 Hz multisine at peak 0.5, `n` samples.
-Eigen::VectorXd multisine_drive(std::size_t n) {
-  dsp::MultisineSpec spec;
-  spec.period = n;
-  spec.f_min = 10.0;
-  spec.f_max = 300.0;
-  spec.amplitude = 0.5;
-  spec.seed = 3;
-  return dsp::multisine(spec).signal;
-}
 
 TEST(MirrorFrictionRefit, AnEddyCurrentBranchIsFoundOnTheSinesWhereThereIsOneAndLeftOutWhereNot) {
   // panel-exciter's model without its rest inductance (the current fit's structure) with an eddy-current branch on the
@@ -80,7 +70,7 @@ TEST(MirrorFrictionRefit, AnEddyCurrentBranchIsFoundOnTheSinesWhereThereIsOneAnd
   for (std::size_t j : {0u, 3u}) plain.electrical[j] = 0.0;
   MirrorModel truth = plain;
   truth.eddy = {0.6 * truth.electrical[4], 3.0};
-  const Eigen::VectorXd drive = multisine_drive(9000);
+  const Eigen::VectorXd drive = testing_support::mirror_test_drive(9000, 3);
   for (const MirrorModel& m : {truth, plain}) {
     const Eigen::VectorXd current = run_mirror_model(m, drive, 1).i;
     const MirrorCurrentFit fit = fit_mirror_model_from_current(drive, current, m.fs);
