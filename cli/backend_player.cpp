@@ -70,13 +70,14 @@ usecases::PlayFunction BackendPlayer::play() {
                                             drive);
     };
   }
-  // Each play a new stretch of the plant's sensor noise; the drive through its converters alone as the loopback.
+  // Each play a new stretch of the plant's sensor noise; the drive through its converters alone as the loopback
+  // (unless left out).
   return [this](const Eigen::VectorXd& drive) {
     models::PlantRecord r = models::simulate(plant_, drive, seed_++);
     usecases::Playback p;
     p.sensor = std::move(r.y);
     p.current = std::move(r.i);
-    p.loopback = models::converters_alone(plant_, drive);
+    if (options_.virtual_loopback) p.loopback = models::converters_alone(plant_, drive);
     return p;
   };
 }

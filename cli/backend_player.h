@@ -23,6 +23,7 @@ struct BackendOptions {
   std::string backend = "virtual";   ///< "virtual" or "alsa"
   std::string plant = "panel-exciter";  ///< the virtual transducer (preset or file); on a card, its rate is the chain's
   bool quiet_sensor = false;         ///< virtual: without the plant's sensor noise
+  bool virtual_loopback = true;      ///< virtual: the drive through the plant's converters alone as the loopback
   double safe_level = 0.5;           ///< alsa: the largest drive peak the transducer may be played
   double fade_seconds = 0.02;        ///< alsa: the program's fade before and after a measurement
   AlsaCliOptions alsa;               ///< alsa: the card
