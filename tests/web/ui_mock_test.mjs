@@ -202,6 +202,34 @@ async function main() {
   // a level not reached was not played: no output or THD is shown for it (the server's zeros are no readings)
   check(!/\d %/.test(points[2]) && !points[2].includes('0.1500'), `an unreached level shows readings: ${JSON.stringify(points[2])}`);
 
+  // Tune on a card without a sensor: the job runs no verify step, so the page says that step was skipped (not ✓)
+  // and shows no verify table; the job's answer is altered on its way to the page as such a server sends it.
+  run.step = 'tune without a sensor';
+  await page.route('**/api/jobs/*', async (r) => {
+    const res = await r.fetch();
+    const body = await res.json();
+    if (body.kind === 'tune' && body.result) {
+      body.result.steps = body.result.steps.filter((x) => x.name !== 'verify');
+      body.result.verify = null;
+      body.result.plots = null;
+      body.result.decision = 'kept without verification: the backend records no sensor, so the cut is not measured';
+    }
+    await r.fulfill({ response: res, json: body });
+  });
+  await page.click('#tune-start');
+  const unverified = await until(async () => {
+    const s = await page.$$eval('#tune-steps li', (items) => items.map((li) => `${li.dataset.step}:${li.dataset.state}`));
+    return s.length === 5 && s.every((x) => x.endsWith(':succeeded') || x.endsWith(':skipped')) ? s : null;
+  }, 30_000, 'the tune without a sensor did not finish');
+  run.log(`tune without a sensor: ${unverified.join(', ')}`);
+  check(JSON.stringify(unverified) === JSON.stringify(['measure:succeeded', 'fit:succeeded', 'refine:succeeded',
+                                                        'verify:skipped', 'decide:succeeded']),
+        `the steps read ${unverified.join(', ')}, not verify skipped and the others done`);
+  check((await page.textContent('#tune-steps li[data-step="verify"]')).includes('skipped'), 'the verify step does not say skipped');
+  check(await page.isHidden('#tune-probes'), 'a verify table is shown for a tune that verified nothing');
+  check((await page.textContent('#tune-decision')).startsWith('kept without verification'), 'the decision is not shown');
+  await page.unroute('**/api/jobs/*');
+
   run.step = 'no page errors';
   check(run.pageErrors.length === 0, `${run.pageErrors.length} error(s) in the page`);
 }

@@ -49,7 +49,7 @@ function showPoints(result) {
   $('#tune-probes').replaceChildren(el('thead', {}, el('tr', {}, ...['probe', 'program level', 'output (sensor fundamental)',
     'THD transducer alone', 'THD with the filter', 'THD cut (positive: less distortion)'].map((h) => el('th', {}, h)))),
   el('tbody', {}, ...rows));
-  $('#tune-probes').hidden = false;
+  $('#tune-probes').hidden = rows.length === 0;  // nothing verified (a card without a sensor): no table
 }
 
 const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
