@@ -52,9 +52,4 @@ struct DataOptions {
   }
 };
 
-/// Writes a measured record as the identify and design verbs read it: u, y and, where recorded (as long as u), i (the
-/// coil current), w (a control excitation's harmonic weights) and l (the drive as the converters delivered it), at `fs`.
-void write_measured_record(const std::string& path, double fs, const Eigen::VectorXd& u, const Eigen::VectorXd& y,
-                           const Eigen::VectorXd& i, const Eigen::VectorXd& w, const Eigen::VectorXd& l);
-
 }  // namespace panelbass::cli

@@ -8,7 +8,7 @@
 
 #include "cli/backend_player.h"
 #include "cli/commands.h"
-#include "cli/data_options.h"
+#include "cli/measured_record.h"
 #include "cli/json_output.h"
 #include "cli/usecase_door.h"
 #include "dsp/data_file.h"

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "cli/backend_player.h"
-#include "cli/data_options.h"
+#include "cli/measured_record.h"
 #include "cli/commands.h"
 #include "cli/json_output.h"
 #include "cli/usecase_door.h"
@@ -99,7 +99,7 @@ void register_tune(CLI::App& app) {
   cmd->add_option("--report", o->report, "Write the whole report (steps, verify's points) here");
   cmd->add_option("--record", o->record,
                   "Write the measurement here (CSV: u the multisine as sent, i the current, y the sensor and l the loopback "
-                  "where recorded), which design mirror --current-only --input-col l reads again");
+                  "where recorded), which design mirror --current-only reads again (with --input-col l from the loopback)");
   cmd->footer(
       "Examples:\n  panelbass tune --plant panel-exciter --out mirror.json\n"
       "  panelbass tune --plant my-exciter.json --probes 80 --levels 0.2 --quiet-sensor --report tune.json\n"

@@ -76,10 +76,11 @@ constexpr double kRefineMeasureSeconds = 1.5;
 constexpr double kRefineLowestHz = 5.0;
 
 // Plays the refine step's sines through `play`, refits the friction's velocity scale of `mirror`'s model on the
-// current's harmonics (models::refit_friction_scale) and keeps the refit when it matches them better.
-void refine_friction(const TuneRequest& q, const PlayFunction& play, const DesignMirrorRequest& fit,
+// current's harmonics (models::refit_friction_scale) and keeps the refit when it matches them better; on quiet sines
+// without a sensor in the fit, searches the eddy-current branch there too (models::search_eddy_branch). `fit` is the
+// fit's request with the drive it chose (`from_loopback`: the loopback, which the sines are then read by as well).
+void refine_friction(const TuneRequest& q, const PlayFunction& play, const DesignMirrorRequest& fit, bool from_loopback,
                      DesignMirrorReport& mirror, TuneReport& report, Progress& progress) {
-  const bool from_loopback = mirror.summary.at("drive") == "loopback";
   const Clock::time_point start = Clock::now();
   const double fs = q.chain.fs;
   const double resonance = mirror.summary.at("resonance_hz").get<double>();
@@ -141,6 +142,42 @@ void refine_friction(const TuneRequest& q, const PlayFunction& play, const Desig
     }
   }
   report.steps.push_back({"refine", seconds_since(start), summary});
+}
+
+// The fit and the drive it read.
+struct ChosenFit {
+  DesignMirrorReport mirror;
+  bool from_loopback = false;
+};
+
+// Fits `fit` from the drive as sent and, when the backend looped it back (`loopback` as long as it), from the loopback,
+// and keeps the model that follows the current better on validation; `fit.drive` is left the chosen one, and the
+// summary says which (`drive`) and both J's (`current_j_val_pct_by_drive`). Neither drive wins everywhere (through the
+// JACK dummy, current J_val % as sent / loopback: second-exciter 0.00019 / 0.0011, its 80 Hz cut 19–25 / 7–9 dB;
+// panel-exciter 0.0089 / 0.0044, 80 Hz 30–31 / 37–49 dB): the loopback carries its own capture path's errors into the
+// model's input, the drive as sent leaves the converters' response to the model's three drive taps.
+ChosenFit fit_from_better_drive(DesignMirrorRequest& fit, const Eigen::VectorXd& drive, const Eigen::VectorXd& loopback,
+                                Progress& progress) {
+  const bool looped = loopback.size() == drive.size();
+  const auto fit_from = [&](const Eigen::VectorXd& d, double from, double to) {
+    fit.drive = d;
+    ProgressSpan fit_progress(progress, from, to);
+    return design_mirror(fit, fit_progress);
+  };
+  const auto current_j_val = [](const DesignMirrorReport& r) {
+    return r.usable ? r.summary.at("current_j_val_pct").get<double>() : std::numeric_limits<double>::infinity();
+  };
+  ChosenFit chosen{fit_from(drive, 0.3, looped ? 0.35 : 0.4)};
+  nlohmann::json drives = {{"as sent", current_j_val(chosen.mirror)}};
+  if (looped) {
+    DesignMirrorReport other = fit_from(loopback, 0.35, 0.4);
+    drives["loopback"] = current_j_val(other);
+    if (current_j_val(other) < current_j_val(chosen.mirror)) chosen = {std::move(other), true};
+  }
+  fit.drive = chosen.from_loopback ? loopback : drive;
+  chosen.mirror.summary["drive"] = chosen.from_loopback ? "loopback" : "as sent";
+  chosen.mirror.summary["current_j_val_pct_by_drive"] = drives;
+  return chosen;
 }
 
 }  // namespace
@@ -228,33 +265,8 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
   fit.max_delay = q.max_delay;
   fit.data_name = "tune's multisine (" + number_text(q.f_min) + "-" + number_text(q.f_max) + " Hz, peak " +
                   number_text(q.amplitude) + ", seed " + std::to_string(q.seed) + ")";
-  // The model's drive is the drive as sent or, when the backend loops it back, the loopback: whichever the model
-  // follows the current better from on validation. Neither wins everywhere (through the JACK dummy, current J_val %
-  // as sent / loopback: second-exciter 0.00019 / 0.0011, its 80 Hz cut 19–25 / 7–9 dB; panel-exciter 0.0089 /
-  // 0.0044, 80 Hz 30–31 / 37–49 dB): the loopback carries its own capture path's errors into the model's input, the
-  // drive as sent leaves the converters' response to the model's three drive taps.
-  const auto fit_from = [&](const Eigen::VectorXd& d, double from, double to) {
-    fit.drive = d;
-    ProgressSpan fit_progress(progress, from, to);
-    return design_mirror(fit, fit_progress);
-  };
-  DesignMirrorReport mirror = fit_from(drive, 0.3, looped ? 0.35 : 0.4);
-  const auto current_j_val = [](const DesignMirrorReport& r) {
-    return r.usable ? r.summary.at("current_j_val_pct").get<double>() : std::numeric_limits<double>::infinity();
-  };
-  nlohmann::json drives = {{"as sent", current_j_val(mirror)}};
-  bool from_loopback = false;
-  if (looped) {
-    DesignMirrorReport other = fit_from(record.loopback, 0.35, 0.4);
-    drives["loopback"] = current_j_val(other);
-    if (current_j_val(other) < current_j_val(mirror)) {
-      mirror = std::move(other);
-      from_loopback = true;
-    }
-  }
-  fit.drive = from_loopback ? record.loopback : drive;  // the chosen drive, which the refine step's search reads
-  mirror.summary["drive"] = from_loopback ? "loopback" : "as sent";
-  mirror.summary["current_j_val_pct_by_drive"] = drives;
+  ChosenFit chosen = fit_from_better_drive(fit, drive, record.loopback, progress);
+  DesignMirrorReport& mirror = chosen.mirror;
   report.steps.push_back({"fit", seconds_since(start), mirror.summary});
   for (const std::string& w : mirror.warnings) report.warnings.push_back("fit: " + w);
   if (!mirror.usable) {
@@ -263,7 +275,7 @@ TuneReport tune(const TuneRequest& q, const PlayFunction& play, Progress& progre
     throw std::runtime_error("fit: the model misses this transducer, so no mirror filter is made: " + why);
   }
   // 3. The friction's velocity scale from the current's harmonics where it shows: quiet sines below the resonance.
-  if (q.refine_friction) refine_friction(q, play, fit, mirror, report, progress);
+  if (q.refine_friction) refine_friction(q, play, fit, chosen.from_loopback, mirror, report, progress);
   if (sensed) {
     // 4. Verify the chain with the filter at equal output level.
     start = Clock::now();

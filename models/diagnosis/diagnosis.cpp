@@ -197,8 +197,10 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
         round_json.push_back({{"effect", to_string(c.effect)}, {"variant", c.variant}, {"J_val_pct", c.fit.j_val}, {"ruled_out", why}});
       return !why.empty();
     });
+    // A candidate's BIC score against the model so far (read when called: `current` as it is then).
+    const auto round_score = [&](const Candidate& c) { return diagnosis_detail::bic_score(current.j_val, c.fit.j_val, c.parameters, n_val); };
     for (const auto& c : scored) {
-      const double score = n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val);
+      const double score = round_score(c);
       round_json.push_back({{"effect", to_string(c.effect)}, {"variant", c.variant}, {"parameters", c.parameters},
                             {"J_val_pct", c.fit.j_val}, {"score", score}});
       // A linear refit's evidence (where the pair sits and what the refit changed), and a static nonlinearity's
@@ -209,7 +211,6 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     }
     d.rounds.push_back(round_json);
     // What earned alone in the last finding's round and earns nothing beside it now: its term took that in.
-    const auto round_score = [&](const Candidate& c) { return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val); };
     if (d.findings.size() > findings_before) diagnosis_detail::note_not_excluded(d.findings.back(), earned_before, scored, round_score, kept);
     findings_before = d.findings.size();
     earned_before.clear();
@@ -318,12 +319,9 @@ void run_rounds(const Records& r, const DiagnosisOptions& options, Diagnosis& d)
     }
     // Effects that look alike from the drive: the current decides between them; without it they are reported
     // as ambiguous, not named.
-    const auto y_score = [&](const Candidate& c) {
-      return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val);
-    };
     // With the current every look-alike of a look-alike joins the force channel's verdict (a force factor's Rms(v)
     // brings in the cubic spring Rms(v) looks like: a cubic spring and a Bl(x²) came out as Rms(v), clear).
-    const std::vector<const Candidate*> alikes = look_alikes_of(*chosen, scored, y_score, force.has_value());
+    const std::vector<const Candidate*> alikes = look_alikes_of(*chosen, scored, round_score, force.has_value());
     std::optional<diagnosis_detail::FindingConfidence> alike_confidence;
     nlohmann::json current_verdict;
     // The drive's own margin over the best look-alike, on the validation residual's effective samples (as

@@ -32,7 +32,7 @@ std::vector<Candidate> candidates(const Records& r, const Fit& current, const Re
   int fitted = 0;
   // Of the variants of one effect, the one with the best BIC score against `current` is kept.
   const double n_val = static_cast<double>(r.u_val.size() - r.init);
-  auto score = [&](const Candidate& c) { return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val); };
+  auto score = [&](const Candidate& c) { return bic_score(current.j_val, c.fit.j_val, c.parameters, n_val); };
   auto offer = [&](Candidate c) {
     ++fitted;
     for (auto& b : best)

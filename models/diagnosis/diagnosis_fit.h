@@ -4,6 +4,7 @@
 // and a fitted candidate. Folder-internal (namespace diagnosis_detail).
 
 #include <Eigen/Core>
+#include <cmath>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -64,6 +65,12 @@ struct Candidate {
   Fit fit;
   nlohmann::json parameters_json = nlohmann::json::object();
 };
+
+/// The BIC score of an augmentation with `parameters` more that takes validation J from `j_before` to `j_after` over
+/// `n_val` samples: n·ln(J_before/J_after) − k·ln(n); positive when it earns its parameters.
+inline double bic_score(double j_before, double j_after, int parameters, double n_val) {
+  return n_val * std::log(j_before / j_after) - parameters * std::log(n_val);
+}
 
 /// The largest damping ratio of a pole pair that counts as a resonance of its own (a mode of the mechanics; a pair
 /// damped more heavily, as a filter's, has no narrow band that an extra mode could be confused with).

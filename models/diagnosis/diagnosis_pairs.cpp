@@ -24,7 +24,7 @@ std::optional<JointPair> best_joint_pair(const Records& r, const Fit& current, c
                                          double best_single_score, double n_val,
                                          const std::function<Eigen::VectorXd(const AugmentedModel&)>& residual) {
   const auto score = [&](double j_val, int parameters) {
-    return n_val * std::log(current.j_val / j_val) - parameters * std::log(n_val);
+    return bic_score(current.j_val, j_val, parameters, n_val);
   };
   std::vector<const Candidate*> leading;
   for (const Candidate& c : scored)

@@ -173,7 +173,7 @@ void static_nonlinearity_candidates(const Records& r, const Fit& current, const 
     with.push_back(t);
     return Candidate{t.effect, "", term_columns(t, r.lags) + choices, fit_terms(r, linear, with), {}};
   };
-  auto score = [&](const Candidate& c) { return n_val * std::log(current.j_val / c.fit.j_val) - c.parameters * std::log(n_val); };
+  auto score = [&](const Candidate& c) { return bic_score(current.j_val, c.fit.j_val, c.parameters, n_val); };
   auto choices_of = [](const DiagnosisTerm& t) {
     if (t.effect == Effect::saturation) return has_block_filters(t) ? 2 : 1;
     return t.shape == Shape::knee ? 3 : 2;

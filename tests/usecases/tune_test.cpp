@@ -21,6 +21,11 @@ PlayFunction simulated(const models::PlantConfig& plant, bool with_current) {
   };
 }
 
+// A transducer of tests/support/plants by its file name.
+models::PlantConfig support_plant(const std::string& name) {
+  return models::load_plant_file(std::string(PANELBASS_SOURCE_DIR) + "/tests/support/plants/" + name + ".json");
+}
+
 TuneRequest short_request(double fs) {
   TuneRequest q;
   q.chain.fs = fs;
@@ -101,8 +106,7 @@ TEST(Tune, AMechanicalResistanceRisingWithVelocityIsFittedAndCutNearTheResonance
   // Rms(v) = Rms·(1 + r2·v²) (tests/support/plants, a term the plant has and panel-exciter lacks): at 160 Hz, near the
   // 150 Hz resonance where the velocity peaks, the model without c10 cut the THD at 0.2 by 8.5 dB, under issue #56's
   // 10 dB bar; with it fitted from the current, by 14.5
-  const models::PlantConfig plant = models::without_sensor_noise(
-      models::load_plant_file(std::string(PANELBASS_SOURCE_DIR) + "/tests/support/plants/panel-exciter-rms-v.json"));
+  const models::PlantConfig plant = models::without_sensor_noise(support_plant("panel-exciter-rms-v"));
   SilentProgress quiet;
   TuneRequest q = short_request(plant.fs);
   q.samples = 30000;
@@ -118,8 +122,7 @@ TEST(Tune, AMechanicalResistanceRisingWithVelocityIsFittedAndCutNearTheResonance
 TEST(Tune, TheRefinedFrictionScaleStaysFiniteWhereTheQuietSinesBarelyShowIt) {
   // second-exciter without its L2R2 branch: the refine's step once walked v0's scale off to infinity there, and the
   // filter file was refused ("friction_velocity_refit: not finite")
-  models::PlantConfig plant = models::without_sensor_noise(
-      models::load_plant_file(std::string(PANELBASS_SOURCE_DIR) + "/tests/support/plants/second-exciter.json"));
+  models::PlantConfig plant = models::without_sensor_noise(support_plant("second-exciter"));
   plant.eddy = {};
   SilentProgress quiet;
   TuneRequest q = short_request(plant.fs);
@@ -138,8 +141,7 @@ TEST(Tune, AnEddyCurrentBranchFoundOnTheQuietSinesLiftsTheCutToTheIssuesBar) {
   // panel-exciter-l2r2 (L2 = 0.4 mH ∥ R2 = 2.5 Ω in series with the coil, Re = 4 Ω, fs 3 kHz): without the branch in
   // [M1] the 80 Hz cut at 0.1 was 18.6 dB, under issue #56's 20; the refine step finds it on the current's harmonics
   // (R2/Re 0.625, h·R2/L2 2.08 in the plant file: the search's grid steps are ×2 in each) and the cut passes the bar
-  const models::PlantConfig plant = models::without_sensor_noise(
-      models::load_plant_file(std::string(PANELBASS_SOURCE_DIR) + "/tests/support/plants/panel-exciter-l2r2.json"));
+  const models::PlantConfig plant = models::without_sensor_noise(support_plant("panel-exciter-l2r2"));
   SilentProgress quiet;
   TuneRequest q = short_request(plant.fs);
   q.samples = 30000;
@@ -160,8 +162,7 @@ TEST(Tune, AnEddyCurrentBranchFoundOnTheQuietSinesLiftsTheCutToTheIssuesBar) {
 TEST(Tune, ASensorThatHearsNoDistortionKeepsTheFilterUnverifiedAsWithoutOne) {
   // a displacement sensor with its noise: the plant alone is at the floor at every level (the harmonics of x fall as
   // 1/n²), so no cut can be measured — the filter is kept on its fit, as with no sensor, and the decision says why
-  const models::PlantConfig plant =
-      models::load_plant_file(std::string(PANELBASS_SOURCE_DIR) + "/tests/support/plants/panel-exciter-displacement.json");
+  const models::PlantConfig plant = support_plant("panel-exciter-displacement");
   SilentProgress quiet;
   TuneRequest q = short_request(plant.fs);
   q.samples = 30000;
